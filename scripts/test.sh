@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Sets up and runs every dynval test on a fresh machine:
+#   1. Debian packages for the C++ tests (GoogleTest, Eigen) when run as root,
+#   2. pip install ".[test]" (builds the C++ backend dynval._core),
+#   3. the C++ core alone: ctest, then the example built against the installed CMake package,
+#   4. the pure-Python build switch (-Cwheel.cmake=false) in a throwaway venv,
+#   5. pytest: both backends against every golden vector, the protocol runner, the identities.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PYTHON:-python3}
+step() { printf '\n== %s\n' "$*"; }
+
+if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+  if ! dpkg -s libgtest-dev libeigen3-dev >/dev/null 2>&1; then
+    step "apt-get install libgtest-dev libeigen3-dev"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libgtest-dev libeigen3-dev >/dev/null
+  fi
+fi
+
+step "pip install .[test]"
+"$PY" -m pip install --quiet --disable-pip-version-check ".[test]"
+"$PY" -c "import dynval; print('dynval', dynval.__version__, dynval.backends())"
+
+step "C++ core: ctest"
+cmake -S . -B build/ctest -DCMAKE_BUILD_TYPE=Release -DDYNVAL_TESTS=ON -DDYNVAL_PYTHON=OFF >/dev/null
+cmake --build build/ctest -j2
+ctest --test-dir build/ctest --output-on-failure
+
+step "C++ example against the installed CMake package"
+bash cpp/examples/run_example.sh
+
+step "pure-Python build (-Cwheel.cmake=false)"
+venv=$(mktemp -d)/venv
+"$PY" -m venv --system-site-packages "$venv"
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -Cwheel.cmake=false .
+(cd "$venv" && "$venv/bin/python" -c "
+import dynval
+b = dynval.backends()
+assert b['python']['available'] and not b['cpp']['available'], b
+print('pure-Python build imports with backends', b)
+")
+rm -rf "$(dirname "$venv")"
+
+step "pytest"
+"$PY" -m pytest -q "$@"
