@@ -1,0 +1,57 @@
+// Family `norms`: residuals, sse, rmse, max_abs_error.
+#include "bindings.hpp"
+
+namespace dynval::bindings {
+
+void register_norms(py::module_& m) {
+    m.def(
+        "residuals",
+        [](const RowRef& meas, const RowRef& pred) {
+            py::gil_scoped_release release;
+            return RowMatrix(dynval::residuals(meas, pred));
+        },
+        py::arg("meas"), py::arg("pred"), "e = meas - pred, shape (N, m).");
+    m.def(
+        "sse",
+        [](const RowRef& meas, const RowRef& pred, py::object multioutput) {
+            const auto how = option_param<dynval::multioutput>(multioutput);
+            metric_value v;
+            {
+                py::gil_scoped_release release;
+                v = dynval::sse(meas, pred, how);
+            }
+            return metric_to_python(v);
+        },
+        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), "Sum of squared errors: float or (m,).");
+    m.def(
+        "max_abs_error",
+        [](const RowRef& meas, const RowRef& pred, py::object multioutput) {
+            const auto how = option_param<dynval::multioutput>(multioutput);
+            metric_value v;
+            {
+                py::gil_scoped_release release;
+                v = dynval::max_abs_error(meas, pred, how);
+            }
+            return metric_to_python(v);
+        },
+        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), "Maximum absolute error: float or (m,).");
+    m.def(
+        "rmse",
+        [](const RowRef& meas, const RowRef& pred, py::object multioutput, py::object convention) {
+            const auto how = option_param<dynval::multioutput>(multioutput);
+            std::optional<param<rmse_convention>> conv;
+            const bool unset = convention.is_none() ||
+                               (py::isinstance<py::str>(convention) && convention.cast<std::string>().empty());
+            if (!unset) conv = option_param<rmse_convention>(convention);
+            metric_value v;
+            {
+                py::gil_scoped_release release;
+                v = dynval::rmse(meas, pred, how, conv);
+            }
+            return metric_to_python(v);
+        },
+        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), py::arg("convention"),
+        "RMSE: float or (m,); convention '' (or None) is the default per_element.");
+}
+
+}  // namespace dynval::bindings

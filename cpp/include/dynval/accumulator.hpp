@@ -1,0 +1,349 @@
+// One-pass, mergeable per-joint accumulator over rows of (tau_meas, tau_pred).
+//
+// Every point metric, the residual mean/variance and the information criteria come from the
+// moments gathered here in a single pass over the data, including the finiteness check (the
+// first non-finite entry of each array is recorded, in row-major order, during the same pass).
+//
+// Accuracy: rows are processed in small blocks. Within a block the mean and the centred sums of
+// squares are computed two-pass (the block sits in L1 cache, so the second pass is free of
+// memory traffic); blocks are combined with Chan et al.'s pairwise update, and the running sums
+// are Neumaier-compensated. The result does not depend on a shift and keeps about full double
+// precision for data riding on large offsets; agreement with the numpy reference, which sums
+// naively along axis 0, is limited by the reference (about N·eps in the worst case).
+//
+// Lagged products (autocorrelation, cross-correlation) need the overall mean before the
+// products, so they are computed by correlation.hpp in a second pass over the residual; see
+// that header for the streaming plan.
+#pragma once
+
+#include "errors.hpp"
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+namespace dynval {
+
+/// First NaN or ±inf of an array, in row-major order.
+struct nonfinite_entry {
+    Index row = 0;
+    Index col = 0;
+    double value = 0.0;
+};
+
+namespace detail {
+
+/// Neumaier's compensated summation of one running value.
+struct compensated {
+    double sum = 0.0;
+    double carry = 0.0;
+    void add(double x) noexcept {
+        const double t = sum + x;
+        if (std::abs(sum) >= std::abs(x)) {
+            carry += (sum - t) + x;
+        } else {
+            carry += (x - t) + sum;
+        }
+        sum = t;
+    }
+    void add(const compensated& other) noexcept {
+        add(other.sum);
+        add(other.carry);
+    }
+    double value() const noexcept { return sum + carry; }
+};
+
+/// Row-major scan of rows [begin, begin + count) for the first non-finite entry.
+template <class D>
+std::optional<nonfinite_entry> scan_nonfinite(const Eigen::MatrixBase<D>& a, Index begin, Index count) {
+    for (Index i = begin; i < begin + count; ++i)
+        for (Index j = 0; j < a.cols(); ++j) {
+            const double v = a.coeff(i, j);
+            if (!std::isfinite(v)) return nonfinite_entry{i, j, v};
+        }
+    return std::nullopt;
+}
+
+}  // namespace detail
+
+/// First non-finite entry of `a` in row-major order (the contract's "first bad index").
+template <class D>
+std::optional<nonfinite_entry> first_nonfinite(const Eigen::MatrixBase<D>& a) {
+    constexpr Index block = 256;
+    for (Index start = 0; start < a.rows(); start += block) {
+        const Index nb = std::min(block, a.rows() - start);
+        // A block sum is finite whenever every entry is (barring overflow, which only costs a
+        // scan that then finds nothing).
+        if (!std::isfinite(a.middleRows(start, nb).sum())) {
+            if (auto hit = detail::scan_nonfinite(a, start, nb)) return hit;
+        }
+    }
+    return std::nullopt;
+}
+
+/// Moments of one or more blocks of rows, per joint (column).
+struct joint_moments {
+    Index n_samples = 0;
+    Index n_joints = 0;
+    Eigen::ArrayXd tau_mean, tau_m2;  ///< mean and centred sum of squares of tau_meas
+    Eigen::ArrayXd e_mean, e_m2;      ///< the same for e = tau_meas - tau_pred
+    Eigen::ArrayXd sse;               ///< Σ e²
+    Eigen::ArrayXd max_abs_e;
+    Eigen::ArrayXd tau_min, tau_max, e_min, e_max;  ///< for the contract's constancy tests
+    Eigen::MatrixXd residual_gram;    ///< EᵀE (m×m, not demeaned); empty unless requested
+    std::optional<nonfinite_entry> nonfinite_meas, nonfinite_pred;
+
+    /// Throws NonFiniteInput for the first non-finite entry, tau_meas before tau_pred.
+    void throw_if_nonfinite(const std::string& meas_name = "tau_meas",
+                            const std::string& pred_name = "tau_pred") const {
+        if (nonfinite_meas)
+            detail::throw_nonfinite(meas_name, nonfinite_meas->row, nonfinite_meas->col, nonfinite_meas->value);
+        if (nonfinite_pred)
+            detail::throw_nonfinite(pred_name, nonfinite_pred->row, nonfinite_pred->col, nonfinite_pred->value);
+    }
+
+    double sse_total() const;
+    /// Mean of all N·m values of tau_meas and the centred sum of squares about it (pooled TSS).
+    double pooled_tau_m2() const { return pooled_m2(tau_mean, tau_m2); }
+    double pooled_e_m2() const { return pooled_m2(e_mean, e_m2); }
+
+private:
+    double pooled_m2(const Eigen::ArrayXd& mean, const Eigen::ArrayXd& m2) const;
+};
+
+/// Per-joint accumulator: `update(rows)`, `merge(later rows)`, `result()`.
+///
+/// `merge(other)` combines as if `other`'s rows followed this accumulator's rows (row indices
+/// of a non-finite entry found by `other` are shifted accordingly).
+class joint_accumulator {
+public:
+    /// Rows per internal block; small enough that a block of both inputs stays in L1/L2.
+    static constexpr Index block_rows = 128;
+
+    explicit joint_accumulator(Index n_joints, bool residual_gram = false)
+        : m_(n_joints), with_gram_(residual_gram) {
+        tau_sum_.assign(static_cast<std::size_t>(m_), {});
+        e_sum_.assign(static_cast<std::size_t>(m_), {});
+        tau_m2_.assign(static_cast<std::size_t>(m_), {});
+        e_m2_.assign(static_cast<std::size_t>(m_), {});
+        sse_.assign(static_cast<std::size_t>(m_), {});
+        const double inf = std::numeric_limits<double>::infinity();
+        max_abs_e_ = Eigen::ArrayXd::Zero(m_);
+        tau_min_ = Eigen::ArrayXd::Constant(m_, inf);
+        tau_max_ = Eigen::ArrayXd::Constant(m_, -inf);
+        e_min_ = Eigen::ArrayXd::Constant(m_, inf);
+        e_max_ = Eigen::ArrayXd::Constant(m_, -inf);
+        if (with_gram_) gram_ = Eigen::MatrixXd::Zero(m_, m_);
+        tau_buf_.resize(block_rows, m_);
+        tau_shift_ = Eigen::ArrayXd::Zero(m_);
+        e_shift_ = Eigen::ArrayXd::Zero(m_);
+        e_buf_.resize(block_rows, m_);
+    }
+
+    Index n_samples() const noexcept { return n_; }
+    Index n_joints() const noexcept { return m_; }
+
+    /// Adds a block of rows (any Eigen expression: Map with strides, Ref, block, ...).
+    template <class A, class B>
+    joint_accumulator& update(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred) {
+        eigen_assert(tau_meas.cols() == m_ && tau_pred.cols() == m_ && tau_meas.rows() == tau_pred.rows());
+        const Index rows = tau_meas.rows();
+        for (Index start = 0; start < rows; start += block_rows) {
+            const Index nb = std::min(block_rows, rows - start);
+            add_block(tau_meas, tau_pred, start, nb);
+        }
+        return *this;
+    }
+
+    /// Combines with an accumulator holding the rows that follow this one's.
+    joint_accumulator& merge(const joint_accumulator& later) {
+        eigen_assert(later.m_ == m_);
+        if (!nonfinite_meas_ && later.nonfinite_meas_) {
+            nonfinite_meas_ = later.nonfinite_meas_;
+            nonfinite_meas_->row += n_;
+        }
+        if (!nonfinite_pred_ && later.nonfinite_pred_) {
+            nonfinite_pred_ = later.nonfinite_pred_;
+            nonfinite_pred_->row += n_;
+        }
+        if (n_ == 0) {
+            tau_shift_ = later.tau_shift_;
+            e_shift_ = later.e_shift_;
+        }
+        const double nl = static_cast<double>(later.n_);
+        for (Index j = 0; j < m_; ++j) {
+            const auto k = static_cast<std::size_t>(j);
+            // later's sums are about its own shift; move them to ours (M2 does not depend on it).
+            detail::compensated ts = later.tau_sum_[k], es = later.e_sum_[k];
+            ts.add(nl * (later.tau_shift_(j) - tau_shift_(j)));
+            es.add(nl * (later.e_shift_(j) - e_shift_(j)));
+            combine(tau_sum_[k], tau_m2_[k], n_, ts, later.tau_m2_[k], later.n_);
+            combine(e_sum_[k], e_m2_[k], n_, es, later.e_m2_[k], later.n_);
+            sse_[k].add(later.sse_[k]);
+        }
+        max_abs_e_ = max_abs_e_.max(later.max_abs_e_);
+        tau_min_ = tau_min_.min(later.tau_min_);
+        tau_max_ = tau_max_.max(later.tau_max_);
+        e_min_ = e_min_.min(later.e_min_);
+        e_max_ = e_max_.max(later.e_max_);
+        if (with_gram_ && later.with_gram_) gram_ += later.gram_;
+        n_ += later.n_;
+        return *this;
+    }
+
+    /// The moments so far.
+    joint_moments result() const {
+        joint_moments r;
+        r.n_samples = n_;
+        r.n_joints = m_;
+        r.tau_mean.resize(m_);
+        r.tau_m2.resize(m_);
+        r.e_mean.resize(m_);
+        r.e_m2.resize(m_);
+        r.sse.resize(m_);
+        const double n = static_cast<double>(n_);
+        for (Index j = 0; j < m_; ++j) {
+            const auto k = static_cast<std::size_t>(j);
+            r.tau_mean(j) = n_ ? tau_shift_(j) + tau_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
+            r.e_mean(j) = n_ ? e_shift_(j) + e_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
+            // A constant column has exactly zero spread, whatever the rounding of its mean.
+            r.tau_m2(j) = tau_min_(j) == tau_max_(j) ? 0.0 : tau_m2_[k].value();
+            r.e_m2(j) = e_min_(j) == e_max_(j) ? 0.0 : e_m2_[k].value();
+            r.sse(j) = sse_[k].value();
+        }
+        r.max_abs_e = max_abs_e_;
+        r.tau_min = tau_min_;
+        r.tau_max = tau_max_;
+        r.e_min = e_min_;
+        r.e_max = e_max_;
+        if (with_gram_) r.residual_gram = gram_.selfadjointView<Eigen::Lower>();
+        r.nonfinite_meas = nonfinite_meas_;
+        r.nonfinite_pred = nonfinite_pred_;
+        return r;
+    }
+
+private:
+    // Chan et al.: combine (sum_a, M2_a, n_a) with (sum_b, M2_b, n_b).
+    static void combine(detail::compensated& sum_a, detail::compensated& m2_a, Index n_a,
+                        const detail::compensated& sum_b, const detail::compensated& m2_b, Index n_b) {
+        if (n_b == 0) return;
+        if (n_a > 0) {
+            const double na = static_cast<double>(n_a), nb = static_cast<double>(n_b);
+            const double delta = sum_b.value() / nb - sum_a.value() / na;
+            m2_a.add(delta * delta * (na * nb / (na + nb)));
+        }
+        m2_a.add(m2_b);
+        sum_a.add(sum_b);
+    }
+
+    template <class A, class B>
+    void add_block(const Eigen::MatrixBase<A>& meas, const Eigen::MatrixBase<B>& pred, Index start, Index nb) {
+        // Gather the block column-major so the per-joint passes below are contiguous.
+        for (Index i = 0; i < nb; ++i)
+            for (Index j = 0; j < m_; ++j) {
+                const double t = meas.coeff(start + i, j);
+                tau_buf_(i, j) = t;
+                e_buf_(i, j) = t - pred.coeff(start + i, j);
+            }
+        auto tau = tau_buf_.topRows(nb);
+        auto e = e_buf_.topRows(nb);
+        if (with_gram_) gram_.selfadjointView<Eigen::Lower>().rankUpdate(e.transpose());
+        const double nbd = static_cast<double>(nb);
+        if (n_ == 0) {
+            // Sums are kept about a per-joint shift (the first block's mean), so block means are
+            // small and their differences in Chan's update do not lose the digits of an offset.
+            for (Index j = 0; j < m_; ++j) {
+                tau_shift_(j) = tau.col(j).sum() / nbd;
+                e_shift_(j) = e.col(j).sum() / nbd;
+                if (!std::isfinite(tau_shift_(j))) tau_shift_(j) = 0.0;
+                if (!std::isfinite(e_shift_(j))) e_shift_(j) = 0.0;
+            }
+        }
+        bool finite = true;
+        for (Index j = 0; j < m_; ++j) {
+            const auto k = static_cast<std::size_t>(j);
+            auto tj = tau.col(j).array();
+            auto ej = e.col(j).array();
+            // Extremes and Σe² on the data as given (exact constancy tests, unshifted SSE).
+            sse_[k].add(ej.square().sum());
+            max_abs_e_(j) = std::max(max_abs_e_(j), ej.abs().maxCoeff());
+            tau_min_(j) = std::min(tau_min_(j), tj.minCoeff());
+            tau_max_(j) = std::max(tau_max_(j), tj.maxCoeff());
+            e_min_(j) = std::min(e_min_(j), ej.minCoeff());
+            e_max_(j) = std::max(e_max_(j), ej.maxCoeff());
+            tj -= tau_shift_(j);
+            ej -= e_shift_(j);
+            const double st = tj.sum();
+            const double se = ej.sum();
+            // NaN or ±inf in tau_meas makes st non-finite; in tau_pred (with finite tau) makes se.
+            if (!std::isfinite(st) || !std::isfinite(se)) finite = false;
+            const double mt = st / nbd, me = se / nbd;
+            detail::compensated bs_t{st, 0.0}, bm2_t{(tj - mt).square().sum(), 0.0};
+            detail::compensated bs_e{se, 0.0}, bm2_e{(ej - me).square().sum(), 0.0};
+            combine(tau_sum_[k], tau_m2_[k], n_, bs_t, bm2_t, nb);
+            combine(e_sum_[k], e_m2_[k], n_, bs_e, bm2_e, nb);
+        }
+        if (!finite) {
+            if (!nonfinite_meas_) {
+                if (auto hit = detail::scan_nonfinite(meas, start, nb)) {
+                    hit->row += n_ - start;
+                    nonfinite_meas_ = hit;
+                }
+            }
+            if (!nonfinite_pred_) {
+                if (auto hit = detail::scan_nonfinite(pred, start, nb)) {
+                    hit->row += n_ - start;
+                    nonfinite_pred_ = hit;
+                }
+            }
+        }
+        n_ += nb;
+    }
+
+    Index m_;
+    bool with_gram_;
+    Index n_ = 0;
+    std::vector<detail::compensated> tau_sum_, e_sum_, tau_m2_, e_m2_, sse_;
+    Eigen::ArrayXd max_abs_e_, tau_min_, tau_max_, e_min_, e_max_;
+    Eigen::MatrixXd gram_;
+    Eigen::MatrixXd tau_buf_, e_buf_;
+    Eigen::ArrayXd tau_shift_, e_shift_;
+    std::optional<nonfinite_entry> nonfinite_meas_, nonfinite_pred_;
+};
+
+inline double joint_moments::sse_total() const {
+    detail::compensated s;
+    for (Index j = 0; j < n_joints; ++j) s.add(sse(j));
+    return s.value();
+}
+
+inline double joint_moments::pooled_m2(const Eigen::ArrayXd& mean, const Eigen::ArrayXd& m2) const {
+    // Exact decomposition: Σ_kj (x_kj − x̄)² = Σ_j [M2_j + N (x̄_j − x̄)²].
+    if (&mean == &tau_mean ? tau_min.minCoeff() == tau_max.maxCoeff() : e_min.minCoeff() == e_max.maxCoeff())
+        return 0.0;
+    detail::compensated grand;
+    for (Index j = 0; j < n_joints; ++j) grand.add(mean(j));
+    const double overall = grand.value() / static_cast<double>(n_joints);
+    detail::compensated total;
+    const double n = static_cast<double>(n_samples);
+    for (Index j = 0; j < n_joints; ++j) {
+        const double d = mean(j) - overall;
+        total.add(m2(j));
+        total.add(n * d * d);
+    }
+    return total.value();
+}
+
+/// Accumulates (tau_meas, tau_pred) in one pass.
+template <class A, class B>
+joint_moments accumulate(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
+                         bool residual_gram = false) {
+    joint_accumulator acc(tau_meas.cols(), residual_gram);
+    acc.update(tau_meas, tau_pred);
+    return acc.result();
+}
+
+}  // namespace dynval

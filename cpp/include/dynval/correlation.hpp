@@ -1,0 +1,296 @@
+// Autocorrelation of the residual (contract §3.4), cross-correlation with regressor columns
+// (§3.6), the white-noise band and the portmanteau tests (§3.5).
+//
+// Lagged products are computed blocked-direct: the centred column is walked once in chunks that
+// stay in cache, and every lag is summed within the chunk, so the cost is one read of the data
+// and (L+1)·N multiply-adds, vectorised. Chunk sums are Neumaier-compensated. Means are overall
+// (one per joint over all samples), found in a first pass that also checks finiteness; products
+// never join two segments.
+//
+// Streaming plan (not needed by any contract function yet): the products of a chunk depend on
+// the overall mean only through Σx_k, Σx_{k−ℓ} and n_ℓ, so an accumulator that keeps shifted lag
+// sums plus the first and last L rows of each block can merge blocks exactly; the direct
+// two-pass form below is the reference it will be tested against.
+#pragma once
+
+#include "accumulator.hpp"
+#include "distributions.hpp"
+#include "errors.hpp"
+#include "options.hpp"
+#include "segments.hpp"
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace dynval {
+
+using row_matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+namespace detail {
+
+/// out[ℓ] = Σ_{products} x_k · y_{k−ℓ} for ℓ = 0..max_lag, products within segments.
+inline void lagged_sums(const double* x, const double* y, const std::vector<Index>& starts, Index n, Index max_lag,
+                        std::vector<double>& out) {
+    constexpr Index chunk = 4096;
+    std::vector<compensated> acc(static_cast<std::size_t>(max_lag + 1));
+    const std::vector<Index> lengths = segment_lengths(starts, n);
+    for (std::size_t s = 0; s < starts.size(); ++s) {
+        const Index s0 = starts[s], s1 = starts[s] + lengths[s];
+        for (Index a = s0; a < s1; a += chunk) {
+            const Index b = std::min(a + chunk, s1);
+            for (Index lag = 0; lag <= max_lag; ++lag) {
+                const Index lo = std::max(a, s0 + lag);
+                if (lo >= b) break;
+                const Eigen::Map<const Eigen::VectorXd> xs(x + lo, b - lo), ys(y + lo - lag, b - lo);
+                acc[static_cast<std::size_t>(lag)].add(xs.dot(ys));
+            }
+        }
+    }
+    out.resize(acc.size());
+    for (std::size_t i = 0; i < acc.size(); ++i) out[i] = acc[i].value();
+}
+
+/// Column j of `a` minus `mean`, copied contiguous.
+template <class D>
+void centred_column(const Eigen::MatrixBase<D>& a, Index j, double mean, Eigen::VectorXd& buf) {
+    buf.resize(a.rows());
+    for (Index k = 0; k < a.rows(); ++k) buf(k) = a.coeff(k, j) - mean;
+}
+
+inline Index longest(const std::vector<Index>& starts, Index n) {
+    const auto lengths = segment_lengths(starts, n);
+    return *std::max_element(lengths.begin(), lengths.end());
+}
+
+template <class D>
+joint_moments checked_signal(const Eigen::MatrixBase<D>& e, const std::string& function) {
+    check_columns(e.rows(), e.cols(), "e");
+    check_min_samples(e.rows(), 2, function);
+    joint_moments mo = accumulate(e, D::PlainObject::Zero(e.rows(), e.cols()));
+    mo.throw_if_nonfinite("e", "e");
+    return mo;
+}
+
+inline long long check_max_lag(const param<long long>& max_lag, Index limit) {
+    return require_int(max_lag, "max_lag", 0, limit, "an integer with 0 <= max_lag < " + std::to_string(limit));
+}
+
+/// Biased lag sums S_ℓ (ℓ = 0..max_lag) of every joint, columns of the result.
+template <class D>
+Eigen::MatrixXd lag_sums(const Eigen::MatrixBase<D>& e, const joint_moments& mo, const std::vector<Index>& starts,
+                         Index max_lag) {
+    Eigen::MatrixXd sums(max_lag + 1, e.cols());
+    Eigen::VectorXd buf;
+    std::vector<double> out;
+    for (Index j = 0; j < e.cols(); ++j) {
+        centred_column(e, j, mo.tau_mean(j), buf);
+        lagged_sums(buf.data(), buf.data(), starts, e.rows(), max_lag, out);
+        for (Index l = 0; l <= max_lag; ++l) sums(l, j) = out[static_cast<std::size_t>(l)];
+    }
+    return sums;
+}
+
+}  // namespace detail
+
+/// ρ̂(ℓ), ℓ = 0..max_lag, per joint: shape (max_lag+1, m). `adjusted` divides lag ℓ by its
+/// number of products (the lesson), otherwise by N (biased). A constant residual gives nan.
+template <class D>
+row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, const param<long long>& max_lag,
+                           const param<bool>& adjusted = true, const std::vector<long long>& segments = {}) {
+    const joint_moments mo = detail::checked_signal(e, "autocorrelation");
+    const Index n = e.rows();
+    const std::vector<Index> starts = segment_starts(segments, n);
+    const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
+    const bool adj = detail::require_bool(adjusted, "adjusted");
+    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, lmax);
+    const auto lengths = segment_lengths(starts, n);
+    row_matrix rho(lmax + 1, e.cols());
+    const double nd = static_cast<double>(n);
+    for (Index j = 0; j < e.cols(); ++j) {
+        const bool constant = mo.tau_min(j) == mo.tau_max(j);
+        const double r0 = sums(0, j) / nd;
+        for (Index l = 0; l <= lmax; ++l) {
+            const double d = adj && l > 0 ? static_cast<double>(lag_products(lengths, l)) : nd;
+            rho(l, j) = constant ? std::numeric_limits<double>::quiet_NaN() : (sums(l, j) / d) / r0;
+        }
+    }
+    return rho;
+}
+
+/// z/√n with z = Φ⁻¹((1 + level)/2): the white-noise band of ρ̂.
+inline double confidence_band(const param<long long>& n, const param<double>& level = 0.95) {
+    const long long nn = detail::require_int(n, "n", 1, -1, "an integer with n >= 1");
+    if (!level.valid() || !(level.value() > 0.0 && level.value() < 1.0))
+        detail::throw_parameter("level", "a number with 0 < level < 1", level.repr());
+    return normal_quantile(0.5 * (1.0 + level.value())) / std::sqrt(static_cast<double>(nn));
+}
+
+/// Ljung–Box or Box–Pierce statistics at each lag h of `lags`, per joint.
+struct PortmanteauTest {
+    portmanteau_test test = portmanteau_test::ljung_box;
+    std::vector<long long> lags;
+    long long model_df = 0;
+    Eigen::ArrayXXd statistic, pvalue, log_pvalue;  ///< (n_lags, m)
+    std::vector<long long> df;                      ///< lags − model_df
+};
+
+/// Portmanteau test on the biased autocorrelation (contract §3.5).
+template <class D>
+PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
+                            const param<long long>& model_df, const std::vector<long long>& segments,
+                            const param<portmanteau_test>& test) {
+    const std::string function =
+        test.valid() ? option_name(test.value()) : std::string("portmanteau");
+    const joint_moments mo = detail::checked_signal(e, function);
+    const Index n = e.rows();
+    const std::vector<Index> starts = segment_starts(segments, n);
+    const Index limit = detail::longest(starts, n);
+    const std::string lag_req =
+        "a positive integer or a non-empty sequence of positive integers less than " + std::to_string(limit);
+    if (!lags.valid() || lags.value().empty()) detail::throw_parameter("lags", lag_req, lags.repr());
+    long long min_lag = limit, max_lag = 0;
+    for (long long h : lags.value()) {
+        if (h <= 0 || h >= limit) detail::throw_parameter("lags", lag_req, lags.repr());
+        min_lag = std::min(min_lag, h);
+        max_lag = std::max(max_lag, h);
+    }
+    const long long mdf =
+        detail::require_int(model_df, "model_df", 0, min_lag, "an integer with 0 <= model_df < " + std::to_string(min_lag));
+    const portmanteau_test which = detail::require_option(test, "test");
+
+    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, max_lag);
+    const auto lengths = segment_lengths(starts, n);
+    const double nd = static_cast<double>(n);
+    const Index n_lags = static_cast<Index>(lags.value().size());
+    PortmanteauTest r;
+    r.test = which;
+    r.lags = lags.value();
+    r.model_df = mdf;
+    r.statistic.resize(n_lags, e.cols());
+    r.pvalue.resize(n_lags, e.cols());
+    r.log_pvalue.resize(n_lags, e.cols());
+    for (long long h : r.lags) r.df.push_back(h - mdf);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (Index j = 0; j < e.cols(); ++j) {
+        const bool constant = mo.tau_min(j) == mo.tau_max(j);
+        // Cumulative Σ ρ̂_ℓ² (Box–Pierce) or Σ ρ̂_ℓ²/n_ℓ (Ljung–Box) for ℓ = 1..max_lag.
+        std::vector<double> cumulative(static_cast<std::size_t>(max_lag + 1), 0.0);
+        detail::compensated acc;
+        for (Index l = 1; l <= max_lag; ++l) {
+            const double rho = sums(l, j) / sums(0, j);
+            const double term = which == portmanteau_test::ljung_box
+                                    ? rho * rho / static_cast<double>(lag_products(lengths, l))
+                                    : rho * rho;
+            acc.add(term);
+            cumulative[static_cast<std::size_t>(l)] = acc.value();
+        }
+        for (Index i = 0; i < n_lags; ++i) {
+            const auto h = static_cast<std::size_t>(r.lags[static_cast<std::size_t>(i)]);
+            const double scale = which == portmanteau_test::ljung_box ? nd * (nd + 2.0) : nd;
+            const double q = constant ? nan : scale * cumulative[h];
+            const double df = static_cast<double>(r.df[static_cast<std::size_t>(i)]);
+            r.statistic(i, j) = q;
+            r.pvalue(i, j) = constant ? nan : chi2_sf(q, df);
+            r.log_pvalue(i, j) = constant ? nan : chi2_logsf(q, df);
+        }
+    }
+    return r;
+}
+
+/// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ.
+template <class D>
+PortmanteauTest ljung_box(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
+                          const param<long long>& model_df = 0LL, const std::vector<long long>& segments = {}) {
+    return portmanteau(e, lags, model_df, segments, portmanteau_test::ljung_box);
+}
+
+/// Box–Pierce Q(h) = N Σ ρ̂²_ℓ.
+template <class D>
+PortmanteauTest box_pierce(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
+                           const param<long long>& model_df = 0LL, const std::vector<long long>& segments = {}) {
+    return portmanteau(e, lags, model_df, segments, portmanteau_test::box_pierce);
+}
+
+/// Cross-correlation of each joint's residual with that joint's regressor columns.
+struct CrossCorrelation {
+    Eigen::Index n_joints = 0, n_columns = 0, max_lag = 0;
+    row_matrix rho;                       ///< (m·p, max_lag+1), row j·p + c
+    std::vector<bool> constant_mask;      ///< (m·p): column c constant on joint j
+    double band = 0.0;                    ///< z/√N (filled by the caller that knows `level`)
+};
+
+/// ρ_{e_j Y_jc}(ℓ) = R̂_{eY}(ℓ) / √(R̂_e(0) R̂_Y(0)), with the regressor viewed as (N, m·p):
+/// column j·p + c is joint j, column c (an (N, m, p) row-major array is exactly this view).
+template <class DE, class DY>
+CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::MatrixBase<DY>& regressor,
+                                   const param<long long>& n_columns, const param<long long>& max_lag,
+                                   const param<bool>& adjusted = true, const std::vector<long long>& segments = {}) {
+    const Index n = e.rows(), m = e.cols();
+    detail::check_columns(n, m, "e");
+    if (regressor.cols() == 0)
+        throw invalid_shape("regressor must have at least one column, got shape " +
+                            shape_text(regressor.rows(), regressor.cols()));
+    if (regressor.rows() != n)
+        throw shape_mismatch("regressor must have shape (N, m, p) = (" + std::to_string(n) + ", " +
+                             std::to_string(m) + ", p) to match e, got " +
+                             shape_text(regressor.rows(), regressor.cols()));
+    detail::check_min_samples(n, 2, "cross_correlation");
+    joint_moments me = accumulate(e, DE::PlainObject::Zero(n, m));
+    me.throw_if_nonfinite("e", "e");
+    const joint_moments my = accumulate(regressor, DY::PlainObject::Zero(n, regressor.cols()));
+    const Index total = regressor.cols();
+    if (my.nonfinite_meas) {
+        const Index p_guess = n_columns.valid() && n_columns.value() > 0 ? n_columns.value() : total;
+        detail::throw_nonfinite_regressor(my.nonfinite_meas->row, my.nonfinite_meas->col, p_guess,
+                                          my.nonfinite_meas->value);
+    }
+    if (!n_columns.valid() || n_columns.value() <= 0 || n_columns.value() * m != total)
+        detail::throw_parameter("n_columns", "a positive integer with m*n_columns = " + std::to_string(total),
+                                n_columns.repr());
+    const Index p = n_columns.value();
+    const std::vector<Index> starts = segment_starts(segments, n);
+    const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
+    const bool adj = detail::require_bool(adjusted, "adjusted");
+
+    const auto lengths = segment_lengths(starts, n);
+    const double nd = static_cast<double>(n);
+    CrossCorrelation r;
+    r.n_joints = m;
+    r.n_columns = p;
+    r.max_lag = lmax;
+    r.rho.resize(m * p, lmax + 1);
+    r.constant_mask.assign(static_cast<std::size_t>(m * p), false);
+    Eigen::VectorXd ebuf, ybuf;
+    std::vector<double> out;
+    std::vector<double> denom(static_cast<std::size_t>(lmax + 1));
+    for (Index l = 0; l <= lmax; ++l)
+        denom[static_cast<std::size_t>(l)] = adj && l > 0 ? static_cast<double>(lag_products(lengths, l)) : nd;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (Index j = 0; j < m; ++j) {
+        const bool e_constant = me.tau_min(j) == me.tau_max(j);
+        detail::centred_column(e, j, me.tau_mean(j), ebuf);
+        const double re0 = me.tau_m2(j) / nd;
+        for (Index c = 0; c < p; ++c) {
+            const Index q = j * p + c;
+            const bool y_constant = my.tau_min(q) == my.tau_max(q);
+            r.constant_mask[static_cast<std::size_t>(q)] = y_constant;
+            if (y_constant || e_constant) {
+                r.rho.row(q).setConstant(nan);
+                continue;
+            }
+            detail::centred_column(regressor, q, my.tau_mean(q), ybuf);
+            detail::lagged_sums(ebuf.data(), ybuf.data(), starts, n, lmax, out);
+            const double scale = 1.0 / std::sqrt(re0 * (my.tau_m2(q) / nd));
+            for (Index l = 0; l <= lmax; ++l)
+                r.rho(q, l) = out[static_cast<std::size_t>(l)] / denom[static_cast<std::size_t>(l)] * scale;
+        }
+    }
+    return r;
+}
+
+}  // namespace dynval

@@ -1,0 +1,93 @@
+"""dynval: validation metrics for identified robot dynamic models (τ = Yπ + ε).
+
+RMSE, max error, VAF, fit %, R², residual mean/variance, zero-mean test, autocorrelation with
+bands, Ljung–Box/Box–Pierce, cross-correlation of residuals with regressor columns and
+AIC/BIC/AICc/FPE with explicit noise models; the same numbers from the numpy reference and the
+C++ core. ``docs/contract.md`` defines every name, shape, convention and error.
+
+Examples
+--------
+>>> import dynval
+>>> dynval.rmse([1.0, 2.0, 3.0], [1.0, 2.0, 4.0]) ** 2
+0.3333333333333333
+"""
+
+from ._api import (
+    aic,
+    autocorrelation,
+    bic,
+    box_pierce,
+    confidence_band,
+    criteria,
+    cross_correlation,
+    fit_percent,
+    information_criteria,
+    ljung_box,
+    max_abs_error,
+    r2,
+    residual_mean,
+    residual_variance,
+    residuals,
+    rmse,
+    sse,
+    vaf,
+    zero_mean_test,
+)
+from ._backend import backends, set_backend
+from ._errors import (
+    ERROR_KINDS,
+    InputError,
+    InvalidParameter,
+    InvalidShape,
+    InvalidType,
+    NonFiniteInput,
+    ShapeMismatch,
+    TooFewSamples,
+    error_class,
+)
+from ._report import ValidationReport, validate
+from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
+
+__version__ = "0.1.0"
+CONTRACT_VERSION = "1.0"
+
+__all__ = [
+    "__version__",
+    "CONTRACT_VERSION",
+    "residuals",
+    "sse",
+    "rmse",
+    "max_abs_error",
+    "vaf",
+    "fit_percent",
+    "r2",
+    "residual_mean",
+    "residual_variance",
+    "zero_mean_test",
+    "autocorrelation",
+    "confidence_band",
+    "ljung_box",
+    "box_pierce",
+    "cross_correlation",
+    "information_criteria",
+    "criteria",
+    "aic",
+    "bic",
+    "validate",
+    "ValidationReport",
+    "backends",
+    "set_backend",
+    "ZeroMeanTest",
+    "PortmanteauTest",
+    "CrossCorrelation",
+    "InformationCriteria",
+    "InputError",
+    "InvalidType",
+    "InvalidShape",
+    "ShapeMismatch",
+    "TooFewSamples",
+    "NonFiniteInput",
+    "InvalidParameter",
+    "ERROR_KINDS",
+    "error_class",
+]

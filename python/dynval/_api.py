@@ -1,0 +1,684 @@
+"""Public functions of dynval: check the data, pick the backend, call its kernel.
+
+Every function checks in the contract's order (§2.1): type -> shape -> size -> finiteness ->
+parameters. Type, shape and size are checked here. Finiteness is checked by the kernel in its
+pass over the data; parameters are checked here *deferred*: when one is bad, the data are
+first searched for a non-finite value, so NonFiniteInput still wins. Within the parameter
+step the order is ``nan_policy``, ``backend``, ``segments`` (they decide which data the other
+parameters are checked against), then the remaining keywords in signature order.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.stats
+
+from . import _backend
+from ._errors import InvalidParameter
+from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
+from ._segments import longest_segment, omit_nonfinite, parse_segments
+from ._validation import (
+    MULTIOUTPUT_OPTIONS,
+    check_adjusted,
+    check_convention,
+    check_ddof,
+    check_lags,
+    check_level,
+    check_max_lag,
+    check_min_samples,
+    check_model_df,
+    check_multioutput,
+    check_n,
+    check_n_joints,
+    check_n_obs,
+    check_n_params,
+    check_nan_policy,
+    check_noise_model,
+    check_rss,
+    check_same_shape,
+    first_nonfinite,
+    nonfinite_error,
+    promote_signal,
+    regressor_shape,
+    regressor_to_2d,
+    to_float_array,
+)
+
+__all__ = [
+    "residuals",
+    "sse",
+    "rmse",
+    "max_abs_error",
+    "vaf",
+    "fit_percent",
+    "r2",
+    "residual_mean",
+    "residual_variance",
+    "zero_mean_test",
+    "autocorrelation",
+    "confidence_band",
+    "ljung_box",
+    "box_pierce",
+    "cross_correlation",
+    "information_criteria",
+    "criteria",
+    "aic",
+    "bic",
+]
+
+_NO_SEGMENTS = object()
+
+
+# --------------------------------------------------------------------------- plumbing
+
+
+def signal_pair(function: str, tau_meas, tau_pred):
+    """Type, shape and size checks of ``(tau_meas, tau_pred)``; returns the 2-D pair and 1-D flag."""
+    a = to_float_array(tau_meas, "tau_meas")
+    b = to_float_array(tau_pred, "tau_pred")
+    a2 = promote_signal(a, "tau_meas")
+    b2 = promote_signal(b, "tau_pred")
+    check_same_shape("tau_meas", a.shape, a2, "tau_pred", b.shape, b2)
+    check_min_samples(function, a2.shape[0])
+    return a2, b2, a.ndim == 1 and b.ndim == 1
+
+
+def residual_signal(function: str, e):
+    """Type, shape and size checks of a residual ``e``; returns the 2-D array and 1-D flag."""
+    a = to_float_array(e, "e")
+    a2 = promote_signal(a, "e")
+    check_min_samples(function, a2.shape[0])
+    return a2, a.ndim == 1
+
+
+class Call:
+    """The parameter step of one call, with the deferred check and nan_policy="omit".
+
+    Parameters
+    ----------
+    function : str
+        Public function name (for TooFewSamples after omission).
+    arrays : list of (name, 2-D array, n_columns)
+        The data in argument order; ``n_columns`` is p for a regressor viewed ``(N, m*p)``.
+    nan_policy, backend : the caller's values.
+    segments : the caller's value, or absent for functions without lags.
+    """
+
+    def __init__(self, function, arrays, nan_policy, backend, segments=_NO_SEGMENTS):
+        self.function = function
+        self._arrays = arrays
+        self.nan_policy = "raise"  # until the caller's value is known to be valid
+        self.nan_policy = self.check(check_nan_policy, nan_policy)
+        self.backend, self.kernel = self.check(_backend.resolve, backend)
+        n = arrays[0][1].shape[0]
+        if segments is _NO_SEGMENTS:
+            self.starts = np.zeros(1, dtype=np.int64)
+        else:
+            self.starts = self.check(parse_segments, segments, n)
+        self.omitted = 0
+        self.data = [a for _, a, _ in arrays]
+        if self.nan_policy == "omit":
+            self.data, self.starts, self.omitted = omit_nonfinite(self.data, self.starts)
+            check_min_samples(function, self.data[0].shape[0])
+
+    @property
+    def n(self) -> int:
+        return self.data[0].shape[0]
+
+    @property
+    def limit(self) -> int:
+        """Longest segment: the bound on lags."""
+        return longest_segment(self.starts, self.n)
+
+    def check(self, check, *args):
+        """Run a parameter check; on failure, a non-finite value in the data wins."""
+        try:
+            return check(*args)
+        except InvalidParameter:
+            if self.nan_policy != "omit":
+                for name, a, n_columns in self._arrays:
+                    found = first_nonfinite(a)
+                    if found is not None:
+                        raise nonfinite_error(name, *found, n_columns=n_columns) from None
+            raise
+
+
+def _pair_call(function, tau_meas, tau_pred, nan_policy, backend):
+    meas, pred, one_d = signal_pair(function, tau_meas, tau_pred)
+    call = Call(function, [("tau_meas", meas, None), ("tau_pred", pred, None)], nan_policy, backend)
+    return call, one_d
+
+
+def _residual_call(function, e, nan_policy, backend, segments=_NO_SEGMENTS):
+    e2, one_d = residual_signal(function, e)
+    return Call(function, [("e", e2, None)], nan_policy, backend, segments), one_d
+
+
+def _out(value):
+    """Aggregates as Python float, per-joint values as float64 (m,) arrays."""
+    if np.ndim(value) == 0:
+        return float(value)
+    return np.asarray(value, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- point metrics
+
+
+def residuals(tau_meas, tau_pred, *, nan_policy="raise", backend=None):
+    """Residuals ``e = tau_meas − tau_pred``.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, m)``, or ``(N,)`` when both inputs are 1-D.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.residuals([1.0, 2.0], [0.5, 2.5])
+    array([ 0.5, -0.5])
+    """
+    call, one_d = _pair_call("residuals", tau_meas, tau_pred, nan_policy, backend)
+    e = np.asarray(call.kernel.residuals(*call.data), dtype=np.float64)
+    return e[:, 0].copy() if one_d else e
+
+
+def _point(function, allowed, tau_meas, tau_pred, multioutput, nan_policy, backend):
+    call, _ = _pair_call(function, tau_meas, tau_pred, nan_policy, backend)
+    multioutput = call.check(check_multioutput, multioutput, allowed, function)
+    return call, multioutput
+
+
+def sse(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+    """Sum of squared errors Σ e².
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+    multioutput : {"pooled", "raw_values"}
+        ``pooled`` sums over all joints (float); ``raw_values`` gives SSE_j per joint (m,).
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.sse([[1.0, 2.0], [3.0, 4.0]], [[1.0, 1.0], [3.0, 2.0]])
+    5.0
+    """
+    call, mo = _point("sse", ("pooled", "raw_values"), tau_meas, tau_pred, multioutput, nan_policy, backend)
+    return _out(call.kernel.sse(*call.data, mo))
+
+
+def max_abs_error(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+    """Largest absolute residual, pooled or per joint.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.max_abs_error([1.0, 2.0, 3.0], [1.5, 2.0, 1.0])
+    2.0
+    """
+    call, mo = _point("max_abs_error", ("pooled", "raw_values"), tau_meas, tau_pred, multioutput, nan_policy, backend)
+    return _out(call.kernel.max_abs_error(*call.data, mo))
+
+
+def rmse(tau_meas, tau_pred, *, multioutput="pooled", convention=None, nan_policy="raise", backend=None):
+    """Root mean squared error.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+    multioutput : {"pooled", "raw_values", "uniform_average"}
+        ``raw_values`` √(SSE_j/N) per joint; ``uniform_average`` their mean (scikit-learn).
+    convention : {None, "per_element", "per_sample"}
+        Only with ``pooled``: ``per_element`` (default) √(SSE/(N·m)), the lesson's formula;
+        ``per_sample`` √(SSE/N), the lesson's code. The two agree for one joint.
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.rmse([[1.0, 1.0], [1.0, 1.0]], [[0.0, 0.0], [0.0, 0.0]], convention="per_sample")
+    1.4142135623730951
+    """
+    call, mo = _point("rmse", ("pooled", "raw_values", "uniform_average"), tau_meas, tau_pred, multioutput, nan_policy, backend)
+    conv = call.check(check_convention, convention, mo)
+    return _out(call.kernel.rmse(*call.data, mo, conv))
+
+
+def vaf(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+    """Variance accounted for, in percent: 100(1 − var(e)/var(τ)).
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+    multioutput : {"pooled", "raw_values", "uniform_average", "variance_weighted"}
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Notes
+    -----
+    A constant target gives ``-inf``, or ``nan`` when the residual is constant too (§3.2).
+
+    Examples
+    --------
+    >>> import dynval
+    >>> round(dynval.vaf([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.1, 3.9]), 6)
+    99.2
+    """
+    call, mo = _point("vaf", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
+    return _out(call.kernel.vaf(*call.data, mo))
+
+
+def fit_percent(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+    """Normalised fit, in percent: 100(1 − √(SSE/TSS)) (= 100(1 − √(1 − R²))).
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.fit_percent([0.0, 2.0], [0.0, 2.0])
+    100.0
+    """
+    call, mo = _point("fit_percent", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
+    return _out(call.kernel.fit_percent(*call.data, mo))
+
+
+def r2(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+    """Coefficient of determination 1 − SSE/TSS (a fraction).
+
+    ``pooled`` uses all N·m values with one global mean (the lesson); ``raw_values``,
+    ``uniform_average`` and ``variance_weighted`` match scikit-learn's ``r2_score``.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.r2([1.0, 2.0, 3.0], [1.0, 2.0, 4.0])
+    0.5
+    """
+    call, mo = _point("r2", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
+    return _out(call.kernel.r2(*call.data, mo))
+
+
+# --------------------------------------------------------------------------- residual statistics
+
+
+def residual_mean(e, *, nan_policy="raise", backend=None):
+    """Mean of the residual of each joint, ``(m,)``.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.residual_mean([[1.0, 0.0], [3.0, 1.0]])
+    array([2. , 0.5])
+    """
+    call, _ = _residual_call("residual_mean", e, nan_policy, backend)
+    return _out(call.kernel.residual_mean(call.data[0])).reshape(-1)
+
+
+def residual_variance(e, *, ddof=1, nan_policy="raise", backend=None):
+    """Variance of the residual of each joint, Σ(e − ē_j)²/(N − ddof), ``(m,)``.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.residual_variance([1.0, 2.0, 3.0])
+    array([1.])
+    """
+    call, _ = _residual_call("residual_variance", e, nan_policy, backend)
+    ddof = call.check(check_ddof, ddof, call.n)
+    return _out(call.kernel.residual_variance(call.data[0], ddof)).reshape(-1)
+
+
+def newey_west_bandwidth(n: int) -> int:
+    """K = ⌊4(N/100)^(2/9)⌋, at most N − 1 (contract §3.3)."""
+    return int(min(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)), n - 1))
+
+
+def zero_mean_test(e, *, segments=None, nan_policy="raise", backend=None):
+    """Test whether each joint's residual has zero mean.
+
+    Gives the i.i.d. Student t-test (as ``scipy.stats.ttest_1samp(e, 0)``) and a test
+    corrected for autocorrelation (Newey–West/Bartlett weights, effective sample size N_eff),
+    which is the one to read: robot residuals are autocorrelated and the i.i.d. p-value is
+    overconfident.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    segments : None or sequence of int
+        Lengths or starts of concatenated records (no lagged product joins two).
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Returns
+    -------
+    ZeroMeanTest
+
+    Examples
+    --------
+    >>> import dynval
+    >>> res = dynval.zero_mean_test([0.1, -0.2, 0.15, -0.05, 0.0, 0.02])
+    >>> res.df_iid
+    5
+    """
+    call, _ = _residual_call("zero_mean_test", e, nan_policy, backend, segments)
+    e2 = call.data[0]
+    n = call.n
+    mean = _out(call.kernel.residual_mean(e2)).reshape(-1)
+    std = np.sqrt(_out(call.kernel.residual_variance(e2, 1)).reshape(-1))
+    k = newey_west_bandwidth(n)
+    # Lags past the longest segment have no products: their ρ̂ is 0 and adds nothing.
+    k_used = min(k, call.limit - 1)
+    rho = np.asarray(call.kernel.autocorrelation(e2, k_used, False, call.starts), dtype=np.float64)
+    weights = 1.0 - np.arange(1, k_used + 1) / (k + 1.0)
+    total = weights @ rho[1:] if k_used > 0 else np.zeros(e2.shape[1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
+        n_eff = np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
+        t_iid = mean * math.sqrt(n) / std
+        t_eff = mean * np.sqrt(n_eff) / std
+    return ZeroMeanTest(
+        mean=mean,
+        std=std,
+        n_samples=n,
+        statistic_iid=t_iid,
+        pvalue_iid=2.0 * scipy.stats.t.sf(np.abs(t_iid), n - 1),
+        df_iid=n - 1,
+        statistic_eff=t_eff,
+        pvalue_eff=2.0 * scipy.stats.t.sf(np.abs(t_eff), n_eff - 1.0),
+        df_eff=n_eff - 1.0,
+        n_eff=n_eff,
+        bandwidth=k,
+    )
+
+
+# --------------------------------------------------------------------------- correlation
+
+
+def autocorrelation(e, max_lag, *, adjusted=True, segments=None, nan_policy="raise", backend=None):
+    """Normalised autocorrelation ρ̂(ℓ) = R̂(ℓ)/R̂(0) of the residual, ℓ = 0..max_lag.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    max_lag : int
+        Largest lag, below the longest segment.
+    adjusted : bool
+        ``True`` (the lesson): R̂(ℓ) divides by the number of products n_ℓ; ``False`` (biased:
+        NIST StRD, R, statsmodels' default): by N at every lag.
+    segments : None or sequence of int
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(max_lag+1,)`` for 1-D ``e``, else ``(max_lag+1, m)``. A constant residual gives nan.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.autocorrelation([1.0, -1.0, 1.0, -1.0], 1, adjusted=False)
+    array([ 1.  , -0.75])
+    """
+    call, one_d = _residual_call("autocorrelation", e, nan_policy, backend, segments)
+    max_lag = call.check(check_max_lag, max_lag, call.limit)
+    adjusted = call.check(check_adjusted, adjusted)
+    rho = np.asarray(call.kernel.autocorrelation(call.data[0], max_lag, adjusted, call.starts), dtype=np.float64)
+    return rho[:, 0].copy() if one_d else rho
+
+
+def confidence_band(n, *, level=0.95, backend=None):
+    """Half-width z/√n of the white-noise band, z = Φ⁻¹((1 + level)/2).
+
+    Examples
+    --------
+    >>> import dynval
+    >>> round(dynval.confidence_band(100), 6)
+    0.195996
+    """
+    n = check_n(n)
+    level = check_level(level)
+    _backend.resolve(backend)
+    return float(scipy.stats.norm.ppf((1.0 + level) / 2.0) / math.sqrt(n))
+
+
+def _portmanteau(function, e, lags, model_df, segments, nan_policy, backend):
+    call, _ = _residual_call(function, e, nan_policy, backend, segments)
+    lags = call.check(check_lags, lags, call.limit)
+    model_df = call.check(check_model_df, model_df, int(lags.min()))
+    out = call.kernel.portmanteau(call.data[0], lags, model_df, call.starts, function)
+    return PortmanteauTest(
+        test=function,
+        lags=lags,
+        model_df=model_df,
+        statistic=np.asarray(out["statistic"], dtype=np.float64),
+        pvalue=np.asarray(out["pvalue"], dtype=np.float64),
+        log_pvalue=np.asarray(out["log_pvalue"], dtype=np.float64),
+        df=np.asarray(out["df"], dtype=np.int64),
+    )
+
+
+def ljung_box(e, lags, *, model_df=0, segments=None, nan_policy="raise", backend=None):
+    """Ljung–Box test Q(h) = N(N+2) Σ_{ℓ≤h} ρ̂_ℓ²/n_ℓ on the biased autocorrelation.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+    lags : int or sequence of int
+        One statistic per entry, in the given order.
+    model_df : int
+        Degrees of freedom used by the model; df = h − model_df must be >= 1.
+    segments, nan_policy, backend : as in :func:`autocorrelation`.
+
+    Returns
+    -------
+    PortmanteauTest
+        ``log_pvalue`` stays accurate where ``pvalue`` underflows (real robot residuals).
+
+    Examples
+    --------
+    >>> import dynval
+    >>> res = dynval.ljung_box([1.0, -1.0, 1.0, -1.0, 1.0, -1.0], 1)
+    >>> res.df.tolist()
+    [1]
+    """
+    return _portmanteau("ljung_box", e, lags, model_df, segments, nan_policy, backend)
+
+
+def box_pierce(e, lags, *, model_df=0, segments=None, nan_policy="raise", backend=None):
+    """Box–Pierce test Q(h) = N Σ_{ℓ≤h} ρ̂_ℓ²; arguments as :func:`ljung_box`.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> float(dynval.box_pierce([1.0, -1.0, 1.0, -1.0], 1).statistic[0, 0])
+    2.25
+    """
+    return _portmanteau("box_pierce", e, lags, model_df, segments, nan_policy, backend)
+
+
+def cross_correlation(
+    e,
+    Y,
+    max_lag,
+    *,
+    n_joints=None,
+    adjusted=True,
+    level=0.95,
+    segments=None,
+    nan_policy="raise",
+    backend=None,
+):
+    """Cross-correlation of each joint's residual with that joint's regressor columns.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    Y : array_like, (N, m, p), or (N*m, p) stacked sample-major with ``n_joints=m``
+        Regressor (row k·m + j of the stacked form is sample k, joint j).
+    max_lag : int
+        Lags 0..max_lag; ℓ pairs e at sample k with Y at sample k − ℓ.
+    n_joints : int, optional
+        Required for the stacked form.
+    adjusted : bool
+        Denominator n_ℓ (True) or N (False) of the lagged sums.
+    level : float
+        Confidence level of the band z/√N.
+    segments, nan_policy, backend : as in :func:`autocorrelation`.
+
+    Returns
+    -------
+    CrossCorrelation
+
+    Examples
+    --------
+    >>> import numpy as np, dynval
+    >>> e = np.array([1.0, -1.0, 2.0, 0.0])
+    >>> Y = np.array([[1.0], [-1.0], [2.0], [0.0]])[:, None, :]
+    >>> float(dynval.cross_correlation(e, Y, 0).rho[0, 0, 0])
+    1.0
+    """
+    e_arr = to_float_array(e, "e")
+    y_arr = to_float_array(Y, "regressor")
+    e2 = promote_signal(e_arr, "e")
+    n, m = e2.shape
+    p = regressor_shape(y_arr, "e", n, m, n_joints)
+    check_min_samples("cross_correlation", n)
+    y2 = regressor_to_2d(y_arr, n, m, p)
+    call = Call("cross_correlation", [("e", e2, None), ("regressor", y2, p)], nan_policy, backend, segments)
+    max_lag = call.check(check_max_lag, max_lag, call.limit)
+    call.check(check_n_joints, n_joints, y_arr.shape[0], m, y_arr.ndim == 3)
+    adjusted = call.check(check_adjusted, adjusted)
+    level = call.check(check_level, level)
+    out = call.kernel.cross_correlation(call.data[0], call.data[1], p, max_lag, adjusted, call.starts)
+    rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
+    mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
+    band = float(scipy.stats.norm.ppf((1.0 + level) / 2.0) / math.sqrt(call.n))
+    with np.errstate(invalid="ignore"):
+        hits = np.argwhere(np.abs(rho) > band)
+    outside = [
+        (int(j), int(c), int(lag), float(rho[j, c, lag]), float(abs(rho[j, c, lag]) / band)) for j, c, lag in hits
+    ]
+    outside.sort(key=lambda t: (-t[4], t[0], t[1], t[2]))
+    return CrossCorrelation(rho=rho, constant_mask=mask, band=band, level=level, outside=outside)
+
+
+# --------------------------------------------------------------------------- information criteria
+
+
+def information_criteria(rss, n_obs, n_params, *, backend=None):
+    """AIC, BIC, AICc, FPE and nAIC from a residual sum of squares (constants dropped).
+
+    σ̂² = rss/n; aic = 2p + n·ln σ̂²; bic = p·ln n + n·ln σ̂²; aicc = aic + 2p(p+1)/(n − p − 1);
+    fpe = σ̂²(1 + p/n)/(1 − p/n); naic = ln σ̂² + 2p/n. Requires p < n − 1.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> round(dynval.information_criteria(10.0, 1000, 6).aic, 6)
+    -4593.170186
+    """
+    _, kernel = _backend.resolve(backend)
+    rss = check_rss(rss)
+    n_obs = check_n_obs(n_obs)
+    n_params = check_n_params(n_params, n_obs)
+    out = kernel.information_criteria(rss, n_obs, n_params)
+    return InformationCriteria(
+        aic=float(out["aic"]),
+        bic=float(out["bic"]),
+        aicc=float(out["aicc"]),
+        fpe=float(out["fpe"]),
+        naic=float(out["naic"]),
+        n_obs=n_obs,
+        n_params=n_params,
+        noise_model="pooled",
+    )
+
+
+def criteria(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+    """Information criteria of a model's residuals under an explicit noise model.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+    n_params : int
+        Number of identified parameters p (always given; there is no default).
+    noise_model : {"pooled", "per_joint", "full"}
+        ``pooled`` one σ² for all N·m values (the lesson); ``per_joint`` one σ² per joint;
+        ``full`` a full m×m covariance (MATLAB's multi-output AIC).
+    nan_policy : {"raise", "omit"}
+    backend : {None, "python", "cpp"}
+
+    Returns
+    -------
+    InformationCriteria
+        aicc and fpe are nan when p >= n − 1.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> ic = dynval.criteria([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.1, 3.9], n_params=1)
+    >>> ic.n_obs
+    4
+    """
+    call, _ = _pair_call("criteria", tau_meas, tau_pred, nan_policy, backend)
+    n_params = call.check(check_n_params, n_params)
+    noise_model = call.check(check_noise_model, noise_model)
+    out = call.kernel.criteria(*call.data, n_params, noise_model)
+    return InformationCriteria(
+        aic=float(out["aic"]),
+        bic=float(out["bic"]),
+        aicc=float(out["aicc"]),
+        fpe=float(out["fpe"]),
+        naic=float(out["naic"]),
+        n_obs=int(out["n_obs"]),
+        n_params=n_params,
+        noise_model=noise_model,
+    )
+
+
+def _criterion(function, field, tau_meas, tau_pred, n_params, noise_model, nan_policy, backend):
+    call, _ = _pair_call(function, tau_meas, tau_pred, nan_policy, backend)
+    n_params = call.check(check_n_params, n_params)
+    noise_model = call.check(check_noise_model, noise_model)
+    return float(call.kernel.criteria(*call.data, n_params, noise_model)[field])
+
+
+def aic(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+    """Akaike information criterion (constant dropped); see :func:`criteria`.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> round(dynval.aic([1.0, 2.5, 3.2, 4.1, 4.8, 6.1], [1.1, 2.4, 3.0, 4.3, 4.7, 6.0], n_params=2), 9)
+    -19.472138033
+    """
+    return _criterion("aic", "aic", tau_meas, tau_pred, n_params, noise_model, nan_policy, backend)
+
+
+def bic(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+    """Bayesian information criterion (constant dropped); see :func:`criteria`.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> round(dynval.bic([1.0, 2.5, 3.2, 4.1, 4.8, 6.1], [1.1, 2.4, 3.0, 4.3, 4.7, 6.0], n_params=2), 9)
+    -19.888619094
+    """
+    return _criterion("bic", "bic", tau_meas, tau_pred, n_params, noise_model, nan_policy, backend)

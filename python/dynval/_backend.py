@@ -1,0 +1,108 @@
+"""Backend selection: the numpy/scipy reference (``python``) or the compiled core (``cpp``).
+
+The compiled module is imported lazily, once. The default is ``cpp`` when it imports, else
+``python``; ``DYNVAL_BACKEND`` is read at first use and :func:`set_backend` overrides both.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+
+from . import _reference
+from ._validation import parameter_error
+
+BACKEND_NAMES = ("python", "cpp")
+
+_state: dict = {"current": None, "core": None, "core_detail": None}
+
+
+def _load_core():
+    if _state["core_detail"] is None:
+        try:
+            core = importlib.import_module("dynval._core")
+        except Exception as exc:  # any import failure means the backend is unavailable
+            _state["core_detail"] = f"dynval._core could not be imported: {type(exc).__name__}: {exc}"
+        else:
+            _state["core"] = core
+            _state["core_detail"] = f"compiled module {getattr(core, '__file__', 'dynval._core')}"
+    return _state["core"]
+
+
+def backends() -> dict:
+    """Backends and whether they can be used.
+
+    Returns
+    -------
+    dict
+        ``{"python": {"available": bool, "detail": str}, "cpp": {...}}``; ``detail`` says
+        where the backend comes from or why it is unavailable.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.backends()["python"]["available"]
+    True
+    """
+    core = _load_core()
+    return {
+        "python": {"available": True, "detail": "numpy/scipy reference kernels (dynval._reference)"},
+        "cpp": {"available": core is not None, "detail": _state["core_detail"]},
+    }
+
+
+def available() -> tuple[str, ...]:
+    """Names of the usable backends, in contract order."""
+    return ("python", "cpp") if _load_core() is not None else ("python",)
+
+
+def check_backend(name) -> str:
+    """Return ``name`` if it is an available backend, else raise InvalidParameter."""
+    names = available()
+    if not isinstance(name, str) or name not in names:
+        raise parameter_error("backend", "one of " + ", ".join(repr(n) for n in names), name)
+    return name
+
+
+def set_backend(name) -> None:
+    """Select the backend used when a function is called with ``backend=None``.
+
+    Parameters
+    ----------
+    name : str or None
+        ``"python"`` or ``"cpp"``; ``None`` returns to the default (``DYNVAL_BACKEND``, else
+        ``cpp`` when available, else ``python``).
+
+    Raises
+    ------
+    InvalidParameter
+        If the backend is unknown or unavailable.
+
+    Examples
+    --------
+    >>> import dynval
+    >>> dynval.set_backend("python")
+    >>> dynval.set_backend(None)
+    """
+    _state["current"] = None if name is None else check_backend(name)
+
+
+def default_backend() -> str:
+    """The name used for ``backend=None``."""
+    if _state["current"] is None:
+        env = os.environ.get("DYNVAL_BACKEND")
+        if env:
+            return check_backend(env)
+        return "cpp" if _load_core() is not None else "python"
+    return _state["current"]
+
+
+def resolve(name=None) -> tuple[str, object]:
+    """``(name, kernel module)`` for ``name`` (``None`` = the default)."""
+    name = default_backend() if name is None else check_backend(name)
+    return name, (_reference if name == "python" else _load_core())
+
+
+def get_backend(name=None):
+    """The kernel module of a backend (``dynval._reference`` or ``dynval._core``)."""
+    return resolve(name)[1]

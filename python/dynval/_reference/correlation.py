@@ -1,0 +1,128 @@
+"""Autocorrelation of residuals and cross-correlation with regressor columns.
+
+Lagged products never cross a segment boundary; means are overall (one per joint over all
+N samples). Short lag ranges use direct dot products, long ones scipy.fft; both paths give
+the same sums to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.fft
+
+from .._validation import (
+    check_adjusted,
+    check_finite,
+    check_max_lag,
+    check_n_columns,
+    is_integer,
+)
+from ._common import as_2d, check_starts, finite_residual, segment_limit
+from .norms import centred, centred_ss, is_constant
+
+# Up to this many lags per segment the O(n·L) direct sums are cheaper than an FFT.
+DIRECT_MAX_LAGS = 32
+
+
+def lagged_products(x: np.ndarray, y: np.ndarray, max_lag: int, starts: np.ndarray, method: str | None = None):
+    """S[ℓ, j] = Σ over segments of Σ_k x[k, j]·y[k − ℓ, j], for ℓ = 0..max_lag.
+
+    Only pairs inside one segment contribute. ``method`` forces ``"direct"`` or ``"fft"``.
+    """
+    n, m = x.shape
+    out = np.zeros((max_lag + 1, m))
+    bounds = np.append(np.asarray(starts, dtype=np.int64), n)
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+        length = b - a
+        top = min(max_lag, length - 1)
+        xs, ys = x[a:b], y[a:b]
+        use_direct = method == "direct" or (method is None and top + 1 <= DIRECT_MAX_LAGS)
+        if use_direct:
+            # Columns made contiguous so numpy sums each with pairwise summation.
+            xt, yt = np.ascontiguousarray(xs.T), np.ascontiguousarray(ys.T)
+            for lag in range(top + 1):
+                out[lag] += np.add.reduce(xt[:, lag:] * yt[:, : length - lag], axis=1)
+        else:
+            # A transform of length >= n + L keeps the circular wrap-around out of lags 0..L.
+            nfft = scipy.fft.next_fast_len(length + top, real=True)
+            fx = scipy.fft.rfft(xs, nfft, axis=0)
+            fy = scipy.fft.rfft(ys, nfft, axis=0)
+            out[: top + 1] += scipy.fft.irfft(fx * np.conj(fy), nfft, axis=0)[: top + 1]
+    return out
+
+
+def product_counts(starts: np.ndarray, n: int, max_lag: int) -> np.ndarray:
+    """n_ℓ = Σ_s max(n_s − ℓ, 0) for ℓ = 0..max_lag."""
+    lengths = np.diff(np.append(np.asarray(starts, dtype=np.int64), n))
+    lags = np.arange(max_lag + 1)
+    return np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(np.float64)
+
+
+def denominators(starts: np.ndarray, n: int, max_lag: int, adjusted: bool) -> np.ndarray:
+    """D_ℓ: n_ℓ when adjusted (D_0 = N either way), else N at every lag."""
+    if adjusted:
+        return product_counts(starts, n, max_lag)
+    return np.full(max_lag + 1, float(n))
+
+
+def biased_rho(d: np.ndarray, ss: np.ndarray, max_lag: int, starts: np.ndarray) -> np.ndarray:
+    """ρ̂_ℓ = S_ℓ / S_0 for centred ``d`` with Σd² = ``ss``; column of nan where ss == 0."""
+    s = lagged_products(d, d, max_lag, starts)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = s / ss
+    rho[0] = 1.0
+    rho[:, ss == 0] = np.nan
+    return rho
+
+
+def autocorrelation(e, max_lag, adjusted, starts) -> np.ndarray:
+    """Normalised autocorrelation ρ̂(ℓ) = R̂(ℓ)/R̂(0), ℓ = 0..max_lag, shape ``(max_lag+1, m)``.
+
+    A constant residual (min == max) gives a column of nan.
+    """
+    e = finite_residual(e)
+    n = e.shape[0]
+    starts = check_starts(starts, n)
+    max_lag = check_max_lag(max_lag, segment_limit(starts, n))
+    adjusted = check_adjusted(adjusted)
+    constant = is_constant(e)
+    d = centred(e)
+    ss = centred_ss(e)
+    s = lagged_products(d, d, max_lag, starts)
+    s[0] = ss
+    r = s / denominators(starts, n, max_lag, adjusted)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = r / (ss / n)
+    rho[0] = 1.0
+    rho[:, constant] = np.nan
+    return rho
+
+
+def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
+    """ρ_{e_j Y_jc}(ℓ) for every joint j and column c; ``y`` is the ``(N, m·p)`` view.
+
+    Returns ``rho`` ``(m·p, max_lag+1)`` (row j·p + c) and ``constant_mask`` ``(m·p,)``.
+    """
+    e = as_2d(e)
+    y = as_2d(y)
+    n, m = e.shape
+    check_finite(e, "e")
+    # The sample/joint/column wording needs a usable column count; otherwise row/column.
+    p_ok = is_integer(n_columns) and n_columns > 0 and n_columns * m == y.shape[1]
+    check_finite(y, "regressor", n_columns=int(n_columns) if p_ok else None)
+    starts = check_starts(starts, n)
+    p = check_n_columns(n_columns, y.shape[1], m)
+    max_lag = check_max_lag(max_lag, segment_limit(starts, n))
+    adjusted = check_adjusted(adjusted)
+
+    de = np.repeat(centred(e), p, axis=1)
+    dy = centred(y)
+    ss_e = np.repeat(centred_ss(e), p)
+    ss_y = centred_ss(y)
+    s = lagged_products(de, dy, max_lag, starts)
+    r = s / denominators(starts, n, max_lag, adjusted)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = r / np.sqrt((ss_e / n) * (ss_y / n))
+    constant_mask = is_constant(y)
+    rho[:, constant_mask | np.repeat(is_constant(e), p)] = np.nan
+    return {"rho": np.ascontiguousarray(rho.T), "constant_mask": constant_mask}

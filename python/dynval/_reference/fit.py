@@ -1,0 +1,93 @@
+"""Normalised fit metrics: vaf (percent), fit_percent (percent), r2 (fraction).
+
+Degenerate values follow contract §3.2 exactly and are produced without numpy warnings:
+a constant target gives -inf, or nan when the fit is exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import MULTIOUTPUT_OPTIONS, check_multioutput
+from ._common import finite_pair
+from .norms import centred_ss, colsum, is_constant, pooled
+
+
+def fit_parts(meas: np.ndarray, pred: np.ndarray) -> dict:
+    """Per-column ingredients of the fit metrics for one view of the data."""
+    e = meas - pred
+    return {
+        "sse": colsum(e * e),
+        "tss": centred_ss(meas),
+        "ssc_e": centred_ss(e),
+        "constant": is_constant(meas),
+        "e_constant": is_constant(e),
+    }
+
+
+def _degenerate(values, constant, exact):
+    values = np.where(constant & exact, np.nan, values)
+    return np.where(constant & ~exact, -np.inf, values)
+
+
+def r2_values(parts: dict) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = 1.0 - parts["sse"] / parts["tss"]
+    return _degenerate(values, parts["constant"], parts["sse"] == 0)
+
+
+def fit_values(parts: dict) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = 100.0 * (1.0 - np.sqrt(parts["sse"] / parts["tss"]))
+    return _degenerate(values, parts["constant"], parts["sse"] == 0)
+
+
+def vaf_values(parts: dict) -> np.ndarray:
+    # A ratio of two centred variances with the same ddof: N cancels, so use the sums.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = 100.0 * (1.0 - parts["ssc_e"] / parts["tss"])
+    return _degenerate(values, parts["constant"], parts["e_constant"])
+
+
+def uniform_average(values: np.ndarray) -> float:
+    """IEEE mean over joints: -inf and nan propagate."""
+    with np.errstate(invalid="ignore"):
+        return float(np.mean(values))
+
+
+def variance_weighted(values: np.ndarray, parts: dict) -> float:
+    """TSS-weighted mean; constant joints get weight 0 and are left out (contract §3.2)."""
+    live = ~parts["constant"]
+    if not live.any():
+        return uniform_average(values)
+    weights = parts["tss"][live]
+    return float(np.sum(weights * values[live]) / np.sum(weights))
+
+
+def _metric(meas, pred, multioutput, function, per_column):
+    meas, pred = finite_pair(meas, pred)
+    check_multioutput(multioutput, MULTIOUTPUT_OPTIONS, function)
+    if multioutput == "pooled":
+        return float(per_column(fit_parts(pooled(meas), pooled(pred)))[0])
+    parts = fit_parts(meas, pred)
+    values = per_column(parts)
+    if multioutput == "raw_values":
+        return values
+    if multioutput == "uniform_average":
+        return uniform_average(values)
+    return variance_weighted(values, parts)
+
+
+def vaf(meas, pred, multioutput):
+    """Variance accounted for, percent: 100(1 − var(e)/var(τ))."""
+    return _metric(meas, pred, multioutput, "vaf", vaf_values)
+
+
+def fit_percent(meas, pred, multioutput):
+    """Normalised fit, percent: 100(1 − √(SSE/TSS))."""
+    return _metric(meas, pred, multioutput, "fit_percent", fit_values)
+
+
+def r2(meas, pred, multioutput):
+    """Coefficient of determination: 1 − SSE/TSS."""
+    return _metric(meas, pred, multioutput, "r2", r2_values)

@@ -1,0 +1,22 @@
+"""Residual mean and variance per joint."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import check_ddof
+from ._common import finite_residual
+from .norms import centred_ss, colmean
+
+
+def residual_mean(e) -> np.ndarray:
+    """Mean of each joint's residual, ``(m,)``."""
+    e = finite_residual(e)
+    return colmean(e)
+
+
+def residual_variance(e, ddof) -> np.ndarray:
+    """Σ(e − ē_j)²/(N − ddof) per joint, ``(m,)`` (exactly 0 for a constant residual)."""
+    e = finite_residual(e)
+    ddof = check_ddof(ddof, e.shape[0])
+    return centred_ss(e) / (e.shape[0] - ddof)

@@ -1,0 +1,290 @@
+"""``dynval conform``: prove a port of dynval right against the golden corpus.
+
+A *port* is any program that speaks the line protocol of ``golden/PROTOCOL.md``
+on its standard input and output. The runner starts it once, reads its
+handshake (protocol version and capabilities), sends it every vector it claims
+to handle, compares the answers with each vector's tolerance and prints a table
+per family::
+
+    dynval conform --families norms,errors --report out.json -- ./my_port --flag
+
+Exit status: 0 when no case failed, 1 when any case failed (or, with
+``--strict``, when any case was skipped or partial), 2 for a usage error.
+
+Examples
+--------
+>>> from dynval.conform import main
+>>> main(["--families", "norms", "--quiet", "--", "false"])  # doctest: +SKIP
+1
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import sys
+import time
+from typing import Sequence, TextIO
+
+from .. import protocol
+from ._process import PortFailure, PortProcess, describe_command
+from ._runner import STATUSES, CaseOutcome, RunResult, judge, run
+
+__all__ = ["main", "run", "RunResult", "CaseOutcome", "PortProcess", "PortFailure", "judge", "write_report"]
+
+REPORT_SCHEMA_VERSION = 1
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dynval conform",
+        description=(
+            "Run dynval's golden corpus through a port (any command speaking golden/PROTOCOL.md) "
+            "and report passed / failed / skipped cases per family."
+        ),
+        epilog="Example: dynval conform --families norms,errors --report out.json -- ./my_port",
+    )
+    parser.add_argument("--families", metavar="F,...", help="comma-separated corpus families (default: all)")
+    parser.add_argument("--timeout", type=float, default=30.0, metavar="S", help="seconds allowed per case (default 30)")
+    parser.add_argument(
+        "--startup-timeout", type=float, default=120.0, metavar="S",
+        help="seconds allowed for start-up and handshake (default 120)",
+    )
+    parser.add_argument("--report", metavar="FILE", help="write a JSON report to FILE")
+    parser.add_argument("--corpus", metavar="DIR", help="corpus directory holding <family>.json (default: the shipped corpus)")
+    parser.add_argument("--max-failures", type=int, default=10, metavar="K", help="failures shown in detail (default 10)")
+    parser.add_argument("--max-restarts", type=int, default=25, metavar="R", help="port restarts allowed (default 25)")
+    parser.add_argument("--strict", action="store_true", help="also fail when a case is skipped or partial")
+    parser.add_argument("--quiet", action="store_true", help="no progress output")
+    return parser
+
+
+def _split_command(argv: list[str]) -> tuple[list[str], list[str]]:
+    if "--" in argv:
+        i = argv.index("--")
+        return argv[:i], argv[i + 1 :]
+    return argv, []
+
+
+def _resolve_corpus(path: str | None, families: list[str]) -> pathlib.Path | None:
+    if path is None:
+        return None
+    directory = pathlib.Path(path)
+    if not (directory / f"{families[0]}.json").is_file() and (directory / "vectors").is_dir():
+        directory = directory / "vectors"  # the golden/ root was given
+    for family in families:
+        if not (directory / f"{family}.json").is_file():
+            raise FileNotFoundError(f"--corpus {path}: no {family}.json in {directory}")
+    return directory
+
+
+class _Progress:
+    """Progress on standard error: one rewritten line on a terminal, a line every 10 s otherwise."""
+
+    def __init__(self, stream: TextIO, enabled: bool) -> None:
+        self.stream = stream
+        self.enabled = enabled
+        self.tty = enabled and hasattr(stream, "isatty") and stream.isatty()
+        self.start = time.monotonic()
+        self.last = self.start
+        self.shown = False
+
+    def __call__(self, done: int, total: int, result: RunResult) -> None:
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        interval = 0.2 if self.tty else 10.0
+        if now - self.last < interval and done != total:
+            return
+        if not self.tty and done == total and not self.shown:
+            return  # short run: no progress lines at all
+        self.last = now
+        failed = sum(1 for o in result.outcomes if o.status == "failed")
+        current = result.outcomes[-1].id if result.outcomes else ""
+        text = f"conform: {done}/{total} cases, {failed} failed, {now - self.start:.0f} s  {current}"
+        if self.tty:
+            self.stream.write("\r" + text[:100].ljust(100))
+            if done == total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self.shown = True
+
+
+def format_table(result: RunResult) -> str:
+    """The per-family table of passed / failed / skipped / partial cases."""
+    counts = result.counts()
+    width = max(len(name) for name in counts)
+    head = f"{'family':<{width}}  " + "  ".join(f"{s:>7}" for s in STATUSES)
+    lines = [head, "-" * len(head)]
+    for name, row in counts.items():
+        if name == "total":
+            lines.append("-" * len(head))
+        lines.append(f"{name:<{width}}  " + "  ".join(f"{row[s]:>7}" for s in STATUSES))
+    return "\n".join(lines)
+
+
+def format_failure(o: CaseOutcome) -> str:
+    """A failed case: id, operation, conventions, flags, comment and expected vs got."""
+    lines = [f"FAILED {o.id}  [{o.reason}]  {o.operation} {o.conventions}".rstrip()]
+    if o.comment:
+        lines.append(f"    comment:  {o.comment}")
+    if o.flags:
+        lines.append(f"    flags:    {', '.join(o.flags)}")
+    lines.append(f"    detail:   {o.detail}")
+    if o.expected:
+        lines.append(f"    expected: {_short(o.expected)}")
+    if o.got:
+        lines.append(f"    got:      {_short(o.got)}")
+    return "\n".join(lines)
+
+
+def _short(mapping: dict, limit: int = 300) -> str:
+    text = json.dumps(mapping, allow_nan=False)
+    return text if len(text) <= limit else text[:limit] + " ..."
+
+
+def _report_dict(result: RunResult, exit_code: int) -> dict:
+    import dynval.golden as golden
+
+    try:
+        from .. import __version__ as version
+    except ImportError:  # the package facade is optional for the runner
+        version = None
+    return {
+        "report": "dynval-conform",
+        "report_schema_version": REPORT_SCHEMA_VERSION,
+        "protocol_version": protocol.PROTOCOL_VERSION,
+        "dynval_version": version,
+        "command": result.command,
+        "corpus": result.corpus or str(golden.corpus_dir()),
+        "families": result.families,
+        "port": {
+            "name": result.port_name,
+            "protocol_version": result.protocol_version,
+            "capabilities": result.capabilities,
+            "startup_error": result.startup_error,
+        },
+        "restarts": result.restarts,
+        "seconds": round(result.seconds, 3),
+        "exit_code": exit_code,
+        "counts": result.counts(),
+        "cases": [
+            {
+                "id": o.id,
+                "family": o.family,
+                "tcId": o.tc_id,
+                "operation": o.operation,
+                "conventions": o.conventions,
+                "status": o.status,
+                "reason": o.reason,
+                "detail": o.detail,
+                "seconds": round(o.seconds, 6),
+                "flags": list(o.flags),
+                "comment": o.comment,
+                "skipped_outputs": list(o.skipped_outputs),
+                **({"expected": o.expected, "got": o.got} if o.status == "failed" else {}),
+            }
+            for o in result.outcomes
+        ],
+    }
+
+
+def write_report(result: RunResult, path: str | os.PathLike, exit_code: int) -> None:
+    """Write the JSON report (strict JSON: non-finite numbers are strings)."""
+    data = _report_dict(result, exit_code)
+    with open(path, "w", encoding="utf-8") as handle:
+        json.dump(data, handle, indent=1, allow_nan=False)
+        handle.write("\n")
+
+
+def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
+    """Command-line entry point of ``dynval conform`` (``argv`` after the word ``conform``).
+
+    Returns
+    -------
+    int
+        0 (no failure), 1 (a case failed, or skipped/partial with ``--strict``),
+        2 (usage error).
+    """
+    from ..golden import FAMILIES
+
+    out = stdout or sys.stdout
+    err = stderr or sys.stderr
+    argv = list(sys.argv[1:] if argv is None else argv)
+    options, command = _split_command(argv)
+    parser = _build_parser()
+    try:
+        args = parser.parse_args(options)
+    except SystemExit as exc:
+        return int(exc.code or 0) if exc.code in (0, None) else 2
+    if not command:
+        err.write("dynval conform: give the port command after '--', e.g. dynval conform -- ./my_port\n")
+        return 2
+    families = list(FAMILIES)
+    if args.families:
+        families = [f.strip() for f in args.families.split(",") if f.strip()]
+        unknown = [f for f in families if f not in FAMILIES]
+        if unknown or not families:
+            err.write(f"dynval conform: --families must be among {', '.join(FAMILIES)}, got {args.families!r}\n")
+            return 2
+    for name, value in (("--timeout", args.timeout), ("--startup-timeout", args.startup_timeout)):
+        if not (value > 0 and math.isfinite(value)):
+            err.write(f"dynval conform: {name} must be a positive number of seconds, got {value!r}\n")
+            return 2
+    if args.max_failures < 0 or args.max_restarts < 0:
+        err.write("dynval conform: --max-failures and --max-restarts must be >= 0\n")
+        return 2
+    try:
+        corpus = _resolve_corpus(args.corpus, families)
+    except FileNotFoundError as exc:
+        err.write(f"dynval conform: {exc}\n")
+        return 2
+
+    progress = _Progress(err, enabled=not args.quiet)
+    result = run(
+        command,
+        corpus=str(corpus) if corpus else None,
+        families=families,
+        timeout=args.timeout,
+        startup_timeout=args.startup_timeout,
+        max_restarts=args.max_restarts,
+        progress=progress,
+    )
+    counts = result.counts()["total"]
+    failed = counts["failed"] > 0
+    incomplete = counts["skipped"] + counts["partial"] > 0
+    exit_code = 1 if failed or (args.strict and incomplete) else 0
+
+    port = result.port_name or describe_command(command)
+    out.write(f"dynval conform: protocol {protocol.PROTOCOL_VERSION}, port {port}\n")
+    if result.startup_error:
+        out.write(f"port did not start: {result.startup_error}\n")
+    out.write(format_table(result) + "\n")
+    if result.restarts:
+        out.write(f"port restarts: {result.restarts}\n")
+    failures = result.failures
+    if failures and args.max_failures:
+        shown = failures[: args.max_failures]
+        out.write(f"\nfirst {len(shown)} of {len(failures)} failures:\n")
+        for o in shown:
+            out.write(format_failure(o) + "\n")
+    if counts["skipped"] or counts["partial"]:
+        out.write(
+            f"\n{counts['skipped']} skipped and {counts['partial']} partial cases were not checked in full "
+            "(outside the port's declared capabilities, or not expressible in the protocol).\n"
+        )
+    verdict = "FAILED" if exit_code else "OK"
+    out.write(
+        f"{verdict}: {counts['passed']} passed, {counts['failed']} failed, {counts['skipped']} skipped, "
+        f"{counts['partial']} partial in {result.seconds:.1f} s\n"
+    )
+    if args.report:
+        write_report(result, args.report, exit_code)
+        out.write(f"report written to {args.report}\n")
+    out.flush()
+    return exit_code

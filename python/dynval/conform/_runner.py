@@ -1,0 +1,298 @@
+"""Run the golden corpus through a port and judge every case."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .. import protocol
+from ..golden import Case, check_case, iter_cases
+from ._process import PortFailure, PortProcess
+
+#: Case statuses, in table order.
+STATUSES = ("passed", "failed", "skipped", "partial")
+
+#: Base byte budget of one answer; each expected value adds PER_VALUE_BYTES.
+BASE_BYTES = 1 << 20
+PER_VALUE_BYTES = 64
+
+
+@dataclass
+class CaseOutcome:
+    """What happened to one vector.
+
+    ``status`` is ``passed``, ``failed``, ``skipped`` (no capability covers the
+    case, or the protocol cannot carry its inputs) or ``partial`` (the covered
+    outputs match but some expected outputs are outside the port's capability:
+    neither passed nor failed). ``reason`` is a short machine-readable cause.
+    """
+
+    id: str
+    family: str
+    tc_id: int
+    operation: str
+    conventions: str
+    status: str
+    reason: str = ""
+    detail: str = ""
+    seconds: float = 0.0
+    flags: tuple[str, ...] = ()
+    comment: str = ""
+    expected: dict[str, Any] = field(default_factory=dict)
+    got: dict[str, Any] = field(default_factory=dict)
+    skipped_outputs: tuple[str, ...] = ()
+
+
+@dataclass
+class RunResult:
+    """Everything ``dynval conform`` reports."""
+
+    command: list[str]
+    corpus: str
+    families: list[str]
+    port_name: str = ""
+    protocol_version: int | None = None
+    capabilities: list[str] = field(default_factory=list)
+    outcomes: list[CaseOutcome] = field(default_factory=list)
+    restarts: int = 0
+    seconds: float = 0.0
+    startup_error: str = ""
+
+    def counts(self) -> dict[str, dict[str, int]]:
+        """Family → status → number of cases (families in corpus order, plus ``total``)."""
+        table: dict[str, dict[str, int]] = {f: dict.fromkeys(STATUSES, 0) for f in self.families}
+        for o in self.outcomes:
+            table.setdefault(o.family, dict.fromkeys(STATUSES, 0))[o.status] += 1
+        table["total"] = {s: sum(row[s] for row in table.values()) for s in STATUSES}
+        return table
+
+    @property
+    def failures(self) -> list[CaseOutcome]:
+        return [o for o in self.outcomes if o.status == "failed"]
+
+
+def _conventions_text(conventions: dict) -> str:
+    parts = []
+    for key, value in conventions.items():
+        try:
+            parts.append(f"{key}={protocol.format_value(value)}")
+        except TypeError:
+            parts.append(f"{key}={value!r}")
+    return " ".join(parts)
+
+
+def _jsonable(value: Any, limit: int = 1000) -> Any:
+    """Arrays as nested lists (non-finite numbers as strings), truncated beyond ``limit`` values."""
+    arr = np.asarray(value)
+    if arr.dtype.kind == "b":
+        data: Any = arr.tolist()
+    elif arr.dtype.kind in "iu":
+        data = arr.tolist()
+    elif arr.dtype.kind == "f":
+        def conv(x: float) -> Any:
+            if np.isnan(x):
+                return "NaN"
+            if np.isinf(x):
+                return "Infinity" if x > 0 else "-Infinity"
+            return float(x)
+
+        flat = [conv(x) for x in arr.reshape(-1)[:limit].tolist()]
+        if arr.size > limit:
+            return {"shape": list(arr.shape), "first_values": flat, "truncated": True}
+        data = np.array(flat, dtype=object).reshape(arr.shape).tolist() if arr.ndim else flat[0]
+    else:
+        return repr(value)
+    if arr.size > limit:
+        return {"shape": list(arr.shape), "truncated": True}
+    return data
+
+
+def _classify(case: Case, reply: protocol.Reply, detail: str) -> str:
+    expected_error = case.expected.get("error")
+    if reply.error_kind is not None:
+        return "wrong-error" if expected_error is not None else "unexpected-error"
+    if case.result == "invalid":
+        return "missing-error"
+    if ": missing" in detail:
+        return "missing-output"
+    return "mismatch"
+
+
+def judge(case: Case, reply: protocol.Reply, covered: frozenset[str] | None) -> tuple[str, str, str, tuple[str, ...]]:
+    """Compare a port's reply with the vector: ``(status, reason, detail, skipped_outputs)``."""
+    view = case
+    skipped: tuple[str, ...] = ()
+    if covered is not None and reply.error_kind is None:
+        values = [k for k in case.expected if k != "error"]
+        skipped = tuple(k for k in values if k not in covered)
+        if skipped:
+            kept = {k: v for k, v in case.expected.items() if k == "error" or k in covered}
+            view = dataclasses.replace(case, expected=kept)
+    try:
+        if reply.error_kind is not None:
+            ok, detail = check_case(view, error_kind=reply.error_kind)
+        else:
+            ok, detail = check_case(view, outputs=reply.outputs)
+    except Exception as exc:  # the port's output must never crash the runner
+        # A vector the comparison cannot handle is a corpus defect, not the port's.
+        return "failed", "comparison-error", f"cannot compare the answer: {type(exc).__name__}: {exc}", skipped
+    if ok:
+        return ("partial" if skipped else "passed"), "", "", skipped
+    if reply.error_kind is not None and reply.error_message:
+        detail += f" (port message: {reply.error_message})"
+    return "failed", _classify(case, reply, detail), detail, skipped
+
+
+def _answer_budget(case: Case) -> int:
+    count = sum(int(np.size(v)) for k, v in case.expected.items() if k != "error")
+    return BASE_BYTES + PER_VALUE_BYTES * count
+
+
+def run(
+    command: Sequence[str],
+    *,
+    corpus: str | None = None,
+    families: Sequence[str] | None = None,
+    timeout: float = 30.0,
+    startup_timeout: float = 120.0,
+    max_restarts: int = 25,
+    progress: Callable[[int, int, RunResult], None] | None = None,
+) -> RunResult:
+    """Feed every selected vector to the port ``command`` and judge the answers.
+
+    Parameters
+    ----------
+    command : sequence of str
+        The port's command line.
+    corpus : path, optional
+        Directory holding ``<family>.json`` (default: the corpus shipped with dynval).
+    families : sequence of str, optional
+        Families to run (default: all).
+    timeout : float
+        Seconds allowed per case, from sending the case to reading ``end``.
+    startup_timeout : float
+        Seconds allowed for start-up and handshake (also after a restart).
+    max_restarts : int
+        Restarts allowed after crashes, timeouts and protocol errors; once spent,
+        the remaining covered cases fail with reason ``not-run``.
+    progress : callable, optional
+        Called as ``progress(done, total, result)`` after every case.
+
+    Returns
+    -------
+    RunResult
+    """
+    from ..golden import FAMILIES
+
+    selected = list(families) if families else list(FAMILIES)
+    started = time.monotonic()
+    result = RunResult(command=list(command), corpus=str(corpus or ""), families=selected)
+    cases = list(iter_cases(corpus, selected))
+    port: PortProcess | None = PortProcess(command, startup_timeout)
+    dead_reason = ""
+    try:
+        port.start()
+    except PortFailure as exc:
+        result.startup_error = _with_stderr(str(exc), port)
+        port = None
+        dead_reason = result.startup_error
+    else:
+        result.port_name = port.name
+        result.protocol_version = port.version
+        result.capabilities = [protocol.format_capability(c) for c in port.capabilities]
+    capabilities = port.capabilities if port is not None else []
+
+    try:
+        for done, case in enumerate(cases, 1):
+            outcome = CaseOutcome(
+                id=case.id, family=case.family, tc_id=case.tc_id, operation=case.operation,
+                conventions=_conventions_text(case.conventions), status="failed",
+                flags=case.flags, comment=case.comment,
+            )
+            result.outcomes.append(outcome)
+            if dead_reason and not capabilities:
+                outcome.reason, outcome.detail = "handshake", dead_reason
+                _report_progress(progress, done, len(cases), result)
+                continue
+            covered = protocol.covered_outputs(capabilities, case.operation, case.conventions)
+            if covered is False:
+                outcome.status, outcome.reason = "skipped", "not-covered"
+                outcome.detail = "no capability of the port covers this operation and these conventions"
+                _report_progress(progress, done, len(cases), result)
+                continue
+            values = [k for k in case.expected if k != "error"]
+            if covered is not None and case.result == "valid" and not any(k in covered for k in values):
+                outcome.status, outcome.reason = "skipped", "not-covered"
+                outcome.detail = "the port computes none of this case's outputs"
+                outcome.skipped_outputs = tuple(values)
+                _report_progress(progress, done, len(cases), result)
+                continue
+            try:
+                lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions, case.inputs)
+            except (TypeError, ValueError) as exc:
+                outcome.status, outcome.reason = "skipped", "not-expressible"
+                outcome.detail = f"protocol {protocol.PROTOCOL_VERSION} cannot carry this case: {exc}"
+                _report_progress(progress, done, len(cases), result)
+                continue
+            outcome.expected = {k: (v if k == "error" else _jsonable(v)) for k, v in case.expected.items()}
+
+            if port is None and not dead_reason:
+                if result.restarts >= max_restarts:
+                    dead_reason = f"not run: the port needed more than {max_restarts} restarts"
+                else:
+                    result.restarts += 1
+                    port = PortProcess(command, startup_timeout)
+                    try:
+                        port.start()
+                    except PortFailure as exc:
+                        dead_reason = "not run: the port could not be restarted: " + _with_stderr(str(exc), port)
+                        port = None
+            if port is None:
+                outcome.reason, outcome.detail = "not-run", dead_reason
+                _report_progress(progress, done, len(cases), result)
+                continue
+
+            t0 = time.monotonic()
+            try:
+                reply = port.exchange(lines, timeout, _answer_budget(case))
+            except PortFailure as exc:
+                outcome.seconds = time.monotonic() - t0
+                message = str(exc)
+                if exc.reason == "timeout":
+                    message = f"timed out after {timeout:g} s: {message}"
+                port.kill()
+                outcome.reason, outcome.detail = exc.reason, _with_stderr(message, port)
+                port = None
+                _report_progress(progress, done, len(cases), result)
+                continue
+            outcome.seconds = time.monotonic() - t0
+            outcome.status, outcome.reason, outcome.detail, outcome.skipped_outputs = judge(case, reply, covered)
+            if reply.error_kind is not None:
+                outcome.got = {"error": reply.error_kind}
+            else:
+                outcome.got = {k: _jsonable(v) for k, v in reply.outputs.items()}
+            if outcome.status != "failed":
+                outcome.expected, outcome.got = {}, {}  # keep the report small
+            _report_progress(progress, done, len(cases), result)
+    finally:
+        if port is not None:
+            port.close()
+    result.seconds = time.monotonic() - started
+    return result
+
+
+def _with_stderr(message: str, port: PortProcess | None) -> str:
+    tail = port.stderr_tail() if port is not None else ""
+    if tail:
+        last = tail.splitlines()[-5:]
+        message += " | port stderr: " + " / ".join(line.strip() for line in last)
+    return message
+
+
+def _report_progress(progress, done: int, total: int, result: RunResult) -> None:
+    if progress is not None:
+        progress(done, total, result)

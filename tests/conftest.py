@@ -1,0 +1,41 @@
+"""Shared pytest configuration: backend parametrisation and hypothesis profiles.
+
+Every test that takes a ``backend`` argument runs once per *available* backend (ids
+``python`` and ``cpp``); an unavailable compiled core is reported in the header, not as an error.
+"""
+
+from __future__ import annotations
+
+import os
+
+import hypothesis
+import pytest
+
+import dynval
+
+hypothesis.settings.register_profile("ci", derandomize=True, deadline=None, max_examples=50)
+hypothesis.settings.register_profile("dev", deadline=None, max_examples=100)
+hypothesis.settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+BACKEND_ORDER = ("python", "cpp")
+
+
+def available_backends() -> list[str]:
+    info = dynval.backends()
+    return [name for name in BACKEND_ORDER if info[name]["available"]]
+
+
+def pytest_report_header(config):
+    info = dynval.backends()
+    lines = [f"dynval {dynval.__version__}, contract {dynval.CONTRACT_VERSION}"]
+    for name in BACKEND_ORDER:
+        state = "tested" if info[name]["available"] else "not tested"
+        lines.append(f"  backend {name}: {state} ({info[name]['detail']})")
+    return lines
+
+
+def pytest_generate_tests(metafunc):
+    # Plain parametrisation (not a fixture) so that hypothesis @given tests can use it too.
+    if "backend" in metafunc.fixturenames:
+        names = available_backends()
+        metafunc.parametrize("backend", names, ids=names)
