@@ -1461,12 +1461,9 @@ def build_information_criteria() -> Family:
         (1e-8, 500, 20, "tiny rss", ["TinyScale"]),
         (3.5e9, 1200, 84, "huge rss, 84 parameters (a 7-DOF arm, 12 per joint)", ["HugeScale"]),
         (0, 50, 4, "rss = 0: -Infinity, fpe 0", ["ExactFit"]),
-        (7.25, 1, 0, "n_obs = 1, p = 0 (p >= n - 1: raises, see errors), here only p = 0 with n = 1", ["ParamsNearN"]),
         (4.0, 20, 0, "no parameters", ["Basic"]),
         (4.0, 20, 18, "p = n - 2: largest p with aicc and fpe defined", ["ParamsNearN"]),
     ):
-        if p >= nobs - 1:
-            continue
         fit = -INF if rss == 0 else nobs * mpmath.log(mpf(rss) / nobs)
         vals, tol = ic_terms(fit, nobs, nobs, mpf(rss) / nobs, p, True)
         fam.add("information_criteria", {}, comment, flags, {"rss": rss, "n_obs": nobs, "n_params": p},

@@ -324,3 +324,23 @@ def test_tss_decomposition_least_squares_with_intercept(backend):
     # Same model on new data without re-fitting: R² may go negative, and dynval keeps it.
     y_new = rng.normal(size=120) * 0.1
     assert dynval.validate(y_new, X @ beta, n_params=3, backend=backend).pooled["r2"] < 0
+
+
+def test_numbers_quoted_in_conventions_doc(backend):
+    # §1.3: e = (1, 2, 3, 4) gives ρ̂(1) = 0.25 biased and 1/3 adjusted, as statsmodels does.
+    from statsmodels.tsa.stattools import acf
+
+    e = [1.0, 2.0, 3.0, 4.0]
+    assert dynval.autocorrelation(e, 1, adjusted=False, backend=backend)[1] == pytest.approx(0.25, rel=1e-14)
+    assert dynval.autocorrelation(e, 1, backend=backend)[1] == pytest.approx(1 / 3, rel=1e-14)
+    assert acf(e, nlags=1, adjusted=False, fft=False)[1] == pytest.approx(0.25, rel=1e-14)
+    assert acf(e, nlags=1, adjusted=True, fft=False)[1] == pytest.approx(1 / 3, rel=1e-14)
+    # §1.2: Newey–West bandwidth K = ⌊4 (N/100)^(2/9)⌋
+    rng = np.random.default_rng(0)
+    for n, k in ((100, 4), (1000, 6), (2000, 7), (10000, 11)):
+        assert dynval.zero_mean_test(rng.normal(size=n), backend=backend).bandwidth == k
+    # §1.3 and §1.6 constants
+    assert float(mp.sqrt(2) * mp.erfinv(mpf("0.95"))) == pytest.approx(1.959964, abs=5e-7)
+    assert float(mp.sqrt(2) * mp.erfinv(mpf("0.99"))) == pytest.approx(2.575829, abs=5e-7)
+    assert float(mlog(2 * mp.pi) + 1) == pytest.approx(2.8378771, abs=5e-8)
+    assert float(mlog(1000)) == pytest.approx(6.907755, abs=5e-7)

@@ -55,7 +55,7 @@ def test_real_round_trip_edges(x):
     assert float(text) == x or math.isnan(x)  # any strtod-like reader gets the same double
 
 
-@settings(max_examples=2000)
+@settings(max_examples=1000)
 @given(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True))
 def test_real_round_trip_every_float64(x):
     assert same_float(protocol.parse_real(protocol.format_real(x)), x)

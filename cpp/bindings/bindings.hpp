@@ -102,12 +102,14 @@ inline param<std::vector<long long>> int_list_param(py::handle v) {
     return P(std::move(out), value_repr(v));
 }
 
-/// Segment starts (None: one segment).
-inline std::vector<long long> starts_list(py::handle v) {
+/// The kernels' int64 segment starts (None: one segment).
+inline segment_spec starts_list(py::handle v) {
     std::vector<long long> out;
-    if (v.is_none()) return out;
-    for (py::handle item : py::reinterpret_borrow<py::iterable>(v)) out.push_back(item.cast<long long>());
-    return out;
+    if (v.is_none()) return {};
+    auto arr = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(v);
+    if (!arr || arr.ndim() != 1) throw invalid_parameter("segments must be int64 segment starts, got " + value_repr(v));
+    for (py::ssize_t i = 0; i < arr.size(); ++i) out.push_back(arr.at(i));
+    return segment_spec(std::move(out), true);
 }
 
 /// (m,) float64 array or float.

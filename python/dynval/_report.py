@@ -246,7 +246,10 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     -----
     The point metrics, residual mean and variance and the information criteria come from one
     fused kernel call. The cross-correlation band is z/√N; the autocorrelation band follows the
-    profile (white or Bartlett). Findings use α = 1 − level.
+    profile (white or Bartlett). Findings use α = 1 − level, Bonferroni-corrected over the
+    joints for per-joint tests (docs/conventions.md §5). With ``nan_policy="omit"`` the
+    segments are parsed (and may raise) before the other parameters, because omission refines
+    them.
 
     Examples
     --------
@@ -528,6 +531,8 @@ def _pvalue(p, log_p) -> str:
         return f"{p:.3f}" if p >= 0.001 else f"{p:.1e}"
     if p > 1e-300:
         return f"{p:.1e}"
+    if not math.isfinite(log_p):
+        return "0"  # an exact zero, e.g. a constant non-zero residual
     exponent = log_p / math.log(10.0)  # p < 1e-300: only the log is representable
     whole = math.floor(exponent)
     return f"{10.0 ** (exponent - whole):.1f}e{whole}"
@@ -635,20 +640,27 @@ def findings(report: ValidationReport) -> list:
         cells = int((~mask).sum()) * rho.shape[2]
         # Neighbouring lags of a smooth regressor column are strongly correlated, so counting
         # exceedances overstates the evidence; a cell must instead pass the Bonferroni bound
-        # over all cells, z(1 − α/(2·cells)) / √N.
+        # over all cells, z(1 − α/(2·cells)) standard deviations of that cell.
         z_cell = float(scipy.stats.norm.isf(alpha / (2.0 * max(cells, 1))))
-        threshold = z_cell / _z(level)  # as a multiple of the band
-        strong = [c for c in xc["outside"] if c[4] > threshold]
+        # Under independence a cell's standard deviation is √n_ℓ / D_ℓ (n_ℓ lag-ℓ products,
+        # D_ℓ the denominator): 1/√N for small lags, larger for adjusted estimates at large lags.
+        lengths = np.asarray(prov["segments"])
+        lags = np.arange(rho.shape[2])
+        n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
+        d_l = n_l if xc["adjusted"] else np.full_like(n_l, float(prov["n_samples"]))
+        sd = np.sqrt(n_l) / d_l
+        strong = sorted(((j, c, lag, r, abs(r) / sd[lag]) for j, c, lag, r, _ in xc["outside"]
+                         if abs(r) > z_cell * sd[lag]), key=lambda t: (-t[4], t[0], t[1], t[2]))
         if strong:
             best, seen = [], set()
-            for j, c, lag, r, ratio in strong:  # already sorted by ratio
+            for j, c, lag, r, score in strong:
                 if (j, c) not in seen:
                     seen.add((j, c))
                     best.append(f"joint {j + 1} × column {c + 1} (lag {lag}, ρ = {r:+.3f}, "
-                                f"{ratio:.1f}× the band)")
+                                f"{score:.1f} standard deviations)")
             out.append(
                 f"{len(strong)} residual–regressor correlations exceed the Bonferroni bound over "
-                f"{cells} cells (|ρ| > {threshold * xc['band']:.4f}); strongest per column: "
+                f"{cells} cells ({z_cell:.2f} standard deviations); strongest per column: "
                 + "; ".join(best[:3]) + ". The model does not use the information in these columns "
                 "(a missing or mis-weighted term).")
     return out

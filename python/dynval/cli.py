@@ -120,7 +120,8 @@ def load_array(spec: str) -> np.ndarray:
     --------
     >>> import numpy as np, tempfile, os
     >>> path = os.path.join(tempfile.mkdtemp(), "tau.csv")
-    >>> _ = open(path, "w").write("j1,j2\\n1,2\\n3,4\\n")
+    >>> with open(path, "w") as handle:
+    ...     _ = handle.write("j1,j2\\n1,2\\n3,4\\n")
     >>> load_array(path).tolist()
     [[1.0, 2.0], [3.0, 4.0]]
     """

@@ -10,13 +10,30 @@ that reason.
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import pathlib
 import sys
 from typing import Callable, Iterable
 
 import numpy as np
 
-from dynval import protocol
-from dynval.golden import OPERATIONS, iter_cases
+
+def _load(name: str, relative: str):
+    # The protocol codec and the corpus loader need only numpy; loading them by
+    # path skips the package's __init__ (and its scipy import), which keeps the
+    # start-up of these test ports, and of every restart, short.
+    package = pathlib.Path(importlib.util.find_spec("dynval").submodule_search_locations[0])
+    spec = importlib.util.spec_from_file_location(name, package / relative)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+protocol = _load("dynval_protocol", "protocol.py")
+_loader = _load("dynval_golden_loader", "golden/_loader.py")
+OPERATIONS = _load("dynval_golden_ops", "golden/_ops.py").OPERATIONS
+iter_cases = _loader.iter_cases
 
 Hook = Callable[[protocol.CaseMessage, object, int], "list[str] | None"]
 

@@ -8,8 +8,7 @@ which sends an empty answer).
 """
 
 import _oracle
-from dynval import protocol
-from dynval.golden import OPERATIONS
+from _oracle import OPERATIONS
 
 
 def main() -> int:

@@ -4,7 +4,7 @@
 """
 
 import _oracle
-from dynval import protocol
+from _oracle import protocol
 
 KINDS = ("InvalidType", "InvalidShape", "ShapeMismatch", "TooFewSamples", "NonFiniteInput", "InvalidParameter")
 

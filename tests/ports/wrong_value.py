@@ -6,7 +6,7 @@
 import numpy as np
 
 import _oracle
-from dynval import protocol
+from _oracle import protocol
 
 
 def main() -> int:

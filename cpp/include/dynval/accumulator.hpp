@@ -90,6 +90,7 @@ struct joint_moments {
     Index n_joints = 0;
     Eigen::ArrayXd tau_mean, tau_m2;  ///< mean and centred sum of squares of tau_meas
     Eigen::ArrayXd e_mean, e_m2;      ///< the same for e = tau_meas - tau_pred
+    Eigen::ArrayXd tau_shift, tau_dev, e_shift, e_dev;  ///< mean = shift + dev, dev small
     Eigen::ArrayXd sse;               ///< Σ e²
     Eigen::ArrayXd max_abs_e;
     Eigen::ArrayXd tau_min, tau_max, e_min, e_max;  ///< for the contract's constancy tests
@@ -107,11 +108,15 @@ struct joint_moments {
 
     double sse_total() const;
     /// Mean of all N·m values of tau_meas and the centred sum of squares about it (pooled TSS).
-    double pooled_tau_m2() const { return pooled_m2(tau_mean, tau_m2); }
-    double pooled_e_m2() const { return pooled_m2(e_mean, e_m2); }
+    double pooled_tau_m2() const {
+        return tau_min.minCoeff() == tau_max.maxCoeff() ? 0.0 : pooled_m2(tau_shift, tau_dev, tau_m2);
+    }
+    double pooled_e_m2() const {
+        return e_min.minCoeff() == e_max.maxCoeff() ? 0.0 : pooled_m2(e_shift, e_dev, e_m2);
+    }
 
 private:
-    double pooled_m2(const Eigen::ArrayXd& mean, const Eigen::ArrayXd& m2) const;
+    double pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev, const Eigen::ArrayXd& m2) const;
 };
 
 /// Per-joint accumulator: `update(rows)`, `merge(later rows)`, `result()`.
@@ -204,11 +209,17 @@ public:
         r.e_mean.resize(m_);
         r.e_m2.resize(m_);
         r.sse.resize(m_);
+        r.tau_shift = tau_shift_;
+        r.e_shift = e_shift_;
+        r.tau_dev.resize(m_);
+        r.e_dev.resize(m_);
         const double n = static_cast<double>(n_);
         for (Index j = 0; j < m_; ++j) {
             const auto k = static_cast<std::size_t>(j);
-            r.tau_mean(j) = n_ ? tau_shift_(j) + tau_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
-            r.e_mean(j) = n_ ? e_shift_(j) + e_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
+            r.tau_dev(j) = n_ ? tau_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
+            r.e_dev(j) = n_ ? e_sum_[k].value() / n : std::numeric_limits<double>::quiet_NaN();
+            r.tau_mean(j) = tau_shift_(j) + r.tau_dev(j);
+            r.e_mean(j) = e_shift_(j) + r.e_dev(j);
             // A constant column has exactly zero spread, whatever the rounding of its mean.
             r.tau_m2(j) = tau_min_(j) == tau_max_(j) ? 0.0 : tau_m2_[k].value();
             r.e_m2(j) = e_min_(j) == e_max_(j) ? 0.0 : e_m2_[k].value();
@@ -320,17 +331,18 @@ inline double joint_moments::sse_total() const {
     return s.value();
 }
 
-inline double joint_moments::pooled_m2(const Eigen::ArrayXd& mean, const Eigen::ArrayXd& m2) const {
-    // Exact decomposition: Σ_kj (x_kj − x̄)² = Σ_j [M2_j + N (x̄_j − x̄)²].
-    if (&mean == &tau_mean ? tau_min.minCoeff() == tau_max.maxCoeff() : e_min.minCoeff() == e_max.maxCoeff())
-        return 0.0;
+inline double joint_moments::pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev,
+                                      const Eigen::ArrayXd& m2) const {
+    // Exact decomposition: Σ_kj (x_kj − x̄)² = Σ_j [M2_j + N (x̄_j − x̄)²]. The joint means are
+    // compared about the first joint's shift, so an offset common to all joints cancels exactly.
+    const Eigen::ArrayXd a = (shift - shift(0)) + dev;
     detail::compensated grand;
-    for (Index j = 0; j < n_joints; ++j) grand.add(mean(j));
+    for (Index j = 0; j < n_joints; ++j) grand.add(a(j));
     const double overall = grand.value() / static_cast<double>(n_joints);
     detail::compensated total;
     const double n = static_cast<double>(n_samples);
     for (Index j = 0; j < n_joints; ++j) {
-        const double d = mean(j) - overall;
+        const double d = a(j) - overall;
         total.add(m2(j));
         total.add(n * d * d);
     }

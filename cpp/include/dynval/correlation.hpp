@@ -55,11 +55,18 @@ inline void lagged_sums(const double* x, const double* y, const std::vector<Inde
     for (std::size_t i = 0; i < acc.size(); ++i) out[i] = acc[i].value();
 }
 
-/// Column j of `a` minus `mean`, copied contiguous.
+/// Column j of `a` minus its mean, copied contiguous. The mean's own rounding (half an ulp of
+/// an offset, which lag products do not cancel) is removed by subtracting the compensated mean
+/// of the first deviations (the corrected two-pass algorithm).
 template <class D>
 void centred_column(const Eigen::MatrixBase<D>& a, Index j, double mean, Eigen::VectorXd& buf) {
-    buf.resize(a.rows());
-    for (Index k = 0; k < a.rows(); ++k) buf(k) = a.coeff(k, j) - mean;
+    const Index n = a.rows();
+    buf.resize(n);
+    for (Index k = 0; k < n; ++k) buf(k) = a.coeff(k, j) - mean;
+    compensated s;
+    constexpr Index chunk = 1024;
+    for (Index k = 0; k < n; k += chunk) s.add(buf.segment(k, std::min(chunk, n - k)).sum());
+    buf.array() -= s.value() / static_cast<double>(n);
 }
 
 inline Index longest(const std::vector<Index>& starts, Index n) {
@@ -101,7 +108,7 @@ Eigen::MatrixXd lag_sums(const Eigen::MatrixBase<D>& e, const joint_moments& mo,
 /// number of products (the lesson), otherwise by N (biased). A constant residual gives nan.
 template <class D>
 row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, const param<long long>& max_lag,
-                           const param<bool>& adjusted = true, const std::vector<long long>& segments = {}) {
+                           const param<bool>& adjusted = true, const segment_spec& segments = {}) {
     const joint_moments mo = detail::checked_signal(e, "autocorrelation");
     const Index n = e.rows();
     const std::vector<Index> starts = segment_starts(segments, n);
@@ -142,7 +149,7 @@ struct PortmanteauTest {
 /// Portmanteau test on the biased autocorrelation (contract §3.5).
 template <class D>
 PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                            const param<long long>& model_df, const std::vector<long long>& segments,
+                            const param<long long>& model_df, const segment_spec& segments,
                             const param<portmanteau_test>& test) {
     const std::string function =
         test.valid() ? option_name(test.value()) : std::string("portmanteau");
@@ -205,14 +212,14 @@ PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vect
 /// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ.
 template <class D>
 PortmanteauTest ljung_box(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                          const param<long long>& model_df = 0LL, const std::vector<long long>& segments = {}) {
+                          const param<long long>& model_df = 0LL, const segment_spec& segments = {}) {
     return portmanteau(e, lags, model_df, segments, portmanteau_test::ljung_box);
 }
 
 /// Box–Pierce Q(h) = N Σ ρ̂²_ℓ.
 template <class D>
 PortmanteauTest box_pierce(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                           const param<long long>& model_df = 0LL, const std::vector<long long>& segments = {}) {
+                           const param<long long>& model_df = 0LL, const segment_spec& segments = {}) {
     return portmanteau(e, lags, model_df, segments, portmanteau_test::box_pierce);
 }
 
@@ -229,7 +236,7 @@ struct CrossCorrelation {
 template <class DE, class DY>
 CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::MatrixBase<DY>& regressor,
                                    const param<long long>& n_columns, const param<long long>& max_lag,
-                                   const param<bool>& adjusted = true, const std::vector<long long>& segments = {}) {
+                                   const param<bool>& adjusted = true, const segment_spec& segments = {}) {
     const Index n = e.rows(), m = e.cols();
     detail::check_columns(n, m, "e");
     if (regressor.cols() == 0)
@@ -244,16 +251,18 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     me.throw_if_nonfinite("e", "e");
     const joint_moments my = accumulate(regressor, DY::PlainObject::Zero(n, regressor.cols()));
     const Index total = regressor.cols();
+    const bool p_ok = n_columns.valid() && n_columns.value() > 0 && n_columns.value() * m == total;
     if (my.nonfinite_meas) {
-        const Index p_guess = n_columns.valid() && n_columns.value() > 0 ? n_columns.value() : total;
-        detail::throw_nonfinite_regressor(my.nonfinite_meas->row, my.nonfinite_meas->col, p_guess,
-                                          my.nonfinite_meas->value);
+        const auto& hit = *my.nonfinite_meas;
+        // The sample/joint/column wording needs a usable column count; otherwise row/column.
+        if (p_ok) detail::throw_nonfinite_regressor(hit.row, hit.col, n_columns.value(), hit.value);
+        detail::throw_nonfinite("regressor", hit.row, hit.col, hit.value);
     }
-    if (!n_columns.valid() || n_columns.value() <= 0 || n_columns.value() * m != total)
+    const std::vector<Index> starts = segment_starts(segments, n);
+    if (!p_ok)
         detail::throw_parameter("n_columns", "a positive integer with m*n_columns = " + std::to_string(total),
                                 n_columns.repr());
     const Index p = n_columns.value();
-    const std::vector<Index> starts = segment_starts(segments, n);
     const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
     const bool adj = detail::require_bool(adjusted, "adjusted");
 

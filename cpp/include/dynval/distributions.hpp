@@ -56,6 +56,8 @@ inline double chi2_logsf(double q, double df) {
     if (std::isinf(q)) return -std::numeric_limits<double>::infinity();
     // Below this the p-value loses relative precision to subnormals; above it log(p) is exact
     // to the precision of p.
+    // Near 1, log(p) would round to 0; log1p of the lower tail keeps the tiny negative value.
+    if (p > 0.5) return std::log1p(-Eigen::numext::igamma(0.5 * df, 0.5 * q));
     if (p > 1e-280) return std::log(p);
     return detail::log_igammac_cf(0.5 * df, 0.5 * q);
 }

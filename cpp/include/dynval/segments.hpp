@@ -4,15 +4,28 @@
 #include "errors.hpp"
 
 #include <algorithm>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
 namespace dynval {
 
+/// `segments=` of the contract: lengths or starts (empty: one segment). With `starts_only`
+/// (the kernels' int64 starts) the lengths form is not accepted.
+struct segment_spec {
+    std::vector<long long> values;
+    bool starts_only = false;
+    segment_spec() = default;
+    segment_spec(std::vector<long long> v, bool only_starts = false)  // NOLINT: implicit on purpose
+        : values(std::move(v)), starts_only(only_starts) {}
+    segment_spec(std::initializer_list<long long> v) : values(v) {}
+};
+
 /// Segment starts (first element 0) from the contract's two forms: lengths summing to N, or
 /// strictly increasing starts beginning at 0 and below N. Empty means one segment.
-inline std::vector<Index> segment_starts(const std::vector<long long>& segments, Index n) {
-    if (segments.empty()) return {0};
+inline std::vector<Index> segment_starts(const segment_spec& spec, Index n) {
+    const std::vector<long long>& segments = spec.values;
+    if (segments.empty() && !spec.starts_only) return {0};
     const auto fail = [&]() {
         detail::throw_parameter("segments",
                                 "positive lengths summing to N=" + std::to_string(n) +
@@ -20,6 +33,7 @@ inline std::vector<Index> segment_starts(const std::vector<long long>& segments,
                                 py_repr(segments));
     };
     std::vector<Index> starts;
+    if (segments.empty()) fail();
     if (segments.front() == 0) {
         for (std::size_t i = 0; i < segments.size(); ++i) {
             if ((i > 0 && segments[i] <= segments[i - 1]) || segments[i] >= n) fail();
@@ -27,6 +41,7 @@ inline std::vector<Index> segment_starts(const std::vector<long long>& segments,
         }
         return starts;
     }
+    if (spec.starts_only) fail();
     long long total = 0;
     for (long long len : segments) {
         if (len <= 0) fail();

@@ -18,7 +18,7 @@ from .._validation import (
     is_integer,
 )
 from ._common import as_2d, check_starts, finite_residual, segment_limit
-from .norms import centred, centred_ss, is_constant
+from .norms import centred_and_ss, is_constant
 
 # Up to this many lags per segment the O(n·L) direct sums are cheaper than an FFT.
 DIRECT_MAX_LAGS = 32
@@ -86,15 +86,15 @@ def autocorrelation(e, max_lag, adjusted, starts) -> np.ndarray:
     max_lag = check_max_lag(max_lag, segment_limit(starts, n))
     adjusted = check_adjusted(adjusted)
     constant = is_constant(e)
-    d = centred(e)
-    ss = centred_ss(e)
+    d, ss = centred_and_ss(e)
     s = lagged_products(d, d, max_lag, starts)
     s[0] = ss
     r = s / denominators(starts, n, max_lag, adjusted)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = r / (ss / n)
     rho[0] = 1.0
-    rho[:, constant] = np.nan
+    # A residual whose centred sum of squares underflows to 0 has no usable scale either.
+    rho[:, constant | (ss == 0)] = np.nan
     return rho
 
 
@@ -115,14 +115,13 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
     max_lag = check_max_lag(max_lag, segment_limit(starts, n))
     adjusted = check_adjusted(adjusted)
 
-    de = np.repeat(centred(e), p, axis=1)
-    dy = centred(y)
-    ss_e = np.repeat(centred_ss(e), p)
-    ss_y = centred_ss(y)
+    de, ss_e = centred_and_ss(e)
+    de, ss_e = np.repeat(de, p, axis=1), np.repeat(ss_e, p)
+    dy, ss_y = centred_and_ss(y)
     s = lagged_products(de, dy, max_lag, starts)
     r = s / denominators(starts, n, max_lag, adjusted)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = r / np.sqrt((ss_e / n) * (ss_y / n))
     constant_mask = is_constant(y)
-    rho[:, constant_mask | np.repeat(is_constant(e), p)] = np.nan
+    rho[:, constant_mask | np.repeat(is_constant(e), p) | (ss_e == 0) | (ss_y == 0)] = np.nan
     return {"rho": np.ascontiguousarray(rho.T), "constant_mask": constant_mask}

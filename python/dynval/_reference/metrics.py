@@ -13,7 +13,7 @@ from .._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
 from .fit import fit_parts, fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .information import assemble, fit_term
-from .norms import centred_ss, colmean, colsum, pooled
+from .norms import colmean, colsum, pooled
 
 
 def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
@@ -48,7 +48,7 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
         "fit_percent": fit,
         "r2": r2,
         "residual_mean": colmean(e),
-        "residual_variance": centred_ss(e) / (n - ddof),
+        "residual_variance": parts["ssc_e"] / (n - ddof),
         "constant_target": parts["constant"].copy(),
         "sse_total": float(sse_total),
         "rmse_per_element": math.sqrt(sse_total / (n * m)),

@@ -19,10 +19,20 @@ def colsum(x: np.ndarray) -> np.ndarray:
     return np.array([math.fsum(col) for col in np.asarray(x).T.tolist()], dtype=np.float64)
 
 
+def colsum_pairwise(x: np.ndarray) -> np.ndarray:
+    """Pairwise sum of each column (error O(log N·ε) of the absolute sum).
+
+    Accurate enough where there is no cancellation to protect (sums of squares) or where the
+    sum is itself a small correction (the second pass of :func:`centred`); much faster than
+    :func:`colsum`.
+    """
+    return np.add.reduce(np.ascontiguousarray(np.asarray(x).T), axis=1)
+
+
 def colmean(x: np.ndarray) -> np.ndarray:
     """Mean of each column, refined by the mean of the first deviations."""
     first = colsum(x) / x.shape[0]
-    return first + colsum(x - first) / x.shape[0]
+    return first + colsum_pairwise(x - first) / x.shape[0]
 
 
 def centred(x: np.ndarray) -> np.ndarray:
@@ -34,7 +44,7 @@ def centred(x: np.ndarray) -> np.ndarray:
     (the corrected two-pass algorithm).
     """
     d = x - colsum(x) / x.shape[0]
-    return d - colsum(d) / x.shape[0]
+    return d - colsum_pairwise(d) / x.shape[0]
 
 
 def is_constant(x: np.ndarray) -> np.ndarray:
@@ -42,16 +52,21 @@ def is_constant(x: np.ndarray) -> np.ndarray:
     return x.min(axis=0) == x.max(axis=0)
 
 
-def centred_ss(x: np.ndarray) -> np.ndarray:
-    """Per column Σ(x − x̄)², exactly 0 for a constant column.
+def centred_and_ss(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`centred` deviations and their per-column Σ(x − x̄)², exactly 0 for a constant column.
 
     The mean of a constant column may differ from its value by an ulp after division, so
     constancy is decided on min == max rather than on the rounded sum.
     """
     d = centred(x)
-    ss = colsum(d * d)
+    ss = colsum_pairwise(d * d)
     ss[is_constant(x)] = 0.0
-    return ss
+    return d, ss
+
+
+def centred_ss(x: np.ndarray) -> np.ndarray:
+    """Per column Σ(x − x̄)², exactly 0 for a constant column."""
+    return centred_and_ss(x)[1]
 
 
 def pooled(x: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ import scipy.stats
 from .._validation import check_lags, check_model_df, check_test
 from ._common import check_starts, finite_residual, segment_limit
 from .correlation import biased_rho, product_counts
-from .norms import centred, centred_ss
+from .norms import centred_and_ss
 
 # Below this survival probability, log(sf) loses digits in the subnormal range or underflows.
 _LOG_SF_SWITCH = 1e-280
@@ -70,7 +70,7 @@ def portmanteau(e, lags, model_df, starts, test) -> dict:
     test = check_test(test)
 
     h_max = int(lags.max())
-    rho = biased_rho(centred(e), centred_ss(e), h_max, starts)[1:]
+    rho = biased_rho(*centred_and_ss(e), h_max, starts)[1:]
     if test == "ljung_box":
         terms = rho**2 / product_counts(starts, n, h_max)[1:, None]
         cumulative = n * (n + 2.0) * np.cumsum(terms, axis=0)

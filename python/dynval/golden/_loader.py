@@ -28,24 +28,20 @@ SCHEMA_NAME = "corpus_v1.schema.json"
 _NONFINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 
 
-def _package_root() -> pathlib.Path:
-    return pathlib.Path(__file__).resolve().parent.parent
-
-
 def golden_root() -> pathlib.Path:
     """Directory holding ``vectors/``, ``schema/`` and ``generate.py``.
 
-    The wheel ships the source tree's ``golden/`` as ``dynval/_corpus``; in a
-    development checkout (package not installed) the source tree's ``golden/``
-    is used instead.
+    The wheel merges the source tree's ``golden/`` into this package
+    (``dynval/golden/vectors``, ...: scikit-build-core ``wheel.packages``); in a
+    development checkout the source tree's ``golden/`` is used instead.
     """
-    shipped = _package_root() / "_corpus"
-    if (shipped / "vectors").is_dir():
-        return shipped
-    source = _package_root().parent.parent / "golden"
+    here = pathlib.Path(__file__).resolve().parent
+    if (here / "vectors").is_dir():
+        return here
+    source = here.parent.parent.parent / "golden"
     if (source / "vectors").is_dir():
         return source
-    msg = f"golden corpus not found (looked in {shipped} and {source})"
+    msg = f"golden corpus not found (looked in {here} and {source})"
     raise FileNotFoundError(msg)
 
 
@@ -55,7 +51,7 @@ def corpus_dir() -> pathlib.Path:
     Returns
     -------
     pathlib.Path
-        ``dynval/_corpus/vectors`` in an installed package, or ``golden/vectors``
+        ``dynval/golden/vectors`` in an installed package, or ``golden/vectors``
         of the source tree in development.
 
     Examples

@@ -1,0 +1,195 @@
+"""The dynval command line: file formats, output, exit codes, subcommand dispatch."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import dynval
+from dynval import cli
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def files(tmp_path):
+    rng = np.random.default_rng(0)
+    t = np.arange(200) / 20.0
+    meas = np.column_stack([10 * np.sin(t), np.cos(2 * t)])
+    pred = meas + rng.normal(0.0, 0.1, meas.shape)
+    Y = rng.normal(size=(200, 2, 3))
+    paths = {
+        "meas_npy": tmp_path / "meas.npy",
+        "pred_npy": tmp_path / "pred.npy",
+        "npz": tmp_path / "both.npz",
+        "meas_csv": tmp_path / "meas.csv",
+        "pred_csv": tmp_path / "pred.csv",
+        "reg_npy": tmp_path / "Y.npy",
+        "reg_csv": tmp_path / "Y.csv",
+    }
+    np.save(paths["meas_npy"], meas)
+    np.save(paths["pred_npy"], pred)
+    np.save(paths["reg_npy"], Y)
+    np.savez(paths["npz"], meas=meas, pred=pred)
+    np.savetxt(paths["meas_csv"], meas, delimiter=";", header="joint1;joint2", comments="")
+    np.savetxt(paths["pred_csv"], pred, delimiter=",", fmt="%.17g")
+    np.savetxt(paths["reg_csv"], Y.reshape(400, 3), delimiter="\t", fmt="%.17g")
+    return {k: str(v) for k, v in paths.items()}, meas, pred, Y
+
+
+def run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_validate_npy_prints_the_summary(files, capsys):
+    paths, meas, pred, _ = files
+    code, out, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "3")
+    assert code == 0 and err == ""
+    assert out == dynval.validate(meas, pred, n_params=3).summary() + "\n"
+
+
+def test_validate_json_matches_the_api(files, capsys):
+    paths, meas, pred, Y = files
+    code, out, _ = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "3",
+                       "--regressor", paths["reg_npy"], "--max-lag", "7", "--profile", "matlab", "--json")
+    assert code == 0
+    expected = dynval.validate(meas, pred, n_params=3, regressor=Y, max_lag=7, profile="matlab").to_dict()
+    assert json.loads(out) == json.loads(json.dumps(expected))
+
+
+def test_validate_csv_with_header_and_sniffed_delimiters(files, capsys):
+    paths, meas, pred, Y = files
+    code, out, _ = run(capsys, "validate", paths["meas_csv"], paths["pred_csv"], "--n-params", "3",
+                       "--regressor", paths["reg_csv"], "--n-joints", "2", "--json", "--max-lag", "4")
+    assert code == 0
+    got = json.loads(out)
+    # meas.csv was written with %.18e (exact); pred.csv with 17 significant digits (exact).
+    ref = dynval.validate(meas, pred, n_params=3, regressor=Y.reshape(400, 3), n_joints=2, max_lag=4)
+    assert got == json.loads(ref.to_json())
+
+
+def test_npz_first_array_and_key(files, capsys):
+    paths, meas, pred, _ = files
+    code, out, _ = run(capsys, "validate", paths["npz"], paths["npz"] + ":pred", "--n-params", "1", "--json")
+    assert code == 0
+    assert json.loads(out)["pooled"]["sse"] == pytest.approx(float(np.sum((meas - pred) ** 2)), rel=1e-12)
+    code, _, err = run(capsys, "validate", paths["npz"] + ":nope", paths["npz"], "--n-params", "1")
+    assert code == 1 and "no array named 'nope'" in err
+
+
+def test_output_file(files, capsys, tmp_path):
+    paths, meas, pred, _ = files
+    target = tmp_path / "report.json"
+    code, out, _ = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "2",
+                       "--json", "--output", str(target))
+    assert code == 0 and out == ""
+    assert json.loads(target.read_text())["provenance"]["n_params"] == 2
+
+
+def test_segments_nan_policy_level(files, capsys, tmp_path):
+    paths, meas, pred, _ = files
+    bad = meas.copy()
+    bad[10, 0] = np.nan
+    np.save(tmp_path / "bad.npy", bad)
+    code, out, err = run(capsys, "validate", str(tmp_path / "bad.npy"), paths["pred_npy"], "--n-params", "2",
+                         "--nan-policy", "omit", "--segments", "100,100", "--level", "0.9", "--json")
+    assert code == 0, err
+    prov = json.loads(out)["provenance"]
+    assert prov["segments"] == [10, 89, 100] and prov["omitted_rows"] == 1
+    assert prov["conventions"]["level"] == 0.9
+    code, _, err = run(capsys, "validate", str(tmp_path / "bad.npy"), paths["pred_npy"], "--n-params", "2")
+    assert code == 1
+    assert "NonFiniteInput: tau_meas has a non-finite value (nan) at row 10, column 0" in err
+
+
+def test_pickles_are_refused(tmp_path, capsys, files):
+    paths = files[0]
+    obj = tmp_path / "obj.npy"
+    np.save(obj, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    code, out, err = run(capsys, "validate", str(obj), paths["pred_npy"], "--n-params", "1")
+    assert code == 1 and out == ""
+    assert "pickled Python objects" in err and "refuses" in err
+    pkl = tmp_path / "x.pkl"
+    pkl.write_bytes(b"\x80\x04N.")
+    code, _, err = run(capsys, "validate", str(pkl), paths["pred_npy"], "--n-params", "1")
+    assert code == 1 and "pickle files are refused" in err
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["validate", "{meas}", "missing.npy", "--n-params", "1"], "missing.npy: no such file"),
+    (["validate", "{meas}", "{meas}.txt", "--n-params", "1"], "no such file"),
+    (["validate", "{meas}", "{pred}", "--n-params", "-1"],
+     "InvalidParameter: n_params must be an integer with n_params >= 0, got -1"),
+    (["validate", "{meas}", "{pred}", "--n-params", "1", "--max-lag", "500"],
+     "InvalidParameter: max_lag must be an integer with 0 <= max_lag < 200, got 500"),
+    (["validate", "{meas}", "{pred}", "--n-params", "1", "--backend", "fortran"], "InvalidParameter: backend"),
+])
+def test_input_errors_exit_1_with_message(argv, needle, files, capsys):
+    paths = files[0]
+    argv = [a.format(meas=paths["meas_npy"], pred=paths["pred_npy"]) for a in argv]
+    code, out, err = run(capsys, *argv)
+    assert code == 1 and out == ""
+    assert needle in err
+
+
+def test_bad_csv_is_an_input_error(tmp_path, capsys, files):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n3,x\n")
+    code, _, err = run(capsys, "validate", str(bad), files[0]["pred_npy"], "--n-params", "1")
+    assert code == 1 and "non-numeric value 'x'" in err
+    ragged = tmp_path / "ragged.csv"
+    ragged.write_text("1,2\n3\n")
+    code, _, err = run(capsys, "validate", str(ragged), files[0]["pred_npy"], "--n-params", "1")
+    assert code == 1 and "has 1 values" in err
+
+
+@pytest.mark.parametrize("argv", [
+    ["validate", "a.npy", "b.npy"],                       # --n-params missing
+    ["validate", "a.npy", "b.npy", "--n-params", "x"],    # not an integer
+    ["validate", "a.npy", "b.npy", "--n-params", "1", "--profile", "R"],
+    ["validate", "a.npy", "b.npy", "--n-params", "1", "--segments", "a,b"],
+    ["frobnicate"],
+    [],
+])
+def test_usage_errors_exit_2(argv, capsys):
+    code, out, err = run(capsys, *argv)
+    assert code == 2
+    assert "usage:" in err
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["validate", "--help"], ["demo", "--help"]])
+def test_help_exits_0(argv, capsys):
+    code, out, _ = run(capsys, *argv)
+    assert code == 0 and "usage:" in out
+
+
+def test_conform_is_dispatched_with_the_rest_of_the_arguments(monkeypatch):
+    import dynval.conform
+
+    seen = {}
+
+    def fake_main(argv):
+        seen["argv"] = list(argv)
+        return 3
+
+    monkeypatch.setattr(dynval.conform, "main", fake_main)
+    assert cli.main(["conform", "--families", "norms", "--", "./port", "-x"]) == 3
+    assert seen["argv"] == ["--families", "norms", "--", "./port", "-x"]
+
+
+def test_python_dash_m_and_exit_codes():
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "python") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-m", "dynval", "--help"], capture_output=True, text=True, env=env,
+                          timeout=60)
+    assert done.returncode == 0 and "validate" in done.stdout and "demo" in done.stdout
+    done = subprocess.run([sys.executable, "-m", "dynval", "validate", "nothing.npy", "nothing.npy",
+                           "--n-params", "1"], capture_output=True, text=True, env=env, timeout=60)
+    assert done.returncode == 1 and "nothing.npy: no such file" in done.stderr

@@ -1,0 +1,333 @@
+"""``dynval conform`` end to end: dynval's own ports pass, every wrong port fails for its reason.
+
+The wrong ports (tests/ports/) run against a small hand-written corpus
+(tests/ports/tiny_corpus.py) so that their expected outcomes do not move with the
+real corpus; dynval's backends run against the real corpus.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import time
+
+import pytest
+
+import dynval
+from dynval.conform import main
+from dynval.golden import FAMILIES
+
+from ports.tiny_corpus import case_ids, write_tiny_corpus
+
+PORTS = pathlib.Path(__file__).resolve().parent / "ports"
+PACKAGE_ROOT = str(pathlib.Path(dynval.__file__).resolve().parent.parent)
+
+
+@pytest.fixture(autouse=True)
+def _ports_find_dynval(monkeypatch):
+    # Ports are separate processes: they must import the dynval under test.
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [PACKAGE_ROOT, os.environ.get("PYTHONPATH")])))
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    return str(write_tiny_corpus(tmp_path_factory.mktemp("corpus")))
+
+
+def conform(args, tmp_path, *, corpus=None):
+    """Run ``dynval conform`` in process; return (exit code, stdout, report dict)."""
+    report = tmp_path / "report.json"
+    out, err = io.StringIO(), io.StringIO()
+    options = ["--report", str(report), "--quiet"] + (["--corpus", corpus] if corpus else [])
+    split = args.index("--")
+    code = main(args[:split] + options + args[split:], stdout=out, stderr=err)
+    data = json.loads(report.read_text()) if report.exists() else None
+    return code, out.getvalue(), data
+
+
+def port(script, *args, corpus):
+    return ["--", sys.executable, str(PORTS / script), "--corpus", corpus, *args]
+
+
+def by_status(report, status):
+    return {c["id"]: c for c in report["cases"] if c["status"] == status}
+
+
+# The tiny corpus has one case protocol 1 cannot carry (a nested plain list as data).
+NOT_EXPRESSIBLE = {"errors-6"}
+
+
+# --------------------------------------------------------------------------- a correct port
+
+
+def test_oracle_port_passes(tiny, tmp_path):
+    code, out, report = conform(port("oracle.py", corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 0, out
+    assert set(by_status(report, "passed")) == set(case_ids()) - NOT_EXPRESSIBLE
+    skipped = by_status(report, "skipped")
+    assert set(skipped) == NOT_EXPRESSIBLE and skipped["errors-6"]["reason"] == "not-expressible"
+    assert report["counts"]["total"] == {"passed": 19, "failed": 0, "skipped": 1, "partial": 0}
+    assert report["protocol_version"] == 1 and report["port"]["name"] == "oracle"
+    assert report["exit_code"] == 0 and report["restarts"] == 0
+    # the table: one row per family, then the total
+    for family in FAMILIES:
+        assert family in out
+    assert "OK: 19 passed, 0 failed, 1 skipped, 0 partial" in out
+
+
+def test_strict_fails_on_skipped_cases(tiny, tmp_path):
+    code, out, _ = conform(["--strict", *port("oracle.py", corpus=tiny)], tmp_path, corpus=tiny)
+    assert code == 1 and "FAILED: 19 passed, 0 failed, 1 skipped" in out
+
+
+def test_families_subset(tiny, tmp_path):
+    code, _, report = conform(["--families", "norms,errors", *port("oracle.py", corpus=tiny)], tmp_path, corpus=tiny)
+    assert code == 0
+    assert {c["family"] for c in report["cases"]} == {"norms", "errors"}
+    assert report["families"] == ["norms", "errors"]
+
+
+# --------------------------------------------------------------------------- wrong ports
+
+
+def test_wrong_value_is_caught(tiny, tmp_path):
+    code, out, report = conform(port("wrong_value.py", "--operation", "rmse", corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"norms-2", "norms-3"}  # the two rmse vectors, nothing else
+    assert all(c["reason"] == "mismatch" for c in failed.values())
+    assert "expected 1.2909944487358056, got 1.29099574" in failed["norms-2"]["detail"]
+    assert failed["norms-2"]["expected"] == {"value": 1.2909944487358056}
+    assert "FAILED norms-2  [mismatch]  rmse" in out and "expected:" in out and "got:" in out
+
+
+def test_wrong_error_kind_is_caught(tiny, tmp_path):
+    code, _, report = conform(port("wrong_error_kind.py", corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"errors-1", "errors-2", "errors-3", "errors-4", "errors-5"}
+    assert all(c["reason"] == "wrong-error" for c in failed.values())
+    assert failed["errors-1"]["detail"].startswith("raised NonFiniteInput, expected TooFewSamples")
+    assert failed["errors-1"]["got"] == {"error": "NonFiniteInput"}
+
+
+def test_claimed_output_missing_is_caught(tiny, tmp_path):
+    args = port("missing_output.py", "--operation", "ljung_box", "--drop", "pvalue", corpus=tiny)
+    code, _, report = conform(args, tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"portmanteau-1", "portmanteau-2"}
+    assert all(c["reason"] == "missing-output" and c["detail"] == "pvalue: missing" for c in failed.values())
+
+
+def test_claimed_capability_not_answered_is_caught(tiny, tmp_path):
+    args = port("missing_output.py", "--operation", "ljung_box", "--drop", "-", "--silent", corpus=tiny)
+    code, _, report = conform(args, tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"portmanteau-1", "portmanteau-2"}
+    assert all(c["reason"] == "missing-output" for c in failed.values())
+
+
+def test_declared_partial_capability_is_partial_not_passed(tiny, tmp_path):
+    # A port without a chi-square survival function: statistics yes, p-values no.
+    args = port("missing_output.py", "--operation", "ljung_box", "--drop", "pvalue,log_pvalue",
+                "--keep", "lags,statistic,df", "--declare", corpus=tiny)
+    code, out, report = conform(args, tmp_path, corpus=tiny)
+    assert code == 0, out
+    partial = by_status(report, "partial")
+    assert set(partial) == {"portmanteau-1", "portmanteau-2"}
+    assert partial["portmanteau-1"]["skipped_outputs"] == ["pvalue", "log_pvalue"]
+    assert "capability ljung_box outputs=df,lags,statistic" in report["port"]["capabilities"]
+    assert "portmanteau-1" not in by_status(report, "passed")
+    code, _, _ = conform(["--strict", *args], tmp_path, corpus=tiny)
+    assert code == 1
+
+
+def test_crash_is_caught_and_the_port_restarted(tiny, tmp_path):
+    code, _, report = conform(port("crash.py", "--target", "normalized_fit-2", corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"normalized_fit-2"}
+    assert failed["normalized_fit-2"]["reason"] == "crash"
+    assert "exited with code 3" in failed["normalized_fit-2"]["detail"]
+    assert "segmentation fault (simulated)" in failed["normalized_fit-2"]["detail"]  # the port's stderr
+    assert report["restarts"] == 1
+    assert len(by_status(report, "passed")) == 18  # every case after the crash ran
+
+
+def test_hang_is_caught_within_the_timeout(tiny, tmp_path):
+    start = time.monotonic()
+    code, _, report = conform(["--timeout", "0.5", *port("hang.py", "--target", "norms-3", corpus=tiny)],
+                              tmp_path, corpus=tiny)
+    assert time.monotonic() - start < 15
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"norms-3"}
+    assert failed["norms-3"]["reason"] == "timeout" and "timed out after 0.5 s" in failed["norms-3"]["detail"]
+    assert report["restarts"] == 1 and len(by_status(report, "passed")) == 18
+
+
+def test_hang_at_start_is_a_handshake_failure(tiny, tmp_path):
+    start = time.monotonic()
+    code, out, report = conform(["--startup-timeout", "2", *port("hang.py", "--at-start", corpus=tiny)],
+                                tmp_path, corpus=tiny)
+    assert time.monotonic() - start < 15
+    assert code == 1 and "port did not start" in out
+    assert {c["reason"] for c in report["cases"]} == {"handshake"}
+    assert "waiting for the capability lines" in report["port"]["startup_error"]
+
+
+@pytest.mark.parametrize("extra", [[], ["--no-newline"]], ids=["lines", "one-endless-line"])
+def test_flood_is_caught(tiny, tmp_path, extra):
+    start = time.monotonic()
+    code, _, report = conform(["--timeout", "10", *port("flood.py", "--target", "norms-1", *extra, corpus=tiny)],
+                              tmp_path, corpus=tiny)
+    assert time.monotonic() - start < 15  # killed on the byte budget, long before the timeout
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"norms-1"} and failed["norms-1"]["reason"] == "flood"
+    assert failed["norms-1"]["detail"].startswith("output flood")
+    assert len(by_status(report, "passed")) == 18
+
+
+@pytest.mark.parametrize(
+    ("what", "says"),
+    [("comma", "'1,5'"), ("wolfram", "'1.5*^-3'"), ("hexfloat", "'0x1.8p+0'"), ("word", "'hello world'"),
+     ("binary", "non-ASCII")],
+)
+def test_garbage_is_caught(tiny, tmp_path, what, says):
+    code, _, report = conform(port("garbage.py", "--target", "information_criteria-1", "--what", what, corpus=tiny),
+                              tmp_path, corpus=tiny)
+    assert code == 1
+    failed = by_status(report, "failed")
+    assert set(failed) == {"information_criteria-1"}
+    assert failed["information_criteria-1"]["reason"] == "garbage"
+    assert says in failed["information_criteria-1"]["detail"]
+    assert len(by_status(report, "passed")) == 18
+
+
+@pytest.mark.parametrize(("extra", "says"), [([], "speaks protocol 99"), (["--no-greeting"], "expected the greeting")])
+def test_bad_handshake(tiny, tmp_path, extra, says):
+    code, _, report = conform(port("bad_handshake.py", *extra, corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 1
+    assert report["counts"]["total"]["failed"] == 20
+    assert all(c["reason"] == "handshake" and says in c["detail"] for c in report["cases"])
+
+
+def test_command_that_cannot_start(tiny, tmp_path):
+    code, _, report = conform(["--", str(tmp_path / "no-such-port")], tmp_path, corpus=tiny)
+    assert code == 1
+    assert "cannot start the port" in report["port"]["startup_error"]
+
+
+def test_restart_budget(tiny, tmp_path):
+    # A port that crashes on its first case, every time: stop restarting after --max-restarts.
+    script = tmp_path / "always_crash.py"
+    script.write_text("import sys\nprint('dynval-port 1 x')\nprint('capability r2')\nprint('ready', flush=True)\n"
+                      "sys.stdin.readline()\nsys.exit(9)\n")
+    code, _, report = conform(["--max-restarts", "1", "--", sys.executable, str(script)], tmp_path, corpus=tiny)
+    assert code == 1
+    reasons = [c["reason"] for c in report["cases"] if c["operation"] == "r2"]
+    assert reasons[:2] == ["crash", "crash"] and set(reasons[2:]) == {"not-run"}
+    assert report["restarts"] == 1
+
+
+# --------------------------------------------------------------------------- usage
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["--families", "bogus", "--", "x"], "--families must be among"),
+        (["--quiet"], "give the port command after '--'"),
+        (["--corpus", "/nonexistent", "--", "x"], "no norms.json"),
+        (["--timeout", "0", "--", "x"], "--timeout must be a positive number"),
+    ],
+)
+def test_usage_errors(argv, says):
+    err = io.StringIO()
+    assert main(argv, stdout=io.StringIO(), stderr=err) == 2
+    assert says in err.getvalue()
+
+
+def test_progress_on_a_terminal():
+    from dynval.conform import _Progress
+    from dynval.conform._runner import RunResult
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Tty()
+    progress = _Progress(stream, enabled=True)
+    result = RunResult(command=["x"], corpus="", families=["norms"])
+    progress.last -= 1
+    progress(1, 2, result)
+    progress(2, 2, result)
+    assert stream.getvalue().startswith("\rconform: 1/2 cases, 0 failed")
+    assert stream.getvalue().endswith("\n")
+
+
+def test_module_entry_point(tiny, tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-m", "dynval.conform", "--corpus", tiny, "--families", "norms", "--",
+         sys.executable, str(PORTS / "oracle.py"), "--corpus", tiny],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "OK: 4 passed, 0 failed" in done.stdout
+
+
+# --------------------------------------------------------------------------- dynval's own ports
+
+
+def _available(backend):
+    return dynval.backends()[backend]["available"]
+
+
+def test_dynval_port_passes_the_real_corpus(backend, tmp_path):
+    # ``backend`` runs over every available backend (tests/conftest.py)
+    code, out, report = conform(["--", sys.executable, "-m", "dynval.port", "--backend", backend], tmp_path)
+    assert report["counts"]["total"]["failed"] == 0, out
+    assert code == 0
+    assert report["counts"]["total"]["passed"] >= 0.99 * len(report["cases"])
+    assert f"({backend} backend)" in report["port"]["name"]
+
+
+def test_dynval_port_speaks_the_protocol_directly():
+    # A hand-written session: what a port author sees.
+    session = "\n".join([
+        'case norms 1 sse multioutput="pooled"',
+        "array tau_meas real 2 2 1 1.0 2.0",
+        "array tau_pred real 2 2 1 0.0 0.0",
+        "end",
+        'case errors 1 r2 multioutput="pooled"',
+        "array tau_meas real 2 1 1 1.0",
+        "array tau_pred real 2 1 1 1.0",
+        "end",
+        "quit",
+    ]) + "\n"
+    done = subprocess.run([sys.executable, "-m", "dynval.port", "--backend", "python"], input=session,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("dynval-port 1 dynval")
+    ready = lines.index("ready")
+    assert all(line.startswith("capability ") for line in lines[1:ready])
+    assert lines[ready + 1 :] == [
+        "result value real 0 5.0000000000000000e+00", "end",  # SSE = 1 + 4
+        "error TooFewSamples r2 needs at least 2 samples, got N=1", "end",
+    ]
+
+
+def test_dynval_port_refuses_an_unavailable_backend(monkeypatch):
+    if _available("cpp"):
+        pytest.skip("the cpp backend is available")
+    done = subprocess.run([sys.executable, "-m", "dynval.port", "--backend", "cpp"], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 2 and "not available" in done.stderr
