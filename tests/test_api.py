@@ -481,3 +481,18 @@ def test_compute_metrics_gives_nan_for_aicc_fpe_when_p_too_large(backend):
     assert math.isnan(out["aicc"]) and math.isnan(out["fpe"]) and math.isfinite(out["aic"])
     ic = dynval.criteria(meas, pred, n_params=4, backend=backend)
     assert math.isnan(ic.aicc) and math.isnan(ic.fpe)
+
+
+def test_zero_mean_test_with_short_segments(backend):
+    # K = ⌊4·(300/100)^(2/9)⌋ = 5, but segments of 3 samples only have lags 1 and 2.
+    rng = np.random.default_rng(23)
+    e = rng.standard_normal(300) + 0.2
+    lengths = [3] * 100
+    res = dynval.zero_mean_test(e, segments=lengths, backend=backend)
+    k = 5
+    rho = _manual_autocorrelation(e.tolist(), 2, lengths, adjusted=False)
+    total = sum((1 - j / (k + 1)) * rho[j] for j in (1, 2))
+    n_eff = 300.0 if total <= 0 else min(max(300 / (1 + 2 * total), 2.0), 300.0)
+    assert res.bandwidth == k
+    assert res.n_eff[0] == pytest.approx(n_eff, rel=1e-12)
+    assert res.statistic_eff[0] == pytest.approx(e.mean() * math.sqrt(n_eff) / e.std(ddof=1), rel=1e-12)

@@ -174,12 +174,20 @@ TEST(Layouts, StridedMapsBlocksAndRowMajorAgree) {
     const auto via_block = dynval::compute_metrics(big(Eigen::seq(0, 298, 2), Eigen::seqN(1, 3)),
                                                    big2(Eigen::seq(0, 298, 2), Eigen::seqN(1, 3)), 3, 1,
                                                    dynval::noise_model::full);
-    for (const auto* r : {&via_map, &via_row, &via_block}) {
+    // Strided and block expressions take the generic path and read exactly the same values.
+    for (const auto* r : {&via_map, &via_block}) {
         EXPECT_EQ(r->r2_pooled, ref.r2_pooled);
         EXPECT_EQ(r->aic, ref.aic);
         EXPECT_TRUE((r->vaf == ref.vaf).all());
         EXPECT_TRUE((r->residual_variance == ref.residual_variance).all());
     }
+    // Contiguous row-major data takes the vectorised one-pass path: same values to rounding.
+    EXPECT_NEAR(via_row.r2_pooled, ref.r2_pooled, 1e-15);
+    EXPECT_NEAR(via_row.aic, ref.aic, 1e-12 * std::abs(ref.aic));
+    EXPECT_TRUE(via_row.vaf.isApprox(ref.vaf, 1e-15));
+    EXPECT_TRUE(via_row.residual_variance.isApprox(ref.residual_variance, 1e-14));
+    EXPECT_TRUE((via_row.max_abs_error == ref.max_abs_error).all());
+    EXPECT_TRUE((via_row.sse - ref.sse).abs().maxCoeff() <= 1e-14 * ref.sse.maxCoeff());
     // The lesson's Map<VectorXd>(data, N*m) flattening would read the wrong elements of map_t;
     // the metrics are order-invariant over the 2-D expression instead.
     const MatrixXd e = dense_t - dense_p;
@@ -219,6 +227,33 @@ TEST(Accumulator, UpdateAndMergeEqualOnePass) {
         EXPECT_NEAR(one.tau_mean(j), mean, 1e-13);
         EXPECT_NEAR(one.tau_m2(j), (t.col(j).array() - mean).square().sum(), 1e-10 * one.tau_m2(j));
     }
+}
+
+TEST(Accumulator, ContiguousPathMatchesGenericPath) {
+    // Row counts that leave odd and partial blocks of the vectorised path.
+    for (Eigen::Index n : {1, 2, 3, 255, 257, 1001}) {
+        const RowMatrix t = random_matrix(n, 5, 40 + static_cast<unsigned>(n), -2e4);
+        const RowMatrix p = RowMatrix(t) + RowMatrix(random_matrix(n, 5, 41)) * 0.3;
+        const MatrixXd tc = t, pc = p;  // column-major copies take the generic path
+        const auto fast = dynval::accumulate(t, p, true);
+        const auto generic = dynval::accumulate(tc, pc, true);
+        EXPECT_TRUE(fast.tau_mean.isApprox(generic.tau_mean, 1e-15)) << n;
+        EXPECT_TRUE(fast.e_mean.isApprox(generic.e_mean, 1e-14)) << n;
+        EXPECT_TRUE((fast.tau_m2 - generic.tau_m2).abs().maxCoeff() <= 1e-13 * generic.tau_m2.maxCoeff() + 1e-300) << n;
+        EXPECT_TRUE((fast.e_m2 - generic.e_m2).abs().maxCoeff() <= 1e-13 * generic.e_m2.maxCoeff() + 1e-300) << n;
+        EXPECT_TRUE(fast.sse.isApprox(generic.sse, 1e-14)) << n;
+        EXPECT_TRUE((fast.tau_min == generic.tau_min).all() && (fast.e_max == generic.e_max).all()) << n;
+        EXPECT_TRUE((fast.max_abs_e == generic.max_abs_e).all()) << n;
+        EXPECT_TRUE(fast.residual_gram.isApprox(generic.residual_gram, 1e-14)) << n;
+    }
+    RowMatrix t = random_matrix(600, 3, 50), p = random_matrix(600, 3, 51);
+    p(517, 2) = std::numeric_limits<double>::infinity();
+    t(530, 0) = std::numeric_limits<double>::quiet_NaN();
+    const auto r = dynval::accumulate(t, p);
+    ASSERT_TRUE(r.nonfinite_meas && r.nonfinite_pred);
+    EXPECT_EQ(r.nonfinite_meas->row, 530);
+    EXPECT_EQ(r.nonfinite_pred->row, 517);
+    EXPECT_EQ(r.nonfinite_pred->col, 2);
 }
 
 TEST(Accumulator, MergeShiftsNonFiniteRow) {

@@ -451,9 +451,9 @@ def confidence_band(n, *, level=0.95, backend=None):
     >>> round(dynval.confidence_band(100), 6)
     0.195996
     """
+    _backend.resolve(backend)
     n = check_n(n)
     level = check_level(level)
-    _backend.resolve(backend)
     return float(scipy.stats.norm.ppf((1.0 + level) / 2.0) / math.sqrt(n))
 
 

@@ -78,7 +78,7 @@ template <class D>
 joint_moments checked_signal(const Eigen::MatrixBase<D>& e, const std::string& function) {
     check_columns(e.rows(), e.cols(), "e");
     check_min_samples(e.rows(), 2, function);
-    joint_moments mo = accumulate(e, D::PlainObject::Zero(e.rows(), e.cols()));
+    joint_moments mo = accumulate_signal(e);
     mo.throw_if_nonfinite("e", "e");
     return mo;
 }
@@ -247,9 +247,9 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
                              std::to_string(m) + ", p) to match e, got " +
                              shape_text(regressor.rows(), regressor.cols()));
     detail::check_min_samples(n, 2, "cross_correlation");
-    joint_moments me = accumulate(e, DE::PlainObject::Zero(n, m));
+    joint_moments me = accumulate_signal(e);
     me.throw_if_nonfinite("e", "e");
-    const joint_moments my = accumulate(regressor, DY::PlainObject::Zero(n, regressor.cols()));
+    const joint_moments my = accumulate_signal(regressor);
     const Index total = regressor.cols();
     const bool p_ok = n_columns.valid() && n_columns.value() > 0 && n_columns.value() * m == total;
     if (my.nonfinite_meas) {

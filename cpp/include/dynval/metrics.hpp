@@ -131,7 +131,7 @@ template <class D>
 joint_moments checked_residual_moments(const Eigen::MatrixBase<D>& e, Index min_samples, const std::string& function) {
     check_columns(e.rows(), e.cols(), "e");
     check_min_samples(e.rows(), min_samples, function);
-    joint_moments mo = accumulate(e, D::PlainObject::Zero(e.rows(), e.cols()));
+    joint_moments mo = accumulate_signal(e);
     mo.throw_if_nonfinite("e", "e");
     return mo;
 }

@@ -54,10 +54,14 @@ def fit_term(e: np.ndarray, noise_model: str):
             return -math.inf, n_samples, n_samples, 0.0
         return n_samples * float(np.sum(np.log(variances))), n_samples, n_samples, float(np.prod(variances))
     sigma = (e.T @ e) / n_samples  # not demeaned (MATLAB's multi-output convention)
-    sign, logdet = np.linalg.slogdet(sigma)
-    if sign <= 0:
+    # Eigenvalues with numpy's matrix_rank tolerance decide singularity, so that both backends call
+    # the same near-singular covariance singular (an LU or LDLT pivot test rounds differently).
+    eigenvalues = np.linalg.eigvalsh(sigma)
+    largest = float(eigenvalues[-1])
+    if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
         return -math.inf, n_samples, n_samples, 0.0
-    return n_samples * float(logdet), n_samples, n_samples, float(math.exp(logdet))
+    logdet = math.fsum(np.log(eigenvalues))
+    return n_samples * logdet, n_samples, n_samples, float(math.exp(logdet))
 
 
 def criteria(meas, pred, n_params, noise_model) -> dict:
