@@ -159,6 +159,8 @@ public:
         tau_buf_.resize(block_rows, m_);
         tau_shift_ = Eigen::ArrayXd::Zero(m_);
         e_shift_ = Eigen::ArrayXd::Zero(m_);
+        next_shift_t_ = Eigen::ArrayXd::Zero(m_);
+        next_shift_e_ = Eigen::ArrayXd::Zero(m_);
         e_buf_.resize(block_rows, m_);
     }
 
@@ -282,9 +284,9 @@ private:
 
     /// One pass over C-contiguous rows. The block is read as a flat array with 2m independent
     /// lanes (lane l is joint l mod m), so every update is elementwise and vectorises without
-    /// reassociating sums. Within a block, sums are shifted by the running mean (so the
-    /// one-pass M2 = S2 − S1²/n of a block loses no digits to an offset); blocks are then
-    /// combined with Chan's update like the generic path.
+    /// reassociating sums. Within a block (small enough to stay in cache) the block mean is
+    /// found first and the sums are of deviations from it, so M2 = S2 − S1²/n of a block has
+    /// two-pass accuracy; blocks are then combined with Chan's update like the generic path.
     void add_contiguous(const double* t, const double* p, Index rows) {
         const Index m = m_, lanes = 2 * m_;
         const double inf = std::numeric_limits<double>::infinity();
@@ -300,7 +302,7 @@ private:
         double* mxe = mne + lanes;
         double* kt = mxe + lanes;
         double* ke = kt + lanes;
-        constexpr Index fast_rows = 1024;
+        constexpr Index fast_rows = 256;
         for (Index start = 0; start < rows; start += fast_rows) {
             const Index nb = std::min(fast_rows, rows - start);
             const double* tb = t + start * m;
@@ -313,17 +315,29 @@ private:
                     e_shift_(j) = std::isfinite(e0) ? e0 : 0.0;
                 }
             }
+            // Sums are of deviations from a shift close to the block mean, so M2 = S2 − S1²/n
+            // of a block keeps two-pass accuracy: the previous block's mean (blocks are short
+            // against the drift of a torque signal), or for the first block its own mean.
+            const Index pairs = nb / 2;
+            if (n_ == 0) {
+                for (Index j = 0; j < m; ++j) next_shift_t_(j) = next_shift_e_(j) = 0.0;
+                for (Index r = 0; r < nb; ++r)
+                    for (Index j = 0; j < m; ++j) {
+                        next_shift_t_(j) += tb[r * m + j];
+                        next_shift_e_(j) += tb[r * m + j] - pb[r * m + j];
+                    }
+                next_shift_t_ /= static_cast<double>(nb);
+                next_shift_e_ /= static_cast<double>(nb);
+            }
+            for (Index j = 0; j < m; ++j) {
+                kt[j] = kt[j + m] = std::isfinite(next_shift_t_(j)) ? next_shift_t_(j) : 0.0;
+                ke[j] = ke[j + m] = std::isfinite(next_shift_e_(j)) ? next_shift_e_(j) : 0.0;
+            }
             for (Index l = 0; l < lanes; ++l) {
-                const Index j = l % m;
-                const auto k = static_cast<std::size_t>(j);
-                const double nd = static_cast<double>(n_);
-                kt[l] = n_ ? tau_shift_(j) + tau_sum_[k].value() / nd : tau_shift_(j);
-                ke[l] = n_ ? e_shift_(j) + e_sum_[k].value() / nd : e_shift_(j);
                 s1t[l] = s2t[l] = s1e[l] = s2e[l] = sq[l] = 0.0;
                 mnt[l] = mne[l] = inf;
                 mxt[l] = mxe[l] = -inf;
             }
-            const Index pairs = nb / 2;
             lane_kernel(tb, pb, pairs, lanes, s1t, s2t, s1e, s2e, sq, mnt, mxt, mne, mxe, kt, ke);
             if (nb % 2) {  // the last row of an odd block goes to lanes 0..m-1
                 const double* tc = tb + pairs * lanes;
@@ -363,6 +377,8 @@ private:
                 bs_t.add(nbd * (kt[j] - tau_shift_(j)));
                 bs_e.add(b1);
                 bs_e.add(nbd * (ke[j] - e_shift_(j)));
+                next_shift_t_(j) = kt[j] + a1 / nbd;
+                next_shift_e_(j) = ke[j] + b1 / nbd;
                 const detail::compensated bm2_t{std::max(a2 - a1 * a1 / nbd, 0.0), 0.0};
                 const detail::compensated bm2_e{std::max(b2 - b1 * b1 / nbd, 0.0), 0.0};
                 combine(tau_sum_[k], tau_m2_[k], n_, bs_t, bm2_t, nb);
@@ -511,6 +527,7 @@ private:
     Eigen::ArrayXd tau_shift_, e_shift_;
     std::optional<nonfinite_entry> nonfinite_meas_, nonfinite_pred_;
     std::vector<double> lane_, zeros_;
+    Eigen::ArrayXd next_shift_t_, next_shift_e_;  // shifts of the next contiguous block
 };
 
 inline double joint_moments::sse_total() const {
