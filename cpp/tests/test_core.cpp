@@ -249,6 +249,20 @@ TEST(Accumulator, ContiguousPathMatchesGenericPath) {
         EXPECT_TRUE((fast.max_abs_e == generic.max_abs_e).all()) << n;
         EXPECT_TRUE(fast.residual_gram.isApprox(generic.residual_gram, 1e-14)) << n;
     }
+    {
+        // Contiguous blocks after a merge into an empty accumulator, on a large offset.
+        const RowMatrix t = random_matrix(3000, 2, 60, 1e7);
+        const RowMatrix p = RowMatrix(t) + RowMatrix(random_matrix(3000, 2, 61));
+        dynval::joint_accumulator empty(2), later(2);
+        later.update(t.topRows(1000), p.topRows(1000));
+        empty.merge(later);
+        empty.update(t.bottomRows(2000), p.bottomRows(2000));
+        const MatrixXd tc = t, pc = p;
+        const auto generic = dynval::accumulate(tc, pc);
+        const auto merged = empty.result();
+        EXPECT_TRUE(merged.tau_m2.isApprox(generic.tau_m2, 1e-13));
+        EXPECT_TRUE(merged.e_m2.isApprox(generic.e_m2, 1e-13));
+    }
     RowMatrix t = random_matrix(600, 3, 50), p = random_matrix(600, 3, 51);
     p(517, 2) = std::numeric_limits<double>::infinity();
     t(530, 0) = std::numeric_limits<double>::quiet_NaN();
@@ -321,6 +335,32 @@ TEST(Correlation, SegmentsAgainstDirectLoop) {
                 ++count;
             }
             EXPECT_NEAR(rho(lag, j), (s / count) / r0, 1e-13);
+        }
+    }
+}
+
+TEST(Correlation, RowMajorBlockedPathAgainstDirectLoop) {
+    // C-contiguous data takes the blocked path; lags beyond one block (512 rows) and a segment
+    // break inside a block exercise the carried tail rows.
+    const Eigen::Index n = 1500;
+    const RowMatrix e = random_matrix(n, 3, 71, 5.0);
+    const std::vector<long long> lengths{1100, 400};
+    const Eigen::Index lags = 700;
+    const auto rho = dynval::autocorrelation(e, lags, false, lengths);
+    const MatrixXd ec = e;
+    const auto rho_generic = dynval::autocorrelation(ec, lags, false, lengths);
+    for (int j = 0; j < 3; ++j) {
+        const double mean = e.col(j).mean();
+        double r0 = 0;
+        for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
+        for (Eigen::Index lag : {1, 7, 511, 512, 513, 699, 700}) {
+            double s = 0;
+            for (Eigen::Index k = lag; k < n; ++k) {
+                if ((k < 1100) != (k - lag < 1100)) continue;
+                s += (e(k, j) - mean) * (e(k - lag, j) - mean);
+            }
+            EXPECT_NEAR(rho(lag, j), s / r0, 1e-13) << lag;
+            EXPECT_NEAR(rho_generic(lag, j), s / r0, 1e-13) << lag;
         }
     }
 }

@@ -1,16 +1,22 @@
 // Autocorrelation of the residual (contract §3.4), cross-correlation with regressor columns
 // (§3.6), the white-noise band and the portmanteau tests (§3.5).
 //
-// Lagged products are computed blocked-direct: the centred column is walked once in chunks that
-// stay in cache, and every lag is summed within the chunk, so the cost is one read of the data
-// and (L+1)·N multiply-adds, vectorised. Chunk sums are Neumaier-compensated. Means are overall
-// (one per joint over all samples), found in a first pass that also checks finiteness; products
-// never join two segments.
+// Lagged products are computed blocked-direct, after a first pass (joint_accumulator) that
+// gives the overall means, the constancy tests and the finiteness check:
+// * C-contiguous (N, m) data: blocks of rows are centred into a buffer that also holds the
+//   previous max_lag rows (the tail that lagged products need), and each lag is a lane-wise
+//   product over the flat buffer (lane l is joint l mod m), vectorised; one read of the data;
+// * any other expression: each centred column is copied contiguous and summed chunk by chunk.
+// Block sums are Neumaier-compensated. At 50 lags this beats an FFT for N up to millions
+// (benchmarks/README.md). Means are overall (one per joint over all samples); products never
+// join two segments.
 //
-// Streaming plan (not needed by any contract function yet): the products of a chunk depend on
-// the overall mean only through Σx_k, Σx_{k−ℓ} and n_ℓ, so an accumulator that keeps shifted lag
-// sums plus the first and last L rows of each block can merge blocks exactly; the direct
-// two-pass form below is the reference it will be tested against.
+// Streaming (logs larger than memory) extends the first form: a lag accumulator keeps, per
+// joint, the lane sums of products about a fixed shift, Σx, the first and last max_lag rows of
+// its range and n_ℓ; two ranges merge exactly (cross products of one's tail with the other's
+// head), and the centring by the overall mean is applied at the end through
+// Σ(x_k − x̄)(x_{k−ℓ} − x̄) = Σx_k x_{k−ℓ} − x̄(Σx_k + Σx_{k−ℓ}) + n_ℓ x̄², whose head/tail
+// corrections need exactly those rows. It is not implemented yet: no contract function needs it.
 #pragma once
 
 #include "accumulator.hpp"
@@ -87,10 +93,97 @@ inline long long check_max_lag(const param<long long>& max_lag, Index limit) {
     return require_int(max_lag, "max_lag", 0, limit, "an integer with 0 <= max_lag < " + std::to_string(limit));
 }
 
+/// Fixed lane count: the partial sums stay in registers.
+template <int Lanes>
+DYNVAL_VECTOR_CLONES inline void lane_products_fixed(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
+                                                     Index count, double* DYNVAL_RESTRICT acc) {
+    double part[Lanes] = {};
+    const Index chunks = count / Lanes;
+    for (Index c = 0; c < chunks; ++c) {
+        const double* ac = a + c * Lanes;
+        const double* bc = b + c * Lanes;
+        for (int l = 0; l < Lanes; ++l) part[l] += ac[l] * bc[l];
+    }
+    for (Index i = chunks * Lanes; i < count; ++i) part[i - chunks * Lanes] += a[i] * b[i];
+    for (int l = 0; l < Lanes; ++l) acc[l] += part[l];
+}
+
+/// acc[i mod lanes] += a[i]·b[i] for i < count: independent lanes, so the loop vectorises.
+DYNVAL_VECTOR_CLONES inline void lane_products(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
+                                               Index count, Index lanes, double* DYNVAL_RESTRICT acc) {
+    switch (lanes) {  // 2m lanes for m = 1..8 joints
+        case 2: return lane_products_fixed<2>(a, b, count, acc);
+        case 4: return lane_products_fixed<4>(a, b, count, acc);
+        case 6: return lane_products_fixed<6>(a, b, count, acc);
+        case 8: return lane_products_fixed<8>(a, b, count, acc);
+        case 10: return lane_products_fixed<10>(a, b, count, acc);
+        case 12: return lane_products_fixed<12>(a, b, count, acc);
+        case 14: return lane_products_fixed<14>(a, b, count, acc);
+        case 16: return lane_products_fixed<16>(a, b, count, acc);
+        default: break;
+    }
+    const Index chunks = count / lanes;
+    for (Index c = 0; c < chunks; ++c) {
+        const double* ac = a + c * lanes;
+        const double* bc = b + c * lanes;
+        for (Index l = 0; l < lanes; ++l) acc[l] += ac[l] * bc[l];
+    }
+    for (Index i = chunks * lanes; i < count; ++i) acc[i - chunks * lanes] += a[i] * b[i];
+}
+
+/// Lag sums of C-contiguous (N, m) data in one pass: blocks of rows are centred into a buffer
+/// that keeps the previous max_lag rows (the tail needed by lagged products), and each lag is
+/// a lane-wise product of the buffer with itself shifted by ℓ rows (lane l is joint l mod m).
+inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const joint_moments& mo,
+                                     const std::vector<Index>& starts, Index max_lag) {
+    constexpr Index block = 512;
+    const Index lanes = 2 * m;
+    const auto lengths = segment_lengths(starts, n);
+    std::vector<double> buf(static_cast<std::size_t>((block + max_lag) * m));
+    std::vector<double> acc(static_cast<std::size_t>((max_lag + 1) * lanes));
+    std::vector<compensated> total(static_cast<std::size_t>((max_lag + 1) * m));
+    for (Index a = 0; a < n; a += block) {
+        const Index nb = std::min(block, n - a);
+        double* rows = buf.data() + max_lag * m;  // row k of the block at rows + (k − a)·m
+        for (Index i = 0; i < nb; ++i)
+            for (Index j = 0; j < m; ++j)
+                rows[i * m + j] = (x[(a + i) * m + j] - mo.tau_shift(j)) - mo.tau_dev(j);
+        std::fill(acc.begin(), acc.end(), 0.0);
+        for (std::size_t s = 0; s < starts.size(); ++s) {
+            const Index s0 = starts[s], s1 = starts[s] + lengths[s];
+            if (s1 <= a || s0 >= a + nb) continue;
+            for (Index lag = 0; lag <= max_lag; ++lag) {
+                const Index lo = std::max(a, s0 + lag), hi = std::min(a + nb, s1);
+                if (lo >= hi) continue;
+                const double* cur = rows + (lo - a) * m;
+                // lane of element (lo − a)·m + i must be joint i mod m: start at lane 0 of a row.
+                lane_products(cur, cur - lag * m, (hi - lo) * m, lanes,
+                              acc.data() + static_cast<std::size_t>(lag * lanes));
+            }
+        }
+        for (Index lag = 0; lag <= max_lag; ++lag)
+            for (Index j = 0; j < m; ++j) {
+                const double* l0 = acc.data() + lag * lanes;
+                total[static_cast<std::size_t>(lag * m + j)].add(l0[j] + l0[j + m]);
+            }
+        // Keep the last max_lag rows (of this block and before) for the next block's lags.
+        // (std::copy is safe for this overlapping move towards the front.)
+        if (max_lag > 0) std::copy(buf.begin() + nb * m, buf.begin() + (nb + max_lag) * m, buf.begin());
+    }
+    Eigen::MatrixXd sums(max_lag + 1, m);
+    for (Index lag = 0; lag <= max_lag; ++lag)
+        for (Index j = 0; j < m; ++j) sums(lag, j) = total[static_cast<std::size_t>(lag * m + j)].value();
+    return sums;
+}
+
 /// Biased lag sums S_ℓ (ℓ = 0..max_lag) of every joint, columns of the result.
 template <class D>
 Eigen::MatrixXd lag_sums(const Eigen::MatrixBase<D>& e, const joint_moments& mo, const std::vector<Index>& starts,
                          Index max_lag) {
+    if constexpr ((int(D::Flags) & Eigen::DirectAccessBit) && (int(D::Flags) & Eigen::RowMajorBit)) {
+        if (e.derived().innerStride() == 1 && (e.rows() <= 1 || e.derived().outerStride() == e.cols()))
+            return lag_sums_rows(e.derived().data(), e.rows(), e.cols(), mo, starts, max_lag);
+    }
     Eigen::MatrixXd sums(max_lag + 1, e.cols());
     Eigen::VectorXd buf;
     std::vector<double> out;
