@@ -190,3 +190,20 @@ def test_zero_mean_test_zero_variance(backend):
     assert res.pvalue_eff[:2].tolist() == [0.0, 0.0]
     assert math.isnan(res.statistic_iid[2]) and math.isnan(res.pvalue_iid[2])
     assert math.isnan(res.statistic_eff[2]) and math.isnan(res.pvalue_eff[2])
+
+
+def test_full_noise_model_numerically_singular_covariance_agrees_across_backends(backend):
+    # Joint 3's residual is joints 1 + 2 up to 1e-10 relative: Σ̂ has λ_min/λ_max ~ 1e-20, far below
+    # the m·ε rank tolerance, so the contract calls it singular (AIC = −inf) whatever the backend's
+    # rounding. Without the rule numpy's slogdet and Eigen's LDLT disagreed on exactly such data.
+    rng = np.random.default_rng(7)
+    e = rng.normal(size=(400, 2))
+    e = np.column_stack([e, e[:, 0] + e[:, 1] + 1e-10 * rng.normal(size=400)])
+    meas = rng.normal(size=e.shape)
+    crit = dynval.criteria(meas, meas - e, n_params=3, noise_model="full", backend=backend)
+    assert crit.aic == -np.inf and crit.bic == -np.inf and crit.fpe == 0.0
+    # Well away from the tolerance, the same data with an independent third column is regular.
+    e[:, 2] = rng.normal(size=400)
+    crit = dynval.criteria(meas, meas - e, n_params=3, noise_model="full", backend=backend)
+    sigma = e.T @ e / 400
+    assert crit.aic == pytest.approx(400 * np.linalg.slogdet(sigma)[1] + 6, rel=1e-12)

@@ -318,3 +318,22 @@ def test_pvalue_text_uses_the_logarithm_below_1e_300():
     assert _pvalue(0.0, -2000.0 * math.log(10.0) + math.log(3.0)) == "3.0e-2000"
     assert _pvalue(0.25, math.log(0.25)) == "0.250"
     assert _pvalue(float("nan"), float("nan")) == "nan"
+
+
+@pytest.mark.parametrize("profile", ["lesson", "matlab"])
+def test_max_lag_zero_keeps_the_iid_zero_mean_test_and_drops_the_lagged_parts(backend, profile):
+    # max_lag=0 is the one-pass report: no lag analysis, so only the i.i.d. half of the zero-mean
+    # test (from the fused kernel's mean and variance, whatever the profile's ddof) is reported.
+    rng = np.random.default_rng(11)
+    meas = rng.normal(size=(300, 2)) * [5.0, 1.0]
+    pred = meas + 0.05 + rng.normal(scale=0.2, size=meas.shape)
+    report = dynval.validate(meas, pred, n_params=3, max_lag=0, profile=profile, backend=backend)
+    zmt = report.residuals["zero_mean_test"]
+    reference = scipy.stats.ttest_1samp(meas - pred, 0.0)
+    np.testing.assert_allclose(zmt["statistic_iid"], reference.statistic, rtol=1e-12)
+    np.testing.assert_allclose(zmt["pvalue_iid"], reference.pvalue, rtol=1e-10)
+    assert zmt["pvalue_eff"] is None and zmt["n_eff"] is None
+    assert report.autocorrelation is None and report.ljung_box is None
+    text = report.summary()
+    assert "not corrected for autocorrelation" in text
+    json.loads(report.to_json())

@@ -202,6 +202,33 @@ def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy):
     return meas, pred, reg2, p, starts, omitted, reg0
 
 
+
+def _iid_zero_mean_test(km, n, ddof):
+    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
+
+    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
+    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
+    """
+    mean = np.asarray(km["residual_mean"], dtype=np.float64)
+    variance = np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0))
+    std = np.sqrt(variance)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_iid = mean * math.sqrt(n) / std
+    return {
+        "mean": mean,
+        "std": std,
+        "n_samples": int(n),
+        "statistic_iid": t_iid,
+        "pvalue_iid": 2.0 * scipy.stats.t.sf(np.abs(t_iid), n - 1),
+        "df_iid": int(n - 1),
+        "statistic_eff": None,
+        "pvalue_eff": None,
+        "df_eff": None,
+        "n_eff": None,
+        "bandwidth": None,
+    }
+
+
 def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
              level=None, profile="lesson", segments=None, nan_policy="raise", backend=None):
     """Validate predicted joint torques against measured ones: every metric, one report.
@@ -287,7 +314,9 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
 
     # ---- one fused pass for every point metric, residual statistic and criterion
     km = kernel.compute_metrics(meas, pred, n_params, prof.ddof, prof.noise_model)
-    e = np.ascontiguousarray(meas - pred)
+    # Only the lag analysis needs the residual array: max_lag=0 without a regressor stays one pass.
+    lagged = max_lag > 0
+    e = np.ascontiguousarray(meas - pred) if lagged or reg2 is not None else None
 
     scale = 1.0 if prof.units == "percent" else 0.01
     force = prof.constant_target == "force_finite"
@@ -348,12 +377,15 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     # ---- residual statistics
     from . import zero_mean_test
 
-    zmt = zero_mean_test(e, segments=starts, backend=backend_name)
+    if lagged:
+        zmt = _as_dict(zero_mean_test(e, segments=starts, backend=backend_name))
+    else:
+        zmt = _iid_zero_mean_test(km, n, prof.ddof)
     residuals = {
         "mean": np.asarray(km["residual_mean"], dtype=np.float64),
         "variance": np.asarray(km["residual_variance"], dtype=np.float64),
         "ddof": prof.ddof,
-        "zero_mean_test": _as_dict(zmt),
+        "zero_mean_test": zmt,
     }
 
     # ---- information criteria (constants dropped in the kernel; some profiles add them)
@@ -374,7 +406,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     # ---- lag analysis
     autocorrelation = ljung_box = None
     lb_lags = prof.ljung_box_lags(n, max_lag, longest)
-    if max_lag > 0:
+    if lagged:
         autocorrelation = _autocorrelation_section(kernel, e, max_lag, prof, level, starts, n)
         if lb_lags:
             lb = kernel.portmanteau(e, np.asarray(lb_lags, dtype=np.int64), 0, starts, "ljung_box")
@@ -616,7 +648,17 @@ def findings(report: ValidationReport) -> list:
                         f"p = {_pvalue(p, logp)}): structure is left in them (unmodelled dynamics).")
 
     zmt = report.residuals["zero_mean_test"]
+    corrected = zmt["pvalue_eff"] is not None
     for j in range(m):
+        if not corrected:
+            p_iid = float(np.asarray(zmt["pvalue_iid"])[j])
+            if p_iid < alpha_joint:
+                out.append(
+                    f"Joint {j + 1}: the residual mean {float(np.asarray(zmt['mean'])[j]):+.4g} is "
+                    f"significant under the i.i.d. t-test (p = "
+                    f"{_pvalue(p_iid, math.log(p_iid) if p_iid > 0 else -math.inf)}); with max_lag=0 "
+                    "it is not corrected for autocorrelation, which makes it overconfident.")
+            continue
         p_eff = float(np.asarray(zmt["pvalue_eff"])[j])
         p_iid = float(np.asarray(zmt["pvalue_iid"])[j])
         mean = float(np.asarray(zmt["mean"])[j])

@@ -6,7 +6,7 @@
 #include "errors.hpp"
 #include "options.hpp"
 
-#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Core>
 
 #include <cmath>
@@ -46,12 +46,19 @@ inline information_criteria_result criteria_from_fit(double fit_term, double siz
     return r;
 }
 
-/// ln det of a symmetric positive semi-definite matrix; −inf when it is singular.
+/// ln det of a symmetric positive semi-definite matrix; −inf when it is numerically singular.
+/// Singular means λ_min ≤ m·ε·λ_max (numpy's matrix_rank tolerance) or λ_max = 0, decided on the
+/// eigenvalues so that both backends call the same near-singular covariance singular (an LDLT or LU
+/// pivot test rounds differently from one library to the next).
 inline double log_det_psd(const Eigen::MatrixXd& sigma) {
-    Eigen::LDLT<Eigen::MatrixXd> ldlt(sigma);
-    const auto d = ldlt.vectorD().array();
-    if (ldlt.info() != Eigen::Success || !(d > 0.0).all()) return -std::numeric_limits<double>::infinity();
-    return d.log().sum();
+    const double ninf = -std::numeric_limits<double>::infinity();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(sigma, Eigen::EigenvaluesOnly);
+    if (solver.info() != Eigen::Success) return ninf;
+    const auto lambda = solver.eigenvalues().array();  // ascending
+    const double largest = lambda(lambda.size() - 1);
+    const double tolerance = static_cast<double>(sigma.rows()) * std::numeric_limits<double>::epsilon() * largest;
+    if (!(largest > 0.0) || lambda(0) <= tolerance) return ninf;
+    return lambda.log().sum();
 }
 
 /// Criteria of a noise model from the accumulated moments (the gram matrix is needed for `full`).
