@@ -11,12 +11,9 @@
 // (benchmarks/README.md). Means are overall (one per joint over all samples); products never
 // join two segments.
 //
-// Streaming (logs larger than memory) extends the first form: a lag accumulator keeps, per
-// joint, the lane sums of products about a fixed shift, Σx, the first and last max_lag rows of
-// its range and n_ℓ; two ranges merge exactly (cross products of one's tail with the other's
-// head), and the centring by the overall mean is applied at the end through
-// Σ(x_k − x̄)(x_{k−ℓ} − x̄) = Σx_k x_{k−ℓ} − x̄(Σx_k + Σx_{k−ℓ}) + n_ℓ x̄², whose head/tail
-// corrections need exactly those rows. It is not implemented yet: no contract function needs it.
+// Streaming (logs larger than memory, partial results merged across processes) is
+// lag_accumulator.hpp: lag sums about a fixed shift plus the head/tail rows of each range,
+// centred on the overall mean at the end.
 #pragma once
 
 #include "accumulator.hpp"
@@ -239,6 +236,80 @@ struct PortmanteauTest {
     std::vector<long long> df;                      ///< lags − model_df
 };
 
+namespace detail {
+
+struct portmanteau_parameters {
+    long long max_lag = 0;
+    long long model_df = 0;
+    portmanteau_test test = portmanteau_test::ljung_box;
+};
+
+/// The parameter step of the portmanteau tests: lags (each in [1, limit)), model_df, test.
+inline portmanteau_parameters check_portmanteau_parameters(const param<std::vector<long long>>& lags,
+                                                           const param<long long>& model_df,
+                                                           const param<portmanteau_test>& test, Index limit) {
+    const std::string lag_req =
+        "a positive integer or a non-empty sequence of positive integers less than " + std::to_string(limit);
+    if (!lags.valid() || lags.value().empty()) throw_parameter("lags", lag_req, lags.repr());
+    long long min_lag = limit, max_lag = 0;
+    for (long long h : lags.value()) {
+        if (h <= 0 || h >= limit) throw_parameter("lags", lag_req, lags.repr());
+        min_lag = std::min(min_lag, h);
+        max_lag = std::max(max_lag, h);
+    }
+    portmanteau_parameters r;
+    r.max_lag = max_lag;
+    r.model_df =
+        require_int(model_df, "model_df", 0, min_lag, "an integer with 0 <= model_df < " + std::to_string(min_lag));
+    r.test = require_option(test, "test");
+    return r;
+}
+
+/// Statistics from the biased lag sums S_ℓ (rows ℓ = 0..max lag, one column per joint) and the
+/// product counts n_ℓ; `constant[j]` gives nan for joint j.
+inline PortmanteauTest portmanteau_from_sums(const Eigen::MatrixXd& sums, const std::vector<Index>& n_products,
+                                             double n, const std::vector<bool>& constant,
+                                             const std::vector<long long>& lags, long long model_df,
+                                             portmanteau_test which) {
+    const Index max_lag = sums.rows() - 1, m = sums.cols();
+    const Index n_lags = static_cast<Index>(lags.size());
+    PortmanteauTest r;
+    r.test = which;
+    r.lags = lags;
+    r.model_df = model_df;
+    r.statistic.resize(n_lags, m);
+    r.pvalue.resize(n_lags, m);
+    r.log_pvalue.resize(n_lags, m);
+    for (long long h : r.lags) r.df.push_back(h - model_df);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (Index j = 0; j < m; ++j) {
+        const bool is_constant = constant[static_cast<std::size_t>(j)];
+        // Cumulative Σ ρ̂_ℓ² (Box–Pierce) or Σ ρ̂_ℓ²/n_ℓ (Ljung–Box) for ℓ = 1..max_lag.
+        std::vector<double> cumulative(static_cast<std::size_t>(max_lag + 1), 0.0);
+        compensated acc;
+        for (Index l = 1; l <= max_lag; ++l) {
+            const double rho = sums(l, j) / sums(0, j);
+            const double term = which == portmanteau_test::ljung_box
+                                    ? rho * rho / static_cast<double>(n_products[static_cast<std::size_t>(l)])
+                                    : rho * rho;
+            acc.add(term);
+            cumulative[static_cast<std::size_t>(l)] = acc.value();
+        }
+        for (Index i = 0; i < n_lags; ++i) {
+            const auto h = static_cast<std::size_t>(r.lags[static_cast<std::size_t>(i)]);
+            const double scale = which == portmanteau_test::ljung_box ? n * (n + 2.0) : n;
+            const double q = is_constant ? nan : scale * cumulative[h];
+            const double df = static_cast<double>(r.df[static_cast<std::size_t>(i)]);
+            r.statistic(i, j) = q;
+            r.pvalue(i, j) = is_constant ? nan : chi2_sf(q, df);
+            r.log_pvalue(i, j) = is_constant ? nan : chi2_logsf(q, df);
+        }
+    }
+    return r;
+}
+
+}  // namespace detail
+
 /// Portmanteau test on the biased autocorrelation (contract §3.5).
 template <class D>
 PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
@@ -250,56 +321,16 @@ PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vect
     const Index n = e.rows();
     const std::vector<Index> starts = segment_starts(segments, n);
     const Index limit = detail::longest(starts, n);
-    const std::string lag_req =
-        "a positive integer or a non-empty sequence of positive integers less than " + std::to_string(limit);
-    if (!lags.valid() || lags.value().empty()) detail::throw_parameter("lags", lag_req, lags.repr());
-    long long min_lag = limit, max_lag = 0;
-    for (long long h : lags.value()) {
-        if (h <= 0 || h >= limit) detail::throw_parameter("lags", lag_req, lags.repr());
-        min_lag = std::min(min_lag, h);
-        max_lag = std::max(max_lag, h);
-    }
-    const long long mdf =
-        detail::require_int(model_df, "model_df", 0, min_lag, "an integer with 0 <= model_df < " + std::to_string(min_lag));
-    const portmanteau_test which = detail::require_option(test, "test");
+    const detail::portmanteau_parameters checked = detail::check_portmanteau_parameters(lags, model_df, test, limit);
 
-    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, max_lag);
+    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, checked.max_lag);
     const auto lengths = segment_lengths(starts, n);
-    const double nd = static_cast<double>(n);
-    const Index n_lags = static_cast<Index>(lags.value().size());
-    PortmanteauTest r;
-    r.test = which;
-    r.lags = lags.value();
-    r.model_df = mdf;
-    r.statistic.resize(n_lags, e.cols());
-    r.pvalue.resize(n_lags, e.cols());
-    r.log_pvalue.resize(n_lags, e.cols());
-    for (long long h : r.lags) r.df.push_back(h - mdf);
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    for (Index j = 0; j < e.cols(); ++j) {
-        const bool constant = mo.tau_min(j) == mo.tau_max(j);
-        // Cumulative Σ ρ̂_ℓ² (Box–Pierce) or Σ ρ̂_ℓ²/n_ℓ (Ljung–Box) for ℓ = 1..max_lag.
-        std::vector<double> cumulative(static_cast<std::size_t>(max_lag + 1), 0.0);
-        detail::compensated acc;
-        for (Index l = 1; l <= max_lag; ++l) {
-            const double rho = sums(l, j) / sums(0, j);
-            const double term = which == portmanteau_test::ljung_box
-                                    ? rho * rho / static_cast<double>(lag_products(lengths, l))
-                                    : rho * rho;
-            acc.add(term);
-            cumulative[static_cast<std::size_t>(l)] = acc.value();
-        }
-        for (Index i = 0; i < n_lags; ++i) {
-            const auto h = static_cast<std::size_t>(r.lags[static_cast<std::size_t>(i)]);
-            const double scale = which == portmanteau_test::ljung_box ? nd * (nd + 2.0) : nd;
-            const double q = constant ? nan : scale * cumulative[h];
-            const double df = static_cast<double>(r.df[static_cast<std::size_t>(i)]);
-            r.statistic(i, j) = q;
-            r.pvalue(i, j) = constant ? nan : chi2_sf(q, df);
-            r.log_pvalue(i, j) = constant ? nan : chi2_logsf(q, df);
-        }
-    }
-    return r;
+    std::vector<Index> n_products(static_cast<std::size_t>(checked.max_lag + 1));
+    for (Index l = 0; l <= checked.max_lag; ++l) n_products[static_cast<std::size_t>(l)] = lag_products(lengths, l);
+    std::vector<bool> constant(static_cast<std::size_t>(e.cols()));
+    for (Index j = 0; j < e.cols(); ++j) constant[static_cast<std::size_t>(j)] = mo.tau_min(j) == mo.tau_max(j);
+    return detail::portmanteau_from_sums(sums, n_products, static_cast<double>(n), constant, lags.value(),
+                                         checked.model_df, checked.test);
 }
 
 /// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ.

@@ -13,6 +13,7 @@
 #include "distributions.hpp"
 #include "errors.hpp"
 #include "information.hpp"
+#include "lag_accumulator.hpp"
 #include "metrics.hpp"
 #include "options.hpp"
 #include "segments.hpp"
