@@ -1513,7 +1513,7 @@ def build_information_criteria() -> Family:
     sets.append(("N = 2, m = 2", ["NoiseModel", "MinimumSamples"], [[1.0, 2.0], [3.0, 5.0]],
                  [[0.5, 2.5], [3.25, 4.0]]))
     for comment, flags, meas, pred in sets:
-        n, m = len(meas), len(meas[0])
+        n = len(meas)
         for nm in ("pooled", "per_joint", "full"):
             for p in sorted({2, min(10, n - 3) if n > 4 else 1}):
                 vals, tol, nn = criteria_values(meas, pred, p, nm)

@@ -337,3 +337,18 @@ def test_max_lag_zero_keeps_the_iid_zero_mean_test_and_drops_the_lagged_parts(ba
     text = report.summary()
     assert "not corrected for autocorrelation" in text
     json.loads(report.to_json())
+
+
+@pytest.mark.parametrize("bad", [{}, {"max_lag": -1}, {"profile": "nope"}, {"level": 2.0}])
+def test_validate_reports_the_first_non_finite_value_before_any_bad_parameter(backend, bad):
+    # Without a regressor the fused kernel finds non-finite values inside its one pass; a bad
+    # parameter must still lose to them (contract §2.1: finiteness before parameters).
+    meas = np.arange(40.0).reshape(20, 2)
+    pred = meas + 0.5
+    pred[7, 1] = -np.inf
+    meas[12, 0] = np.nan
+    with pytest.raises(dynval.NonFiniteInput, match=r"^tau_meas has a non-finite value \(nan\) at row 12, column 0$"):
+        dynval.validate(meas, pred, n_params=2, backend=backend, **bad)
+    meas[12, 0] = 1.0
+    with pytest.raises(dynval.NonFiniteInput, match=r"^tau_pred has a non-finite value \(-inf\) at row 7, column 1$"):
+        dynval.validate(meas, pred, n_params=2, backend=backend, **bad)

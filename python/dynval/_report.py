@@ -17,6 +17,7 @@ import numpy as np
 import scipy.stats
 
 from . import _validation as v
+from ._errors import InputError
 from ._profiles import Profile, get_profile
 from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
 from ._summary import findings, format_summary
@@ -194,13 +195,22 @@ def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy):
         reg2 = kept[2] if reg2 is not None else None
         n = meas.shape[0]
         v.check_min_samples("validate", n)
+    elif isinstance(nan_policy, str) and nan_policy == "raise" and reg2 is None:
+        # The fused kernel finds the first non-finite value of tau_meas, then tau_pred, inside
+        # its single pass (same message); a separate sweep here would read the data twice.
+        starts = None
     else:
-        v.check_finite(meas, "tau_meas")
-        v.check_finite(pred, "tau_pred")
-        if reg2 is not None:
-            v.check_finite(reg2, "regressor", n_columns=p)
+        check_data_finite(meas, pred, reg2, p)
         starts = None
     return meas, pred, reg2, p, starts, omitted, reg0
+
+
+def check_data_finite(meas, pred, reg2=None, p=None):
+    """The finiteness step of the contract's order, in argument order."""
+    v.check_finite(meas, "tau_meas")
+    v.check_finite(pred, "tau_pred")
+    if reg2 is not None:
+        v.check_finite(reg2, "regressor", n_columns=p)
 
 
 
@@ -228,6 +238,29 @@ def _iid_zero_mean_test(km, n, ddof):
         "n_eff": None,
         "bandwidth": None,
     }
+
+
+
+def _check_parameters(n_params, reg0, n_joints, n, m, profile, nan_policy, starts, segments,
+                      max_lag, level, backend):
+    """validate's parameters in the documented order; returns them normalised."""
+    n_params = v.check_n_params(n_params)
+    if reg0 is not None:
+        v.check_n_joints(n_joints, reg0.shape[0], m, reg0.ndim == 3)
+    elif n_joints is not None:
+        v.check_n_joints(n_joints, n * m, m, False)
+    prof: Profile = get_profile(profile)
+    v.check_nan_policy(nan_policy)
+    if starts is None:
+        starts = parse_segments(segments, n)
+    longest = longest_segment(starts, n)
+    if max_lag is None:
+        max_lag = prof.default_max_lag(n, longest)
+    else:
+        max_lag = v.check_max_lag(max_lag, longest)
+    level = prof.level if level is None else v.check_level(level)
+    kernel, backend_name = _backend_kernel(backend)
+    return n_params, max_lag, level, prof, starts, longest, kernel, backend_name
 
 
 def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
@@ -295,23 +328,14 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         tau_meas, tau_pred, regressor, n_joints, segments, nan_policy)
     n, m = meas.shape
 
-    # ---- parameters, in a fixed order
-    n_params = v.check_n_params(n_params)
-    if reg0 is not None:
-        v.check_n_joints(n_joints, reg0.shape[0], m, reg0.ndim == 3)
-    elif n_joints is not None:
-        v.check_n_joints(n_joints, n * m, m, False)
-    prof: Profile = get_profile(profile)
-    v.check_nan_policy(nan_policy)
-    if starts is None:
-        starts = parse_segments(segments, n)
-    longest = longest_segment(starts, n)
-    if max_lag is None:
-        max_lag = prof.default_max_lag(n, longest)
-    else:
-        max_lag = v.check_max_lag(max_lag, longest)
-    level = prof.level if level is None else v.check_level(level)
-    kernel, backend_name = _backend_kernel(backend)
+    # ---- parameters, in a fixed order; a non-finite value still wins over a bad parameter
+    try:
+        n_params, max_lag, level, prof, starts, longest, kernel, backend_name = _check_parameters(
+            n_params, reg0, n_joints, n, m, profile, nan_policy, starts, segments, max_lag, level,
+            backend)
+    except InputError:
+        check_data_finite(meas, pred, reg2, p_cols)
+        raise
 
     # ---- one fused pass for every point metric, residual statistic and criterion
     km = kernel.compute_metrics(meas, pred, n_params, prof.ddof, prof.noise_model)

@@ -177,6 +177,12 @@ def first_nonfinite(a: np.ndarray):
     a = np.asarray(a, dtype=np.float64)
     if a.ndim == 1:
         a = a.reshape(-1, 1)
+    # The sum is finite only if every value is (inf + x = inf, inf − inf = nan), and it reads the
+    # data once without a temporary. A non-finite sum can also be the overflow of large finite
+    # values: then the elementwise scan below finds nothing.
+    with np.errstate(over="ignore", invalid="ignore"):
+        if np.isfinite(np.add.reduce(a, axis=None)):
+            return None
     bad = ~np.isfinite(a)
     if not bad.any():
         return None

@@ -414,4 +414,16 @@ inline PortmanteauTest portmanteau(const lag_accumulator& acc, const param<std::
                                          checked.model_df, checked.test);
 }
 
+/// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ of the rows in `acc`.
+inline PortmanteauTest ljung_box(const lag_accumulator& acc, const param<std::vector<long long>>& lags,
+                                 const param<long long>& model_df = 0LL) {
+    return portmanteau(acc, lags, model_df, portmanteau_test::ljung_box);
+}
+
+/// Box–Pierce Q(h) = N Σ ρ̂²_ℓ of the rows in `acc`.
+inline PortmanteauTest box_pierce(const lag_accumulator& acc, const param<std::vector<long long>>& lags,
+                                  const param<long long>& model_df = 0LL) {
+    return portmanteau(acc, lags, model_df, portmanteau_test::box_pierce);
+}
+
 }  // namespace dynval

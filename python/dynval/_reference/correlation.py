@@ -18,36 +18,46 @@ from .._validation import (
     is_integer,
 )
 from ._common import as_2d, check_starts, finite_residual, segment_limit
-from .norms import centred_and_ss, is_constant
+from .norms import centred, is_constant, joint_major, sumsq
 
 # Up to this many lags per segment the O(n·L) direct sums are cheaper than an FFT.
 DIRECT_MAX_LAGS = 32
 
 
 def lagged_products(x: np.ndarray, y: np.ndarray, max_lag: int, starts: np.ndarray, method: str | None = None):
-    """S[ℓ, j] = Σ over segments of Σ_k x[k, j]·y[k − ℓ, j], for ℓ = 0..max_lag.
+    """S[ℓ, j] = Σ over segments of Σ_k x[k, j]·y[k − ℓ, j], for ℓ = 0..max_lag; x, y ``(N, m)``.
 
     Only pairs inside one segment contribute. ``method`` forces ``"direct"`` or ``"fft"``.
     """
-    n, m = x.shape
+    xr = joint_major(x)
+    yr = xr if y is x else joint_major(y)
+    return row_lagged_products(xr, yr, max_lag, starts, method)
+
+
+def row_lagged_products(xr: np.ndarray, yr: np.ndarray, max_lag: int, starts: np.ndarray, method: str | None = None):
+    """:func:`lagged_products` of joint-major rows ``(m, N)``; the result is ``(max_lag+1, m)``.
+
+    Passing the same array as ``xr`` and ``yr`` (autocorrelation) saves one transform.
+    """
+    m, n = xr.shape
     out = np.zeros((max_lag + 1, m))
     bounds = np.append(np.asarray(starts, dtype=np.int64), n)
     for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
         length = b - a
         top = min(max_lag, length - 1)
-        xs, ys = x[a:b], y[a:b]
+        xs, ys = xr[:, a:b], yr[:, a:b]
         use_direct = method == "direct" or (method is None and top + 1 <= DIRECT_MAX_LAGS)
         if use_direct:
-            # Columns made contiguous so numpy sums each with pairwise summation.
-            xt, yt = np.ascontiguousarray(xs.T), np.ascontiguousarray(ys.T)
+            # Contiguous row slices: numpy sums each product row pairwise.
             for lag in range(top + 1):
-                out[lag] += np.add.reduce(xt[:, lag:] * yt[:, : length - lag], axis=1)
+                out[lag] += np.add.reduce(xs[:, lag:] * ys[:, : length - lag], axis=1)
         else:
             # A transform of length >= n + L keeps the circular wrap-around out of lags 0..L.
             nfft = scipy.fft.next_fast_len(length + top, real=True)
-            fx = scipy.fft.rfft(xs, nfft, axis=0)
-            fy = scipy.fft.rfft(ys, nfft, axis=0)
-            out[: top + 1] += scipy.fft.irfft(fx * np.conj(fy), nfft, axis=0)[: top + 1]
+            fx = scipy.fft.rfft(xs, nfft, axis=1)
+            fy = fx if yr is xr else scipy.fft.rfft(ys, nfft, axis=1)
+            fx *= np.conj(fy)
+            out[: top + 1] += scipy.fft.irfft(fx, nfft, axis=1)[:, : top + 1].T
     return out
 
 
@@ -66,13 +76,23 @@ def denominators(starts: np.ndarray, n: int, max_lag: int, adjusted: bool) -> np
 
 
 def biased_rho(d: np.ndarray, ss: np.ndarray, max_lag: int, starts: np.ndarray) -> np.ndarray:
-    """ρ̂_ℓ = S_ℓ / S_0 for centred ``d`` with Σd² = ``ss``; column of nan where ss == 0."""
-    s = lagged_products(d, d, max_lag, starts)
+    """ρ̂_ℓ = S_ℓ / S_0 for centred joint-major rows ``d`` with Σd² = ``ss``; nan where ss == 0."""
+    s = row_lagged_products(d, d, max_lag, starts)
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = s / ss
     rho[0] = 1.0
     rho[:, ss == 0] = np.nan
     return rho
+
+
+def centred_and_ss(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint-major centred rows of ``x`` ``(N, m)``, their Σd² (0 when constant) and constancy."""
+    rows = joint_major(x)
+    constant = is_constant(rows)
+    d = centred(rows)
+    ss = sumsq(d)
+    ss[constant] = 0.0
+    return d, ss, constant
 
 
 def autocorrelation(e, max_lag, adjusted, starts) -> np.ndarray:
@@ -85,9 +105,8 @@ def autocorrelation(e, max_lag, adjusted, starts) -> np.ndarray:
     starts = check_starts(starts, n)
     max_lag = check_max_lag(max_lag, segment_limit(starts, n))
     adjusted = check_adjusted(adjusted)
-    constant = is_constant(e)
-    d, ss = centred_and_ss(e)
-    s = lagged_products(d, d, max_lag, starts)
+    d, ss, constant = centred_and_ss(e)
+    s = row_lagged_products(d, d, max_lag, starts)
     s[0] = ss
     r = s / denominators(starts, n, max_lag, adjusted)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -115,13 +134,13 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
     max_lag = check_max_lag(max_lag, segment_limit(starts, n))
     adjusted = check_adjusted(adjusted)
 
-    de, ss_e = centred_and_ss(e)
-    de, ss_e = np.repeat(de, p, axis=1), np.repeat(ss_e, p)
-    dy, ss_y = centred_and_ss(y)
-    s = lagged_products(de, dy, max_lag, starts)
+    de, ss_e, e_constant = centred_and_ss(e)
+    # Row j·p + c pairs joint j's residual with its regressor column c.
+    de, ss_e, e_constant = np.repeat(de, p, axis=0), np.repeat(ss_e, p), np.repeat(e_constant, p)
+    dy, ss_y, constant_mask = centred_and_ss(y)
+    s = row_lagged_products(de, dy, max_lag, starts)
     r = s / denominators(starts, n, max_lag, adjusted)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = r / np.sqrt((ss_e / n) * (ss_y / n))
-    constant_mask = is_constant(y)
-    rho[:, constant_mask | np.repeat(is_constant(e), p) | (ss_e == 0) | (ss_y == 0)] = np.nan
+    rho[:, constant_mask | e_constant | (ss_e == 0) | (ss_y == 0)] = np.nan
     return {"rho": np.ascontiguousarray(rho.T), "constant_mask": constant_mask}

@@ -10,19 +10,25 @@ import numpy as np
 
 from .._validation import MULTIOUTPUT_OPTIONS, check_multioutput
 from ._common import finite_pair
-from .norms import centred_ss, colsum, is_constant, pooled
+from .norms import joint_major, moments, pooled, sumsq
+
+# The error-side sums each metric needs: r2 and fit use the SSE, vaf the centred residual.
+_ERROR_TERMS = {"vaf": ("ssc_e",), "fit_percent": ("sse",), "r2": ("sse",)}
 
 
-def fit_parts(meas: np.ndarray, pred: np.ndarray) -> dict:
-    """Per-column ingredients of the fit metrics for one view of the data."""
-    e = meas - pred
-    return {
-        "sse": colsum(e * e),
-        "tss": centred_ss(meas),
-        "ssc_e": centred_ss(e),
-        "constant": is_constant(meas),
-        "e_constant": is_constant(e),
-    }
+def fit_parts(meas_rows: np.ndarray, e_rows: np.ndarray, error_terms=("sse", "ssc_e")) -> dict:
+    """Per-row ingredients of the fit metrics for one view of the data (rows: see ``norms``).
+
+    ``error_terms`` limits the residual side to what the caller uses. ``e_rows`` must be a
+    temporary: the SSE squares it in place.
+    """
+    _, tss, constant = moments(meas_rows)
+    parts = {"tss": tss, "constant": constant}
+    if "ssc_e" in error_terms:
+        _, parts["ssc_e"], parts["e_constant"] = moments(e_rows)
+    if "sse" in error_terms:
+        parts["sse"] = sumsq(e_rows, overwrite=True)
+    return parts
 
 
 def _degenerate(values, constant, exact):
@@ -64,13 +70,14 @@ def variance_weighted(values: np.ndarray, parts: dict) -> float:
     return float(np.sum(weights * values[live]) / np.sum(weights))
 
 
-def _metric(meas, pred, multioutput, function, per_column):
+def _metric(meas, pred, multioutput, function, per_row):
     meas, pred = finite_pair(meas, pred)
     check_multioutput(multioutput, MULTIOUTPUT_OPTIONS, function)
+    terms = _ERROR_TERMS[function]
     if multioutput == "pooled":
-        return float(per_column(fit_parts(pooled(meas), pooled(pred)))[0])
-    parts = fit_parts(meas, pred)
-    values = per_column(parts)
+        return float(per_row(fit_parts(pooled(meas), pooled(meas - pred), terms))[0])
+    parts = fit_parts(joint_major(meas), joint_major(meas - pred), terms)
+    values = per_row(parts)
     if multioutput == "raw_values":
         return values
     if multioutput == "uniform_average":

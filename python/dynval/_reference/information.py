@@ -11,7 +11,7 @@ import numpy as np
 
 from .._validation import check_n_obs, check_n_params, check_noise_model, check_rss
 from ._common import finite_pair
-from .norms import colsum, pooled
+from .norms import joint_major, pooled, sumsq
 
 
 def assemble(fit_term: float, n_vec: int, n: int, p: int, size: float) -> dict:
@@ -41,15 +41,19 @@ def information_criteria(rss, n_obs, n_params) -> dict:
     return assemble(_n_log(n, variance), n, n, p, variance)
 
 
-def fit_term(e: np.ndarray, noise_model: str):
-    """(F, n, N_vec, S) of contract §3.7 for residuals ``e`` ``(N, m)``."""
+def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None):
+    """(F, n, N_vec, S) of contract §3.7 for residuals ``e`` ``(N, m)``.
+
+    ``sse``, the per-joint Σe² when the caller has it already, saves a pass over ``e``.
+    """
     n_samples, m = e.shape
     if noise_model == "pooled":
         n = n_samples * m
-        variance = colsum(pooled(e * e))[0] / n
+        total = float(np.sum(sse)) if sse is not None else sumsq(pooled(e))[0]
+        variance = total / n
         return _n_log(n, variance), n, n, variance
     if noise_model == "per_joint":
-        variances = colsum(e * e) / n_samples
+        variances = (sse if sse is not None else sumsq(joint_major(e))) / n_samples
         if np.any(variances == 0):
             return -math.inf, n_samples, n_samples, 0.0
         return n_samples * float(np.sum(np.log(variances))), n_samples, n_samples, float(np.prod(variances))

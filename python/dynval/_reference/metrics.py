@@ -1,6 +1,8 @@
 """compute_metrics: every point metric, residual statistic and criterion in one call.
 
-This is the reference for the C++ ``ValidationMetrics`` struct (one fused pass there).
+This is the reference for the C++ ``ValidationMetrics`` struct (one fused pass there). Here the
+residual and the target are each copied joint-major once and every per-joint sum is a row sum of
+those copies; the pooled sums use the free flat views.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from .._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
 from .fit import fit_parts, fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .information import assemble, fit_term
-from .norms import colmean, colsum, pooled
+from .norms import joint_major, moments, pooled, sumsq
 
 
 def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
@@ -29,13 +31,19 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
     noise_model = check_noise_model(noise_model)
 
     e = meas - pred
-    parts = fit_parts(meas, pred)
-    flat = fit_parts(pooled(meas), pooled(pred))
-    sse = parts["sse"]
-    sse_total = colsum(pooled(e * e))[0]
+    error = joint_major(e)
+    mean_e, ssc_e, e_constant = moments(error)
+    # max|e| from the extremes: two reads, no temporary |e|.
+    max_abs = np.maximum(np.abs(error.min(axis=1)), np.abs(error.max(axis=1)))
+    sse = sumsq(error)
+    _, tss, constant = moments(joint_major(meas))
+    parts = {"sse": sse, "tss": tss, "ssc_e": ssc_e, "constant": constant, "e_constant": e_constant}
+    sse_total = float(np.sum(sse))
+    flat = fit_parts(pooled(meas), pooled(e), error_terms=("ssc_e",))
+    flat["sse"] = np.array([sse_total])
     rmse = np.sqrt(sse / n)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
-    f, n_ic, n_vec, size = fit_term(e, noise_model)
+    f, n_ic, n_vec, size = fit_term(e, noise_model, sse)
 
     out = {
         "n_samples": int(n),
@@ -43,17 +51,17 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
         "n_params": p,
         "sse": sse,
         "rmse": rmse,
-        "max_abs_error": np.abs(e).max(axis=0),
+        "max_abs_error": max_abs,
         "vaf": vaf,
         "fit_percent": fit,
         "r2": r2,
-        "residual_mean": colmean(e),
+        "residual_mean": mean_e,
         "residual_variance": parts["ssc_e"] / (n - ddof),
-        "constant_target": parts["constant"].copy(),
-        "sse_total": float(sse_total),
+        "constant_target": constant.copy(),
+        "sse_total": sse_total,
         "rmse_per_element": math.sqrt(sse_total / (n * m)),
         "rmse_per_sample": math.sqrt(sse_total / n),
-        "max_abs_error_pooled": float(np.abs(e).max()),
+        "max_abs_error_pooled": float(max_abs.max()),
         "vaf_pooled": float(vaf_values(flat)[0]),
         "fit_percent_pooled": float(fit_values(flat)[0]),
         "r2_pooled": float(r2_values(flat)[0]),

@@ -10,8 +10,7 @@ import scipy.stats
 
 from .._validation import check_lags, check_model_df, check_test
 from ._common import check_starts, finite_residual, segment_limit
-from .correlation import biased_rho, product_counts
-from .norms import centred_and_ss
+from .correlation import biased_rho, centred_and_ss, product_counts
 
 # Below this survival probability, log(sf) loses digits in the subnormal range or underflows.
 _LOG_SF_SWITCH = 1e-280
@@ -70,7 +69,8 @@ def portmanteau(e, lags, model_df, starts, test) -> dict:
     test = check_test(test)
 
     h_max = int(lags.max())
-    rho = biased_rho(*centred_and_ss(e), h_max, starts)[1:]
+    d, ss, _ = centred_and_ss(e)
+    rho = biased_rho(d, ss, h_max, starts)[1:]
     if test == "ljung_box":
         terms = rho**2 / product_counts(starts, n, h_max)[1:, None]
         cumulative = n * (n + 2.0) * np.cumsum(terms, axis=0)

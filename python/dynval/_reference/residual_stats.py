@@ -6,17 +6,17 @@ import numpy as np
 
 from .._validation import check_ddof
 from ._common import finite_residual
-from .norms import centred_ss, colmean
+from .norms import joint_major, moments
 
 
 def residual_mean(e) -> np.ndarray:
     """Mean of each joint's residual, ``(m,)``."""
     e = finite_residual(e)
-    return colmean(e)
+    return moments(joint_major(e))[0]
 
 
 def residual_variance(e, ddof) -> np.ndarray:
     """Σ(e − ē_j)²/(N − ddof) per joint, ``(m,)`` (exactly 0 for a constant residual)."""
     e = finite_residual(e)
     ddof = check_ddof(ddof, e.shape[0])
-    return centred_ss(e) / (e.shape[0] - ddof)
+    return moments(joint_major(e))[1] / (e.shape[0] - ddof)
