@@ -60,7 +60,8 @@ public:
     lag_accumulator(Index n_joints, Index max_lag) : m_(n_joints), L_(max_lag) {
         if (n_joints < 1) throw invalid_shape("e must have at least one column, got " + std::to_string(n_joints));
         if (max_lag < 0)
-            detail::throw_parameter("max_lag", "an integer with max_lag >= 0", py_repr(static_cast<long long>(max_lag)));
+            detail::throw_parameter("max_lag", "an integer with max_lag >= 0",
+                                    py_repr(static_cast<long long>(max_lag)));
         const auto cells = static_cast<std::size_t>((L_ + 1) * m_);
         s_.assign(static_cast<std::size_t>(m_), {});
         p_.assign(cells, {});
@@ -117,6 +118,10 @@ public:
     /// a break lies between them).
     lag_accumulator& merge(const lag_accumulator& later) {
         eigen_assert(later.m_ == m_ && later.L_ == L_);
+        if (&later == this) {  // the rows twice: merge a copy, the loops below read `later`
+            const lag_accumulator copy = later;
+            return merge(copy);
+        }
         if (later.n_ == 0) {
             if (!later.start_open_) break_segment();
             return *this;

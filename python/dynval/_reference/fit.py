@@ -20,14 +20,15 @@ def fit_parts(meas_rows: np.ndarray, e_rows: np.ndarray, error_terms=("sse", "ss
     """Per-row ingredients of the fit metrics for one view of the data (rows: see ``norms``).
 
     ``error_terms`` limits the residual side to what the caller uses. ``e_rows`` must be a
-    temporary: the SSE squares it in place.
+    temporary of the same shape as ``meas_rows``: its last use squares it in place, and it then
+    holds the target's deviations.
     """
-    _, tss, constant = moments(meas_rows)
-    parts = {"tss": tss, "constant": constant}
-    if "ssc_e" in error_terms:
-        _, parts["ssc_e"], parts["e_constant"] = moments(e_rows)
+    parts = {}
     if "sse" in error_terms:
-        parts["sse"] = sumsq(e_rows, overwrite=True)
+        parts["sse"] = sumsq(e_rows, overwrite="ssc_e" not in error_terms)
+    if "ssc_e" in error_terms:
+        _, parts["ssc_e"], parts["e_constant"] = moments(e_rows, out=e_rows)
+    _, parts["tss"], parts["constant"] = moments(meas_rows, out=e_rows)
     return parts
 
 
@@ -76,7 +77,7 @@ def _metric(meas, pred, multioutput, function, per_row):
     terms = _ERROR_TERMS[function]
     if multioutput == "pooled":
         return float(per_row(fit_parts(pooled(meas), pooled(meas - pred), terms))[0])
-    parts = fit_parts(joint_major(meas), joint_major(meas - pred), terms)
+    parts = fit_parts(joint_major(meas), joint_major(meas, minus=pred), terms)
     values = per_row(parts)
     if multioutput == "raw_values":
         return values

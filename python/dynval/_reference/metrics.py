@@ -1,8 +1,8 @@
 """compute_metrics: every point metric, residual statistic and criterion in one call.
 
 This is the reference for the C++ ``ValidationMetrics`` struct (one fused pass there). Here the
-residual and the target are each copied joint-major once and every per-joint sum is a row sum of
-those copies; the pooled sums use the free flat views.
+residual and the target are each copied joint-major once, and every sum is a row sum of a copy
+(per joint) or of its flat view (pooled).
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import numpy as np
 
 from .._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
-from .fit import fit_parts, fit_values, r2_values, uniform_average, vaf_values, variance_weighted
+from .fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .information import assemble, fit_term
-from .norms import joint_major, moments, pooled, sumsq
+from .norms import joint_major, moments, pooled
 
 
 def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
@@ -30,20 +30,27 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
     ddof = check_ddof(ddof, n)
     noise_model = check_noise_model(noise_model)
 
-    e = meas - pred
-    error = joint_major(e)
+    # The residual first, so that its joint-major copy can then serve as scratch space for the
+    # target's deviations: at most two arrays of the data's size are alive at a time.
+    error = joint_major(meas, minus=pred)
     mean_e, ssc_e, e_constant = moments(error)
     # max|e| from the extremes: two reads, no temporary |e|.
     max_abs = np.maximum(np.abs(error.min(axis=1)), np.abs(error.max(axis=1)))
-    sse = sumsq(error)
-    _, tss, constant = moments(joint_major(meas))
-    parts = {"sse": sse, "tss": tss, "ssc_e": ssc_e, "constant": constant, "e_constant": e_constant}
+    # Σe² = Σ(e − ē)² + N·ē²: both terms are non-negative, so nothing cancels.
+    sse = ssc_e + n * mean_e * mean_e
     sse_total = float(np.sum(sse))
-    flat = fit_parts(pooled(meas), pooled(e), error_terms=("ssc_e",))
-    flat["sse"] = np.array([sse_total])
+    f, n_ic, n_vec, size = fit_term(error.T, noise_model, sse)
+    # Pooled sums do not depend on the order of the values: the flat view of the copy serves.
+    _, ssc_e_pooled, e_constant_pooled = moments(pooled(error), out=pooled(error))
+    target = joint_major(meas)
+    _, tss, constant = moments(target, out=error)
+    _, tss_pooled, constant_pooled = moments(pooled(target), out=pooled(error))
+
+    parts = {"sse": sse, "tss": tss, "ssc_e": ssc_e, "constant": constant, "e_constant": e_constant}
+    flat = {"sse": np.array([sse_total]), "tss": tss_pooled, "ssc_e": ssc_e_pooled,
+            "constant": constant_pooled, "e_constant": e_constant_pooled}
     rmse = np.sqrt(sse / n)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
-    f, n_ic, n_vec, size = fit_term(e, noise_model, sse)
 
     out = {
         "n_samples": int(n),

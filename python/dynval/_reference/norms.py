@@ -20,11 +20,26 @@ from ._common import finite_pair
 
 # Values compared before a full min/max scan: data that vary show it within the first few.
 _CONSTANT_PROBE = 64
+# Rows transposed at a time: a block of this many rows of (N, m) data stays in cache.
+_TRANSPOSE_BLOCK = 8192
 
 
-def joint_major(x: np.ndarray) -> np.ndarray:
-    """The ``(m, N)`` rows of an ``(N, m)`` array, one contiguous row per joint (one copy)."""
-    return np.ascontiguousarray(x.T)
+def joint_major(x: np.ndarray, minus: np.ndarray | None = None) -> np.ndarray:
+    """The ``(m, N)`` rows of an ``(N, m)`` array ``x`` (or of ``x − minus``), one contiguous row per joint.
+
+    The copy goes block by block: a whole-array strided copy would read the data from memory
+    once per joint. Without ``minus``, data that are already joint-major are returned as they are.
+    """
+    if minus is None and x.T.flags.c_contiguous:
+        return x.T
+    out = np.empty(x.shape[::-1])
+    for i in range(0, x.shape[0], _TRANSPOSE_BLOCK):
+        block = slice(i, i + _TRANSPOSE_BLOCK)
+        if minus is None:
+            out[:, block] = x[block].T
+        else:
+            np.subtract(x[block].T, minus[block].T, out=out[:, block])
+    return out
 
 
 def pooled(x: np.ndarray) -> np.ndarray:
@@ -59,8 +74,11 @@ def is_constant(rows: np.ndarray) -> np.ndarray:
     return constant
 
 
-def moments(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def moments(rows: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row: the mean, Σ(x − x̄)² and constancy, from two passes over the data.
+
+    ``out``, an array shaped like ``rows`` that the caller no longer needs (``rows`` itself
+    included), receives the deviations instead of a new temporary.
 
     With d = x − fl(x̄), the corrected two-pass algorithm gives the mean as fl(x̄) + Σd/n and the
     centred sum of squares as Σd² − (Σd)²/n. ``x − fl(x̄)`` is exact for data with an offset, but
@@ -69,13 +87,13 @@ def moments(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     mean may differ from its value by an ulp, so constancy is decided on min == max.
     """
     n = rows.shape[1]
+    constant = is_constant(rows)
     first = rowsum(rows) / n
-    d = rows - first[:, None]
+    d = np.subtract(rows, first[:, None], out=out)
     shift = rowsum(d)
     squares = sumsq(d, overwrite=True)
     # Σd² ≥ (Σd)²/n holds exactly; the clamp only absorbs rounding of near-equal terms.
     ss = np.maximum(squares - shift * shift / n, 0.0)
-    constant = is_constant(rows)
     ss[constant] = 0.0
     return first + shift / n, ss, constant
 
@@ -105,18 +123,18 @@ def sse(meas, pred, multioutput):
     check_multioutput(multioutput, ("pooled", "raw_values"), "sse")
     if multioutput == "pooled":
         return float(sumsq(pooled(meas - pred), overwrite=True)[0])
-    return sumsq(joint_major(meas - pred), overwrite=True)
+    return sumsq(joint_major(meas, minus=pred), overwrite=True)
 
 
 def max_abs_error(meas, pred, multioutput):
     """Largest absolute residual: pooled float or per-joint ``(m,)``."""
     meas, pred = finite_pair(meas, pred)
     check_multioutput(multioutput, ("pooled", "raw_values"), "max_abs_error")
-    e = meas - pred
     # max|e| from the extremes: two reads, no temporary |e|.
     if multioutput == "pooled":
+        e = meas - pred
         return float(max(abs(e.min()), abs(e.max())))
-    rows = joint_major(e)
+    rows = joint_major(meas, minus=pred)
     return np.maximum(np.abs(rows.min(axis=1)), np.abs(rows.max(axis=1)))
 
 
@@ -129,7 +147,7 @@ def rmse(meas, pred, multioutput, convention=""):
     if multioutput == "pooled":
         total = sumsq(pooled(meas - pred), overwrite=True)[0]
         return float(math.sqrt(total / n if convention == "per_sample" else total / (n * m)))
-    per_joint = np.sqrt(sumsq(joint_major(meas - pred), overwrite=True) / n)
+    per_joint = np.sqrt(sumsq(joint_major(meas, minus=pred), overwrite=True) / n)
     if multioutput == "raw_values":
         return per_joint
     return float(np.mean(per_joint))
