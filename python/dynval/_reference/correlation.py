@@ -55,11 +55,13 @@ def row_lagged_products(xr: np.ndarray, yr: np.ndarray, max_lag: int, starts: np
                 out[lag] += np.add.reduce(xs[:, lag:] * ys[:, : length - lag], axis=1)
         else:
             # A transform of length >= n + L keeps the circular wrap-around out of lags 0..L.
+            # One row at a time keeps the transforms' temporaries small.
             nfft = scipy.fft.next_fast_len(length + top, real=True)
-            fx = scipy.fft.rfft(xs, nfft, axis=1)
-            fy = fx if yr is xr else scipy.fft.rfft(ys, nfft, axis=1)
-            fx *= np.conj(fy)
-            out[: top + 1] += scipy.fft.irfft(fx, nfft, axis=1)[:, : top + 1].T
+            for j in range(m):
+                fx = scipy.fft.rfft(xs[j], nfft)
+                fy = fx if yr is xr else scipy.fft.rfft(ys[j], nfft)
+                fx *= np.conj(fy)
+                out[: top + 1, j] += scipy.fft.irfft(fx, nfft)[: top + 1]
     return out
 
 
