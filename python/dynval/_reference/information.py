@@ -41,15 +41,16 @@ def information_criteria(rss, n_obs, n_params) -> dict:
     return assemble(_n_log(n, variance), n, n, p, variance)
 
 
-def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None):
+def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None, overwrite: bool = False):
     """(F, n, N_vec, S) of contract §3.7 for residuals ``e`` ``(N, m)``.
 
-    ``sse``, the per-joint Σe² when the caller has it already, saves a pass over ``e``.
+    ``sse``, the per-joint Σe² when the caller has it already, saves a pass over ``e``;
+    ``overwrite=True`` lets the pooled model square a temporary ``e`` in place.
     """
     n_samples, m = e.shape
     if noise_model == "pooled":
         n = n_samples * m
-        total = float(np.sum(sse)) if sse is not None else sumsq(pooled(e))[0]
+        total = float(np.sum(sse)) if sse is not None else sumsq(pooled(e), overwrite=overwrite)[0]
         variance = total / n
         return _n_log(n, variance), n, n, variance
     if noise_model == "per_joint":
@@ -73,7 +74,7 @@ def criteria(meas, pred, n_params, noise_model) -> dict:
     meas, pred = finite_pair(meas, pred)
     p = check_n_params(n_params)
     noise_model = check_noise_model(noise_model)
-    f, n, n_vec, size = fit_term(meas - pred, noise_model)
+    f, n, n_vec, size = fit_term(meas - pred, noise_model, overwrite=True)
     out = assemble(f, n_vec, n, p, size)
     out["n_obs"] = int(n)
     out["fit_term"] = float(f)
