@@ -118,6 +118,23 @@ inline py::object metric_to_python(const metric_value& v) {
     return py::float_(v.value);
 }
 
+/// Binds `name(meas, pred, multioutput) -> float or (m,)`: every point metric has this shape.
+template <class F>
+void def_pair_metric(py::module_& m, const char* name, F f, const char* doc) {
+    m.def(
+        name,
+        [f](const RowRef& meas, const RowRef& pred, py::object multioutput) {
+            const auto how = option_param<dynval::multioutput>(multioutput);
+            metric_value v;
+            {
+                py::gil_scoped_release release;
+                v = f(meas, pred, how);
+            }
+            return metric_to_python(v);
+        },
+        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), doc);
+}
+
 inline py::array_t<bool> bool_array(const std::vector<bool>& flags) {
     py::array_t<bool> out(static_cast<py::ssize_t>(flags.size()));
     auto w = out.mutable_unchecked<1>();

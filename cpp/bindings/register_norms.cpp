@@ -11,30 +11,12 @@ void register_norms(py::module_& m) {
             return RowMatrix(dynval::residuals(meas, pred));
         },
         py::arg("meas"), py::arg("pred"), "e = meas - pred, shape (N, m).");
-    m.def(
-        "sse",
-        [](const RowRef& meas, const RowRef& pred, py::object multioutput) {
-            const auto how = option_param<dynval::multioutput>(multioutput);
-            metric_value v;
-            {
-                py::gil_scoped_release release;
-                v = dynval::sse(meas, pred, how);
-            }
-            return metric_to_python(v);
-        },
-        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), "Sum of squared errors: float or (m,).");
-    m.def(
-        "max_abs_error",
-        [](const RowRef& meas, const RowRef& pred, py::object multioutput) {
-            const auto how = option_param<dynval::multioutput>(multioutput);
-            metric_value v;
-            {
-                py::gil_scoped_release release;
-                v = dynval::max_abs_error(meas, pred, how);
-            }
-            return metric_to_python(v);
-        },
-        py::arg("meas"), py::arg("pred"), py::arg("multioutput"), "Maximum absolute error: float or (m,).");
+    def_pair_metric(
+        m, "sse", [](const RowRef& a, const RowRef& b, const param<multioutput>& h) { return dynval::sse(a, b, h); },
+        "Sum of squared errors: float or (m,).");
+    def_pair_metric(
+        m, "max_abs_error", [](const RowRef& a, const RowRef& b, const param<multioutput>& h) { return dynval::max_abs_error(a, b, h); },
+        "Maximum absolute error: float or (m,).");
     m.def(
         "rmse",
         [](const RowRef& meas, const RowRef& pred, py::object multioutput, py::object convention) {
