@@ -18,8 +18,14 @@ if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   fi
 fi
 
+# Install from a clean copy of the tree: a development build of dynval/_core*.so copied into
+# python/dynval (the fast C++ edit loop) would otherwise be swept into both wheels.
+src=$(mktemp -d)
+trap 'rm -rf "$src"' EXIT
+tar --exclude='./build' --exclude='./.git' --exclude='*.so' --exclude='__pycache__' -cf - . | tar -xf - -C "$src"
+
 step "pip install .[test]"
-"$PY" -m pip install --quiet --disable-pip-version-check ".[test]"
+"$PY" -m pip install --quiet --disable-pip-version-check "$src[test]"
 "$PY" -c "import dynval; print('dynval', dynval.__version__, dynval.backends())"
 
 step "C++ core: ctest"
@@ -33,7 +39,7 @@ bash cpp/examples/run_example.sh
 step "pure-Python build (-Cwheel.cmake=false)"
 venv=$(mktemp -d)/venv
 "$PY" -m venv --system-site-packages "$venv"
-"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -Cwheel.cmake=false .
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -Cwheel.cmake=false "$src"
 (cd "$venv" && "$venv/bin/python" -c "
 import dynval
 b = dynval.backends()
