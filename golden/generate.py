@@ -262,6 +262,18 @@ NOTES: dict[str, dict[str, Any]] = {
         "description": "A boolean or an integral float where an integer is required: InvalidParameter in the "
         "Python and C++ APIs. Ports whose language cannot tell them apart (MATLAB, Wolfram) may return the value.",
     },
+    "OutOfRange": {
+        "bugType": "INVALID_INPUT",
+        "description": "A finite data value with |x| > 1e144 (contract §1.2): NonFiniteInput, like NaN and ±inf, "
+        "and deleted by nan_policy omit. |x| = 1e144 itself is accepted.",
+        "effect": "Without the bound, sums of squares overflow and implementations disagree (inf in one, nan in "
+        "another): a silently wrong number.",
+    },
+    "Int64Parameter": {
+        "bugType": "INVALID_INPUT",
+        "description": "An integer parameter that does not fit in a signed 64-bit integer: InvalidParameter, so "
+        "that every language accepts exactly the same values.",
+    },
 }
 
 # ---------------------------------------------------------------------------------------------
@@ -1744,6 +1756,31 @@ def build_errors() -> Family:
         "NonFiniteInput")
     err("sse", {"multioutput": "pooled", "nan_policy": "raise"}, "null tau_pred and N = 0: type first",
         ["CheckOrder", "InvalidType"], {"tau_meas": arr([], [0, 1]), "tau_pred": None}, "InvalidType")
+    # Out-of-range values (|x| > 1e144) and integers beyond int64; appended last so tcIds stay stable.
+    huge_pred = mat([[1.0, 2.0], [2.0, -3e200], [0.5, 3.0]])
+    for op in ("r2", "sse", "residuals", "vaf"):
+        conv = pooled if op != "residuals" else {"nan_policy": "raise"}
+        err(op, conv, "-3e200 in tau_pred (|x| > 1e144)", ["NonFiniteInput", "OutOfRange"],
+            {"tau_meas": good, "tau_pred": huge_pred}, "NonFiniteInput")
+    err("r2", pooled, "1e145 in tau_meas", ["NonFiniteInput", "OutOfRange"],
+        {"tau_meas": mat([[1.0, 2.0], [1e145, 1.0], [0.5, 3.0]]), "tau_pred": good2}, "NonFiniteInput")
+    err("autocorrelation", aconv, "1e150 in e", ["NonFiniteInput", "OutOfRange"],
+        {"e": arr([1.0, 1e150, 2.0, 0.0], [4, 1]), "max_lag": 1}, "NonFiniteInput")
+    err("cross_correlation", xconv, "-1e300 in the regressor", ["NonFiniteInput", "OutOfRange"],
+        {"e": e_good, "regressor": arr([1.0, 2.0] * 9 + [-1e300, 1.0], [5, 2, 2]), "max_lag": 1}, "NonFiniteInput")
+    err("r2", {"multioutput": "bogus", "nan_policy": "raise"}, "1e200 and unknown multioutput: finiteness first",
+        ["CheckOrder", "NonFiniteInput", "OutOfRange"], {"tau_meas": good, "tau_pred": huge_pred}, "NonFiniteInput")
+    err("r2", {"multioutput": "pooled", "nan_policy": "omit"}, "nan_policy omit deletes the 1e200 row and the NaN "
+        "row, leaving one (minimum 2)", ["TooFewSamples", "NanOmit", "OutOfRange"],
+        {"tau_meas": mat([[1.0], [NAN_F], [3.0]]), "tau_pred": mat([[1.0], [2.0], [1e200]])}, "TooFewSamples")
+    bound = float("1e144")
+    sse_bound = 2 * mpf(bound) ** 2
+    fam.add("sse", pooled, "|x| = 1e144 exactly is in range: SSE = 2·(1e144)²", ["OutOfRange"],
+            {"tau_meas": mat([[bound], [-bound], [0.0]]), "tau_pred": mat([[0.0], [0.0], [0.0]])},
+            {"value": num(sse_bound)}, {"value": num(RTOL * sse_bound)})
+    for value in (2**63, -(2**63) - 1):
+        err("aic", cconv, f"n_params = {value} does not fit in int64", ["InvalidParameter", "Int64Parameter"],
+            {"tau_meas": good, "tau_pred": good2, "n_params": value}, "InvalidParameter")
     return fam
 
 

@@ -207,3 +207,17 @@ def test_full_noise_model_numerically_singular_covariance_agrees_across_backends
     crit = dynval.criteria(meas, meas - e, n_params=3, noise_model="full", backend=backend)
     sigma = e.T @ e / 400
     assert crit.aic == pytest.approx(400 * np.linalg.slogdet(sigma)[1] + 6, rel=1e-12)
+
+
+@pytest.mark.parametrize("noise_model", ["full", "per_joint"])
+def test_fpe_is_inf_when_the_noise_size_overflows(backend, noise_model):
+    # In-range data (|x| <= 1e144) whose det Σ̂ or Π SSE_j/N exceeds float64: the criteria stay
+    # finite (they use logarithms) and fpe is +inf, not an exception (python) or nan.
+    rng = np.random.default_rng(0)
+    meas = rng.normal(size=(20, 2)) * 1e140
+    crit = dynval.criteria(meas, 0.5 * meas, n_params=1, noise_model=noise_model, backend=backend)
+    assert crit.fpe == np.inf
+    e = 0.5 * meas
+    sigma = e.T @ e / 20
+    expected_f = 20 * (np.linalg.slogdet(sigma)[1] if noise_model == "full" else np.sum(np.log(np.diag(sigma))))
+    assert crit.aic == pytest.approx(expected_f + 2, rel=1e-12)

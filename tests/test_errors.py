@@ -432,3 +432,70 @@ def test_kernels_check_finiteness_then_parameters(backend):
     assert kernel.first_nonfinite(pred) is None
     row, col, value = kernel.first_nonfinite(meas)
     assert (row, col) == (9, 0) and np.isnan(value)
+
+
+# --------------------------------------------------------------------------- out-of-range values (contract §1.2)
+
+OUT_OF_RANGE_CALLS = {
+    "r2": lambda a, b, be: dynval.r2(a, b, backend=be),
+    "sse": lambda a, b, be: dynval.sse(a, b, backend=be),
+    "residuals": lambda a, b, be: dynval.residuals(a, b, backend=be),
+    "criteria": lambda a, b, be: dynval.criteria(a, b, n_params=1, backend=be),
+    "validate": lambda a, b, be: dynval.validate(a, b, n_params=1, max_lag=2, backend=be),
+}
+
+
+@pytest.mark.parametrize("function", sorted(OUT_OF_RANGE_CALLS))
+@pytest.mark.parametrize("where", ["tau_meas", "tau_pred"])
+def test_values_beyond_the_magnitude_bound_are_rejected_like_non_finite_ones(backend, function, where):
+    # Squares of such values overflow: one implementation would give inf, another nan. Both
+    # backends reject them with the same message, at the first bad index; a NaN later in the
+    # array does not take precedence.
+    meas = np.linspace(1.0, 2.0, 40).reshape(20, 2)
+    pred = meas + 0.25
+    target = meas if where == "tau_meas" else pred
+    target[5, 1] = -3e200
+    target[9, 0] = np.nan
+    message = rf"^{where} has a value out of range \(-3e\+200\) at row 5, column 1: \|x\| must be at most 1e\+144$"
+    with pytest.raises(dynval.NonFiniteInput, match=message):
+        OUT_OF_RANGE_CALLS[function](meas, pred, backend)
+
+
+def test_the_magnitude_bound_itself_is_accepted_and_just_above_it_is_not(backend):
+    meas = np.array([[1e144], [-1e144], [0.0]])
+    assert dynval.sse(meas, np.zeros_like(meas), backend=backend) == 2e288
+    meas[2, 0] = np.nextafter(1e144, np.inf)
+    with pytest.raises(dynval.NonFiniteInput, match="out of range"):
+        dynval.sse(meas, np.zeros_like(meas), backend=backend)
+
+
+def test_residual_functions_and_the_regressor_apply_the_bound(backend):
+    e = np.sin(np.arange(30.0)).reshape(15, 2)
+    e[3, 0] = 1e150
+    with pytest.raises(dynval.NonFiniteInput, match=r"^e has a value out of range \(1e\+150\) at row 3, column 0"):
+        dynval.autocorrelation(e, 2, backend=backend)
+    with pytest.raises(dynval.NonFiniteInput, match=r"^e has a value out of range"):
+        dynval.ljung_box(e, 2, backend=backend)
+    e[3, 0] = 0.5
+    y = np.cos(np.arange(90.0)).reshape(15, 2, 3)
+    y[4, 1, 2] = -1e300
+    with pytest.raises(dynval.NonFiniteInput,
+                       match=r"^regressor has a value out of range \(-1e\+300\) at sample 4, joint 1, column 2: "):
+        dynval.cross_correlation(e, y, 2, backend=backend)
+
+
+def test_omit_deletes_rows_with_out_of_range_values(backend):
+    meas = np.linspace(1.0, 3.0, 40).reshape(20, 2)
+    pred = meas + np.sin(np.arange(40.0)).reshape(20, 2) * 0.1
+    huge = pred.copy()
+    huge[7, 0] = 1e200
+    kept = np.delete(np.arange(20), 7)
+    assert dynval.r2(meas, huge, nan_policy="omit", backend=backend) == pytest.approx(
+        dynval.r2(meas[kept], pred[kept], backend=backend), rel=1e-15)
+
+
+@pytest.mark.parametrize("value", [2**63, -(2**63) - 1, 10**20])
+def test_integer_parameters_must_fit_in_int64_in_every_backend(backend, value):
+    meas = np.linspace(1.0, 2.0, 20)
+    with pytest.raises(dynval.InvalidParameter, match=rf"^n_params must be an integer with n_params >= 0, got {value}$"):
+        dynval.criteria(meas, meas + 0.1, n_params=value, backend=backend)

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._validation import is_integer, parameter_error
+from ._validation import in_range, is_integer, parameter_error
 
 
 def parse_segments(segments, n: int) -> np.ndarray:
@@ -109,7 +109,7 @@ def omit_nonfinite(arrays: Sequence[np.ndarray], starts: np.ndarray):
     n = arrays[0].shape[0]
     keep = np.ones(n, dtype=bool)
     for a in arrays:
-        keep &= np.isfinite(a).all(axis=1)
+        keep &= in_range(a).all(axis=1)  # non-finite or out of range (contract §1.2)
     omitted = int(n - keep.sum())
     if omitted == 0:
         return [a for a in arrays], np.asarray(starts, dtype=np.int64), 0

@@ -22,6 +22,10 @@ from ._errors import (
     TooFewSamples,
 )
 
+# Largest accepted |value| in the data (contract §1.2): beyond it float64 sums of squares can
+# overflow, and implementations would disagree (inf in one, nan in another).
+MAX_MAGNITUDE = 1e144
+
 MULTIOUTPUT_OPTIONS = ("pooled", "raw_values", "uniform_average", "variance_weighted")
 CONVENTION_OPTIONS = ("per_element", "per_sample")
 BAND_OPTIONS = ("white", "bartlett")
@@ -172,18 +176,27 @@ def check_min_samples(function: str, n: int, minimum: int | None = None) -> None
 # --------------------------------------------------------------------------- finiteness
 
 
+def in_range(a) -> np.ndarray:
+    """Elementwise: finite and |x| <= MAX_MAGNITUDE (False for NaN and ±inf)."""
+    return np.abs(a) <= MAX_MAGNITUDE
+
+
 def first_nonfinite(a: np.ndarray):
-    """Return ``(row, col, value)`` of the first non-finite value in row-major order, or None."""
+    """Return ``(row, col, value)`` of the first value that is not :func:`in_range`, or None.
+
+    Row-major order (the contract's "first bad index"): NaN, ±inf, or |x| > MAX_MAGNITUDE.
+    """
     a = np.asarray(a, dtype=np.float64)
     if a.ndim == 1:
         a = a.reshape(-1, 1)
-    # The sum is finite only if every value is (inf + x = inf, inf − inf = nan), and it reads the
-    # data once without a temporary. A non-finite sum can also be the overflow of large finite
-    # values: then the elementwise scan below finds nothing.
-    with np.errstate(over="ignore", invalid="ignore"):
-        if np.isfinite(np.add.reduce(a, axis=None)):
-            return None
-    bad = ~np.isfinite(a)
+    if a.size == 0:
+        return None
+    # min and max read the data without a temporary and propagate NaN, so the elementwise scan
+    # below runs only for data that holds a bad value.
+    low, high = np.min(a), np.max(a)
+    if low >= -MAX_MAGNITUDE and high <= MAX_MAGNITUDE:
+        return None
+    bad = ~in_range(a)
     if not bad.any():
         return None
     flat = int(np.flatnonzero(bad.ravel(order="C"))[0])
@@ -197,11 +210,14 @@ def nonfinite_error(name: str, row: int, col: int, value: float, n_columns: int 
     With ``n_columns`` (a regressor viewed as ``(N, m*p)``), the location is written as
     sample, joint and column.
     """
-    text = format_nonfinite(value)
     if n_columns:
         joint, column = divmod(col, n_columns)
-        return NonFiniteInput(f"{name} has a non-finite value ({text}) at sample {row}, joint {joint}, column {column}")
-    return NonFiniteInput(f"{name} has a non-finite value ({text}) at row {row}, column {col}")
+        where = f"at sample {row}, joint {joint}, column {column}"
+    else:
+        where = f"at row {row}, column {col}"
+    if math.isfinite(value):
+        return NonFiniteInput(f"{name} has a value out of range ({value!r}) {where}: |x| must be at most 1e+144")
+    return NonFiniteInput(f"{name} has a non-finite value ({format_nonfinite(value)}) {where}")
 
 
 def check_finite(a: np.ndarray, name: str, n_columns: int | None = None) -> None:
@@ -215,8 +231,12 @@ def check_finite(a: np.ndarray, name: str, n_columns: int | None = None) -> None
 
 
 def is_integer(value) -> bool:
-    """True for Python and numpy integers, False for bool and for floats (even integral ones)."""
-    return isinstance(value, (numbers.Integral, np.integer)) and not isinstance(value, (bool, np.bool_))
+    """True for Python and numpy integers that fit in int64; False for bool and floats (even integral).
+
+    The int64 bound is the contract's, so that every language can hold every accepted value.
+    """
+    return (isinstance(value, (numbers.Integral, np.integer)) and not isinstance(value, (bool, np.bool_))
+            and -(2**63) <= int(value) < 2**63)
 
 
 def is_real_number(value) -> bool:

@@ -49,7 +49,7 @@
 
 namespace dynval {
 
-/// First NaN or ±inf of an array, in row-major order.
+/// First NaN, ±inf or out-of-range value (|x| > max_magnitude) of an array, in row-major order.
 struct nonfinite_entry {
     Index row = 0;
     Index col = 0;
@@ -111,7 +111,7 @@ std::optional<nonfinite_entry> scan_nonfinite(const Eigen::MatrixBase<D>& a, Ind
     for (Index i = begin; i < begin + count; ++i)
         for (Index j = 0; j < a.cols(); ++j) {
             const double v = a.coeff(i, j);
-            if (!std::isfinite(v)) return nonfinite_entry{i, j, v};
+            if (!in_range(v)) return nonfinite_entry{i, j, v};
         }
     return std::nullopt;
 }
@@ -125,8 +125,9 @@ std::optional<nonfinite_entry> first_nonfinite(const Eigen::MatrixBase<D>& a) {
     for (Index start = 0; start < a.rows(); start += block) {
         const Index nb = std::min(block, a.rows() - start);
         // A block sum is finite whenever every entry is (barring overflow, which only costs a
-        // scan that then finds nothing).
-        if (!std::isfinite(a.middleRows(start, nb).sum())) {
+        // scan that then finds nothing); the largest magnitude catches values out of range.
+        const auto rows = a.middleRows(start, nb);
+        if (!std::isfinite(rows.sum()) || !(rows.cwiseAbs().maxCoeff() <= detail::max_magnitude)) {
             if (auto hit = detail::scan_nonfinite(a, start, nb)) return hit;
         }
     }
@@ -309,6 +310,12 @@ public:
     }
 
 private:
+    /// max(|tau|, |e|) of a block is at most max_magnitude / 2 (false with NaN or ±inf).
+    static bool block_in_half_range(double tau_lo, double tau_hi, double e_lo, double e_hi) noexcept {
+        constexpr double half = 0.5 * detail::max_magnitude;
+        return -tau_lo <= half && tau_hi <= half && -e_lo <= half && e_hi <= half;
+    }
+
     template <class D>
     static constexpr bool row_major_direct() {
         return (int(D::Flags) & Eigen::DirectAccessBit) && (int(D::Flags) & Eigen::RowMajorBit);
@@ -407,6 +414,11 @@ private:
                 const double a1 = s1t[j] + s1t[h], a2 = s2t[j] + s2t[h];
                 const double b1 = s1e[j] + s1e[h], b2 = s2e[j] + s2e[h];
                 if (!std::isfinite(a1) || !std::isfinite(b1) || !std::isfinite(a2) || !std::isfinite(b2))
+                    finite = false;
+                // Out-of-range inputs: |tau| > L or |pred| > L implies max(|tau|, |e|) > L/2, so this
+                // cheap test on the block's extremes sends every such block to the exact scan.
+                if (!block_in_half_range(mnt[j], mxt[j], mne[j], mxe[j]) ||
+                    (pairs > 0 && !block_in_half_range(mnt[h], mxt[h], mne[h], mxe[h])))
                     finite = false;
                 // NaN compares false, so min/max above skip it; the finiteness scan catches it.
                 tau_min_(j) = std::min({tau_min_(j), mnt[j], mnt[h]});
@@ -528,10 +540,12 @@ private:
             // Extremes and Σe² on the data as given (exact constancy tests, unshifted SSE).
             sse_[k].add(ej.square().sum());
             max_abs_e_(j) = std::max(max_abs_e_(j), ej.abs().maxCoeff());
-            tau_min_(j) = std::min(tau_min_(j), tj.minCoeff());
-            tau_max_(j) = std::max(tau_max_(j), tj.maxCoeff());
-            e_min_(j) = std::min(e_min_(j), ej.minCoeff());
-            e_max_(j) = std::max(e_max_(j), ej.maxCoeff());
+            const double tlo = tj.minCoeff(), thi = tj.maxCoeff(), elo = ej.minCoeff(), ehi = ej.maxCoeff();
+            tau_min_(j) = std::min(tau_min_(j), tlo);
+            tau_max_(j) = std::max(tau_max_(j), thi);
+            e_min_(j) = std::min(e_min_(j), elo);
+            e_max_(j) = std::max(e_max_(j), ehi);
+            if (!block_in_half_range(tlo, thi, elo, ehi)) finite = false;  // see add_contiguous
             tj -= tau_shift_(j);
             ej -= e_shift_(j);
             const double st = tj.sum();

@@ -266,16 +266,30 @@ inline void check_min_samples(Index n, Index minimum, const std::string& functio
                               std::to_string(n));
 }
 
+/// Largest accepted |value| in the data (contract §1.2): beyond it float64 sums of squares can
+/// overflow, and an overflowed sum is inf in one implementation and nan in another.
+constexpr double max_magnitude = 1e144;
+
+/// Finite and |v| <= max_magnitude (false for NaN and ±inf).
+inline bool in_range(double v) noexcept { return std::fabs(v) <= max_magnitude; }
+
+/// NonFiniteInput for a bad value at `where`: non-finite, or finite but out of range.
+[[noreturn]] inline void throw_bad_value(const std::string& name, double value, const std::string& where) {
+    if (std::isfinite(value))
+        throw non_finite_input(name + " has a value out of range (" + py_repr(value) + ") " + where +
+                               ": |x| must be at most 1e+144");
+    throw non_finite_input(name + " has a non-finite value (" + nonfinite_text(value) + ") " + where);
+}
+
 [[noreturn]] inline void throw_nonfinite(const std::string& name, Index row, Index col, double value) {
-    throw non_finite_input(name + " has a non-finite value (" + nonfinite_text(value) + ") at row " +
-                           std::to_string(row) + ", column " + std::to_string(col));
+    throw_bad_value(name, value, "at row " + std::to_string(row) + ", column " + std::to_string(col));
 }
 
 /// Regressor viewed as (N, m*p): column q is joint q / p, column q % p.
 [[noreturn]] inline void throw_nonfinite_regressor(Index sample, Index q, Index n_columns, double value) {
-    throw non_finite_input("regressor has a non-finite value (" + nonfinite_text(value) + ") at sample " +
-                           std::to_string(sample) + ", joint " + std::to_string(q / n_columns) + ", column " +
-                           std::to_string(q % n_columns));
+    throw_bad_value("regressor", value,
+                    "at sample " + std::to_string(sample) + ", joint " + std::to_string(q / n_columns) +
+                        ", column " + std::to_string(q % n_columns));
 }
 
 }  // namespace detail

@@ -363,8 +363,10 @@ private:
                 h_[idx(l, j)].add(run);
             }
             const auto x = raw_.col(j).segment(t, nb).array();
-            min_(j) = std::min(min_(j), x.minCoeff());
-            max_(j) = std::max(max_(j), x.maxCoeff());
+            const double lo = x.minCoeff(), hi = x.maxCoeff();
+            min_(j) = std::min(min_(j), lo);
+            max_(j) = std::max(max_(j), hi);
+            if (!(-lo <= detail::max_magnitude && hi <= detail::max_magnitude)) finite = false;  // out of range
         }
         for (Index l = 0; l <= L_; ++l)
             nprod_[static_cast<std::size_t>(l)] += std::max<Index>(0, p0 + nb - std::max(p0, l));

@@ -177,10 +177,8 @@ Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> residuals
                              "tau_pred");
     detail::check_min_samples(tau_meas.rows(), 1, "residuals");
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> e = tau_meas - tau_pred;
-    if (!std::isfinite(e.sum())) {
-        if (auto hit = first_nonfinite(tau_meas)) detail::throw_nonfinite("tau_meas", hit->row, hit->col, hit->value);
-        if (auto hit = first_nonfinite(tau_pred)) detail::throw_nonfinite("tau_pred", hit->row, hit->col, hit->value);
-    }
+    if (auto hit = first_nonfinite(tau_meas)) detail::throw_nonfinite("tau_meas", hit->row, hit->col, hit->value);
+    if (auto hit = first_nonfinite(tau_pred)) detail::throw_nonfinite("tau_pred", hit->row, hit->col, hit->value);
     return e;
 }
 

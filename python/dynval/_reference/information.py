@@ -57,7 +57,8 @@ def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None, ove
         variances = (sse if sse is not None else sumsq(joint_major(e))) / n_samples
         if np.any(variances == 0):
             return -math.inf, n_samples, n_samples, 0.0
-        return n_samples * float(np.sum(np.log(variances))), n_samples, n_samples, float(np.prod(variances))
+        log_size = float(np.sum(np.log(variances)))
+        return n_samples * log_size, n_samples, n_samples, _exp(log_size)
     sigma = (e.T @ e) / n_samples  # not demeaned (MATLAB's multi-output convention)
     # Eigenvalues with numpy's matrix_rank tolerance decide singularity, so that both backends call
     # the same near-singular covariance singular (an LU or LDLT pivot test rounds differently).
@@ -66,7 +67,15 @@ def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None, ove
     if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
         return -math.inf, n_samples, n_samples, 0.0
     logdet = math.fsum(np.log(eigenvalues))
-    return n_samples * logdet, n_samples, n_samples, float(math.exp(logdet))
+    return n_samples * logdet, n_samples, n_samples, _exp(logdet)
+
+
+def _exp(x: float) -> float:
+    """e**x, +inf where it overflows (det Σ̂ of large in-range data): IEEE, as the C++ core gives."""
+    try:
+        return math.exp(x)
+    except OverflowError:
+        return math.inf
 
 
 def criteria(meas, pred, n_params, noise_model) -> dict:
