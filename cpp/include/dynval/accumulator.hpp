@@ -389,23 +389,9 @@ private:
                 mxt[l] = mxe[l] = -inf;
             }
             lane_kernel(tb, pb, pairs, lanes, s1t, s2t, s1e, s2e, sq, mnt, mxt, mne, mxe, kt, ke);
-            if (nb % 2) {  // the last row of an odd block goes to lanes 0..m-1
-                const double* tc = tb + pairs * lanes;
-                const double* pc = pb + pairs * lanes;
-                for (Index l = 0; l < m; ++l) {
-                    const double x = tc[l], e = x - pc[l];
-                    const double dt = x - kt[l], de = e - ke[l];
-                    s1t[l] += dt;
-                    s2t[l] += dt * dt;
-                    s1e[l] += de;
-                    s2e[l] += de * de;
-                    sq[l] += e * e;
-                    mnt[l] = std::min(mnt[l], x);
-                    mxt[l] = std::max(mxt[l], x);
-                    mne[l] = std::min(mne[l], e);
-                    mxe[l] = std::max(mxe[l], e);
-                }
-            }
+            if (nb % 2)  // the last row of an odd block: one row of lanes 0..m-1
+                lane_kernel(tb + pairs * lanes, pb + pairs * lanes, 1, m, s1t, s2t, s1e, s2e, sq, mnt, mxt, mne, mxe,
+                            kt, ke);
             const double nbd = static_cast<double>(nb);
             bool finite = true;
             for (Index j = 0; j < m; ++j) {
