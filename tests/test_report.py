@@ -18,7 +18,8 @@ MEAS = np.array([[10.0, 1.0], [20.0, 2.0], [30.0, 1.0], [40.0, 2.0]])
 PRED = np.array([[11.0, 2.0], [19.0, 1.0], [31.0, 2.0], [39.0, 1.0]])
 
 SECTIONS = {"provenance", "per_joint", "pooled", "aggregates", "residuals", "autocorrelation",
-            "ljung_box", "cross_correlation", "information_criteria", "warnings_text"}
+            "ljung_box", "cross_correlation", "information_criteria", "warnings_text",
+            "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics"}
 
 
 def _signals(n=400, seed=0, scales=(20.0, 2.0, 0.5)):
@@ -51,7 +52,8 @@ def test_sections_and_provenance(backend):
     assert {"rmse_per_element", "rmse_per_sample"} <= set(d["pooled"])
     assert set(d["per_joint"]) >= {"sse", "rmse", "max_abs_error", "vaf", "fit_percent", "r2"}
     assert set(d["information_criteria"]) == {"noise_model", "constant", "n_obs", "n_params", "aic",
-                                              "bic", "aicc", "fpe", "naic"}
+                                              "bic", "aicc", "fpe", "naic", "n_eff", "aic_neff",
+                                              "bic_neff", "aicc_neff"}
     assert d["cross_correlation"] is None
     json.dumps(d, allow_nan=False)
 
@@ -76,8 +78,11 @@ def test_summary_leads_with_joints_and_flags_hidden_negative_r2():
     r = dynval.validate(MEAS, PRED, n_params=1, max_lag=1)
     text = r.summary()
     assert text.index("Per joint") < text.index("Pooled")
-    hidden = [w for w in r.warnings_text if "Joint 2 does worse than a constant" in w]
+    hidden = [w for w in r.warnings_text if "joint 2 does worse than a constant" in w]
     assert hidden and "pooled R² is 0.995" in hidden[0]
+    worse = [f for f in r.findings if f.kind == "worse_than_constant"]
+    assert [(f.joints, f.severity) for f in worse] == [((1,), "deficiency")]
+    assert worse[0].effect == pytest.approx(3.0)
     assert hidden[0] in text
     assert str(r) == text
 
@@ -154,9 +159,11 @@ def test_ljung_box_section_matches_statsmodels(backend):
 def test_max_lag_zero_skips_the_lag_analysis(backend):
     tau, pred = _signals()
     Y = np.random.default_rng(1).normal(size=(400, 3, 2))
-    r = dynval.validate(tau, pred, n_params=2, max_lag=0, regressor=Y, backend=backend)
+    r = dynval.validate(tau, pred, n_params=2, max_lag=0, regressor=Y, backend=backend,
+                        cross_correlation_detail="full")
     assert r.autocorrelation is None and r.ljung_box is None
     assert r.cross_correlation["rho"].shape == (3, 2, 1)
+    assert r.bias is None and r.whiteness is None and r.spectrum is None
     assert "not analysed" in r.summary()
     assert r.provenance["conventions"]["ljung_box_lags"] == []
 
@@ -203,7 +210,8 @@ def test_cross_correlation_ranks_the_missing_column(backend):
     pred = tau.copy()
     pred[:, 1] -= 0.8 * Y[:, 1, 2] + rng.normal(0.0, 0.3, n)
     pred[:, 0] -= rng.normal(0.0, 0.3, n)
-    r = dynval.validate(tau, pred, n_params=3, regressor=Y, max_lag=5, backend=backend)
+    r = dynval.validate(tau, pred, n_params=3, regressor=Y, max_lag=5, backend=backend,
+                        cross_correlation_detail="full")
     xc = r.cross_correlation
     assert xc["rho"].shape == (2, 3, 6) and xc["constant_mask"].shape == (2, 3)
     assert xc["band"] == pytest.approx(1.959963984540054 / math.sqrt(n), rel=1e-14)
@@ -213,18 +221,22 @@ def test_cross_correlation_ranks_the_missing_column(backend):
     assert rho == pytest.approx(np.corrcoef(e, Y[:, 1, 2])[0, 1], rel=1e-10)
     ratios = [o[4] for o in xc["outside"]]
     assert ratios == sorted(ratios, reverse=True)
-    assert any("joint 2 × column 3" in w for w in r.warnings_text)
+    found = [f for f in r.deficiencies if f.kind == "regressor_correlation"]
+    assert [(f.joints, f.columns[0]) for f in found] == [((1,), 2)]
+    assert "column 3 (lag 0" in found[0].message
     # stacked (N*m, p) with n_joints gives the same section
     r2 = dynval.validate(tau, pred, n_params=3, regressor=Y.reshape(n * 2, 3), n_joints=2, max_lag=5,
-                         backend=backend)
+                         backend=backend, cross_correlation_detail="full")
     assert r2.to_dict()["cross_correlation"] == r.to_dict()["cross_correlation"]
 
 
 def test_bias_is_reported_with_the_corrected_test(backend):
     tau, pred = _signals(n=1000)
     r = dynval.validate(tau, pred - np.array([0.0, 0.05, 0.0]), n_params=1, backend=backend)
-    assert any(w.startswith("Joint 2: the residual mean") and "significantly non-zero" in w
-               for w in r.warnings_text)
+    bias = [f for f in r.findings if f.kind == "bias"]
+    assert [(f.joints, f.severity) for f in bias] == [((1,), "deficiency")]
+    assert bias[0].effect == pytest.approx(abs(r.bias["mean"][1]) / r.per_joint["rmse"][1])
+    assert "a systematic bias" in bias[0].message
 
 
 # ---------------------------------------------------------------- degenerate input

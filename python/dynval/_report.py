@@ -14,19 +14,19 @@ import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
-import scipy.stats
 
+from . import _sections as sec
 from . import _validation as v
 from ._errors import InputError
+from ._findings import compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
-from ._summary import findings, format_summary
+from ._summary import format_summary
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
 REPORT_SCHEMA_VERSION = 1
 _CONTRACT_VERSION = "1.0"
-_LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
 
 
 # --------------------------------------------------------------------------- JSON
@@ -100,7 +100,20 @@ class ValidationReport:
         ``noise_model``, ``constant``, ``n_obs``, ``n_params``, ``aic``, ``bic``, ``aicc``,
         ``fpe``, ``naic``.
     warnings_text : list of str
-        The findings, in plain words.
+        The findings' messages, in plain words.
+    findings : list of Finding
+        The findings as records (kind, severity, joints, columns, statistic, p-values, effect,
+        threshold, action, message); deficiencies first (docs/conventions.md §7).
+    bias : dict or None
+        The residual mean tested against its coloured-noise standard error (automatic N_eff).
+    whiteness : dict or None
+        Ljung–Box at the logged rate and at the information rate (decimated), when lags are analysed.
+    spectrum : dict or None
+        Welch spectrum of the residual less what the regressor explains, and its peaks.
+    design : dict or None
+        Distance to the estimation run (``estimation=``) and excitation of the regressor.
+    segment_metrics : dict or None
+        Per-joint metrics of each named segment (``segments={"name": length, ...}``).
     """
 
     provenance: dict
@@ -113,6 +126,17 @@ class ValidationReport:
     cross_correlation: dict | None
     information_criteria: dict
     warnings_text: list = field(default_factory=list)
+    findings: list = field(default_factory=list)
+    bias: dict | None = None
+    whiteness: dict | None = None
+    spectrum: dict | None = None
+    design: dict | None = None
+    segment_metrics: dict | None = None
+
+    @property
+    def deficiencies(self) -> list:
+        """The findings that say the model should change."""
+        return [f for f in self.findings if f.severity == "deficiency"]
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary: nested lists, non-finite numbers as strings.
@@ -125,7 +149,9 @@ class ValidationReport:
         ['aggregates', 'autocorrelation', 'cross_correlation']
         >>> _ = json.dumps(r.to_dict(), allow_nan=False)
         """
-        return {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self)}
+        out = {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name != "findings"}
+        out["findings"] = [f.to_dict() for f in self.findings]
+        return out
 
     def to_json(self, *, indent: int | None = 2) -> str:
         """The report as strict JSON (no bare NaN/Infinity tokens)."""
@@ -142,7 +168,7 @@ class ValidationReport:
         p = self.provenance
         return (f"ValidationReport(profile={p['profile']!r}, n_samples={p['n_samples']}, "
                 f"n_joints={p['n_joints']}, n_params={p['n_params']}, "
-                f"findings={len(self.warnings_text)})")
+                f"findings={len(self.findings)}, deficiencies={len(self.deficiencies)})")
 
 
 # --------------------------------------------------------------------------- validate
@@ -154,18 +180,6 @@ def _backend_kernel(backend):
 
     name, kernel = resolve(backend)
     return kernel, name
-
-
-def _z(level: float) -> float:
-    return float(scipy.stats.norm.ppf(0.5 * (1.0 + level)))
-
-
-def _force_finite(values, constant):
-    """scikit-learn's force_finite: a constant target gives 1.0 if exact (nan) else 0.0 (−inf)."""
-    values = np.array(values, dtype=np.float64, copy=True)
-    constant = np.asarray(constant, dtype=bool)
-    values[constant] = np.where(np.isnan(values[constant]), 1.0, 0.0)
-    return values
 
 
 def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy):
@@ -213,59 +227,64 @@ def check_data_finite(meas, pred, reg2=None, p=None):
         v.check_finite(reg2, "regressor", n_columns=p)
 
 
+@dataclass
+class _Options:
+    """validate's parameters, checked and normalised."""
 
-def _iid_zero_mean_test(km, n, ddof):
-    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
-
-    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
-    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
-    """
-    mean = np.asarray(km["residual_mean"], dtype=np.float64)
-    variance = np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0))
-    std = np.sqrt(variance)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_iid = mean * math.sqrt(n) / std
-    return {
-        "mean": mean,
-        "std": std,
-        "n_samples": int(n),
-        "statistic_iid": t_iid,
-        "pvalue_iid": 2.0 * scipy.stats.t.sf(np.abs(t_iid), n - 1),
-        "df_iid": int(n - 1),
-        "statistic_eff": None,
-        "pvalue_eff": None,
-        "df_eff": None,
-        "n_eff": None,
-        "bandwidth": None,
-    }
+    n_params: int
+    max_lag: int
+    level: float
+    prof: Profile
+    starts: np.ndarray
+    longest: int
+    kernel: object
+    backend_name: str
+    noise_model: str
+    sample_rate: float | None
+    decimate: object
+    joint_names: list
+    column_names: list | None
+    q: np.ndarray | None
+    estimation: dict | None
+    thresholds: object
+    detail: str
 
 
-
-def _check_parameters(n_params, reg0, n_joints, n, m, profile, nan_policy, starts, segments,
-                      max_lag, level, backend):
-    """validate's parameters in the documented order; returns them normalised."""
-    n_params = v.check_n_params(n_params)
+def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
+    """validate's parameters in the documented order (contract §4)."""
+    n_params = v.check_n_params(a["n_params"])
     if reg0 is not None:
-        v.check_n_joints(n_joints, reg0.shape[0], m, reg0.ndim == 3)
-    elif n_joints is not None:
-        v.check_n_joints(n_joints, n * m, m, False)
-    prof: Profile = get_profile(profile)
-    v.check_nan_policy(nan_policy)
+        v.check_n_joints(a["n_joints"], reg0.shape[0], m, reg0.ndim == 3)
+    elif a["n_joints"] is not None:
+        v.check_n_joints(a["n_joints"], n * m, m, False)
+    prof: Profile = get_profile(a["profile"])
+    v.check_nan_policy(a["nan_policy"])
     if starts is None:
-        starts = parse_segments(segments, n)
+        starts = parse_segments(a["segments"], n)
     longest = longest_segment(starts, n)
-    if max_lag is None:
-        max_lag = prof.default_max_lag(n, longest)
-    else:
-        max_lag = v.check_max_lag(max_lag, longest)
-    level = prof.level if level is None else v.check_level(level)
-    kernel, backend_name = _backend_kernel(backend)
-    return n_params, max_lag, level, prof, starts, longest, kernel, backend_name
+    max_lag = prof.default_max_lag(n, longest) if a["max_lag"] is None else v.check_max_lag(a["max_lag"], longest)
+    level = prof.level if a["level"] is None else v.check_level(a["level"])
+    kernel, backend_name = _backend_kernel(a["backend"])
+    noise_model = prof.noise_model if a["noise_model"] is None else v.check_noise_model(a["noise_model"])
+    sample_rate = v.check_sample_rate(a["sample_rate"])
+    decimate = v.check_decimate(a["decimate"])
+    joint_names = v.check_names("joint_names", a["joint_names"], m, "joint") or [f"joint {j + 1}" for j in range(m)]
+    if a["column_names"] is not None and p_cols is None:
+        raise v.parameter_error("column_names", "None without a regressor", a["column_names"])
+    column_names = v.check_names("column_names", a["column_names"], p_cols or 0, "regressor column")
+    q = None if a["q"] is None else v.check_signal_like(a["q"], "q", meas_shape[0], m)
+    estimation = v.check_estimation(a["estimation"], m)
+    thresholds = resolve_thresholds(a["thresholds"])
+    detail = v.check_detail(a["cross_correlation_detail"])
+    return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
+                    sample_rate, decimate, joint_names, column_names, q, estimation, thresholds, detail)
 
 
 def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
-             level=None, profile="lesson", segments=None, nan_policy="raise", backend=None):
-    """Validate predicted joint torques against measured ones: every metric, one report.
+             level=None, profile="lesson", segments=None, nan_policy="raise", backend=None,
+             noise_model=None, sample_rate=None, decimate="auto", joint_names=None, column_names=None,
+             q=None, estimation=None, thresholds=None, cross_correlation_detail="top"):
+    """Validate predicted joint torques against measured ones: every metric, findings, one report.
 
     Parameters
     ----------
@@ -274,24 +293,46 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     n_params : int
         Number of identified parameters p (always given: there is no default).
     regressor : array_like, shape (N, m, p) or (N*m, p), optional
-        Regressor Y of the validation data; enables the residual/regressor cross-correlation.
-        The stacked 2-D form (row ``k*m + j`` = sample k, joint j) needs `n_joints`.
+        Regressor Y of the validation data; enables the residual/regressor cross-correlation and
+        the excitation diagnostics. Give the columns of every term you suspect (a superset of the
+        model's) to have a missing term named. The stacked 2-D form needs `n_joints`.
     n_joints : int, optional
         Number of joints m, for a stacked 2-D regressor.
     max_lag : int, optional
         Largest lag of the autocorrelation and cross-correlation; the profile's default
-        otherwise. ``0`` skips the lag analysis (``autocorrelation`` and ``ljung_box`` are None).
+        otherwise. ``0`` skips the lag analysis (and with it whiteness, bias and spectrum evidence).
     level : float, optional
-        Confidence level of the bands and of the findings' tests; the profile's otherwise.
+        Confidence level of the bands and of the findings (α = 1 − level over the whole report,
+        Holm-corrected); the profile's otherwise.
     profile : {"lesson", "matlab", "statsmodels", "sklearn"}
         Convention profile filling every default (see ``docs/conventions.md``).
-    segments : sequence of int, optional
+    segments : sequence of int, or mapping of name to length, optional
         Lengths (``[500, 300]``) or starts (``[0, 500]``) of independent records; no lagged
-        product crosses a boundary, means stay overall.
+        product crosses a boundary, means stay overall. Named lengths (``{"transient": 500,
+        "steady": 4500}``) also get their own per-segment metrics (``segment_metrics``).
     nan_policy : {"raise", "omit"}
         ``omit`` deletes rows with a non-finite value in any input and inserts a segment break.
     backend : {"python", "cpp"}, optional
         Computation backend; the package default otherwise.
+    noise_model : {"pooled", "per_joint", "full"}, optional
+        Noise model of the information criteria; the profile's otherwise.
+    sample_rate : float, optional
+        Samples per second; frequencies are then in Hz (else cycles per sample).
+    decimate : "auto", None or int
+        Whiteness is also tested at the rate that carries information: "auto" decimates so the
+        Nyquist frequency is twice the band holding 99 % of the measured torque's power
+        (anti-alias FIR, zero phase); an integer is the factor; None tests the logged rate only.
+    joint_names, column_names : sequence of str, optional
+        Names used in every table, finding and the JSON.
+    q : array_like, (N, m), optional
+        Joint positions of the validation run (for the repeat check).
+    estimation : mapping, optional
+        The estimation run: any of ``"q"`` (N_e, m), ``"regressor"`` (N_e, m, p) and ``"tau"``
+        (N_e, m); the report states how far the validation run is from it and warns on a repeat.
+    thresholds : mapping or Thresholds, optional
+        Practical effect sizes a deficiency must reach (see :class:`dynval.Thresholds`).
+    cross_correlation_detail : {"top", "full"}
+        "top" keeps the strongest cells per joint and column; "full" also the whole ρ array.
 
     Returns
     -------
@@ -301,16 +342,15 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     ------
     InvalidType, InvalidShape, ShapeMismatch, TooFewSamples, NonFiniteInput, InvalidParameter
         In that order of precedence (contract §2.1). Parameters are checked in the order
-        n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend.
+        n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
+        sample_rate, decimate, joint_names, column_names, q, estimation, thresholds,
+        cross_correlation_detail.
 
     Notes
     -----
     The point metrics, residual mean and variance and the information criteria come from one
-    fused kernel call. The cross-correlation band is z/√N; the autocorrelation band follows the
-    profile (white or Bartlett). Findings use α = 1 − level, Bonferroni-corrected over the
-    joints for per-joint tests (docs/conventions.md §5). With ``nan_policy="omit"`` the
-    segments are parsed (and may raise) before the other parameters, because omission refines
-    them.
+    fused kernel call. Findings are statistical detectors with a measured size and power
+    (``benchmarks/calibrate_findings.py``, docs/conventions.md §7).
 
     Examples
     --------
@@ -324,178 +364,110 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     >>> round(report.pooled["rmse_per_sample"] / report.pooled["rmse_per_element"], 6)
     1.414214
     """
+    seg_names, segments = v.named_segments(segments)
     meas, pred, reg2, p_cols, starts, omitted, reg0 = _prepare(
         tau_meas, tau_pred, regressor, n_joints, segments, nan_policy)
     n, m = meas.shape
-
-    # ---- parameters, in a fixed order; a non-finite value still wins over a bad parameter
+    args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
+                max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
+                decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+                estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail)
     try:
-        n_params, max_lag, level, prof, starts, longest, kernel, backend_name = _check_parameters(
-            n_params, reg0, n_joints, n, m, profile, nan_policy, starts, segments, max_lag, level,
-            backend)
+        o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
+            v.to_float_array(tau_meas, "tau_meas"), "tau_meas")))
     except InputError:
+        # A non-finite value still wins over a bad parameter (contract §2.1).
         check_data_finite(meas, pred, reg2, p_cols)
         raise
+    prof, kernel, starts = o.prof, o.kernel, o.starts
 
-    # ---- one fused pass for every point metric, residual statistic and criterion
-    km = kernel.compute_metrics(meas, pred, n_params, prof.ddof, prof.noise_model)
-    # Only the lag analysis needs the residual array: max_lag=0 without a regressor stays one pass.
-    lagged = max_lag > 0
+    km = kernel.compute_metrics(meas, pred, o.n_params, prof.ddof, o.noise_model)
+    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
+    lagged = o.max_lag > 0
     e = np.ascontiguousarray(meas - pred) if lagged or reg2 is not None else None
+    reg3 = None if reg2 is None else reg2.reshape(n, m, p_cols)
 
-    scale = 1.0 if prof.units == "percent" else 0.01
-    force = prof.constant_target == "force_finite"
-    constant = np.asarray(km["constant_target"], dtype=bool)
-
-    def per_joint_fit(name):
-        values = np.asarray(km[name], dtype=np.float64) * (scale if name != "r2" else 1.0)
-        return _force_finite(values, constant) if force else values
-
-    def pooled_fit(name):
-        value = float(km[f"{name}_pooled"]) * (scale if name != "r2" else 1.0)
-        if force and km["constant_target_pooled"]:
-            value = 1.0 if math.isnan(value) else 0.0
-        return value
-
-    per_joint = {
-        "sse": np.asarray(km["sse"], dtype=np.float64),
-        "rmse": np.asarray(km["rmse"], dtype=np.float64),
-        "max_abs_error": np.asarray(km["max_abs_error"], dtype=np.float64),
-        "vaf": per_joint_fit("vaf"),
-        "fit_percent": per_joint_fit("fit_percent"),
-        "r2": per_joint_fit("r2"),
-    }
-    # MATLAB goodnessOfFit's NRMSE cost √(SSE_j/TSS_j), always a fraction and IEEE.
-    with np.errstate(invalid="ignore"):
-        per_joint["nrmse"] = 1.0 - np.asarray(km["fit_percent"], dtype=np.float64) / 100.0
-
-    pooled = {
-        "sse": float(km["sse_total"]),
-        "rmse_per_element": float(km["rmse_per_element"]),
-        "rmse_per_sample": float(km["rmse_per_sample"]),
-        "max_abs_error": float(km["max_abs_error_pooled"]),
-        "vaf": pooled_fit("vaf"),
-        "fit_percent": pooled_fit("fit_percent"),
-        "r2": pooled_fit("r2"),
-    }
-
-    aggregates = {"rmse_uniform_average": float(km["rmse_uniform_average"])}
-    for name in ("vaf", "fit_percent", "r2"):
-        if force:
-            values = per_joint[name]
-            aggregates[f"{name}_uniform_average"] = float(np.mean(values))
-            # Constant joints have weight 0 in both conventions, so the kernel's value stands,
-            # except when every joint is constant: then the uniform mean of the forced values.
-            aggregates[f"{name}_variance_weighted"] = (
-                float(np.mean(values)) if constant.all()
-                else float(km[f"{name}_variance_weighted"]) * (scale if name != "r2" else 1.0))
-        else:
-            s = scale if name != "r2" else 1.0
-            aggregates[f"{name}_uniform_average"] = float(km[f"{name}_uniform_average"]) * s
-            aggregates[f"{name}_variance_weighted"] = float(km[f"{name}_variance_weighted"]) * s
-    aggregates = {
-        "uniform_average": {k: aggregates[f"{k}_uniform_average"] for k in ("vaf", "fit_percent", "r2")},
-        "variance_weighted": {k: aggregates[f"{k}_variance_weighted"] for k in ("vaf", "fit_percent", "r2")},
-        "rmse_uniform_average": aggregates["rmse_uniform_average"],
-    }
-
-    # ---- residual statistics
+    # ---- residual statistics, and the bias evidence (coloured-noise standard error)
     from . import zero_mean_test
 
-    if lagged:
-        zmt = _as_dict(zero_mean_test(e, segments=starts, backend=backend_name))
-    else:
-        zmt = _iid_zero_mean_test(km, n, prof.ddof)
-    residuals = {
-        "mean": np.asarray(km["residual_mean"], dtype=np.float64),
-        "variance": np.asarray(km["residual_variance"], dtype=np.float64),
-        "ddof": prof.ddof,
-        "zero_mean_test": zmt,
-    }
+    zmt = (_as_dict(zero_mean_test(e, segments=starts, backend=o.backend_name)) if lagged
+           else sec.iid_zero_mean_test(km, n, prof.ddof))
+    residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                 "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                 "ddof": prof.ddof, "zero_mean_test": zmt}
+    bias = sec.bias_test(e, starts, per_joint["rmse"]) if lagged else None
+    n_eff = None if bias is None else bias["n_eff"]
+    ic = sec.information_criteria(km, prof, o.noise_model, n, m, o.n_params, n_eff)
 
-    # ---- information criteria (constants dropped in the kernel; some profiles add them)
-    n_obs = n * m if prof.noise_model == "pooled" else n
-    constant_term = n * m * _LN_2PI_PLUS_1 if prof.ic_constant == "included" else 0.0
-    ic = {
-        "noise_model": prof.noise_model,
-        "constant": prof.ic_constant,
-        "n_obs": int(n_obs),
-        "n_params": int(n_params),
-        "aic": float(km["aic"]) + constant_term,
-        "bic": float(km["bic"]) + constant_term,
-        "aicc": float(km["aicc"]) + constant_term,
-        "fpe": float(km["fpe"]),
-        "naic": float(km["naic"]),
-    }
-
-    # ---- lag analysis
-    autocorrelation = ljung_box = None
-    lb_lags = prof.ljung_box_lags(n, max_lag, longest)
+    # ---- lag analysis: ACF, Ljung–Box, whiteness at the information rate, spectrum
+    acf = lb = white = spec = None
+    lb_lags = prof.ljung_box_lags(n, o.max_lag, o.longest)
     if lagged:
-        autocorrelation = _autocorrelation_section(kernel, e, max_lag, prof, level, starts, n)
+        acf = sec.autocorrelation(kernel, e, o.max_lag, prof, o.level, starts, n)
         if lb_lags:
-            lb = kernel.portmanteau(e, np.asarray(lb_lags, dtype=np.int64), 0, starts, "ljung_box")
-            ljung_box = {
-                "test": "ljung_box",
-                "lags": np.asarray(lb_lags, dtype=np.int64),
-                "model_df": 0,
-                "statistic": np.asarray(lb["statistic"], dtype=np.float64),
-                "pvalue": np.asarray(lb["pvalue"], dtype=np.float64),
-                "log_pvalue": np.asarray(lb["log_pvalue"], dtype=np.float64),
-                "df": np.asarray(lb["df"], dtype=np.int64),
-            }
+            lb = sec.ljung_box(kernel, e, lb_lags, starts)
+            white = sec.whiteness(kernel, e, meas, starts, lb, o.decimate, o.sample_rate)
+        spec = sec.spectrum(e, starts, reg3, o.sample_rate)
 
-    cross = None
+    cross = xrho = xsd = None
     if reg2 is not None:
-        cross = _cross_correlation_section(kernel, e, reg2, p_cols, max_lag, prof, level, starts, n, m)
+        cross, xrho, xsd = sec.cross_correlation(kernel, e, reg2, p_cols, o.max_lag, prof, o.level, starts, n, m,
+                                                 n_eff, o.detail)
+    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance)
+    seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
+                                       v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
+                                       seg_names, segments, o.n_params, prof)
+                   if seg_names is not None else None)
 
     lengths = segment_lengths(starts, n)
     provenance = {
         "profile": prof.name,
         "conventions": {
             **prof.conventions(),
-            "max_lag": int(max_lag),
-            "level": level,
+            "noise_model": o.noise_model,
+            "max_lag": int(o.max_lag),
+            "level": o.level,
             "ljung_box_lags": list(lb_lags),
             "model_df": 0,
             "nan_policy": nan_policy,
             "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
             "r2": "centred, 1 - SSE/TSS",
             "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
+            "bias_test": "Student t with N_eff from the Andrews-Monahan prewhitened Bartlett long-run variance",
+            "multiple_testing": "Holm over every test of the report",
             "cross_correlation_band": "white" if cross is not None else None,
+            "cross_correlation_findings": "Bartlett variance for two coloured series" if cross is not None else None,
+            "decimate": o.decimate,
         },
-        "units": {
-            "vaf": prof.units,
-            "fit_percent": prof.units,
-            "r2": "fraction",
-            "nrmse": "fraction",
-            "torque": "as given",
-        },
+        "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
+                  "torque": "as given", "frequency": "Hz" if o.sample_rate else "cycles/sample"},
         "n_samples": int(n),
         "n_joints": int(m),
-        "n_params": int(n_params),
+        "n_params": int(o.n_params),
         "n_regressor_columns": None if p_cols is None else int(p_cols),
         "segments": [int(x) for x in lengths],
+        "segment_names": seg_names,
         "omitted_rows": int(omitted),
-        "backend": backend_name,
+        "joint_names": o.joint_names,
+        "column_names": o.column_names,
+        "sample_rate": o.sample_rate,
+        "thresholds": dict(vars(o.thresholds)) if hasattr(o.thresholds, "__dict__") else None,
+        "backend": o.backend_name,
         "dynval_version": _version(),
         "contract_version": _CONTRACT_VERSION,
         "report_schema_version": REPORT_SCHEMA_VERSION,
     }
-
-    report = ValidationReport(
-        provenance=provenance,
-        per_joint=per_joint,
-        pooled=pooled,
-        aggregates=aggregates,
-        residuals=residuals,
-        autocorrelation=autocorrelation,
-        ljung_box=ljung_box,
-        cross_correlation=cross,
-        information_criteria=ic,
-    )
-    report.warnings_text = findings(report)
-    return report
+    ev = sec.evidence(n=n, m=m, level=o.level, names=o.joint_names, per_joint=per_joint, pooled=pooled,
+                      constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
+                      force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
+                      xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
+                      design=design, column_names=o.column_names, acf=acf)
+    found = compute_findings(ev, o.thresholds)
+    return ValidationReport(
+        provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
+        autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
+        warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
+        spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics)
 
 
 def _version() -> str:
@@ -513,54 +485,3 @@ def _as_dict(result) -> dict:
     if hasattr(result, "__dataclass_fields__"):
         return {f: getattr(result, f) for f in result.__dataclass_fields__}
     return dict(result)
-
-
-def _autocorrelation_section(kernel, e, max_lag, prof, level, starts, n) -> dict:
-    rho = np.asarray(kernel.autocorrelation(e, max_lag, prof.adjusted, starts), dtype=np.float64)
-    z = _z(level)
-    band = np.full_like(rho, np.nan)
-    if prof.band == "white":
-        band[1:] = z / math.sqrt(n)
-    else:
-        # Bartlett: var(ρ̂_ℓ) = (1 + 2 Σ_{j<ℓ} ρ̂_j²)/N, lag 1 gives 1/N.
-        cum = np.cumsum(rho[1:-1] ** 2, axis=0) if max_lag > 1 else np.zeros((0, rho.shape[1]))
-        var = np.vstack([np.ones((1, rho.shape[1])), 1.0 + 2.0 * cum]) / n
-        band[1:] = z * np.sqrt(var)
-    with np.errstate(invalid="ignore"):
-        is_out = np.abs(rho[1:]) > band[1:]  # nan compares False: a constant residual has none
-    outside = [(int(j), int(lag + 1), float(rho[lag + 1, j]))
-               for j in range(rho.shape[1]) for lag in np.flatnonzero(is_out[:, j])]
-    fraction = is_out.sum(axis=0) / float(max_lag)
-    nan_joint = np.isnan(rho[0])
-    fraction = np.where(nan_joint, np.nan, fraction)
-    return {
-        "max_lag": int(max_lag),
-        "adjusted": bool(prof.adjusted),
-        "rho": rho,
-        "band_type": prof.band,
-        "level": float(level),
-        "band": band,
-        "outside": outside,
-        "fraction_outside": fraction,
-    }
-
-
-def _cross_correlation_section(kernel, e, reg2, p, max_lag, prof, level, starts, n, m) -> dict:
-    out = kernel.cross_correlation(e, reg2, p, max_lag, prof.adjusted, starts)
-    rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
-    mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
-    band = _z(level) / math.sqrt(n)
-    with np.errstate(invalid="ignore"):
-        cells = np.argwhere(np.abs(rho) > band)
-    outside = [(int(j), int(c), int(lag), float(rho[j, c, lag]), float(abs(rho[j, c, lag]) / band))
-               for j, c, lag in cells]
-    outside.sort(key=lambda t: (-t[4], t[0], t[1], t[2]))
-    return {
-        "max_lag": int(max_lag),
-        "adjusted": bool(prof.adjusted),
-        "rho": rho,
-        "constant_mask": mask,
-        "band": float(band),
-        "level": float(level),
-        "outside": outside,
-    }

@@ -395,3 +395,93 @@ def check_n_columns(value, total: int, m: int) -> int:
     if not is_integer(value) or value <= 0 or value * m != total:
         raise parameter_error("n_columns", f"a positive integer with m*n_columns = {total}", value)
     return int(value)
+
+
+# --------------------------------------------------------------------------- report options
+
+
+def check_sample_rate(value):
+    """``sample_rate``: None, or a finite number > 0 (Hz)."""
+    if value is None:
+        return None
+    if not is_real_number(value) or not math.isfinite(value) or value <= 0:
+        raise parameter_error("sample_rate", "None or a finite number > 0 (Hz)", value)
+    return float(value)
+
+
+def check_decimate(value):
+    """``decimate``: 'auto', None, or an integer >= 1."""
+    if value is None or (isinstance(value, str) and value == "auto"):
+        return value
+    if not is_integer(value) or int(value) < 1 or int(value) >= 2**63:
+        raise parameter_error("decimate", "'auto', None or an integer >= 1", value)
+    return int(value)
+
+
+def check_names(param: str, value, count: int, what: str):
+    """``joint_names`` / ``column_names``: None or ``count`` distinct strings."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise parameter_error(param, f"None or a sequence of {count} distinct strings (one per {what})", value)
+    names = list(value)
+    if len(names) != count or not all(isinstance(s, str) and s for s in names) or len(set(names)) != count:
+        raise parameter_error(param, f"None or a sequence of {count} distinct strings (one per {what})", value)
+    return names
+
+
+def check_detail(value) -> str:
+    return check_choice("cross_correlation_detail", value, ("top", "full"))
+
+
+def named_segments(segments):
+    """``{name: length}`` or ``[(name, length), ...]`` → (names, lengths); anything else (None, [])."""
+    if isinstance(segments, dict):
+        items = list(segments.items())
+    elif (isinstance(segments, (list, tuple)) and segments
+          and all(isinstance(t, tuple) and len(t) == 2 and isinstance(t[0], str) for t in segments)):
+        items = list(segments)
+    else:
+        return None, segments
+    names = [k for k, _ in items]
+    if not all(isinstance(k, str) and k for k in names) or len(set(names)) != len(names):
+        raise parameter_error("segments", "a mapping of distinct non-empty names to positive lengths", segments)
+    return names, [v for _, v in items]
+
+
+def check_signal_like(value, name: str, n: int, m: int) -> np.ndarray:
+    """An extra (N, m) signal such as the validation run's ``q``: same checks as tau_meas."""
+    arr = to_float_array(value, name)
+    two = promote_signal(arr, name)
+    if two.shape != (n, m):
+        raise ShapeMismatch(f"tau_meas and {name} must have the same shape, got ({n}, {m}) and "
+                            f"{format_shape(arr.shape)}")
+    check_finite(two, name)
+    return two
+
+
+def check_estimation(value, m: int):
+    """``estimation``: a mapping with any of 'q', 'regressor', 'tau' for the estimation run."""
+    if value is None:
+        return None
+    keys = ("q", "regressor", "tau")
+    if not isinstance(value, dict) or not value or any(k not in keys for k in value):
+        raise parameter_error("estimation", "None or a mapping with any of 'q', 'regressor', 'tau'", value)
+    out = {}
+    for key, arr in value.items():
+        name = f"estimation[{key!r}]"
+        a = to_float_array(arr, name)
+        if key == "regressor":
+            if a.ndim == 2 and a.shape[0] % m == 0:
+                a = a.reshape(a.shape[0] // m, m, a.shape[1])
+            if a.ndim != 3 or a.shape[1] != m:
+                raise InvalidShape(f"{name} must be 3-D (N, m, p) with m={m}, or 2-D (N*m, p), got shape "
+                                   f"{format_shape(np.shape(arr))}")
+            check_finite(a.reshape(a.shape[0], -1), name)
+        else:
+            a = promote_signal(a, name)
+            if a.shape[1] != m:
+                raise ShapeMismatch(f"{name} must have m={m} columns, got shape {format_shape(np.shape(arr))}")
+            check_finite(a, name)
+        out[key] = a
+    return out

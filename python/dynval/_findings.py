@@ -1,0 +1,447 @@
+"""Findings: the report's statistical detectors, as records (docs/conventions.md §7).
+
+A finding is a decision rule applied to evidence the report computed. Every rule that calls the
+model deficient needs two things: statistical evidence, with the family-wise error rate held at
+α = 1 − level over **all** tests of the report by Holm's step-down method, and a practical effect
+at or above a documented threshold (:class:`Thresholds`). A significant but negligible effect is
+reported as a ``note``. Colour alone never makes a deficiency: a rejected whiteness test counts
+against the model only on a joint where the structure is shown to be the model's (a residual
+correlated with a regressor column, a spectral peak, a bias with a practical size).
+
+The rules read an :class:`Evidence` record and nothing else, so they are tested directly; the
+wording of the summary lives in ``_summary.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
+
+import numpy as np
+import scipy.stats
+
+from ._stats import holm
+
+__all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
+           "resolve_thresholds"]
+
+SEVERITIES = ("deficiency", "design", "note")
+"""``deficiency``: the model should change; ``design``: the experiment should change;
+``note``: information, including significant but negligible effects."""
+
+KINDS = {
+    "worse_than_constant": "a joint's prediction is worse than its mean torque (R² < 0)",
+    "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
+    "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
+    "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
+    "whiteness": "the residual is not white (Ljung–Box); a deficiency only together with evidence above",
+    "sampling_colour": "the residual's colour lies above the band the motion occupies: it is the sensor, "
+                       "its filters and the sampling rate, not the model",
+    "repeat_trajectory": "the validation trajectory repeats the estimation trajectory",
+    "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned",
+    "pooling": "the pooled value hides a joint that does much worse",
+    "constant_target": "a joint's measured torque is constant",
+    "omitted_rows": "rows with non-finite values were omitted",
+}
+"""The documented vocabulary of ``Finding.kind``."""
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Practical effect sizes a deficiency must reach (all configurable through ``thresholds=``).
+
+    Attributes
+    ----------
+    bias : float
+        |ē_j| / RMSE_j, the share of the joint's RMS error that is a constant offset (0.1).
+    regressor_correlation : float
+        |ρ̂_eY(ℓ)|, the correlation of the residual with a regressor column; ρ² is the share of
+        residual variance that column explains linearly (0.1, i.e. 1 %).
+    oscillation : float
+        Share of the residual variance in a spectral peak above the background (0.05).
+    repeat_distance : float
+        Relative distance ‖Y_val − Y_est‖/‖Y_est‖ (or of q, or of τ) below which the validation
+        run counts as a repeat of the estimation run (0.1).
+    condition_number : float
+        Column-scaled condition number of the validation regressor above which the validation
+        data cannot separate the parameters' effects (1e3).
+    """
+
+    bias: float = 0.1
+    regressor_correlation: float = 0.1
+    oscillation: float = 0.05
+    repeat_distance: float = 0.1
+    condition_number: float = 1e3
+
+
+def resolve_thresholds(value) -> Thresholds:
+    """``None`` → defaults; a mapping overrides named fields; a :class:`Thresholds` as is."""
+    from ._validation import parameter_error
+
+    if value is None:
+        return Thresholds()
+    if isinstance(value, Thresholds):
+        return value
+    if isinstance(value, dict):
+        names = {f.name for f in fields(Thresholds)}
+        for key, x in value.items():
+            if key not in names:
+                raise parameter_error("thresholds", "a mapping with keys among "
+                                      + ", ".join(repr(n) for n in sorted(names)), value)
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
+                raise parameter_error(f"thresholds[{key!r}]", "a finite number >= 0", x)
+        return replace(Thresholds(), **{k: float(x) for k, x in value.items()})
+    raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One finding of a report.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+    severity : str
+        One of :data:`SEVERITIES`.
+    joints, columns : tuple of int
+        0-based joint and regressor-column indices it concerns (strongest first).
+    statistic, pvalue, pvalue_adjusted : float or None
+        The test statistic, its p-value and the Holm-adjusted p-value over every test of the
+        report (None for rules that are not tests).
+    effect : float or None
+        The practical effect size, in ``effect_unit``; ``threshold`` is the rule's threshold.
+    action : str
+        What to do (the lesson's flowchart: which term to add, or what to change in the data).
+    message : str
+        The finding in plain words.
+    details : dict
+        Rule-specific numbers (a frequency, a lag, distances, ...).
+    """
+
+    kind: str
+    severity: str
+    joints: tuple = ()
+    columns: tuple = ()
+    statistic: float | None = None
+    pvalue: float | None = None
+    pvalue_adjusted: float | None = None
+    effect: float | None = None
+    effect_unit: str = ""
+    threshold: float | None = None
+    action: str = ""
+    message: str = ""
+    details: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary (non-finite numbers as strings, like the report)."""
+        from ._report import to_jsonable
+
+        return to_jsonable(asdict(self))
+
+
+@dataclass
+class Evidence:
+    """Everything the rules read; the report pipeline fills it (arrays are per joint ``(m,)``).
+
+    Optional parts are None when the report did not compute them (no lags, no regressor, ...).
+    """
+
+    n_samples: int
+    level: float
+    joint_names: list
+    r2: np.ndarray
+    pooled_r2: float
+    constant_target: np.ndarray
+    column_names: list | None = None
+    omitted_rows: int = 0
+    force_finite: bool = False
+    # bias: the residual mean against its coloured-noise standard error
+    mean: np.ndarray | None = None
+    rmse: np.ndarray | None = None
+    bias_statistic: np.ndarray | None = None
+    bias_pvalue: np.ndarray | None = None
+    n_eff: np.ndarray | None = None
+    # whiteness: Ljung–Box at the raw rate and, if decimated, at the information rate
+    whiteness_lag: int | None = None
+    whiteness_pvalue_raw: np.ndarray | None = None
+    whiteness_log_pvalue_raw: np.ndarray | None = None
+    whiteness_pvalue_decimated: np.ndarray | None = None
+    decimation: int = 1
+    information_band: float | None = None
+    max_abs_acf: np.ndarray | None = None
+    # spectrum of the residual (after projecting out the regressor when one is given)
+    spectrum_frequency: np.ndarray | None = None
+    spectrum_pvalue: np.ndarray | None = None  # (F, m), nan where not tested
+    spectrum_ratio: np.ndarray | None = None
+    spectrum_share: np.ndarray | None = None  # (F, m): variance share of a peak centred there
+    spectrum_is_peak: np.ndarray | None = None  # (F, m) bool: local maxima
+    frequency_unit: str = "cycles/sample"
+    # cross-correlation of the residual with regressor columns, colour-aware
+    xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
+    xcorr_sd: np.ndarray | None = None  # (m, p, L+1)
+    xcorr_mask: np.ndarray | None = None  # (m, p)
+    # validation design
+    repeat: dict | None = None
+    excitation: dict | None = None
+    extra_notes: list = field(default_factory=list)
+
+
+def _name(names, j):
+    return names[j] if names and j < len(names) else f"joint {j + 1}"
+
+
+def _col(names, c):
+    return names[c] if names and c < len(names) else f"column {c + 1}"
+
+
+def _p_text(p) -> str:
+    if p is None or not np.isfinite(p):
+        return "n/a"
+    return f"{p:.3g}" if p >= 1e-300 else "< 1e-300"
+
+
+def _tests(ev: Evidence):
+    """Every p-value of the report as (family, index, p) blocks for one Holm correction."""
+    blocks = []
+    if ev.bias_pvalue is not None:
+        blocks.append(("bias", np.asarray(ev.bias_pvalue, dtype=float)))
+    if ev.whiteness_pvalue_raw is not None:
+        blocks.append(("whiteness", np.asarray(
+            ev.whiteness_pvalue_decimated if ev.whiteness_pvalue_decimated is not None
+            else ev.whiteness_pvalue_raw, dtype=float)))
+    if ev.spectrum_pvalue is not None:
+        blocks.append(("spectrum", np.asarray(ev.spectrum_pvalue, dtype=float)))
+    if ev.xcorr_rho is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.abs(ev.xcorr_rho) / ev.xcorr_sd
+        p = 2.0 * scipy.stats.norm.sf(z)
+        blocks.append(("xcorr", p))
+    return blocks
+
+
+def holm_family(ev: Evidence) -> dict:
+    """Raw and Holm-adjusted p-values of every test in the report, by family; and the count."""
+    blocks = _tests(ev)
+    flat = np.concatenate([b.reshape(-1) for _, b in blocks]) if blocks else np.zeros(0)
+    adjusted = holm(flat)
+    out, pos = {}, 0
+    for name, b in blocks:
+        size = b.size
+        out[name] = (b, adjusted[pos:pos + size].reshape(b.shape))
+        pos += size
+    out["_count"] = int(np.sum(~np.isnan(flat)))
+    return out
+
+
+def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list:
+    """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first."""
+    th = thresholds or Thresholds()
+    alpha = 1.0 - ev.level
+    fam = holm_family(ev)
+    names = ev.joint_names
+    cols = ev.column_names
+    m = len(ev.r2)
+    out: list[Finding] = []
+    deficient_joints: set[int] = set()
+
+    if ev.omitted_rows:
+        out.append(Finding(kind="omitted_rows", severity="note", effect=float(ev.omitted_rows),
+                           effect_unit="rows", action="check the logger for dropped or invalid samples",
+                           message=f"{ev.omitted_rows} rows with non-finite values were omitted; segment "
+                                   "breaks were inserted so no lag joins samples that were not adjacent."))
+    constant = np.asarray(ev.constant_target, dtype=bool)
+    for j in np.flatnonzero(constant):
+        how = ("0 or 1 by scikit-learn's force_finite rule" if ev.force_finite
+               else "-inf, or nan for an exact prediction")
+        out.append(Finding(kind="constant_target", severity="note", joints=(int(j),),
+                           action="validate this joint on a trajectory that moves it",
+                           message=f"{_name(names, j)}: the measured torque is constant, so R², fit and VAF "
+                                   f"compare against nothing (reported as {how})."))
+
+    # ---- worse than a constant: no test needed, the effect is the decision
+    r2 = np.asarray(ev.r2, dtype=float)
+    for j in range(m):
+        if constant[j] or not np.isfinite(r2[j]) or r2[j] >= 0:
+            continue
+        deficient_joints.add(j)
+        hidden = m > 1 and np.isfinite(ev.pooled_r2) and ev.pooled_r2 > 0
+        out.append(Finding(
+            kind="worse_than_constant", severity="deficiency", joints=(j,), statistic=float(r2[j]),
+            effect=float(-r2[j]), effect_unit="1 − R² beyond 1 (fraction of TSS)", threshold=0.0,
+            action=f"check {_name(names, j)}'s terms, signs and units: predicting its mean torque does better",
+            message=(f"{_name(names, j)} does worse than a constant: R² = {r2[j]:.3f}"
+                     + (f", yet the pooled R² is {ev.pooled_r2:.3f} (pooling flattens all joints with one "
+                        "mean, so the high-torque joints dominate it; read the per-joint values)." if hidden
+                        else "."))))
+    if m > 1 and np.isfinite(ev.pooled_r2):
+        for j in range(m):
+            if not constant[j] and np.isfinite(r2[j]) and 0 <= r2[j] < ev.pooled_r2 - 0.05:
+                out.append(Finding(kind="pooling", severity="note", joints=(j,), statistic=float(r2[j]),
+                                   effect=float(ev.pooled_r2 - r2[j]), effect_unit="R² below pooled",
+                                   threshold=0.05, action="read the per-joint values",
+                                   message=f"{_name(names, j)}: R² = {r2[j]:.3f}, well below the pooled "
+                                           f"{ev.pooled_r2:.3f}, which the larger torques of other joints dominate."))
+
+    # ---- bias
+    if "bias" in fam:
+        p, padj = fam["bias"]
+        mean = np.asarray(ev.mean, dtype=float)
+        rmse = np.asarray(ev.rmse, dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            effect = np.abs(mean) / rmse
+        for j in range(m):
+            if not (padj[j] <= alpha):
+                continue
+            big = bool(effect[j] >= th.bias)
+            if big:
+                deficient_joints.add(j)
+            out.append(Finding(
+                kind="bias", severity="deficiency" if big else "note", joints=(j,),
+                statistic=float(ev.bias_statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
+                effect=float(effect[j]), effect_unit="|mean| / RMSE", threshold=th.bias,
+                action=(f"add a torque offset (sensor bias) or a friction term on {_name(names, j)}" if big
+                        else "none: the bias is real but too small to matter"),
+                details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])},
+                message=(f"{_name(names, j)}: residual mean {mean[j]:+.4g} "
+                         f"({100 * effect[j]:.0f} % of the RMSE; coloured-noise t-test N_eff = {ev.n_eff[j]:.0f} "
+                         f"of {ev.n_samples}, Holm-adjusted p = {_p_text(padj[j])})"
+                         + (": a systematic bias, e.g. a missing offset or friction term." if big
+                            else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
+
+    # ---- regressor correlation
+    if "xcorr" in fam:
+        p, padj = fam["xcorr"]
+        rho = np.asarray(ev.xcorr_rho, dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.abs(rho) / ev.xcorr_sd
+        for j in range(rho.shape[0]):
+            hits = []
+            for c in range(rho.shape[1]):
+                sig = np.flatnonzero(padj[j, c] <= alpha)
+                if sig.size == 0:
+                    continue
+                lag = int(sig[np.argmax(np.abs(rho[j, c, sig]))])
+                hits.append((abs(rho[j, c, lag]), c, lag))
+            if not hits:
+                continue
+            hits.sort(key=lambda t: (-t[0], t[1]))
+            strong = [h for h in hits if h[0] >= th.regressor_correlation]
+            chosen = strong or hits
+            best, c, lag = chosen[0]
+            big = bool(strong)
+            if big:
+                deficient_joints.add(j)
+            listed = "; ".join(f"{_col(cols, cc)} (lag {ll}, ρ = {rho[j, cc, ll]:+.3f})" for _, cc, ll in chosen[:3])
+            out.append(Finding(
+                kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
+                columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
+                pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
+                effect_unit="|ρ|", threshold=th.regressor_correlation,
+                action=(f"add or re-weight the term of {_col(cols, c)} on {_name(names, j)}: the model does not "
+                        "use the information in it" if big else "none: the correlation is real but too small to matter"),
+                details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits)},
+                message=(f"{_name(names, j)}: the residual correlates with {listed} beyond what the colour of "
+                         f"both series explains (Holm-adjusted p = {_p_text(padj[j, c, lag])})"
+                         + (": the model does not use the information in this column (a missing or "
+                            "mis-weighted term)." if big
+                            else f": significant but negligible (|ρ| below {th.regressor_correlation:g})."))))
+
+    # ---- oscillation: a spectral peak standing above the smooth background
+    if "spectrum" in fam:
+        p, padj = fam["spectrum"]
+        freq = np.asarray(ev.spectrum_frequency, dtype=float)
+        share = np.asarray(ev.spectrum_share, dtype=float)
+        is_peak = np.asarray(ev.spectrum_is_peak, dtype=bool)
+        for j in range(p.shape[1]):
+            sig = np.flatnonzero((padj[:, j] <= alpha) & is_peak[:, j])
+            if sig.size == 0:
+                continue
+            b = int(sig[np.argmax(share[sig, j])])
+            big = bool(share[b, j] >= th.oscillation)
+            if big:
+                deficient_joints.add(j)
+            f = freq[b]
+            unit = ev.frequency_unit
+            out.append(Finding(
+                kind="oscillation", severity="deficiency" if big else "note", joints=(j,),
+                statistic=float(ev.spectrum_ratio[b, j]), pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]),
+                effect=float(share[b, j]), effect_unit="share of residual variance", threshold=th.oscillation,
+                action=(f"an unmodelled mode near {f:.3g} {unit}: add joint or link compliance (a spring–damper) "
+                        "or keep trajectories away from it" if big else "none: the peak is real but small"),
+                details={"frequency": float(f), "frequency_unit": unit, "n_peaks": int(sig.size)},
+                message=(f"{_name(names, j)}: the residual oscillates near {f:.3g} {unit} "
+                         f"({100 * share[b, j]:.0f} % of its variance, {ev.spectrum_ratio[b, j]:.0f}× the background; "
+                         f"Holm-adjusted p = {_p_text(padj[b, j])})"
+                         + (": unmodelled dynamics, e.g. joint flexibility (the lesson's Problem 5)." if big
+                            else ": significant but negligible."))))
+
+    # ---- whiteness and sampling colour
+    if "whiteness" in fam:
+        _, padj = fam["whiteness"]
+        raw = np.asarray(ev.whiteness_pvalue_raw, dtype=float)
+        dec = ev.whiteness_pvalue_decimated
+        for j in range(m):
+            raw_reject = bool(raw[j] <= alpha)
+            if dec is not None and raw_reject and not (padj[j] <= alpha):
+                band = ev.information_band
+                out.append(Finding(
+                    kind="sampling_colour", severity="note", joints=(j,), pvalue=float(dec[j]),
+                    pvalue_adjusted=float(padj[j]), effect=float(ev.decimation), effect_unit="decimation factor",
+                    action="none for the model; validate at the information rate (decimate=) or log less filtered data",
+                    details={"information_band": band, "frequency_unit": ev.frequency_unit},
+                    message=(f"{_name(names, j)}: the residual is coloured at the logged rate but white once reduced "
+                             f"to the band the motion occupies (below {band:.3g} {ev.frequency_unit}, decimated by "
+                             f"{ev.decimation}): the colour is what the sensor, its filters and the sampling make, "
+                             "not the model.")))
+                continue
+            if not (padj[j] <= alpha):
+                continue
+            backed = j in deficient_joints
+            rate = "at the information rate" if dec is not None else "at the logged rate"
+            out.append(Finding(
+                kind="whiteness", severity="deficiency" if backed else "note", joints=(j,),
+                pvalue=float(dec[j] if dec is not None else raw[j]), pvalue_adjusted=float(padj[j]),
+                effect=None if ev.max_abs_acf is None else float(ev.max_abs_acf[j]), effect_unit="max |ρ̂(ℓ)|",
+                action=("see the findings above for the structure's source" if backed
+                        else "none on this evidence: colour alone does not show the model is wrong"),
+                details={"lag": ev.whiteness_lag, "decimation": ev.decimation},
+                message=(f"{_name(names, j)}: the residuals are not white {rate} (Ljung–Box up to lag "
+                         f"{ev.whiteness_lag}, Holm-adjusted p = {_p_text(padj[j])})"
+                         + (", and the findings above show the structure is the model's." if backed
+                            else "; colour alone is not evidence against the model (sensor filtering, "
+                                 "oversampling and estimation error colour residuals too)."))))
+
+    # ---- validation design
+    if ev.repeat is not None and ev.repeat.get("is_repeat"):
+        d = ev.repeat
+        out.append(Finding(
+            kind="repeat_trajectory", severity="design", effect=float(d["distance"]),
+            effect_unit=f"relative distance ({d['measure']})", threshold=th.repeat_distance,
+            action="validate on a different trajectory: a repeat rewards over-fitting",
+            details=dict(d),
+            message=(f"The validation run repeats the estimation run: relative {d['measure']} distance "
+                     f"{d['distance']:.3g} < {th.repeat_distance:g}. Metrics on it measure the fit, not the "
+                     "prediction of new motion.")))
+    if ev.excitation is not None:
+        x = ev.excitation
+        if x["unexcited"]:
+            names_c = ", ".join(_col(cols, c) for c in x["unexcited"])
+            out.append(Finding(
+                kind="excitation", severity="design", columns=tuple(x["unexcited"]),
+                effect=float(len(x["unexcited"])), effect_unit="columns",
+                action="add motion that excites these columns to the validation trajectory",
+                details=dict(x),
+                message=f"The validation regressor never excites {names_c}: the validation cannot test these terms."))
+        elif x["condition_scaled"] > th.condition_number:
+            out.append(Finding(
+                kind="excitation", severity="design", effect=float(x["condition_scaled"]),
+                effect_unit="column-scaled condition number", threshold=th.condition_number,
+                action="use a richer validation trajectory", details=dict(x),
+                message=(f"The validation regressor is ill-conditioned (column-scaled condition number "
+                         f"{x['condition_scaled']:.3g} > {th.condition_number:g}): it cannot separate the "
+                         "effects of the parameters.")))
+    out.extend(ev.extra_notes)
+    order = {s: i for i, s in enumerate(SEVERITIES)}
+    out.sort(key=lambda f: order[f.severity])
+    return out

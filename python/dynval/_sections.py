@@ -1,0 +1,398 @@
+"""Section builders of a validation report: each takes what it needs and returns one dict.
+
+``validate`` (``_report.py``) checks the inputs once, then calls these in turn; the findings are
+computed from the evidence they collect (``_findings.py``) and worded in ``_summary.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _stats
+from ._findings import Evidence
+
+_LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
+
+
+def _force_finite(values, constant):
+    """scikit-learn's force_finite: a constant target gives 1.0 if exact (nan) else 0.0 (−inf)."""
+    values = np.array(values, dtype=np.float64, copy=True)
+    constant = np.asarray(constant, dtype=bool)
+    values[constant] = np.where(np.isnan(values[constant]), 1.0, 0.0)
+    return values
+
+
+def point_metrics(km, prof):
+    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's dictionary."""
+    scale = 1.0 if prof.units == "percent" else 0.01
+    force = prof.constant_target == "force_finite"
+    constant = np.asarray(km["constant_target"], dtype=bool)
+
+    def unit(name):
+        return scale if name != "r2" else 1.0
+
+    def per_joint_fit(name):
+        values = np.asarray(km[name], dtype=np.float64) * unit(name)
+        return _force_finite(values, constant) if force else values
+
+    def pooled_fit(name):
+        value = float(km[f"{name}_pooled"]) * unit(name)
+        if force and km["constant_target_pooled"]:
+            value = 1.0 if math.isnan(value) else 0.0
+        return value
+
+    per_joint = {
+        "sse": np.asarray(km["sse"], dtype=np.float64),
+        "rmse": np.asarray(km["rmse"], dtype=np.float64),
+        "max_abs_error": np.asarray(km["max_abs_error"], dtype=np.float64),
+        "vaf": per_joint_fit("vaf"),
+        "fit_percent": per_joint_fit("fit_percent"),
+        "r2": per_joint_fit("r2"),
+    }
+    # MATLAB goodnessOfFit's NRMSE cost √(SSE_j/TSS_j), always a fraction and IEEE.
+    with np.errstate(invalid="ignore"):
+        per_joint["nrmse"] = 1.0 - np.asarray(km["fit_percent"], dtype=np.float64) / 100.0
+    pooled = {
+        "sse": float(km["sse_total"]),
+        "rmse_per_element": float(km["rmse_per_element"]),
+        "rmse_per_sample": float(km["rmse_per_sample"]),
+        "max_abs_error": float(km["max_abs_error_pooled"]),
+        "vaf": pooled_fit("vaf"),
+        "fit_percent": pooled_fit("fit_percent"),
+        "r2": pooled_fit("r2"),
+    }
+    uniform, weighted = {}, {}
+    for name in ("vaf", "fit_percent", "r2"):
+        if force:
+            values = per_joint[name]
+            uniform[name] = float(np.mean(values))
+            # Constant joints have weight 0 in both conventions, so the kernel's value stands,
+            # except when every joint is constant: then the uniform mean of the forced values.
+            weighted[name] = (float(np.mean(values)) if constant.all()
+                              else float(km[f"{name}_variance_weighted"]) * unit(name))
+        else:
+            uniform[name] = float(km[f"{name}_uniform_average"]) * unit(name)
+            weighted[name] = float(km[f"{name}_variance_weighted"]) * unit(name)
+    aggregates = {"uniform_average": uniform, "variance_weighted": weighted,
+                  "rmse_uniform_average": float(km["rmse_uniform_average"])}
+    return per_joint, pooled, aggregates
+
+
+def iid_zero_mean_test(km, n, ddof):
+    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
+
+    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
+    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
+    """
+    mean = np.asarray(km["residual_mean"], dtype=np.float64)
+    std = np.sqrt(np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0)))
+    t_iid, p_iid = _stats.iid_t_test(mean, std, n)
+    return {"mean": mean, "std": std, "n_samples": int(n), "statistic_iid": t_iid, "pvalue_iid": p_iid,
+            "df_iid": int(n - 1), "statistic_eff": None, "pvalue_eff": None, "df_eff": None,
+            "n_eff": None, "bandwidth": None}
+
+
+def bias_test(e, starts, rmse):
+    """The residual mean against its coloured-noise standard error (automatic long-run variance).
+
+    Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
+    of :func:`dynval._stats.long_run_variance`; effect = |ē_j| / RMSE_j.
+    """
+    lr = _stats.long_run_variance(e, starts)
+    mean = e.mean(axis=0)
+    n = e.shape[0]
+    std = np.sqrt(lr.variance * n / max(n - 1, 1))
+    t, p = _stats.iid_t_test(mean, std, lr.n_eff)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        effect = np.abs(mean) / np.asarray(rmse, dtype=float)
+    return {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
+            "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
+            "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE"}
+
+
+def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
+    """The lesson's criteria of the noise model and, beside them, their N_eff-based variants."""
+    n_obs = n * m if noise_model == "pooled" else n
+    constant_term = n * m * _LN_2PI_PLUS_1 if prof.ic_constant == "included" else 0.0
+    ic = {
+        "noise_model": noise_model, "constant": prof.ic_constant, "n_obs": int(n_obs), "n_params": int(n_params),
+        "aic": float(km["aic"]) + constant_term, "bic": float(km["bic"]) + constant_term,
+        "aicc": float(km["aicc"]) + constant_term, "fpe": float(km["fpe"]), "naic": float(km["naic"]),
+    }
+    if n_eff is not None:
+        # The fit term scaled by N_eff/N: coloured samples carry less information each. A heuristic
+        # named as such; the lesson's form above stays the headline.
+        fit = float(km["aic"]) - 2.0 * n_params
+        ratio = float(np.sum(n_eff)) / (n * m)
+        n_eff_obs = n_obs * ratio
+        fit_eff = fit * ratio
+        p = n_params
+        ic["n_eff"] = float(n_eff_obs)
+        ic["aic_neff"] = fit_eff + 2.0 * p + constant_term * ratio
+        ic["bic_neff"] = fit_eff + p * math.log(n_eff_obs) + constant_term * ratio
+        ic["aicc_neff"] = (ic["aic_neff"] + 2.0 * p * (p + 1) / (n_eff_obs - p - 1)
+                           if n_eff_obs - p - 1 > 0 else float("nan"))
+    return ic
+
+
+def autocorrelation(kernel, e, max_lag, prof, level, starts, n) -> dict:
+    """The ACF with its band (white or Bartlett) and the lags outside it."""
+    rho = np.asarray(kernel.autocorrelation(e, max_lag, prof.adjusted, starts), dtype=np.float64)
+    z = _stats.z_two_sided(level)
+    band = np.full_like(rho, np.nan)
+    if prof.band == "white":
+        band[1:] = z / math.sqrt(n)
+    else:
+        # Bartlett: var(ρ̂_ℓ) = (1 + 2 Σ_{j<ℓ} ρ̂_j²)/N, lag 1 gives 1/N.
+        cum = np.cumsum(rho[1:-1] ** 2, axis=0) if max_lag > 1 else np.zeros((0, rho.shape[1]))
+        var = np.vstack([np.ones((1, rho.shape[1])), 1.0 + 2.0 * cum]) / n
+        band[1:] = z * np.sqrt(var)
+    with np.errstate(invalid="ignore"):
+        is_out = np.abs(rho[1:]) > band[1:]  # nan compares False: a constant residual has none
+    outside = [(int(j), int(lag + 1), float(rho[lag + 1, j]))
+               for j in range(rho.shape[1]) for lag in np.flatnonzero(is_out[:, j])]
+    fraction = is_out.sum(axis=0) / float(max_lag)
+    fraction = np.where(np.isnan(rho[0]), np.nan, fraction)
+    return {"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "rho": rho, "band_type": prof.band,
+            "level": float(level), "band": band, "outside": outside, "fraction_outside": fraction}
+
+
+def ljung_box(kernel, e, lags, starts) -> dict:
+    lb = kernel.portmanteau(e, np.asarray(lags, dtype=np.int64), 0, starts, "ljung_box")
+    return {"test": "ljung_box", "lags": np.asarray(lags, dtype=np.int64), "model_df": 0,
+            "statistic": np.asarray(lb["statistic"], dtype=np.float64),
+            "pvalue": np.asarray(lb["pvalue"], dtype=np.float64),
+            "log_pvalue": np.asarray(lb["log_pvalue"], dtype=np.float64),
+            "df": np.asarray(lb["df"], dtype=np.int64)}
+
+
+def whiteness(kernel, e, meas, starts, lb, decimate, sample_rate) -> dict:
+    """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
+
+    ``decimate="auto"``: the information band f_I holds 99 % of the measured torque's power;
+    the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
+    used as given; None or 1 tests at the logged rate only.
+    """
+    raw_p = np.asarray(lb["pvalue"][0], dtype=float)
+    lag = int(lb["lags"][0])
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    band = None
+    q = 1
+    if decimate == "auto":
+        band = _stats.information_bandwidth(meas, starts, sample_rate=sample_rate)
+        if np.isfinite(band) and band > 0:
+            q = int(math.floor(fs / (4.0 * band)))
+    elif decimate is not None:
+        q = int(decimate)
+    out = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
+           "log_pvalue_raw": np.asarray(lb["log_pvalue"][0], dtype=float), "decimation": 1,
+           "information_band": band, "pvalue_decimated": None, "lag_decimated": None,
+           "n_decimated": None}
+    if q >= 2:
+        d, d_starts = _stats.decimate_segments(e, starts, q)
+        if d is not None:
+            longest = int(np.diff(np.append(d_starts, d.shape[0])).max())
+            h = min(lag, d.shape[0] // 5, longest - 1)
+            if h >= 1:
+                res = kernel.portmanteau(np.ascontiguousarray(d), np.array([h], dtype=np.int64), 0, d_starts,
+                                         "ljung_box")
+                out.update(decimation=q, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
+                           lag_decimated=int(h), n_decimated=int(d.shape[0]))
+    return out
+
+
+def _project_out(e, reg3):
+    """The residual less its least-squares projection on each joint's regressor columns."""
+    n, m, p = reg3.shape
+    if n < 4 * p:
+        return e
+    out = np.empty_like(e)
+    for j in range(m):
+        beta, *_ = np.linalg.lstsq(reg3[:, j, :], e[:, j], rcond=None)
+        out[:, j] = e[:, j] - reg3[:, j, :] @ beta
+    return out
+
+
+def spectrum(e, starts, reg3, sample_rate) -> dict:
+    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests."""
+    x = _project_out(e, reg3) if reg3 is not None else e
+    spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
+    top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
+    return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
+            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": reg3 is not None,
+            "peaks": top, "_pvalue": spec.pvalue, "_ratio": spec.ratio, "_share": spec.share,
+            "_is_peak": spec.is_peak}
+
+
+def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff, detail) -> dict:
+    """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
+
+    The band of the lesson (z/√N) is kept for reference; the findings use Bartlett's variance
+    (:func:`dynval._stats.cross_correlation_sd`) with J lags, J ≥ 5 N/N_eff of the residual, so
+    a smooth regressor column and a coloured residual are not taken for evidence.
+    """
+    out = kernel.cross_correlation(e, reg2, p, max_lag, prof.adjusted, starts)
+    rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
+    mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
+    band = _stats.z_two_sided(level) / math.sqrt(n)
+    lengths = np.diff(np.append(starts, n))
+    longest = int(lengths.max())
+    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
+    tau_int = tau_int if np.isfinite(tau_int) else 1.0
+    big = int(min(longest - 1, max(max_lag, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
+    rho_e = _stats.acf_fft(e, starts, big)
+    rho_y = _stats.acf_fft(reg2, starts, big).reshape(big + 1, m, p)
+    lags = np.arange(max_lag + 1)
+    n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
+    d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))
+    sd = _stats.cross_correlation_sd(rho_e, rho_y, n_l, d_l, n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.abs(rho) / sd
+    zf = np.where(np.isnan(z), -1.0, z)
+    lag_max = zf.argmax(axis=2)
+    take = np.take_along_axis
+    z_max = take(z, lag_max[:, :, None], axis=2)[:, :, 0]
+    rho_max = take(rho, lag_max[:, :, None], axis=2)[:, :, 0]
+    colour = (sd[:, :, 0] / (math.sqrt(n_l[0]) / d_l[0]))
+    with np.errstate(invalid="ignore"):
+        white_hits = np.argwhere(np.abs(rho) > band)
+    cells = sorted(((int(j), int(c), int(lag_max[j, c]), float(rho_max[j, c]), float(z_max[j, c]))
+                    for j in range(m) for c in range(p) if np.isfinite(z_max[j, c])),
+                   key=lambda t: (-t[4], t[0], t[1]))
+    # The strongest cells per joint and per column: a report stays small on p = 70 columns.
+    keep = set()
+    for j in range(m):
+        keep.update([t for t in cells if t[0] == j][:5])
+    for c in range(p):
+        keep.update([t for t in cells if t[1] == c][:2])
+    top = sorted(keep, key=lambda t: (-t[4], t[0], t[1]))
+    section = {
+        "max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mask, "band": float(band),
+        "level": float(level), "n_outside_white_band": int(len(white_hits)),
+        "colour_lags": int(big), "colour_factor": colour, "max_abs_rho": np.abs(rho_max), "lag_of_max": lag_max,
+        "z_max": z_max, "top_cells": top, "detail": detail,
+        # (joint, column, lag, rho, z) of the strongest cells, strongest first
+        "outside": top,
+    }
+    if detail == "full":
+        section["rho"] = rho
+        section["sd"] = sd
+        section["outside"] = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(z[j, c, lag]))
+                                     for j, c, lag in white_hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
+    return section, rho, sd
+
+
+def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
+    """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
+    out = {}
+    start = 0
+    for name, length in zip(names, lengths):
+        a, b = start, start + int(length)
+        start = b
+        mt, pr = meas[a:b], pred[a:b]
+        rows = np.all(np.isfinite(mt), axis=1) & np.all(np.isfinite(pr), axis=1)
+        mt, pr = np.ascontiguousarray(mt[rows]), np.ascontiguousarray(pr[rows])
+        if mt.shape[0] < 2:
+            out[name] = {"n_samples": int(mt.shape[0])}
+            continue
+        km = kernel.compute_metrics(mt, pr, n_params, prof.ddof, prof.noise_model)
+        pj, pooled, _ = point_metrics(km, prof)
+        out[name] = {"n_samples": int(mt.shape[0]), "start": int(a),
+                     "per_joint": {k: pj[k] for k in ("rmse", "max_abs_error", "vaf", "fit_percent", "r2")},
+                     "mean": np.asarray(km["residual_mean"], dtype=float),
+                     "pooled": {k: pooled[k] for k in ("rmse_per_element", "vaf", "fit_percent", "r2")}}
+    return out
+
+
+def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
+             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf) -> Evidence:
+    """Collect what the findings' rules read."""
+    ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
+                  pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
+                  omitted_rows=omitted, force_finite=force)
+    if bias is not None:
+        ev.mean, ev.rmse = bias["mean"], per_joint["rmse"]
+        ev.bias_statistic, ev.bias_pvalue, ev.n_eff = bias["statistic"], bias["pvalue"], bias["n_eff"]
+    if white is not None:
+        ev.whiteness_lag = white["lag"]
+        ev.whiteness_pvalue_raw = white["pvalue_raw"]
+        ev.whiteness_log_pvalue_raw = white["log_pvalue_raw"]
+        ev.whiteness_pvalue_decimated = white["pvalue_decimated"]
+        ev.decimation = white["decimation"]
+        ev.information_band = white["information_band"]
+    if acf is not None:
+        ev.max_abs_acf = np.fmax.reduce(np.abs(acf["rho"][1:]), axis=0) if acf["rho"].shape[0] > 1 else None
+    if spec is not None:
+        ev.spectrum_frequency = spec["frequency"]
+        ev.spectrum_pvalue, ev.spectrum_ratio = spec["_pvalue"], spec["_ratio"]
+        ev.spectrum_share, ev.spectrum_is_peak = spec["_share"], spec["_is_peak"]
+        ev.frequency_unit = spec["frequency_unit"]
+    if xcorr_rho is not None:
+        ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
+    if design is not None:
+        ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
+    return ev
+
+
+def strip_private(section):
+    """A section without its ``_``-prefixed working arrays (they feed the findings only)."""
+    if section is None:
+        return None
+    return {k: v for k, v in section.items() if not k.startswith("_")}
+
+
+def _relative_distance(a, b, centre: bool) -> float:
+    """‖a − b‖ / ‖b − b̄‖ (centred) or ‖a − b‖ / ‖b‖ on the rows both runs have."""
+    rows = min(a.shape[0], b.shape[0])
+    a, b = a[:rows], b[:rows]
+    ref = b - b.mean(axis=0) if centre else b
+    denom = float(np.linalg.norm(ref))
+    return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
+
+
+def design(reg3, q_val, estimation, meas, threshold) -> dict:
+    """How far the validation run is from the estimation run, and how well it excites the model.
+
+    Distances are time-aligned on the rows both runs have: the relative regressor distance
+    ‖Y_val − Y_est‖/‖Y_est‖, the joint-space distance ‖q_val − q_est‖/‖q_est − q̄_est‖ (and its
+    RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖. The first
+    available of regressor, q, torque decides ``is_repeat`` (distance < threshold).
+    Excitation: the stacked validation regressor's condition number, raw and with unit-norm
+    columns, and the columns whose norm is at most 1e-12 of the largest (never excited).
+    """
+    out = {}
+    if estimation is not None:
+        rep = {}
+        if "regressor" in estimation and reg3 is not None:
+            est = estimation["regressor"]
+            rep["regressor"] = _relative_distance(reg3.reshape(reg3.shape[0], -1), est.reshape(est.shape[0], -1),
+                                                  centre=False)
+        if "q" in estimation and q_val is not None:
+            rep["q"] = _relative_distance(q_val, estimation["q"], centre=True)
+            rows = min(q_val.shape[0], estimation["q"].shape[0])
+            rep["q_rms"] = float(np.sqrt(np.mean((q_val[:rows] - estimation["q"][:rows]) ** 2)))
+        if "tau" in estimation:
+            rep["tau"] = _relative_distance(meas, estimation["tau"], centre=True)
+        for measure in ("regressor", "q", "tau"):
+            if measure in rep:
+                rep["measure"] = measure
+                rep["distance"] = rep[measure]
+                rep["threshold"] = threshold
+                rep["is_repeat"] = bool(rep[measure] < threshold)
+                break
+        out["repeat"] = rep or None
+    if reg3 is not None:
+        stacked = reg3.reshape(-1, reg3.shape[2])
+        norms = np.linalg.norm(stacked, axis=0)
+        unexcited = [int(c) for c in np.flatnonzero(norms <= 1e-12 * max(norms.max(), np.finfo(float).tiny))]
+        live = np.setdiff1d(np.arange(stacked.shape[1]), unexcited)
+        sv = np.linalg.svd(stacked[:, live], compute_uv=False) if live.size else np.zeros(1)
+        scaled = stacked[:, live] / norms[live] if live.size else stacked[:, live]
+        sv_s = np.linalg.svd(scaled, compute_uv=False) if live.size else np.zeros(1)
+        with np.errstate(divide="ignore"):
+            out["excitation"] = {"condition_raw": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
+                                 "condition_scaled": float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf"),
+                                 "unexcited": unexcited, "column_norms": norms}
+    return out or None

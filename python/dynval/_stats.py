@@ -1,0 +1,356 @@
+"""Statistics shared by the public functions, the report and its findings.
+
+One home for the normal quantile, the i.i.d. t-test, the multiple-testing correction, the
+effective sample size of a coloured residual, the colour-aware standard deviation of a
+cross-correlation, FFT autocorrelations, the residual spectrum and the choice of a decimation
+factor for oversampled data. Every estimator is named and cited in docs/conventions.md §6.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+import scipy.ndimage
+import scipy.signal
+import scipy.stats
+
+__all__ = [
+    "z_two_sided",
+    "iid_t_test",
+    "holm",
+    "acf_fft",
+    "LongRunVariance",
+    "long_run_variance",
+    "andrews_bandwidth",
+    "cross_correlation_sd",
+    "Spectrum",
+    "residual_spectrum",
+    "information_bandwidth",
+    "decimate_segments",
+]
+
+
+def z_two_sided(level: float) -> float:
+    """z = Φ⁻¹((1 + level)/2): the half-width, in standard deviations, of a two-sided band."""
+    return float(scipy.stats.norm.ppf(0.5 * (1.0 + level)))
+
+
+def iid_t_test(mean, std, n):
+    """Two-sided one-sample Student t-test of zero mean; returns ``(t, pvalue)`` arrays.
+
+    ``n`` may be an array (an effective sample size); the degrees of freedom are ``n − 1``.
+    A zero standard deviation gives t = ±inf (p = 0) for a non-zero mean and nan for a zero one.
+    """
+    mean = np.asarray(mean, dtype=np.float64)
+    std = np.asarray(std, dtype=np.float64)
+    n = np.asarray(n, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = mean * np.sqrt(n) / std
+    return t, 2.0 * scipy.stats.t.sf(np.abs(t), n - 1.0)
+
+
+def holm(pvalues) -> np.ndarray:
+    """Holm's step-down adjusted p-values (Holm 1979), same shape as the input.
+
+    Controls the family-wise error rate at α for any dependence between the tests: reject
+    every test whose adjusted p-value is ≤ α. NaN p-values are not tests: they stay NaN and do
+    not count in the family size.
+
+    Examples
+    --------
+    >>> holm([0.01, 0.04, 0.03]).tolist()
+    [0.03, 0.06, 0.06]
+    """
+    p = np.asarray(pvalues, dtype=np.float64)
+    flat = p.reshape(-1)
+    out = np.full_like(flat, np.nan)
+    valid = np.flatnonzero(~np.isnan(flat))
+    k = valid.size
+    if k:
+        order = valid[np.argsort(flat[valid], kind="stable")]
+        scaled = flat[order] * (k - np.arange(k))
+        out[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    return out.reshape(p.shape)
+
+
+def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
+    """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k) by FFT.
+
+    Means are overall (one per column), products never join two segments (contract §1.1), the
+    denominator is N at every lag. A constant column gives nan. ``scipy.fft`` makes long lags
+    cheap: O(N log N) per column instead of O(N·max_lag).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[0]
+    xc = x - x.mean(axis=0) if centre else x
+    bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
+    acov = np.zeros((max_lag + 1, x.shape[1]))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        seg = xc[a:b]
+        length = b - a
+        size = scipy.fft.next_fast_len(2 * length)
+        spec = scipy.fft.rfft(seg, n=size, axis=0)
+        r = scipy.fft.irfft(spec * np.conj(spec), n=size, axis=0)
+        keep = min(max_lag + 1, length)
+        acov[:keep] += r[:keep]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = acov / acov[0]
+    rho[:, ~(acov[0] > 0)] = np.nan
+    return rho
+
+
+def andrews_bandwidth(phi, n: int) -> np.ndarray:
+    """Andrews (1991) AR(1) plug-in bandwidth of the Bartlett kernel, 1.1447·(α(1)·N)^(1/3).
+
+    α(1) = 4φ²/((1 − φ)²(1 + φ)²); the result is the integer number of lags L whose weights
+    1 − j/(L + 1) the Bartlett (Newey–West) estimator uses.
+    """
+    phi = np.clip(np.asarray(phi, dtype=np.float64), -0.999, 0.999)
+    alpha = 4.0 * phi**2 / ((1.0 - phi) ** 2 * (1.0 + phi) ** 2)
+    with np.errstate(invalid="ignore"):
+        s = 1.1447 * (alpha * n) ** (1.0 / 3.0)
+    return np.where(np.isfinite(s), np.floor(s), 0).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class LongRunVariance:
+    """Long-run variance of each joint's residual and the effective sample size it implies.
+
+    Attributes (all ``(m,)``): ``variance`` (biased, over N), ``long_run_variance`` (2π times the
+    spectral density at zero: the variance of √N·ē), ``n_eff`` = N·variance/long_run_variance,
+    clipped to [2, N], ``phi`` (the AR(1) prewhitening coefficient), ``bandwidth`` (Bartlett lags
+    used on the prewhitened series).
+    """
+
+    variance: np.ndarray
+    long_run_variance: np.ndarray
+    n_eff: np.ndarray
+    phi: np.ndarray
+    bandwidth: np.ndarray
+    method: str = "andrews_monahan"
+
+
+def _segment_lag_pairs(x, starts, lag: int):
+    """Rows (k, k − lag) of ``x`` inside the same segment."""
+    n = x.shape[0]
+    keep = np.ones(n, dtype=bool)
+    for s in np.asarray(starts, dtype=np.int64):
+        keep[s:s + lag] = False
+    keep[:lag] = False
+    idx = np.flatnonzero(keep)
+    return x[idx], x[idx - lag], idx
+
+
+def long_run_variance(e, starts) -> LongRunVariance:
+    """Prewhitened Bartlett (Newey–West) long-run variance with an automatic bandwidth.
+
+    The estimator of Andrews & Monahan (1992): fit an AR(1) coefficient φ̂ per joint (lag-1
+    biased autocorrelation, |φ̂| ≤ 0.999), prewhiten u_k = x_k − φ̂x_{k−1} inside each segment,
+    estimate the long-run variance of u with Bartlett weights 1 − j/(L + 1) and Andrews'
+    (1991) AR(1) plug-in bandwidth L, and recolour: LRV_x = LRV_u/(1 − φ̂)². For an AR(1)
+    residual with coefficient ρ this gives N_eff ≈ N(1 − ρ)/(1 + ρ). Means are overall; no lag
+    joins two segments. A constant residual gives n_eff = N.
+    """
+    x = np.asarray(e, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    n, m = x.shape
+    xc = x - x.mean(axis=0)
+    variance = (xc**2).sum(axis=0) / n
+    rho1 = acf_fft(xc, starts, 1, centre=False)[1] if n > 1 else np.full(m, np.nan)
+    phi = np.clip(np.nan_to_num(rho1, nan=0.0), -0.999, 0.999)
+    cur, prev, idx = _segment_lag_pairs(xc, starts, 1)
+    u = cur - phi * prev
+    nu = u.shape[0]
+    # Segment starts of u: the rows kept after removing each segment's first row.
+    if nu:
+        new_starts = np.flatnonzero(np.diff(idx, prepend=-2) != 1)
+    else:
+        new_starts = np.array([0])
+    lrv_u = np.full(m, np.nan)
+    bandwidth = np.zeros(m, dtype=np.int64)
+    if nu >= 2:
+        uc = u - u.mean(axis=0)
+        rho_u1 = acf_fft(uc, new_starts, 1, centre=False)[1]
+        lengths = np.diff(np.append(new_starts, nu))
+        bandwidth = np.minimum(andrews_bandwidth(np.nan_to_num(rho_u1), nu), int(lengths.max()) - 1)
+        bandwidth = np.maximum(bandwidth, 0)
+        big = int(bandwidth.max())
+        gamma0 = (uc**2).sum(axis=0) / nu
+        rho_u = acf_fft(uc, new_starts, big, centre=False)
+        for j in range(m):
+            lags = np.arange(1, bandwidth[j] + 1)
+            w = 1.0 - lags / (bandwidth[j] + 1.0)
+            s = float(np.nansum(w * rho_u[1:bandwidth[j] + 1, j]))
+            lrv_u[j] = gamma0[j] * (1.0 + 2.0 * s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lrv = lrv_u / (1.0 - phi) ** 2
+        n_eff = n * variance / lrv
+    n_eff = np.where(np.isfinite(n_eff) & (variance > 0), np.clip(n_eff, 2.0, float(n)), float(n))
+    return LongRunVariance(variance=variance, long_run_variance=lrv, n_eff=n_eff, phi=phi,
+                           bandwidth=bandwidth)
+
+
+def cross_correlation_sd(rho_e, rho_y, n_lag, d_lag, n: int) -> np.ndarray:
+    """Standard deviation of ρ̂_eY(ℓ) under independence, accounting for both series' colour.
+
+    Bartlett's formula: var ρ̂_xy(ℓ) ≈ (1/N)·Σ_j ρ_xx(j)ρ_yy(j) (Box, Jenkins & Reinsel,
+    Time Series Analysis, §11.1.3), the sum over j = −J..J with Bartlett weights
+    1 − |j|/(J + 1), floored at the white value 1 (a colour never makes the estimate more
+    precise than white data here). ``rho_e`` is (J+1, m), ``rho_y`` (J+1, m, p); the lag factor
+    √n_ℓ/D_ℓ of the white case (n_ℓ products over the denominator D_ℓ) scales it per lag.
+    Returns (m, p, L+1).
+    """
+    rho_e = np.nan_to_num(np.asarray(rho_e, dtype=np.float64))
+    rho_y = np.nan_to_num(np.asarray(rho_y, dtype=np.float64))
+    big = rho_e.shape[0] - 1
+    w = 1.0 - np.arange(1, big + 1) / (big + 1.0)
+    colour = 1.0 + 2.0 * np.einsum("j,jm,jmp->mp", w, rho_e[1:], rho_y[1:])
+    colour = np.maximum(colour, 1.0)
+    white = np.sqrt(np.asarray(n_lag, dtype=np.float64)) / np.asarray(d_lag, dtype=np.float64)
+    return np.sqrt(colour)[:, :, None] * white[None, None, :]
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """Welch estimate of each joint's residual power spectral density, with a test per bin.
+
+    ``frequency`` (F,) in Hz when the sample rate is known, else in cycles per sample;
+    ``power`` (F, m); ``dof`` the equivalent χ² degrees of freedom of one bin. Per bin and joint
+    (F, m): ``ratio`` to the local background, ``pvalue`` of that ratio (nan where not tested),
+    ``share`` of the residual variance in a peak centred there above the background, and
+    ``is_peak`` (a local maximum). ``peaks``: the tested local maxima as dicts.
+    """
+
+    frequency: np.ndarray
+    power: np.ndarray
+    dof: float
+    nperseg: int
+    ratio: np.ndarray
+    pvalue: np.ndarray
+    share: np.ndarray
+    is_peak: np.ndarray
+    peaks: list
+
+
+def _welch_dof(n_segments: int) -> float:
+    # 50 % overlapping Hann windows: neighbouring segments correlate with c = 0.1667
+    # (Welch 1967; Percival & Walden 1993, eq. 292b), which lowers 2K degrees of freedom.
+    if n_segments <= 1:
+        return 2.0
+    return 2.0 * n_segments / (1.0 + 2.0 * (1.0 - 1.0 / n_segments) * 0.1667**2)
+
+
+def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None,
+                      background_bins: int = 21, min_bin: int = 3) -> Spectrum:
+    """Welch spectrum of each joint's residual and the bins that stand above a smooth background.
+
+    The background is a running median of log power over ``background_bins`` bins (for a
+    monotone spectrum it equals the centre bin), divided by the median of χ²_ν/ν so that it
+    estimates the mean level; under a smooth spectrum the ratio of a bin to it is
+    χ²_ν/ν-distributed, which gives each bin a p-value. Bins below ``min_bin`` (next to zero
+    frequency, where the mean removal and the window's leakage dominate) and the Nyquist bin
+    are not tested. Segments are analysed separately and their spectra averaged, weighted by
+    their number of Welch windows; ``nperseg`` defaults to a power of two near N/8 (16..1024).
+    """
+    x = np.asarray(e, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    n, m = x.shape
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
+    lengths = np.diff(bounds)
+    if nperseg is None:
+        nperseg = int(min(1024, max(16, 2 ** int(math.floor(math.log2(max(lengths.max() // 8, 16)))))))
+    nperseg = int(min(nperseg, lengths.max()))
+    total, windows, freq = None, 0, None
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a < nperseg:
+            continue
+        k = 1 + (b - a - nperseg) // max(nperseg // 2, 1)
+        freq, pxx = scipy.signal.welch(x[a:b], fs=fs, window="hann", nperseg=nperseg,
+                                       noverlap=nperseg // 2, detrend="constant", axis=0)
+        total = pxx * k if total is None else total + pxx * k
+        windows += k
+    if total is None:
+        empty = np.zeros((0, m))
+        return Spectrum(frequency=np.zeros(0), power=empty, dof=float("nan"), nperseg=nperseg, ratio=empty,
+                        pvalue=empty, share=empty, is_peak=empty.astype(bool), peaks=[])
+    power = total / windows
+    dof = _welch_dof(windows)
+    median_factor = scipy.stats.chi2.median(dof) / dof
+    f_count = power.shape[0]
+    ratio = np.full((f_count, m), np.nan)
+    pvalue = np.full((f_count, m), np.nan)
+    share = np.full((f_count, m), np.nan)
+    is_peak = np.zeros((f_count, m), dtype=bool)
+    df = freq[1] - freq[0] if f_count > 1 else 1.0
+    variance = x.var(axis=0)
+    tested = np.zeros(f_count, dtype=bool)
+    tested[min_bin:f_count - 1] = True
+    for j in range(m):
+        pj = power[:, j]
+        if not np.all(np.isfinite(pj)) or pj.max() <= 0 or variance[j] <= 0:
+            continue
+        logp = np.log(np.maximum(pj, np.finfo(float).tiny))
+        background = np.exp(scipy.ndimage.median_filter(logp, size=background_bins, mode="nearest")) / median_factor
+        r = pj / background
+        ratio[:, j] = r
+        pvalue[tested, j] = scipy.stats.chi2.sf(dof * r[tested], dof)
+        left = np.concatenate([[-np.inf], pj[:-1]])
+        right = np.concatenate([pj[1:], [-np.inf]])
+        is_peak[:, j] = tested & (pj >= left) & (pj >= right)
+        excess = np.maximum(pj - background, 0.0) * df
+        # A Hann-windowed line spreads over about three bins: sum the excess over ±2 bins.
+        share[:, j] = 5.0 * scipy.ndimage.uniform_filter1d(excess, 5, mode="constant") / variance[j]
+    peaks = [{"joint": int(j), "frequency": float(freq[b]), "ratio": float(ratio[b, j]),
+              "pvalue": float(pvalue[b, j]), "share": float(share[b, j]), "bin": int(b)}
+             for b, j in np.argwhere(is_peak)]
+    return Spectrum(frequency=freq, power=power, dof=dof, nperseg=nperseg, ratio=ratio, pvalue=pvalue,
+                    share=share, is_peak=is_peak, peaks=peaks)
+
+
+def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=None) -> float:
+    """Frequency below which ``fraction`` of the power of the (centred) measured torque lies.
+
+    The largest over joints, in Hz when the sample rate is known, else in cycles per sample.
+    It is the band that carries the robot's motion; above it, a residual's colour is what the
+    sensor, its filters and the sampling make, not the model.
+    """
+    spec = residual_spectrum(tau, starts, sample_rate=sample_rate)
+    if spec.power.size == 0:
+        return float("nan")
+    cum = np.cumsum(spec.power, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cum = cum / cum[-1]
+    idx = [int(np.searchsorted(cum[:, j], fraction)) for j in range(cum.shape[1]) if np.isfinite(cum[-1, j])]
+    if not idx:
+        return float("nan")
+    return float(spec.frequency[min(max(idx), len(spec.frequency) - 1)])
+
+
+def decimate_segments(x, starts, factor: int):
+    """Anti-alias filter and keep every ``factor``-th sample inside each segment.
+
+    ``scipy.signal.decimate`` with its zero-phase FIR filter; segments shorter than 30·factor
+    samples are dropped (the filter needs room). Returns the decimated array and its starts.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = x.shape[0]
+    bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
+    parts, new_starts, pos = [], [], 0
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a < 30 * factor:
+            continue
+        y = scipy.signal.decimate(x[a:b], factor, ftype="fir", axis=0, zero_phase=True)
+        parts.append(y)
+        new_starts.append(pos)
+        pos += y.shape[0]
+    if not parts:
+        return None, None
+    return np.concatenate(parts, axis=0), np.asarray(new_starts, dtype=np.int64)
