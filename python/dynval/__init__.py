@@ -45,6 +45,9 @@ from ._errors import (
     TooFewSamples,
     error_class,
 )
+from ._compare import ComparisonReport, Verdict, compare
+from ._findings import KINDS as FINDING_KINDS
+from ._findings import Finding, Thresholds
 from ._report import ValidationReport, validate
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 
@@ -75,6 +78,12 @@ __all__ = [
     "bic",
     "validate",
     "ValidationReport",
+    "compare",
+    "ComparisonReport",
+    "Verdict",
+    "Finding",
+    "Thresholds",
+    "FINDING_KINDS",
     "backends",
     "set_backend",
     "ZeroMeanTest",

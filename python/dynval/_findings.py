@@ -18,9 +18,8 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
-import scipy.stats
 
-from ._stats import holm
+from ._stats import correlation_pvalue, holm
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -56,7 +55,9 @@ class Thresholds:
         |ē_j| / RMSE_j, the share of the joint's RMS error that is a constant offset (0.1).
     regressor_correlation : float
         |ρ̂_eY(ℓ)|, the correlation of the residual with a regressor column; ρ² is the share of
-        residual variance that column explains linearly (0.1, i.e. 1 %).
+        residual variance that column explains linearly (0.1, i.e. 1 %). For a column outside
+        ``model_columns`` the effect is the share of the residual's mean square that adding the
+        term would remove, against the threshold squared (1 %).
     oscillation : float
         Share of the residual variance in a spectral peak above the background (0.05).
     repeat_distance : float
@@ -181,6 +182,11 @@ class Evidence:
     xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
     xcorr_sd: np.ndarray | None = None  # (m, p, L+1)
     xcorr_mask: np.ndarray | None = None  # (m, p)
+    # added-variable correlations of the residual with the columns the model lacks (lag 0)
+    missing_columns: list | None = None
+    missing_rho: np.ndarray | None = None  # (m, len(missing_columns))
+    missing_sd: np.ndarray | None = None
+    missing_share: np.ndarray | None = None  # share of the residual's mean square each would remove
     # validation design
     repeat: dict | None = None
     excitation: dict | None = None
@@ -213,10 +219,9 @@ def _tests(ev: Evidence):
     if ev.spectrum_pvalue is not None:
         blocks.append(("spectrum", np.asarray(ev.spectrum_pvalue, dtype=float)))
     if ev.xcorr_rho is not None:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            z = np.abs(ev.xcorr_rho) / ev.xcorr_sd
-        p = 2.0 * scipy.stats.norm.sf(z)
-        blocks.append(("xcorr", p))
+        blocks.append(("xcorr", correlation_pvalue(ev.xcorr_rho, ev.xcorr_sd)))
+    if ev.missing_rho is not None:
+        blocks.append(("missing", correlation_pvalue(ev.missing_rho, ev.missing_sd)))
     return blocks
 
 
@@ -309,6 +314,41 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          + (": a systematic bias, e.g. a missing offset or friction term." if big
                             else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
 
+    # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
+    missing_joints: set[int] = set()
+    if "missing" in fam:
+        p, padj = fam["missing"]
+        rho = np.asarray(ev.missing_rho, dtype=float)
+        share = np.asarray(ev.missing_share, dtype=float)
+        for j in range(rho.shape[0]):
+            sig = [k for k in range(rho.shape[1]) if padj[j, k] <= alpha]
+            if not sig:
+                continue
+            sig.sort(key=lambda k: -share[j, k])
+            strong = [k for k in sig if share[j, k] >= th.regressor_correlation ** 2]
+            chosen = strong or sig
+            k = chosen[0]
+            c = int(ev.missing_columns[k])
+            big = bool(strong)
+            if big:
+                deficient_joints.add(j)
+                missing_joints.add(j)
+            listed = "; ".join(f"{_col(cols, ev.missing_columns[kk])} (ρ = {rho[j, kk]:+.3f}, would remove "
+                               f"{100 * share[j, kk]:.1f} % of the mean square)" for kk in chosen[:3])
+            out.append(Finding(
+                kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
+                columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(rho[j, k]),
+                pvalue=float(p[j, k]), pvalue_adjusted=float(padj[j, k]), effect=float(share[j, k]),
+                effect_unit="share of the residual's mean square the term would remove",
+                threshold=th.regressor_correlation ** 2,
+                action=(f"add the term {_col(cols, c)} to the model" if big
+                        else "none: the term would explain too little to matter"),
+                details={"lag": 0, "rho": float(rho[j, k]), "added_variable": True},
+                message=(f"{_name(names, j)}: the residual correlates with {listed}, terms the model lacks, "
+                         f"after removing what the model's own columns represent (Holm-adjusted p = "
+                         f"{_p_text(padj[j, k])})"
+                         + (": a missing term." if big else ": significant but negligible."))))
+
     # ---- regressor correlation
     if "xcorr" in fam:
         p, padj = fam["xcorr"]
@@ -316,6 +356,8 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
         with np.errstate(invalid="ignore", divide="ignore"):
             z = np.abs(rho) / ev.xcorr_sd
         for j in range(rho.shape[0]):
+            if j in missing_joints:
+                continue  # the missing term found above explains this joint's correlations
             hits = []
             for c in range(rho.shape[1]):
                 sig = np.flatnonzero(padj[j, c] <= alpha)

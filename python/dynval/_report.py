@@ -248,6 +248,7 @@ class _Options:
     estimation: dict | None
     thresholds: object
     detail: str
+    model_columns: list | None
 
 
 def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
@@ -276,14 +277,16 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
     estimation = v.check_estimation(a["estimation"], m)
     thresholds = resolve_thresholds(a["thresholds"])
     detail = v.check_detail(a["cross_correlation_detail"])
+    model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
     return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
-                    sample_rate, decimate, joint_names, column_names, q, estimation, thresholds, detail)
+                    sample_rate, decimate, joint_names, column_names, q, estimation, thresholds, detail,
+                    model_columns)
 
 
 def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
              level=None, profile="lesson", segments=None, nan_policy="raise", backend=None,
              noise_model=None, sample_rate=None, decimate="auto", joint_names=None, column_names=None,
-             q=None, estimation=None, thresholds=None, cross_correlation_detail="top"):
+             q=None, estimation=None, thresholds=None, cross_correlation_detail="top", model_columns=None):
     """Validate predicted joint torques against measured ones: every metric, findings, one report.
 
     Parameters
@@ -333,6 +336,10 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         Practical effect sizes a deficiency must reach (see :class:`dynval.Thresholds`).
     cross_correlation_detail : {"top", "full"}
         "top" keeps the strongest cells per joint and column; "full" also the whole ρ array.
+    model_columns : sequence of int or str, optional
+        The regressor columns the model contains (indices, or names from `column_names`). The
+        other columns are then tested as candidate missing terms: the residual against the part of
+        each that the model's columns cannot represent (added-variable correlation).
 
     Returns
     -------
@@ -344,7 +351,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
         sample_rate, decimate, joint_names, column_names, q, estimation, thresholds,
-        cross_correlation_detail.
+        cross_correlation_detail, model_columns.
 
     Notes
     -----
@@ -371,7 +378,8 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
                 decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
-                estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail)
+                estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
+                model_columns=model_columns)
     try:
         o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
             v.to_float_array(tau_meas, "tau_meas"), "tau_meas")))
@@ -409,10 +417,15 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
             white = sec.whiteness(kernel, e, meas, starts, lb, o.decimate, o.sample_rate)
         spec = sec.spectrum(e, starts, reg3, o.sample_rate)
 
-    cross = xrho = xsd = None
+    cross = xrho = xsd = missing = None
     if reg2 is not None:
         cross, xrho, xsd = sec.cross_correlation(kernel, e, reg2, p_cols, o.max_lag, prof, o.level, starts, n, m,
                                                  n_eff, o.detail)
+        if o.model_columns is not None and e is not None:
+            missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
+            if missing is not None:
+                cross["missing_terms"] = {"columns": missing[0], "rho": missing[1], "sd": missing[2],
+                                          "share": missing[3]}
     design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance)
     seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
                                        v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
@@ -450,6 +463,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         "omitted_rows": int(omitted),
         "joint_names": o.joint_names,
         "column_names": o.column_names,
+        "model_columns": o.model_columns,
         "sample_rate": o.sample_rate,
         "thresholds": dict(vars(o.thresholds)) if hasattr(o.thresholds, "__dict__") else None,
         "backend": o.backend_name,
@@ -461,7 +475,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
                       constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
                       force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
                       xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
-                      design=design, column_names=o.column_names, acf=acf)
+                      design=design, column_names=o.column_names, acf=acf, missing=missing)
     found = compute_findings(ev, o.thresholds)
     return ValidationReport(
         provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,

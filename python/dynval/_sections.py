@@ -284,6 +284,51 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     return section, rho, sd
 
 
+def added_variable(e, reg3, model_columns, starts, n_eff):
+    """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
+
+    For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
+    validation data, per joint) is what the model cannot represent of it; a missing term shows as
+    a residual correlated with its z_c, while the model's compensation through S does not
+    (the added-variable or partial-regression idea). Standard deviations are colour-aware as in
+    :func:`cross_correlation`. Returns (columns, rho (m, q), sd (m, q)) or None.
+    """
+    n, m, p = reg3.shape
+    outside = [c for c in range(p) if c not in set(model_columns)]
+    if not outside or n < 4 * p:
+        return None
+    inside = [c for c in range(p) if c in set(model_columns)]
+    z = np.empty((n, m, len(outside)))
+    for j in range(m):
+        y_out = reg3[:, j, outside]
+        if inside:
+            coef, *_ = np.linalg.lstsq(reg3[:, j, inside], y_out, rcond=None)
+            y_out = y_out - reg3[:, j, inside] @ coef
+        z[:, j, :] = y_out
+    ec = e - e.mean(axis=0)
+    zc = z - z.mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = np.einsum("nm,nmq->mq", ec, zc) / np.sqrt(
+            np.einsum("nm,nm->m", ec, ec)[:, None] * np.einsum("nmq,nmq->mq", zc, zc))
+    # A column the model represents entirely (z ≈ 0) carries no evidence.
+    rho = np.where(np.einsum("nmq,nmq->mq", zc, zc) > 1e-20 * np.einsum("nmq,nmq->mq", reg3[:, :, outside] ** 2,
+                                                                       np.ones_like(zc)), rho, np.nan)
+    lengths = np.diff(np.append(starts, n))
+    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
+    tau_int = tau_int if np.isfinite(tau_int) else 1.0
+    big = int(min(int(lengths.max()) - 1, max(1, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
+    rho_e = _stats.acf_fft(e, starts, big)
+    rho_z = _stats.acf_fft(z.reshape(n, -1), starts, big).reshape(big + 1, m, len(outside))
+    sd = _stats.cross_correlation_sd(rho_e, rho_z, np.array([float(n)]), np.array([float(n)]), n)[:, :, 0]
+    # Effect: the share of the residual's mean square the term would remove if added (uncentred,
+    # so a term whose absence shows as a bias counts its mean too).
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
+                                                      * np.einsum("nmq,nmq->mq", z, z))
+    share = np.where(np.isnan(rho), np.nan, share)
+    return outside, rho, sd, share
+
+
 def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
     """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
     out = {}
@@ -307,7 +352,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
-             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf) -> Evidence:
+             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None) -> Evidence:
     """Collect what the findings' rules read."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
@@ -333,6 +378,8 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
     if design is not None:
         ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
+    if missing is not None:
+        ev.missing_columns, ev.missing_rho, ev.missing_sd, ev.missing_share = missing
     return ev
 
 

@@ -26,6 +26,7 @@ __all__ = [
     "long_run_variance",
     "andrews_bandwidth",
     "cross_correlation_sd",
+    "correlation_pvalue",
     "Spectrum",
     "residual_spectrum",
     "information_bandwidth",
@@ -216,6 +217,21 @@ def cross_correlation_sd(rho_e, rho_y, n_lag, d_lag, n: int) -> np.ndarray:
     return np.sqrt(colour)[:, :, None] * white[None, None, :]
 
 
+def correlation_pvalue(rho, sd):
+    """Two-sided p-value of a sample correlation whose null standard deviation is ``sd``.
+
+    The effective number of samples ν = 1/sd² (for white series sd = 1/√N gives ν = N) enters the
+    usual t test of a correlation, t = ρ√(ν − 2)/√(1 − ρ²) with ν − 2 degrees of freedom (the
+    effective-degrees-of-freedom correction of Pyper & Peterman 1998 for autocorrelated series):
+    with few effective samples its tails are heavier than the normal's.
+    """
+    rho = np.asarray(rho, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nu = np.maximum(1.0 / np.asarray(sd, dtype=np.float64) ** 2 - 2.0, 1.0)
+        t = np.abs(rho) * np.sqrt(nu) / np.sqrt(np.maximum(1.0 - rho**2, 1e-300))
+    return 2.0 * scipy.stats.t.sf(t, nu)
+
+
 @dataclass(frozen=True)
 class Spectrum:
     """Welch estimate of each joint's residual power spectral density, with a test per bin.
@@ -246,28 +262,26 @@ def _welch_dof(n_segments: int) -> float:
     return 2.0 * n_segments / (1.0 + 2.0 * (1.0 - 1.0 / n_segments) * 0.1667**2)
 
 
-def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None,
-                      background_bins: int = 21, min_bin: int = 3) -> Spectrum:
-    """Welch spectrum of each joint's residual and the bins that stand above a smooth background.
+def _side_medians(logp, inner: int, outer: int):
+    """Running medians of ``logp`` over bins b−outer..b−inner and b+inner..b+outer (nan where short)."""
+    f_count = logp.shape[0]
+    width = outer - inner + 1
+    left = np.full(f_count, np.nan)
+    right = np.full(f_count, np.nan)
+    if f_count >= width:
+        med = np.median(np.lib.stride_tricks.sliding_window_view(logp, width), axis=1)  # med[i]: bins i..i+width-1
+        b = np.arange(f_count)
+        ok = b - outer >= 0
+        left[ok] = med[b[ok] - outer]
+        ok = b + outer < f_count
+        right[ok] = med[b[ok] + inner]
+    return left, right
 
-    The background is a running median of log power over ``background_bins`` bins (for a
-    monotone spectrum it equals the centre bin), divided by the median of χ²_ν/ν so that it
-    estimates the mean level; under a smooth spectrum the ratio of a bin to it is
-    χ²_ν/ν-distributed, which gives each bin a p-value. Bins below ``min_bin`` (next to zero
-    frequency, where the mean removal and the window's leakage dominate) and the Nyquist bin
-    are not tested. Segments are analysed separately and their spectra averaged, weighted by
-    their number of Welch windows; ``nperseg`` defaults to a power of two near N/8 (16..1024).
-    """
-    x = np.asarray(e, dtype=np.float64)
-    if x.ndim == 1:
-        x = x[:, None]
-    n, m = x.shape
-    fs = 1.0 if sample_rate is None else float(sample_rate)
+
+def _welch(x, starts, fs, nperseg):
+    """Welch power (F, m) averaged over segments weighted by their window counts, and the count."""
+    n = x.shape[0]
     bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
-    lengths = np.diff(bounds)
-    if nperseg is None:
-        nperseg = int(min(1024, max(16, 2 ** int(math.floor(math.log2(max(lengths.max() // 8, 16)))))))
-    nperseg = int(min(nperseg, lengths.max()))
     total, windows, freq = None, 0, None
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b - a < nperseg:
@@ -277,11 +291,41 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
                                        noverlap=nperseg // 2, detrend="constant", axis=0)
         total = pxx * k if total is None else total + pxx * k
         windows += k
-    if total is None:
+    return freq, (None if total is None else total / windows), windows
+
+
+def _default_nperseg(starts, n, nperseg):
+    lengths = np.diff(list(np.asarray(starts, dtype=np.int64)) + [n])
+    if nperseg is None:
+        nperseg = int(min(1024, max(16, 2 ** int(math.floor(math.log2(max(lengths.max() // 8, 16)))))))
+    return int(min(nperseg, lengths.max()))
+
+
+def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None,
+                      inner: int = 3, outer: int = 10) -> Spectrum:
+    """Welch spectrum of each joint's residual and the bins that stand above their neighbourhood.
+
+    A lightly damped mode is a narrow line: it stands above the spectrum on **both** sides. The
+    background of bin b is the larger of two running medians of the log power, over bins
+    b−outer..b−inner and b+inner..b+outer (the peak's own window lobe excluded), divided by
+    the median of χ²_ν/ν so that it estimates the mean level. An edge (a rise after a notch, the
+    knee of a coloured spectrum) has one side at its own level and so no excess; under a smooth
+    spectrum the ratio of a bin to this background is at most χ²_ν/ν-distributed, which gives each
+    bin a (conservative) p-value. Bins with fewer than three neighbours on a side are not tested.
+    Segments are analysed separately and their spectra averaged, weighted by their number of Welch
+    windows; ``nperseg`` defaults to a power of two near N/8 (16..1024).
+    """
+    x = np.asarray(e, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    n, m = x.shape
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    nperseg = _default_nperseg(starts, n, nperseg)
+    freq, power, windows = _welch(x, starts, fs, nperseg)
+    if power is None:
         empty = np.zeros((0, m))
         return Spectrum(frequency=np.zeros(0), power=empty, dof=float("nan"), nperseg=nperseg, ratio=empty,
                         pvalue=empty, share=empty, is_peak=empty.astype(bool), peaks=[])
-    power = total / windows
     dof = _welch_dof(windows)
     median_factor = scipy.stats.chi2.median(dof) / dof
     f_count = power.shape[0]
@@ -291,23 +335,23 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     is_peak = np.zeros((f_count, m), dtype=bool)
     df = freq[1] - freq[0] if f_count > 1 else 1.0
     variance = x.var(axis=0)
-    tested = np.zeros(f_count, dtype=bool)
-    tested[min_bin:f_count - 1] = True
     for j in range(m):
         pj = power[:, j]
         if not np.all(np.isfinite(pj)) or pj.max() <= 0 or variance[j] <= 0:
             continue
         logp = np.log(np.maximum(pj, np.finfo(float).tiny))
-        background = np.exp(scipy.ndimage.median_filter(logp, size=background_bins, mode="nearest")) / median_factor
+        left, right = _side_medians(logp, inner, outer)
+        tested = np.isfinite(left) & np.isfinite(right)
+        background = np.exp(np.fmax(left, right)) / median_factor
         r = pj / background
-        ratio[:, j] = r
+        ratio[tested, j] = r[tested]
         pvalue[tested, j] = scipy.stats.chi2.sf(dof * r[tested], dof)
-        left = np.concatenate([[-np.inf], pj[:-1]])
-        right = np.concatenate([pj[1:], [-np.inf]])
-        is_peak[:, j] = tested & (pj >= left) & (pj >= right)
-        excess = np.maximum(pj - background, 0.0) * df
+        before = np.concatenate([[-np.inf], pj[:-1]])
+        after = np.concatenate([pj[1:], [-np.inf]])
+        is_peak[:, j] = tested & (pj >= before) & (pj >= after)
+        excess = np.where(tested, np.maximum(pj - background, 0.0), 0.0) * df
         # A Hann-windowed line spreads over about three bins: sum the excess over ±2 bins.
-        share[:, j] = 5.0 * scipy.ndimage.uniform_filter1d(excess, 5, mode="constant") / variance[j]
+        share[tested, j] = (5.0 * scipy.ndimage.uniform_filter1d(excess, 5, mode="constant") / variance[j])[tested]
     peaks = [{"joint": int(j), "frequency": float(freq[b]), "ratio": float(ratio[b, j]),
               "pvalue": float(pvalue[b, j]), "share": float(share[b, j]), "bin": int(b)}
              for b, j in np.argwhere(is_peak)]
@@ -322,16 +366,19 @@ def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=No
     It is the band that carries the robot's motion; above it, a residual's colour is what the
     sensor, its filters and the sampling make, not the model.
     """
-    spec = residual_spectrum(tau, starts, sample_rate=sample_rate)
-    if spec.power.size == 0:
+    x = np.asarray(tau, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    freq, power, _ = _welch(x, starts, fs, _default_nperseg(starts, x.shape[0], None))
+    if power is None:
         return float("nan")
-    cum = np.cumsum(spec.power, axis=0)
+    cum = np.cumsum(power, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         cum = cum / cum[-1]
     idx = [int(np.searchsorted(cum[:, j], fraction)) for j in range(cum.shape[1]) if np.isfinite(cum[-1, j])]
     if not idx:
         return float("nan")
-    return float(spec.frequency[min(max(idx), len(spec.frequency) - 1)])
+    return float(freq[min(max(idx), len(freq) - 1)])
 
 
 def decimate_segments(x, starts, factor: int):

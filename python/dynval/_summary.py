@@ -145,3 +145,49 @@ def format_findings(findings) -> list:
         if f.severity != "note" and f.action:
             lines.append(f"      → {f.action}")
     return lines
+
+
+def format_comparison(cmp) -> str:
+    """The text of :meth:`ComparisonReport.summary`: decision table, per-joint table, verdict."""
+    crit = cmp.criterion
+    first = cmp.reports[cmp.names[0]]
+    prov = first.provenance
+    m = prov["n_joints"]
+    names = prov.get("joint_names") or [f"joint {j + 1}" for j in range(m)]
+    percent = prov["conventions"]["units"] == "percent"
+    unit = " %" if percent else ""
+    vfmt = ".2f" if percent else ".4f"
+    w = max(9, max(len(n) for n in cmp.names))
+    lines = [f"dynval model comparison — {len(cmp.names)} candidates, N = {prov['n_samples']} samples, "
+             f"m = {m} joints, profile '{prov['profile']}', ranked by {crit}", "",
+             "Decision table (pooled over joints; Δ to the best; weight = Akaike weight of " + crit + "):"]
+    extra = [] if crit in ("aic", "bic", "aicc") else [crit]
+    head = (f"  {'rank':>4} {'model':<{w}} {'p':>4} {'RMSE':>10} {'VAF' + unit:>8} {'R²':>8} {'AIC':>12} {'ΔAIC':>9} "
+            f"{'BIC':>12} {'ΔBIC':>9}" + "".join(f" {'Δ' + c:>12}" for c in extra)
+            + f" {'weight':>7} {'whiteness':>10} {'bias':>10} {'deficient':>9}")
+    lines.append(head)
+    for i, n in enumerate(cmp.ranking):
+        row = cmp.table["pooled"][n]
+        lines.append(
+            f"  {i + 1:>4} {n:<{w}} {row['n_params']:>4} {_num(row['rmse']):>10} {_num(row['vaf'], vfmt):>8} "
+            f"{_num(row['r2'], '.4f'):>8} {_num(row['aic'], '.1f'):>12} {_num(row['delta_aic'], '.1f'):>9} "
+            f"{_num(row['bic'], '.1f'):>12} {_num(row['delta_bic'], '.1f'):>9}"
+            + "".join(f" {_num(row['delta_' + c], '.1f'):>12}" for c in extra)
+            + f" {_num(row['akaike_weight'], '.3f'):>7} {row['whiteness']:>10} {row['bias']:>10} "
+            f"{row['n_deficiencies']:>9}")
+    lines += ["", "Per joint (RMSE / R²):"]
+    jw = max(len(x) for x in names)
+    lines.append(f"  {'model':<{w}} " + " ".join(f"{x:>{max(jw, 18)}}" for x in names))
+    for n in cmp.ranking:
+        pj = cmp.table["per_joint"][n]
+        cells = [f"{_num(pj['rmse'][j])} / {_num(pj['r2'][j], '.4f')}" for j in range(m)]
+        lines.append(f"  {n:<{w}} " + " ".join(f"{c:>{max(jw, 18)}}" for c in cells))
+    best = cmp.verdict.model
+    alpha = 1.0 - float(cmp.reports[best].provenance["conventions"]["level"])
+    lines += ["", f"Findings of {best} (α = {alpha:g} over every test of its report, Holm):"]
+    lines += format_findings(cmp.reports[best].findings)
+    for f in cmp.findings:
+        lines.append(f"  - [{_SEVERITY_LABEL[f.severity]}] {f.message}")
+    lines += ["", f"Verdict: {cmp.verdict.decision.upper()} — {best}"]
+    lines += [f"  - {r}" for r in cmp.verdict.reasons]
+    return "\n".join(lines)

@@ -485,3 +485,22 @@ def check_estimation(value, m: int):
             check_finite(a, name)
         out[key] = a
     return out
+
+
+def check_model_columns(value, p: int | None, column_names):
+    """``model_columns``: None, or the regressor columns (indices or names) the model contains."""
+    if value is None:
+        return None
+    requirement = ("None or a sequence of regressor column indices or names"
+                   + ("" if p is not None else " (it needs a regressor)"))
+    if p is None or isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise parameter_error("model_columns", requirement, value)
+    out = []
+    for item in value:
+        if isinstance(item, str) and column_names is not None and item in column_names:
+            out.append(column_names.index(item))
+        elif is_integer(item) and 0 <= int(item) < p:
+            out.append(int(item))
+        else:
+            raise parameter_error("model_columns", requirement, value)
+    return sorted(set(out))

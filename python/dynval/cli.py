@@ -4,6 +4,8 @@ Subcommands:
 
 * ``dynval validate MEAS PRED --n-params P [...]`` — validate predicted torques against
   measured ones from .npy, .npz or .csv files and print the report (text or JSON);
+* ``dynval compare MEAS --model NAME=PRED:P [--model ...]`` — candidate models side by side,
+  a ranking and the decision (accept, refine, redesign);
 * ``dynval demo`` — the embedded demonstration (a simulated 2-DOF arm), no input needed;
 * ``dynval conform`` — the conformance runner for ports (see ``dynval conform --help``).
 
@@ -163,7 +165,7 @@ def _segments_arg(text: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``dynval`` argument parser (subcommands validate, demo, conform)."""
+    """The ``dynval`` argument parser (subcommands validate, compare, demo, conform)."""
     from . import __version__
 
     parser = argparse.ArgumentParser(
@@ -172,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "RMSE, VAF, fit, R², residual whiteness, regressor cross-correlation, AIC/BIC.",
         epilog="Exit codes: 0 success, 1 input error, 2 usage error.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{validate,demo,conform}")
+    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
@@ -184,22 +186,23 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("pred", metavar="PRED", help="predicted torques, same shape as MEAS")
     val.add_argument("--n-params", type=int, required=True, metavar="P",
                      help="number of identified parameters (required: there is no default)")
-    val.add_argument("--regressor", metavar="Y",
-                     help="regressor of the validation data, (N, m, p), or (N*m, p) with --n-joints")
-    val.add_argument("--n-joints", type=int, metavar="M", help="joints m of a stacked 2-D regressor")
-    val.add_argument("--max-lag", type=int, metavar="L",
-                     help="largest lag of the residual analysis (default: the profile's; 0 skips it)")
-    val.add_argument("--level", type=float, metavar="X",
-                     help="confidence level of bands and findings, 0 < X < 1 (default: the profile's)")
-    val.add_argument("--profile", default="lesson", choices=PROFILE_NAMES,
-                     help="convention profile (default lesson)")
-    val.add_argument("--segments", type=_segments_arg, metavar="S",
-                     help="independent records: lengths (500,300) or starts (0,500)")
-    val.add_argument("--nan-policy", default="raise", choices=("raise", "omit"),
-                     help="raise on NaN/inf, or omit those rows (default raise)")
-    val.add_argument("--backend", default=None, help="computation backend: python or cpp")
-    val.add_argument("--json", action="store_true", help="print the report as JSON")
-    val.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
+    _add_report_options(val)
+
+    cmp = sub.add_parser(
+        "compare", help="compare candidate models: table, ranking and decision",
+        description="Validate several candidate models on the same measured torques, rank them "
+                    "(no deficiency first, then by the criterion) and give the decision of the lesson's "
+                    "flowchart: accept, refine (which term, from which evidence) or redesign the experiment.",
+        epilog="Example: dynval compare tau.npy --model rigid=rigid.npy:10 --model friction=fric.npy:14 "
+               "--regressor Y_full.npy --sample-rate 200 --estimation q=q_est.npy --q q_val.npy. "
+               "Exit codes: 0 success, 1 input error (message on stderr), 2 usage error.")
+    cmp.add_argument("meas", metavar="MEAS", help="measured torques of the validation run, (N,) or (N, m)")
+    cmp.add_argument("--model", action="append", required=True, metavar="NAME=PRED:P", type=_model_arg,
+                     help="a candidate: its name, its predicted torques (file) and its number of parameters "
+                          "(repeat for each candidate)")
+    cmp.add_argument("--criterion", default="aic", choices=("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"),
+                     help="criterion of the ranking and the Akaike weights (default aic, the lesson's)")
+    _add_report_options(cmp)
 
     demo = sub.add_parser("demo", help="simulate, identify and validate a 2-DOF arm (no input needed)")
     from .demo import build_parser as build_demo_parser
@@ -212,6 +215,68 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _model_arg(text: str):
+    name, sep, rest = text.partition("=")
+    path, sep2, p = rest.rpartition(":")
+    if not (sep and sep2 and name and path):
+        raise argparse.ArgumentTypeError(f"expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, got {text!r}")
+    try:
+        return name, path, int(p)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"the number of parameters after ':' must be an integer, got {p!r}") from None
+
+
+def _key_file_arg(text: str):
+    key, sep, path = text.partition("=")
+    if not sep or key not in ("q", "regressor", "tau") or not path:
+        raise argparse.ArgumentTypeError(f"expected q=FILE, regressor=FILE or tau=FILE, got {text!r}")
+    return key, path
+
+
+def _names_arg(text: str):
+    return [x.strip() for x in text.split(",")]
+
+
+def _decimate_arg(text: str):
+    if text in ("auto", "none"):
+        return None if text == "none" else "auto"
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {text!r}") from None
+
+
+def _add_report_options(sub) -> None:
+    """The options ``validate`` and ``compare`` share."""
+    sub.add_argument("--regressor", metavar="Y",
+                     help="regressor of the validation data, (N, m, p), or (N*m, p) with --n-joints")
+    sub.add_argument("--n-joints", type=int, metavar="M", help="joints m of a stacked 2-D regressor")
+    sub.add_argument("--max-lag", type=int, metavar="L",
+                     help="largest lag of the residual analysis (default: the profile's; 0 skips it)")
+    sub.add_argument("--level", type=float, metavar="X",
+                     help="confidence level of bands and findings, 0 < X < 1 (default: the profile's)")
+    sub.add_argument("--profile", default="lesson", choices=PROFILE_NAMES,
+                     help="convention profile (default lesson)")
+    sub.add_argument("--segments", type=_segments_arg, metavar="S",
+                     help="independent records: lengths (500,300) or starts (0,500)")
+    sub.add_argument("--nan-policy", default="raise", choices=("raise", "omit"),
+                     help="raise on NaN/inf, or omit those rows (default raise)")
+    sub.add_argument("--noise-model", choices=("pooled", "per_joint", "full"),
+                     help="noise model of the information criteria (default: the profile's)")
+    sub.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second (frequencies in Hz)")
+    sub.add_argument("--decimate", type=_decimate_arg, default="auto", metavar="Q",
+                     help="whiteness at the information rate: auto (default), none, or a factor")
+    sub.add_argument("--joint-names", type=_names_arg, metavar="A,B,..", help="joint names, comma-separated")
+    sub.add_argument("--column-names", type=_names_arg, metavar="A,B,..",
+                     help="regressor column names, comma-separated")
+    sub.add_argument("--q", metavar="FILE", help="joint positions of the validation run (N, m)")
+    sub.add_argument("--estimation", action="append", type=_key_file_arg, metavar="KEY=FILE",
+                     help="the estimation run (repeatable): q=FILE, regressor=FILE, tau=FILE")
+    sub.add_argument("--backend", default=None, help="computation backend: python or cpp")
+    sub.add_argument("--json", action="store_true", help="print the report as JSON")
+    sub.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
+
+
 # --------------------------------------------------------------------------- commands
 
 
@@ -220,32 +285,64 @@ def _error(command: str, message: str) -> int:
     return EXIT_INPUT
 
 
+def _report_options(args) -> dict:
+    """Load the shared files and collect the shared keywords (FileInputError on a bad file)."""
+    est = None
+    if args.estimation:
+        est = {key: load_array(path) for key, path in args.estimation}
+    return dict(regressor=load_array(args.regressor) if args.regressor else None, n_joints=args.n_joints,
+                max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
+                nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
+                sample_rate=args.sample_rate, decimate=args.decimate, joint_names=args.joint_names,
+                column_names=args.column_names, q=load_array(args.q) if args.q else None, estimation=est)
+
+
+def _emit(command: str, args, text: str) -> int:
+    if args.output:
+        try:
+            with open(args.output, "w", encoding="utf-8") as handle:
+                handle.write(text + "\n")
+        except OSError as exc:
+            return _error(command, f"{args.output}: cannot be written ({exc.strerror or exc})")
+    else:
+        print(text)
+    return EXIT_OK
+
+
 def _run_validate(args) -> int:
     from ._report import validate
 
     try:
         meas = load_array(args.meas)
         pred = load_array(args.pred)
-        regressor = load_array(args.regressor) if args.regressor else None
+        options = _report_options(args)
     except FileInputError as exc:
         return _error("validate", str(exc))
     try:
-        report = validate(meas, pred, n_params=args.n_params, regressor=regressor,
-                          n_joints=args.n_joints, max_lag=args.max_lag, level=args.level,
-                          profile=args.profile, segments=args.segments,
-                          nan_policy=args.nan_policy, backend=args.backend)
+        report = validate(meas, pred, n_params=args.n_params, **options)
     except InputError as exc:
         return _error("validate", f"{type(exc).__name__}: {exc}")
-    text = report.to_json() if args.json else report.summary()
-    if args.output:
-        try:
-            with open(args.output, "w", encoding="utf-8") as handle:
-                handle.write(text + "\n")
-        except OSError as exc:
-            return _error("validate", f"{args.output}: cannot be written ({exc.strerror or exc})")
-    else:
-        print(text)
-    return EXIT_OK
+    return _emit("validate", args, report.to_json() if args.json else report.summary())
+
+
+def _run_compare(args) -> int:
+    from ._compare import compare
+
+    names = [name for name, _, _ in args.model]
+    if len(set(names)) != len(names):
+        return _error("compare", f"candidate names must be distinct, got {names}")
+    try:
+        meas = load_array(args.meas)
+        candidates = {name: (load_array(path), p) for name, path, p in args.model}
+        options = _report_options(args)
+    except FileInputError as exc:
+        return _error("compare", str(exc))
+    regressor = options.pop("regressor")
+    try:
+        cmp = compare(meas, candidates, criterion=args.criterion, regressor=regressor, **options)
+    except InputError as exc:
+        return _error("compare", f"{type(exc).__name__}: {exc}")
+    return _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
 
 def main(argv=None) -> int:
@@ -272,6 +369,8 @@ def main(argv=None) -> int:
         return EXIT_USAGE
     if args.command == "validate":
         return _run_validate(args)
+    if args.command == "compare":
+        return _run_compare(args)
     if args.command == "demo":
         from .demo import run_from_args
 

@@ -1,0 +1,258 @@
+"""``dynval.compare``: candidate models side by side, a ranking and the lesson's decision.
+
+The rule (docs/conventions.md §8), applied in this order and reported with its reasons:
+
+1. **redesign** when the experiment cannot answer: a candidate's report has a ``design`` finding
+   (the validation run repeats the estimation run; columns never excited; an ill-conditioned
+   validation regressor), or every candidate's residual fails the whiteness test at the
+   information rate (whiteness cannot discriminate these models on this data);
+2. **refine** the best-ranked model when it has a ``deficiency`` finding: each deficiency names
+   the term to add and the evidence;
+3. **accept** the best-ranked model otherwise.
+
+Ranking: candidates without a deficiency first, then by the chosen criterion (the lesson's AIC by
+default; ``criterion=`` picks bic, aicc or an N_eff-based variant), ties by name.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _validation as v
+from ._findings import Finding
+from ._report import ValidationReport, to_jsonable, validate
+
+__all__ = ["compare", "ComparisonReport", "Verdict", "CRITERIA", "DECISIONS"]
+
+CRITERIA = ("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff")
+DECISIONS = ("accept", "refine", "redesign")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The decision of the lesson's flowchart: ``decision`` (accept, refine, redesign), the
+    ``model`` it concerns (the best-ranked candidate) and the ``reasons``, each with its numbers."""
+
+    decision: str
+    model: str
+    reasons: tuple
+
+    def to_dict(self) -> dict:
+        return {"decision": self.decision, "model": self.model, "reasons": list(self.reasons)}
+
+
+@dataclass
+class ComparisonReport:
+    """Result of :func:`dynval.compare`.
+
+    Attributes
+    ----------
+    names : list of str
+        Candidates in the order given.
+    ranking : list of str
+        Candidates, best first.
+    criterion : str
+        The information criterion used for ranking and Akaike weights.
+    table : dict
+        ``pooled``: per candidate rmse (per element), vaf, fit_percent, r2, aic, bic, aicc, their Δ to
+        the best, akaike_weight, whiteness, bias, n_params, n_deficiencies; ``per_joint``: per candidate
+        the per-joint rmse, vaf, fit_percent, r2 (arrays (m,)).
+    reports : dict
+        Candidate name → its :class:`ValidationReport`.
+    verdict : Verdict
+    findings : list of Finding
+        Findings about the comparison itself (e.g. whiteness cannot discriminate).
+    """
+
+    names: list
+    ranking: list
+    criterion: str
+    table: dict
+    reports: dict
+    verdict: Verdict
+    findings: list = field(default_factory=list)
+
+    def to_dict(self, *, reports: bool = True) -> dict:
+        """JSON-ready dictionary; ``reports=False`` leaves out the candidates' full reports."""
+        out = {"names": list(self.names), "ranking": list(self.ranking), "criterion": self.criterion,
+               "table": to_jsonable(self.table), "verdict": self.verdict.to_dict(),
+               "findings": [f.to_dict() for f in self.findings]}
+        if reports:
+            out["reports"] = {k: r.to_dict() for k, r in self.reports.items()}
+        return out
+
+    def to_json(self, *, indent: int | None = 2) -> str:
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def summary(self) -> str:
+        from ._summary import format_comparison
+
+        return format_comparison(self)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    def __repr__(self) -> str:
+        return (f"ComparisonReport(candidates={self.names!r}, ranking={self.ranking!r}, "
+                f"decision={self.verdict.decision!r}, model={self.verdict.model!r})")
+
+
+def _candidate(name, spec):
+    """``(pred, p)``, ``(pred, p, regressor)`` or a mapping with prediction, n_params[, regressor,
+    model_columns]."""
+    if isinstance(spec, dict):
+        unknown = set(spec) - {"prediction", "n_params", "regressor", "model_columns"}
+        if unknown or "prediction" not in spec or "n_params" not in spec:
+            raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
+                                    "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'",
+                                    spec)
+        return spec["prediction"], spec["n_params"], spec.get("regressor"), spec.get("model_columns")
+    if isinstance(spec, (tuple, list)) and len(spec) in (2, 3):
+        return spec[0], spec[1], spec[2] if len(spec) == 3 else None, None
+    raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
+                            "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'", spec)
+
+
+def _rejects_whiteness(report: ValidationReport) -> bool:
+    return any(f.kind == "whiteness" for f in report.findings)
+
+
+def _bias_state(report: ValidationReport) -> str:
+    kinds = [f.severity for f in report.findings if f.kind == "bias"]
+    if "deficiency" in kinds:
+        return "biased"
+    return "negligible" if kinds else "none"
+
+
+def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options) -> ComparisonReport:
+    """Validate several candidate models on the same data; rank them and give the decision.
+
+    Parameters
+    ----------
+    tau_meas : array_like, (N,) or (N, m)
+        Measured torques of the validation run.
+    candidates : mapping
+        Name → ``(tau_pred, n_params)``, ``(tau_pred, n_params, regressor)`` or a mapping with
+        ``prediction``, ``n_params`` and optionally ``regressor`` and ``model_columns`` (the
+        columns of the regressor the candidate contains; the others are tested as missing terms).
+    criterion : {"aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"}
+        Criterion of the ranking and of the Akaike weights (the lesson's AIC by default).
+    regressor : array_like, optional
+        A regressor shared by every candidate that does not bring its own (e.g. the richest
+        structure's, so that a term missing from a smaller model can be named).
+    **options
+        Any keyword of :func:`dynval.validate` (profile, level, segments, sample_rate, decimate,
+        joint_names, column_names, q, estimation, thresholds, noise_model, backend, ...).
+
+    Returns
+    -------
+    ComparisonReport
+
+    Examples
+    --------
+    >>> import numpy as np, dynval
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(2000) / 100.0
+    >>> x = np.sin(2 * np.pi * 0.3 * t)
+    >>> tau = 3.0 * x + 0.5 * np.sign(x) + rng.normal(0.0, 0.1, t.size)
+    >>> cmp = dynval.compare(tau, {"linear": (3.0 * x, 1), "friction": (3.0 * x + 0.5 * np.sign(x), 2)},
+    ...                      sample_rate=100.0)
+    >>> cmp.ranking, cmp.verdict.decision
+    (['friction', 'linear'], 'accept')
+    """
+    if not isinstance(candidates, dict) or not candidates:
+        raise v.parameter_error("candidates", "a non-empty mapping of names to (prediction, n_params[, regressor])",
+                                candidates)
+    if not all(isinstance(k, str) and k for k in candidates):
+        raise v.parameter_error("candidates", "a mapping whose keys are non-empty strings", candidates)
+    v.check_choice("criterion", criterion, CRITERIA)
+    if "n_params" in options:
+        raise v.parameter_error("n_params", "given per candidate, not to compare", options["n_params"])
+    reports = {}
+    for name, spec in candidates.items():
+        pred, p, reg, cols = _candidate(name, spec)
+        reports[name] = validate(tau_meas, pred, n_params=p, regressor=reg if reg is not None else regressor,
+                                 model_columns=cols, **options)
+    names = list(candidates)
+    if any(criterion not in reports[n].information_criteria for n in names):
+        raise v.parameter_error("criterion", "one of 'aic', 'bic', 'aicc' when max_lag=0 (no N_eff)", criterion)
+    crit = {n: reports[n].information_criteria[criterion] for n in names}
+    deficient = {n: len(reports[n].deficiencies) for n in names}
+
+    def key(n):
+        c = crit[n]
+        return (deficient[n] > 0, math.inf if math.isnan(c) else c, n)
+
+    ranking = sorted(names, key=key)
+    finite = [crit[n] for n in names if np.isfinite(crit[n])]
+    best_c = min(finite) if finite else math.nan
+    with np.errstate(over="ignore", invalid="ignore"):
+        weights_raw = {n: math.exp(-0.5 * (crit[n] - best_c)) if np.isfinite(crit[n]) and finite else 0.0
+                       for n in names}
+    total = sum(weights_raw.values())
+    pooled, per_joint = {}, {}
+    for n in names:
+        r = reports[n]
+        ic = r.information_criteria
+        row = {"n_params": ic["n_params"], "rmse": r.pooled["rmse_per_element"], "vaf": r.pooled["vaf"],
+               "fit_percent": r.pooled["fit_percent"], "r2": r.pooled["r2"]}
+        for c in ("aic", "bic", "aicc"):
+            row[c] = ic[c]
+            best = min((reports[k].information_criteria[c] for k in names), default=math.nan)
+            row[f"delta_{c}"] = ic[c] - best
+        if criterion not in ("aic", "bic", "aicc"):
+            row[criterion] = crit[n]
+            row[f"delta_{criterion}"] = crit[n] - best_c
+        row["akaike_weight"] = weights_raw[n] / total if total > 0 else math.nan
+        row["whiteness"] = ("not analysed" if r.whiteness is None
+                            else "not white" if _rejects_whiteness(r) else "white")
+        row["bias"] = "not analysed" if r.bias is None else _bias_state(r)
+        row["n_deficiencies"] = deficient[n]
+        pooled[n] = row
+        per_joint[n] = {k: np.asarray(r.per_joint[k]) for k in ("rmse", "vaf", "fit_percent", "r2")}
+    table = {"pooled": pooled, "per_joint": per_joint}
+    findings, verdict = _verdict(names, ranking, reports, criterion, crit)
+    return ComparisonReport(names=names, ranking=ranking, criterion=criterion, table=table, reports=reports,
+                            verdict=verdict, findings=findings)
+
+
+def _verdict(names, ranking, reports, criterion, crit):
+    best = ranking[0]
+    findings: list[Finding] = []
+    reasons: list[str] = []
+    design = [(n, f) for n in names for f in reports[n].findings if f.severity == "design"]
+    seen = set()
+    for n, f in design:
+        if f.message not in seen:
+            seen.add(f.message)
+            reasons.append(f"{f.message} ({f.action})")
+    analysed = [n for n in names if reports[n].whiteness is not None]
+    if len(analysed) >= 2 and all(_rejects_whiteness(reports[n]) for n in analysed):
+        msg = ("whiteness cannot discriminate these models on this data: every candidate's residual is coloured "
+               "at the information rate, so the whiteness test says nothing about which is better")
+        findings.append(Finding(kind="whiteness", severity="design", action=(
+            "log less-filtered torques, or validate at a rate where the noise is white; meanwhile rank on "
+            "the criteria and the other findings"), message=msg[0].upper() + msg[1:] + "."))
+        reasons.append(msg + f" (best on {criterion}: {best})")
+    if reasons:
+        return findings, Verdict("redesign", best, tuple(reasons))
+    deficiencies = reports[best].deficiencies
+    if deficiencies:
+        reasons = [f"{f.message} → {f.action}" for f in deficiencies]
+        return findings, Verdict("refine", best, tuple(reasons))
+    r = reports[best]
+    others = [n for n in ranking[1:]]
+    reason = (f"{best} has no deficiency finding at α = {1 - r.provenance['conventions']['level']:g} "
+              f"(Holm over its report) and the lowest {criterion} among such candidates "
+              f"({crit[best]:.2f})")
+    extra = []
+    for n in others:
+        d = len(reports[n].deficiencies)
+        extra.append(f"{n}: Δ{criterion} = {crit[n] - crit[best]:+.2f}"
+                     + (f", {d} deficiency finding{'s' if d != 1 else ''}" if d else ""))
+    reasons = [reason] + extra
+    return findings, Verdict("accept", best, tuple(reasons))
