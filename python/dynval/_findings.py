@@ -52,12 +52,14 @@ class Thresholds:
     Attributes
     ----------
     bias : float
-        |ē_j| / RMSE_j, the share of the joint's RMS error that is a constant offset (0.1).
+        |ē_j| / RMSE_j (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
+        square). Estimation error alone leaves a smaller mean on a new trajectory (calibrated).
     regressor_correlation : float
         |ρ̂_eY(ℓ)|, the correlation of the residual with a regressor column; ρ² is the share of
-        residual variance that column explains linearly (0.1, i.e. 1 %). For a column outside
-        ``model_columns`` the effect is the share of the residual's mean square that adding the
-        term would remove, against the threshold squared (1 %).
+        residual variance that column explains linearly (0.15, i.e. 2.25 %).
+    missing_term : float
+        For a column outside ``model_columns``: the share of the residual's mean square that
+        adding the term would remove (0.01).
     oscillation : float
         Share of the residual variance in a spectral peak above the background (0.05).
     repeat_distance : float
@@ -68,8 +70,9 @@ class Thresholds:
         data cannot separate the parameters' effects (1e3).
     """
 
-    bias: float = 0.1
-    regressor_correlation: float = 0.1
+    bias: float = 0.25
+    regressor_correlation: float = 0.15
+    missing_term: float = 0.01
     oscillation: float = 0.05
     repeat_distance: float = 0.1
     condition_number: float = 1e3
@@ -325,7 +328,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             if not sig:
                 continue
             sig.sort(key=lambda k: -share[j, k])
-            strong = [k for k in sig if share[j, k] >= th.regressor_correlation ** 2]
+            strong = [k for k in sig if share[j, k] >= th.missing_term]
             chosen = strong or sig
             k = chosen[0]
             c = int(ev.missing_columns[k])
@@ -340,7 +343,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(rho[j, k]),
                 pvalue=float(p[j, k]), pvalue_adjusted=float(padj[j, k]), effect=float(share[j, k]),
                 effect_unit="share of the residual's mean square the term would remove",
-                threshold=th.regressor_correlation ** 2,
+                threshold=th.missing_term,
                 action=(f"add the term {_col(cols, c)} to the model" if big
                         else "none: the term would explain too little to matter"),
                 details={"lag": 0, "rho": float(rho[j, k]), "added_variable": True},

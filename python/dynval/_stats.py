@@ -24,6 +24,7 @@ __all__ = [
     "acf_fft",
     "LongRunVariance",
     "long_run_variance",
+    "bartlett_long_run_variance",
     "andrews_bandwidth",
     "cross_correlation_sd",
     "correlation_pvalue",
@@ -147,6 +148,24 @@ def _segment_lag_pairs(x, starts, lag: int):
     return x[idx], x[idx - lag], idx
 
 
+def bartlett_long_run_variance(x, starts, bandwidth) -> np.ndarray:
+    """Newey–West estimate γ₀ + 2 Σ_{j≤L} (1 − j/(L + 1)) γ_j of each column of an already
+    centred ``x`` (N, m), with per-column ``bandwidth`` L; γ_j over N, no lag across segments.
+    With one segment it equals statsmodels' ``S_hac_simple(x, nlags=L)``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n, m = x.shape
+    bandwidth = np.broadcast_to(np.asarray(bandwidth, dtype=np.int64), (m,))
+    gamma0 = (x**2).sum(axis=0) / n
+    rho = acf_fft(x, starts, int(bandwidth.max()), centre=False)
+    out = np.empty(m)
+    for j in range(m):
+        lags = np.arange(1, bandwidth[j] + 1)
+        w = 1.0 - lags / (bandwidth[j] + 1.0)
+        out[j] = gamma0[j] * (1.0 + 2.0 * float(np.nansum(w * rho[1:bandwidth[j] + 1, j])))
+    return out
+
+
 def long_run_variance(e, starts) -> LongRunVariance:
     """Prewhitened Bartlett (Newey–West) long-run variance with an automatic bandwidth.
 
@@ -181,14 +200,7 @@ def long_run_variance(e, starts) -> LongRunVariance:
         lengths = np.diff(np.append(new_starts, nu))
         bandwidth = np.minimum(andrews_bandwidth(np.nan_to_num(rho_u1), nu), int(lengths.max()) - 1)
         bandwidth = np.maximum(bandwidth, 0)
-        big = int(bandwidth.max())
-        gamma0 = (uc**2).sum(axis=0) / nu
-        rho_u = acf_fft(uc, new_starts, big, centre=False)
-        for j in range(m):
-            lags = np.arange(1, bandwidth[j] + 1)
-            w = 1.0 - lags / (bandwidth[j] + 1.0)
-            s = float(np.nansum(w * rho_u[1:bandwidth[j] + 1, j]))
-            lrv_u[j] = gamma0[j] * (1.0 + 2.0 * s)
+        lrv_u = bartlett_long_run_variance(uc, new_starts, bandwidth)
     with np.errstate(divide="ignore", invalid="ignore"):
         lrv = lrv_u / (1.0 - phi) ** 2
         n_eff = n * variance / lrv
@@ -263,18 +275,25 @@ def _welch_dof(n_segments: int) -> float:
 
 
 def _side_medians(logp, inner: int, outer: int):
-    """Running medians of ``logp`` over bins b−outer..b−inner and b+inner..b+outer (nan where short)."""
+    """Running medians of ``logp`` over bins b−outer..b−inner and b+inner..b+outer.
+
+    Near the ends a side keeps the bins that exist; a side with fewer than three is nan.
+    """
     f_count = logp.shape[0]
     width = outer - inner + 1
     left = np.full(f_count, np.nan)
     right = np.full(f_count, np.nan)
-    if f_count >= width:
-        med = np.median(np.lib.stride_tricks.sliding_window_view(logp, width), axis=1)  # med[i]: bins i..i+width-1
-        b = np.arange(f_count)
-        ok = b - outer >= 0
-        left[ok] = med[b[ok] - outer]
-        ok = b + outer < f_count
-        right[ok] = med[b[ok] + inner]
+    full = (np.median(np.lib.stride_tricks.sliding_window_view(logp, width), axis=1)
+            if f_count >= width else np.zeros(0))  # full[i]: the median of bins i..i+width-1
+    for b in range(f_count):
+        if b - outer >= 0:
+            left[b] = full[b - outer]
+        elif b - inner + 1 >= 3:
+            left[b] = np.median(logp[:b - inner + 1])
+        if b + outer < f_count:
+            right[b] = full[b + inner]
+        elif f_count - (b + inner) >= 3:
+            right[b] = np.median(logp[b + inner:])
     return left, right
 
 

@@ -1,0 +1,56 @@
+"""A seeded, smaller version of benchmarks/calibrate_findings.py, with binomial bounds.
+
+Size: with the true structure the share of replicates with any deficiency finding must be at most
+5 %; with n replicates the test fails when the count reaches the smallest k with
+P(X ≥ k | p = 0.05) < 0.001. Power: the right cause must be named in at least 90 %; the test fails
+when the count is at most the largest k with P(X ≤ k | p = 0.9) < 0.001. Seeded, so a failure is
+a change of the detectors, not chance.
+"""
+
+from __future__ import annotations
+
+import pytest
+import scipy.stats
+
+from dynval import calibration as C
+
+pytestmark = pytest.mark.slow
+
+
+def _size_bound(n, rate=0.05, tail=0.001):
+    return int(scipy.stats.binom.isf(tail, n, rate)) + 1  # the count that fails
+
+
+def _power_bound(n, rate=0.9, tail=0.001):
+    return int(scipy.stats.binom.ppf(tail, n, rate))  # the count at or below which it fails
+
+
+@pytest.mark.parametrize("noise, model", [("white", "exact"), ("white", "estimated"), ("t3", "estimated"),
+                                          ("ar0.9", "exact"), ("ar0.99", "exact")])
+def test_size(noise, model):
+    n = 40
+    r = C.run_case(noise, model, n, first_seed=90_000)
+    assert r["any_deficiency"] < _size_bound(n), r
+
+
+def test_backends_give_the_same_findings():
+    for noise, model in (("white", "no_coulomb"), ("ar0.9", "exact"), ("white", "mode")):
+        for seed in range(2):
+            a, _ = C.simulate_replicate(noise, model, 92_000 + seed, backend="python")
+            b, _ = C.simulate_replicate(noise, model, 92_000 + seed, backend="cpp")
+            assert [(f.kind, f.severity, f.joints, f.columns) for f in a.findings] == \
+                   [(f.kind, f.severity, f.joints, f.columns) for f in b.findings]
+
+
+@pytest.mark.parametrize("model", ["no_coulomb", "no_gravity", "mode"])
+def test_power_and_cause_under_white_noise(model):
+    n = 25
+    r = C.run_case("white", model, n, first_seed=91_000)
+    assert r["right_cause"] > _power_bound(n), r
+
+
+def test_bounds_can_fail():
+    # The bounds are not vacuous: a detector firing at 20 % breaks the size test, one naming the
+    # cause 60 % of the time breaks the power test.
+    assert 0.2 * 40 >= _size_bound(40)
+    assert 0.6 * 25 <= _power_bound(25)

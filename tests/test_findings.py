@@ -1,0 +1,355 @@
+"""The findings' rules, tested directly on evidence records, and the statistics under them.
+
+Each rule test asks: which mutation of the rule would this catch? Dropping the Holm correction,
+changing an effect threshold's direction, letting colour alone count as a deficiency, losing a
+design warning. The estimators are checked against independent code (statsmodels) and against
+simulated processes whose answer is known.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.stats
+
+import dynval
+from dynval import _stats
+from dynval._findings import Evidence, Thresholds, compute_findings, holm_family
+
+
+def _ar1(n, rho, rng, m=1):
+    w = rng.normal(size=(n, m))
+    x = np.empty((n, m))
+    x[0] = w[0] / math.sqrt(1.0 - rho * rho)
+    for k in range(1, n):
+        x[k] = rho * x[k - 1] + w[k]
+    return x
+
+
+# ----------------------------------------------------------------- statistics
+
+
+def test_holm_matches_statsmodels():
+    from statsmodels.stats.multitest import multipletests
+
+    rng = np.random.default_rng(3)
+    for size in (1, 2, 7, 50):
+        p = rng.uniform(0, 0.2, size=size) ** 2
+        np.testing.assert_allclose(_stats.holm(p), multipletests(p, method="holm")[1], rtol=1e-15)
+    # nan entries are not tests: they neither count nor change the others
+    p = np.array([0.01, np.nan, 0.02])
+    np.testing.assert_allclose(_stats.holm(p), [0.02, np.nan, 0.02])
+
+
+def test_bartlett_long_run_variance_matches_statsmodels_hac():
+    from statsmodels.stats.sandwich_covariance import S_hac_simple
+
+    rng = np.random.default_rng(4)
+    x = _ar1(3000, 0.6, rng, m=2)
+    x -= x.mean(axis=0)
+    for lags in (0, 1, 7, 40):
+        ours = _stats.bartlett_long_run_variance(x, np.array([0]), lags)
+        ref = np.diag(S_hac_simple(x, nlags=lags)) / x.shape[0]  # statsmodels leaves out the 1/N
+        np.testing.assert_allclose(ours, ref, rtol=1e-12)
+
+
+@pytest.mark.parametrize("rho, n", [(0.0, 5000), (0.9, 5000), (0.99, 20000)])
+def test_effective_sample_size_of_ar1_within_25_percent(rho, n):
+    # N_eff of an AR(1) mean is N(1 − ρ)/(1 + ρ); the prewhitened estimator must find it on every
+    # seeded replicate within ±25 % (a fixed 9-lag Newey–West window gives ≈ N/10 at ρ = 0.99).
+    rng = np.random.default_rng(int(rho * 100) + 7)
+    truth = n * (1 - rho) / (1 + rho)
+    for _ in range(8):
+        est = _stats.long_run_variance(_ar1(n, rho, rng), np.array([0])).n_eff[0]
+        assert abs(est / truth - 1.0) <= 0.25, (est, truth)
+
+
+def test_effective_sample_size_respects_segments():
+    # Two independent AR(1) records concatenated: no lag joins them, so N_eff is the sum.
+    rng = np.random.default_rng(8)
+    a, b = _ar1(8000, 0.9, rng), _ar1(8000, 0.9, rng)
+    both = _stats.long_run_variance(np.vstack([a, b]), np.array([0, 8000])).n_eff[0]
+    assert abs(both / (16000 * 0.1 / 1.9) - 1) < 0.2
+
+
+def test_correlation_pvalue_is_the_t_test_of_a_correlation_for_white_series():
+    # sd = 1/√N gives ν = N: the classical t test of a Pearson correlation with N − 2 df.
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(size=(2, 200))
+    r = np.corrcoef(x, y)[0, 1]
+    expected = scipy.stats.pearsonr(x, y).pvalue
+    assert _stats.correlation_pvalue(r, 1 / math.sqrt(200)) == pytest.approx(expected, rel=1e-10)
+
+
+def test_cross_correlation_sd_grows_with_both_colours():
+    # Two AR(1) series with coefficients a, b: var ρ̂ ≈ (1/N)(1 + ab)/(1 − ab) (Bartlett).
+    n, a, b, lags = 10_000, 0.8, 0.9, 200
+    j = np.arange(lags + 1)
+    sd = _stats.cross_correlation_sd((a ** j)[:, None], (b ** j)[:, None, None], np.array([n]), np.array([n]), n)
+    expected = math.sqrt((1 + a * b) / (1 - a * b) / n)
+    assert sd[0, 0, 0] == pytest.approx(expected, rel=0.02)
+    white = _stats.cross_correlation_sd(np.eye(lags + 1, 1), np.eye(lags + 1, 1)[:, :, None], np.array([n]),
+                                        np.array([n]), n)
+    assert white[0, 0, 0] == pytest.approx(1 / math.sqrt(n), rel=1e-12)
+
+
+def test_spectrum_finds_a_mode_and_not_a_coloured_background():
+    rng = np.random.default_rng(2)
+    n, fs = 4000, 100.0
+    t = np.arange(n) / fs
+    coloured = _ar1(n, 0.95, rng)
+    spec = _stats.residual_spectrum(coloured, np.array([0]), sample_rate=fs)
+    assert np.nanmin(spec.pvalue) * np.sum(~np.isnan(spec.pvalue)) > 0.001  # nothing after Bonferroni
+    with_mode = coloured + 0.5 * np.sin(2 * np.pi * 12.3 * t)[:, None]
+    spec = _stats.residual_spectrum(with_mode, np.array([0]), sample_rate=fs)
+    best = int(np.nanargmin(spec.pvalue[:, 0]))
+    assert abs(spec.frequency[best] - 12.3) < 2 * (spec.frequency[1] - spec.frequency[0])
+    assert spec.pvalue[best, 0] * np.sum(~np.isnan(spec.pvalue)) < 1e-4 and spec.is_peak[best, 0]
+
+
+def test_information_bandwidth_and_decimation():
+    fs = 200.0
+    t = np.arange(20000) / fs
+    tau = np.sin(2 * np.pi * 0.5 * t) + 0.3 * np.sin(2 * np.pi * 2.0 * t)
+    band = _stats.information_bandwidth(tau[:, None], np.array([0]), sample_rate=fs)
+    assert 1.5 < band < 3.5
+    d, starts = _stats.decimate_segments(np.column_stack([tau, tau]), np.array([0, 10000]), 10)
+    assert d.shape == (2000, 2) and starts.tolist() == [0, 1000]
+
+
+# ----------------------------------------------------------------- the rules, on evidence
+
+
+def _evidence(m=2, **kw):
+    base = dict(n_samples=1000, level=0.95, joint_names=[f"j{k}" for k in range(m)], r2=np.full(m, 0.9),
+                pooled_r2=0.9, constant_target=np.zeros(m, bool))
+    base.update(kw)
+    return Evidence(**base)
+
+
+def _bias(p, mean, rmse=1.0, m=2):
+    return dict(mean=np.asarray(mean, float), rmse=np.full(m, rmse), bias_statistic=np.full(m, 5.0),
+                bias_pvalue=np.asarray(p, float), n_eff=np.full(m, 500.0))
+
+
+def kinds(found, severity=None):
+    return [(f.kind, f.joints) for f in found if severity is None or f.severity == severity]
+
+
+def test_bias_needs_significance_and_size():
+    th = Thresholds()
+    found = compute_findings(_evidence(**_bias([1e-6, 1e-6], [0.5, 0.05])), th)
+    assert kinds(found, "deficiency") == [("bias", (0,))]
+    assert kinds(found, "note") == [("bias", (1,))]  # significant but negligible
+    assert "negligible" in found[1].message
+    assert compute_findings(_evidence(**_bias([0.2, 0.2], [0.9, 0.9])), th) == []
+    # the threshold is configurable, and at equality the effect counts
+    found = compute_findings(_evidence(**_bias([1e-6, 1e-6], [0.05, 0.0])), Thresholds(bias=0.05))
+    assert kinds(found, "deficiency") == [("bias", (0,))]
+
+
+def test_holm_covers_every_test_of_the_report():
+    # One bias p-value of 0.004 among 100 null regressor cells: significant alone (0.004·2 ≤ 0.05),
+    # not once corrected over all 102 tests (0.004·102 > 0.05). A per-family correction would flag it.
+    ev = _evidence(**_bias([0.004, 0.9], [0.9, 0.0]))
+    assert kinds(compute_findings(ev)) == [("bias", (0,))]
+    ev.xcorr_rho = np.zeros((2, 5, 10))
+    ev.xcorr_sd = np.full((2, 5, 10), 0.03)
+    fam = holm_family(ev)
+    assert fam["_count"] == 102
+    assert fam["bias"][1][0] == pytest.approx(0.004 * 102)
+    assert compute_findings(ev) == []
+    # ... while a strong effect survives the correction
+    ev.bias_pvalue = np.array([1e-6, 0.9])
+    assert kinds(compute_findings(ev), "deficiency") == [("bias", (0,))]
+
+
+def test_colour_alone_is_a_note_and_corroborated_whiteness_a_deficiency():
+    white = dict(whiteness_lag=20, whiteness_pvalue_raw=np.array([1e-30, 1e-30]),
+                 whiteness_log_pvalue_raw=np.array([-69.0, -69.0]))
+    found = compute_findings(_evidence(**white))
+    assert kinds(found) == [("whiteness", (0,)), ("whiteness", (1,))]
+    assert all(f.severity == "note" for f in found)
+    assert "not evidence against the model" in found[0].message
+    # joint 1 also has a large, significant bias: its whiteness rejection now counts against the model
+    found = compute_findings(_evidence(**white, **_bias([0.5, 1e-9], [0.0, 0.8])))
+    assert kinds(found, "deficiency") == [("bias", (1,)), ("whiteness", (1,))]
+    assert kinds(found, "note") == [("whiteness", (0,))]
+
+
+def test_sampling_colour_when_white_at_the_information_rate():
+    ev = _evidence(whiteness_lag=20, whiteness_pvalue_raw=np.array([1e-30, 1e-30]),
+                   whiteness_log_pvalue_raw=np.array([-69.0, -69.0]),
+                   whiteness_pvalue_decimated=np.array([0.4, 1e-12]), decimation=8, information_band=3.0,
+                   frequency_unit="Hz")
+    found = compute_findings(ev)
+    assert kinds(found) == [("sampling_colour", (0,)), ("whiteness", (1,))]
+    assert found[0].severity == "note" and "below 3 Hz" in found[0].message
+
+
+def test_regressor_correlation_names_the_strongest_significant_column():
+    rho = np.zeros((2, 3, 4))
+    rho[1, 2, 1] = 0.4   # strong
+    rho[1, 0, 0] = 0.2   # significant, weaker
+    rho[0, 1, 3] = 0.06  # significant but negligible (sd 0.01)
+    ev = _evidence(xcorr_rho=rho, xcorr_sd=np.full(rho.shape, 0.01), column_names=["a", "b", "c"])
+    found = compute_findings(ev)
+    defi = [f for f in found if f.severity == "deficiency"]
+    assert [(f.kind, f.joints, f.columns) for f in defi] == [("regressor_correlation", (1,), (2, 0))]
+    assert defi[0].details["lag"] == 1 and defi[0].effect == pytest.approx(0.4)
+    assert "c (lag 1" in defi[0].message
+    notes = [f for f in found if f.severity == "note"]
+    assert [(f.kind, f.joints) for f in notes] == [("regressor_correlation", (0,))]
+
+
+def test_missing_term_is_named_before_compensating_columns():
+    ev = _evidence(xcorr_rho=np.full((2, 3, 2), 0.3), xcorr_sd=np.full((2, 3, 2), 0.01),
+                   column_names=["a", "b", "Fc"], missing_columns=[2],
+                   missing_rho=np.array([[0.25], [0.01]]), missing_sd=np.full((2, 1), 0.01),
+                   missing_share=np.array([[0.07], [0.0001]]))
+    found = compute_findings(ev)
+    first = [f for f in found if f.joints == (0,) and f.kind == "regressor_correlation"]
+    assert len(first) == 1 and first[0].columns == (2,) and first[0].details["added_variable"]
+    assert "add the term Fc" in first[0].action
+    # joint 1: the missing term explains nothing; the marginal correlations remain
+    assert [f.columns[0] for f in found if f.joints == (1,) and f.kind == "regressor_correlation"] == [0]
+
+
+def test_oscillation_needs_a_significant_large_peak():
+    f_count = 50
+    p = np.full((f_count, 1), 0.5)
+    share = np.zeros((f_count, 1))
+    peak = np.zeros((f_count, 1), bool)
+    p[20, 0], share[20, 0], peak[20, 0] = 1e-20, 0.3, True
+    p[30, 0], share[30, 0], peak[30, 0] = 1e-20, 0.01, True
+    ev = _evidence(m=1, spectrum_frequency=np.arange(f_count) * 0.5, spectrum_pvalue=p,
+                   spectrum_ratio=np.full((f_count, 1), 9.0), spectrum_share=share, spectrum_is_peak=peak,
+                   frequency_unit="Hz")
+    found = compute_findings(ev)
+    assert [(f.kind, f.severity, f.details["frequency"]) for f in found] == [("oscillation", "deficiency", 10.0)]
+    peak[20, 0] = False  # not a local maximum: an edge, not a line
+    found = compute_findings(ev)
+    assert [(f.kind, f.severity) for f in found] == [("oscillation", "note")]
+
+
+def test_worse_than_constant_and_design_findings():
+    ev = _evidence(r2=np.array([0.95, -0.4]), pooled_r2=0.9,
+                   repeat={"measure": "regressor", "distance": 0.004, "is_repeat": True},
+                   excitation={"condition_raw": 1e9, "condition_scaled": 12.0, "unexcited": [3]},
+                   column_names=["a", "b", "c", "off"])
+    found = compute_findings(ev)
+    assert [(f.kind, f.severity) for f in found] == [
+        ("worse_than_constant", "deficiency"), ("repeat_trajectory", "design"), ("excitation", "design")]
+    assert "off" in found[2].message
+    ev.repeat["is_repeat"] = False
+    ev.excitation["unexcited"] = []
+    assert [f.kind for f in compute_findings(ev)] == ["worse_than_constant"]
+    ev.excitation["condition_scaled"] = 5e3
+    assert [f.kind for f in compute_findings(ev)] == ["worse_than_constant", "excitation"]
+
+
+def test_thresholds_are_checked():
+    with pytest.raises(dynval.InvalidParameter, match="thresholds"):
+        dynval.validate([1.0, 2.0, 3.0], [1.0, 2.0, 3.5], n_params=1, thresholds={"nope": 1})
+    with pytest.raises(dynval.InvalidParameter, match=r"thresholds\['bias'\] must be a finite number >= 0"):
+        dynval.validate([1.0, 2.0, 3.0], [1.0, 2.0, 3.5], n_params=1, thresholds={"bias": -1})
+
+
+def test_finding_records_serialise():
+    found = compute_findings(_evidence(**_bias([1e-6, 0.5], [0.5, 0.0])))
+    d = found[0].to_dict()
+    assert set(d) >= {"kind", "severity", "joints", "columns", "statistic", "pvalue", "pvalue_adjusted",
+                      "effect", "effect_unit", "threshold", "action", "message"}
+    assert d["kind"] in dynval.FINDING_KINDS
+
+
+# ----------------------------------------------------------------- the report end to end
+
+
+def test_fraction_outside_counts_lags_over_max_lag():
+    # A strongly coloured residual has every lag outside the white band: the fraction is exactly 1.
+    rng = np.random.default_rng(0)
+    e = _ar1(3000, 0.95, rng, m=2)
+    r = dynval.validate(e, np.zeros_like(e), n_params=1, max_lag=15)
+    np.testing.assert_array_equal(r.autocorrelation["fraction_outside"], [1.0, 1.0])
+
+
+def test_readme_example_raises_no_finding(backend):
+    rng = np.random.default_rng(0)
+    tau_meas = rng.normal(size=(1000, 2)) * [30.0, 2.0]
+    tau_pred = tau_meas + rng.normal(scale=0.5, size=tau_meas.shape)
+    report = dynval.validate(tau_meas, tau_pred, n_params=12, backend=backend)
+    assert report.deficiencies == []
+    assert "whiteness" not in [f.kind for f in report.findings]
+
+
+def test_report_carries_names_and_segments():
+    rng = np.random.default_rng(5)
+    n = 1200
+    tau = np.column_stack([np.sin(np.arange(n) / 30.0), np.cos(np.arange(n) / 17.0)]) * 10
+    pred = tau + rng.normal(0, 0.1, size=tau.shape)
+    pred[:200] += 0.5  # a start-up transient
+    r = dynval.validate(tau, pred, n_params=3, joint_names=["hip", "knee"],
+                        segments={"transient": 200, "steady": 1000})
+    assert r.provenance["joint_names"] == ["hip", "knee"] and r.provenance["segments"] == [200, 1000]
+    seg = r.segment_metrics
+    assert list(seg) == ["transient", "steady"]
+    assert seg["transient"]["per_joint"]["rmse"][0] > 4 * seg["steady"]["per_joint"]["rmse"][0]
+    np.testing.assert_allclose(seg["steady"]["per_joint"]["r2"],
+                               dynval.r2(tau[200:], pred[200:], multioutput="raw_values"), rtol=1e-12)
+    assert "hip" in r.summary() and "knee" in r.summary()
+    assert all(f.message.startswith(("hip", "knee")) for f in r.findings if f.joints)
+
+
+def test_noise_model_keyword_and_n_eff_criteria(backend):
+    rng = np.random.default_rng(6)
+    tau = rng.normal(size=(500, 2))
+    pred = tau + _ar1(500, 0.9, rng, m=2) * 0.1
+    pooled = dynval.validate(tau, pred, n_params=3, backend=backend)
+    per = dynval.validate(tau, pred, n_params=3, noise_model="per_joint", backend=backend)
+    assert pooled.information_criteria["noise_model"] == "pooled"
+    assert per.information_criteria["aic"] == pytest.approx(
+        dynval.aic(tau, pred, n_params=3, noise_model="per_joint"), rel=1e-12)
+    ic = pooled.information_criteria
+    ratio = ic["n_eff"] / ic["n_obs"]
+    assert 0.02 < ratio < 0.2  # AR(0.9): N_eff/N ≈ 0.05
+    assert ic["aic_neff"] == pytest.approx((ic["aic"] - 6) * ratio + 6, rel=1e-12)
+    assert ic["bic_neff"] == pytest.approx((ic["aic"] - 6) * ratio + 3 * math.log(ic["n_eff"]), rel=1e-12)
+
+
+def test_repeat_trajectory_is_detected_through_estimation():
+    from dynval import calibration as C
+    from dynval import simulate as sim
+
+    rng = np.random.default_rng(9)
+    t = np.arange(2000) / 100.0
+    q, dq, ddq = C._trajectory(rng, t)
+    q2, dq2, ddq2 = C._trajectory(rng, t)
+    pi = sim.base_parameters()
+    y1 = sim.regressor(q, dq, ddq)
+    y_rep = sim.regressor(q + rng.normal(0, 0.003, q.shape), dq, ddq)  # a repeat within a few mrad
+    y_new = sim.regressor(q2, dq2, ddq2)
+    est = {"q": q, "regressor": y1, "tau": y1 @ pi}
+    for y_val, q_val, is_repeat in ((y_rep, q, True), (y_new, q2, False)):
+        tau = y_val @ pi + rng.normal(0, 0.2, (2000, 2))
+        r = dynval.validate(tau, y_val @ pi, n_params=10, regressor=y_val, q=q_val, estimation=est,
+                            sample_rate=100.0)
+        rep = r.design["repeat"]
+        assert rep["is_repeat"] is is_repeat
+        # A repeat within a few mrad is far below the 0.1 threshold; two independent trajectories of
+        # this arm share their gravity columns' offsets, so they stand at about 0.6, not above 1.
+        assert (rep["regressor"] < 0.01) if is_repeat else (rep["regressor"] > 0.3)
+        assert ("repeat_trajectory" in [f.kind for f in r.findings]) is is_repeat
+
+
+def test_unexcited_column_is_a_design_finding():
+    rng = np.random.default_rng(10)
+    Y = rng.normal(size=(800, 2, 3))
+    Y[:, :, 2] = 0.0
+    tau = rng.normal(size=(800, 2))
+    r = dynval.validate(tau, tau + rng.normal(0, 0.1, tau.shape), n_params=3, regressor=Y,
+                        column_names=["a", "b", "Fc"])
+    f = [f for f in r.findings if f.kind == "excitation"]
+    assert len(f) == 1 and f[0].severity == "design" and f[0].columns == (2,) and "Fc" in f[0].message
