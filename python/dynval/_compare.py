@@ -111,7 +111,7 @@ def _candidate(name, spec):
                                     "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'",
                                     spec)
         return spec["prediction"], spec["n_params"], spec.get("regressor"), spec.get("model_columns")
-    if isinstance(spec, (tuple, list)) and len(spec) in (2, 3):
+    if isinstance(spec, (tuple, list)) and len(spec) in (2, 3) and v.is_integer(spec[1]):
         return spec[0], spec[1], spec[2] if len(spec) == 3 else None, None
     raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
                             "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'", spec)

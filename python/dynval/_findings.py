@@ -190,6 +190,7 @@ class Evidence:
     missing_rho: np.ndarray | None = None  # (m, len(missing_columns))
     missing_sd: np.ndarray | None = None
     missing_share: np.ndarray | None = None  # share of the residual's mean square each would remove
+    missing_mean_sign: np.ndarray | None = None  # sign of the residual's projection on each (m, q)
     # validation design
     repeat: dict | None = None
     excitation: dict | None = None
@@ -208,6 +209,24 @@ def _p_text(p) -> str:
     if p is None or not np.isfinite(p):
         return "n/a"
     return f"{p:.3g}" if p >= 1e-300 else "< 1e-300"
+
+
+def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
+    """The column outside the model whose absence best explains joint j's bias, if any.
+
+    A term the model lacks shows as an offset when its part outside the model's columns has a mean
+    of the residual's sign: the uncentred share of the residual's mean square it would remove must
+    reach the missing-term threshold. Descriptive: the bias itself is the tested quantity.
+    """
+    if ev.missing_share is None or ev.missing_mean_sign is None:
+        return None
+    share = np.asarray(ev.missing_share[j], dtype=float)
+    agree = np.asarray(ev.missing_mean_sign[j], dtype=float) * np.sign(ev.mean[j]) > 0
+    ok = np.flatnonzero(agree & (share >= th.missing_term))
+    if ok.size == 0:
+        return None
+    k = int(ok[np.argmax(share[ok])])
+    return int(ev.missing_columns[k]), float(share[k])
 
 
 def _tests(ev: Evidence):
@@ -304,18 +323,26 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             big = bool(effect[j] >= th.bias)
             if big:
                 deficient_joints.add(j)
+            culprit = _bias_culprit(ev, j, th)
+            if culprit is not None:
+                c, share_c = culprit
+                action = (f"add the term {_col(cols, c)} on {_name(names, j)}: without it the model leaves this "
+                          f"offset ({100 * share_c:.1f} % of the mean square is its part outside the model)")
+            else:
+                action = f"add a torque offset (sensor bias), a friction or a gravity term on {_name(names, j)}"
             out.append(Finding(
                 kind="bias", severity="deficiency" if big else "note", joints=(j,),
+                columns=() if culprit is None else (culprit[0],),
                 statistic=float(ev.bias_statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
                 effect=float(effect[j]), effect_unit="|mean| / RMSE", threshold=th.bias,
-                action=(f"add a torque offset (sensor bias) or a friction term on {_name(names, j)}" if big
-                        else "none: the bias is real but too small to matter"),
+                action=action if big else "none: the bias is real but too small to matter",
                 details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])},
                 message=(f"{_name(names, j)}: residual mean {mean[j]:+.4g} "
                          f"({100 * effect[j]:.0f} % of the RMSE; coloured-noise t-test N_eff = {ev.n_eff[j]:.0f} "
                          f"of {ev.n_samples}, Holm-adjusted p = {_p_text(padj[j])})"
-                         + (": a systematic bias, e.g. a missing offset or friction term." if big
-                            else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
+                         + ((": a systematic bias, e.g. a missing offset, friction or gravity term"
+                             + (f"; the missing term {_col(cols, culprit[0])} accounts for it." if culprit else "."))
+                            if big else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
 
     # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
     missing_joints: set[int] = set()

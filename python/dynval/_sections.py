@@ -326,7 +326,10 @@ def added_variable(e, reg3, model_columns, starts, n_eff):
         share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
                                                       * np.einsum("nmq,nmq->mq", z, z))
     share = np.where(np.isnan(rho), np.nan, share)
-    return outside, rho, sd, share
+    # The direction in which the term would move the residual's mean: sign of b·z̄, b = eᵀz/zᵀz.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
+    return outside, rho, sd, share, sign
 
 
 def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
@@ -379,7 +382,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
     if design is not None:
         ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
     if missing is not None:
-        ev.missing_columns, ev.missing_rho, ev.missing_sd, ev.missing_share = missing
+        ev.missing_columns, ev.missing_rho, ev.missing_sd, ev.missing_share, ev.missing_mean_sign = missing
     return ev
 
 
