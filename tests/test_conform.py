@@ -15,9 +15,12 @@ import subprocess
 import sys
 import time
 
+import re
+
 import pytest
 
 import dynval
+from dynval import protocol
 from dynval.conform import main
 from dynval.golden import FAMILIES
 
@@ -31,6 +34,9 @@ PACKAGE_ROOT = str(pathlib.Path(dynval.__file__).resolve().parent.parent)
 def _ports_find_dynval(monkeypatch):
     # Ports are separate processes: they must import the dynval under test.
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [PACKAGE_ROOT, os.environ.get("PYTHONPATH")])))
+    # A verbose editable install prints "Running cmake --build ..." on standard output when
+    # dynval is imported, ahead of the port's greeting.
+    monkeypatch.setenv("SKBUILD_EDITABLE_VERBOSE", "0")
 
 
 @pytest.fixture(scope="module")
@@ -89,6 +95,60 @@ def test_families_subset(tiny, tmp_path):
     assert code == 0
     assert {c["family"] for c in report["cases"]} == {"norms", "errors"}
     assert report["families"] == ["norms", "errors"]
+
+
+# --------------------------------------------------------------------------- number encodings
+
+
+def test_hex_port_receives_hex_and_may_answer_in_both(tiny, tmp_path):
+    record = tmp_path / "received.txt"
+    for answers in ("hex", "decimal"):
+        code, out, report = conform(port("oracle.py", "--encoding", "hex", "--answer-encoding", answers,
+                                         "--record", str(record), corpus=tiny), tmp_path, corpus=tiny)
+        assert code == 0, out
+        assert report["counts"]["total"] == {"passed": 19, "failed": 0, "skipped": 1, "partial": 0}
+        assert report["port"]["encoding"] == "hex"
+        assert "hexadecimal floats" in out
+    received = record.read_text()
+    floats = re.findall(r"-?0x[0-9a-f.]+p[+-][0-9]+", received)
+    assert floats and all(t == protocol.format_real(protocol.parse_real(t, hex_ok=True), "hex") for t in floats)
+    assert not re.search(r"[0-9]\.[0-9]{16}e[+-][0-9]+", received)
+
+
+def test_hex_answers_without_the_handshake_are_garbage(tiny, tmp_path):
+    code, _, report = conform(port("oracle.py", "--answer-encoding", "hex", corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 1
+    assert report["port"]["encoding"] == "decimal"
+    failed = by_status(report, "failed")
+    assert failed and {c["reason"] for c in failed.values()} == {"garbage"}
+    assert all("encoding hex" in c["detail"] for c in failed.values())
+
+
+def test_decimal_port_receives_decimal(tiny, tmp_path):
+    record = tmp_path / "received.txt"
+    code, out, _ = conform(port("oracle.py", "--record", str(record), corpus=tiny), tmp_path, corpus=tiny)
+    assert code == 0, out
+    assert "0x" not in record.read_text()
+
+
+@pytest.mark.parametrize(("lines", "says"), [(["encoding hex", "encoding hex"], "sent 2 times"),
+                                             (["encoding octal"], "expected 'encoding decimal|hex'")])
+def test_bad_encoding_line_is_a_handshake_failure(tiny, tmp_path, lines, says):
+    script = tmp_path / "bad_encoding.py"
+    script.write_text("import sys\nprint('dynval-port 1 x')\n" + "".join(f"print({line!r})\n" for line in lines)
+                      + "print('capability r2')\nprint('ready', flush=True)\nsys.stdin.read()\n")
+    code, _, report = conform(["--", sys.executable, str(script)], tmp_path, corpus=tiny)
+    assert code == 1
+    assert says in report["port"]["startup_error"]
+
+
+def test_dynval_port_passes_the_real_corpus_in_hex(tmp_path):
+    code, out, report = conform(["--", sys.executable, "-m", "dynval.port", "--backend", "python", "--encoding", "hex"],
+                                tmp_path)
+    assert report["counts"]["total"]["failed"] == 0, out
+    assert code == 0
+    assert report["port"]["encoding"] == "hex"
+    assert report["counts"]["total"]["passed"] >= 0.99 * len(report["cases"])
 
 
 # --------------------------------------------------------------------------- wrong ports
@@ -333,3 +393,134 @@ def test_dynval_port_refuses_an_unavailable_backend():
     done = subprocess.run([sys.executable, "-c", hide_core, "--backend", "cpp"], capture_output=True, text=True,
                           timeout=60)
     assert done.returncode == 2 and "not available" in done.stderr, (done.returncode, done.stderr)
+
+
+# --------------------------------------------------------------------------- the conformance matrix
+
+README_TEXT = """# x
+
+intro
+
+## Conformance
+
+One line.
+
+<!-- conformance-matrix:start -->
+stale
+<!-- conformance-matrix:end -->
+
+## Layout
+"""
+
+
+def matrix(args):
+    out, err = io.StringIO(), io.StringIO()
+    code = main(["--matrix", "--quiet", *args], stdout=out, stderr=err)
+    return code, out.getvalue(), err.getvalue()
+
+
+def _port_option(name, script, *args, corpus):
+    return f"--port={name}={sys.executable} {PORTS / script} --corpus {corpus} " + " ".join(args)
+
+
+def _table_rows(out):
+    return {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+            for line in out.splitlines() if line.startswith("| ") and not line.startswith("| port")}
+
+
+def test_matrix_of_dynval_ports(tmp_path):
+    code, out, err = matrix(["--ports", "python,cpp", "--families", "information_criteria,errors"])
+    assert code == 0, out + err
+    lines = out.splitlines()
+    assert lines[0] == "| port | `information_criteria` | `errors` | all |"
+    assert lines[1] == "|---|---:|---:|---:|"
+    from dynval.golden import iter_cases
+
+    counts = [sum(1 for _ in iter_cases(families=[f])) for f in ("information_criteria", "errors")]
+    cells = [f"{n}/{n}" for n in counts] + [f"{sum(counts)}/{sum(counts)}"]
+    expected = {"python": cells, "cpp": cells} if _available("cpp") else {"python": cells}
+    assert _table_rows(out) == expected
+
+
+def test_matrix_rows_for_wrong_ports(tiny):
+    code, out, _ = matrix(["--corpus", tiny, _port_option("oracle", "oracle.py", corpus=tiny),
+                           _port_option("wrong", "wrong_value.py", "--operation", "rmse", corpus=tiny),
+                           _port_option("crash", "crash.py", "--target", "norms-3", corpus=tiny)])
+    assert code == 1  # a port that ran failed cases
+    rows = _table_rows(out)
+    assert list(rows) == ["oracle", "wrong", "crash"]
+    # the tiny corpus: norms 4, normalized_fit 3, residual_statistics 2, autocorrelation 1, portmanteau 2,
+    # cross_correlation 1, information_criteria 1, errors 6 (one of them not expressible: skipped)
+    assert rows["oracle"] == ["4/4", "3/3", "2/2", "1/1", "2/2", "1/1", "1/1", "5/6", "19/20"]
+    assert rows["wrong"][0] == "2/4" and rows["wrong"][-1] == "17/20"
+    assert rows["crash"] == ["3/4"] + rows["oracle"][1:-1] + ["18/20"]
+
+
+def test_matrix_says_which_ports_did_not_run(tmp_path, tiny):
+    code, out, _ = matrix(["--corpus", tiny, "--root", str(tmp_path), "--ports", "java,matlab,wolfram",
+                           _port_option("oracle", "oracle.py", corpus=tiny)])
+    assert code == 0, out
+    assert list(_table_rows(out)) == ["oracle"]
+    for label, folder in (("java", "java"), ("matlab (Octave)", "matlab"), ("wolfram (Mathics)", "wolfram")):
+        assert f"Not run: {label}: no {folder}/run-port under {tmp_path}" in out
+    # a folder without its toolchain
+    (tmp_path / "wolfram").mkdir()
+    (tmp_path / "wolfram" / "run-port").write_text("#!/bin/sh\nexit 1\n")
+    (tmp_path / "wolfram" / "run-port").chmod(0o755)
+    env_path = os.environ["PATH"]
+    try:
+        os.environ["PATH"] = str(tmp_path / "empty")
+        code, out, _ = matrix(["--corpus", tiny, "--root", str(tmp_path), "--ports", "wolfram"])
+    finally:
+        os.environ["PATH"] = env_path
+    assert code == 0 and "Not run: wolfram (Mathics): toolchain missing: mathics not on PATH" in out
+
+
+def test_matrix_writes_and_checks_the_readme(tmp_path, tiny):
+    readme = tmp_path / "README.md"
+    readme.write_text(README_TEXT)
+    ports = ["--corpus", tiny, _port_option("oracle", "oracle.py", corpus=tiny)]
+    code, out, _ = matrix([*ports, "--check-readme", str(readme)])
+    assert code == 1 and "differs from a fresh run" in out and "-stale" in out
+    code, out, _ = matrix([*ports, "--write-readme", str(readme)])
+    assert code == 0 and "matrix updated" in out
+    text = readme.read_text()
+    before, _, rest = text.partition("<!-- conformance-matrix:start -->\n")
+    table, _, after = rest.partition("\n<!-- conformance-matrix:end -->")
+    assert before == README_TEXT.partition("<!-- conformance-matrix:start -->")[0]  # nothing else touched
+    assert after == README_TEXT.partition("<!-- conformance-matrix:end -->")[2]
+    assert table.splitlines()[2] == "| oracle | 4/4 | 3/3 | 2/2 | 1/1 | 2/2 | 1/1 | 1/1 | 5/6 | 19/20 |"
+    code, out, _ = matrix([*ports, "--check-readme", str(readme)])
+    assert code == 0 and "matrix is current" in out
+    code, out, _ = matrix([*ports, "--write-readme", str(readme)])
+    assert code == 0 and "already current" in out
+    # a fresh run that differs (a wrong port now) fails the check
+    wrong = ["--corpus", tiny, _port_option("oracle", "wrong_value.py", "--operation", "rmse", corpus=tiny)]
+    code, out, _ = matrix([*wrong, "--check-readme", str(readme)])
+    assert code == 1 and "-| oracle | 4/4" in out and "+| oracle | 2/4" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["--matrix", "--", "x"], "give no command after '--'"),
+        (["--write-readme", "--", "x"], "need --matrix"),
+        (["--matrix", "--ports", "fortran"], "unknown port 'fortran'"),
+        (["--matrix", "--port", "nocommand"], "--port needs NAME=COMMAND"),
+        (["--matrix", "--ports", "python", "--check-readme", "/nonexistent/README.md"], "No such file"),
+        (["--matrix", "--ports", "python", "--write-readme", "x", "--check-readme", "y"], "exclude each other"),
+    ],
+)
+def test_matrix_usage_errors(argv, says, tmp_path):
+    err = io.StringIO()
+    assert main(argv, stdout=io.StringIO(), stderr=err) == 2
+    assert says in err.getvalue()
+
+
+def test_matrix_needs_the_markers(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text("# no markers\n")
+    err = io.StringIO()
+    assert main(["--matrix", "--ports", "python", "--check-readme", str(readme)], stdout=io.StringIO(),
+                stderr=err) == 2
+    assert "markers" in err.getvalue()

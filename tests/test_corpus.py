@@ -44,8 +44,19 @@ def test_regenerates_byte_for_byte(family, fresh):
 
 
 def test_generator_does_not_import_dynval(generator):
-    source = (corpus_dir().parent / "generate.py").read_text(encoding="utf-8")
-    assert "import dynval" not in source and "from dynval" not in source
+    golden = corpus_dir().parent
+    files = [golden / "generate.py", *sorted((golden / "corpus_generator").glob("*.py"))]
+    assert len(files) > 10  # the script and the package: one builder per family
+    for path in files:
+        source = path.read_text(encoding="utf-8")
+        assert "import dynval" not in source and "from dynval" not in source, path
+
+
+def test_one_builder_module_per_family(generator):
+    package = corpus_dir().parent / "corpus_generator"
+    assert {p.stem for p in package.glob("*.py") if not p.stem.startswith("_")} == set(FAMILIES)
+    for family in FAMILIES:
+        assert generator.BUILDERS[family].__module__.endswith(f".{family}")
 
 
 def test_lint_reports_a_changed_value(tmp_path):
@@ -53,6 +64,9 @@ def test_lint_reports_a_changed_value(tmp_path):
     shutil.copytree(corpus_dir(), corpus)
     shutil.copytree(corpus_dir().parent / "schema", tmp_path / "schema")
     shutil.copy(corpus_dir().parent / "generate.py", tmp_path / "generate.py")
+    shutil.copytree(corpus_dir().parent / "corpus_generator", tmp_path / "corpus_generator",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(corpus_dir().parent / "operations.json", tmp_path / "operations.json")
     shutil.copytree(corpus_dir().parent / "data", tmp_path / "data")
     doc = json.loads((corpus / "information_criteria.json").read_text(encoding="utf-8"))
     test = doc["testGroups"][0]["tests"][0]
@@ -308,3 +322,102 @@ def test_portmanteau_matches_statsmodels():
             np.testing.assert_allclose(frame["lb_pvalue"].to_numpy(), case.expected["pvalue"][:, j], rtol=1e-8)
             checked += 1
     assert checked > 10
+
+
+# --------------------------------------------------------------------------- golden/operations.json
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_corpus_agrees_with_operations_json(family, generator):
+    doc = load_family(family)
+    assert generator.operations_problems(doc, generator.load_operations()) == []
+
+
+def test_operations_json_disagreement_is_caught(generator):
+    import copy
+
+    spec = generator.load_operations()
+    norms, errors = load_family("norms"), load_family("errors")
+    changed = copy.deepcopy(spec)
+    changed["operations"]["rmse"]["conventions"]["multioutput"]["values"] = ["pooled", "raw_values"]
+    assert any("multioutput='uniform_average' is not accepted" in p
+               for p in generator.operations_problems(norms, changed))
+    changed = copy.deepcopy(spec)
+    changed["operations"]["criteria"]["outputs"]["n_obs"]["type"] = "real"
+    changed["operations"]["criteria"]["outputs"]["n_obs"]["type"] = "bool"
+    assert any("output n_obs is not of type bool" in p for p in
+               generator.operations_problems(load_family("information_criteria"), changed))
+    changed = copy.deepcopy(spec)
+    del changed["operations"]["autocorrelation"]["scalars"]["max_lag"]
+    assert any("inputs ['max_lag'] not in operations.json" in p for p in generator.operations_problems(errors, changed))
+    changed = copy.deepcopy(spec)
+    changed["operations"]["zero_mean_test"]["outputs"]["bandwidth"].pop("optional")
+    assert any("outputs ['bandwidth'] missing" in p
+               for p in generator.operations_problems(load_family("residual_statistics"), changed))
+
+
+def test_operations_json_matches_the_loader():
+    from dynval.golden._spec import load_spec
+
+    spec = load_spec()
+    assert tuple(spec["families"]) == FAMILIES
+    assert tuple(spec["operations"]) == OPERATIONS
+    for family, ops in spec["families"].items():
+        assert all(spec["operations"][op]["family"] == family for op in ops)
+
+
+def test_schema_operation_types_are_current():
+    from dynval.golden._spec import schema_is_current
+
+    assert schema_is_current(), "run python -m dynval.golden operations --write"
+
+
+def _schema_errors(doc):
+    from dynval.golden import schema_path
+
+    validator = jsonschema.Draft202012Validator(json.loads(schema_path().read_text(encoding="utf-8")))
+    return [e.message for e in validator.iter_errors(doc)]
+
+
+def _group(doc, operation):
+    return next(g for g in doc["testGroups"] if g["operation"] == operation)
+
+
+@pytest.mark.parametrize(
+    ("family", "operation", "change", "says"),
+    [
+        ("norms", "rmse", lambda g: g["tests"][0]["inputs"].update(bogus=1), "'bogus' is not one of"),
+        ("norms", "rmse", lambda g: g["tests"][0]["inputs"].pop("tau_pred"), "'tau_pred' is a required property"),
+        ("norms", "rmse", lambda g: g["tests"][0]["expected"].update(naic=1.0), "'naic' is not one of"),
+        ("norms", "sse", lambda g: g["conventions"].update(multioutput="uniform_average"),
+         "'uniform_average' is not one of ['pooled', 'raw_values']"),
+        ("norms", "residuals", lambda g: g["conventions"].update(ddof=1), "'ddof' is not one of ['nan_policy']"),
+        ("norms", "residuals", lambda g: g["tests"][0]["inputs"].update(
+            tau_pred={"shape": [2, 2, 2], "values": [1.0] * 8}), "is too long"),
+        ("information_criteria", "criteria", lambda g: g["tests"][0]["expected"].update(n_obs=2.5),
+         "2.5 is not of type 'integer'"),
+        ("information_criteria", "criteria", lambda g: g["tests"][0]["inputs"].update(n_params=True),
+         "True is not of type 'integer'"),
+        ("cross_correlation", "cross_correlation",
+         lambda g: g["tests"][0]["expected"]["constant_mask"].update(
+             values=[1.0] * len(g["tests"][0]["expected"]["constant_mask"]["values"])),
+         "1.0 is not of type 'boolean'"),
+        ("residual_statistics", "zero_mean_test", lambda g: g["tests"][0]["expected"].pop("pvalue_eff"),
+         "'pvalue_eff' is a required property"),
+    ],
+)
+def test_schema_types_each_operation(family, operation, change, says):
+    doc = load_family(family)
+    doc["testGroups"] = [_group(doc, operation)]  # the one group under test keeps the check short
+    assert _schema_errors(doc) == []
+    change(doc["testGroups"][0])
+    assert any(says in message for message in _schema_errors(doc)), _schema_errors(doc)[:3]
+
+
+def test_schema_lets_invalid_vectors_carry_bad_inputs():
+    doc = load_family("errors")
+    doc["testGroups"] = [_group(doc, "autocorrelation")]
+    group = doc["testGroups"][0]
+    test = next(t for t in group["tests"] if t["result"] == "invalid")
+    test["inputs"]["max_lag"] = True  # an invalid vector may hold anything of a declared name
+    assert _schema_errors(doc) == []

@@ -1,14 +1,16 @@
-"""The embedded demo: its physics (regressor vs an independent Newton–Euler routine), its
-identification, and the report it prints."""
+"""The embedded demo: its physics (regressor vs an independent Newton–Euler routine), each
+scenario's decision, the printed report, and the files it writes."""
 
 from __future__ import annotations
 
 import json
 import time
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
 
+import dynval
 from dynval import cli
 from dynval.demo import (
     DEFAULT_ARM,
@@ -16,10 +18,13 @@ from dynval.demo import (
     PARAMETER_NAMES,
     base_parameters,
     fourier_trajectory,
-    identify,
     regressor,
     run_demo,
 )
+from dynval.identify import identify
+
+HAVE_COMPARE = hasattr(dynval, "compare")
+needs_compare = pytest.mark.skipif(not HAVE_COMPARE, reason="dynval.compare is not in this build yet")
 
 
 def _cross(a, b):
@@ -115,40 +120,120 @@ def test_least_squares_recovers_true_parameters_from_noise_free_data():
                                     rng.uniform(0, 2 * np.pi, (2, 5)), 0.1)
     Y = regressor(q, qd, qdd)
     tau = newton_euler(DEFAULT_ARM, q, qd, qdd)
-    pi_hat = identify(Y, tau)
-    np.testing.assert_allclose(pi_hat, base_parameters(DEFAULT_ARM), rtol=1e-8)
+    res = identify(Y, tau)
+    assert res.rank == 10
+    np.testing.assert_allclose(res.estimate, base_parameters(DEFAULT_ARM), rtol=1e-8)
 
 
 @pytest.fixture(scope="module")
-def demo_result():
-    return run_demo(seed=0, n_samples=2000, noise=0.2)
+def results():
+    return {}
 
 
-def test_demo_identifies_and_prefers_the_full_model(demo_result):
-    full, reduced = demo_result.models
-    assert full.name == "full" and reduced.name == "reduced"
+def _run(results, scenario):
+    if scenario not in results:
+        results[scenario] = run_demo(scenario, progress=None)
+    return results[scenario]
+
+
+def _deficiencies(report):
+    return [f for f in report.findings if f.severity == "deficiency"]
+
+
+def test_friction_scenario_friction_model_wins_and_passes(results):
+    r = _run(results, "friction")
+    assert r.chosen == "friction"
+    assert _deficiencies(r.reports["friction"]) == []
+    # The rigid candidate misses friction, and its findings name the friction columns.
+    rigid = _deficiencies(r.reports["rigid"])
+    named = {PARAMETER_NAMES[c] for f in rigid for c in f.columns if c < len(PARAMETER_NAMES)}
+    assert named & {"Fc1", "Fc2", "Fv1", "Fv2"}
     # σ = 0.2 N·m on 4000 torque samples: the parameters come back within a few percent.
-    np.testing.assert_allclose(full.parameters, demo_result.true_parameters, rtol=0.05, atol=0.01)
-    assert full.report.information_criteria["aic"] < reduced.report.information_criteria["aic"]
-    assert full.report.information_criteria["bic"] < reduced.report.information_criteria["bic"]
-    # The reduced model leaves Coulomb friction in the residual: strongly non-white ...
-    assert np.all(np.asarray(reduced.report.ljung_box["log_pvalue"]) < np.log(1e-10))
-    # ... and most correlated with a Coulomb column of the full regressor.
-    joint, column, lag, rho, ratio = reduced.report.cross_correlation["outside"][0]
-    assert PARAMETER_NAMES[column].startswith("Fc")
-    assert ratio > 5
-    # The full model's RMSE is close to the sensor noise.
-    assert full.report.per_joint["rmse"] == pytest.approx([0.2, 0.2], rel=0.1)
+    np.testing.assert_allclose(r.identified["friction"].estimate, base_parameters(), rtol=0.05, atol=0.01)
+    assert r.reports["friction"].per_joint["rmse"] == pytest.approx([0.2, 0.2], rel=0.1)
 
 
-def test_demo_summary_and_json(demo_result):
-    text = demo_result.summary()
-    assert "Model 'full'" in text and "Model 'reduced'" in text
-    assert "AIC prefers the full model" in text
-    assert "Fc" in text.splitlines()[-1]
-    data = json.loads(json.dumps(demo_result.to_dict(), allow_nan=False))
-    assert set(data["models"]) == {"full", "reduced"}
-    assert data["models"]["reduced"]["report"]["provenance"]["n_params"] == 8
+def test_flexible_scenario_names_the_simulated_mode(results):
+    r = _run(results, "flexible")
+    mode = r.data.mode_frequency
+    osc = [f for f in r.reports[r.chosen].findings if f.kind == "oscillation"]
+    assert osc, [f.kind for f in r.reports[r.chosen].findings]
+    for f in osc:
+        assert f.severity == "deficiency"
+        assert f.details["frequency"] == pytest.approx(mode, rel=0.10)
+    assert {j for f in osc for j in f.joints} == {0, 1}
+
+
+def test_rigid_scenario_has_no_deficiency(results):
+    r = _run(results, "rigid")
+    assert r.chosen == "rigid"
+    assert _deficiencies(r.reports["rigid"]) == []
+
+
+def test_offset_scenario_needs_the_offset_columns(results):
+    r = _run(results, "offset")
+    assert r.chosen == "friction+offset"
+    assert _deficiencies(r.reports["friction+offset"]) == []
+    assert any(f.kind == "bias" for f in _deficiencies(r.reports["friction"]))
+    est = dict(zip(r.identified["friction+offset"].base_names, r.identified["friction+offset"].estimate))
+    assert est["off1"] == pytest.approx(0.8, abs=0.1) and est["off2"] == pytest.approx(-0.6, abs=0.1)
+
+
+def test_repeat_scenario_warns_about_the_design(results):
+    r = _run(results, "repeat")
+    for name in r.names:
+        design = [f for f in r.reports[name].findings if f.severity == "design"]
+        assert design, name
+
+
+@needs_compare
+@pytest.mark.parametrize("scenario, decision, model", [("friction", "accept", "friction"), ("rigid", "accept", "rigid"),
+                                                       ("offset", "accept", "friction+offset"),
+                                                       ("repeat", "redesign", None)])
+def test_verdicts(results, scenario, decision, model):
+    r = _run(results, scenario)
+    assert r.comparison.verdict.decision == decision, r.comparison.verdict.reasons
+    if model is not None:
+        assert r.comparison.verdict.model == model
+
+
+@needs_compare
+def test_flexible_verdict_does_not_accept(results):
+    # Every candidate is rigid: none can explain the elastic joint's oscillation.
+    r = _run(results, "flexible")
+    assert r.comparison.verdict.decision != "accept"
+
+
+def test_summary_and_json(results):
+    r = _run(results, "friction")
+    text = r.summary()
+    assert "scenario 'friction'" in text and "Decision table" in text
+    if HAVE_COMPARE:
+        assert "Comparison on the validation trajectory" in text and r.comparison.summary() in text
+    else:
+        assert "Findings for the chosen model 'friction'" in text
+    for name in ("rigid", "friction", "friction+offset"):
+        assert name in text
+    data = json.loads(json.dumps(r.to_dict(), allow_nan=False))
+    assert set(data["models"]) == {"rigid", "friction", "friction+offset"}
+    assert data["models"]["rigid"]["report"]["provenance"]["n_params"] == 6
+    assert data["chosen"] == "friction"
+
+
+def test_demo_writes_plots_json_and_html(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "demo"
+    r = run_demo("flexible", out=out, progress=None, n_samples=800)
+    names = {p.name for p in out.iterdir()}
+    assert {"demo.json", "report.html", "prediction.png", "residuals.png", "autocorrelation.png",
+            "autocorrelation_candidates.png", "metrics.png", "cross_correlation.png", "spectrum.png"} <= names
+    for p in out.glob("*.png"):
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    json.loads((out / "demo.json").read_text())
+    html = (out / "report.html").read_text(encoding="utf-8")
+    ET.fromstring(html.split("\n", 1)[1])
+    assert "scenario 'flexible'" in html and "data:image/png;base64," in html
+    assert sorted(r.files) == sorted(str(out / n) for n in names)
 
 
 def test_demo_command_runs_in_a_few_seconds(capsys):
@@ -157,18 +242,37 @@ def test_demo_command_runs_in_a_few_seconds(capsys):
     elapsed = time.perf_counter() - start
     out, err = capsys.readouterr()
     assert code == 0
-    assert "dynval validation report" in out and "Comparison on the validation trajectory" in out
-    assert "[dynval demo]" in err  # progress goes to stderr, not into the report
-    assert elapsed < 10.0
+    assert "Decision table" in out and "scenario 'friction'" in out
+    assert "[dynval demo]" in err and "[dynval demo]" not in out  # progress goes to stderr
+    assert elapsed < 15.0
+
+
+@pytest.mark.parametrize("scenario", ["rigid", "offset"])
+def test_demo_command_scenario_option(capsys, scenario):
+    assert cli.main(["demo", "--scenario", scenario, "--n-samples", "500"]) == 0
+    assert f"scenario '{scenario}'" in capsys.readouterr().out
 
 
 def test_demo_command_json(capsys):
     assert cli.main(["demo", "--json", "--n-samples", "500"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert data["n_samples"] == 500
+    assert data["n_samples"] == 500 and data["scenario"] == "friction"
 
 
-@pytest.mark.parametrize("args", [["--n-samples", "10"], ["--noise", "-1"]])
+@pytest.mark.parametrize("args", [["--n-samples", "10"], ["--noise", "-1"], ["--scenario", "wobbly"]])
 def test_demo_rejects_bad_options(args, capsys):
-    assert cli.main(["demo", *args]) == 2
+    try:
+        code = cli.main(["demo", *args])
+    except SystemExit as exc:  # argparse rejects an unknown choice itself
+        code = exc.code
+    assert code == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_readme_figure_command(tmp_path):
+    pytest.importorskip("matplotlib")
+    from dynval.demo import main
+
+    target = tmp_path / "fig" / "demo.png"
+    assert main(["--readme-figure", str(target)]) == 0
+    assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

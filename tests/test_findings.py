@@ -353,3 +353,20 @@ def test_unexcited_column_is_a_design_finding():
                         column_names=["a", "b", "Fc"])
     f = [f for f in r.findings if f.kind == "excitation"]
     assert len(f) == 1 and f[0].severity == "design" and f[0].columns == (2,) and "Fc" in f[0].message
+
+
+KUKA = "../shared/data/robots/kuka_lwr4_flobaroid/data"
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir(KUKA), reason="../shared/data/robots is not beside the repo")
+def test_real_kuka_repeat_is_a_design_warning_not_a_model_deficiency():
+    # Run 2 of the KUKA LWR4+ data repeats run 1's trajectory; replaying run 1's measured torques as
+    # the "prediction" of run 2 must not blame a model for the oversampled, filtered colour.
+    m = {k: np.load(f"{KUKA}/measurements_{k}.npz") for k in (1, 2)}
+    n = min(len(m[1]["torques"]), len(m[2]["torques"]))
+    r = dynval.validate(m[2]["torques"][:n], m[1]["torques"][:n], n_params=0, sample_rate=200.0,
+                        q=m[2]["positions"][:n], estimation={"q": m[1]["positions"], "tau": m[1]["torques"]})
+    assert r.design["repeat"]["is_repeat"] and r.design["repeat"]["q_rms"] < 0.006
+    assert r.deficiencies == []
+    assert [f.kind for f in r.findings if f.severity == "design"] == ["repeat_trajectory"]
+    assert r.whiteness["decimation"] > 1  # 200 Hz carries motion below a few Hz

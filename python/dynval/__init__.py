@@ -49,6 +49,7 @@ from ._compare import ComparisonReport, Verdict, compare
 from ._findings import KINDS as FINDING_KINDS
 from ._findings import Finding, Thresholds
 from ._report import ValidationReport, validate
+from .identify import IdentificationResult, identify
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 
 __version__ = "0.1.0"
@@ -84,6 +85,8 @@ __all__ = [
     "Finding",
     "Thresholds",
     "FINDING_KINDS",
+    "identify",
+    "IdentificationResult",
     "backends",
     "set_backend",
     "ZeroMeanTest",

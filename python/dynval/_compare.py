@@ -2,13 +2,14 @@
 
 The rule (docs/conventions.md §8), applied in this order and reported with its reasons:
 
-1. **redesign** when the experiment cannot answer: a candidate's report has a ``design`` finding
-   (the validation run repeats the estimation run; columns never excited; an ill-conditioned
-   validation regressor), or every candidate's residual fails the whiteness test at the
-   information rate (whiteness cannot discriminate these models on this data);
+1. **redesign** when a candidate's report has a ``design`` finding (the validation run repeats the
+   estimation run; columns excited in the estimation run but not in the validation run; an
+   ill-conditioned validation regressor);
 2. **refine** the best-ranked model when it has a ``deficiency`` finding: each deficiency names
    the term to add and the evidence;
-3. **accept** the best-ranked model otherwise.
+3. **redesign** when no deficiency explains it but every candidate's residual fails the whiteness
+   test at the information rate (whiteness cannot discriminate these models on this data);
+4. **accept** the best-ranked model otherwise.
 
 Ranking: candidates without a deficiency first, then by the chosen criterion (the lesson's AIC by
 default; ``criterion=`` picks bic, aicc or an N_eff-based variant), ties by name.
@@ -224,35 +225,33 @@ def _verdict(names, ranking, reports, criterion, crit):
     best = ranking[0]
     findings: list[Finding] = []
     reasons: list[str] = []
-    design = [(n, f) for n in names for f in reports[n].findings if f.severity == "design"]
     seen = set()
-    for n, f in design:
-        if f.message not in seen:
-            seen.add(f.message)
-            reasons.append(f"{f.message} ({f.action})")
+    for n in names:
+        for f in reports[n].findings:
+            if f.severity == "design" and f.message not in seen:
+                seen.add(f.message)
+                reasons.append(f"{f.message} ({f.action})")
+    if reasons:
+        return findings, Verdict("redesign", best, tuple(reasons))
+    deficiencies = reports[best].deficiencies
+    if deficiencies:
+        return findings, Verdict("refine", best, tuple(f"{f.message} → {f.action}" for f in deficiencies))
     analysed = [n for n in names if reports[n].whiteness is not None]
     if len(analysed) >= 2 and all(_rejects_whiteness(reports[n]) for n in analysed):
+        # No deficiency explains the best model's colour, and every candidate has it.
         msg = ("whiteness cannot discriminate these models on this data: every candidate's residual is coloured "
                "at the information rate, so the whiteness test says nothing about which is better")
         findings.append(Finding(kind="whiteness", severity="design", action=(
             "log less-filtered torques, or validate at a rate where the noise is white; meanwhile rank on "
             "the criteria and the other findings"), message=msg[0].upper() + msg[1:] + "."))
-        reasons.append(msg + f" (best on {criterion}: {best})")
-    if reasons:
-        return findings, Verdict("redesign", best, tuple(reasons))
-    deficiencies = reports[best].deficiencies
-    if deficiencies:
-        reasons = [f"{f.message} → {f.action}" for f in deficiencies]
-        return findings, Verdict("refine", best, tuple(reasons))
+        return findings, Verdict("redesign", best, (msg + f" (best on {criterion}: {best})",))
     r = reports[best]
-    others = [n for n in ranking[1:]]
     reason = (f"{best} has no deficiency finding at α = {1 - r.provenance['conventions']['level']:g} "
               f"(Holm over its report) and the lowest {criterion} among such candidates "
               f"({crit[best]:.2f})")
     extra = []
-    for n in others:
+    for n in ranking[1:]:
         d = len(reports[n].deficiencies)
         extra.append(f"{n}: Δ{criterion} = {crit[n] - crit[best]:+.2f}"
                      + (f", {d} deficiency finding{'s' if d != 1 else ''}" if d else ""))
-    reasons = [reason] + extra
-    return findings, Verdict("accept", best, tuple(reasons))
+    return findings, Verdict("accept", best, tuple([reason] + extra))

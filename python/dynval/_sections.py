@@ -368,6 +368,8 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.whiteness_pvalue_raw = white["pvalue_raw"]
         ev.whiteness_log_pvalue_raw = white["log_pvalue_raw"]
         ev.whiteness_pvalue_decimated = white["pvalue_decimated"]
+        if white["pvalue_decimated"] is not None:
+            ev.whiteness_lag = white["lag_decimated"]
         ev.decimation = white["decimation"]
         ev.information_band = white["information_band"]
     if acf is not None:
@@ -410,7 +412,9 @@ def design(reg3, q_val, estimation, meas, threshold) -> dict:
     RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖. The first
     available of regressor, q, torque decides ``is_repeat`` (distance < threshold).
     Excitation: the stacked validation regressor's condition number, raw and with unit-norm
-    columns, and the columns whose norm is at most 1e-12 of the largest (never excited).
+    columns (over the excited columns), and the columns whose norm is at most 1e-12 of the largest
+    (never excited); those the estimation regressor does not excite either are listed apart as
+    ``unidentifiable`` (no experiment on this structure can test them).
     """
     out = {}
     if estimation is not None:
@@ -441,8 +445,17 @@ def design(reg3, q_val, estimation, meas, threshold) -> dict:
         sv = np.linalg.svd(stacked[:, live], compute_uv=False) if live.size else np.zeros(1)
         scaled = stacked[:, live] / norms[live] if live.size else stacked[:, live]
         sv_s = np.linalg.svd(scaled, compute_uv=False) if live.size else np.zeros(1)
+        # A column the estimation run does not excite either is not identifiable at all (a base
+        # reduction removes it): not a flaw of the validation design.
+        never = []
+        if estimation is not None and "regressor" in estimation and unexcited:
+            est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
+            if est.shape[1] == stacked.shape[1]:
+                en = np.linalg.norm(est, axis=0)
+                never = [c for c in unexcited if en[c] <= 1e-12 * max(en.max(), np.finfo(float).tiny)]
         with np.errstate(divide="ignore"):
             out["excitation"] = {"condition_raw": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
                                  "condition_scaled": float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf"),
-                                 "unexcited": unexcited, "column_norms": norms}
+                                 "unexcited": [c for c in unexcited if c not in never],
+                                 "unidentifiable": never, "column_norms": norms}
     return out or None

@@ -275,6 +275,8 @@ def _add_report_options(sub) -> None:
     sub.add_argument("--backend", default=None, help="computation backend: python or cpp")
     sub.add_argument("--json", action="store_true", help="print the report as JSON")
     sub.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
+    sub.add_argument("--html", metavar="FILE",
+                     help="also write a self-contained HTML report with figures (needs dynval[plot])")
 
 
 # --------------------------------------------------------------------------- commands
@@ -309,6 +311,21 @@ def _emit(command: str, args, text: str) -> int:
     return EXIT_OK
 
 
+def _write_html(command: str, args, obj, **data) -> int:
+    """Write ``--html``; 0 when done or not asked, else the error's exit code."""
+    if not args.html:
+        return EXIT_OK
+    try:
+        from .html import write_report
+
+        write_report(obj, args.html, sample_rate=args.sample_rate, **data)
+    except ImportError as exc:
+        return _error(command, f"--html needs matplotlib (pip install 'dynval[plot]'): {exc}")
+    except OSError as exc:
+        return _error(command, f"{args.html}: cannot be written ({exc.strerror or exc})")
+    return EXIT_OK
+
+
 def _run_validate(args) -> int:
     from ._report import validate
 
@@ -322,7 +339,8 @@ def _run_validate(args) -> int:
         report = validate(meas, pred, n_params=args.n_params, **options)
     except InputError as exc:
         return _error("validate", f"{type(exc).__name__}: {exc}")
-    return _emit("validate", args, report.to_json() if args.json else report.summary())
+    code = _write_html("validate", args, report, tau_meas=meas, tau_pred=pred)
+    return code if code else _emit("validate", args, report.to_json() if args.json else report.summary())
 
 
 def _run_compare(args) -> int:
@@ -342,7 +360,8 @@ def _run_compare(args) -> int:
         cmp = compare(meas, candidates, criterion=args.criterion, regressor=regressor, **options)
     except InputError as exc:
         return _error("compare", f"{type(exc).__name__}: {exc}")
-    return _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
+    code = _write_html("compare", args, cmp, tau_meas=meas, tau_pred={n: c[0] for n, c in candidates.items()})
+    return code if code else _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
 
 def main(argv=None) -> int:

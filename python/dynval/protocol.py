@@ -24,6 +24,16 @@ values, in any letter case (C's ``-nan``, MATLAB's ``NaN``/``Inf``, Java's
     >>> parse_real("1.5E-3"), parse_real("-NaN"), parse_real("Infinity")
     (0.0015, nan, inf)
 
+A port that prints ``encoding hex`` in its handshake gets every float as a C99
+hexadecimal float, exactly as :meth:`float.hex` writes it, and may answer in
+that form; a language without a correctly rounded decimal reader reads it
+exactly with integer arithmetic::
+
+    >>> format_real(3.0, "hex"), format_real(-0.0, "hex"), format_real(5e-324, "hex")
+    ('0x1.8000000000000p+1', '-0x0.0p+0', '0x0.0000000000001p-1022')
+    >>> parse_real("0x1.8p1", hex_ok=True)
+    3.0
+
 Lines
 -----
 >>> encode_array("e", [[1.0, 2.0], [3.0, 4.0]])
@@ -64,6 +74,8 @@ __all__ = [
     "parse_capability",
     "format_capability",
     "parse_greeting",
+    "parse_encoding",
+    "ENCODINGS",
 ]
 
 #: Version of the line protocol described in ``golden/PROTOCOL.md``.
@@ -75,11 +87,20 @@ GREETING = "dynval-port"
 #: Element types of ``array`` and ``result`` lines.
 ARRAY_TYPES = ("real", "int", "bool")
 
+#: Number encodings a port can ask for with an ``encoding NAME`` handshake line.
+#: ``decimal`` (the default) writes 17 significant digits; ``hex`` writes C99
+#: hexadecimal floats as :meth:`float.hex` does.
+ENCODINGS = ("decimal", "hex")
+
 # The grammar of PROTOCOL.md section "Numbers". Hexadecimal floats, digit
 # separators, embedded blanks and a bare exponent are rejected on purpose: every
 # language's standard library reads what this accepts, and not all read more.
 _DECIMAL_RE = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\Z")
 _INT_RE = re.compile(r"[+-]?[0-9]+\Z")
+# C99 hexadecimal float with a mandatory binary exponent: what printf("%a"),
+# Java's Double.toHexString and Python's float.hex write, and what strtod,
+# Double.parseDouble and float.fromhex read. Only accepted after "encoding hex".
+_HEX_RE = re.compile(r"[+-]?0[xX](?:[0-9a-fA-F]+(?:\.[0-9a-fA-F]*)?|\.[0-9a-fA-F]+)[pP][+-]?[0-9]+\Z")
 # C99 allows printf to write "nan(chars)"; MSVC writes "-nan(ind)".
 _NAN_RE = re.compile(r"[+-]?nan(?:\([0-9a-z_]*\))?\Z")
 _INF_RE = re.compile(r"[+-]?inf(?:inity)?\Z")
@@ -107,7 +128,13 @@ def _quote(text: str, limit: int = 80) -> str:
 # --------------------------------------------------------------------------- numbers
 
 
-def format_real(x: float) -> str:
+def _check_encoding(encoding: str) -> str:
+    if encoding not in ENCODINGS:
+        raise ValueError(f"encoding must be one of {', '.join(ENCODINGS)}, got {encoding!r}")
+    return encoding
+
+
+def format_real(x: float, encoding: str = "decimal") -> str:
     """Write one float64 in the protocol's canonical form.
 
     Parameters
@@ -115,12 +142,16 @@ def format_real(x: float) -> str:
     x : float
         Any IEEE binary64 value, including subnormals, signed zeros and
         non-finite values.
+    encoding : {"decimal", "hex"}
+        ``"hex"`` only for a port that asked for it in its handshake.
 
     Returns
     -------
     str
         ``d.dddddddddddddddde±XX`` (17 significant digits, at least two exponent
-        digits), or ``nan``, ``inf``, ``-inf``. The sign of a NaN is not kept.
+        digits), or with ``encoding="hex"`` the C99 hexadecimal float of
+        :meth:`float.hex` (``0x1.8000000000000p+1``, ``-0x0.0p+0``); non-finite
+        values are ``nan``, ``inf``, ``-inf`` in both. The sign of a NaN is not kept.
 
     Examples
     --------
@@ -136,21 +167,26 @@ def format_real(x: float) -> str:
         return "nan"
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
+    if encoding == "hex":
+        return x.hex()
+    _check_encoding(encoding)
     return format(x, ".16e")
 
 
-def parse_real(token: str) -> float:
+def parse_real(token: str, *, hex_ok: bool = False) -> float:
     """Read one number written in the protocol grammar.
 
     Accepts integers, decimals with an optional ``e``/``E`` exponent, and
     ``nan``, ``inf``, ``infinity`` with an optional sign, in any letter case
-    (plus C's ``nan(chars)``).
+    (plus C's ``nan(chars)``). With ``hex_ok`` (the port negotiated
+    ``encoding hex``), C99 hexadecimal floats with a binary exponent too
+    (``0x1.8p1``, ``-0x0.0p+0``, ``0X1P-1074``).
 
     Raises
     ------
     ProtocolError
-        For anything else: empty tokens, ``0x1p3``, ``1,5``, ``1e``, ``1.5*^-3``,
-        ``Indeterminate``, ...
+        For anything else: empty tokens, ``1,5``, ``1e``, ``1.5*^-3``,
+        ``Indeterminate``, ``0x1p3`` without ``hex_ok``, ``0x10`` (no exponent), ...
 
     Examples
     --------
@@ -166,6 +202,14 @@ def parse_real(token: str) -> float:
         return math.nan
     if _INF_RE.match(low):
         return -math.inf if low.startswith("-") else math.inf
+    if hex_ok and _HEX_RE.match(token):
+        try:
+            return float.fromhex(token)
+        except OverflowError:  # beyond the largest double: infinite, as strtod and float("1e999") say
+            return -math.inf if token.startswith("-") else math.inf
+    if not hex_ok and _HEX_RE.match(token):
+        raise ProtocolError(f"expected a number (e.g. -4.5931701859880914e+03, nan, inf, -inf), got {_quote(token)}: "
+                            "hexadecimal floats need the 'encoding hex' handshake line")
     raise ProtocolError(f"expected a number (e.g. -4.5931701859880914e+03, nan, inf, -inf), got {_quote(token)}")
 
 
@@ -220,7 +264,7 @@ def _parse_string(token: str) -> str:
         raise ProtocolError(f"string {_quote(token)} is not UTF-8: {exc}") from None
 
 
-def _format_scalar(value: Any) -> str:
+def _format_scalar(value: Any, encoding: str = "decimal") -> str:
     # bool before int: bool is a subclass of int, and the wire keeps them apart
     # so that a port can reject max_lag=true as the contract requires.
     if value is None:
@@ -230,18 +274,18 @@ def _format_scalar(value: Any) -> str:
     if isinstance(value, (int, np.integer)):
         return _format_int(value)
     if isinstance(value, (float, np.floating)):
-        return format_real(value)
+        return format_real(value, encoding)
     if isinstance(value, str):
         return _format_string(value)
     raise TypeError(f"a {type(value).__name__} cannot be written as a protocol value")
 
 
-def format_value(value: Any) -> str:
+def format_value(value: Any, encoding: str = "decimal") -> str:
     """Write a convention value or scalar input as one typed token.
 
     ``None`` → ``none``; booleans → ``true``/``false``; integers → ``12``;
-    floats → :func:`format_real` (always with an exponent, so ``5.0`` stays
-    distinguishable from ``5``); strings → ``"pooled"`` (quoted, bytes outside
+    floats → :func:`format_real` in ``encoding`` (always with an exponent, so
+    ``5.0`` stays distinguishable from ``5``); strings → ``"pooled"`` (quoted, bytes outside
     ``[A-Za-z0-9_.-]`` as ``%XX``); a flat list or tuple of these → ``[500,300]``.
 
     Raises
@@ -258,16 +302,16 @@ def format_value(value: Any) -> str:
     """
     if isinstance(value, np.ndarray):
         if value.ndim == 0:
-            return _format_scalar(value.item())
+            return _format_scalar(value.item(), encoding)
         if value.ndim == 1 and value.dtype.kind in "biuf":
-            return format_value(value.tolist())
+            return format_value(value.tolist(), encoding)
         raise TypeError(f"an array of shape {value.shape} cannot be written as a protocol value")
     if isinstance(value, (list, tuple)):
-        return "[" + ",".join(_format_scalar(v) for v in value) + "]"
-    return _format_scalar(value)
+        return "[" + ",".join(_format_scalar(v, encoding) for v in value) + "]"
+    return _format_scalar(value, encoding)
 
 
-def _parse_scalar(token: str) -> Any:
+def _parse_scalar(token: str, hex_ok: bool = False) -> Any:
     if token == "none":
         return None
     if token == "true":
@@ -280,11 +324,13 @@ def _parse_scalar(token: str) -> Any:
         return _parse_string(token)
     if _INT_RE.match(token):
         return int(token)
-    return parse_real(token)
+    return parse_real(token, hex_ok=hex_ok)
 
 
-def parse_value(token: str) -> Any:
+def parse_value(token: str, *, hex_ok: bool = False) -> Any:
     """Read one typed token written by :func:`format_value`.
+
+    ``hex_ok`` also reads hexadecimal floats (a float, never an integer).
 
     >>> parse_value('"pooled"'), parse_value("[500,300]"), parse_value("1.0000000000000000e+00")
     ('pooled', [500, 300], 1.0)
@@ -295,8 +341,8 @@ def parse_value(token: str) -> Any:
         inner = token[1:-1]
         if inner == "":
             return []
-        return [_parse_scalar(t) for t in inner.split(",")]
-    return _parse_scalar(token)
+        return [_parse_scalar(t, hex_ok) for t in inner.split(",")]
+    return _parse_scalar(token, hex_ok)
 
 
 # --------------------------------------------------------------------------- lines
@@ -324,7 +370,7 @@ def _array_type(arr: np.ndarray) -> str:
     raise TypeError(f"an array of dtype {arr.dtype} cannot be written on an array line")
 
 
-def encode_array(name: str, values: Any, keyword: str = "array") -> str:
+def encode_array(name: str, values: Any, keyword: str = "array", encoding: str = "decimal") -> str:
     """Write ``array NAME TYPE NDIM D1 .. Dn V1 .. Vk`` (values row-major).
 
     ``TYPE`` is ``real`` (float arrays; numbers as :func:`format_real`), ``int``
@@ -341,7 +387,8 @@ def encode_array(name: str, values: Any, keyword: str = "array") -> str:
     kind = _array_type(arr)
     flat = arr.reshape(-1)  # C order: row-major as the protocol requires
     if kind == "real":
-        body = [format_real(v) for v in flat.astype(np.float64, copy=False).tolist()]
+        _check_encoding(encoding)
+        body = [format_real(v, encoding) for v in flat.astype(np.float64, copy=False).tolist()]
     elif kind == "int":
         body = [str(v) for v in flat.tolist()]
     else:
@@ -350,7 +397,8 @@ def encode_array(name: str, values: Any, keyword: str = "array") -> str:
     return " ".join(head + body)
 
 
-def decode_array(tokens: Sequence[str], keyword: str = "array", *, strict_type: bool = True) -> tuple[str, np.ndarray]:
+def decode_array(tokens: Sequence[str], keyword: str = "array", *, strict_type: bool = True,
+                 hex_ok: bool = False) -> tuple[str, np.ndarray]:
     """Read the tokens of an ``array`` (or ``result``) line.
 
     Parameters
@@ -363,6 +411,8 @@ def decode_array(tokens: Sequence[str], keyword: str = "array", *, strict_type: 
         If False (the runner reading a port's results), every element is read
         as a number whatever the declared type, ``true``/``false`` included,
         and the result is float64 (bool for ``bool``).
+    hex_ok : bool
+        Also read hexadecimal floats (after ``encoding hex``).
 
     Returns
     -------
@@ -396,13 +446,13 @@ def decode_array(tokens: Sequence[str], keyword: str = "array", *, strict_type: 
             elif low in ("0", "false"):
                 out[i] = False
             elif not strict_type:
-                out[i] = bool(parse_real(t))
+                out[i] = bool(parse_real(t, hex_ok=hex_ok))
             else:
                 raise ProtocolError(f"{keyword} {name}: bool values are 0 or 1, got {_quote(t)}")
     elif kind == "int" and (strict_type or all(_INT_RE.match(t) for t in values)):
         out = np.array([parse_int(t) for t in values], dtype=np.int64)
     else:
-        out = np.array([parse_real(t) for t in values], dtype=np.float64)
+        out = np.array([parse_real(t, hex_ok=hex_ok) for t in values], dtype=np.float64)
     return name, out.reshape(shape)
 
 
@@ -417,12 +467,14 @@ class CaseMessage:
     inputs: dict[str, Any] = field(default_factory=dict)
 
 
-def encode_case(family: str, tc_id: int, operation: str, conventions: Mapping[str, Any], inputs: Mapping[str, Any]) -> list[str]:
+def encode_case(family: str, tc_id: int, operation: str, conventions: Mapping[str, Any], inputs: Mapping[str, Any],
+                encoding: str = "decimal") -> list[str]:
     """Write the lines of one case, ``end`` included.
 
     Arrays (numpy arrays of at least one dimension) go on ``array`` lines; every
     other input (``n_params``, ``max_lag``, a ``lags`` list, ...) on a ``scalar``
-    line; conventions as ``KEY=VALUE`` tokens of the ``case`` line.
+    line; conventions as ``KEY=VALUE`` tokens of the ``case`` line. Every float
+    (array element, scalar input, convention value) is written in ``encoding``.
 
     Raises
     ------
@@ -440,14 +492,15 @@ def encode_case(family: str, tc_id: int, operation: str, conventions: Mapping[st
     _check_name(family, "a family name")
     _check_name(operation, "an operation name")
     head = ["case", family, str(int(tc_id)), operation]
+    _check_encoding(encoding)
     for key, value in conventions.items():
-        head.append(f"{_check_name(key, 'a convention name')}={format_value(value)}")
+        head.append(f"{_check_name(key, 'a convention name')}={format_value(value, encoding)}")
     lines = [" ".join(head)]
     for name, value in inputs.items():
         if isinstance(value, np.ndarray) and value.ndim >= 1:
-            lines.append(encode_array(name, value))
+            lines.append(encode_array(name, value, encoding=encoding))
         else:
-            lines.append(f"scalar {_check_name(name, 'an input name')} {format_value(value)}")
+            lines.append(f"scalar {_check_name(name, 'an input name')} {format_value(value, encoding)}")
     lines.append("end")
     return lines
 
@@ -464,11 +517,13 @@ class CaseDecoder:
 
     Feed it lines; :meth:`feed` returns a :class:`CaseMessage` when the ``end``
     line of a case arrives, the string ``"quit"`` for the ``quit`` line, and
-    ``None`` otherwise.
+    ``None`` otherwise. ``encoding="hex"`` (a port that negotiated it) also
+    reads hexadecimal floats.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, encoding: str = "decimal") -> None:
         self._case: CaseMessage | None = None
+        self._hex = _check_encoding(encoding) == "hex"
 
     def feed(self, line: str) -> CaseMessage | str | None:
         tokens = split_line(line)
@@ -483,20 +538,20 @@ class CaseDecoder:
             conventions = {}
             for tok in tokens[4:]:
                 key, value = _parse_keyvalue(tok)
-                conventions[key] = parse_value(value)
+                conventions[key] = parse_value(value, hex_ok=self._hex)
             self._case = CaseMessage(_check_name(tokens[1], "a family name"), parse_int(tokens[2]), _check_name(tokens[3], "an operation name"), conventions)
             return None
         if word == "end":
             case, self._case = self._case, None
             return case
         if word == "array":
-            name, arr = decode_array(tokens, "array")
+            name, arr = decode_array(tokens, "array", hex_ok=self._hex)
             self._case.inputs[name] = arr
             return None
         if word == "scalar":
             if len(tokens) != 3:
                 raise ProtocolError(f"expected 'scalar NAME VALUE', got {_quote(line)}")
-            self._case.inputs[_check_name(tokens[1], "an input name")] = parse_value(tokens[2])
+            self._case.inputs[_check_name(tokens[1], "an input name")] = parse_value(tokens[2], hex_ok=self._hex)
             return None
         raise ProtocolError(f"expected 'array', 'scalar' or 'end' inside a case, got {_quote(line)}")
 
@@ -510,8 +565,9 @@ class Reply:
     error_message: str = ""
 
 
-def encode_reply(outputs: Mapping[str, Any] | None = None, error_kind: str | None = None, message: str = "") -> list[str]:
-    """Write a port's answer, ``end`` included.
+def encode_reply(outputs: Mapping[str, Any] | None = None, error_kind: str | None = None, message: str = "",
+                 encoding: str = "decimal") -> list[str]:
+    """Write a port's answer, ``end`` included (reals in ``encoding``).
 
     >>> encode_reply({"value": 1.0})
     ['result value real 0 1.0000000000000000e+00', 'end']
@@ -521,7 +577,8 @@ def encode_reply(outputs: Mapping[str, Any] | None = None, error_kind: str | Non
     if error_kind is not None:
         text = " ".join(message.split())  # one line, whatever the message held
         return [f"error {_check_name(error_kind, 'an error kind')}" + (f" {text}" if text else ""), "end"]
-    return [encode_array(name, value, keyword="result") for name, value in (outputs or {}).items()] + ["end"]
+    return [encode_array(name, value, keyword="result", encoding=encoding)
+            for name, value in (outputs or {}).items()] + ["end"]
 
 
 class ReplyDecoder:
@@ -529,12 +586,14 @@ class ReplyDecoder:
 
     :meth:`feed` returns the :class:`Reply` when the ``end`` line arrives and
     ``None`` before. Blank lines and lines starting with ``#`` (port logging) are
-    ignored. Anything else raises :class:`ProtocolError`.
+    ignored. Anything else raises :class:`ProtocolError`. Hexadecimal floats
+    are read only with ``encoding="hex"`` (the port asked for it).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, encoding: str = "decimal") -> None:
         self._reply = Reply()
         self._errored = False
+        self._hex = _check_encoding(encoding) == "hex"
 
     def feed(self, line: str) -> Reply | None:
         tokens = split_line(line)
@@ -547,7 +606,7 @@ class ReplyDecoder:
         if word == "result":
             if self._errored:
                 raise ProtocolError("a 'result' line after an 'error' line")
-            name, arr = decode_array(tokens, "result", strict_type=False)
+            name, arr = decode_array(tokens, "result", strict_type=False, hex_ok=self._hex)
             if name in self._reply.outputs:
                 raise ProtocolError(f"output {name!r} sent twice")
             self._reply.outputs[name] = arr
@@ -601,7 +660,7 @@ def _same_value(a: Any, b: Any) -> bool:
         return False
 
 
-def parse_capability(line: str) -> Capability:
+def parse_capability(line: str, *, hex_ok: bool = False) -> Capability:
     """Read ``capability OPERATION [outputs=a,b] [KEY=V1|V2...]``.
 
     >>> cap = parse_capability('capability ljung_box outputs=statistic,df model_df=0|1')
@@ -622,7 +681,7 @@ def parse_capability(line: str) -> Capability:
                 raise ProtocolError(f"outputs= needs at least one output name in {_quote(line)}")
             outputs = frozenset(_check_name(n, "an output name") for n in names)
         else:
-            filters.append((key, tuple(parse_value(v) for v in value.split("|"))))
+            filters.append((key, tuple(parse_value(v, hex_ok=hex_ok) for v in value.split("|"))))
     return Capability(operation, tuple(filters), outputs)
 
 
@@ -643,6 +702,18 @@ def parse_greeting(line: str) -> tuple[int, str]:
         raise ProtocolError(f"expected the greeting '{GREETING} {PROTOCOL_VERSION} [NAME]', got {_quote(line)}")
     version = parse_int(tokens[1])
     return version, " ".join(tokens[2:])
+
+
+def parse_encoding(line: str) -> str:
+    """Read the handshake line ``encoding NAME`` and return NAME (``decimal`` or ``hex``).
+
+    >>> parse_encoding("encoding hex")
+    'hex'
+    """
+    tokens = split_line(line)
+    if len(tokens) != 2 or tokens[0] != "encoding" or tokens[1] not in ENCODINGS:
+        raise ProtocolError(f"expected 'encoding {'|'.join(ENCODINGS)}', got {_quote(line)}")
+    return tokens[1]
 
 
 def covered_outputs(capabilities: Iterable[Capability], operation: str, conventions: Mapping[str, Any]) -> frozenset[str] | None | bool:

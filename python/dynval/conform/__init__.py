@@ -11,6 +11,12 @@ per family::
 Exit status: 0 when no case failed, 1 when any case failed (or, with
 ``--strict``, when any case was skipped or partial), 2 for a usage error.
 
+``dynval conform --matrix`` runs the known ports (python, cpp, java, matlab,
+wolfram; ``--ports`` picks some, ``--port NAME=COMMAND`` adds others) over every
+family and prints the conformance matrix as Markdown; ``--write-readme`` puts it
+into README.md between its marker comments and ``--check-readme`` exits 1 when
+README.md's matrix differs from the fresh run.
+
 Examples
 --------
 >>> from dynval.conform import main
@@ -31,6 +37,7 @@ from typing import Sequence, TextIO
 
 from .. import protocol
 from ._process import PortFailure, PortProcess, describe_command
+from ._matrix import BUILTIN_PORTS
 from ._runner import STATUSES, CaseOutcome, RunResult, judge, run
 
 __all__ = ["main", "run", "RunResult", "CaseOutcome", "PortProcess", "PortFailure", "judge", "write_report"]
@@ -59,6 +66,19 @@ def _build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-restarts", type=int, default=25, metavar="R", help="port restarts allowed (default 25)")
     parser.add_argument("--strict", action="store_true", help="also fail when a case is skipped or partial")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
+    matrix = parser.add_argument_group("conformance matrix (no command after --)")
+    matrix.add_argument("--matrix", action="store_true",
+                        help="run the known ports over the families and print the passed/total matrix (Markdown)")
+    matrix.add_argument("--ports", metavar="P,...",
+                        help=f"built-in ports to run (default: all of {','.join(BUILTIN_PORTS)}, or none with --port)")
+    matrix.add_argument("--port", action="append", default=[], metavar="NAME=COMMAND",
+                        help="an extra row: a port command (shell-like quoting); repeatable")
+    matrix.add_argument("--root", metavar="DIR", default=".",
+                        help="source checkout holding java/, matlab/, wolfram/ and README.md (default: .)")
+    matrix.add_argument("--write-readme", nargs="?", const="", default=None, metavar="FILE",
+                        help="write the matrix between the marker comments of FILE (default: ROOT/README.md)")
+    matrix.add_argument("--check-readme", nargs="?", const="", default=None, metavar="FILE",
+                        help="exit 1 when the matrix in FILE (default: ROOT/README.md) differs from the fresh run")
     return parser
 
 
@@ -167,6 +187,7 @@ def _report_dict(result: RunResult, exit_code: int) -> dict:
             "name": result.port_name,
             "protocol_version": result.protocol_version,
             "capabilities": result.capabilities,
+            "encoding": result.encoding,
             "startup_error": result.startup_error,
         },
         "restarts": result.restarts,
@@ -202,6 +223,92 @@ def write_report(result: RunResult, path: str | os.PathLike, exit_code: int) -> 
         handle.write("\n")
 
 
+def _check_numbers(args) -> str:
+    for name, value in (("--timeout", args.timeout), ("--startup-timeout", args.startup_timeout)):
+        if not (value > 0 and math.isfinite(value)):
+            return f"dynval conform: {name} must be a positive number of seconds, got {value!r}\n"
+    if args.max_failures < 0 or args.max_restarts < 0:
+        return "dynval conform: --max-failures and --max-restarts must be >= 0\n"
+    return ""
+
+
+def _families(args, err: TextIO) -> list[str] | None:
+    from ..golden import FAMILIES
+
+    if not args.families:
+        return list(FAMILIES)
+    families = [f.strip() for f in args.families.split(",") if f.strip()]
+    unknown = [f for f in families if f not in FAMILIES]
+    if unknown or not families:
+        err.write(f"dynval conform: --families must be among {', '.join(FAMILIES)}, got {args.families!r}\n")
+        return None
+    return families
+
+
+def _matrix_main(args, out: TextIO, err: TextIO) -> int:
+    """``dynval conform --matrix [...]``: 0 when every port that ran passed (and README matches)."""
+    from . import _matrix
+
+    families = _families(args, err)
+    if families is None:
+        return 2
+    problem = _check_numbers(args)
+    if problem:
+        err.write(problem)
+        return 2
+    if args.write_readme is not None and args.check_readme is not None:
+        err.write("dynval conform: --write-readme and --check-readme exclude each other\n")
+        return 2
+    root = pathlib.Path(args.root)
+    try:
+        corpus = _resolve_corpus(args.corpus, families)
+        if args.ports is not None:
+            names = [p.strip() for p in args.ports.split(",") if p.strip()]
+        else:
+            names = [] if args.port else list(BUILTIN_PORTS)
+        specs = [_matrix.builtin_port(name, root) for name in names]
+        specs += [_matrix.custom_port(text) for text in args.port]
+    except (FileNotFoundError, ValueError) as exc:
+        err.write(f"dynval conform: {exc}\n")
+        return 2
+    if not specs:
+        err.write("dynval conform --matrix: no port selected\n")
+        return 2
+    readme = None
+    for option in (args.write_readme, args.check_readme):
+        if option is not None:
+            readme = pathlib.Path(option) if option else root / "README.md"
+            try:
+                _matrix.readme_block(readme.read_text(encoding="utf-8"), readme)
+            except (OSError, ValueError) as exc:
+                err.write(f"dynval conform: {exc}\n")
+                return 2
+
+    def log(text: str) -> None:
+        if not args.quiet:
+            err.write(text + "\n")
+            err.flush()
+
+    rows = _matrix.run_matrix(specs, families, corpus=str(corpus) if corpus else None, timeout=args.timeout,
+                              startup_timeout=args.startup_timeout, max_restarts=args.max_restarts, log=log)
+    table = _matrix.format_matrix(rows, families)
+    out.write(table + "\n")
+    for row in rows:
+        if row.result is not None and row.result.startup_error:
+            out.write(f"\n{row.spec.label} did not start: {row.result.startup_error}\n")
+    code = 0 if _matrix.matrix_ok(rows) else 1
+    if args.write_readme is not None:
+        changed = _matrix.write_readme(readme, table)
+        out.write(f"\n{readme}: matrix {'updated' if changed else 'already current'}\n")
+    if args.check_readme is not None:
+        if _matrix.check_readme(readme, table, out):
+            out.write(f"\n{readme}: matrix is current\n")
+        else:
+            code = 1
+    out.flush()
+    return code
+
+
 def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
     """Command-line entry point of ``dynval conform`` (``argv`` after the word ``conform``).
 
@@ -211,8 +318,6 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
         0 (no failure), 1 (a case failed, or skipped/partial with ``--strict``),
         2 (usage error).
     """
-    from ..golden import FAMILIES
-
     out = stdout or sys.stdout
     err = stderr or sys.stderr
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -222,22 +327,24 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
         args = parser.parse_args(options)
     except SystemExit as exc:
         return int(exc.code or 0) if exc.code in (0, None) else 2
+    if args.matrix:
+        if command:
+            err.write("dynval conform --matrix runs the known ports: give no command after '--' "
+                      "(use --port NAME=CMD)\n")
+            return 2
+        return _matrix_main(args, out, err)
+    if args.write_readme is not None or args.check_readme is not None or args.ports or args.port:
+        err.write("dynval conform: --ports, --port, --write-readme and --check-readme need --matrix\n")
+        return 2
     if not command:
         err.write("dynval conform: give the port command after '--', e.g. dynval conform -- ./my_port\n")
         return 2
-    families = list(FAMILIES)
-    if args.families:
-        families = [f.strip() for f in args.families.split(",") if f.strip()]
-        unknown = [f for f in families if f not in FAMILIES]
-        if unknown or not families:
-            err.write(f"dynval conform: --families must be among {', '.join(FAMILIES)}, got {args.families!r}\n")
-            return 2
-    for name, value in (("--timeout", args.timeout), ("--startup-timeout", args.startup_timeout)):
-        if not (value > 0 and math.isfinite(value)):
-            err.write(f"dynval conform: {name} must be a positive number of seconds, got {value!r}\n")
-            return 2
-    if args.max_failures < 0 or args.max_restarts < 0:
-        err.write("dynval conform: --max-failures and --max-restarts must be >= 0\n")
+    families = _families(args, err)
+    if families is None:
+        return 2
+    problem = _check_numbers(args)
+    if problem:
+        err.write(problem)
         return 2
     try:
         corpus = _resolve_corpus(args.corpus, families)
@@ -261,7 +368,8 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
     exit_code = 1 if failed or (args.strict and incomplete) else 0
 
     port = result.port_name or describe_command(command)
-    out.write(f"dynval conform: protocol {protocol.PROTOCOL_VERSION}, port {port}\n")
+    numbers = ", hexadecimal floats" if result.encoding == "hex" else ""
+    out.write(f"dynval conform: protocol {protocol.PROTOCOL_VERSION}{numbers}, port {port}\n")
     if result.startup_error:
         out.write(f"port did not start: {result.startup_error}\n")
     out.write(format_table(result) + "\n")

@@ -52,6 +52,8 @@ class PortProcess:
         self.version: int | None = None
         self.name = ""
         self.capabilities: list[protocol.Capability] = []
+        #: Number encoding the port asked for (``encoding hex`` in its handshake).
+        self.encoding = "decimal"
         self._proc: subprocess.Popen | None = None
         # Bounded, so a flooding port is slowed down by the pipe instead of
         # filling the runner's memory before the budget check sees it.
@@ -99,14 +101,22 @@ class PortProcess:
                     f"the port speaks protocol {version}; this runner speaks protocol {protocol.PROTOCOL_VERSION}",
                 )
             self.version, self.name = version, name
-            capabilities = []
+            lines, encodings = [], []
             while True:
                 line = self._next_line(deadline, budget, "the capability lines")
                 tokens = protocol.split_line(line)
                 if tokens == ["ready"]:
                     break
-                capabilities.append(protocol.parse_capability(line))
-            self.capabilities = capabilities
+                if tokens and tokens[0] == "encoding":
+                    encodings.append(protocol.parse_encoding(line))
+                else:
+                    lines.append(line)
+            if len(encodings) > 1:
+                raise protocol.ProtocolError(f"the encoding line was sent {len(encodings)} times")
+            self.encoding = encodings[0] if encodings else "decimal"
+            # Filters may hold float values, which a hex port may write in hex.
+            hex_ok = self.encoding == "hex"
+            self.capabilities = [protocol.parse_capability(line, hex_ok=hex_ok) for line in lines]
         except protocol.ProtocolError as exc:
             self.kill()
             raise PortFailure("handshake", f"bad handshake: {exc}") from None
@@ -179,7 +189,7 @@ class PortProcess:
         threading.Thread(target=self._write, args=(payload,), daemon=True).start()
         deadline = time.monotonic() + timeout
         budget = [max_bytes]
-        decoder = protocol.ReplyDecoder()
+        decoder = protocol.ReplyDecoder(self.encoding)
         while True:
             line = self._next_line(deadline, budget, "the answer")
             try:

@@ -57,6 +57,7 @@ class RunResult:
     port_name: str = ""
     protocol_version: int | None = None
     capabilities: list[str] = field(default_factory=list)
+    encoding: str = "decimal"
     outcomes: list[CaseOutcome] = field(default_factory=list)
     restarts: int = 0
     seconds: float = 0.0
@@ -204,6 +205,7 @@ def run(
         result.port_name = port.name
         result.protocol_version = port.version
         result.capabilities = [protocol.format_capability(c) for c in port.capabilities]
+        result.encoding = port.encoding
     capabilities = port.capabilities if port is not None else []
 
     try:
@@ -256,6 +258,9 @@ def run(
                 _report_progress(progress, done, len(cases), result)
                 continue
 
+            if port.encoding != "decimal":
+                lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions, case.inputs,
+                                             encoding=port.encoding)
             t0 = time.monotonic()
             try:
                 reply = port.exchange(lines, timeout, _answer_budget(case))

@@ -1,0 +1,382 @@
+"""One self-contained HTML file for a validation or a comparison: what a person reads.
+
+:func:`write_report` writes the verdict (for a comparison), the tables, the findings with
+what to do about them, the figures (PNG embedded as base64 ``data:`` URIs) and the provenance,
+in a single file with its CSS inline: no network, no external CSS or JavaScript. The markup is
+well-formed XML (every element closed), so it can also be checked or processed as XHTML.
+
+Figures need matplotlib (the ``plot`` extra); without it the report says so and keeps the
+tables. The residual figures need the torques themselves, which a report does not keep: pass
+``tau_meas`` and ``tau_pred`` to have them.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html as _html
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["write_report", "render_report"]
+
+_CSS = """
+body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, Helvetica, Arial, sans-serif;
+       margin: 0 auto; max-width: 1180px; padding: 1.5em 2em; color: #1a1a1a; line-height: 1.45; }
+h1 { font-size: 1.6em; margin-bottom: 0.2em; }
+h2 { font-size: 1.25em; border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
+h3 { font-size: 1.05em; margin-top: 1.4em; }
+.sub { color: #555; margin-top: 0; }
+table { border-collapse: collapse; margin: 0.6em 0 1em 0; font-size: 0.92em; }
+th, td { border: 1px solid #ccc; padding: 0.3em 0.6em; text-align: right; vertical-align: top; }
+th { background: #f2f2f2; }
+td.text, th.text { text-align: left; }
+tr.chosen td { background: #eef6ee; font-weight: 600; }
+.verdict { border-radius: 6px; padding: 0.8em 1.2em; margin: 1em 0; border: 2px solid; }
+.verdict.accept { background: #eef8ee; border-color: #2e7d32; }
+.verdict.refine { background: #fff7e6; border-color: #e08a00; }
+.verdict.redesign { background: #fdecea; border-color: #c62828; }
+.verdict .decision { font-size: 1.3em; font-weight: 700; text-transform: uppercase; }
+.sev { font-weight: 700; padding: 0.05em 0.4em; border-radius: 3px; color: white; }
+.sev.deficiency { background: #c62828; }
+.sev.design { background: #e08a00; }
+.sev.note { background: #607d8b; }
+figure { margin: 1.2em 0; }
+figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { color: #444; font-size: 0.92em; margin-top: 0.3em; }
+details pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.8em; max-height: 40em; }
+.muted { color: #666; }
+.scroll { overflow-x: auto; }
+"""
+
+
+def _e(text) -> str:
+    """Escape text content (quotes may stay: they need escaping in attributes only)."""
+    return _html.escape(str(text), quote=False)
+
+
+def _a(text) -> str:
+    """Escape an attribute value."""
+    return _html.escape(str(text), quote=True)
+
+
+def _num(x, digits=4) -> str:
+    if x is None:
+        return "—"
+    if isinstance(x, str):
+        return _e(x)
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return _e(x)
+    if math.isnan(v):
+        return "nan"
+    if math.isinf(v):
+        return "∞" if v > 0 else "−∞"
+    if v != 0 and (abs(v) >= 1e6 or abs(v) < 1e-3):
+        return f"{v:.{digits - 1}e}"
+    return f"{v:.{digits}g}"
+
+
+def _table(header, rows, *, text_cols=(0,), row_classes=None) -> str:
+    out = ['<div class="scroll"><table>', "<tr>"]
+    for i, h in enumerate(header):
+        out.append(f'<th class="text">{_e(h)}</th>' if i in text_cols else f"<th>{_e(h)}</th>")
+    out.append("</tr>")
+    for r, row in enumerate(rows):
+        cls = f' class="{row_classes[r]}"' if row_classes and row_classes[r] else ""
+        out.append(f"<tr{cls}>")
+        for i, cell in enumerate(row):
+            out.append(f'<td class="text">{cell}</td>' if i in text_cols else f"<td>{cell}</td>")
+        out.append("</tr>")
+    out.append("</table></div>")
+    return "".join(out)
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _figure_html(fig_or_png, caption) -> str:
+    if isinstance(fig_or_png, (bytes, bytearray)):
+        data = base64.b64encode(bytes(fig_or_png)).decode("ascii")
+    elif isinstance(fig_or_png, (str, Path)):
+        data = base64.b64encode(Path(fig_or_png).read_bytes()).decode("ascii")
+    else:
+        data = _png(fig_or_png)
+    return (f'<figure><img alt="{_a(caption)}" src="data:image/png;base64,{data}"/>'
+            f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+
+def _names(report, key, n, default):
+    prov = getattr(report, "provenance", None) or {}
+    names = prov.get(key)
+    if names is None or len(names) != n:
+        return [default(i) for i in range(n)]
+    return [str(s) for s in names]
+
+
+def _joint_names(report):
+    m = len(np.atleast_1d(report.per_joint["rmse"]))
+    return _names(report, "joint_names", m, lambda j: f"joint {j + 1}")
+
+
+def _column_names(report):
+    prov = getattr(report, "provenance", None) or {}
+    p = prov.get("n_regressor_columns") or 0
+    return _names(report, "column_names", int(p), lambda c: f"c{c}")
+
+
+def _per_joint_table(report) -> str:
+    units = (getattr(report, "provenance", None) or {}).get("units", {}) or {}
+    pct = lambda k: " (%)" if units.get(k) == "percent" else ""  # noqa: E731
+    keys = [("rmse", "RMSE"), ("max_abs_error", "max |e|"), ("vaf", "VAF" + pct("vaf")),
+            ("fit_percent", "fit" + pct("fit_percent")), ("r2", "R²"), ("nrmse", "NRMSE")]
+    keys = [(k, label) for k, label in keys if k in report.per_joint]
+    rows = []
+    for j, name in enumerate(_joint_names(report)):
+        rows.append([_e(name)] + [_num(np.atleast_1d(report.per_joint[k])[j]) for k, _ in keys])
+    pooled = report.pooled
+    pooled_map = {"rmse": "rmse_per_element", "max_abs_error": "max_abs_error", "vaf": "vaf",
+                  "fit_percent": "fit_percent", "r2": "r2"}
+    rows.append(["<b>pooled</b>"] + [_num(pooled.get(pooled_map.get(k, ""), None)) if k in pooled_map else "—"
+                                     for k, _ in keys])
+    return _table(["joint"] + [label for _, label in keys], rows)
+
+
+def _findings_html(report) -> str:
+    findings = getattr(report, "findings", None)
+    if findings is None:
+        texts = getattr(report, "warnings_text", None) or []
+        if not texts:
+            return '<p class="muted">No findings.</p>'
+        return "<ul>" + "".join(f"<li>{_e(t)}</li>" for t in texts) + "</ul>"
+    if not findings:
+        return '<p class="muted">No findings: nothing in the residuals calls for a change.</p>'
+    jn = _joint_names(report)
+    cn = _column_names(report)
+    rows = []
+    for f in findings:
+        sev = getattr(f, "severity", "note")
+        joints = ", ".join(jn[j] if 0 <= j < len(jn) else str(j) for j in getattr(f, "joints", ()) or ())
+        cols = ", ".join(cn[c] if 0 <= c < len(cn) else str(c) for c in getattr(f, "columns", ()) or ())
+        rows.append([f'<span class="sev {_a(sev)}">{_e(sev)}</span>', _e(getattr(f, "kind", "")),
+                     _e(joints) or "—", _e(cols) or "—", _e(getattr(f, "message", "")),
+                     _e(getattr(f, "action", "")) or "—"])
+    return _table(["severity", "kind", "joints", "columns", "finding", "what to do"], rows,
+                  text_cols=(0, 1, 2, 3, 4, 5))
+
+
+def _criteria_html(report) -> str:
+    ic = getattr(report, "information_criteria", None)
+    if not ic:
+        return ""
+    keys = [k for k in ("n_obs", "n_params", "noise_model", "aic", "bic", "aicc", "fpe") if k in ic]
+    return _table(keys, [[_num(ic[k]) if not isinstance(ic[k], str) else _e(ic[k]) for k in keys]], text_cols=())
+
+
+def _provenance_html(report) -> str:
+    prov = getattr(report, "provenance", None) or {}
+    rows = []
+    for k, v in prov.items():
+        if isinstance(v, dict):
+            v = json.dumps(_jsonable(v), ensure_ascii=False)
+        elif isinstance(v, (list, tuple)):
+            v = ", ".join(str(x) for x in v)
+        rows.append([_e(k), _e(v)])
+    return _table(["field", "value"], rows, text_cols=(0, 1))
+
+
+def _jsonable(x):
+    try:
+        from ._report import to_jsonable
+
+        return to_jsonable(x)
+    except ImportError:  # pragma: no cover
+        return x
+
+
+def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label) -> list:
+    try:
+        from . import plot
+    except ImportError:  # pragma: no cover
+        return []
+    figs = []
+    if tau_meas is not None and tau_pred is not None:
+        meas = np.asarray(tau_meas, dtype=float)
+        n = meas.shape[0]
+        fs = sample_rate or (getattr(report, "provenance", None) or {}).get("sample_rate")
+        window = (0.0, min(n / fs, 10.0)) if fs else (0.0, min(n, 1000))
+        figs.append((plot.prediction(tau_meas, tau_pred, sample_rate=fs, report=report, model_name=model_name,
+                                     window=window),
+                     f"Measured and predicted torque of '{model_name}', first "
+                     f"{window[1]:g} {'s' if fs else 'samples'} of the validation data."))
+        segments = (getattr(report, "provenance", None) or {}).get("segments")
+        figs.append((plot.residuals(tau_meas, tau_pred, sample_rate=fs, report=report,
+                                    segments=segments if segments and len(segments) > 1 else None),
+                     "Residual over time per joint (segment boundaries dashed)."))
+    if getattr(report, "autocorrelation", None) is not None:
+        figs.append((plot.autocorrelation(report),
+                     "Residual autocorrelation with its band: a white residual stays inside (lesson §4.2)."))
+    if getattr(report, "spectrum", None) is not None:
+        figs.append((plot.spectrum(report, reference=reference, reference_label=reference_label),
+                     "Residual spectrum per joint; oscillations found by the report are marked."))
+    if getattr(report, "cross_correlation", None) is not None:
+        figs.append((plot.cross_correlation(report),
+                     "Residual × regressor-column cross-correlation, max |ρ| over lags divided by the band; "
+                     "cells above 1 are outside it, outlined cells are named by a finding."))
+    return figs
+
+
+def _is_comparison(obj) -> bool:
+    return hasattr(obj, "reports") and hasattr(obj, "verdict")
+
+
+def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
+                  reference_frequency=None, reference_label="expected mode", intro=None) -> str:
+    """The HTML text of :func:`write_report` (same arguments, without the path)."""
+    from . import __version__
+
+    parts = []
+    plot_note = ""
+    try:
+        import matplotlib  # noqa: F401
+        have_plot = True
+    except ImportError:
+        have_plot = False
+        plot_note = '<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>'
+    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+
+    if _is_comparison(obj):
+        cmp = obj
+        names = list(getattr(cmp, "names", None) or list(cmp.reports))
+        verdict = cmp.verdict
+        chosen = getattr(verdict, "model", None) or (list(getattr(cmp, "ranking", names)) or names)[0]
+        head = title or "dynval model comparison"
+        parts.append(f"<h1>{_e(head)}</h1>")
+        parts.append(f'<p class="sub">{len(names)} candidate models validated on the same data · dynval '
+                     f"{_e(__version__)} · {stamp}</p>")
+        if intro:
+            parts.append(f"<p>{_e(intro)}</p>")
+        decision = str(getattr(verdict, "decision", ""))
+        reasons = getattr(verdict, "reasons", []) or []
+        parts.append(f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
+                     f"<p>Model: <b>{_e(chosen)}</b></p>"
+                     + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
+                     + "</div>")
+        parts.append("<h2>Decision table</h2>")
+        pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
+        ranking = list(getattr(cmp, "ranking", names))
+        cols = [c for c in ("rmse", "vaf", "fit_percent", "r2", "aic", "bic", "delta_aic", "delta_bic",
+                            "akaike_weight", "whiteness", "bias") if any(c in pooled.get(n, {}) for n in names)]
+        rows, classes = [], []
+        for n in ranking:
+            params = cmp.reports[n].provenance.get("n_params") if hasattr(cmp.reports[n], "provenance") else None
+            rows.append([_e(n), str(ranking.index(n) + 1), _num(params)] +
+                        [_num(pooled.get(n, {}).get(c)) for c in cols])
+            classes.append("chosen" if n == chosen else "")
+        labels = {"rmse": "RMSE", "vaf": "VAF", "fit_percent": "fit", "r2": "R²", "aic": "AIC", "bic": "BIC",
+                  "delta_aic": "ΔAIC", "delta_bic": "ΔBIC", "akaike_weight": "Akaike weight"}
+        parts.append(_table(["model", "rank", "parameters"] + [labels.get(c, c) for c in cols], rows,
+                            row_classes=classes, text_cols=(0,) + tuple(i + 3 for i, c in enumerate(cols)
+                                                                        if c in ("whiteness", "bias"))))
+        parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
+                     "(best first); the chosen model is highlighted.</p>")
+        if have_plot:
+            from . import plot
+
+            parts.append(_figure_html(plot.metrics(cmp), "Per-joint VAF, fit and R² of every candidate "
+                                                         "(the chosen model outlined)."))
+        for n in [chosen] + [x for x in ranking if x != chosen]:
+            rep = cmp.reports[n]
+            parts.append(f"<h2>Model '{_e(n)}'{' — chosen' if n == chosen else ''}</h2>")
+            parts.append("<h3>Per joint</h3>" + _per_joint_table(rep))
+            parts.append("<h3>Findings</h3>" + _findings_html(rep))
+            parts.append("<h3>Information criteria</h3>" + _criteria_html(rep))
+            if n == chosen and have_plot:
+                pred = tau_pred.get(n) if isinstance(tau_pred, dict) else None
+                for fig, cap in _report_figures(rep, tau_meas, pred, sample_rate, n, reference_frequency,
+                                                reference_label):
+                    parts.append(_figure_html(fig, cap))
+        first = cmp.reports[names[0]]
+    else:
+        rep = obj
+        head = title or "dynval validation report"
+        parts.append(f"<h1>{_e(head)}</h1>")
+        prov = getattr(rep, "provenance", None) or {}
+        parts.append(f'<p class="sub">{_e(prov.get("n_samples", "?"))} samples × {_e(prov.get("n_joints", "?"))} '
+                     f"joints · {_e(prov.get('n_params', '?'))} parameters · dynval {_e(__version__)} · {stamp}</p>")
+        if intro:
+            parts.append(f"<p>{_e(intro)}</p>")
+        defic = [f for f in getattr(rep, "findings", []) or [] if getattr(f, "severity", "") == "deficiency"]
+        if getattr(rep, "findings", None) is not None:
+            state = "refine" if defic else "accept"
+            parts.append(f'<div class="verdict {state}"><div class="decision">'
+                         f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
+        parts.append("<h2>Per joint</h2>" + _per_joint_table(rep))
+        parts.append("<h2>Findings</h2>" + _findings_html(rep))
+        parts.append("<h2>Information criteria</h2>" + _criteria_html(rep))
+        if have_plot:
+            parts.append("<h2>Figures</h2>")
+            for fig, cap in _report_figures(rep, tau_meas, tau_pred, sample_rate, "model", reference_frequency,
+                                            reference_label):
+                parts.append(_figure_html(fig, cap))
+        first = rep
+    for fig, cap in figures or ():
+        parts.append(_figure_html(fig, cap))
+    parts.append(plot_note)
+    parts.append("<h2>Provenance</h2>" + _provenance_html(first))
+    try:
+        full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
+        parts.append(f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>")
+    except Exception as exc:  # noqa: BLE001 - the HTML is still useful without the JSON
+        parts.append(f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>')
+
+    body = "\n".join(p for p in parts if p)
+    return ("<!DOCTYPE html>\n"
+            '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
+            '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
+            f"<title>{_e(title or ('dynval model comparison' if _is_comparison(obj) else 'dynval validation report'))}"
+            f"</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+
+
+def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
+                 reference_frequency=None, reference_label="expected mode", intro=None) -> str:
+    """Write one self-contained HTML report of a validation or a comparison.
+
+    Parameters
+    ----------
+    obj : ValidationReport or ComparisonReport
+        What :func:`dynval.validate` or :func:`dynval.compare` returned.
+    path : str or Path
+        The file to write (UTF-8).
+    tau_meas : array_like (N, m), optional
+        Measured torques of the validation data: with ``tau_pred``, adds the measured-vs-predicted
+        and residual figures.
+    tau_pred : array_like (N, m), or dict {model name: (N, m)} for a comparison, optional
+        Predicted torques (of the chosen model, for a comparison).
+    sample_rate : float, optional
+        Hz; default the report's provenance.
+    title, intro : str, optional
+        Heading and an introductory paragraph.
+    figures : sequence of (Figure or PNG bytes or PNG path, caption), optional
+        More figures to embed.
+    reference_frequency : float, optional
+        A known frequency (a simulated mode) drawn on the spectrum.
+
+    Returns
+    -------
+    str
+        The path written.
+    """
+    text = render_report(obj, tau_meas=tau_meas, tau_pred=tau_pred, sample_rate=sample_rate, title=title,
+                         figures=figures, reference_frequency=reference_frequency,
+                         reference_label=reference_label, intro=intro)
+    Path(path).write_text(text, encoding="utf-8")
+    return str(path)

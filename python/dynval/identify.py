@@ -1,0 +1,469 @@
+"""Least-squares identification of the base parameters of ``τ = Y π + ε``.
+
+Users with their own estimator never need this module: dynval validates predictions however
+they were made. It exists so that a user who has a regressor and measured torques gets the
+usual answer of the identification literature in one call — the identifiable (base) parameter
+set, its estimate, standard deviations and relative standard deviations %σ, the condition
+number of the base regressor — and can predict the torques of another trajectory.
+
+Method
+------
+The regressor is stacked sample-major (row ``k·m + j`` is sample k, joint j), every column is
+scaled to unit Euclidean norm (so that the rank test does not depend on the parameters' units)
+and factored by Householder QR with column pivoting (``scipy.linalg.qr(..., pivoting=True)``,
+LAPACK ``dgeqp3``). Pivoting moves the most independent columns first, so ``|R_00| >= |R_11| >= ...``.
+The numerical rank ``r`` is the number of diagonal entries with
+
+    |R_kk| > rcond · |R_00|,    rcond = max(rows, p) · eps   (eps = 2.22e-16, the default)
+
+— the tolerance numpy's ``matrix_rank`` uses for singular values, applied to the pivoted-QR
+diagonal, which bounds the singular values from above and below within a factor of the matrix size.
+Columns that are identically zero, or whose norm is at most ``rcond`` times the largest column
+norm (roundoff of a structurally zero column), are never identifiable and are removed before
+the factorization. The first ``r`` pivoted columns are the *base columns*; every other column is a
+linear combination of them, ``Y_d = Y_b β``, and the quantity that the data determine is the base
+parameter ``π_b + β π_d`` (:attr:`IdentificationResult.combination`).
+
+With ``Q1 R11`` the first ``r`` columns of the factorization,
+
+    π̂_b = R11⁻¹ Q1ᵀ τ,    σ² = ‖τ − Y_b π̂_b‖² / (rows − r),    C = σ² (Y_bᵀ Y_b)⁻¹ = σ² R11⁻¹ R11⁻ᵀ
+
+(undone for the column scaling), ``std = √diag C`` and ``%σ = 100 · std / |π̂|``.
+
+Weighting (``weights="per_joint"``): joints whose torques differ in noise level get rows divided
+by a per-joint noise standard deviation σ_j, estimated from an ordinary least-squares fit as
+σ_j² = ‖τ_j − Y_j π̂‖² / (N − r) (Gautier's weighting); the weighted problem is then solved as
+above, and its σ² is close to 1 when the weights are right. An array of ``m`` positive
+numbers gives the σ_j directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from ._validation import (
+    check_finite,
+    check_min_samples,
+    format_shape,
+    is_real_number,
+    parameter_error,
+    promote_signal,
+    regressor_shape,
+    to_float_array,
+)
+from ._errors import InvalidShape, ShapeMismatch
+
+__all__ = ["IdentificationResult", "identify", "default_rcond"]
+
+
+def default_rcond(rows: int, p: int) -> float:
+    """The default rank tolerance ``max(rows, p) · eps`` (relative to the largest pivot)."""
+    return max(rows, p) * np.finfo(np.float64).eps
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Estimate of the base parameters and its statistics.
+
+    Attributes
+    ----------
+    estimate : ndarray (r,)
+        Least-squares estimate of the base parameters, in the order of :attr:`base_columns`.
+    std, rel_std_percent : ndarray (r,)
+        Standard deviations ``√diag C`` and ``100 · std / |estimate|`` (inf for a zero estimate).
+    base_columns : tuple of int
+        Indices (ascending) of the regressor columns kept as the base set.
+    base_names : tuple of str
+        Name of each base parameter: its column name, followed by the dependent columns it
+        absorbs (``"ZZ1 + 0.25*m2"``).
+    combination : ndarray (r, p)
+        ``base = combination @ π`` for the full parameter vector π (identity on the base columns).
+    column_names : tuple of str
+        Names of all ``p`` regressor columns (``c0``, ``c1``, ... when not given).
+    condition_number : float
+        2-norm condition number of the (unscaled, weighted if weighting) base regressor.
+    rank : int
+        Numerical rank ``r``.
+    rcond : float
+        The rank tolerance used (relative to the largest pivot of the column-scaled regressor).
+    sigma2 : float
+        Residual variance ``‖τ − Yπ̂‖² / (rows − r)`` (nan when rows == r), of the weighted
+        problem when weighting.
+    covariance : ndarray (r, r)
+        ``σ² (Y_bᵀ Y_b)⁻¹``.
+    rows, n_joints : int
+        Rows of the stacked system and joints per sample.
+    joint_std : ndarray (m,) or None
+        The per-joint noise standard deviations used as weights (None without weighting).
+    residual_sse : float
+        ``‖τ − Y_b π̂‖²`` of the unweighted torques.
+    """
+
+    estimate: np.ndarray
+    std: np.ndarray
+    rel_std_percent: np.ndarray
+    base_columns: tuple
+    base_names: tuple
+    combination: np.ndarray
+    column_names: tuple
+    condition_number: float
+    rank: int
+    rcond: float
+    sigma2: float
+    covariance: np.ndarray
+    rows: int
+    n_joints: int
+    n_columns: int
+    joint_std: np.ndarray | None = None
+    residual_sse: float = float("nan")
+    _meta: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n_params(self) -> int:
+        """Number of identified parameters (the rank): the ``n_params`` of :func:`dynval.validate`."""
+        return self.rank
+
+    def predict(self, regressor, *, n_joints=None) -> np.ndarray:
+        """Torques predicted by the estimate on another regressor with the same ``p`` columns.
+
+        ``regressor`` is ``(N, m, p)`` → result ``(N, m)``, or stacked ``(N·m, p)`` → result
+        ``(N, m)`` with ``m = n_joints`` (default: the joints of the estimation data).
+        """
+        y = to_float_array(regressor, "regressor")
+        if y.ndim == 3:
+            n, m, p = y.shape
+            y2 = y.reshape(n * m, p)
+        elif y.ndim == 2:
+            m = self.n_joints if n_joints is None else int(n_joints)
+            if y.shape[0] % m:
+                raise ShapeMismatch(f"regressor has {y.shape[0]} rows, which is not a multiple of n_joints={m}")
+            n, p = y.shape[0] // m, y.shape[1]
+            y2 = y
+        else:
+            raise InvalidShape(f"regressor must be 3-D (N, m, p) or 2-D (N*m, p), got shape {format_shape(y.shape)}")
+        if p != self.n_columns:
+            raise ShapeMismatch(f"regressor must have {self.n_columns} columns like the estimation regressor, got {p}")
+        check_finite(y2, "regressor")
+        return (y2[:, list(self.base_columns)] @ self.estimate).reshape(n, m)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
+        from ._report import to_jsonable
+
+        return to_jsonable({
+            "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|",
+            "rank": self.rank,
+            "rcond": self.rcond,
+            "rows": self.rows,
+            "n_joints": self.n_joints,
+            "n_columns": self.n_columns,
+            "column_names": list(self.column_names),
+            "base_columns": list(self.base_columns),
+            "base_names": list(self.base_names),
+            "estimate": self.estimate,
+            "std": self.std,
+            "rel_std_percent": self.rel_std_percent,
+            "condition_number": self.condition_number,
+            "sigma2": self.sigma2,
+            "residual_sse": self.residual_sse,
+            "covariance": self.covariance,
+            "combination": self.combination,
+            "joint_std": self.joint_std,
+        })
+
+    def table(self) -> str:
+        """Readable table: base parameter, estimate, standard deviation and %σ."""
+        width = max([len("parameter")] + [len(s) for s in self.base_names])
+        lines = [f"  {'parameter':<{width}}  {'estimate':>13}  {'std':>11}  {'%σ':>8}"]
+        for name, est, sd, rel in zip(self.base_names, self.estimate, self.std, self.rel_std_percent):
+            lines.append(f"  {name:<{width}}  {est:>13.6g}  {sd:>11.4g}  {rel:>8.2f}")
+        lines.append(f"  rank {self.rank} of {self.n_columns} columns; condition number of the base "
+                     f"regressor {self.condition_number:.4g}; σ² = {self.sigma2:.4g}")
+        return "\n".join(lines)
+
+
+def _stack(regressor, tau_meas, n_joints):
+    """Check the inputs with the shared checker and return (A, b, N, m, p)."""
+    meas = to_float_array(tau_meas, "tau_meas")
+    y = to_float_array(regressor, "regressor")
+    if y.ndim == 2 and meas.ndim == 1 and meas.shape[0] == y.shape[0]:
+        # Stacked torques beside a stacked regressor: one output, or m joints with n_joints=m.
+        m = 1 if n_joints is None else n_joints
+        if not isinstance(m, (int, np.integer)) or m <= 0 or meas.shape[0] % m:
+            raise parameter_error("n_joints", "a positive integer dividing the regressor rows", n_joints)
+        km = meas.reshape(-1, int(m))
+    else:
+        km = promote_signal(meas, "tau_meas")
+    n, m = km.shape
+    if y.ndim == 2 and n_joints is None:
+        n_joints = m
+    p = regressor_shape(y, "tau_meas", n, m, n_joints if y.ndim == 2 else None)
+    # Rows must exceed the columns, or no residual variance is left.
+    check_min_samples("identify", n, minimum=-(-(p + 1) // m))
+    check_finite(km, "tau_meas")
+    a = np.ascontiguousarray(y.reshape(n * m, p))
+    check_finite(a.reshape(n, m * p), "regressor", n_columns=p)
+    return a, km.reshape(-1), n, m, p
+
+
+def _check_column_names(column_names, p):
+    if column_names is None:
+        return tuple(f"c{i}" for i in range(p))
+    names = tuple(column_names)
+    if len(names) != p or not all(isinstance(s, str) for s in names):
+        raise parameter_error("column_names", f"a sequence of {p} strings (one per regressor column)", column_names)
+    return names
+
+
+def _check_rcond(rcond, rows, p):
+    if rcond is None:
+        return default_rcond(rows, p)
+    if not is_real_number(rcond) or not 0 <= rcond < 1:
+        raise parameter_error("rcond", "None or a number with 0 <= rcond < 1", rcond)
+    return float(rcond)
+
+
+_SPLITTER = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit halves
+
+
+def _two_prod(a, b):
+    """Error-free product: a*b = p + e exactly (Dekker), elementwise."""
+    prod = a * b
+    ca = _SPLITTER * a
+    a_hi = ca - (ca - a)
+    a_lo = a - a_hi
+    cb = _SPLITTER * b
+    b_hi = cb - (cb - b)
+    b_lo = b - b_hi
+    err = a_lo * b_lo - (((prod - a_hi * b_hi) - a_lo * b_hi) - a_hi * b_lo)
+    return prod, err
+
+
+def _two_sum(a, b):
+    s = a + b
+    z = s - a
+    return s, (a - (s - z)) + (b - z)
+
+
+def _accurate_residuals(a, x, b, r):
+    """``f = b − r − A x`` (rows) and ``g = −Aᵀ r`` (columns), each as if in twice the working precision.
+
+    Rows: Ogita–Rump–Oishi Dot2, vectorized over rows; columns: exact products summed by
+    :func:`math.fsum`. Platform-independent (no reliance on a wider ``long double``).
+    """
+    import math
+
+    s, c = _two_sum(b, -r)
+    for j in range(a.shape[1]):
+        p_hi, p_lo = _two_prod(a[:, j], -x[j])
+        s, e = _two_sum(s, p_hi)
+        c = c + (e + p_lo)
+    f = s + c
+    p_hi, p_lo = _two_prod(a, -r[:, None])
+    g = np.array([math.fsum(np.concatenate([p_hi[:, j], p_lo[:, j]])) for j in range(a.shape[1])])
+    return f, g
+
+
+def _solve(a, b, rcond):
+    """Column-scaled pivoted QR solve with iterative refinement; the pieces the result needs."""
+    rows, p = a.shape
+    scale = np.sqrt(np.einsum("ij,ij->j", a, a))
+    # A column whose norm is within rcond of the largest is roundoff of a structurally zero
+    # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
+    # independent and be "identified" from noise.
+    nonzero = np.flatnonzero(scale > rcond * scale.max())
+    if nonzero.size == 0:
+        return None
+    a_s = a[:, nonzero] / scale[nonzero]
+    q, r, piv = scipy.linalg.qr(a_s, mode="economic", pivoting=True, check_finite=False)
+    diag = np.abs(np.diag(r))
+    rank = int(np.sum(diag > rcond * diag[0])) if diag[0] > 0 else 0
+    if rank == 0:
+        return None
+    r11 = r[:rank, :rank]
+    q1 = q[:, :rank]
+    base_local = piv[:rank]
+    dep_local = piv[rank:]
+    base = nonzero[base_local]
+    dep = nonzero[dep_local]
+    sb = scale[base]
+    a_b = a[:, base]
+
+    def tri(rhs, trans=0):
+        return scipy.linalg.solve_triangular(r11, rhs, trans=trans, check_finite=False)
+
+    x_s = tri(q1.T @ b)
+    x = x_s / sb
+    res = b - a_b @ x
+    # Iterative refinement on the augmented system [I A; Aᵀ 0][r; x] = [b; 0] (Björck), with
+    # the residuals of both equations computed in twice the working precision: it recovers the
+    # digits that the rounding of a large-residual, ill-conditioned problem costs plain QR.
+    for _ in range(4):
+        f, g = _accurate_residuals(a_b, x, b, res)
+        h = tri(g / sb, trans=1)              # R11⁻ᵀ (scaled g)
+        qtf = q1.T @ f
+        dx_s = tri(qtf - h)
+        dres = q1 @ h + f - q1 @ qtf
+        x = x + dx_s / sb
+        res = res + dres
+        if np.max(np.abs(dx_s)) <= np.finfo(np.float64).eps * np.max(np.abs(x * sb)):
+            break
+
+    r11_inv = tri(np.eye(rank))
+    # Dependent columns in terms of the base ones: Y_d = Y_b β (scaled units first).
+    beta_s = tri(r[:rank, rank:])
+    order = np.argsort(base)
+    base_sorted = base[order]
+    beta = beta_s * scale[dep][None, :] / sb[:, None] if dep.size else np.zeros((rank, 0))
+    cinv = (r11_inv @ r11_inv.T) / np.outer(sb, sb)
+    combination = np.zeros((rank, p))
+    combination[np.arange(rank), base] = 1.0
+    if dep.size:
+        combination[:, dep] = beta
+    return {
+        "rank": rank,
+        "base": base_sorted,
+        "estimate": x[order],
+        "cinv": cinv[np.ix_(order, order)],
+        "combination": combination[order],
+        "residual": res,
+    }
+
+
+def _fit(a, b, rcond, p):
+    solved = _solve(a, b, rcond)
+    if solved is None:
+        return None
+    return solved, solved["residual"]
+
+
+def identify(regressor, tau_meas, *, weights=None, rcond=None, column_names=None, n_joints=None,
+             name_tolerance: float = 1e-10) -> IdentificationResult:
+    """Least-squares estimate of the base parameters of ``τ = Y π + ε``.
+
+    Parameters
+    ----------
+    regressor : array_like, shape (N, m, p), or (N·m, p) stacked sample-major
+        The regressor (sample, joint, column); a 2-D regressor with ``tau_meas`` of shape (N,)
+        and N rows is an ordinary regression with one output.
+    tau_meas : array_like, shape (N, m) or (N,)
+        Measured torques.
+    weights : None, "per_joint" or array_like (m,)
+        No weighting; per-joint weights from an ordinary fit (see the module notes); or the
+        per-joint noise standard deviations σ_j.
+    rcond : float or None
+        Rank tolerance relative to the largest pivot of the column-scaled regressor; default
+        ``max(rows, p) · eps``.
+    column_names : sequence of str or None
+        One name per regressor column.
+    n_joints : int or None
+        Joints per sample for a stacked 2-D regressor (default: the columns of ``tau_meas``).
+    name_tolerance : float
+        Coefficients of dependent columns below this magnitude are left out of
+        :attr:`IdentificationResult.base_names` (never out of ``combination``).
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    dynval.InputError
+        The subclasses of the shared input checker: wrong types or shapes, too few rows
+        (rows must exceed p), non-finite data, bad keyword values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dynval.identify import identify
+    >>> x = np.arange(6.0)
+    >>> Y = np.column_stack([np.ones(6), x, 2 * x])          # the third column repeats the second
+    >>> res = identify(Y, 1.0 + 3.0 * x, column_names=["a", "b", "c"])
+    >>> res.rank, res.base_names
+    (2, ('a', 'b + 2*c'))
+    >>> np.round(res.estimate, 12).tolist()
+    [1.0, 3.0]
+    """
+    a, b, n, m, p = _stack(regressor, tau_meas, n_joints)
+    names = _check_column_names(column_names, p)
+    rows = a.shape[0]
+    tol = _check_rcond(rcond, rows, p)
+
+    joint_std = None
+    if weights is not None:
+        if isinstance(weights, str):
+            if weights != "per_joint":
+                raise parameter_error("weights", "None, 'per_joint' or an array of m positive numbers", weights)
+            first = _fit(a, b, tol, p)
+            if first is None:
+                raise parameter_error("regressor", "a regressor with at least one non-zero column", "all zero")
+            solved0, resid0 = first
+            dof = n - solved0["rank"] if n > solved0["rank"] else n
+            joint_std = np.sqrt(np.sum(resid0.reshape(n, m) ** 2, axis=0) / dof)
+            if not np.all(joint_std > 0):
+                # An exact fit on some joint: no noise level to weight by, keep those rows unweighted.
+                positive = joint_std[joint_std > 0]
+                joint_std = np.where(joint_std > 0, joint_std, positive.min() if positive.size else 1.0)
+        else:
+            w = to_float_array(weights, "weights").reshape(-1)
+            if w.shape != (m,) or not np.all(np.isfinite(w)) or not np.all(w > 0):
+                raise parameter_error("weights", f"None, 'per_joint' or an array of m={m} positive numbers", weights)
+            joint_std = w
+        row_w = np.tile(1.0 / joint_std, n)
+        a_w, b_w = a * row_w[:, None], b * row_w
+    else:
+        a_w, b_w = a, b
+
+    fitted = _fit(a_w, b_w, tol, p)
+    if fitted is None:
+        raise parameter_error("regressor", "a regressor with at least one non-zero column", "all zero")
+    solved, resid_w = fitted
+    rank = solved["rank"]
+    base = solved["base"]
+    est = solved["estimate"]
+    sse_w = float(resid_w @ resid_w)
+    dof = rows - rank
+    sigma2 = sse_w / dof if dof > 0 else float("nan")
+    cov = sigma2 * solved["cinv"]
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = 100.0 * std / np.abs(est)
+    cond = float(np.linalg.cond(a_w[:, base])) if rank else float("nan")
+    resid = resid_w if joint_std is None else resid_w * np.tile(joint_std, n)
+
+    comb = solved["combination"]
+    base_names = []
+    for i, c in enumerate(base):
+        text = names[c]
+        for d in np.flatnonzero(np.abs(comb[i]) > name_tolerance):
+            if d == c:
+                continue
+            coef = comb[i, d]
+            sign = "-" if coef < 0 else "+"
+            mag = abs(coef)
+            term = names[d] if abs(mag - 1.0) < 1e-12 else f"{mag:.6g}*{names[d]}"
+            text += f" {sign} {term}"
+        base_names.append(text)
+
+    return IdentificationResult(
+        estimate=est,
+        std=std,
+        rel_std_percent=rel,
+        base_columns=tuple(int(c) for c in base),
+        base_names=tuple(base_names),
+        combination=comb,
+        column_names=names,
+        condition_number=cond,
+        rank=rank,
+        rcond=tol,
+        sigma2=sigma2,
+        covariance=cov,
+        rows=rows,
+        n_joints=m,
+        n_columns=p,
+        joint_std=joint_std,
+        residual_sse=float(resid @ resid),
+    )

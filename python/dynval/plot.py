@@ -1,0 +1,477 @@
+"""Figures of a validation: one function per figure, each returning a matplotlib ``Figure``.
+
+matplotlib is an optional dependency (``pip install dynval[plot]``) and is imported only when
+a figure is made. The figures are built on ``matplotlib.figure.Figure`` directly, never through
+``pyplot``: no display, no global state, and nothing to close; save one with
+``fig.savefig("name.png", dpi=120)`` (the Agg renderer).
+
+==========================  ==============================================================
+:func:`residuals`           residual over time per joint, segment boundaries marked
+:func:`autocorrelation`     residual autocorrelation per joint with its band (lesson §4.2)
+:func:`autocorrelation_by_model`  one joint's residual autocorrelation for each candidate
+:func:`spectrum`            residual spectrum per joint, found oscillations marked
+:func:`cross_correlation`   joints × regressor columns heatmap of max |ρ| / band
+:func:`metrics`             per-joint VAF / fit / R² bars for each candidate of a comparison
+:func:`prediction`          measured and predicted torque per joint
+==========================  ==============================================================
+
+Every function takes the names it can use (``joint_names``, ``column_names``) and otherwise
+falls back to the names and sample rate recorded in a report's provenance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["residuals", "autocorrelation", "autocorrelation_by_model", "spectrum", "cross_correlation",
+           "metrics", "prediction", "save", "welch"]
+
+_MEASURED = "#4d4d4d"
+_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+
+
+def _figure(width, height):
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # pragma: no cover - exercised where matplotlib is absent
+        raise ImportError("dynval.plot needs matplotlib: pip install 'dynval[plot]'") from exc
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def save(fig, path, *, dpi: int = 120) -> str:
+    """Write a figure to ``path`` (format from the suffix, PNG by default); returns the path."""
+    fig.savefig(str(path), dpi=dpi)
+    return str(path)
+
+
+def _provenance(report, key, default=None):
+    prov = getattr(report, "provenance", None) or {}
+    value = prov.get(key, default)
+    return default if value is None else value
+
+
+def _joint_names(names, m, report=None):
+    if names is None and report is not None:
+        names = _provenance(report, "joint_names")
+    if names is None:
+        return [f"joint {j + 1}" for j in range(m)]
+    names = [str(n) for n in names]
+    if len(names) != m:
+        raise ValueError(f"joint_names has {len(names)} names for {m} joints")
+    return names
+
+
+def _column_names(names, p, report=None):
+    if names is None and report is not None:
+        names = _provenance(report, "column_names")
+    if names is None:
+        return [f"c{c}" for c in range(p)]
+    names = [str(n) for n in names]
+    if len(names) != p:
+        raise ValueError(f"column_names has {len(names)} names for {p} columns")
+    return names
+
+
+def _signal(x, name):
+    a = np.asarray(x, dtype=float)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise ValueError(f"{name} must be (N,) or (N, m), got shape {a.shape}")
+    return a
+
+
+def _time_axis(n, sample_rate):
+    if sample_rate:
+        return np.arange(n) / float(sample_rate), "time (s)"
+    return np.arange(n, dtype=float), "sample"
+
+
+def _segment_starts(segments, n):
+    if segments is None:
+        return []
+    seg = [int(s) for s in segments]
+    if seg and seg[0] == 0:
+        starts = seg
+    else:
+        starts = list(np.cumsum([0] + seg[:-1]))
+    return [s for s in starts if 0 < s < n]
+
+
+def _stack_axes(fig, m):
+    axes = fig.subplots(m, 1, sharex=True, squeeze=False)[:, 0]
+    return list(axes)
+
+
+def residuals(tau_meas, tau_pred, *, sample_rate=None, segments=None, joint_names=None, title=None,
+              unit: str = "N·m", report=None):
+    """Residual ``τ_meas − τ_pred`` over time, one panel per joint.
+
+    Segment boundaries (``segments`` as lengths or starts, as in :func:`dynval.validate`) are
+    drawn as dashed vertical lines; each panel's legend gives the joint's RMS residual.
+    """
+    meas, pred = _signal(tau_meas, "tau_meas"), _signal(tau_pred, "tau_pred")
+    e = meas - pred
+    n, m = e.shape
+    fs = sample_rate if sample_rate is not None else _provenance(report, "sample_rate")
+    names = _joint_names(joint_names, m, report)
+    x, xlabel = _time_axis(n, fs)
+    fig = _figure(10, 1.0 + 1.9 * m)
+    axes = _stack_axes(fig, m)
+    starts = _segment_starts(segments, n)
+    for j, ax in enumerate(axes):
+        rms = math.sqrt(float(np.mean(e[:, j] ** 2)))
+        ax.plot(x, e[:, j], color=_COLOURS[j % len(_COLOURS)], lw=0.8, label=f"residual (RMS {rms:.3g} {unit})")
+        ax.axhline(0.0, color="black", lw=0.6)
+        for i, s in enumerate(starts):
+            ax.axvline(x[s], color="grey", ls="--", lw=1.0, label="segment boundary" if i == 0 else None)
+        ax.set_ylabel(f"{names[j]}\nresidual ({unit})")
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel(xlabel)
+    fig.suptitle(title or "Residual torque τ_meas − τ_pred per joint")
+    return fig
+
+
+def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
+    """Residual autocorrelation per joint with the report's band (the lesson's §4.2 picture).
+
+    Lags are in samples on the bottom axis, and in seconds on the top axis when the sample
+    rate is known (argument, or the report's provenance). Lags outside the band are drawn red.
+    """
+    ac = report.autocorrelation if not isinstance(report, dict) else report
+    if ac is None:
+        raise ValueError("the report has no autocorrelation section (max_lag=0)")
+    rho = np.asarray(ac["rho"], dtype=float)
+    band = np.asarray(ac["band"], dtype=float)
+    lmax, m = rho.shape[0] - 1, rho.shape[1]
+    source = None if isinstance(report, dict) else report
+    names = _joint_names(joint_names, m, source)
+    fs = sample_rate if sample_rate is not None else _provenance(source, "sample_rate")
+    lb = getattr(source, "ljung_box", None)
+    lags = np.arange(lmax + 1)
+    fig = _figure(10, 1.4 + 2.0 * m)
+    axes = _stack_axes(fig, m)
+    level = ac.get("level", 0.95)
+    for j, ax in enumerate(axes):
+        r = rho[:, j]
+        b = band[:, j]
+        outside = np.zeros(lmax + 1, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            outside[1:] = np.abs(r[1:]) > b[1:]
+        ax.vlines(lags[~outside], 0.0, r[~outside], color=_COLOURS[0], lw=1.5, label="ρ(ℓ) inside the band")
+        ax.vlines(lags[outside], 0.0, r[outside], color="#d62728", lw=2.0, label="ρ(ℓ) outside the band")
+        ax.plot(lags[1:], b[1:], color="black", ls="--", lw=1.0,
+                label=f"{100 * level:g} % band ({ac.get('band_type', 'white')})")
+        ax.plot(lags[1:], -b[1:], color="black", ls="--", lw=1.0)
+        ax.axhline(0.0, color="black", lw=0.6)
+        note = f"{int(outside.sum())} of {lmax} lags outside the band"
+        if lb is not None:
+            try:
+                logp = float(np.asarray(lb["log_pvalue"])[0][j])
+                note += f"; Ljung–Box up to lag {np.asarray(lb['lags'])[0]}: {_p_text(logp)}"
+            except (KeyError, IndexError, TypeError):
+                pass
+        ax.text(0.99, 0.96, note, transform=ax.transAxes, ha="right", va="top", fontsize="small",
+                bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "#999999"})
+        ax.set_ylabel(f"{names[j]}\nautocorrelation ρ")
+        ax.set_xlim(-0.5, lmax + 0.5)
+        ax.set_ylim(min(-1.05, float(np.nanmin(r)) - 0.05), 1.3)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("lag ℓ (samples)")
+    if fs:
+        top = axes[0].secondary_xaxis("top", functions=(lambda s: s / fs, lambda t: t * fs))
+        top.set_xlabel("lag (s)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize="small")
+    fig.suptitle(title or "Residual autocorrelation per joint (white residual: inside the band)")
+    return fig
+
+
+def _p_text(log_p):
+    """A p-value from its natural log, readable even when it underflows."""
+    if not math.isfinite(log_p):
+        return "p = 0" if log_p < 0 else "p = 1"
+    log10 = log_p / math.log(10.0)
+    if log10 < -300:
+        return "p < 1e-300"
+    if log10 < -4:
+        return f"p ≈ 1e{log10:.0f}"
+    return f"p = {math.exp(log_p):.3g}"
+
+
+def autocorrelation_by_model(reports, *, joint: int = 0, names=None, chosen=None, title=None):
+    """One joint's residual autocorrelation for each candidate, side by side, same scale.
+
+    ``reports`` is a mapping ``{name: ValidationReport}`` (or a comparison with ``reports``).
+    The picture of a comparison: the under-modelled candidate's residual leaves the band, the
+    right one's stays inside.
+    """
+    reports = getattr(reports, "reports", reports)
+    order = list(names or reports)
+    first = reports[order[0]]
+    m = np.asarray(first.autocorrelation["rho"]).shape[1]
+    jname = _joint_names(None, m, first)[joint]
+    fs = _provenance(first, "sample_rate")
+    fig = _figure(max(8.0, 3.6 * len(order)), 3.6)
+    axes = list(fig.subplots(1, len(order), sharey=True, squeeze=False)[0])
+    for ax, name in zip(axes, order):
+        ac = reports[name].autocorrelation
+        r = np.asarray(ac["rho"], dtype=float)[:, joint]
+        b = np.asarray(ac["band"], dtype=float)[:, joint]
+        lags = np.arange(r.shape[0])
+        out = np.zeros(r.shape[0], dtype=bool)
+        with np.errstate(invalid="ignore"):
+            out[1:] = np.abs(r[1:]) > b[1:]
+        ax.vlines(lags[~out], 0.0, r[~out], color=_COLOURS[0], lw=1.5, label="inside the band")
+        ax.vlines(lags[out], 0.0, r[out], color="#d62728", lw=1.8, label="outside the band")
+        ax.plot(lags[1:], b[1:], "k--", lw=1.0, label=f"{100 * ac.get('level', 0.95):g} % band")
+        ax.plot(lags[1:], -b[1:], "k--", lw=1.0)
+        ax.axhline(0.0, color="black", lw=0.6)
+        frac = int(out.sum())
+        ax.set_title(f"{name}{' (chosen)' if name == chosen else ''}\n{frac} of {r.shape[0] - 1} lags outside",
+                     fontsize="medium")
+        ax.set_xlabel("lag ℓ (samples)" + (f", 1 sample = {1000.0 / fs:g} ms" if fs else ""))
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel(f"{jname}: autocorrelation ρ")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize="small")
+    fig.suptitle(title or f"Residual autocorrelation of the {jname} joint for each candidate model")
+    return fig
+
+
+def welch(e, sample_rate=None, *, nperseg: int | None = None):
+    """Welch power spectral density of each column (``scipy.signal.welch``, Hann, 50 % overlap)."""
+    import scipy.signal
+
+    e = _signal(e, "residuals")
+    n = e.shape[0]
+    seg = nperseg or min(n, max(64, 2 ** int(math.floor(math.log2(max(n // 8, 1))))))
+    f, p = scipy.signal.welch(e - e.mean(axis=0), fs=sample_rate or 1.0, nperseg=seg, axis=0)
+    return f, p
+
+
+def _peaks(report, spec, peaks):
+    """Oscillations to mark: given ones, else the report's oscillation findings, else its peaks."""
+    if peaks is None and getattr(report, "findings", None) is not None:
+        found = []
+        for f in report.findings:
+            if getattr(f, "kind", "") == "oscillation" and "frequency" in (getattr(f, "details", None) or {}):
+                found += [(int(j), float(f.details["frequency"])) for j in f.joints]
+        return found
+    out = []
+    for pk in (peaks if peaks is not None else (spec or {}).get("peaks", [])) or []:
+        if isinstance(pk, dict):
+            out.append((int(pk["joint"]), float(pk["frequency"])))
+        else:
+            out.append((int(pk[0]), float(pk[1])))
+    return out
+
+
+def spectrum(report=None, *, residuals=None, sample_rate=None, joint_names=None, peaks=None,
+             reference=None, reference_label: str = "expected mode", title=None, unit: str = "N·m"):
+    """Residual power spectrum per joint (log scale), found oscillations marked.
+
+    The spectrum is the report's (``report.spectrum``: frequency, power, peaks) when it has one,
+    else a Welch estimate of ``residuals``. ``peaks`` overrides the report's peaks: a list of
+    ``(joint, frequency, ...)`` tuples or dicts with ``joint`` and ``frequency``. ``reference``
+    draws a dotted vertical line at a known frequency (for instance a simulated mode).
+    """
+    spec = getattr(report, "spectrum", None) if report is not None else None
+    fs = sample_rate if sample_rate is not None else _provenance(report, "sample_rate")
+    if spec is not None:
+        freq = np.asarray(spec["frequency"], dtype=float)
+        power = _signal(spec["power"], "power")
+        funit = spec.get("frequency_unit", "Hz" if fs else "cycles/sample")
+    elif residuals is not None:
+        freq, power = welch(residuals, fs)
+        funit = "Hz" if fs else "cycles/sample"
+    else:
+        raise ValueError("give a report with a spectrum section, or the residuals")
+    m = power.shape[1]
+    names = _joint_names(joint_names, m, report)
+    found = _peaks(report, spec, peaks)
+    fig = _figure(10, 1.0 + 2.0 * m)
+    axes = _stack_axes(fig, m)
+    punit = f"({unit})²/Hz" if funit == "Hz" else f"({unit})²·sample"
+    for j, ax in enumerate(axes):
+        pos = power[:, j] > 0
+        ax.semilogy(freq[pos], power[pos, j], color=_COLOURS[j % len(_COLOURS)], lw=1.2, label="residual PSD")
+        marked = [f for (jj, f) in found if jj == j]
+        for i, f in enumerate(marked):
+            k = int(np.argmin(np.abs(freq - f)))
+            ax.plot([freq[k]], [power[k, j]], "v", color="#d62728", ms=9,
+                    label="oscillation found" if i == 0 else None)
+            ax.annotate(f"{f:.3g} {funit}", (freq[k], power[k, j]), textcoords="offset points",
+                        xytext=(6, 6), color="#d62728", fontsize="small")
+        if reference is not None:
+            ax.axvline(reference, color="black", ls=":", lw=1.2, label=f"{reference_label} ({reference:.3g} {funit})")
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(lo, hi * 4.0)  # room for the peak labels
+        ax.set_ylabel(f"{names[j]}\nPSD {punit}")
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[-1].set_xlabel(f"frequency ({funit})")
+    axes[-1].set_xlim(freq[0], freq[-1])
+    fig.suptitle(title or "Residual spectrum per joint (Welch)")
+    return fig
+
+
+def cross_correlation(report, *, joint_names=None, column_names=None, title=None):
+    """Heatmap joints × regressor columns of ``max_ℓ |ρ(ℓ)| / band`` (lags 0..max_lag).
+
+    Cells above 1 (outside the lesson's band z/√N) carry their value; cells of columns that
+    the report's findings name are outlined; grey cells are columns that are constant on
+    that joint (no correlation defined).
+    """
+    xc = report.cross_correlation if not isinstance(report, dict) else report
+    if xc is None:
+        raise ValueError("the report has no cross-correlation section (no regressor was given)")
+    band = float(xc["band"])
+    if "max_abs_rho" in xc:
+        mx = np.asarray(xc["max_abs_rho"], dtype=float)
+    else:
+        with np.errstate(invalid="ignore"):
+            mx = np.nanmax(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
+    mask = np.asarray(xc.get("constant_mask", np.zeros_like(mx, dtype=bool)), dtype=bool)
+    ratio = np.where(mask, np.nan, mx / band)
+    m, p = ratio.shape
+    source = None if isinstance(report, dict) else report
+    jnames = _joint_names(joint_names, m, source)
+    cnames = _column_names(column_names, p, source)
+    named = set()
+    for f in getattr(source, "findings", None) or []:
+        for j in getattr(f, "joints", ()) or ():
+            for c in getattr(f, "columns", ()) or ():
+                named.add((int(j), int(c)))
+
+    small = p > 24
+    cell = 0.21 if small else 0.55  # inches per column: many columns get narrow cells and small labels
+    longest = max(len(c) for c in cnames)
+    fig = _figure(max(7.0, 2.6 + cell * p), 1.6 + (0.4 if small else 0.55) * m + (0.055 if small else 0.075) * longest)
+    ax = fig.subplots()
+    import matplotlib.colors as mcolors
+
+    cmap = mcolors.LinearSegmentedColormap.from_list(
+        "dynval", ["#f7fbff", "#c6dbef", "#fdae6b", "#d62728"]).with_extremes(bad="#bdbdbd")
+    vmax = max(2.0, float(np.nanmax(ratio)) if np.isfinite(ratio).any() else 2.0)
+    norm = mcolors.TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=vmax)
+    im = ax.imshow(np.ma.masked_invalid(ratio), cmap=cmap, norm=norm, aspect="auto")
+    ax.set_xticks(range(p), cnames, rotation=60 if p > 6 else 0, ha="right" if p > 6 else "center",
+                  rotation_mode="anchor", fontsize="x-small" if small else None)
+    ax.set_yticks(range(m), jnames, fontsize="small" if small else None)
+    ax.set_xlabel("regressor column")
+    ax.set_ylabel("joint (residual)")
+    for j in range(m):
+        for c in range(p):
+            r = ratio[j, c]
+            if np.isnan(r):
+                if not small:
+                    ax.text(c, j, "–", ha="center", va="center", color="#555555", fontsize="small")
+            elif r > 1.0 and not small:
+                ax.text(c, j, f"{r:.1f}", ha="center", va="center", fontsize="small",
+                        color="white" if r > 0.6 * vmax else "black", fontweight="bold")
+            elif r > 1.0:
+                ax.plot(c, j, "o", color="black", ms=3)
+            if (j, c) in named:
+                ax.add_patch(_rectangle(c, j))
+    cb = fig.colorbar(im, ax=ax, shrink=0.9)
+    cb.set_label("max over lags of |ρ| / band")
+    lag_text = f"lags 0..{xc.get('max_lag', '?')}"
+    fig.suptitle(title or f"Residual × regressor cross-correlation ({lag_text}; band z/√N = {band:.3g}; "
+                          f"> 1 is outside the band)")
+    return fig
+
+
+def _rectangle(c, j):
+    from matplotlib.patches import Rectangle
+
+    return Rectangle((c - 0.5, j - 0.5), 1.0, 1.0, fill=False, edgecolor="black", lw=2.5)
+
+
+_METRIC_LABELS = {"vaf": "VAF", "fit_percent": "fit", "r2": "R²", "nrmse": "NRMSE", "rmse": "RMSE"}
+
+
+def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_percent", "r2"), title=None,
+            chosen=None):
+    """Per-joint bars of VAF, fit and R² (one panel each, stacked) for every candidate.
+
+    ``comparison`` is a :class:`dynval.ComparisonReport` (its ``reports``, ``names`` and
+    verdict) or a mapping ``{name: ValidationReport}``. The chosen model's bars are outlined and
+    its legend entry says "(chosen)". The axis stops at −100 % (−1 for fractions): a bar below
+    is cut there and carries its value, so one bad joint does not flatten the others.
+    """
+    reports = getattr(comparison, "reports", comparison)
+    order = list(names or getattr(comparison, "names", None) or list(reports))
+    if chosen is None:
+        verdict = getattr(comparison, "verdict", None)
+        chosen = getattr(verdict, "model", None)
+    first = reports[order[0]]
+    m = len(np.atleast_1d(first.per_joint["rmse"]))
+    jnames = _joint_names(joint_names, m, first)
+    units = _provenance(first, "units", {}) or {}
+    fig = _figure(max(8.0, 2.0 + 0.32 * m * len(order)), 0.9 + 2.4 * len(which))
+    axes = list(fig.subplots(len(which), 1, sharex=True, squeeze=False)[:, 0])
+    width = 0.8 / len(order)
+    x = np.arange(m)
+    for k, metric in enumerate(which):
+        ax = axes[k]
+        unit = units.get(metric, "")
+        label_unit = "%" if unit == "percent" else ("fraction" if unit == "fraction" else unit)
+        top = 100.0 if unit == "percent" else 1.0
+        floor = -top
+        lowest = 0.0
+        for i, name in enumerate(order):
+            vals = np.asarray(reports[name].per_joint[metric], dtype=float)
+            shown = np.maximum(vals, floor)
+            lab = f"{name} (chosen)" if name == chosen else name
+            pos = x + (i - (len(order) - 1) / 2) * width
+            ax.bar(pos, shown, width, label=lab, color=_COLOURS[i % len(_COLOURS)],
+                   edgecolor="black" if name == chosen else "none", linewidth=1.5 if name == chosen else 0)
+            for xp, v in zip(pos, vals):
+                if v < floor:
+                    ax.text(xp, floor, f"{v:.3g}", rotation=90, ha="center", va="bottom", fontsize="x-small",
+                            color="white" if i % len(_COLOURS) in (0, 1, 3, 5) else "black")
+            lowest = min(lowest, float(np.nanmin(shown)))
+        ax.axhline(top, color="black", lw=0.8, ls=":")
+        ax.axhline(0.0, color="black", lw=0.6)
+        ax.set_ylabel(f"{_METRIC_LABELS.get(metric, metric)} ({label_unit})" if label_unit else metric)
+        ax.grid(True, axis="y", alpha=0.3)
+        ax.set_ylim(lowest * 1.05 if lowest < 0 else 0.0, top * 1.08)
+    axes[-1].set_xticks(x, jnames, rotation=30 if m > 4 else 0, ha="right" if m > 4 else "center")
+    axes[-1].set_xlabel("joint")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(order), 5), fontsize="small",
+               title="candidate model")
+    fig.suptitle(title or "Goodness of fit per joint on the validation data (higher is better; 100 % is perfect)")
+    return fig
+
+
+def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_name=None, title=None,
+               unit: str = "N·m", report=None, window=None):
+    """Measured and predicted torque per joint.
+
+    ``window`` = (start, stop) in seconds (or samples without a rate) zooms on a stretch.
+    """
+    meas, pred = _signal(tau_meas, "tau_meas"), _signal(tau_pred, "tau_pred")
+    n, m = meas.shape
+    fs = sample_rate if sample_rate is not None else _provenance(report, "sample_rate")
+    names = _joint_names(joint_names, m, report)
+    x, xlabel = _time_axis(n, fs)
+    sel = slice(None)
+    if window is not None:
+        sel = (x >= window[0]) & (x <= window[1])
+    fig = _figure(10, 1.0 + 1.9 * m)
+    axes = _stack_axes(fig, m)
+    label = f"predicted ({model_name})" if model_name else "predicted"
+    for j, ax in enumerate(axes):
+        ax.plot(x[sel], meas[sel, j], color=_MEASURED, lw=1.6, label="measured")
+        ax.plot(x[sel], pred[sel, j], color="#d62728", lw=1.1, label=label)
+        ax.set_ylabel(f"{names[j]}\ntorque ({unit})")
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel(xlabel)
+    fig.suptitle(title or ("Measured and predicted joint torque" + (f" — {model_name}" if model_name else "")))
+    return fig

@@ -1,0 +1,385 @@
+"""Regressors of a robot described by a URDF, and zero-phase differentiation of logged positions.
+
+The URDF part needs pinocchio (``pip install pin``, the ``dynval[robots]`` extra); it is
+imported when a :class:`URDFModel` is built, so :func:`differentiate` works without it.
+
+Joint-torque regressor
+----------------------
+For each sample, pinocchio's ``computeJointTorqueRegressor(model, data, q, v, a)`` returns the
+``(n_v, 10·n_bodies)`` matrix ``Y`` with ``τ = Y π``; per moving body the ten dynamic parameters
+are, in pinocchio's order, ``m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz`` — mass, first moment
+``m·c`` and the inertia about the joint frame's origin (``I = I_C + m S(c)ᵀS(c)``), in the joint
+frame. dynval names the columns ``<link>:<param>`` (``lwr_2_link:mx``) and appends per joint a
+viscous ``Fv_<joint>`` (``q̇``), a Coulomb ``Fc_<joint>`` (``sign q̇``) and an offset ``off_<joint>``
+(1) column, each non-zero on its own joint only. Most of these columns are not identifiable
+separately; :meth:`URDFModel.identify` reduces them to a base set with :func:`dynval.identify.identify`.
+
+A URDF's ``<dynamics damping=… friction=…/>`` are read as viscous and Coulomb coefficients for
+:meth:`URDFModel.predict` (the a-priori prediction of the URDF's own parameters); they are removed
+before the XML reaches pinocchio, which rejects negative Coulomb values that identified models
+sometimes carry.
+
+Differentiation
+---------------
+Velocities and accelerations are often not logged. :func:`differentiate` returns them from
+positions with a zero-phase filter — a Savitzky–Golay polynomial fit (centred window) or a
+Butterworth low-pass run forward and backward (``filtfilt``) followed by central differences —
+and states the filter's -3 dB bandwidth and its delay (zero, by symmetry, except in the few
+samples at each end).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._validation import check_choice, check_finite, parameter_error, promote_signal, to_float_array
+
+__all__ = [
+    "PARAM_NAMES",
+    "URDFModel",
+    "Derivatives",
+    "differentiate",
+    "planar_arm_urdf",
+    "have_pinocchio",
+]
+
+PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+"""pinocchio's order of the ten dynamic parameters of a body."""
+
+
+def have_pinocchio() -> bool:
+    """True when pinocchio (PyPI ``pin``) can be imported."""
+    try:
+        import pinocchio  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _import_pinocchio():
+    try:
+        import pinocchio
+    except ImportError as exc:  # pragma: no cover - exercised where pinocchio is absent
+        raise ImportError("dynval.robots needs pinocchio: pip install pin (or dynval[robots])") from exc
+    return pinocchio
+
+
+def _read_urdf(urdf):
+    """URDF text from a path or an XML string."""
+    if isinstance(urdf, Path) or (isinstance(urdf, str) and not urdf.lstrip().startswith("<")):
+        return Path(urdf).read_text()
+    if isinstance(urdf, str):
+        return urdf
+    raise parameter_error("urdf", "a path to a URDF file or its XML text", type(urdf).__name__)
+
+
+class URDFModel:
+    """A fixed-base robot from a URDF: regressors, parameters and predictions.
+
+    Parameters
+    ----------
+    urdf : str or Path
+        Path to a URDF file, or its XML text.
+    gravity : array_like (3,) or None
+        Gravity vector in the world frame (m/s²); default pinocchio's ``(0, 0, -9.81)``.
+
+    Attributes
+    ----------
+    joint_names : tuple of str
+        The moving joints, in the order of ``q`` (one degree of freedom each).
+    link_names : tuple of str
+        The link moved by each joint (the body whose parameters the regressor's columns hold).
+    viscous, coulomb : ndarray (n,)
+        The URDF's ``<dynamics damping=… friction=…>`` per joint (0 where absent).
+    """
+
+    def __init__(self, urdf, *, gravity=None):
+        pin = _import_pinocchio()
+        root = ET.fromstring(_read_urdf(urdf))
+        dynamics = {}
+        for joint in root.iter("joint"):
+            for dyn in joint.findall("dynamics"):
+                dynamics[joint.get("name")] = (float(dyn.get("damping", 0.0)), float(dyn.get("friction", 0.0)))
+                joint.remove(dyn)
+        self._pin = pin
+        self.model = pin.buildModelFromXML(ET.tostring(root, encoding="unicode"))
+        if gravity is not None:
+            self.model.gravity.linear = np.asarray(gravity, dtype=float).reshape(3)
+        self.data = self.model.createData()
+        if self.model.nq != self.model.nv:
+            raise parameter_error("urdf", "a model whose joints have one coordinate per degree of freedom "
+                                          "(revolute or prismatic; no continuous or floating joints)",
+                                  f"nq={self.model.nq}, nv={self.model.nv}")
+        self.joint_names = tuple(self.model.names[i] for i in range(1, self.model.njoints))
+        links = []
+        for j in range(1, self.model.njoints):
+            bodies = [f.name for f in self.model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY]
+            links.append(bodies[0] if bodies else self.model.names[j])
+        self.link_names = tuple(links)
+        self.viscous = np.array([dynamics.get(n, (0.0, 0.0))[0] for n in self.joint_names])
+        self.coulomb = np.array([dynamics.get(n, (0.0, 0.0))[1] for n in self.joint_names])
+
+    @property
+    def n_joints(self) -> int:
+        return self.model.nv
+
+    @property
+    def inertial_column_names(self) -> tuple:
+        return tuple(f"{link}:{p}" for link in self.link_names for p in PARAM_NAMES)
+
+    def column_names(self, *, friction: bool = True, offset: bool = True) -> tuple:
+        """Names of the columns of :meth:`regressor` with the same options."""
+        names = list(self.inertial_column_names)
+        if friction:
+            names += [f"Fv_{j}" for j in self.joint_names] + [f"Fc_{j}" for j in self.joint_names]
+        if offset:
+            names += [f"off_{j}" for j in self.joint_names]
+        return tuple(names)
+
+    def inertial_parameters(self) -> np.ndarray:
+        """The URDF's own dynamic parameters, ``(10·n,)`` in the order of the inertial columns."""
+        return np.concatenate([self.model.inertias[j].toDynamicParameters()
+                               for j in range(1, self.model.njoints)])
+
+    def parameters(self, *, friction: bool = True, offset: bool = True) -> np.ndarray:
+        """The URDF's parameter vector for :meth:`regressor` (offsets are zero)."""
+        parts = [self.inertial_parameters()]
+        if friction:
+            parts += [self.viscous, self.coulomb]
+        if offset:
+            parts.append(np.zeros(self.n_joints))
+        return np.concatenate(parts)
+
+    def _motion(self, q, dq, ddq):
+        arrays = []
+        for name, x in (("q", q), ("dq", dq), ("ddq", ddq)):
+            a = promote_signal(to_float_array(x, name), name)
+            if a.shape[1] != self.n_joints:
+                raise parameter_error(name, f"an array of shape (N, {self.n_joints})", f"shape {a.shape}")
+            check_finite(a, name)
+            arrays.append(np.ascontiguousarray(a))
+        if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
+            from ._errors import ShapeMismatch
+            raise ShapeMismatch(f"q, dq and ddq must have the same shape, got "
+                                f"{arrays[0].shape}, {arrays[1].shape} and {arrays[2].shape}")
+        return arrays
+
+    def regressor(self, q, dq, ddq, *, friction: bool = True, offset: bool = True) -> np.ndarray:
+        """Joint-torque regressor ``(N, n, p)`` with the columns of :meth:`column_names`."""
+        q, dq, ddq = self._motion(q, dq, ddq)
+        n_samples, n = q.shape
+        inertial = np.empty((n_samples, n, 10 * n))
+        for k in range(n_samples):
+            inertial[k] = self._pin.computeJointTorqueRegressor(self.model, self.data, q[k], dq[k], ddq[k])
+        parts = [inertial]
+        eye = np.eye(n)
+        if friction:
+            parts.append(dq[:, :, None] * eye)
+            parts.append(np.sign(dq)[:, :, None] * eye)
+        if offset:
+            parts.append(np.broadcast_to(eye, (n_samples, n, n)))
+        return np.concatenate(parts, axis=2)
+
+    def predict(self, q, dq, ddq, *, friction: bool = True) -> np.ndarray:
+        """The URDF's a-priori torques ``(N, n)``: RNEA on its inertials (+ its friction)."""
+        q, dq, ddq = self._motion(q, dq, ddq)
+        tau = np.empty_like(q)
+        for k in range(q.shape[0]):
+            tau[k] = self._pin.rnea(self.model, self.data, q[k], dq[k], ddq[k])
+        if friction:
+            tau += self.viscous * dq + self.coulomb * np.sign(dq)
+        return tau
+
+    def identify(self, q, dq, ddq, tau_meas, *, friction: bool = True, offset: bool = True, **kwargs):
+        """Base-parameter estimate from motion and torques (:func:`dynval.identify.identify`)."""
+        from .identify import identify
+
+        y = self.regressor(q, dq, ddq, friction=friction, offset=offset)
+        return identify(y, tau_meas, column_names=self.column_names(friction=friction, offset=offset), **kwargs)
+
+
+# --------------------------------------------------------------------------- differentiation
+
+
+@dataclass(frozen=True)
+class Derivatives:
+    """Filtered positions and their first two derivatives, with what the filter does.
+
+    ``bandwidth_hz`` is the -3 dB frequency of the position smoothing; ``derivative_bandwidth_hz``
+    the -3 dB frequencies ``(velocity, acceleration)`` of the derivative filters relative to the
+    ideal differentiators ``(j2πf)^k`` — the band in which ``dq`` and ``ddq`` are trustworthy, each
+    computed from the filter's own frequency response. ``delay_s`` is the group delay (0: the
+    filters are symmetric, so they do not shift the signal in time).
+    """
+
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    method: str
+    sample_rate: float
+    bandwidth_hz: float
+    derivative_bandwidth_hz: tuple
+    delay_s: float
+    settings: dict
+
+    @property
+    def description(self) -> str:
+        opts = ", ".join(f"{k}={v}" for k, v in self.settings.items())
+        vb, ab = self.derivative_bandwidth_hz
+        return (f"{self.method} ({opts}) at {self.sample_rate:g} Hz: zero-phase, delay "
+                f"{self.delay_s:g} s, -3 dB bandwidth {self.bandwidth_hz:.3g} Hz (positions), "
+                f"{vb:.3g} Hz (velocities), {ab:.3g} Hz (accelerations)")
+
+
+def _minus3db(freq, gain):
+    """First frequency where the gain falls below 1/√2 (linear interpolation)."""
+    target = 1.0 / math.sqrt(2.0)
+    below = np.flatnonzero(gain < target)
+    if below.size == 0:
+        return float(freq[-1])
+    i = int(below[0])
+    if i == 0:
+        return float(freq[0])
+    f0, f1, g0, g1 = freq[i - 1], freq[i], gain[i - 1], gain[i]
+    return float(f0 + (g0 - target) * (f1 - f0) / (g0 - g1))
+
+
+def differentiate(q, sample_rate: float, *, method: str = "savgol", window: float | None = None,
+                  polyorder: int = 4, cutoff: float | None = None, order: int = 4) -> Derivatives:
+    """Zero-phase velocities and accelerations from sampled positions.
+
+    Parameters
+    ----------
+    q : array_like (N,) or (N, n)
+        Positions, uniformly sampled.
+    sample_rate : float
+        Sampling rate in Hz.
+    method : {"savgol", "butterworth"}
+        Savitzky–Golay: a degree-``polyorder`` polynomial fitted over a centred window of
+        ``window`` seconds, differentiated analytically (``scipy.signal.savgol_filter``). The
+        default degree 4 keeps the acceleration's band as wide as the velocity's (a cubic's
+        second derivative is a much narrower filter).
+        Butterworth: an ``order``-th order low-pass with cutoff ``cutoff`` Hz run forward and
+        backward (``scipy.signal.filtfilt``, so the squared magnitude applies and the phase
+        cancels), then central differences (``numpy.gradient``).
+    window : float or None
+        Savitzky–Golay window in seconds (default: 0.1 s, at least polyorder + 2 samples; odd).
+    cutoff : float or None
+        Butterworth cutoff in Hz (default: ``sample_rate / 10``).
+
+    Returns
+    -------
+    Derivatives
+        With ``bandwidth_hz`` computed from the filter's own frequency response and
+        ``delay_s = 0``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dynval.robots import differentiate
+    >>> t = np.arange(1000) / 200.0
+    >>> d = differentiate(np.sin(2 * np.pi * t), 200.0)
+    >>> round(float(np.max(np.abs(d.dq[50:-50, 0] - 2 * np.pi * np.cos(2 * np.pi * t[50:-50])))), 3)
+    0.0
+    >>> d.delay_s
+    0.0
+    """
+    import scipy.signal
+
+    check_choice("method", method, ("savgol", "butterworth"))
+    if not (isinstance(sample_rate, (int, float)) and math.isfinite(sample_rate) and sample_rate > 0):
+        raise parameter_error("sample_rate", "a finite number > 0", sample_rate)
+    x = promote_signal(to_float_array(q, "q"), "q")
+    check_finite(x, "q")
+    n = x.shape[0]
+    dt = 1.0 / sample_rate
+    freq = np.linspace(0.0, sample_rate / 2.0, 4097)[1:]
+    omega = 2.0 * np.pi * freq
+    if method == "savgol":
+        if not isinstance(polyorder, int) or polyorder < 2:
+            raise parameter_error("polyorder", "an integer >= 2 (accelerations need degree 2)", polyorder)
+        w = 0.1 if window is None else window
+        length = max(int(round(w * sample_rate)), polyorder + 2)
+        length += 1 - length % 2
+        if length > n:
+            raise parameter_error("window", f"at most N={n} samples long", window)
+        kw = dict(window_length=length, polyorder=polyorder, delta=dt, axis=0, mode="interp")
+        qs = scipy.signal.savgol_filter(x, deriv=0, **kw)
+        dq = scipy.signal.savgol_filter(x, deriv=1, **kw)
+        ddq = scipy.signal.savgol_filter(x, deriv=2, **kw)
+        gains = []
+        for k in range(3):
+            coeffs = scipy.signal.savgol_coeffs(length, polyorder, deriv=k, delta=dt)
+            _, h = scipy.signal.freqz(coeffs, worN=freq, fs=sample_rate)
+            gains.append(np.abs(h) / omega**k)
+        bandwidth = _minus3db(freq, gains[0])
+        derivative_bw = (_minus3db(freq, gains[1]), _minus3db(freq, gains[2]))
+        settings = {"window_samples": length, "window_s": length * dt, "polyorder": polyorder}
+    else:
+        fc = sample_rate / 10.0 if cutoff is None else cutoff
+        if not (isinstance(fc, (int, float)) and 0 < fc < sample_rate / 2):
+            raise parameter_error("cutoff", f"a number of Hz with 0 < cutoff < {sample_rate / 2:g}", cutoff)
+        if not isinstance(order, int) or order < 1:
+            raise parameter_error("order", "a positive integer", order)
+        b, a = scipy.signal.butter(order, fc, fs=sample_rate)
+        padlen = 3 * max(len(a), len(b))
+        if n <= padlen:
+            raise parameter_error("q", f"at least {padlen + 1} samples for filtfilt", n)
+        qs = scipy.signal.filtfilt(b, a, x, axis=0)
+        dq = np.gradient(qs, dt, axis=0)
+        ddq = np.gradient(dq, dt, axis=0)
+        _, h = scipy.signal.freqz(b, a, worN=freq, fs=sample_rate)
+        smooth = np.abs(h) ** 2  # forward and backward: |H|²
+        bandwidth = _minus3db(freq, smooth)
+        # numpy.gradient's central difference responds with sin(ωT)/T instead of ω.
+        central = np.abs(np.sin(omega * dt) / (omega * dt))
+        derivative_bw = (_minus3db(freq, smooth * central), _minus3db(freq, smooth * central**2))
+        settings = {"order": order, "cutoff_hz": fc}
+    return Derivatives(q=qs, dq=dq, ddq=ddq, method="Savitzky–Golay" if method == "savgol" else
+                       "Butterworth + filtfilt", sample_rate=float(sample_rate), bandwidth_hz=bandwidth,
+                       derivative_bandwidth_hz=derivative_bw, delay_s=0.0, settings=settings)
+
+
+# --------------------------------------------------------------------------- a small URDF
+
+
+def planar_arm_urdf(arm=None, *, name: str = "dynval_planar_arm") -> str:
+    """URDF text of the demo's two-link arm (:mod:`dynval.simulate`), in a vertical plane.
+
+    A fixed joint turns the arm's plane upright (``rpy = (π/2, 0, 0)``: the plane's ``y`` axis
+    points up, against pinocchio's default gravity), so that joint angles, parameters and
+    torques are those of :func:`dynval.simulate.regressor`. Friction goes into ``<dynamics>``.
+    """
+    from .simulate import DEFAULT_ARM
+
+    a = DEFAULT_ARM if arm is None else arm
+
+    def link(link_name, m, cx, cy, izz):
+        # Any ixx, iyy with izz <= ixx + iyy is physical; the motion in the plane never sees them.
+        return (f'  <link name="{link_name}">\n    <inertial>\n      <origin xyz="{cx!r} {cy!r} 0" rpy="0 0 0"/>\n'
+                f'      <mass value="{m!r}"/>\n'
+                f'      <inertia ixx="{izz!r}" ixy="0" ixz="0" iyy="{izz!r}" iyz="0" izz="{izz!r}"/>\n'
+                f'    </inertial>\n  </link>\n')
+
+    return (
+        f'<?xml version="1.0"?>\n<robot name="{name}">\n'
+        '  <link name="world"/>\n  <link name="plane"/>\n'
+        '  <joint name="upright" type="fixed">\n    <parent link="world"/>\n    <child link="plane"/>\n'
+        f'    <origin xyz="0 0 0" rpy="{math.pi / 2!r} 0 0"/>\n  </joint>\n'
+        '  <joint name="shoulder" type="revolute">\n    <parent link="plane"/>\n    <child link="link1"/>\n'
+        '    <origin xyz="0 0 0" rpy="0 0 0"/>\n    <axis xyz="0 0 1"/>\n'
+        '    <limit lower="-3.14" upper="3.14" effort="100" velocity="10"/>\n'
+        f'    <dynamics damping="{a.fv1!r}" friction="{a.fc1!r}"/>\n  </joint>\n'
+        + link("link1", a.m1, a.cx1, a.cy1, a.I1)
+        + '  <joint name="elbow" type="revolute">\n    <parent link="link1"/>\n    <child link="link2"/>\n'
+        f'    <origin xyz="{a.l1!r} 0 0" rpy="0 0 0"/>\n    <axis xyz="0 0 1"/>\n'
+        '    <limit lower="-3.14" upper="3.14" effort="100" velocity="10"/>\n'
+        f'    <dynamics damping="{a.fv2!r}" friction="{a.fc2!r}"/>\n  </joint>\n'
+        + link("link2", a.m2, a.cx2, a.cy2, a.I2)
+        + '</robot>\n'
+    )

@@ -1,0 +1,188 @@
+"""dynval.html: the report is one well-formed, self-contained file with the tables, findings,
+figures and provenance, and it opens in a headless browser where one is installed."""
+
+from __future__ import annotations
+
+import base64
+import re
+import shutil
+import subprocess
+import xml.etree.ElementTree as ET
+from html.parser import HTMLParser
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")  # the figures are part of what is checked
+
+import dynval
+from dynval.html import render_report, write_report
+from dynval.identify import identify
+from dynval.simulate import simulate
+
+XHTML = "{http://www.w3.org/1999/xhtml}"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    d = simulate("friction", n_samples=800)
+    est, val = d.estimation, d.validation
+    reports, preds = {}, {}
+    for name in d.candidates:
+        res = identify(est.regressors[name], est.tau_meas)
+        preds[name] = res.predict(val.regressors[name])
+        reports[name] = dynval.validate(val.tau_meas, preds[name], n_params=res.rank, regressor=val.full_regressor,
+                                        sample_rate=d.sample_rate, joint_names=list(d.joint_names),
+                                        column_names=list(d.full_column_names))
+    return d, reports, preds
+
+
+class _TagBalance(HTMLParser):
+    VOID = {"meta", "img", "br", "hr", "link", "input"}
+
+    def __init__(self):
+        super().__init__()
+        self.stack, self.errors, self.tags = [], [], []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+        if tag not in self.VOID:
+            self.stack.append(tag)
+
+    def handle_startendtag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+
+    def handle_endtag(self, tag):
+        if not self.stack or self.stack[-1] != tag:
+            self.errors.append(f"unexpected </{tag}> (open: {self.stack[-3:]})")
+        else:
+            self.stack.pop()
+
+
+def _check_self_contained(text):
+    parser = _TagBalance()
+    parser.feed(text)
+    assert not parser.errors and not parser.stack
+    root = ET.fromstring(text.split("\n", 1)[1])  # well-formed XML after the doctype
+    assert root.tag == XHTML + "html"
+    for tag, attrs in parser.tags:
+        assert tag not in ("script", "link", "iframe", "object")
+        for key in ("src", "href"):
+            if key in attrs:
+                assert attrs[key].startswith("data:"), (tag, attrs[key][:60])
+    assert "http://" not in text.replace('xmlns="http://www.w3.org/1999/xhtml"', "")
+    assert "https://" not in text
+    assert "@import" not in text and "url(" not in text
+    return root, parser
+
+
+def _images(parser):
+    out = []
+    for tag, attrs in parser.tags:
+        if tag == "img":
+            src = attrs["src"]
+            assert src.startswith("data:image/png;base64,")
+            png = base64.b64decode(src.split(",", 1)[1])
+            assert png[:8] == b"\x89PNG\r\n\x1a\n"
+            out.append(attrs.get("alt", ""))
+    return out
+
+
+def test_validation_report_html(scenario, tmp_path):
+    d, reports, preds = scenario
+    rep = reports["rigid"]
+    path = write_report(rep, tmp_path / "val.html", tau_meas=d.validation.tau_meas, tau_pred=preds["rigid"])
+    text = (tmp_path / "val.html").read_text(encoding="utf-8")
+    assert path.endswith("val.html")
+    root, parser = _check_self_contained(text)
+    assert "dynval validation report" in text
+    # per-joint table: one row per joint + pooled, with the report's numbers
+    for j, name in enumerate(d.joint_names):
+        assert f'<td class="text">{name}</td>' in text
+    assert f"{rep.per_joint['rmse'][0]:.4g}" in text
+    # findings of the report are all there
+    for f in rep.findings:
+        assert f.message.split(":")[0] in text
+    # figures: prediction, residuals, ACF, cross-correlation (+ spectrum when the report has one)
+    alts = _images(parser)
+    expected = 4 + (rep.spectrum is not None)
+    assert len(alts) == expected
+    assert "Provenance" in text and "Full report as JSON" in text
+
+
+def test_validation_report_without_torques_has_report_figures_only(scenario):
+    d, reports, preds = scenario
+    text = render_report(reports["friction"])
+    _, parser = _check_self_contained(text)
+    alts = _images(parser)
+    assert not any("Measured and predicted" in a for a in alts)
+    assert any("autocorrelation" in a for a in alts)
+
+
+def test_comparison_report_html_from_a_comparison_shaped_object(scenario, tmp_path):
+    # The renderer reads a ComparisonReport through its documented attributes; this object has
+    # exactly those, filled from real validation reports.
+    d, reports, preds = scenario
+    names = list(d.candidates)
+    pooled = {n: {"rmse": reports[n].pooled["rmse_per_element"], "vaf": reports[n].pooled["vaf"],
+                  "aic": reports[n].information_criteria["aic"]} for n in names}
+    cmp = SimpleNamespace(
+        names=names, ranking=["friction", "friction+offset", "rigid"], reports=reports,
+        table={"pooled": pooled, "per_joint": {}},
+        verdict=SimpleNamespace(decision="accept", model="friction", reasons=["lowest AIC", "white residuals"]),
+        to_dict=lambda: {"names": names},
+    )
+    write_report(cmp, tmp_path / "cmp.html", tau_meas=d.validation.tau_meas, tau_pred=preds)
+    text = (tmp_path / "cmp.html").read_text(encoding="utf-8")
+    root, parser = _check_self_contained(text)
+    assert 'class="verdict accept"' in text and "lowest AIC" in text
+    # decision table: ranked rows, the chosen one highlighted
+    rows = re.findall(r'<tr(?: class="(\w*)")?><td class="text">([^<]+)</td><td>(\d)</td>', text)
+    assert [(r[1], r[2]) for r in rows] == [("friction", "1"), ("friction+offset", "2"), ("rigid", "3")]
+    assert rows[0][0] == "chosen"
+    for n in names:
+        assert f"Model '{n}'" in text
+    alts = _images(parser)
+    assert any("VAF" in a for a in alts)                     # the bars of every candidate
+    assert any("Measured and predicted" in a and "friction" in a for a in alts)
+
+
+@pytest.mark.skipif(not hasattr(dynval, "compare"), reason="dynval.compare is not in this build yet")
+def test_comparison_report_html_from_dynval_compare(scenario, tmp_path):
+    d, reports, preds = scenario
+    cands = {n: (preds[n], reports[n].provenance["n_params"], d.validation.full_regressor) for n in d.candidates}
+    cmp = dynval.compare(d.validation.tau_meas, cands, sample_rate=d.sample_rate,
+                         joint_names=list(d.joint_names), column_names=list(d.full_column_names))
+    write_report(cmp, tmp_path / "c.html")
+    text = (tmp_path / "c.html").read_text(encoding="utf-8")
+    _check_self_contained(text)
+    assert cmp.verdict.decision in text
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+@pytest.mark.skipif(_chromium() is None, reason="no headless Chromium installed")
+def test_opens_in_headless_chromium(scenario, tmp_path):
+    d, reports, preds = scenario
+    page = tmp_path / "report.html"
+    write_report(reports["rigid"], page, tau_meas=d.validation.tau_meas, tau_pred=preds["rigid"])
+    shot = tmp_path / "shot.png"
+    proc = subprocess.run([_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                           f"--screenshot={shot}", "--window-size=1200,3000", page.as_uri()],
+                          capture_output=True, text=True, timeout=120)
+    assert shot.is_file(), proc.stderr[-2000:]
+    data = shot.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    matplotlib = pytest.importorskip("matplotlib.image")
+    img = matplotlib.imread(str(shot))
+    assert img.shape[:2] == (3000, 1200)
+    # Rendered content, not a blank page: many distinct colours (tables, text, figures).
+    flat = (img[:, :, :3] * 255).astype(np.uint8).reshape(-1, 3)
+    assert len(np.unique(flat[::37], axis=0)) > 50

@@ -1,0 +1,229 @@
+"""dynval.plot: each figure's structure (axes, labels, lines, cells), built from real reports of
+the simulated arm, and that every figure renders to PNG."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+import dynval
+from dynval import plot
+from dynval.identify import identify
+from dynval.simulate import simulate
+
+
+def _validate(d, name):
+    est, val = d.estimation, d.validation
+    res = identify(est.regressors[name], est.tau_meas)
+    pred = res.predict(val.regressors[name])
+    rep = dynval.validate(val.tau_meas, pred, n_params=res.rank, regressor=val.full_regressor,
+                          sample_rate=d.sample_rate, joint_names=list(d.joint_names),
+                          column_names=list(d.full_column_names))
+    return pred, rep
+
+
+@pytest.fixture(scope="module")
+def flexible():
+    d = simulate("flexible", n_samples=1500)
+    reports, preds = {}, {}
+    for name in d.candidates:
+        preds[name], reports[name] = _validate(d, name)
+    return d, preds, reports
+
+
+def _texts(fig):
+    out = [fig.get_suptitle()] if hasattr(fig, "get_suptitle") else []
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_title(loc="left"), ax.get_xlabel(), ax.get_ylabel()]
+        out += [t.get_text() for t in ax.texts]
+        out += [t.get_text() for t in ax.get_xticklabels() + ax.get_yticklabels()]
+        leg = ax.get_legend()
+        if leg is not None:
+            out += [t.get_text() for t in leg.get_texts()]
+    for leg in fig.legends:
+        out += [t.get_text() for t in leg.get_texts()]
+    return "\n".join(out)
+
+
+def _renders(fig, tmp_path, name):
+    path = tmp_path / f"{name}.png"
+    plot.save(fig, path)
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_residuals_figure(flexible, tmp_path):
+    d, preds, reports = flexible
+    fig = plot.residuals(d.validation.tau_meas, preds["friction"], sample_rate=100.0, segments=[500, 1000],
+                         joint_names=d.joint_names)
+    assert len(fig.axes) == 2
+    for j, ax in enumerate(fig.axes):
+        assert d.joint_names[j] in ax.get_ylabel() and "N·m" in ax.get_ylabel()
+        lines = ax.get_lines()
+        assert len(lines[0].get_xdata()) == 1500
+        np.testing.assert_allclose(lines[0].get_ydata(), d.validation.tau_meas[:, j] - preds["friction"][:, j])
+        # zero line + one boundary at 5 s
+        vlines = [ln for ln in lines if np.ptp(ln.get_xdata()) == 0 and ln.get_xdata()[0] == 5.0]
+        assert len(vlines) == 1
+    assert fig.axes[-1].get_xlabel() == "time (s)"
+    assert "segment boundary" in _texts(fig) and "RMS" in _texts(fig)
+    _renders(fig, tmp_path, "residuals")
+
+
+def test_residuals_without_rate_use_samples_and_default_names():
+    fig = plot.residuals(np.zeros((50, 3)), np.ones((50, 3)))
+    assert fig.axes[-1].get_xlabel() == "sample"
+    assert "joint 3" in fig.axes[2].get_ylabel()
+
+
+def test_autocorrelation_figure(flexible, tmp_path):
+    d, preds, reports = flexible
+    rep = reports["friction"]
+    fig = plot.autocorrelation(rep)
+    main_axes = [ax for ax in fig.axes if ax.get_ylabel()]
+    assert len(main_axes) == 2
+    lmax = rep.autocorrelation["max_lag"]
+    for j, ax in enumerate(main_axes):
+        assert d.joint_names[j] in ax.get_ylabel()
+        # band drawn as two dashed lines over lags 1..max_lag
+        dashed = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+        assert len(dashed) == 2 and len(dashed[0].get_xdata()) == lmax
+        np.testing.assert_allclose(dashed[0].get_ydata(), rep.autocorrelation["band"][1:, j])
+        # one stem per lag, split between inside and outside the band
+        n_stems = sum(len(c.get_segments()) for c in ax.collections)
+        assert n_stems == lmax + 1
+    assert main_axes[-1].get_xlabel() == "lag ℓ (samples)"
+    text = _texts(fig)
+    assert "Ljung–Box" in text and "outside the band" in text
+    _renders(fig, tmp_path, "acf")
+
+
+def test_autocorrelation_seconds_axis_only_with_rate(flexible):
+    d, preds, reports = flexible
+    fig = plot.autocorrelation(reports["friction"])
+    top = [c for ax in fig.axes for c in ax.child_axes]
+    assert len(top) == 1 and top[0].get_xlabel() == "lag (s)"
+    fig2 = plot.autocorrelation(reports["friction"].autocorrelation)  # a bare section: no rate known
+    assert not [c for ax in fig2.axes for c in ax.child_axes]
+
+
+def test_spectrum_marks_the_found_oscillation(flexible, tmp_path):
+    d, preds, reports = flexible
+    rep = reports["friction"]
+    fig = plot.spectrum(rep, reference=d.mode_frequency, reference_label="simulated mode")
+    assert len(fig.axes) == 2
+    assert fig.axes[-1].get_xlabel() == "frequency (Hz)"
+    for ax in fig.axes:
+        markers = [ln for ln in ax.get_lines() if ln.get_marker() == "v"]
+        if rep.spectrum is not None and any(f.kind == "oscillation" for f in rep.findings):
+            assert markers, "the oscillation finding is not marked"
+            for mk in markers:
+                assert mk.get_xdata()[0] == pytest.approx(d.mode_frequency, rel=0.1)
+        assert "PSD" in ax.get_ylabel()
+    assert "simulated mode" in _texts(fig)
+    _renders(fig, tmp_path, "spectrum")
+
+
+def test_spectrum_from_residuals_and_explicit_peaks():
+    rng = np.random.default_rng(0)
+    t = np.arange(4000) / 100.0
+    e = np.column_stack([np.sin(2 * np.pi * 12.0 * t), np.zeros_like(t)]) + rng.normal(0, 0.1, (4000, 2))
+    fig = plot.spectrum(residuals=e, sample_rate=100.0, peaks=[(0, 12.0)], joint_names=["a", "b"])
+    first = fig.axes[0]
+    psd = first.get_lines()[0]
+    assert psd.get_xdata()[np.argmax(psd.get_ydata())] == pytest.approx(12.0, abs=0.5)
+    assert len([ln for ln in first.get_lines() if ln.get_marker() == "v"]) == 1
+    assert not [ln for ln in fig.axes[1].get_lines() if ln.get_marker() == "v"]
+    assert "12 Hz" in _texts(fig)
+
+
+def test_cross_correlation_heatmap(flexible, tmp_path):
+    d, preds, reports = flexible
+    rep = reports["rigid"]
+    fig = plot.cross_correlation(rep)
+    ax = fig.axes[0]
+    img = ax.get_images()[0]
+    arr = img.get_array()
+    assert arr.shape == (2, 12)
+    xc = rep.cross_correlation
+    mx = np.asarray(xc["max_abs_rho"]) if "max_abs_rho" in xc else np.nanmax(np.abs(xc["rho"]), axis=2)
+    expected = np.where(np.asarray(xc["constant_mask"]), np.nan, mx / xc["band"])
+    np.testing.assert_allclose(np.ma.filled(arr.astype(float), np.nan), expected, equal_nan=True)
+    assert [t.get_text() for t in ax.get_xticklabels()] == list(d.full_column_names)
+    assert [t.get_text() for t in ax.get_yticklabels()] == list(d.joint_names)
+    # every significant cell carries its value
+    labelled = sum(1 for t in ax.texts if t.get_text() not in ("–",))
+    assert labelled == int(np.sum(expected > 1.0))
+    assert "band" in fig.axes[1].get_ylabel()  # colour bar
+    # the rigid model misses friction: a Coulomb column stands out on each joint
+    assert np.nanargmax(expected[0]) in (6, 7) and np.nanargmax(expected[1]) in (8, 9)
+    _renders(fig, tmp_path, "xcorr")
+
+
+def test_metrics_bars(flexible, tmp_path):
+    d, preds, reports = flexible
+    fig = plot.metrics(reports, chosen="friction")
+    assert len(fig.axes) == 3
+    assert [ax.get_ylabel() for ax in fig.axes] == ["VAF (%)", "fit (%)", "R² (fraction)"]
+    for ax, metric in zip(fig.axes, ("vaf", "fit_percent", "r2")):
+        bars = ax.patches
+        assert len(bars) == 3 * 2  # candidates × joints
+        heights = np.array([b.get_height() for b in bars]).reshape(3, 2)
+        floor = -100.0 if metric != "r2" else -1.0
+        for i, name in enumerate(d.candidates):
+            np.testing.assert_allclose(heights[i], np.maximum(reports[name].per_joint[metric], floor))
+    assert [t.get_text() for t in fig.axes[-1].get_xticklabels()] == list(d.joint_names)
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend == ["rigid", "friction (chosen)", "friction+offset"]
+    _renders(fig, tmp_path, "metrics")
+
+
+def test_metrics_cut_very_negative_bars_and_print_their_value(flexible):
+    d, preds, reports = flexible
+    # A candidate predicting zero torque has R² far below -1 on a joint with a large mean.
+    meas = d.validation.tau_meas
+    bad = dynval.validate(meas, np.zeros_like(meas) + meas.mean(axis=0) + 5 * meas.std(axis=0), n_params=0,
+                          joint_names=list(d.joint_names))
+    fig = plot.metrics({"good": reports["friction"], "bad": bad})
+    r2_ax = fig.axes[2]
+    heights = [b.get_height() for b in r2_ax.patches]
+    assert min(heights) == -1.0
+    printed = [t.get_text() for t in r2_ax.texts]
+    assert f"{bad.per_joint['r2'][0]:.3g}" in printed
+
+
+def test_prediction_figure(flexible, tmp_path):
+    d, preds, reports = flexible
+    fig = plot.prediction(d.validation.tau_meas, preds["friction"], report=reports["friction"],
+                          model_name="friction", window=(0.0, 5.0))
+    assert len(fig.axes) == 2
+    for j, ax in enumerate(fig.axes):
+        meas, pred = ax.get_lines()[:2]
+        assert len(meas.get_xdata()) == 501 and meas.get_xdata()[-1] == pytest.approx(5.0)
+        np.testing.assert_allclose(pred.get_ydata(), preds["friction"][:501, j])
+        assert "torque (N·m)" in ax.get_ylabel()
+    assert "predicted (friction)" in _texts(fig) and "measured" in _texts(fig)
+    _renders(fig, tmp_path, "prediction")
+
+
+def test_wrong_number_of_names_is_an_error():
+    with pytest.raises(ValueError, match="joint_names"):
+        plot.residuals(np.zeros((10, 2)), np.zeros((10, 2)), joint_names=["only one"])
+
+
+def test_autocorrelation_by_model(flexible, tmp_path):
+    d, preds, reports = flexible
+    fig = plot.autocorrelation_by_model(reports, joint=1, chosen="friction")
+    axes = [ax for ax in fig.axes if ax.get_xlabel()]
+    assert len(axes) == 3
+    assert [ax.get_title().split("\n")[0] for ax in axes] == ["rigid", "friction (chosen)", "friction+offset"]
+    assert axes[0].get_ylabel().startswith("elbow")
+    assert "10 ms" in axes[0].get_xlabel()
+    for ax, name in zip(axes, d.candidates):
+        lmax = reports[name].autocorrelation["max_lag"]
+        assert sum(len(c.get_segments()) for c in ax.collections) == lmax + 1
+        band = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"][0]
+        np.testing.assert_allclose(band.get_ydata(), reports[name].autocorrelation["band"][1:, 1])
+    _renders(fig, tmp_path, "acf_models")
