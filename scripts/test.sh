@@ -4,18 +4,28 @@
 #   2. pip install ".[test]" (builds the C++ backend dynval._core),
 #   3. the C++ core alone: ctest, then the example built against the installed CMake package,
 #   4. the pure-Python build switch (-Cwheel.cmake=false) in a throwaway venv,
-#   5. pytest: both backends against every golden vector, the protocol runner, the identities.
+#   5. pytest: both backends against every golden vector, the protocol runner, the identities, the
+#      findings and their calibration, the Java, MATLAB/Octave and Wolfram Language ports,
+#   6. the conformance matrix of README.md against a fresh run of every port.
+# As root (CI) the ports' toolchains are installed and required: a missing one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 step() { printf '\n== %s\n' "$*"; }
 
+export DYNVAL_REQUIRE_BACKENDS=${DYNVAL_REQUIRE_BACKENDS:-python,cpp}
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
-  if ! dpkg -s libgtest-dev libeigen3-dev >/dev/null 2>&1; then
-    step "apt-get install libgtest-dev libeigen3-dev"
+  if ! dpkg -s libgtest-dev libeigen3-dev octave chromium >/dev/null 2>&1; then
+    step "apt-get install libgtest-dev libeigen3-dev octave chromium"
     apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libgtest-dev libeigen3-dev >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      libgtest-dev libeigen3-dev octave chromium >/dev/null
   fi
+  step "port toolchains"
+  bash java/install-toolchain
+  bash matlab/install-toolchain
+  bash wolfram/install-toolchain
+  export DYNVAL_REQUIRE_TOOLCHAINS=${DYNVAL_REQUIRE_TOOLCHAINS:-cc,java,octave,mathics}
 fi
 
 # Install from a clean copy of the tree: a development build of dynval/_core*.so copied into
@@ -49,4 +59,7 @@ print('pure-Python build imports with backends', b)
 rm -rf "$(dirname "$venv")"
 
 step "pytest"
-"$PY" -m pytest -q "$@"
+"$PY" -m pytest -q --durations=15 "$@"
+
+step "conformance matrix (README.md against a fresh run of every port)"
+"$PY" -m dynval conform --matrix --check-readme

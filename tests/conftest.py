@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 
 import hypothesis
+import pytest
 
 import dynval
 
@@ -22,6 +23,20 @@ BACKEND_ORDER = ("python", "cpp")
 def available_backends() -> list[str]:
     info = dynval.backends()
     return [name for name in BACKEND_ORDER if info[name]["available"]]
+
+
+def pytest_configure(config):
+    # A backend the run must test (DYNVAL_REQUIRE_BACKENDS=python,cpp, set by scripts/test.sh and CI)
+    # that is unavailable fails the run at the start: a missing backend would otherwise only make the
+    # parametrisation smaller and every one of its tests would silently disappear.
+    required = [b.strip() for b in os.environ.get("DYNVAL_REQUIRE_BACKENDS", "").split(",") if b.strip()]
+    info = dynval.backends()
+    for name in required:
+        if name not in info:
+            raise pytest.UsageError(f"DYNVAL_REQUIRE_BACKENDS names an unknown backend {name!r}")
+        if not info[name]["available"]:
+            raise pytest.UsageError(f"DYNVAL_REQUIRE_BACKENDS requires backend {name!r}, which is unavailable: "
+                                    f"{info[name]['detail']}")
 
 
 def pytest_report_header(config):

@@ -1,0 +1,36 @@
+"""The README's Python examples run and say what the README says they say."""
+
+from __future__ import annotations
+
+import pathlib
+import re
+
+import pytest
+
+README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _blocks():
+    return re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+
+
+def test_readme_examples_run(capsys):
+    blocks = _blocks()
+    assert len(blocks) == 2
+    namespace: dict = {}
+    for code in blocks:
+        exec(compile(code, str(README), "exec"), namespace)
+    assert namespace["report"].deficiencies == []
+    assert [f.kind for f in namespace["report"].findings] == ["pooling"]
+    cmp = namespace["cmp"]
+    assert (cmp.ranking, cmp.verdict.decision) == (["friction", "rigid"], "accept")
+    assert "Verdict: ACCEPT" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("scenario, decision", [("friction", "accept"), ("repeat", "redesign")])
+def test_demo_verdicts(scenario, decision):
+    from dynval.demo import run_demo
+
+    result = run_demo(scenario=scenario, progress=lambda *_: None)
+    cmp = getattr(result, "comparison", None)
+    assert cmp is not None and cmp.verdict.decision == decision
