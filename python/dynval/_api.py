@@ -13,12 +13,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.stats
 
 from . import _backend
 from ._errors import InvalidParameter
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 from ._segments import longest_segment, omit_nonfinite, parse_segments
+from ._stats import iid_t_test, z_two_sided
 from ._validation import (
     MULTIOUTPUT_OPTIONS,
     check_adjusted,
@@ -388,17 +388,17 @@ def zero_mean_test(e, *, segments=None, nan_policy="raise", backend=None):
     with np.errstate(divide="ignore", invalid="ignore"):
         n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
         n_eff = np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
-        t_iid = mean * math.sqrt(n) / std
-        t_eff = mean * np.sqrt(n_eff) / std
+    t_iid, p_iid = iid_t_test(mean, std, n)
+    t_eff, p_eff = iid_t_test(mean, std, n_eff)
     return ZeroMeanTest(
         mean=mean,
         std=std,
         n_samples=n,
         statistic_iid=t_iid,
-        pvalue_iid=2.0 * scipy.stats.t.sf(np.abs(t_iid), n - 1),
+        pvalue_iid=p_iid,
         df_iid=n - 1,
         statistic_eff=t_eff,
-        pvalue_eff=2.0 * scipy.stats.t.sf(np.abs(t_eff), n_eff - 1.0),
+        pvalue_eff=p_eff,
         df_eff=n_eff - 1.0,
         n_eff=n_eff,
         bandwidth=k,
@@ -454,7 +454,7 @@ def confidence_band(n, *, level=0.95, backend=None):
     _backend.resolve(backend)
     n = check_n(n)
     level = check_level(level)
-    return float(scipy.stats.norm.ppf((1.0 + level) / 2.0) / math.sqrt(n))
+    return z_two_sided(level) / math.sqrt(n)
 
 
 def _portmanteau(function, e, lags, model_df, segments, nan_policy, backend):
@@ -569,7 +569,7 @@ def cross_correlation(
     out = call.kernel.cross_correlation(call.data[0], call.data[1], p, max_lag, adjusted, call.starts)
     rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
     mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
-    band = float(scipy.stats.norm.ppf((1.0 + level) / 2.0) / math.sqrt(call.n))
+    band = z_two_sided(level) / math.sqrt(call.n)
     with np.errstate(invalid="ignore"):
         hits = np.argwhere(np.abs(rho) > band)
     outside = [
