@@ -8,18 +8,13 @@ a missing toolchain is a failure, so that CI cannot pass by skipping.
 
 from __future__ import annotations
 
-import json
-import os
 import pathlib
 import re
 import shutil
 import subprocess
-import sys
-from collections import Counter
 
 import pytest
-
-from dynval.golden import FAMILIES, iter_cases
+from port_checks import assert_passes_whole_corpus, require_toolchain
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 JAVA_DIR = ROOT / "java"
@@ -28,14 +23,8 @@ TOOLS = ("java", "javac", "mvn")
 
 
 def _require_java() -> None:
-    missing = [tool for tool in TOOLS if shutil.which(tool) is None]
-    if not missing:
-        return
-    required = {name.strip() for name in os.environ.get("DYNVAL_REQUIRE_TOOLCHAINS", "").split(",")}
-    reason = f"Java toolchain not found ({', '.join(missing)} missing from PATH); java/install-toolchain installs it"
-    if "java" in required:
-        pytest.fail(f"DYNVAL_REQUIRE_TOOLCHAINS names java, but: {reason}")
-    pytest.skip(reason)
+    require_toolchain("java", [tool for tool in TOOLS if shutil.which(tool) is None],
+                      "java/install-toolchain installs it")
 
 
 @pytest.mark.slow
@@ -61,25 +50,4 @@ def test_java_unit_tests():
 def test_java_port_passes_the_whole_corpus(tmp_path):
     """``dynval conform --strict -- java/run-port``: exit 0 and every vector of all eight families passed."""
     _require_java()
-    report_path = tmp_path / "java-conform.json"
-    proc = subprocess.run(
-        [sys.executable, "-m", "dynval", "conform", "--strict", "--report", str(report_path), "--", str(RUN_PORT)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=1200,
-    )
-    assert proc.returncode == 0, f"conform exited {proc.returncode}:\n{proc.stdout[-6000:]}\n{proc.stderr[-3000:]}"
-    report = json.loads(report_path.read_text())
-    assert report["exit_code"] == 0
-
-    corpus = Counter(case.family for case in iter_cases())
-    assert set(corpus) == set(FAMILIES)
-    counts = report["counts"]
-    for family in FAMILIES:
-        assert counts[family].get("passed", 0) == corpus[family], (family, counts[family], corpus[family])
-        for status in ("failed", "skipped", "partial"):
-            assert counts[family].get(status, 0) == 0, (family, counts[family])
-    assert counts["total"]["passed"] == sum(corpus.values())
-    statuses = Counter(case["status"] for case in report["cases"])
-    assert statuses == Counter({"passed": sum(corpus.values())}), statuses
+    assert_passes_whole_corpus(RUN_PORT, tmp_path / "java-conform.json")
