@@ -198,10 +198,12 @@ def test_verdicts(results, scenario, decision, model):
 
 
 @needs_compare
-def test_flexible_verdict_does_not_accept(results):
-    # Every candidate is rigid: none can explain the elastic joint's oscillation.
+def test_flexible_verdict_is_refine_with_the_mode(results):
+    # Every candidate is rigid: none can explain the elastic joint's oscillation, and the
+    # oscillation (not the colour it causes) is the reason given.
     r = _run(results, "flexible")
-    assert r.comparison.verdict.decision != "accept"
+    assert r.comparison.verdict.decision == "refine"
+    assert any("oscillates near" in reason for reason in r.comparison.verdict.reasons)
 
 
 def test_summary_and_json(results):
