@@ -206,9 +206,10 @@ def _col(names, c):
 
 
 def _p_text(p) -> str:
+    """``= 0.012`` or ``< 1e-300``: the relation and the value, for "p {…}" in a message."""
     if p is None or not np.isfinite(p):
-        return "n/a"
-    return f"{p:.3g}" if p >= 1e-300 else "< 1e-300"
+        return "= n/a"
+    return f"= {p:.3g}" if p >= 1e-300 else "< 1e-300"
 
 
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
@@ -339,7 +340,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])},
                 message=(f"{_name(names, j)}: residual mean {mean[j]:+.4g} "
                          f"({100 * effect[j]:.0f} % of the RMSE; coloured-noise t-test N_eff = {ev.n_eff[j]:.0f} "
-                         f"of {ev.n_samples}, Holm-adjusted p = {_p_text(padj[j])})"
+                         f"of {ev.n_samples}, Holm-adjusted p {_p_text(padj[j])})"
                          + ((": a systematic bias, e.g. a missing offset, friction or gravity term"
                              + (f"; the missing term {_col(cols, culprit[0])} accounts for it." if culprit else "."))
                             if big else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
@@ -375,7 +376,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                         else "none: the term would explain too little to matter"),
                 details={"lag": 0, "rho": float(rho[j, k]), "added_variable": True},
                 message=(f"{_name(names, j)}: the residual correlates with {listed}, terms the model lacks, "
-                         f"after removing what the model's own columns represent (Holm-adjusted p = "
+                         f"after removing what the model's own columns represent (Holm-adjusted p "
                          f"{_p_text(padj[j, k])})"
                          + (": a missing term." if big else ": significant but negligible."))))
 
@@ -414,7 +415,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                         "use the information in it" if big else "none: the correlation is real but too small to matter"),
                 details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits)},
                 message=(f"{_name(names, j)}: the residual correlates with {listed} beyond what the colour of "
-                         f"both series explains (Holm-adjusted p = {_p_text(padj[j, c, lag])})"
+                         f"both series explains (Holm-adjusted p {_p_text(padj[j, c, lag])})"
                          + (": the model does not use the information in this column (a missing or "
                             "mis-weighted term)." if big
                             else f": significant but negligible (|ρ| below {th.regressor_correlation:g})."))))
@@ -444,7 +445,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 details={"frequency": float(f), "frequency_unit": unit, "n_peaks": int(sig.size)},
                 message=(f"{_name(names, j)}: the residual oscillates near {f:.3g} {unit} "
                          f"({100 * share[b, j]:.0f} % of its variance, {ev.spectrum_ratio[b, j]:.0f}× the background; "
-                         f"Holm-adjusted p = {_p_text(padj[b, j])})"
+                         f"Holm-adjusted p {_p_text(padj[b, j])})"
                          + (": unmodelled dynamics, e.g. joint flexibility (the lesson's Problem 5)." if big
                             else ": significant but negligible."))))
 
@@ -479,7 +480,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                         else "none on this evidence: colour alone does not show the model is wrong"),
                 details={"lag": ev.whiteness_lag, "decimation": ev.decimation},
                 message=(f"{_name(names, j)}: the residuals are not white {rate} (Ljung–Box up to lag "
-                         f"{ev.whiteness_lag}, Holm-adjusted p = {_p_text(padj[j])})"
+                         f"{ev.whiteness_lag}, Holm-adjusted p {_p_text(padj[j])})"
                          + (", and the findings above show the structure is the model's." if backed
                             else "; colour alone is not evidence against the model (sensor filtering, "
                                  "oversampling and estimation error colour residuals too)."))))
