@@ -40,6 +40,13 @@ NOTES: dict[str, dict[str, Any]] = {
         "r2/fit/VAF are -Infinity, or NaN when the prediction is exact (contract §3.2); no sklearn-style clamping.",
         "effect": "Ports that divide by a zero TSS without the rule give +/-inf or NaN at random, or raise.",
     },
+    "InexactConstantMean": {
+        "bugType": "KNOWN_DISCREPANCY",
+        "description": "A constant target whose float64 mean is not exact (ten values of 0.1): the centred sum of "
+        "squares is a few ulps, not 0. The rule decides constancy on min = max, so r2/fit/VAF are -Infinity.",
+        "effect": "The lesson's code (TSS == 0 tests, or none) gives r2 near -1e31, VAF near -1e33 and fit near "
+        "-4e17 here; every other constant-target vector has an exact mean and cannot show it.",
+    },
     "ConstantJoint": {
         "bugType": "DEGENERATE",
         "description": "One joint has a constant target among normal joints: its value is -Infinity, the uniform "

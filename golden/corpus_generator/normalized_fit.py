@@ -94,4 +94,15 @@ def build() -> Family:
             fam.add(op, {"multioutput": mo, "nan_policy": "omit"},
                     "rows 3 (NaN in tau_meas) and 10 (Infinity in tau_pred) are omitted", ["NanOmit"],
                     {"tau_meas": mat(meas_in), "tau_pred": mat(pred_in)}, {"value": out(v)}, {"value": tol})
+    # A constant target whose float mean is inexact: constancy is decided on min = max, not on a
+    # rounded TSS (the lesson's ports return -1e31 here instead of -inf).
+    meas = [[0.1]] * 10
+    pred = [[0.1 + (0.01 if k % 2 else -0.01)] for k in range(10)]
+    for op in ("r2", "vaf", "fit_percent"):
+        for mo in ("pooled", "raw_values"):
+            v, tol = aggregate(op, meas, pred, mo)
+            fam.add(op, {"multioutput": mo, "nan_policy": "raise"},
+                    "constant target 0.1 (ten samples; its float mean is not exact): -Infinity by min = max",
+                    ["ConstantTarget", "InexactConstantMean"], {"tau_meas": mat(meas), "tau_pred": mat(pred)},
+                    {"value": out(v)}, {"value": tol})
     return fam
