@@ -1,0 +1,53 @@
+"""The Wolfram Language port (wolfram/): its own VerificationTest suite, and the whole corpus.
+
+Both tests need Mathics3 (``mathics``; PyPI ``mathics3`` with ``packaging``). Where it is missing
+the tests skip, unless the environment variable DYNVAL_REQUIRE_TOOLCHAINS (comma-separated, e.g.
+``java,octave,mathics``) names ``mathics``: then a missing toolchain is a failure, so that CI
+cannot pass by skipping.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import pathlib
+import re
+import shutil
+import subprocess
+
+import pytest
+from port_checks import assert_passes_whole_corpus, require_toolchain
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+WOLFRAM_DIR = ROOT / "wolfram"
+RUN_PORT = WOLFRAM_DIR / "run-port"
+
+
+def _require_mathics() -> None:
+    missing = [] if shutil.which("mathics") else ["mathics"]
+    # Mathics3 needs packaging at run time but does not declare it
+    missing += [name for name in ("mathics", "packaging") if importlib.util.find_spec(name) is None]
+    require_toolchain("mathics", missing, "wolfram/install-toolchain installs it")
+
+
+@pytest.mark.slow
+def test_wolfram_unit_tests():
+    """``mathics -q -f Tests.wl``: every VerificationTest passes, and there are tests to pass."""
+    _require_mathics()
+    proc = subprocess.run(["mathics", "-q", "-f", "Tests.wl"], cwd=WOLFRAM_DIR, capture_output=True,
+                          text=True, timeout=900, stdin=subprocess.DEVNULL)
+    tail = proc.stdout[-4000:] + proc.stderr[-2000:]
+    summary = re.findall(r"^(\d+) passed, (\d+) failed$", proc.stdout, re.M)
+    assert summary, f"no summary line in the output of Tests.wl:\n{tail}"
+    passed, failed = (int(x) for x in summary[-1])
+    assert proc.returncode == 0 and failed == 0 and passed > 0, tail
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(run=False, strict=True, reason=(
+    "not yet: under Mathics3 10.0.1 the whole corpus takes 25-30 min on this machine and the largest vectors "
+    "(200x6 residuals, N=2000 lag-50 portmanteau) exceed the runner's 30 s per-case timeout; the last full run "
+    "had 17 failures in 779 vectors, all timeouts or restarts, no wrong value (wolfram/README.md)"))
+def test_wolfram_port_passes_the_whole_corpus(tmp_path):
+    """``dynval conform --strict -- wolfram/run-port``: exit 0 and every vector of all eight families passed."""
+    _require_mathics()
+    assert_passes_whole_corpus(RUN_PORT, tmp_path / "wolfram-conform.json", timeout=3600)

@@ -1,0 +1,150 @@
+(* Unit tests of DynVal and its protocol layer, as VerificationTest[...] expressions.
+   Run:  cd wolfram && mathics -q -f Tests.wl   (exit status 1 when a test fails).
+   Expected values are worked out by hand or are textbook values, not produced by this code. *)
+
+Get["DynVal.wl"];
+Get["Protocol.wl"];
+
+$results = {};
+
+(* Mathics3 10 has no VerificationTest: there the same comparison is defined here, returning the
+   outcome the way Mathematica's TestResultObject does (result["Outcome"]). *)
+If[! MemberQ[Attributes[VerificationTest], Protected],
+  SetAttributes[VerificationTest, HoldAllComplete];
+  Options[VerificationTest] = {SameTest -> SameQ, TestID -> None};
+  VerificationTest[input_, expected_, opts___Rule] := Module[
+    {got = Quiet[input], same = SameTest /. {opts} /. Options[VerificationTest]},
+    <|"Outcome" -> If[TrueQ[same[got, expected]], "Success", "Failure"], "ActualOutput" -> got,
+      "ExpectedOutput" -> expected, "TestID" -> (TestID /. {opts} /. Options[VerificationTest])|>]];
+
+SetAttributes[check, HoldAll];
+check[name_, expr_, expected_, sameQ_ : SameQ] := Module[
+  {r = VerificationTest[expr, expected, SameTest -> sameQ, TestID -> name]},
+  AppendTo[$results, {name, r["Outcome"] === "Success", r["ActualOutput"], expected}]];
+
+near[tol_][a_, b_] := Which[
+  ListQ[a] && ListQ[b], Length[a] == Length[b] && And @@ MapThread[near[tol], {a, b}],
+  NumberQ[a] && NumberQ[b], Abs[a - b] <= tol (1 + Abs[b]),
+  True, a === b];
+approx = near[1.*^-12];
+kindOf[r_] := If[Head[r] === DynVal`DynValError, First[r], r];
+
+(* ---- point metrics: the lesson's scalar example (build notes, Java and numpy agree) *)
+meas = {1.0, 2.5, 3.2, 4.1, 4.8, 6.1};
+pred = {1.1, 2.4, 3.0, 4.3, 4.7, 6.0};
+check["rmse per_element", DynVal`rmse[meas, pred], 0.14142135623730953, approx];
+check["vaf pooled", DynVal`vaf[meas, pred], 99.29467897521003, approx];
+check["fit_percent pooled", DynVal`fitPercent[meas, pred], 91.35818018681002, approx];
+check["r2 pooled", DynVal`r2[meas, pred], 0.9925318950316357, approx];
+check["aic pooled", DynVal`aic[meas, pred, "n_params" -> 2], -19.472138032568875, approx];
+check["bic pooled", DynVal`bic[meas, pred, "n_params" -> 2], -19.888619094112766, approx];
+check["sse by hand", DynVal`sse[{{1., 2.}, {3., 4.}}, {{1., 1.}, {3., 2.}}], 5., approx];
+check["sse raw_values", DynVal`sse[{{1., 2.}, {3., 4.}}, {{1., 1.}, {3., 2.}}, "multioutput" -> "raw_values"], {0., 5.}, approx];
+check["rmse per_sample", DynVal`rmse[{{1., 1.}, {1., 1.}}, {{0., 0.}, {0., 0.}}, "convention" -> "per_sample"], Sqrt[2.], approx];
+check["rmse uniform_average", DynVal`rmse[{{1., 1.}, {1., 3.}}, {{0., 0.}, {0., 0.}}, "multioutput" -> "uniform_average"],
+  (1. + Sqrt[5.])/2, approx];
+check["max_abs_error", DynVal`maxAbsError[{1., 2., 3.}, {1.5, 2., 1.}], 2., approx];
+check["residuals keep 1-D", DynVal`residuals[{1., 2.}, {0.5, 2.5}], {0.5, -0.5}, approx];
+check["residuals (N,) and (N,1) are one signal", DynVal`residuals[{1., 2.}, {{0.5}, {2.5}}], {{0.5}, {-0.5}}, approx];
+check["r2 by hand", DynVal`r2[{1., 2., 3.}, {1., 2., 4.}], 0.5, approx];
+check["vaf by hand", DynVal`vaf[{1., 2., 3., 4.}, {1.1, 1.9, 3.1, 3.9}], 99.2, approx];
+
+(* ---- degenerate values (contract 3.2) *)
+check["r2 constant target, not exact", DynVal`r2[{2., 2., 2.}, {1., 2., 3.}], -Infinity];
+check["r2 constant target, exact", DynVal`r2[{2., 2., 2.}, {2., 2., 2.}], Indeterminate];
+check["fit exact", DynVal`fitPercent[{0., 2.}, {0., 2.}], 100., approx];
+check["aic exact fit is -Infinity", DynVal`aic[{1., 2., 3.}, {1., 2., 3.}, "n_params" -> 1], -Infinity];
+check["lesson validateDynamicsModel exact fit", DynVal`validateDynamicsModel[{1., 2., 3.}, {1., 2., 3.}, 30]["AIC"], -Infinity];
+check["lesson validateDynamicsModel mismatch", DynVal`validateDynamicsModel[{1., 2., 3.}, {1., 2.}, 3], $Failed];
+check["lesson validateDynamicsModel VAF is a number", DynVal`validateDynamicsModel[meas, pred, 2]["VAF"], 99.29467897521003, approx];
+check["variance_weighted all constant", DynVal`r2[{{1., 2.}, {1., 2.}}, {{1., 2.}, {1., 3.}}, "multioutput" -> "variance_weighted"],
+  Indeterminate];
+
+(* ---- residual statistics *)
+check["residual_mean", DynVal`residualMean[{{1., 0.}, {3., 1.}}], {2., 0.5}, approx];
+check["residual_variance ddof 1", DynVal`residualVariance[{1., 2., 3.}], {1.}, approx];
+check["residual_variance ddof 0", DynVal`residualVariance[{1., 2., 3.}, "ddof" -> 0], {2./3}, approx];
+check["zero_mean_test df_iid", DynVal`zeroMeanTest[{0.1, -0.2, 0.15, -0.05, 0., 0.02}]["df_iid"], 5];
+(* t = 1 with 1 degree of freedom: two-sided p = 1/2 (Cauchy) *)
+check["t p-value, Cauchy", DynVal`Private`tTwoSided[1., 1.], 0.5, near[1.*^-13]];
+(* t = 2 with 2 degrees of freedom: p = 1 - 2/Sqrt[6] *)
+check["t p-value, 2 df", DynVal`Private`tTwoSided[2., 2.], 1. - 2./Sqrt[6.], near[1.*^-13]];
+
+(* ---- autocorrelation and bands *)
+check["acf biased by hand", DynVal`autocorrelation[{1., -1., 1., -1.}, 1, "adjusted" -> False], {1., -0.75}, approx];
+check["acf adjusted by hand", DynVal`autocorrelation[{1., -1., 1., -1.}, 1], {1., -1.}, approx];
+check["acf segments break products", DynVal`autocorrelation[{1., -1., 1., -1.}, 1, "adjusted" -> False, "segments" -> {2, 2}],
+  {1., -0.5}, approx];
+check["lesson residualAutocorrelation", DynVal`residualAutocorrelation[{1., -1., 1., -1.}, 1], {1., -1.}, approx];
+check["acf constant residual", DynVal`autocorrelation[{1., 1., 1.}, 1], {Indeterminate, Indeterminate}];
+check["confidence band n=100", DynVal`confidenceBand[100], 0.1959963984540054, approx];
+
+(* ---- portmanteau tests *)
+check["box_pierce by hand", DynVal`boxPierce[{1., -1., 1., -1.}, 1]["statistic"], {{2.25}}, approx];
+(* chi-square with 2 degrees of freedom: sf(q) = Exp[-q/2] *)
+check["chi2 sf, 2 df", DynVal`Private`chi2SF[3., 2], Exp[-1.5], near[1.*^-13]];
+check["chi2 log sf deep tail, 2 df", DynVal`chi2LogSF[3000., 2], -1500., near[1.*^-13]];
+(* 4 degrees of freedom: sf(q) = Exp[-q/2] (1 + q/2) *)
+check["chi2 log sf deep tail, 4 df", DynVal`chi2LogSF[2000., 4], -1000. + Log[1001.], near[1.*^-13]];
+check["chi2 sf, 4 df, series side", DynVal`Private`chi2SF[1., 4], Exp[-0.5] 1.5, near[1.*^-13]];
+
+(* ---- cross-correlation *)
+check["cross_correlation identical series", DynVal`crossCorrelation[{1., -1., 2., 0.}, {{{1.}}, {{-1.}}, {{2.}}, {{0.}}}, 0]["rho"],
+  {{{1.}}}, approx];
+check["cross_correlation stacked needs n_joints", kindOf[DynVal`crossCorrelation[{1., -1., 2., 0.}, {{1.}, {-1.}, {2.}, {0.}}, 0]],
+  "InvalidShape"];
+
+(* ---- information criteria: the lesson's problem 4 *)
+check["information_criteria aic", DynVal`informationCriteria[10., 1000, 6]["aic"], -4593.170185988091, near[1.*^-12]];
+check["information_criteria aicc p >= n-1", kindOf[DynVal`informationCriteria[1., 3, 2]], "InvalidParameter"];
+check["criteria full exact is -Infinity", DynVal`criteria[{{1., 2.}, {3., 4.}, {5., 7.}}, {{1., 2.}, {3., 4.}, {5., 7.}}, "n_params" -> 1,
+  "noise_model" -> "full"]["aic"], -Infinity];
+
+(* ---- errors, kinds and check order *)
+check["type", kindOf[DynVal`r2[None, {1., 2.}]], "InvalidType"];
+check["type: string", kindOf[DynVal`r2["abc", {1., 2.}]], "InvalidType"];
+check["shape: 0-d", kindOf[DynVal`r2[1., {1., 2.}]], "InvalidShape"];
+check["shape: zero columns", kindOf[DynVal`r2[{{}, {}}, {{}, {}}]], "InvalidShape"];
+check["mismatch", kindOf[DynVal`r2[{1., 2., 3.}, {1., 2.}]], "ShapeMismatch"];
+check["too few", kindOf[DynVal`r2[{1.}, {1.}]], "TooFewSamples"];
+check["non-finite", kindOf[DynVal`r2[{1., Indeterminate}, {1., 2.}]], "NonFiniteInput"];
+check["out of range", kindOf[DynVal`r2[{1., 2.*^144}, {1., 2.}]], "NonFiniteInput"];
+check["non-finite beats parameter", kindOf[DynVal`r2[{1., Infinity}, {1., 2.}, "multioutput" -> "bogus"]], "NonFiniteInput"];
+check["parameter", kindOf[DynVal`r2[{1., 2.}, {1., 2.}, "multioutput" -> "bogus"]], "InvalidParameter"];
+check["parameter message", DynVal`sse[{1., 2.}, {1., 2.}, "multioutput" -> "uniform_average"],
+  DynVal`DynValError["InvalidParameter", "multioutput must be one of 'pooled', 'raw_values' for sse, got 'uniform_average'"]];
+check["boolean is not an integer", kindOf[DynVal`autocorrelation[{1., 2., 3.}, True]], "InvalidParameter"];
+check["integral float is not an integer", kindOf[DynVal`residualVariance[{1., 2., 3.}, "ddof" -> 1.]], "InvalidParameter"];
+check["omit deletes rows", DynVal`sse[{1., Indeterminate, 3.}, {0., 0., 0.}, "nan_policy" -> "omit"], 10., approx];
+check["omit then too few", kindOf[DynVal`r2[{1., Indeterminate}, {1., 2.}, "nan_policy" -> "omit"]], "TooFewSamples"];
+check["segments as starts", DynVal`Private`parseSegments[{0, 500}, 800], {0, 500}];
+check["segments as lengths", DynVal`Private`parseSegments[{500, 300}, 800], {0, 500}];
+
+(* ---- protocol numbers *)
+check["hex read", DynValProtocol`readReal["-0x1.8000000000000p+1"], -3.];
+check["hex read subnormal", DynValProtocol`readReal["0x0.0000000000001p-1022"], 4.940656458412465*^-324];
+check["decimal read", DynValProtocol`readReal["9.4999999999999996e-01"], 0.95];
+check["nan and inf", DynValProtocol`readReal /@ {"NaN", "-nan", "nan(ind)", "Inf", "-infinity"},
+  {Indeterminate, Indeterminate, Indeterminate, Infinity, -Infinity}];
+check["not a number", DynValProtocol`readReal["1,5"], $Failed];
+check["array, hex", DynValProtocol`readArray[{"real", "2", "2", "1", "0x1.0000000000000p+0", "-0x1.4000000000000p+1"}], {{1.}, {-2.5}}];
+check["array, decimal", DynValProtocol`readArray[{"real", "1", "2", "1.0000000000000000e-01", "-2.5000000000000000e+00"}], {0.1, -2.5}];
+(* float.hex of these values, as Python writes them *)
+check["hex write", DynValProtocol`writeReal /@ {1., -2.5, 0.1, 4.940656458412465*^-324, 1.7976931348623157*^308, 0.},
+  {"0x1.0000000000000p+0", "-0x1.4000000000000p+1", "0x1.999999999999ap-4", "0x0.0000000000001p-1022",
+   "0x1.fffffffffffffp+1023", "0x0.0p+0"}];
+(* 0.1 = 0x1999999999999a 2^-56 = 0x33333333333334 2^-57 (Floor[Log2 0.1] - 53 = -57); 3 = 0x30000000000000 2^-52 *)
+check["hex write, list", DynValProtocol`Private`writeReals[{0.1, Indeterminate, 3., -Infinity, 0.}],
+  {"0x33333333333334p-57", "nan", "0x30000000000000p-52", "-inf", "0x0.0p+0"}];
+extremes = {-1.7976931348623157`*^308, 2.2250738585072014`*^-308, 4.940656458412465`*^-324, 0.9999999999999999`, 1.0000000000000002`};
+check["hex write, round trip of the extremes", DynValProtocol`readReal /@ DynValProtocol`Private`writeReals[extremes], extremes];
+check["typed values", DynValProtocol`readValue /@ {"none", "true", "12", "\"raw_values\"", "[1,2]", "\"a%20b\""},
+  {None, True, 12, "raw_values", {1, 2}, "a b"}];
+
+(* ---- report and exit status *)
+failed = Select[$results, ! #[[2]] &];
+Scan[WriteString[First[Streams["stdout"]], "FAILED " <> #[[1]] <> ": got " <> ToString[InputForm[#[[3]]]] <>
+    ", expected " <> ToString[InputForm[#[[4]]]] <> "\n"] &, failed];
+WriteString[First[Streams["stdout"]], ToString[Length[$results] - Length[failed]] <> " passed, " <>
+  ToString[Length[failed]] <> " failed\n"];
+Exit[If[failed === {}, 0, 1]];
