@@ -40,6 +40,12 @@ NOTES: dict[str, dict[str, Any]] = {
         "r2/fit/VAF are -Infinity, or NaN when the prediction is exact (contract §3.2); no sklearn-style clamping.",
         "effect": "Ports that divide by a zero TSS without the rule give +/-inf or NaN at random, or raise.",
     },
+    "LessonLogZero": {
+        "bugType": "KNOWN_DISCREPANCY",
+        "description": "An exact fit reached from data (SSE = 0), as the lesson's code computes it: the criteria "
+        "are -Infinity (fpe 0). The lesson's Wolfram code gives 2p + N Log[0.], which Mathics evaluates to "
+        "4. + Indeterminate.",
+    },
     "InexactConstantMean": {
         "bugType": "KNOWN_DISCREPANCY",
         "description": "A constant target whose float64 mean is not exact (ten values of 0.1): the centred sum of "

@@ -159,4 +159,18 @@ def build() -> Family:
                 f"N = 4, p = {p} >= n - 1: aicc and fpe NaN", ["ParamsNearN"],
                 {"tau_meas": mat(meas), "tau_pred": mat(pred), "n_params": p},
                 {**{k: num(v) for k, v in vals.items()}, "n_obs": nn}, {**tol, "n_obs": 0})
+    # The lesson's own route to an exact fit: 1-D data predicted exactly, pooled. Its Wolfram code
+    # gives 2p + N·Log[0.] = 4. + Indeterminate under Mathics instead of -Infinity.
+    one = [1.0, 2.5, 3.2, 4.1, 4.8, 6.1]
+    rows = [[v] for v in one]
+    vals, tol, nn = criteria_values(rows, rows, 2, "pooled")
+    inputs = {"tau_meas": arr(one, [6]), "tau_pred": arr(one, [6]), "n_params": 2}
+    flags = ["ExactFit", "OneDimensional", "LessonLogZero"]
+    fam.add("criteria", {"noise_model": "pooled", "nan_policy": "raise"},
+            "1-D data predicted exactly (the lesson's route): -Infinity, fpe 0", flags, inputs,
+            {**{k: num(v) for k, v in vals.items()}, "n_obs": nn}, {**tol, "n_obs": 0})
+    for op in ("aic", "bic"):
+        fam.add(op, {"noise_model": "pooled", "nan_policy": "raise"},
+                f"1-D data predicted exactly ({op}): -Infinity", flags, inputs,
+                {"value": num(vals[op])}, {"value": tol[op]})
     return fam
