@@ -370,3 +370,11 @@ def test_real_kuka_repeat_is_a_design_warning_not_a_model_deficiency():
     assert r.deficiencies == []
     assert [f.kind for f in r.findings if f.severity == "design"] == ["repeat_trajectory"]
     assert r.whiteness["decimation"] > 1  # 200 Hz carries motion below a few Hz
+
+
+def test_estimation_regressor_must_match_the_regressor_columns():
+    rng = np.random.default_rng(11)
+    tau = rng.normal(size=(300, 2))
+    with pytest.raises(dynval.ShapeMismatch, match=r"estimation\['regressor'\] must have the p=3 columns"):
+        dynval.validate(tau, tau + 0.1, n_params=2, regressor=rng.normal(size=(300, 2, 3)),
+                        estimation={"regressor": rng.normal(size=(300, 2, 4))})

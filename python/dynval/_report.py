@@ -275,6 +275,10 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
     column_names = v.check_names("column_names", a["column_names"], p_cols or 0, "regressor column")
     q = None if a["q"] is None else v.check_signal_like(a["q"], "q", meas_shape[0], m)
     estimation = v.check_estimation(a["estimation"], m)
+    if estimation is not None and "regressor" in estimation and p_cols is not None \
+            and estimation["regressor"].shape[2] != p_cols:
+        raise v.ShapeMismatch(f"estimation['regressor'] must have the p={p_cols} columns of regressor, got shape "
+                              f"{v.format_shape(np.shape(a['estimation']['regressor']))}")
     thresholds = resolve_thresholds(a["thresholds"])
     detail = v.check_detail(a["cross_correlation_detail"])
     model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
