@@ -381,7 +381,7 @@ def test_set_backend_changes_the_default(monkeypatch):
         monkeypatch.setenv("DYNVAL_BACKEND", "python")
         assert _backend.default_backend() == "python"
         monkeypatch.setenv("DYNVAL_BACKEND", "nope")
-        with pytest.raises(dynval.InvalidParameter, match="^backend must be one of"):
+        with pytest.raises(dynval.InvalidParameter, match=r"^DYNVAL_BACKEND \(environment variable\) must be one of"):
             dynval.rmse([1.0], [2.0])
     finally:
         dynval.set_backend(None)

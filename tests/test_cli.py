@@ -144,11 +144,11 @@ def test_bad_csv_is_an_input_error(tmp_path, capsys, files):
     bad = tmp_path / "bad.csv"
     bad.write_text("a,b\n1,2\n3,x\n")
     code, _, err = run(capsys, "validate", str(bad), files[0]["pred_npy"], "--n-params", "1")
-    assert code == 1 and "non-numeric value 'x'" in err
+    assert code == 1 and f"{bad}: line 3, column 2: 'x' is not a number" in err
     ragged = tmp_path / "ragged.csv"
     ragged.write_text("1,2\n3\n")
     code, _, err = run(capsys, "validate", str(ragged), files[0]["pred_npy"], "--n-params", "1")
-    assert code == 1 and "has 1 values" in err
+    assert code == 1 and "line 2 has 1 values, line 1 has 2" in err
 
 
 @pytest.mark.parametrize("argv", [
@@ -193,3 +193,124 @@ def test_python_dash_m_and_exit_codes():
     done = subprocess.run([sys.executable, "-m", "dynval", "validate", "nothing.npy", "nothing.npy",
                            "--n-params", "1"], capture_output=True, text=True, env=env, timeout=60)
     assert done.returncode == 1 and "nothing.npy: no such file" in done.stderr
+
+
+def _env():
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT / "python")] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+
+
+# A child that imports dynval, says so on stderr and waits for the go-ahead on stdin before running
+# the command line: stdout can then be closed after the import, whatever the import prints.
+_PIPE_CHILD = ("import sys, dynval.cli\n"
+               "sys.stderr.write('ready\\n'); sys.stderr.flush()\n"
+               "sys.stdin.readline()\n"
+               "sys.exit(dynval.cli.main(sys.argv[1:]))\n")
+
+
+def test_a_closed_stdout_ends_quietly_with_the_sigpipe_code(files):
+    # `dynval validate ... | head -1`: the reader goes away before the first write, so the write
+    # fails whatever the size of the output.
+    import threading
+
+    paths = files[0]
+    proc = subprocess.Popen([sys.executable, "-c", _PIPE_CHILD, "validate", paths["meas_npy"], paths["pred_npy"],
+                             "--n-params", "1"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=_env())
+    watchdog = threading.Timer(120, proc.kill)
+    watchdog.start()
+    try:
+        for line in proc.stderr:
+            if line == b"ready\n":
+                break
+        proc.stdout.close()
+        proc.stdin.write(b"go\n")
+        proc.stdin.close()
+        err = proc.stderr.read()
+        proc.wait()
+    finally:
+        watchdog.cancel()
+        proc.stderr.close()
+    assert proc.returncode == 141, err
+    assert err == b""
+
+
+@pytest.mark.parametrize("command", ["validate", "compare"])
+def test_the_segments_examples_of_the_help_parse(command, files, capsys):
+    import re
+
+    code, out, _ = run(capsys, command, "--help")
+    assert code == 0
+    text = " ".join(out.split())
+    help_line = re.search(r"--segments S (.*?) --", text).group(1)
+    examples = re.findall(r"e\.g\. ([^ ,)]+(?:,[^ ,)]+)+)", help_line)
+    assert len(examples) == 2, help_line
+    paths, meas, pred, _ = files
+    for example in examples:   # 200 samples: lengths 150,50 and starts 0,150
+        argv = ["validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1", "--segments", example,
+                "--json"]
+        args = cli.build_parser().parse_args(argv)
+        assert args.segments == [int(v) for v in example.split(",")]
+    assert run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1",
+               "--segments", "150,50")[0] == 0
+    assert run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1",
+               "--segments", "0,150")[0] == 0
+
+
+def test_n_joints_without_a_regressor_is_a_usage_error(files, capsys):
+    paths = files[0]
+    code, out, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1",
+                         "--n-joints", "2")
+    assert code == 2 and out == ""
+    assert "usage: dynval validate" in err and "--n-joints needs --regressor" in err
+    code, _, err = run(capsys, "compare", paths["meas_npy"], "--model", f"a={paths['pred_npy']}:1",
+                       "--n-joints", "2")
+    assert code == 2 and "--n-joints needs --regressor" in err
+
+
+def test_transposed_files_are_refused_unless_allow_wide(tmp_path, capsys):
+    rng = np.random.default_rng(1)
+    meas = rng.normal(size=(6, 50))
+    np.save(tmp_path / "meas.npy", meas)
+    np.save(tmp_path / "pred.npy", meas + rng.normal(scale=0.1, size=meas.shape))
+    argv = ["validate", str(tmp_path / "meas.npy"), str(tmp_path / "pred.npy"), "--n-params", "1"]
+    code, out, err = run(capsys, *argv)
+    assert code == 1 and out == ""
+    assert "TooFewSamples: validate needs at least as many samples as joints (N >= m), got tau_meas of shape " \
+           "(6, 50)" in err
+    assert "transpose them, or pass --allow-wide if N < m is intended" in err
+    code, out, err = run(capsys, *argv, "--allow-wide", "--json")
+    assert code == 0, err
+    assert json.loads(out)["provenance"]["n_joints"] == 50
+    code, _, err = run(capsys, "compare", str(tmp_path / "meas.npy"), "--model", f"a={tmp_path / 'pred.npy'}:1")
+    assert code == 1 and "--allow-wide" in err
+
+
+def test_an_unexpected_error_is_reported_without_a_traceback(files, capsys, monkeypatch):
+    import dynval._report
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(dynval._report, "validate", broken)
+    paths = files[0]
+    argv = ["validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1"]
+    monkeypatch.delenv("DYNVAL_TRACEBACK", raising=False)
+    code, out, err = run(capsys, *argv)
+    assert code == 3 and out == ""
+    assert err.startswith("dynval validate: internal error: RuntimeError: boom (please report it")
+    monkeypatch.setenv("DYNVAL_TRACEBACK", "1")
+    with pytest.raises(RuntimeError, match="boom"):
+        cli.main(argv)
+
+
+def test_running_out_of_memory_is_an_input_error(files, capsys, monkeypatch):
+    import dynval._report
+
+    def too_big(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(dynval._report, "validate", too_big)
+    paths = files[0]
+    code, _, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1")
+    assert code == 1 and err == "dynval validate: error: not enough memory for this input\n"

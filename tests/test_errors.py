@@ -499,3 +499,46 @@ def test_integer_parameters_must_fit_in_int64_in_every_backend(backend, value):
     meas = np.linspace(1.0, 2.0, 20)
     with pytest.raises(dynval.InvalidParameter, match=rf"^n_params must be an integer with n_params >= 0, got {value}$"):
         dynval.criteria(meas, meas + 0.1, n_params=value, backend=backend)
+
+
+# --------------------------------------------------------------------------- N < m (contract §2.2)
+
+
+def test_validate_refuses_fewer_samples_than_joints_unless_allowed(backend):
+    rng = np.random.default_rng(3)
+    wide = rng.normal(size=(6, 40))
+    pred = wide + 0.1
+    message = ("validate needs at least as many samples as joints (N >= m), got tau_meas of shape (6, 40): "
+               "samples are rows and joints columns, so the data look transposed; transpose them, or pass "
+               "allow_wide=True if N < m is intended")
+    with pytest.raises(dynval.TooFewSamples) as info:
+        dynval.validate(wide, pred, n_params=1, backend=backend)
+    assert str(info.value) == message
+    report = dynval.validate(wide, pred, n_params=1, allow_wide=True, backend=backend)
+    assert report.provenance["n_joints"] == 40
+    square = rng.normal(size=(5, 5))
+    assert dynval.validate(square, square + 0.1, n_params=1, backend=backend).provenance["n_samples"] == 5
+
+
+def test_the_wide_check_follows_the_contract_order():
+    wide = np.ones((3, 4))
+    # The N >= 2 minimum comes first; a shape mismatch before both.
+    with pytest.raises(dynval.TooFewSamples, match="at least 2 samples"):
+        dynval.validate(wide[:1], wide[:1], n_params=1)
+    with pytest.raises(dynval.ShapeMismatch):
+        dynval.validate(wide, wide[:, :3], n_params=1)
+    # A bad allow_wide is a parameter error, reported in the parameter step.
+    with pytest.raises(dynval.InvalidParameter, match=r"^allow_wide must be True or False, got 'yes'$"):
+        dynval.validate(np.arange(8.0).reshape(4, 2), np.arange(8.0).reshape(4, 2) + 1, n_params=1,
+                        allow_wide="yes")
+    with pytest.raises(dynval.InvalidParameter, match=r"^allow_wide must be True or False, got 1$"):
+        dynval.validate(wide, wide + 1, n_params=1, allow_wide=1)
+
+
+def test_compare_passes_allow_wide_on():
+    rng = np.random.default_rng(4)
+    wide = rng.normal(size=(8, 12))
+    candidates = {"a": (wide + 0.1, 1), "b": (wide + rng.normal(scale=0.1, size=wide.shape), 2)}
+    with pytest.raises(dynval.TooFewSamples, match="allow_wide=True"):
+        dynval.compare(wide, candidates)
+    assert sorted(dynval.compare(wide, candidates, allow_wide=True, max_lag=2).ranking) == ["a", "b"]

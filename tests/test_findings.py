@@ -207,7 +207,7 @@ def test_regressor_correlation_names_the_strongest_significant_column():
 def test_missing_term_is_named_before_compensating_columns():
     ev = _evidence(xcorr_rho=np.full((2, 3, 2), 0.3), xcorr_sd=np.full((2, 3, 2), 0.01),
                    column_names=["a", "b", "Fc"], missing_columns=[2],
-                   missing_rho=np.array([[0.25], [0.01]]), missing_sd=np.full((2, 1), 0.01),
+                   missing_statistic=np.array([[0.25], [0.01]]), missing_pvalue=np.array([[1e-12], [0.3]]),
                    missing_share=np.array([[0.07], [0.0001]]))
     found = compute_findings(ev)
     first = [f for f in found if f.joints == (0,) and f.kind == "regressor_correlation"]
@@ -378,3 +378,120 @@ def test_estimation_regressor_must_match_the_regressor_columns():
     with pytest.raises(dynval.ShapeMismatch, match=r"estimation\['regressor'\] must have the p=3 columns"):
         dynval.validate(tau, tau + 0.1, n_params=2, regressor=rng.normal(size=(300, 2, 3)),
                         estimation={"regressor": rng.normal(size=(300, 2, 4))})
+
+
+# ---- the estimation run: the parameters' coloured-noise covariance and the refit of a missing term
+
+def test_score_covariance_equals_its_explicit_matrix_form():
+    # X̃ᵀ Γ_u X̃ with X̃ = Bᵀ X (B the AR(1) recolouring matrix, φ^{t−s} below the diagonal) and Γ_u
+    # the Bartlett-tapered Toeplitz autocovariance of u = e − φe₋₁: the FFT convolution and the
+    # backward filter must give the same matrix as the dense algebra.
+    import scipy.linalg
+
+    rng = np.random.default_rng(11)
+    n, p = 80, 3
+    x = rng.normal(size=(n, 1, p)).cumsum(axis=0)
+    e = _ar1(n, 0.8, rng)
+    ours = _stats.score_covariance(x, e)
+    lr = _stats.long_run_variance(e, np.array([0]))
+    phi = lr.phi[0] + (1 + 3 * lr.phi[0]) / n
+    u = e[1:, 0] - phi * e[:-1, 0]
+    lag = max(int(lr.bandwidth[0]), 1)
+    gamma = np.array([u[k:] @ u[:u.size - k] for k in range(lag + 1)]) / u.size
+    gamma *= 1 - np.arange(lag + 1) / (lag + 1)
+    gamma_u = scipy.linalg.toeplitz(np.concatenate([gamma, np.zeros(u.size - lag - 1)]))
+    k = np.arange(u.size)
+    b = np.tril(phi ** (k[:, None] - k[None, :]).clip(0))
+    xt = b.T @ x[1:, 0, :]
+    np.testing.assert_allclose(ours, xt.T @ gamma_u @ xt, rtol=1e-9)
+
+
+def test_parameter_covariance_matches_the_spread_of_estimates_under_coloured_noise():
+    # Least squares with AR(1) noise (ρ = 0.9) and smooth columns: the sandwich variance of π̂
+    # must match the variance of the estimates over replicates within ±25 % (OLS's σ²(XᵀX)⁻¹ is
+    # about (1 + ρ)/(1 − ρ) = 19 times too small here).
+    from dynval import _estimation
+
+    rng = np.random.default_rng(12)
+    n = 3000
+    t = np.arange(n) / 100.0
+    reg = np.stack([np.sin(0.7 * t), np.cos(0.3 * t), np.ones(n)], axis=1)[:, None, :]
+    estimates, variances = [], []
+    for _ in range(150):
+        tau = reg @ np.array([1.0, -2.0, 0.5]) + _ar1(n, 0.9, rng)
+        fit = _estimation.fit_columns(reg, tau, [0, 1, 2])
+        estimates.append(fit.coefficients)
+        variances.append(np.diag(fit.covariance))
+    ratio = np.mean(variances, axis=0) / np.var(estimates, axis=0)
+    assert np.all(np.abs(ratio - 1.0) <= 0.25), ratio
+
+
+def test_missing_term_refit_names_the_column_and_stays_quiet_without_one():
+    from dynval import _estimation
+
+    rng = np.random.default_rng(13)
+    n = 2000
+    def run(shift):
+        t = np.arange(n) / 100.0 + shift
+        return np.stack([np.sin(t), np.sin(2.3 * t), np.cos(0.4 * t)], axis=1)[:, None, :]
+    est, val = run(0.0), run(7.0)
+    for coef_c, expect in ((0.8, True), (0.0, False)):
+        truth = np.array([1.0, 0.5, coef_c])
+        out = _estimation.missing_terms(est, est @ truth + rng.normal(0, 0.3, (n, 1)),
+                                        val, val @ truth + rng.normal(0, 0.3, (n, 1)), [0, 1])
+        assert out["columns"] == [2]
+        if expect:
+            assert out["pvalue"][0] < 1e-10 and out["share"][0, 0] > 0.3
+        else:
+            assert out["pvalue"][0] > 1e-3 and out["share"][0, 0] < 0.01
+
+
+def test_estimation_regressor_and_torque_must_have_the_same_length():
+    rng = np.random.default_rng(14)
+    y = rng.normal(size=(300, 1, 2))
+    tau = y @ np.array([1.0, 2.0]) + rng.normal(size=(300, 1))
+    with pytest.raises(dynval.ShapeMismatch, match="same N"):
+        dynval.validate(tau, y @ np.array([1.0, 2.0]), n_params=2, regressor=y,
+                        estimation={"regressor": y, "tau": tau[:200]})
+
+
+def test_the_estimation_run_widens_the_bias_test_by_the_parameter_error():
+    # Coloured noise, parameters estimated on a short run: with the estimation run the bias test
+    # allows for π̂'s error (its standard error grows), without it the same mean looks significant.
+    rng = np.random.default_rng(15)
+    n = 1500
+    t = np.arange(n) / 100.0
+    y_est = np.stack([np.sin(0.5 * t) + 1.5, np.cos(0.2 * t)], axis=1)[:, None, :]
+    y_val = np.stack([np.sin(0.5 * t + 2) + 1.5, np.cos(0.2 * t + 1)], axis=1)[:, None, :]
+    pi = np.array([1.0, -1.0])
+    tau_est = y_est @ pi + _ar1(n, 0.95, rng)
+    tau_val = y_val @ pi + _ar1(n, 0.95, rng)
+    pi_hat = np.linalg.lstsq(y_est[:, 0], tau_est[:, 0], rcond=None)[0]
+    pred = y_val @ pi_hat
+    without = dynval.validate(tau_val, pred, n_params=2, regressor=y_val, max_lag=20)
+    with_est = dynval.validate(tau_val, pred, n_params=2, regressor=y_val, max_lag=20,
+                               estimation={"regressor": y_est, "tau": tau_est})
+    assert with_est.bias["method"] == "student_t_n_eff_with_parameter_error"
+    assert with_est.bias["standard_error"][0] > 1.2 * without.bias["standard_error"][0]
+    assert with_est.bias["pvalue"][0] > without.bias["pvalue"][0]
+
+
+def test_refit_missing_term_is_one_test_per_column_named_on_the_joints_it_matters_for():
+    # The estimation refit tests a column once (its coefficient); the effect is per joint, so the
+    # deficiency appears only where the term removes ≥ the threshold share of the mean square, and
+    # a joint's bias is attributed to it only when the refit accounts for that joint's mean.
+    ev = _evidence(column_names=["a", "b", "MY1"], missing_columns=[2], missing_method="estimation_refit",
+                   missing_statistic=np.array([14.0]), missing_pvalue=np.array([1e-20]),
+                   missing_share=np.array([[0.4], [0.002]]), missing_explains_bias=np.array([[True], [False]]),
+                   mean=np.array([0.3, 0.05]), rmse=np.array([0.5, 0.5]), bias_statistic=np.array([8.0, 1.0]),
+                   bias_pvalue=np.array([1e-9, 0.3]), n_eff=np.array([300.0, 300.0]))
+    found = compute_findings(ev)
+    missing = [f for f in found if f.kind == "regressor_correlation"]
+    assert [(f.joints, f.columns, f.severity) for f in missing] == [((0,), (2,), "deficiency")]
+    assert "t = +14" in missing[0].message and missing[0].details["method"] == "estimation_refit"
+    bias = [f for f in found if f.kind == "bias"]
+    assert [(f.joints, f.columns) for f in bias] == [((0,), (2,))]
+    assert "MY1" in bias[0].message
+    # The same column significant but not accounting for the mean: the bias is not attributed.
+    ev.missing_explains_bias = np.array([[False], [False]])
+    assert [f.columns for f in compute_findings(ev) if f.kind == "bias"] == [()]

@@ -4,7 +4,7 @@
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "dynval compiled backend: C++17/Eigen kernels of the dynval contract (docs/contract.md §5.1).";
-    m.attr("__version__") = DYNVAL_BINDINGS_VERSION;
+    m.attr("__version__") = DYNVAL_VERSION_STRING;
     m.attr("CONTRACT_VERSION") = DYNVAL_CONTRACT_VERSION;
     m.attr("EIGEN_VERSION") = std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) + "." +
                               std::to_string(EIGEN_MINOR_VERSION);

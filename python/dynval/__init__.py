@@ -52,8 +52,7 @@ from ._report import ValidationReport, validate
 from .identify import IdentificationResult, identify
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 
-__version__ = "0.1.0"
-CONTRACT_VERSION = "1.0"
+from ._version import CONTRACT_VERSION, __version__
 
 __all__ = [
     "__version__",

@@ -32,10 +32,13 @@ def _load_core():
 def backends() -> dict:
     """Backends and whether they can be used.
 
+    Takes no arguments, and never raises.
+
     Returns
     -------
     dict
-        ``{"python": {"available": bool, "detail": str}, "cpp": {...}}``; ``detail`` says
+        ``{"python": {"available": bool, "default": bool, "detail": str}, "cpp": {...}}``;
+        ``default`` marks the backend used when a function gets ``backend=None``; ``detail`` says
         where the backend comes from or why it is unavailable.
 
     Examples
@@ -43,11 +46,27 @@ def backends() -> dict:
     >>> import dynval
     >>> dynval.backends()["python"]["available"]
     True
+    >>> sum(b["default"] for b in dynval.backends().values())
+    1
+
+    An invalid ``DYNVAL_BACKEND`` leaves no default (calls with ``backend=None`` raise
+    InvalidParameter), and ``backends()`` still answers:
+
+    >>> import os
+    >>> from unittest import mock
+    >>> with mock.patch.dict(os.environ, {"DYNVAL_BACKEND": "fortran"}):
+    ...     [b["default"] for b in dynval.backends().values()]
+    [False, False]
     """
     core = _load_core()
+    try:
+        default = default_backend()
+    except Exception:  # an invalid DYNVAL_BACKEND: this function is what one calls to find out why
+        default = None
     return {
-        "python": {"available": True, "detail": "numpy/scipy reference kernels (dynval._reference)"},
-        "cpp": {"available": core is not None, "detail": _state["core_detail"]},
+        "python": {"available": True, "default": default == "python",
+                   "detail": "numpy/scipy reference kernels (dynval._reference)"},
+        "cpp": {"available": core is not None, "default": default == "cpp", "detail": _state["core_detail"]},
     }
 
 
@@ -73,6 +92,10 @@ def set_backend(name) -> None:
         ``"python"`` or ``"cpp"``; ``None`` returns to the default (``DYNVAL_BACKEND``, else
         ``cpp`` when available, else ``python``).
 
+    Returns
+    -------
+    None
+
     Raises
     ------
     InvalidParameter
@@ -82,7 +105,16 @@ def set_backend(name) -> None:
     --------
     >>> import dynval
     >>> dynval.set_backend("python")
+    >>> dynval.backends()["python"]["default"]
+    True
     >>> dynval.set_backend(None)
+
+    An unknown or unavailable backend is refused, and the current choice is kept:
+
+    >>> dynval.set_backend("fortran")
+    Traceback (most recent call last):
+        ...
+    dynval._errors.InvalidParameter: backend must be one of 'python'..., got 'fortran'
     """
     _state["current"] = None if name is None else check_backend(name)
 
@@ -92,7 +124,11 @@ def default_backend() -> str:
     if _state["current"] is None:
         env = os.environ.get("DYNVAL_BACKEND")
         if env:
-            return check_backend(env)
+            names = available()
+            if env not in names:
+                raise parameter_error("DYNVAL_BACKEND (environment variable)",
+                                      "one of " + ", ".join(repr(n) for n in names), env)
+            return env
         return "cpp" if _load_core() is not None else "python"
     return _state["current"]
 

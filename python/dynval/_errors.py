@@ -113,6 +113,13 @@ def error_class(kind: str) -> type[InputError]:
     --------
     >>> error_class("TooFewSamples").__name__
     'TooFewSamples'
+
+    The base class is not a contract kind:
+
+    >>> error_class("InputError")
+    Traceback (most recent call last):
+        ...
+    KeyError: "unknown error kind 'InputError'; expected one of ('InvalidType', ...)"
     """
     try:
         return _CLASSES[kind]

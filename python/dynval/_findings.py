@@ -185,12 +185,15 @@ class Evidence:
     xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
     xcorr_sd: np.ndarray | None = None  # (m, p, L+1)
     xcorr_mask: np.ndarray | None = None  # (m, p)
-    # added-variable correlations of the residual with the columns the model lacks (lag 0)
+    # the columns the model lacks: added-variable correlations on the validation run (statistic ρ,
+    # one test per joint and column, (m, q)) or, with the estimation run, the refit with each added
+    # (statistic the Wald t of its coefficient, one test per column, (q,))
     missing_columns: list | None = None
-    missing_rho: np.ndarray | None = None  # (m, len(missing_columns))
-    missing_sd: np.ndarray | None = None
-    missing_share: np.ndarray | None = None  # share of the residual's mean square each would remove
-    missing_mean_sign: np.ndarray | None = None  # sign of the residual's projection on each (m, q)
+    missing_method: str = "added_variable"
+    missing_statistic: np.ndarray | None = None  # (m, q) or (q,)
+    missing_pvalue: np.ndarray | None = None  # (m, q) or (q,)
+    missing_share: np.ndarray | None = None  # (m, q): share of the validation mean square it removes
+    missing_explains_bias: np.ndarray | None = None  # (m, q) bool: the term accounts for the joint's mean
     # validation design
     repeat: dict | None = None
     excitation: dict | None = None
@@ -215,15 +218,16 @@ def _p_text(p) -> str:
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
     """The column outside the model whose absence best explains joint j's bias, if any.
 
-    A term the model lacks shows as an offset when its part outside the model's columns has a mean
-    of the residual's sign: the uncentred share of the residual's mean square it would remove must
-    reach the missing-term threshold. Descriptive: the bias itself is the tested quantity.
+    A term the model lacks shows as an offset on a new trajectory: the column must account for the
+    joint's mean (``missing_explains_bias``) and remove at least the missing-term share of its mean
+    square. Descriptive: the bias itself is the tested quantity.
     """
-    if ev.missing_share is None or ev.missing_mean_sign is None:
+    if ev.missing_share is None or ev.missing_explains_bias is None:
         return None
     share = np.asarray(ev.missing_share[j], dtype=float)
-    agree = np.asarray(ev.missing_mean_sign[j], dtype=float) * np.sign(ev.mean[j]) > 0
-    ok = np.flatnonzero(agree & (share >= th.missing_term))
+    agree = np.asarray(ev.missing_explains_bias[j], dtype=bool)
+    with np.errstate(invalid="ignore"):
+        ok = np.flatnonzero(agree & (share >= th.missing_term))
     if ok.size == 0:
         return None
     k = int(ok[np.argmax(share[ok])])
@@ -243,8 +247,8 @@ def _tests(ev: Evidence):
         blocks.append(("spectrum", np.asarray(ev.spectrum_pvalue, dtype=float)))
     if ev.xcorr_rho is not None:
         blocks.append(("xcorr", correlation_pvalue(ev.xcorr_rho, ev.xcorr_sd)))
-    if ev.missing_rho is not None:
-        blocks.append(("missing", correlation_pvalue(ev.missing_rho, ev.missing_sd)))
+    if ev.missing_pvalue is not None:
+        blocks.append(("missing", np.asarray(ev.missing_pvalue, dtype=float)))
     return blocks
 
 
@@ -349,14 +353,22 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
     missing_joints: set[int] = set()
     if "missing" in fam:
         p, padj = fam["missing"]
-        rho = np.asarray(ev.missing_rho, dtype=float)
+        stat = np.asarray(ev.missing_statistic, dtype=float)
         share = np.asarray(ev.missing_share, dtype=float)
-        for j in range(rho.shape[0]):
-            sig = [k for k in range(rho.shape[1]) if padj[j, k] <= alpha]
+        per_column = p.ndim == 1  # the estimation refit: one test per column, its effect per joint
+        refit = ev.missing_method == "estimation_refit"
+
+        def at(a, j, k):
+            return a[k] if a.ndim == 1 else a[j, k]
+
+        for j in range(share.shape[0]):
+            sig = [k for k in range(share.shape[1]) if at(padj, j, k) <= alpha]
             if not sig:
                 continue
-            sig.sort(key=lambda k: -share[j, k])
+            sig.sort(key=lambda k: -np.nan_to_num(share[j, k], nan=-np.inf))
             strong = [k for k in sig if share[j, k] >= th.missing_term]
+            if per_column and not strong:
+                continue  # a column that matters on another joint only says nothing about this one
             chosen = strong or sig
             k = chosen[0]
             c = int(ev.missing_columns[k])
@@ -364,20 +376,24 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             if big:
                 deficient_joints.add(j)
                 missing_joints.add(j)
-            listed = "; ".join(f"{_col(cols, ev.missing_columns[kk])} (ρ = {rho[j, kk]:+.3f}, would remove "
+            symbol = "t" if refit else "ρ"
+            listed = "; ".join(f"{_col(cols, ev.missing_columns[kk])} ({symbol} = {at(stat, j, kk):+.3g}, would remove "
                                f"{100 * share[j, kk]:.1f} % of the mean square)" for kk in chosen[:3])
+            how = ("refitted on the estimation run with the term added (Wald t with the coloured-noise "
+                   "covariance; the share is measured on the validation run)" if refit
+                   else "after removing what the model's own columns represent")
             out.append(Finding(
                 kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
-                columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(rho[j, k]),
-                pvalue=float(p[j, k]), pvalue_adjusted=float(padj[j, k]), effect=float(share[j, k]),
+                columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
+                pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(share[j, k]),
                 effect_unit="share of the residual's mean square the term would remove",
                 threshold=th.missing_term,
                 action=(f"add the term {_col(cols, c)} to the model" if big
                         else "none: the term would explain too little to matter"),
-                details={"lag": 0, "rho": float(rho[j, k]), "added_variable": True},
-                message=(f"{_name(names, j)}: the residual correlates with {listed}, terms the model lacks, "
-                         f"after removing what the model's own columns represent (Holm-adjusted p "
-                         f"{_p_text(padj[j, k])})"
+                details={"lag": 0, symbol: float(at(stat, j, k)), "added_variable": True,
+                         "method": ev.missing_method},
+                message=(f"{_name(names, j)}: a term the model lacks explains part of the residual: {listed}; "
+                         f"{how} (Holm-adjusted p {_p_text(at(padj, j, k))})"
                          + (": a missing term." if big else ": significant but negligible."))))
 
     # ---- regressor correlation

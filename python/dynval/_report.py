@@ -15,8 +15,10 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from . import _estimation
 from . import _sections as sec
 from . import _validation as v
+from ._version import CONTRACT_VERSION, __version__
 from ._errors import InputError
 from ._findings import compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
@@ -26,7 +28,6 @@ from ._summary import format_summary
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
 REPORT_SCHEMA_VERSION = 1
-_CONTRACT_VERSION = "1.0"
 
 
 # --------------------------------------------------------------------------- JSON
@@ -141,24 +142,69 @@ class ValidationReport:
     def to_dict(self) -> dict:
         """JSON-ready dictionary: nested lists, non-finite numbers as strings.
 
+        Returns
+        -------
+        dict
+            One key per section (contract §4); arrays become nested lists and nan, inf, -inf
+            the strings ``"NaN"``, ``"Infinity"``, ``"-Infinity"``.
+
         Examples
         --------
         >>> import json, dynval
         >>> r = dynval.validate([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.2, 3.9], n_params=1)
         >>> sorted(r.to_dict())[:3]
-        ['aggregates', 'autocorrelation', 'cross_correlation']
+        ['aggregates', 'autocorrelation', 'bias']
         >>> _ = json.dumps(r.to_dict(), allow_nan=False)
+
+        A constant target predicted exactly: R² is nan and the AIC -inf, written as strings:
+
+        >>> d = dynval.validate([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], n_params=1).to_dict()
+        >>> d["pooled"]["r2"], d["information_criteria"]["aic"]
+        ('NaN', '-Infinity')
         """
         out = {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name != "findings"}
         out["findings"] = [f.to_dict() for f in self.findings]
         return out
 
     def to_json(self, *, indent: int | None = 2) -> str:
-        """The report as strict JSON (no bare NaN/Infinity tokens)."""
+        """The report as strict JSON (no bare NaN/Infinity tokens).
+
+        Parameters
+        ----------
+        indent : int or None
+            Indentation of :func:`json.dumps`; ``None`` writes one line.
+
+        Returns
+        -------
+        str
+            :meth:`to_dict` serialised with ``allow_nan=False``.
+
+        Examples
+        --------
+        >>> import json, dynval
+        >>> r = dynval.validate([2.0, 2.0, 2.0], [1.0, 2.0, 3.0], n_params=1)   # constant target
+        >>> json.loads(r.to_json(indent=None))["per_joint"]["r2"]
+        ['-Infinity']
+        """
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def summary(self) -> str:
-        """Readable text: per-joint table first, then pooled values, criteria and findings."""
+        """Readable text: per-joint table first, then pooled values, criteria and findings.
+
+        Returns
+        -------
+        str
+            Joints and regressor columns counted from 1 unless named (contract §2.3).
+
+        Examples
+        --------
+        >>> import dynval
+        >>> r = dynval.validate([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], n_params=1)   # constant target
+        >>> print(r.summary())
+        dynval validation report — profile 'lesson'
+        ...
+          - [note] joint 1: the measured torque is constant, so R², fit and VAF compare against nothing ...
+        """
         return format_summary(self)
 
     def __str__(self) -> str:
@@ -182,7 +228,7 @@ def _backend_kernel(backend):
     return kernel, name
 
 
-def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy):
+def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allow_wide=False):
     """Type, shape, size and finiteness checks (the data half of the contract's order)."""
     meas0 = v.to_float_array(tau_meas, "tau_meas")
     pred0 = v.to_float_array(tau_pred, "tau_pred")
@@ -197,6 +243,7 @@ def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy):
         p = v.regressor_shape(reg0, "tau_meas", n, m, n_joints)
 
     v.check_min_samples("validate", n)
+    v.check_orientation("validate", "tau_meas", meas0.shape, allow_wide)
 
     reg2 = None if reg0 is None else v.regressor_to_2d(reg0, n, m, p)
     omitted = 0
@@ -279,9 +326,14 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
             and estimation["regressor"].shape[2] != p_cols:
         raise v.ShapeMismatch(f"estimation['regressor'] must have the p={p_cols} columns of regressor, got shape "
                               f"{v.format_shape(np.shape(a['estimation']['regressor']))}")
+    if estimation is not None and "regressor" in estimation and "tau" in estimation \
+            and estimation["regressor"].shape[0] != estimation["tau"].shape[0]:
+        raise v.ShapeMismatch(f"estimation['regressor'] and estimation['tau'] must have the same N, got "
+                              f"{estimation['regressor'].shape[0]} and {estimation['tau'].shape[0]} samples")
     thresholds = resolve_thresholds(a["thresholds"])
     detail = v.check_detail(a["cross_correlation_detail"])
     model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
+    v.check_allow_wide(a["allow_wide"])
     return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
                     sample_rate, decimate, joint_names, column_names, q, estimation, thresholds, detail,
                     model_columns)
@@ -290,7 +342,8 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
 def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
              level=None, profile="lesson", segments=None, nan_policy="raise", backend=None,
              noise_model=None, sample_rate=None, decimate="auto", joint_names=None, column_names=None,
-             q=None, estimation=None, thresholds=None, cross_correlation_detail="top", model_columns=None):
+             q=None, estimation=None, thresholds=None, cross_correlation_detail="top", model_columns=None,
+             allow_wide=False):
     """Validate predicted joint torques against measured ones: every metric, findings, one report.
 
     Parameters
@@ -344,6 +397,9 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         The regressor columns the model contains (indices, or names from `column_names`). The
         other columns are then tested as candidate missing terms: the residual against the part of
         each that the model's columns cannot represent (added-variable correlation).
+    allow_wide : bool
+        Accept fewer samples than joints (N < m). Without it such data are taken for a transposed
+        array (samples are rows) and refused with TooFewSamples.
 
     Returns
     -------
@@ -355,7 +411,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
         sample_rate, decimate, joint_names, column_names, q, estimation, thresholds,
-        cross_correlation_detail, model_columns.
+        cross_correlation_detail, model_columns, allow_wide.
 
     Notes
     -----
@@ -374,16 +430,28 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     (2,)
     >>> round(report.pooled["rmse_per_sample"] / report.pooled["rmse_per_element"], 6)
     1.414214
+
+    A constant joint gives ``-inf`` (``nan`` when predicted exactly) in the IEEE profiles, and
+    0.0 (1.0) with ``profile="sklearn"`` (scikit-learn's ``force_finite``; contract §3.2, §4):
+
+    >>> tau = [[1.0, 2.0], [2.0, 2.0], [3.0, 2.0], [4.0, 2.0]]        # joint 2 is constant
+    >>> pred = [[1.1, 1.5], [1.9, 1.5], [3.2, 1.5], [3.9, 1.5]]
+    >>> dynval.validate(tau, pred, n_params=1).per_joint["r2"]
+    array([0.986, -inf])
+    >>> dynval.validate(tau, pred, n_params=1, profile="sklearn").per_joint["r2"]
+    array([0.986, 0.   ])
+    >>> dynval.validate(tau, tau, n_params=1, profile="sklearn").per_joint["r2"]
+    array([1., 1.])
     """
     seg_names, segments = v.named_segments(segments)
     meas, pred, reg2, p_cols, starts, omitted, reg0 = _prepare(
-        tau_meas, tau_pred, regressor, n_joints, segments, nan_policy)
+        tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allow_wide)
     n, m = meas.shape
     args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
                 decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
                 estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
-                model_columns=model_columns)
+                model_columns=model_columns, allow_wide=allow_wide)
     try:
         o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
             v.to_float_array(tau_meas, "tau_meas"), "tau_meas")))
@@ -407,7 +475,17 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
                  "ddof": prof.ddof, "zero_mean_test": zmt}
-    bias = sec.bias_test(e, starts, per_joint["rmse"]) if lagged else None
+    # The estimation run, when given with its torques: the parameters' coloured-noise covariance
+    # (the bias and regressor tests allow for it) and the refit that names a missing term.
+    est_fit = None
+    est = o.estimation or {}
+    if reg3 is not None and e is not None and "regressor" in est and "tau" in est:
+        est_fit = _estimation.fit_columns(est["regressor"], est["tau"],
+                                          o.model_columns if o.model_columns is not None else range(p_cols))
+    param_var = None
+    if est_fit is not None:
+        param_var = _estimation.quadratic_forms(est_fit, reg3[:, :, list(est_fit.columns)].mean(axis=0))
+    bias = sec.bias_test(e, starts, per_joint["rmse"], param_var) if lagged else None
     n_eff = None if bias is None else bias["n_eff"]
     ic = sec.information_criteria(km, prof, o.noise_model, n, m, o.n_params, n_eff)
 
@@ -425,11 +503,16 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     if reg2 is not None:
         cross, xrho, xsd = sec.cross_correlation(kernel, e, reg2, p_cols, o.max_lag, prof, o.level, starts, n, m,
                                                  n_eff, o.detail)
+        if est_fit is not None:
+            xsd = sec.parameter_error_sd(xrho, xsd, e, reg3, est_fit, starts, prof, o.level)
+            cross["parameter_error"] = True
         if o.model_columns is not None and e is not None:
-            missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
+            if est_fit is not None:
+                missing = _estimation.missing_terms(est["regressor"], est["tau"], reg3, meas, o.model_columns)
+            else:
+                missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
             if missing is not None:
-                cross["missing_terms"] = {"columns": missing[0], "rho": missing[1], "sd": missing[2],
-                                          "share": missing[3]}
+                cross["missing_terms"] = {k: v for k, v in missing.items()}
     design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance)
     seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
                                        v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
@@ -471,8 +554,8 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         "sample_rate": o.sample_rate,
         "thresholds": dict(vars(o.thresholds)) if hasattr(o.thresholds, "__dict__") else None,
         "backend": o.backend_name,
-        "dynval_version": _version(),
-        "contract_version": _CONTRACT_VERSION,
+        "dynval_version": __version__,
+        "contract_version": CONTRACT_VERSION,
         "report_schema_version": REPORT_SCHEMA_VERSION,
     }
     ev = sec.evidence(n=n, m=m, level=o.level, names=o.joint_names, per_joint=per_joint, pooled=pooled,
@@ -486,15 +569,6 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
         warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
         spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics)
-
-
-def _version() -> str:
-    try:
-        from . import __version__
-
-        return str(__version__)
-    except ImportError:  # pragma: no cover - only while the package is half-built
-        return "unknown"
 
 
 def _as_dict(result) -> dict:

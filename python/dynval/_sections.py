@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from . import _stats
+from . import _estimation, _stats
 from ._findings import Evidence
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
@@ -94,22 +94,65 @@ def iid_zero_mean_test(km, n, ddof):
             "n_eff": None, "bandwidth": None}
 
 
-def bias_test(e, starts, rmse):
+def bias_test(e, starts, rmse, parameter_variance=None):
     """The residual mean against its coloured-noise standard error (automatic long-run variance).
 
     Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
-    of :func:`dynval._stats.long_run_variance`; effect = |ē_j| / RMSE_j.
+    of :func:`dynval._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
+    (m,), from the estimation run, is the variance the mean gets from the estimated parameters
+    (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
     """
     lr = _stats.long_run_variance(e, starts)
     mean = e.mean(axis=0)
     n = e.shape[0]
     std = np.sqrt(lr.variance * n / max(n - 1, 1))
-    t, p = _stats.iid_t_test(mean, std, lr.n_eff)
+    noise_var = std**2 / lr.n_eff
+    total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
+    # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
+    t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
     with np.errstate(invalid="ignore", divide="ignore"):
         effect = np.abs(mean) / np.asarray(rmse, dtype=float)
-    return {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
-            "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
-            "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE"}
+    out = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
+           "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
+           "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
+           "standard_error": np.sqrt(total_var)}
+    if parameter_variance is not None:
+        out["method"] = "student_t_n_eff_with_parameter_error"
+        out["parameter_standard_error"] = np.sqrt(parameter_variance)
+    return out
+
+
+def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
+    """Widen the residual × regressor standard deviations by the estimated parameters' error.
+
+    The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
+    cross-covariance with column c at lag ℓ holds Σ_k δ_k R̂_{Y_k Y_c}(ℓ), of variance gᵀ Cov(π̂) g.
+    Only cells with a raw p-value ≤ α are recomputed: the others cannot be rejected by Holm and
+    only grow. Returns the new sd (m, p, L+1).
+    """
+    alpha = 1.0 - level
+    p_raw = _stats.correlation_pvalue(rho, sd)
+    cells = np.argwhere(p_raw <= alpha)
+    if cells.size == 0:
+        return sd
+    n = e.shape[0]
+    sd = sd.copy()
+    lengths = np.diff(np.append(starts, n))
+    cols = list(fit.columns)
+    ec = e - e.mean(axis=0)
+    yc = reg3 - reg3.mean(axis=0)
+    var_e = np.einsum("nm,nm->m", ec, ec) / n
+    var_y = np.einsum("nmp,nmp->mp", yc, yc) / n
+    for j, lag in {(int(j), int(lag)) for j, _, lag in cells}:
+        which = [int(c) for jj, c, ll in cells if jj == j and ll == lag]
+        cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
+        n_pairs = float(np.maximum(lengths - lag, 0).sum())
+        denom = n_pairs if prof.adjusted else float(n)
+        g = (cur[:, cols].T @ prev[:, which]).T / denom  # (len(which), k)
+        extra = _estimation.quadratic_forms(fit, g)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
+    return sd
 
 
 def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
@@ -326,10 +369,13 @@ def added_variable(e, reg3, model_columns, starts, n_eff):
         share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
                                                       * np.einsum("nmq,nmq->mq", z, z))
     share = np.where(np.isnan(rho), np.nan, share)
-    # The direction in which the term would move the residual's mean: sign of b·z̄, b = eᵀz/zᵀz.
+    # The term accounts for the residual's mean when it would move it towards zero: sign(b·z̄) = sign(ē),
+    # b = eᵀz/zᵀz.
     with np.errstate(invalid="ignore", divide="ignore"):
         sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
-    return outside, rho, sd, share, sign
+    explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
+    return {"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
+            "pvalue": _stats.correlation_pvalue(rho, sd), "share": share, "explains_bias": explains}
 
 
 def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
@@ -384,7 +430,9 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
     if design is not None:
         ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
     if missing is not None:
-        ev.missing_columns, ev.missing_rho, ev.missing_sd, ev.missing_share, ev.missing_mean_sign = missing
+        ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
+        ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
+        ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
     return ev
 
 

@@ -26,6 +26,7 @@ __all__ = [
     "long_run_variance",
     "bartlett_long_run_variance",
     "andrews_bandwidth",
+    "score_covariance",
     "cross_correlation_sd",
     "correlation_pvalue",
     "Spectrum",
@@ -207,6 +208,40 @@ def long_run_variance(e, starts) -> LongRunVariance:
     n_eff = np.where(np.isfinite(n_eff) & (variance > 0), np.clip(n_eff, 2.0, float(n)), float(n))
     return LongRunVariance(variance=variance, long_run_variance=lrv, n_eff=n_eff, phi=phi,
                            bandwidth=bandwidth)
+
+
+def score_covariance(x, e, starts=None) -> np.ndarray:
+    """Var(Σ_k Σ_j x_kj e_kj) for fixed columns x (N, m, p) and a coloured noise e (N, m).
+
+    Σ_j X_jᵀ Γ_j X_j, Γ_j the covariance matrix of joint j's noise, estimated as
+    :func:`long_run_variance` does for a mean, by prewhitening (Andrews & Monahan 1992): with
+    u = e − φ̂ e₋₁, Γ = (I − φ̂L)⁻¹ Γ_u (I − φ̂L)⁻ᵀ, so XᵀΓX = X̃ᵀ Γ_u X̃ with X̃ the columns run
+    backwards through the AR(1) filter 1/(1 − φ̂z) (``scipy.signal.lfilter``), and Γ_u the
+    Toeplitz matrix of u's biased autocovariances with Bartlett weights 1 − |ℓ|/(L + 1) and
+    Andrews' (1991) bandwidth L (positive semi-definite). Γ_u X̃ is one FFT convolution per column.
+    This is the "meat" of the least-squares sandwich (XᵀX)⁻¹ · this · (XᵀX)⁻¹ when the regressor
+    is a known function of the trajectory and only the noise is random; joints are taken as
+    uncorrelated with each other. One segment.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    e = np.asarray(e, dtype=np.float64)
+    n, m, p = x.shape
+    out = np.zeros((p, p))
+    if n < 3:
+        return np.einsum("nmp,nm,nmq->pq", x, e**2, x)
+    lr = long_run_variance(e, np.array([0]))
+    for j in range(m):
+        # Kendall's (1954) first-order bias correction of the AR(1) estimate: near φ = 1 the
+        # recolouring 1/(1 − φ)² is very sensitive to φ̂'s downward bias of about (1 + 3φ)/N.
+        phi = float(np.clip(lr.phi[j] + (1.0 + 3.0 * lr.phi[j]) / n, -0.999, 0.999))
+        u = e[1:, j] - phi * e[:-1, j]
+        lag = int(min(max(int(lr.bandwidth[j]), 1), u.size - 1))
+        gamma = acf_fft(u[:, None], np.array([0]), lag, centre=False)[:, 0] * (u @ u / u.size)
+        g = np.nan_to_num(gamma) * (1.0 - np.arange(lag + 1) / (lag + 1.0))
+        xt = scipy.signal.lfilter([1.0], [1.0, -phi], x[::-1, j, :], axis=0)[::-1][1:]
+        kernel = np.concatenate([g[:0:-1], g])[:, None]
+        out += xt.T @ scipy.signal.fftconvolve(xt, kernel, mode="same", axes=0)
+    return 0.5 * (out + out.T)
 
 
 def cross_correlation_sd(rho_e, rho_y, n_lag, d_lag, n: int) -> np.ndarray:

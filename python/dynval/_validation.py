@@ -174,6 +174,30 @@ def check_min_samples(function: str, n: int, minimum: int | None = None) -> None
         raise TooFewSamples(f"{function} needs at least {k} samples, got N={n}")
 
 
+def check_orientation(function: str, name: str, shape, allow_wide) -> None:
+    """Refuse fewer samples than joints (N < m) unless ``allow_wide`` (contract §2.2).
+
+    Samples are rows, so (6, 5000) is almost always a transposed array, whose report would be
+    thousands of lines of nonsense. A value of ``allow_wide`` that is not True or False cannot
+    decide here; it is reported by :func:`check_allow_wide` in the parameter step.
+    """
+    if len(shape) != 2 or shape[0] >= shape[1]:
+        return
+    if not isinstance(allow_wide, (bool, np.bool_)) or allow_wide:
+        return
+    raise TooFewSamples(
+        f"{function} needs at least as many samples as joints (N >= m), got {name} of shape "
+        f"{format_shape(shape)}: samples are rows and joints columns, so the data look transposed; "
+        "transpose them, or pass allow_wide=True if N < m is intended")
+
+
+def check_allow_wide(value) -> bool:
+    """``allow_wide`` is exactly True or False (numpy bools too)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise parameter_error("allow_wide", "True or False", value)
+    return bool(value)
+
+
 # --------------------------------------------------------------------------- finiteness
 
 

@@ -9,148 +9,34 @@ Subcommands:
 * ``dynval demo`` — the embedded demonstration (a simulated 2-DOF arm), no input needed;
 * ``dynval conform`` — the conformance runner for ports (see ``dynval conform --help``).
 
-Exit codes: 0 success, 1 input error (bad file, or an error of the dynval contract, with the
-message on stderr), 2 usage error.
+Exit codes (contract §7): 0 success, 1 input error (a file refused, or an error of the dynval
+contract, with the message on stderr), 2 usage error, 3 internal error, 130 interrupted, 141 the
+reader of standard output went away (``dynval validate ... | head -1``).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import os
+import re
 import sys
 
-import numpy as np
-
 from ._errors import InputError
+from ._files import FileInputError, load_array, read_table
 from ._profiles import PROFILE_NAMES
 
-__all__ = ["main", "load_array", "build_parser"]
+__all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
-EXIT_OK, EXIT_INPUT, EXIT_USAGE = 0, 1, 2
-
-
-class FileInputError(Exception):
-    """A data file cannot be read as a numeric array (exit code 1)."""
-
-
-# --------------------------------------------------------------------------- loading
-
-
-def _split_key(spec: str):
-    """``file.npz:key`` → (``file.npz``, ``key``); anything else → (spec, None)."""
-    head, sep, tail = spec.rpartition(":")
-    if sep and head.lower().endswith(".npz") and tail and not os.path.exists(spec):
-        return head, tail
-    return spec, None
-
-
-def _load_npy(path: str) -> np.ndarray:
-    try:
-        return np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        if "allow_pickle" in str(exc) or "pickle" in str(exc).lower():
-            raise FileInputError(f"{path}: holds pickled Python objects, which dynval refuses to load; "
-                                 "save a plain numeric array (numpy.save of a float array)") from None
-        raise FileInputError(f"{path}: not a readable .npy file ({exc})") from None
-
-
-def _load_npz(path: str, key: str | None) -> np.ndarray:
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            names = list(archive.files)
-            if not names:
-                raise FileInputError(f"{path}: the archive holds no array")
-            if key is None:
-                key = names[0]
-            elif key not in names:
-                raise FileInputError(f"{path}: no array named {key!r}; the archive holds "
-                                     + ", ".join(repr(n) for n in names))
-            return archive[key]
-    except ValueError as exc:
-        if "pickle" in str(exc).lower():
-            raise FileInputError(f"{path}: array {key!r} holds pickled Python objects, which dynval "
-                                 "refuses to load; save plain numeric arrays") from None
-        raise FileInputError(f"{path}: not a readable .npz file ({exc})") from None
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _load_csv(path: str) -> np.ndarray:
-    with open(path, newline="", encoding="utf-8-sig") as handle:
-        text = handle.read()
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        raise FileInputError(f"{path}: no data rows")
-    sample = "\n".join(lines[:20])
-    try:
-        delimiter = csv.Sniffer().sniff(sample, delimiters=",;\t ").delimiter
-    except csv.Error:
-        delimiter = ","  # one column: no delimiter to find
-    reader = csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter, skipinitialspace=True)
-    rows = [[cell.strip() for cell in row if cell.strip() != ""] for row in reader]
-    rows = [r for r in rows if r]
-    if rows and not all(_is_number(c) for c in rows[0]):
-        rows = rows[1:]  # a header row
-    if not rows:
-        raise FileInputError(f"{path}: no data rows after the header")
-    width = len(rows[0])
-    for i, row in enumerate(rows):
-        if len(row) != width:
-            raise FileInputError(f"{path}: data row {i + 1} has {len(row)} values, the first has {width}")
-        for cell in row:
-            if not _is_number(cell):
-                raise FileInputError(f"{path}: data row {i + 1} holds a non-numeric value {cell!r}")
-    data = np.array([[float(c) for c in row] for row in rows], dtype=np.float64)
-    return data[:, 0] if width == 1 else data
-
-
-def load_array(spec: str) -> np.ndarray:
-    """Load one numeric array from ``.npy``, ``.npz`` (``file.npz:key``, else the first array)
-    or ``.csv`` (delimiter sniffed, one header row allowed).
-
-    Pickled objects are refused. Raises :class:`FileInputError` with a message naming the file.
-
-    Examples
-    --------
-    >>> import numpy as np, tempfile, os
-    >>> path = os.path.join(tempfile.mkdtemp(), "tau.csv")
-    >>> with open(path, "w") as handle:
-    ...     _ = handle.write("j1,j2\\n1,2\\n3,4\\n")
-    >>> load_array(path).tolist()
-    [[1.0, 2.0], [3.0, 4.0]]
-    """
-    path, key = _split_key(spec)
-    lower = path.lower()
-    if lower.endswith((".pkl", ".pickle")):
-        raise FileInputError(f"{path}: pickle files are refused (they can run arbitrary code); "
-                             "use .npy, .npz or .csv")
-    if not os.path.exists(path):
-        raise FileInputError(f"{path}: no such file")
-    if os.path.isdir(path):
-        raise FileInputError(f"{path}: is a directory, not a data file")
-    try:
-        if lower.endswith(".npy"):
-            return _load_npy(path)
-        if lower.endswith(".npz"):
-            return _load_npz(path, key)
-        if lower.endswith((".csv", ".txt", ".tsv")):
-            return _load_csv(path)
-    except OSError as exc:
-        raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise FileInputError(f"{path}: not a text file") from None
-    raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key) or .csv")
+EXIT_OK, EXIT_INPUT, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130  # 128 + SIGINT
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: what the shell sees of a program the closed pipe killed
 
 
 # --------------------------------------------------------------------------- parser
+
+
+# The help shows the accepted forms literally; tests parse its examples.
+SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or starts beginning at 0 (e.g. 0,500)"
 
 
 def _segments_arg(text: str):
@@ -158,10 +44,15 @@ def _segments_arg(text: str):
         values = [int(v) for v in text.replace(";", ",").split(",") if v.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated integers (lengths 500,300 or starts 0,500), got {text!r}") from None
+            f"expected comma-separated integers: lengths such as 500,300 or starts such as 0,500, got {text!r}"
+        ) from None
     if not values:
         raise argparse.ArgumentTypeError("expected at least one integer")
     return values
+
+
+_EXIT_CODES = ("Exit codes: 0 success, 1 input error (message on stderr), 2 usage error, 3 internal error, "
+               "141 output pipe closed (contract §7).")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -172,21 +63,23 @@ def build_parser() -> argparse.ArgumentParser:
         prog="dynval",
         description="Validation metrics for identified robot dynamic models (tau = Y pi + e): "
                     "RMSE, VAF, fit, R², residual whiteness, regressor cross-correlation, AIC/BIC.",
-        epilog="Exit codes: 0 success, 1 input error, 2 usage error.")
+        epilog="Exit codes: 0 success, 1 input error, 2 usage error, 3 internal error, "
+               "141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
         description="Validate predicted joint torques against measured ones and print the report. "
-                    "Files: .npy, .npz (file.npz:key, else the first array) or .csv (delimiter "
-                    "sniffed, one header row allowed); pickles are refused.",
-        epilog="Exit codes: 0 success, 1 input error (message on stderr), 2 usage error.")
+                    "Files: .npy, .npz (file.npz:key, else the first array) or .csv (tab, ';', ',' or "
+                    "whitespace; a first line without any number is a header); pickles are refused.",
+        epilog=_EXIT_CODES)
     val.add_argument("meas", metavar="MEAS", help="measured torques, (N,) or (N, m)")
     val.add_argument("pred", metavar="PRED", help="predicted torques, same shape as MEAS")
     val.add_argument("--n-params", type=int, required=True, metavar="P",
                      help="number of identified parameters (required: there is no default)")
     _add_report_options(val)
+    val.set_defaults(subparser=val)
 
     cmp = sub.add_parser(
         "compare", help="compare candidate models: table, ranking and decision",
@@ -195,7 +88,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "flowchart: accept, refine (which term, from which evidence) or redesign the experiment.",
         epilog="Example: dynval compare tau.npy --model rigid=rigid.npy:10 --model friction=fric.npy:14 "
                "--regressor Y_full.npy --sample-rate 200 --estimation q=q_est.npy --q q_val.npy. "
-               "Exit codes: 0 success, 1 input error (message on stderr), 2 usage error.")
+               + _EXIT_CODES)
     cmp.add_argument("meas", metavar="MEAS", help="measured torques of the validation run, (N,) or (N, m)")
     cmp.add_argument("--model", action="append", required=True, metavar="NAME=PRED:P", type=_model_arg,
                      help="a candidate: its name, its predicted torques (file) and its number of parameters "
@@ -203,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--criterion", default="aic", choices=("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"),
                      help="criterion of the ranking and the Akaike weights (default aic, the lesson's)")
     _add_report_options(cmp)
+    cmp.set_defaults(subparser=cmp)
 
     demo = sub.add_parser("demo", help="simulate, identify and validate a 2-DOF arm (no input needed)")
     from .demo import build_parser as build_demo_parser
@@ -257,8 +151,7 @@ def _add_report_options(sub) -> None:
                      help="confidence level of bands and findings, 0 < X < 1 (default: the profile's)")
     sub.add_argument("--profile", default="lesson", choices=PROFILE_NAMES,
                      help="convention profile (default lesson)")
-    sub.add_argument("--segments", type=_segments_arg, metavar="S",
-                     help="independent records: lengths (500,300) or starts (0,500)")
+    sub.add_argument("--segments", type=_segments_arg, metavar="S", help=SEGMENTS_HELP)
     sub.add_argument("--nan-policy", default="raise", choices=("raise", "omit"),
                      help="raise on NaN/inf, or omit those rows (default raise)")
     sub.add_argument("--noise-model", choices=("pooled", "per_joint", "full"),
@@ -272,6 +165,9 @@ def _add_report_options(sub) -> None:
     sub.add_argument("--q", metavar="FILE", help="joint positions of the validation run (N, m)")
     sub.add_argument("--estimation", action="append", type=_key_file_arg, metavar="KEY=FILE",
                      help="the estimation run (repeatable): q=FILE, regressor=FILE, tau=FILE")
+    sub.add_argument("--allow-wide", action="store_true",
+                     help="accept fewer samples than joints (N < m); without it such data are taken for "
+                          "transposed and refused")
     sub.add_argument("--backend", default=None, help="computation backend: python or cpp")
     sub.add_argument("--json", action="store_true", help="print the report as JSON")
     sub.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
@@ -287,7 +183,44 @@ def _error(command: str, message: str) -> int:
     return EXIT_INPUT
 
 
-def _report_options(args) -> dict:
+def _check_combinations(args) -> None:
+    """Option combinations argparse cannot express: usage errors (exit 2)."""
+    if args.n_joints is not None and args.regressor is None:
+        args.subparser.error("--n-joints needs --regressor: it gives the joints m of a stacked (N*m, p) regressor")
+
+
+def _load(path: str, name: str, sources: dict):
+    """Read one array; remember where ``name`` came from, to locate errors in the file."""
+    table = read_table(path)
+    sources[name] = (path, table.lines)
+    return table.data
+
+
+_AT_ROW = re.compile(r"^(\w+) has .* at row (\d+), column (\d+)")
+
+
+def _file_position(message: str, sources: dict) -> str:
+    """`` (meas.csv line 12, column 1)`` when an API error points into an array read from CSV.
+
+    API errors count rows and columns from 0, files from 1 and by physical line (contract §2.3).
+    """
+    match = _AT_ROW.match(message)
+    if not match or match.group(1) not in sources:
+        return ""
+    path, lines = sources[match.group(1)]
+    row, column = int(match.group(2)), int(match.group(3))
+    if lines is None or row >= len(lines):
+        return ""
+    return f" ({path} line {int(lines[row])}, column {column + 1})"
+
+
+def _contract_error(command: str, exc: InputError, sources: dict) -> int:
+    """Report an error of the dynval contract, worded for the command line."""
+    message = str(exc).replace("pass allow_wide=True", "pass --allow-wide")
+    return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}")
+
+
+def _report_options(args, sources: dict) -> dict:
     """Load the shared files and collect the shared keywords (FileInputError on a bad file)."""
     est = None
     if args.estimation:
@@ -296,7 +229,8 @@ def _report_options(args) -> dict:
                 max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
                 nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
                 sample_rate=args.sample_rate, decimate=args.decimate, joint_names=args.joint_names,
-                column_names=args.column_names, q=load_array(args.q) if args.q else None, estimation=est)
+                column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
+                estimation=est, allow_wide=args.allow_wide)
 
 
 def _emit(command: str, args, text: str) -> int:
@@ -329,16 +263,17 @@ def _write_html(command: str, args, obj, **data) -> int:
 def _run_validate(args) -> int:
     from ._report import validate
 
+    sources: dict = {}
     try:
-        meas = load_array(args.meas)
-        pred = load_array(args.pred)
-        options = _report_options(args)
+        meas = _load(args.meas, "tau_meas", sources)
+        pred = _load(args.pred, "tau_pred", sources)
+        options = _report_options(args, sources)
     except FileInputError as exc:
         return _error("validate", str(exc))
     try:
         report = validate(meas, pred, n_params=args.n_params, **options)
     except InputError as exc:
-        return _error("validate", f"{type(exc).__name__}: {exc}")
+        return _contract_error("validate", exc, sources)
     code = _write_html("validate", args, report, tau_meas=meas, tau_pred=pred)
     return code if code else _emit("validate", args, report.to_json() if args.json else report.summary())
 
@@ -349,17 +284,19 @@ def _run_compare(args) -> int:
     names = [name for name, _, _ in args.model]
     if len(set(names)) != len(names):
         return _error("compare", f"candidate names must be distinct, got {names}")
+    sources: dict = {}
     try:
-        meas = load_array(args.meas)
+        meas = _load(args.meas, "tau_meas", sources)
+        # Each candidate's prediction is tau_pred in turn: its errors are not located in a file.
         candidates = {name: (load_array(path), p) for name, path, p in args.model}
-        options = _report_options(args)
+        options = _report_options(args, sources)
     except FileInputError as exc:
         return _error("compare", str(exc))
     regressor = options.pop("regressor")
     try:
         cmp = compare(meas, candidates, criterion=args.criterion, regressor=regressor, **options)
     except InputError as exc:
-        return _error("compare", f"{type(exc).__name__}: {exc}")
+        return _contract_error("compare", exc, sources)
     code = _write_html("compare", args, cmp, tau_meas=meas, tau_pred={n: c[0] for n, c in candidates.items()})
     return code if code else _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
@@ -367,12 +304,52 @@ def _run_compare(args) -> int:
 def main(argv=None) -> int:
     """Run the ``dynval`` command line; returns the exit code.
 
+    No traceback reaches the user: a closed output pipe ends quietly (141), Ctrl-C gives 130,
+    running out of memory is an input error (1) and anything else is reported as an internal
+    error (3; ``DYNVAL_TRACEBACK=1`` shows the traceback).
+
     Examples
     --------
     >>> main(["--version"])  # doctest: +SKIP
     dynval 0.1.0
     """
     argv = list(sys.argv[1:] if argv is None else argv)
+    command = argv[0] if argv and argv[0] in ("validate", "compare", "demo", "conform") else None
+    prefix = f"dynval {command}" if command else "dynval"
+    try:
+        code = _dispatch(argv)
+        sys.stdout.flush()  # a closed pipe shows here for output still buffered
+        return code
+    except BrokenPipeError:
+        _discard_stdout()
+        return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except MemoryError:
+        print(f"{prefix}: error: not enough memory for this input", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as exc:
+        if os.environ.get("DYNVAL_TRACEBACK"):
+            raise
+        print(f"{prefix}: internal error: {type(exc).__name__}: {exc} (please report it; "
+              "DYNVAL_TRACEBACK=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def _discard_stdout() -> None:
+    """After EPIPE, send what is left of standard output to devnull.
+
+    Python flushes stdout at exit; without this the flush fails again and prints a traceback.
+    """
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout replaced by an object without a descriptor
+        pass
+
+
+def _dispatch(argv: list) -> int:
     if argv and argv[0] == "conform":
         # The conformance runner parses its own arguments.
         from .conform import main as conform_main
@@ -381,6 +358,8 @@ def main(argv=None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+        if args.command in ("validate", "compare"):
+            _check_combinations(args)
     except SystemExit as exc:  # argparse: --help/--version (0) or a usage error (2)
         return int(exc.code) if isinstance(exc.code, int) else EXIT_USAGE
     if args.command is None:

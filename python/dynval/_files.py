@@ -1,0 +1,411 @@
+"""Reading the command line's data files: ``.npy``, ``.npz`` and CSV text (contract §7).
+
+Files come from other programs and from users, so reading is bounded and refuses surprises before
+allocating memory: only regular files are opened (a FIFO blocks forever, ``/dev/zero`` never
+ends), a ``.npy`` header is checked against the bytes that follow it, and CSV text is read line
+by line with a length limit and refused at the first NUL byte. Every refusal is a
+:class:`FileInputError` whose message starts with the path; positions are 1-based lines and
+columns, as an editor shows them.
+"""
+
+from __future__ import annotations
+
+import array
+import csv
+import math
+import os
+import stat
+import struct
+import zipfile
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._errors import InputError
+
+__all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
+
+# Longest CSV line (bytes, without its end of line): about 40,000 columns of full-precision
+# numbers. It bounds the memory one line can take, e.g. a hole in a sparse file with no newline.
+MAX_LINE_BYTES = 1 << 20
+# The first block of a CSV file is searched for NUL bytes: text never holds one, binary data and
+# the holes of sparse files are full of them.
+SNIFF_BYTES = 1 << 16
+# Longest value quoted in a message.
+_SHOWN_CHARS = 40
+
+_NPY_MAGIC = b"\x93NUMPY"
+_ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")  # an archive with members, an empty archive
+_DELIMITERS = ("\t", ";", ",")
+
+
+class FileInputError(InputError):
+    """A data file cannot be read as a numeric array (the command line exits with code 1).
+
+    Not one of the contract's language-neutral kinds: only this reader raises it.
+    """
+
+    kind = "InvalidFile"
+
+
+@dataclass(frozen=True)
+class Table:
+    """An array read from a file, with the 1-based file line of each row (CSV only, else None)."""
+
+    data: np.ndarray
+    lines: np.ndarray | None = None
+
+
+# --------------------------------------------------------------------------- entry points
+
+
+def load_array(spec: str) -> np.ndarray:
+    """Load one numeric array from ``.npy``, ``.npz`` (``file.npz:key``, else the first array)
+    or CSV text (``.csv``, ``.tsv``, ``.txt``; contract §7 has the rules and limits).
+
+    Pickled objects are refused. Raises :class:`FileInputError` with a message naming the file.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "tau.csv")
+    >>> with open(path, "w") as handle:
+    ...     _ = handle.write("j1,j2\\n1,2\\n3,4\\n")
+    >>> load_array(path).tolist()
+    [[1.0, 2.0], [3.0, 4.0]]
+    """
+    return read_table(spec).data
+
+
+def read_table(spec: str) -> Table:
+    """:func:`load_array`, also returning the file line of each row of a CSV file."""
+    path, key = _split_key(spec)
+    lower = path.lower()
+    if lower.endswith((".pkl", ".pickle")):
+        raise FileInputError(f"{path}: pickle files are refused (they can run arbitrary code); "
+                             "use .npy, .npz or .csv")
+    if not lower.endswith((".npy", ".npz", ".csv", ".txt", ".tsv")):
+        if not os.path.exists(path):
+            raise FileInputError(f"{path}: no such file")
+        raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key) or .csv")
+    handle, size = _open_regular(path)
+    with handle:
+        try:
+            if lower.endswith(".npy"):
+                return Table(_read_npy_file(handle, path, size))
+            if lower.endswith(".npz"):
+                return Table(_read_npz(handle, path, key))
+            return _read_csv(handle, path)
+        except OSError as exc:
+            raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        except MemoryError:
+            raise FileInputError(f"{path}: not enough memory to hold its data") from None
+
+
+def _split_key(spec: str):
+    """``file.npz:key`` → (``file.npz``, ``key``); anything else → (spec, None)."""
+    head, sep, tail = spec.rpartition(":")
+    if sep and head.lower().endswith(".npz") and tail and not os.path.exists(spec):
+        return head, tail
+    return spec, None
+
+
+# --------------------------------------------------------------------------- opening
+
+
+def _describe_mode(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _not_regular(path: str, mode: int) -> FileInputError:
+    return FileInputError(f"{path}: is not a regular file ({_describe_mode(mode)}); "
+                          "dynval reads only regular files")
+
+
+def _open_regular(path: str):
+    """Open ``path`` for binary reading if it is a regular file; returns (file, size).
+
+    ``stat`` first, so that a FIFO or a device is refused without opening it; then open without
+    blocking (opening a FIFO waits for a writer) and check the opened file again, in case the
+    path changed in between.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise FileInputError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(mode):
+        raise _not_regular(path, mode)
+    nonblock = getattr(os, "O_NONBLOCK", 0)
+    try:
+        fd = os.open(path, os.O_RDONLY | nonblock | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        raise _not_regular(path, info.st_mode)
+    if nonblock:
+        os.set_blocking(fd, True)
+    return os.fdopen(fd, "rb"), info.st_size
+
+
+def _content_hint(head: bytes) -> str:
+    """What the first bytes of a file look like, for a message about the wrong format."""
+    if head.startswith(_NPY_MAGIC):
+        return "it is a .npy file"
+    if head.startswith(_ZIP_MAGICS):
+        return "it is a ZIP archive (.npz)"
+    if b"\x00" not in head:
+        try:
+            head.decode("utf-8")
+            return "it holds text; name a CSV file .csv"
+        except UnicodeDecodeError as exc:
+            if exc.start >= len(head) - 3:  # a character cut by the end of the block
+                return "it holds text; name a CSV file .csv"
+    return "it holds other binary data"
+
+
+def _binary_hint(head: bytes) -> str:
+    """For a CSV that is binary: say so when it is in fact one of the binary formats."""
+    hint = _content_hint(head)
+    return f"; {hint}" if hint.startswith("it is") else ""
+
+
+# --------------------------------------------------------------------------- .npy and .npz
+
+
+def _physical_memory() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def _read_npy_header(handle, where: str):
+    """Parse a .npy header without executing anything; returns (shape, fortran_order, dtype)."""
+    from numpy.lib import format as npy_format
+
+    try:
+        version = npy_format.read_magic(handle)
+        if version == (1, 0):
+            return npy_format.read_array_header_1_0(handle)
+        return npy_format.read_array_header_2_0(handle)
+    except Exception as exc:  # numpy parses hostile bytes with ast and tokenize: any error can come out
+        raise FileInputError(f"{where}: not a readable .npy header ({type(exc).__name__}: {exc})") from None
+
+
+def _read_exact(handle, n_bytes: int, where: str) -> bytearray:
+    """Read exactly ``n_bytes`` into one buffer (file objects may return less per call)."""
+    buf = bytearray(n_bytes)
+    view = memoryview(buf)
+    done = 0
+    while done < n_bytes:
+        got = handle.readinto(view[done:])
+        if not got:
+            raise FileInputError(f"{where}: ends after {done} of the {n_bytes} bytes its header declares")
+        done += got
+    return buf
+
+
+def _read_npy(handle, where: str, size: int) -> np.ndarray:
+    """Read one .npy stream of ``size`` bytes (a file, or a member of a .npz archive).
+
+    The shape in the header is checked against the bytes that follow it and against the
+    machine's memory before anything is allocated: a header can declare any shape.
+    """
+    start = handle.tell()
+    shape, fortran, dtype = _read_npy_header(handle, where)
+    if dtype.hasobject:
+        raise FileInputError(f"{where}: holds pickled Python objects, which dynval refuses to load; "
+                             "save a plain numeric array (numpy.save of a float array)")
+    if any(s < 0 for s in shape):
+        raise FileInputError(f"{where}: its header declares an impossible shape {tuple(shape)}")
+    count = math.prod(shape)
+    declared = count * dtype.itemsize
+    available = size - (handle.tell() - start)
+    if declared > available:
+        raise FileInputError(f"{where}: its header declares shape {tuple(shape)} of {dtype} ({declared} bytes), "
+                             f"but it holds only {available} bytes after the header (truncated or corrupt)")
+    memory = _physical_memory()
+    if memory is not None and declared > memory:
+        raise FileInputError(f"{where}: shape {tuple(shape)} of {dtype} needs {declared} bytes, more than this "
+                             f"machine's memory ({memory} bytes)")
+    data = np.frombuffer(_read_exact(handle, declared, where), dtype=dtype, count=count)
+    return data.reshape(shape, order="F" if fortran else "C")
+
+
+def _read_npy_file(handle, path: str, size: int) -> np.ndarray:
+    head = handle.read(len(_NPY_MAGIC))
+    if not head:
+        raise FileInputError(f"{path}: is empty (0 bytes)")
+    if head != _NPY_MAGIC:
+        raise FileInputError(f"{path}: not a .npy file (no NumPy magic string at its start; "
+                             f"{_content_hint(head + handle.read(SNIFF_BYTES))})")
+    handle.seek(0)
+    return _read_npy(handle, path, size)
+
+
+def _read_npz(handle, path: str, key: str | None) -> np.ndarray:
+    head = handle.read(SNIFF_BYTES)
+    if not head:
+        raise FileInputError(f"{path}: is empty (0 bytes)")
+    if not head.startswith(_ZIP_MAGICS):
+        raise FileInputError(f"{path}: not a .npz archive (no ZIP signature at its start; {_content_hint(head)})")
+    handle.seek(0)
+    try:
+        with zipfile.ZipFile(handle) as archive:
+            members = {info.filename[:-4] if info.filename.endswith(".npy") else info.filename: info
+                       for info in archive.infolist() if not info.is_dir()}
+            if not members:
+                raise FileInputError(f"{path}: the archive holds no array")
+            if key is None:
+                key = next(iter(members))
+            elif key not in members:
+                raise FileInputError(f"{path}: no array named {key!r}; the archive holds "
+                                     + ", ".join(repr(n) for n in members))
+            info = members[key]
+            with archive.open(info) as member:
+                return _read_npy(member, f"{path}: array {key!r}", info.file_size)
+    except FileInputError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, RuntimeError, ValueError,
+            struct.error) as exc:
+        # A corrupt or hostile archive: zipfile reports it in many ways.
+        raise FileInputError(f"{path}: not a readable .npz archive ({exc})") from None
+
+
+# --------------------------------------------------------------------------- CSV
+
+
+def _shown(text: str) -> str:
+    """``repr`` of a value for a message, cut to a readable length."""
+    return repr(text if len(text) <= _SHOWN_CHARS else text[:_SHOWN_CHARS] + "...")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _lines(handle, path: str):
+    """Yield ``(line_number, text)`` for every line, bounded in length and free of NUL bytes.
+
+    Lines are read as bytes and decoded one by one, so that a decoding error names its line.
+    """
+    head = handle.read(SNIFF_BYTES)
+    if b"\x00" in head:
+        raise FileInputError(f"{path}: holds binary data (a NUL byte in its first {SNIFF_BYTES} bytes), "
+                             f"not CSV text{_binary_hint(head)}")
+    handle.seek(0)
+    number = 0
+    while True:
+        number += 1
+        raw = handle.readline(MAX_LINE_BYTES + 2)
+        if not raw:
+            return
+        raw = raw.rstrip(b"\r\n") if raw.endswith(b"\n") else raw
+        if len(raw) > MAX_LINE_BYTES:
+            raise FileInputError(f"{path}: line {number} is longer than {MAX_LINE_BYTES} bytes "
+                                 "(the limit of a CSV line)")
+        if b"\x00" in raw:
+            raise FileInputError(f"{path}: line {number} holds a NUL byte: binary data, not CSV text")
+        if number == 1 and raw.startswith(b"\xef\xbb\xbf"):
+            raw = raw[3:]  # a UTF-8 byte-order mark
+        try:
+            yield number, raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise FileInputError(f"{path}: line {number} is not UTF-8 text ({exc.reason} at byte "
+                                 f"{exc.start + 1} of the line)") from None
+
+
+def _delimiter(line: str):
+    """The first of tab, ';', ',' present in the line; None means runs of whitespace."""
+    return next((d for d in _DELIMITERS if d in line), None)
+
+
+def _cells(line: str, delimiter, path: str, number: int) -> list[str]:
+    if delimiter is None:
+        return line.split()
+    if '"' in line:
+        # Only headers quote their names; the csv module handles the quotes.
+        try:
+            cells = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))
+        except csv.Error as exc:
+            raise FileInputError(f"{path}: line {number}: not valid CSV ({exc})") from None
+    else:
+        cells = line.split(delimiter)
+    cells = [c.strip() for c in cells]
+    while cells and cells[-1] == "":  # a delimiter at the end of the line
+        cells.pop()
+    if not cells:
+        raise FileInputError(f"{path}: line {number} holds delimiters but no value")
+    return cells
+
+
+def _numbers(cells):
+    """The cells as floats, or None when one of them is not a number."""
+    try:
+        return [float(c) for c in cells]
+    except ValueError:
+        return None
+
+
+def _header_or_error(cells, path: str, number: int, header_allowed: bool) -> None:
+    """A line that is not all numbers: accept it as the header (no number at all), else refuse.
+
+    A line with some numbers is data, so a bad value in the first data line is reported instead
+    of silently turning the line into a header.
+    """
+    numeric = [_is_number(c) for c in cells]
+    if header_allowed and not any(numeric):
+        return
+    column = numeric.index(False)
+    bad = cells[column]
+    if bad == "":
+        raise FileInputError(f"{path}: line {number}, column {column + 1}: empty value")
+    rule = " (a header line must hold no number, a data line only numbers)" if header_allowed else ""
+    raise FileInputError(f"{path}: line {number}, column {column + 1}: {_shown(bad)} is not a number{rule}")
+
+
+def _read_csv(handle, path: str) -> Table:
+    values = array.array("d")
+    lines = array.array("q")
+    delimiter = width = first = None  # first: the header line, then the first data line
+    for number, line in _lines(handle, path):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        if first is None:
+            delimiter = _delimiter(stripped)
+        cells = _cells(stripped, delimiter, path, number)
+        numbers = _numbers(cells)
+        if numbers is None:
+            _header_or_error(cells, path, number, header_allowed=first is None)
+            first = number
+            continue
+        if width is None:
+            width, first = len(numbers), number
+        elif len(numbers) != width:
+            raise FileInputError(f"{path}: line {number} has {len(numbers)} values, line {first} has {width}")
+        values.extend(numbers)
+        lines.append(number)
+    if not lines:
+        raise FileInputError(f"{path}: no data rows" if first is None else f"{path}: no data rows after the header")
+    data = np.frombuffer(values, dtype=np.float64).reshape(len(lines), width)
+    return Table(data[:, 0] if width == 1 else data, np.frombuffer(lines, dtype=np.int64))
