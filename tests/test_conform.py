@@ -222,8 +222,9 @@ def test_crash_is_caught_and_the_port_restarted(tiny, tmp_path):
 
 def test_hang_is_caught_within_the_timeout(tiny, tmp_path):
     start = time.monotonic()
-    code, _, report = conform(["--timeout", "0.5", *port("hang.py", "--target", "norms-3", corpus=tiny)],
-                              tmp_path, corpus=tiny)
+    # --timeout alone would also bound the restart's handshake to 0.5 s: too short to import dynval.
+    code, _, report = conform(["--timeout", "0.5", "--startup-timeout", "60",
+                               *port("hang.py", "--target", "norms-3", corpus=tiny)], tmp_path, corpus=tiny)
     assert time.monotonic() - start < 15
     assert code == 1
     failed = by_status(report, "failed")
@@ -524,3 +525,118 @@ def test_matrix_needs_the_markers(tmp_path):
     assert main(["--matrix", "--ports", "python", "--check-readme", str(readme)], stdout=io.StringIO(),
                 stderr=err) == 2
     assert "markers" in err.getvalue()
+
+
+# --------------------------------------------------------------------------- time limits and cleanup
+
+# A port that leaves a sleeping child behind. MODE "stdout": the child keeps the port's
+# standard output open and the port exits at once, without greeting. MODE "setsid": the
+# child leaves the port's process group and session (os.setsid) and the port itself then
+# greets with one capability and either exits on `quit` (ON_QUIT "exit") or ignores it
+# (ON_QUIT "hang", so that the runner has to kill it).
+ORPHAN_PORT = '''\
+import os, subprocess, sys, time
+mode, on_quit, pidfile, token = sys.argv[1:5]
+child = ("import os, sys, time\\n"
+         "if sys.argv[1] == 'setsid':\\n    os.setsid()\\n"
+         "open(sys.argv[2] + '.tmp', 'w').write(str(os.getpid()))\\n"
+         "os.replace(sys.argv[2] + '.tmp', sys.argv[2])\\n"
+         "time.sleep(3600)\\n")
+quiet = {} if mode == "stdout" else {"stdin": subprocess.DEVNULL, "stdout": subprocess.DEVNULL,
+                                     "stderr": subprocess.DEVNULL}
+subprocess.Popen([sys.executable, "-c", child, mode, pidfile, token], **quiet)
+for _ in range(1000):
+    if os.path.exists(pidfile):
+        break
+    time.sleep(0.01)
+if mode == "stdout":
+    sys.exit(0)
+print("dynval-port 1 orphaner")
+print("capability rmse")
+print("ready", flush=True)
+for line in sys.stdin:
+    if line.strip() == "quit":
+        break
+    if line.strip() == "end":
+        print("error InvalidParameter no", flush=True)
+        print("end", flush=True)
+if on_quit == "hang":
+    time.sleep(3600)
+'''
+
+
+def _running(pid: int, token: str) -> bool:
+    """True while the process ``pid`` lives and is the one carrying ``token`` on its command line."""
+    try:
+        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
+        cmdline = pathlib.Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+    return stat.rpartition(")")[2].split()[0] != "Z" and token.encode() in cmdline
+
+
+def _gone(pid: int, token: str, within: float = 3.0) -> bool:
+    deadline = time.monotonic() + within
+    while _running(pid, token):
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize(("mode", "on_quit"), [("stdout", "exit"), ("setsid", "exit"), ("setsid", "hang")])
+def test_no_process_of_the_port_survives_the_run(tiny, tmp_path, mode, on_quit):
+    script = tmp_path / "orphaner.py"
+    script.write_text(ORPHAN_PORT)
+    pidfile = tmp_path / "child.pid"
+    token = f"dynval-orphan-{os.getpid()}-{mode}-{on_quit}-{time.monotonic_ns()}"
+    # A process of the test's own, outside the port: the cleanup must leave it alone.
+    bystander = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", token + "-bystander"])
+    pid = None
+    try:
+        start = time.monotonic()
+        conform(["--timeout", "3", "--families", "norms", "--", sys.executable, str(script), mode, on_quit,
+                 str(pidfile), token], tmp_path, corpus=tiny)
+        assert time.monotonic() - start < 20
+        pid = int(pidfile.read_text())
+        assert _gone(pid, token), f"the port's child {pid} ({mode}) is still running"
+        assert bystander.poll() is None, "the runner killed a process that was not the port's"
+    finally:
+        bystander.kill()
+        bystander.wait()
+        if pid is not None and _running(pid, token):
+            os.kill(pid, 9)
+
+
+def test_timeout_bounds_the_handshake_of_a_silent_port(tiny, tmp_path):
+    script = tmp_path / "silent.py"
+    script.write_text("import time\ntime.sleep(3600)\n")
+    start = time.monotonic()
+    code, out, report = conform(["--timeout", "2", "--families", "norms", "--", sys.executable, str(script)],
+                                tmp_path, corpus=tiny)
+    assert time.monotonic() - start < 15
+    assert code == 1 and "port did not start" in out
+    assert "2 s" in report["port"]["startup_error"]
+    assert {c["reason"] for c in report["cases"]} == {"handshake"}
+
+
+def test_startup_timeout_still_overrides_the_timeout(tiny, tmp_path):
+    # A port that needs 2 s to start passes with --timeout 1 when --startup-timeout allows it.
+    script = tmp_path / "slow_start.py"
+    script.write_text(f"import runpy, sys, time\ntime.sleep(2)\nsys.path.insert(0, {str(PORTS)!r})\n"
+                      f"sys.argv = sys.argv[1:]\nrunpy.run_path({str(PORTS / 'oracle.py')!r}, run_name='__main__')\n")
+    code, out, _ = conform(["--timeout", "1", "--startup-timeout", "30", "--families", "norms", "--",
+                            sys.executable, str(script), str(PORTS / "oracle.py"), "--corpus", tiny],
+                           tmp_path, corpus=tiny)
+    assert code == 0, out
+
+
+def test_a_port_that_runs_nothing_fails_loudly(tiny, tmp_path):
+    script = tmp_path / "no_capabilities.py"
+    script.write_text("import sys\nprint('dynval-port 1 idle')\nprint('ready', flush=True)\nsys.stdin.read()\n")
+    out, err = io.StringIO(), io.StringIO()
+    code = main(["--quiet", "--corpus", tiny, "--", sys.executable, str(script)], stdout=out, stderr=err)
+    assert code == 1, out.getvalue()
+    assert "nothing was tested" in err.getvalue()
+    assert "0 passed, 0 failed, 20 skipped" in out.getvalue()

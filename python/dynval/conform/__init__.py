@@ -8,8 +8,10 @@ per family::
 
     dynval conform --families norms,errors --report out.json -- ./my_port --flag
 
-Exit status: 0 when no case failed, 1 when any case failed (or, with
-``--strict``, when any case was skipped or partial), 2 for a usage error.
+Exit status: 0 when no case failed, 1 when any case failed, when no case
+was run at all (every case skipped: the port declared nothing the corpus
+covers) or, with ``--strict``, when any case was skipped or partial; 2 for a
+usage error.
 
 ``dynval conform --matrix`` runs the known ports (python, cpp, java, matlab,
 wolfram; ``--ports`` picks some, ``--port NAME=COMMAND`` adds others) over every
@@ -55,10 +57,12 @@ def _build_parser() -> argparse.ArgumentParser:
         epilog="Example: dynval conform --families norms,errors --report out.json -- ./my_port",
     )
     parser.add_argument("--families", metavar="F,...", help="comma-separated corpus families (default: all)")
-    parser.add_argument("--timeout", type=float, default=30.0, metavar="S", help="seconds allowed per case (default 30)")
+    parser.add_argument("--timeout", type=float, default=None, metavar="S",
+                        help="seconds allowed per case, and for the handshake unless --startup-timeout is given "
+                             "(default 30)")
     parser.add_argument(
-        "--startup-timeout", type=float, default=120.0, metavar="S",
-        help="seconds allowed for start-up and handshake (default 120)",
+        "--startup-timeout", type=float, default=None, metavar="S",
+        help="seconds allowed for start-up and handshake (default: --timeout if given, else 120)",
     )
     parser.add_argument("--report", metavar="FILE", help="write a JSON report to FILE")
     parser.add_argument("--corpus", metavar="DIR", help="corpus directory holding <family>.json (default: the shipped corpus)")
@@ -225,7 +229,7 @@ def write_report(result: RunResult, path: str | os.PathLike, exit_code: int) -> 
 
 def _check_numbers(args) -> str:
     for name, value in (("--timeout", args.timeout), ("--startup-timeout", args.startup_timeout)):
-        if not (value > 0 and math.isfinite(value)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
             return f"dynval conform: {name} must be a positive number of seconds, got {value!r}\n"
     if args.max_failures < 0 or args.max_restarts < 0:
         return "dynval conform: --max-failures and --max-restarts must be >= 0\n"
@@ -309,14 +313,24 @@ def _matrix_main(args, out: TextIO, err: TextIO) -> int:
     return code
 
 
+def _warn_nothing_tested(result: RunResult, err: TextIO) -> None:
+    # An all-skipped run is not a pass: it proves nothing about the port, even without --strict.
+    declared = ", ".join(result.capabilities) or "none"
+    err.write(
+        f"dynval conform: error: nothing was tested: the port's capabilities cover none of the {len(result.outcomes)} "
+        f"selected vectors (declared capabilities: {declared}); exit status 1\n"
+    )
+    err.flush()
+
+
 def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
     """Command-line entry point of ``dynval conform`` (``argv`` after the word ``conform``).
 
     Returns
     -------
     int
-        0 (no failure), 1 (a case failed, or skipped/partial with ``--strict``),
-        2 (usage error).
+        0 (no failure), 1 (a case failed, no case ran, or skipped/partial with
+        ``--strict``), 2 (usage error).
     """
     out = stdout or sys.stdout
     err = stderr or sys.stderr
@@ -365,7 +379,10 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
     counts = result.counts()["total"]
     failed = counts["failed"] > 0
     incomplete = counts["skipped"] + counts["partial"] > 0
-    exit_code = 1 if failed or (args.strict and incomplete) else 0
+    nothing_ran = counts["passed"] + counts["failed"] + counts["partial"] == 0
+    exit_code = 1 if failed or nothing_ran or (args.strict and incomplete) else 0
+    if nothing_ran:
+        _warn_nothing_tested(result, err)
 
     port = result.port_name or describe_command(command)
     numbers = ", hexadecimal floats" if result.encoding == "hex" else ""

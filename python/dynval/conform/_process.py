@@ -4,15 +4,24 @@ Reads happen in daemon threads that only move bytes into queues, so the runner
 never blocks on a port: every wait has a deadline, every read a byte budget,
 and a port that misbehaves is killed (with its whole process group on POSIX, so
 a shell wrapper cannot leave the real program running).
+
+On Linux the port runs under a small supervisor (``_reaper.py``, a child
+subreaper): processes the port leaves behind, even those that left its process
+group with ``setsid()``, are killed when the port exits or is killed. The runner
+never reaps a port before killing its group, so the group id it signals cannot
+name an unrelated process.
 """
 
 from __future__ import annotations
 
 import collections
 import os
+import pathlib
 import queue
+import select
 import signal
 import subprocess
+import sys
 import threading
 import time
 from typing import Sequence
@@ -21,6 +30,17 @@ from .. import protocol
 
 #: Bytes of the port's standard error kept for failure reports.
 STDERR_TAIL = 4096
+
+#: Seconds the supervisor gets to kill what the port left behind before the group is killed.
+CLEANUP_GRACE = 5.0
+
+_REAPER = pathlib.Path(__file__).with_name("_reaper.py")
+
+
+def _supervisor_available() -> bool:
+    # The supervisor needs prctl and /proc (Linux) and an interpreter to run it with.
+    return sys.platform.startswith("linux") and bool(sys.executable) and _REAPER.is_file() \
+        and os.path.isdir("/proc")
 
 
 class PortFailure(Exception):
@@ -55,6 +75,8 @@ class PortProcess:
         #: Number encoding the port asked for (``encoding hex`` in its handshake).
         self.encoding = "decimal"
         self._proc: subprocess.Popen | None = None
+        #: True when the port runs under the supervisor (``_reaper.py``).
+        self._supervised = False
         # Bounded, so a flooding port is slowed down by the pipe instead of
         # filling the runner's memory before the budget check sees it.
         self._chunks: queue.Queue = queue.Queue(maxsize=64)
@@ -69,28 +91,67 @@ class PortProcess:
 
     def start(self) -> None:
         """Start the port and read its handshake (raises :class:`PortFailure`)."""
-        kwargs: dict = {}
+        deadline = time.monotonic() + self.startup_timeout
+        if os.name == "posix" and _supervisor_available():
+            self._spawn_supervised(deadline)
+        else:
+            self._spawn_plain()
+        threading.Thread(target=self._pump_stdout, args=(self._proc.stdout,), daemon=True).start()
+        threading.Thread(target=self._pump_stderr, args=(self._proc.stderr,), daemon=True).start()
+        self._handshake(deadline)
+
+    def _popen(self, command: list[str], **kwargs) -> subprocess.Popen:
         if os.name == "posix":
             kwargs["start_new_session"] = True  # own process group, killed as a whole
         else:  # pragma: no cover - Windows
             kwargs["creationflags"] = subprocess.CREATE_NEW_PROCESS_GROUP
+        return subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                bufsize=0, **kwargs)
+
+    def _spawn_plain(self) -> None:
         try:
-            self._proc = subprocess.Popen(
-                self.command,
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.PIPE,
-                bufsize=0,
-                **kwargs,
-            )
+            self._proc = self._popen(self.command)
         except OSError as exc:
             raise PortFailure("handshake", f"cannot start the port {self.command[0]!r}: {exc}") from None
-        threading.Thread(target=self._pump_stdout, args=(self._proc.stdout,), daemon=True).start()
-        threading.Thread(target=self._pump_stderr, args=(self._proc.stderr,), daemon=True).start()
-        self._handshake()
 
-    def _handshake(self) -> None:
-        deadline = time.monotonic() + self.startup_timeout
+    def _spawn_supervised(self, deadline: float) -> None:
+        # The supervisor starts the port itself and says on a private pipe whether
+        # that worked, so a missing program is still reported as such.
+        read_end, write_end = os.pipe()
+        try:
+            command = [sys.executable, "-I", "-S", str(_REAPER), str(write_end), "--", *self.command]
+            try:
+                self._proc = self._popen(command, pass_fds=(write_end,))
+            except OSError as exc:
+                raise PortFailure("handshake", f"cannot start the port supervisor {sys.executable!r}: {exc}") from None
+            self._supervised = True
+            os.close(write_end)
+            write_end = -1
+            status = self._read_status(read_end, deadline)
+        finally:
+            os.close(read_end)
+            if write_end >= 0:
+                os.close(write_end)
+        if status != "ok":
+            self.kill()
+            detail = status[len("error "):] if status.startswith("error ") else "the supervisor failed to start it"
+            raise PortFailure("handshake", f"cannot start the port {self.command[0]!r}: {detail}")
+
+    @staticmethod
+    def _read_status(fd: int, deadline: float) -> str:
+        poller = select.poll()  # not select(): it cannot watch descriptors above 1023
+        poller.register(fd, select.POLLIN)
+        data = b""
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not poller.poll(remaining * 1000):
+                return "error no word from the supervisor within the start-up time"
+            chunk = os.read(fd, 4096)
+            if not chunk:
+                return data.decode("utf-8", "replace")
+            data += chunk
+
+    def _handshake(self, deadline: float) -> None:
         budget = [1 << 20]
         try:
             line = self._next_line(deadline, budget, "the greeting")
@@ -122,25 +183,59 @@ class PortProcess:
             raise PortFailure("handshake", f"bad handshake: {exc}") from None
         except PortFailure as exc:
             self.kill()
+            if exc.reason == "timeout":
+                raise PortFailure("handshake", f"handshake failed: timed out after {self.startup_timeout:g} s "
+                                               f"(--startup-timeout): {exc}") from None
             raise PortFailure("handshake", f"handshake failed: {exc}") from None
 
     def alive(self) -> bool:
-        return self._proc is not None and self._proc.poll() is None and not self._eof
+        return self._proc is not None and self._exit_status(0) is None and not self._eof
+
+    def _exit_status(self, timeout: float) -> int | None:
+        """The port's return code once it has exited (within ``timeout`` s), else None.
+
+        Does not reap it where the platform allows (``waitid`` with ``WNOWAIT``): while
+        the exited port is not reaped, its pid and process group id cannot be reused.
+        """
+        proc = self._proc
+        deadline = time.monotonic() + timeout
+        while True:
+            if proc.returncode is not None:
+                return proc.returncode
+            code = self._peek_exit(proc)
+            if code is not None:
+                return code
+            if time.monotonic() >= deadline:
+                return None
+            time.sleep(0.02)
+
+    @staticmethod
+    def _peek_exit(proc: subprocess.Popen) -> int | None:
+        if not hasattr(os, "waitid"):  # pragma: no cover - macOS, Windows
+            return proc.poll()
+        try:
+            info = os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except ChildProcessError:
+            return proc.poll()
+        if info is None:
+            return None
+        return info.si_status if info.si_code == os.CLD_EXITED else -info.si_status
 
     def kill(self) -> None:
-        """Kill the port (and its process group) and reap it."""
+        """Kill the port, everything it started, and reap it."""
         proc = self._proc
         if proc is None:
             return
         self._stopped.set()
-        if proc.poll() is None:
-            try:
-                if os.name == "posix":
-                    os.killpg(proc.pid, signal.SIGKILL)
-                else:  # pragma: no cover - Windows
-                    proc.kill()
-            except (ProcessLookupError, PermissionError, OSError):
-                pass
+        if proc.returncode is None:  # not reaped: proc.pid still names our process and its group
+            if os.name == "posix":
+                if self._supervised:
+                    # The supervisor kills every descendant, those outside the group too.
+                    self._signal(lambda: os.kill(proc.pid, signal.SIGTERM))
+                    self._exit_status(CLEANUP_GRACE)
+                self._signal(lambda: os.killpg(proc.pid, signal.SIGKILL))
+            else:  # pragma: no cover - Windows
+                self._signal(proc.kill)
         try:
             proc.wait(timeout=5)
         except subprocess.TimeoutExpired:  # pragma: no cover - unkillable process
@@ -152,22 +247,26 @@ class PortProcess:
             except OSError:
                 pass
 
+    @staticmethod
+    def _signal(send) -> None:
+        try:
+            send()
+        except (ProcessLookupError, PermissionError, OSError):
+            pass  # already gone
+
     def close(self, grace: float = 2.0) -> None:
         """Send ``quit``, give the port ``grace`` seconds to exit, then kill it."""
         proc = self._proc
         if proc is None:
             return
-        if proc.poll() is None:
+        if self._exit_status(0) is None:
             try:
                 proc.stdin.write(b"quit\n")
                 proc.stdin.flush()
                 proc.stdin.close()
             except (OSError, ValueError):
                 pass
-            try:
-                proc.wait(timeout=grace)
-            except subprocess.TimeoutExpired:
-                pass
+            self._exit_status(grace)
         self.kill()
 
     # ------------------------------------------------------------------ exchange
@@ -237,10 +336,8 @@ class PortProcess:
                 self._buffer += chunk
 
     def _exit_message(self, what: str) -> str:
-        proc = self._proc
-        try:
-            code = proc.wait(timeout=2)
-        except subprocess.TimeoutExpired:
+        code = self._exit_status(2)
+        if code is None:
             return f"the port closed its output without exiting while sending {what}"
         if code < 0:
             try:

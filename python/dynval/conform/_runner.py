@@ -16,6 +16,10 @@ from ._process import PortFailure, PortProcess
 #: Case statuses, in table order.
 STATUSES = ("passed", "failed", "skipped", "partial")
 
+#: Seconds per case, and for start-up and handshake, when neither limit is given.
+DEFAULT_TIMEOUT = 30.0
+DEFAULT_STARTUP_TIMEOUT = 120.0
+
 #: Base byte budget of one answer; each expected value adds PER_VALUE_BYTES.
 BASE_BYTES = 1 << 20
 PER_VALUE_BYTES = 64
@@ -158,8 +162,8 @@ def run(
     *,
     corpus: str | None = None,
     families: Sequence[str] | None = None,
-    timeout: float = 30.0,
-    startup_timeout: float = 120.0,
+    timeout: float | None = None,
+    startup_timeout: float | None = None,
     max_restarts: int = 25,
     progress: Callable[[int, int, RunResult], None] | None = None,
 ) -> RunResult:
@@ -173,10 +177,11 @@ def run(
         Directory holding ``<family>.json`` (default: the corpus shipped with dynval).
     families : sequence of str, optional
         Families to run (default: all).
-    timeout : float
-        Seconds allowed per case, from sending the case to reading ``end``.
-    startup_timeout : float
-        Seconds allowed for start-up and handshake (also after a restart).
+    timeout : float, optional
+        Seconds allowed per case, from sending the case to reading ``end`` (default 30).
+    startup_timeout : float, optional
+        Seconds allowed for start-up and handshake (also after a restart); default
+        ``timeout`` when that is given, else 120. See :func:`resolve_timeouts`.
     max_restarts : int
         Restarts allowed after crashes, timeouts and protocol errors; once spent,
         the remaining covered cases fail with reason ``not-run``.
@@ -189,6 +194,7 @@ def run(
     """
     from ..golden import FAMILIES
 
+    timeout, startup_timeout = resolve_timeouts(timeout, startup_timeout)
     selected = list(families) if families else list(FAMILIES)
     started = time.monotonic()
     result = RunResult(command=list(command), corpus=str(corpus or ""), families=selected)
@@ -288,6 +294,19 @@ def run(
             port.close()
     result.seconds = time.monotonic() - started
     return result
+
+
+def resolve_timeouts(timeout: float | None, startup_timeout: float | None) -> tuple[float, float]:
+    """``(per-case, start-up)`` seconds from the limits given (None: not given).
+
+    A limit the user sets bounds the whole run, the handshake included: with only
+    ``timeout`` given, a port that never greets is given up after ``timeout``
+    seconds, not after the default start-up allowance. ``startup_timeout`` is
+    there for ports that need a long start (a JVM, Mathics3) but answer fast.
+    """
+    if startup_timeout is None:
+        startup_timeout = DEFAULT_STARTUP_TIMEOUT if timeout is None else timeout
+    return (DEFAULT_TIMEOUT if timeout is None else timeout), startup_timeout
 
 
 def _with_stderr(message: str, port: PortProcess | None) -> str:

@@ -9,7 +9,7 @@ from typing import Sequence
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
-    usage = ("usage: python -m dynval.golden lint [--corpus DIR] [--families F,...] [--no-reproduce]\n"
+    usage = ("usage: python -m dynval.golden lint [--corpus DIR] [--families F,...] [--schema FILE] [--reproduce]\n"
              "       python -m dynval.golden generate [--out DIR] [--check] [--families F,...]\n"
              "       python -m dynval.golden operations [--check | --write]")
     if not args or args[0] in ("-h", "--help"):

@@ -1,55 +1,211 @@
-"""Corpus linter: schema, identifiers, counts, flags legend and reproducibility of every value."""
+"""Corpus linter: schema, identifiers, counts, flags legend and reproducibility of every value.
+
+The files checked are untrusted input: every defect (unreadable, not UTF-8, not
+strict JSON, nested too deeply, a number float64 cannot hold, a schema violation,
+a malformed entry) becomes one listed problem naming the file and the place, and
+nothing found beside them is used. The schema is dynval's own unless ``--schema``
+names another; reproducing the values (``--reproduce``) runs dynval's own
+generator, never a ``generate.py`` next to the corpus.
+"""
 
 from __future__ import annotations
 
 import importlib.util
 import json
+import math
 import pathlib
+import re
 import sys
 from types import ModuleType
-from typing import Sequence
+from typing import Any, Iterator, Sequence
 
 from ._loader import FAMILIES, corpus_dir as default_corpus_dir, golden_root, schema_path
 
+#: Deepest nesting of arrays and objects accepted. The corpus needs 9 and the schema 20;
+#: the limit keeps the parser and the validator far from Python's recursion limit.
+MAX_DEPTH = 64
 
-def load_generator(corpus: pathlib.Path | None = None) -> ModuleType:
-    """Import ``generate.py`` next to ``corpus`` (or the shipped one) as a module."""
-    candidates = []
-    if corpus is not None:
-        candidates.append(pathlib.Path(corpus).resolve().parent / "generate.py")
-    candidates.append(golden_root() / "generate.py")
-    for path in candidates:
-        if path.is_file():
-            spec = importlib.util.spec_from_file_location("dynval_golden_generate", path)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules.setdefault("dynval_golden_generate", module)
-            spec.loader.exec_module(module)
-            return module
-    msg = "generate.py not found next to the corpus"
-    raise FileNotFoundError(msg)
+# A JSON string (skipped: brackets inside it do not nest) or one bracket.
+_BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
 
 
-def _structure_problems(family: str, doc: dict) -> list[str]:
+def load_generator() -> ModuleType:
+    """Import dynval's own ``generate.py`` (in the package, or in the source tree) as a module."""
+    path = golden_root() / "generate.py"
+    if not path.is_file():
+        msg = f"dynval's corpus generator is not installed (no {path})"
+        raise FileNotFoundError(msg)
+    spec = importlib.util.spec_from_file_location("dynval_golden_generate", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("dynval_golden_generate", module)
+    spec.loader.exec_module(module)
+    return module
+
+
+# --------------------------------------------------------------------------- reading untrusted JSON
+
+
+def _reject_constant(token: str) -> float:
+    raise ValueError(f"non-standard JSON token {token}")
+
+
+def _nesting_problem(text: str) -> str:
+    """Where ``text`` nests deeper than MAX_DEPTH ('' if it does not), found before parsing."""
+    depth = 0
+    for match in _BRACKET.finditer(text):
+        char = match.group()
+        if char in "[{":
+            depth += 1
+            if depth > MAX_DEPTH:
+                line = text.count("\n", 0, match.start()) + 1
+                column = match.start() - (text.rfind("\n", 0, match.start()) + 1) + 1
+                return f"nested deeper than {MAX_DEPTH} levels at line {line} column {column}"
+        elif char in "]}":
+            depth -= 1
+    return ""
+
+
+def _pointer(path: Sequence[Any]) -> str:
+    return "/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in path)
+
+
+def _overflows(doc: Any) -> Iterator[str]:
+    """JSON pointers of the numbers that did not fit a float64.
+
+    Python's json reads a literal such as ``1e999`` as infinity; NaN and Infinity
+    tokens are rejected while parsing, so every non-finite float here is one of those.
+    """
+    stack: list[tuple[Any, tuple]] = [(doc, ())]
+    while stack:
+        value, path = stack.pop()
+        if isinstance(value, float) and not math.isfinite(value):
+            yield _pointer(path)
+        elif isinstance(value, dict):
+            stack.extend((v, path + (k,)) for k, v in reversed(list(value.items())))
+        elif isinstance(value, list):
+            stack.extend((v, path + (i,)) for i, v in reversed(list(enumerate(value))))
+
+
+def _read_json(path: pathlib.Path, label: str) -> tuple[str | None, Any, list[str]]:
+    """``(text, document, problems)``; ``text`` is None when the file cannot be used at all."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        return None, None, [f"{label}: cannot read {path}: {exc.strerror or exc}"]
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        return None, None, [f"{label}: not UTF-8: byte {exc.start} (line {line}) is {data[exc.start:exc.start + 1]!r}"]
+    deep = _nesting_problem(text)
+    if deep:
+        return None, None, [f"{label}: {deep}"]
+    try:
+        doc = json.loads(text, parse_constant=_reject_constant)
+    except (ValueError, RecursionError) as exc:
+        return None, None, [f"{label}: not strict JSON ({exc})"]
+    problems = [f"{label}: at {where}: number overflows float64 (a literal such as 1e999 reads as infinity)"
+                for where in _overflows(doc)]
+    return text, doc, problems
+
+
+def _external_refs(schema: Any) -> Iterator[tuple[str, str]]:
+    stack: list[tuple[Any, tuple]] = [(schema, ())]
+    while stack:
+        value, path = stack.pop()
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if key in ("$ref", "$dynamicRef") and isinstance(item, str) and not item.startswith("#"):
+                    yield _pointer(path + (key,)), item
+                stack.append((item, path + (key,)))
+        elif isinstance(value, list):
+            stack.extend((v, path + (i,)) for i, v in enumerate(value))
+
+
+def load_validator(path: pathlib.Path | None = None):
+    """``(validator, problems)`` for the schema at ``path`` (default: dynval's own schema).
+
+    A schema given by the user is checked like a corpus file, must be a valid draft
+    2020-12 schema and may only refer inside itself: nothing is fetched.
+    """
+    import jsonschema
+
+    path = pathlib.Path(path) if path is not None else schema_path()
+    label = f"schema {path}"
+    text, schema, problems = _read_json(path, label)
+    if text is None or problems:
+        return None, problems
+    problems = [f"{label}: at {where}: reference {ref!r} points outside the file (only '#...' references "
+                "are followed)" for where, ref in _external_refs(schema)]
+    if problems:
+        return None, problems
+    try:
+        jsonschema.Draft202012Validator.check_schema(schema)
+    except jsonschema.SchemaError as exc:
+        where = _pointer(exc.absolute_path)
+        return None, [f"{label}: not a valid JSON Schema (draft 2020-12): at {where}: {exc.message[:200]}"]
+    return jsonschema.Draft202012Validator(schema), []
+
+
+def _schema_problems(family: str, doc: Any, validator, label: str) -> list[str]:
+    def place(err) -> list:
+        # Indices and keys never meet at one level; the tag keeps the sort total anyway.
+        return [(0, p, "") if isinstance(p, int) else (1, 0, str(p)) for p in err.absolute_path]
+
+    try:
+        errors = sorted(validator.iter_errors(doc), key=place)[:20]
+    except Exception as exc:  # a user's schema may still fail while validating
+        return [f"{label}: cannot validate {family}.json: {type(exc).__name__}: {str(exc)[:200]}"]
+    return [f"{family}: schema: at {_pointer(err.absolute_path)}: {err.message[:200]}" for err in errors]
+
+
+# --------------------------------------------------------------------------- structure
+
+
+def _tests(doc: dict) -> list[dict]:
+    """The test objects of the file; malformed entries are the schema's to report."""
+    groups = doc.get("testGroups")
+    tests: list[dict] = []
+    for group in groups if isinstance(groups, list) else []:
+        entries = group.get("tests") if isinstance(group, dict) else None
+        tests.extend(t for t in (entries if isinstance(entries, list) else []) if isinstance(t, dict))
+    return tests
+
+
+def _flags(test: dict) -> list[str]:
+    flags = test.get("flags")
+    return [f for f in flags if isinstance(f, str)] if isinstance(flags, list) else []
+
+
+def _tc_id(test: dict) -> int | None:
+    tc = test.get("tcId")
+    return tc if isinstance(tc, int) and not isinstance(tc, bool) else None
+
+
+def _structure_problems(family: str, doc: Any) -> list[str]:
+    if not isinstance(doc, dict):
+        return [f"{family}: at /: the file holds {type(doc).__name__}, not one JSON object"]
     problems = []
     if doc.get("family") != family:
         problems.append(f"{family}: field 'family' is {doc.get('family')!r}")
-    tests = [t for g in doc.get("testGroups", []) for t in g.get("tests", [])]
+    tests = _tests(doc)
     if doc.get("numberOfTests") != len(tests):
         problems.append(f"{family}: numberOfTests is {doc.get('numberOfTests')}, the file has {len(tests)} tests")
     seen: set[int] = set()
     for t in tests:
-        if t["tcId"] in seen:
-            problems.append(f"{family}: tcId {t['tcId']} is not unique")
-        seen.add(t["tcId"])
-    notes = doc.get("notes", {})
-    used = {f for t in tests for f in t.get("flags", [])}
+        tc = _tc_id(t)
+        if tc is not None and tc in seen:
+            problems.append(f"{family}: tcId {tc} is not unique")
+        seen.add(tc)
+    notes = doc.get("notes") if isinstance(doc.get("notes"), dict) else {}
+    used = {f for t in tests for f in _flags(t)}
     for flag in sorted(used - set(notes)):
         problems.append(f"{family}: flag {flag!r} is used but not explained in notes")
     for flag in sorted(set(notes) - used):
         problems.append(f"{family}: note {flag!r} is never used")
     for t in tests:
-        if not t.get("flags"):
-            problems.append(f"{family}-{t['tcId']}: no flag (every vector needs a reason)")
+        if not _flags(t):
+            problems.append(f"{family}-{t.get('tcId', '?')}: no flag (every vector needs a reason)")
     return problems
 
 
@@ -80,48 +236,54 @@ def _reproduce_problems(family: str, doc: dict, text: str, fresh_text: str) -> l
 
 
 def lint(corpus: pathlib.Path | str | None = None, families: Sequence[str] | None = None,
-         reproduce: bool = True) -> list[str]:
+         reproduce: bool = False, schema: pathlib.Path | str | None = None) -> list[str]:
     """Check the corpus and return the list of problems (empty when clean).
 
-    Checks: strict JSON, schema validity (JSON Schema draft 2020-12), ``family`` field,
-    unique ``tcId``, ``numberOfTests``, every flag explained in ``notes`` and every note
-    used, and (``reproduce=True``) that a fresh in-memory run of ``generate.py``
-    reproduces every file byte for byte. Needs ``jsonschema`` and ``mpmath``.
+    Checks: readable UTF-8, strict JSON (no NaN/Infinity tokens, no number beyond
+    float64, at most MAX_DEPTH levels), validity against dynval's schema (JSON Schema
+    draft 2020-12; ``schema`` names another file instead), ``family`` field, unique
+    ``tcId``, ``numberOfTests``, every flag explained in ``notes`` and every note
+    used, and (``reproduce=True``) that a fresh in-memory run of dynval's own
+    generator reproduces every file byte for byte. Needs ``jsonschema`` (and
+    ``mpmath`` to reproduce). Nothing found beside ``corpus`` is used.
     """
-    import jsonschema
-
     directory = pathlib.Path(corpus) if corpus is not None else default_corpus_dir()
     selected = tuple(families) if families else FAMILIES
-    schema = json.loads(schema_path(directory).read_text(encoding="utf-8"))
-    jsonschema.Draft202012Validator.check_schema(schema)
-    validator = jsonschema.Draft202012Validator(schema)
-    problems: list[str] = []
+    validator, problems = load_validator(pathlib.Path(schema) if schema is not None else None)
+    if validator is None:
+        return problems
+    label = f"schema {schema}" if schema is not None else "schema"
     texts, docs = {}, {}
     for family in selected:
         path = directory / f"{family}.json"
         if not path.is_file():
             problems.append(f"{family}: {path} is missing")
             continue
-        text = path.read_text(encoding="utf-8")
-
-        def reject(token: str) -> float:
-            raise ValueError(f"non-standard JSON token {token}")
-
-        try:
-            doc = json.loads(text, parse_constant=reject)
-        except ValueError as exc:
-            problems.append(f"{family}: not strict JSON ({exc})")
+        text, doc, found = _read_json(path, family)
+        if text is None:
+            problems.extend(found)
             continue
-        for err in sorted(validator.iter_errors(doc), key=lambda e: list(e.absolute_path))[:20]:
-            where = "/".join(str(p) for p in err.absolute_path)
-            problems.append(f"{family}: schema: at /{where}: {err.message[:200]}")
-        problems.extend(_structure_problems(family, doc))
-        texts[family], docs[family] = text, doc
+        schema_found = _schema_problems(family, doc, validator, label)
+        problems.extend(found + schema_found + _structure_problems(family, doc))
+        if not found and not schema_found:
+            texts[family], docs[family] = text, doc
     if reproduce and texts:
-        generator = load_generator(directory)
+        problems.extend(_reproduction(texts, docs))
+    return problems
+
+
+def _reproduction(texts: dict[str, str], docs: dict[str, Any]) -> list[str]:
+    generator = load_generator()
+    try:
         fresh = generator.build(tuple(texts))
-        for family, text in texts.items():
+    except Exception as exc:  # a generator defect, reported like any other problem
+        return [f"dynval's generator failed: {type(exc).__name__}: {exc}"]
+    problems = []
+    for family, text in texts.items():
+        try:
             problems.extend(_reproduce_problems(family, docs[family], text, fresh[family]))
+        except (KeyError, TypeError, AttributeError) as exc:  # a file shaped by a permissive --schema
+            problems.append(f"{family}: cannot compare with a fresh generation ({type(exc).__name__}: {exc})")
     return problems
 
 
@@ -130,16 +292,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m dynval.golden lint",
-                                     description="Lint the dynval golden corpus.")
+                                     description="Lint the dynval golden corpus (or a copy of it).")
     parser.add_argument("--corpus", type=pathlib.Path, default=None,
                         help="directory of <family>.json files (default: the shipped corpus)")
     parser.add_argument("--families", default=None, help="comma-separated families (default: all)")
+    parser.add_argument("--schema", type=pathlib.Path, default=None,
+                        help="JSON Schema to check against (default: dynval's own; a schema beside the corpus "
+                             "is never used)")
+    parser.add_argument("--reproduce", action="store_true",
+                        help="also regenerate every value with dynval's own generator and compare byte for byte")
     parser.add_argument("--no-reproduce", action="store_true",
-                        help="skip regenerating the values (schema and structure only)")
+                        help="schema and structure only (the default; kept for old scripts)")
     args = parser.parse_args(argv)
     families = [f for f in args.families.split(",") if f] if args.families else None
     try:
-        problems = lint(args.corpus, families, reproduce=not args.no_reproduce)
+        problems = lint(args.corpus, families, reproduce=args.reproduce and not args.no_reproduce,
+                        schema=args.schema)
     except ImportError as exc:
         print(f"linting needs the golden extra (pip install 'dynval[golden]'): {exc}", file=sys.stderr)
         return 2

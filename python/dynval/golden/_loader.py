@@ -63,12 +63,12 @@ def corpus_dir() -> pathlib.Path:
     return golden_root() / "vectors"
 
 
-def schema_path(corpus: pathlib.Path | str | None = None) -> pathlib.Path:
-    """Path of the corpus JSON Schema, next to ``corpus`` if it has one."""
-    if corpus is not None:
-        candidate = pathlib.Path(corpus).resolve().parent / "schema" / SCHEMA_NAME
-        if candidate.is_file():
-            return candidate
+def schema_path() -> pathlib.Path:
+    """Path of dynval's corpus JSON Schema (in the package, or in the source tree).
+
+    A schema file beside a corpus is deliberately not looked for: a copy of the
+    corpus must be checked against dynval's schema, not against one it brings along.
+    """
     return golden_root() / "schema" / SCHEMA_NAME
 
 
