@@ -16,7 +16,7 @@ def _blocks():
 
 def test_readme_examples_run(capsys):
     blocks = _blocks()
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     namespace: dict = {}
     for code in blocks:
         exec(compile(code, str(README), "exec"), namespace)
@@ -25,6 +25,7 @@ def test_readme_examples_run(capsys):
     cmp = namespace["cmp"]
     assert (cmp.ranking, cmp.verdict.decision) == (["friction", "rigid"], "accept")
     assert "Verdict: ACCEPT" in capsys.readouterr().out
+    assert abs(namespace["streamed"].pooled["r2"] - namespace["report"].pooled["r2"]) < 1e-14
 
 
 @pytest.mark.parametrize("scenario, decision", [("friction", "accept"), ("repeat", "redesign")])

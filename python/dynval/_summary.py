@@ -114,16 +114,21 @@ def format_summary(report: ValidationReport) -> str:
             f"whole report); lags outside: {frac}")
     if report.cross_correlation is not None:
         xc = report.cross_correlation
+        # A streamed report has no colour-aware band (it needs the whole series, contract §4.1).
+        colour = (f"the findings use a colour-aware band over {xc['colour_lags']} lags." if "colour_lags" in xc
+                  else "no colour-aware band (streamed), so the findings do not use it.")
         lines.append(f"Cross-correlation with {prov['n_regressor_columns']} regressor columns, lags "
                      f"0..{xc['max_lag']}: {xc['n_outside_white_band']} cells outside the white band "
-                     f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); the findings use a "
-                     f"colour-aware band over {xc['colour_lags']} lags.")
+                     f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); {colour}")
     white = report.whiteness
     if white is not None and white["decimation"] > 1:
         lines.append(f"Whiteness at the information rate: decimated by {white['decimation']} (band "
                      f"{_num(white['information_band'])} {prov['units']['frequency']}), Ljung–Box up to lag "
                      f"{white['lag_decimated']}.")
-    if report.bias is None:
+    if report.bias is None and prov.get("streaming"):
+        lines.append("Residual mean: zero-mean test only (the coloured-noise bias test needs the whole series), "
+                     "so the findings do not use it.")
+    elif report.bias is None:
         lines.append("Residual mean: i.i.d. t-test only (max_lag = 0), not corrected for autocorrelation, "
                      "so the findings do not use it.")
     alpha = 1.0 - float(conv["level"])

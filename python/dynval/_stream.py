@@ -1,0 +1,364 @@
+"""Mergeable sums behind :class:`dynval.stream.ValidationAccumulator` (contract §4.1).
+
+A :class:`State` summarises a run of consecutive rows (one or more segments) with sums whose
+size does not depend on the number of rows:
+
+* per joint, about a centre K (kept at the running mean): Σ(x − K), Σ(x − K)² of the target,
+  and for the residual, at every lag ℓ = 0..L, the lagged products P_ℓ = Σ (e_t − K)(e_{t−ℓ} − K)
+  together with the sums of the current elements H_ℓ = Σ (e_t − K) and of the lagged elements
+  T_ℓ = Σ (e_{t−ℓ} − K) over the same pairs, and the pair count n_ℓ; the same for the residual
+  against each regressor column (lagged sums of the column instead of T);
+* minima and maxima (constancy is decided on the data, contract §3.2);
+* the first rows of the first segment and the last rows of the last segment (at most L each),
+  so that a later merge can form the lagged products that cross the junction.
+
+Moving a centre from K to K' = K + δ needs only these sums:
+Σ(x_t − K')(y_{t−ℓ} − K'') = P_ℓ − δ_y H_ℓ − δ_x T_ℓ + n_ℓ δ_x δ_y. Every merge moves both operands
+to their combined mean before adding them (Chan's pairwise update of centred moments, extended to
+lagged products), so the sums stay centred and nothing cancels however large the offset of the
+data. Running sums are compensated (a second array holds what each addition rounded away), so a
+stream of many small chunks is as accurate as one pass.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+
+from ._reference.correlation import DIRECT_MAX_LAGS, row_lagged_products
+from ._reference.norms import joint_major
+
+_ONE_SEGMENT = np.zeros(1, dtype=np.int64)
+# Values gathered at a time for the products across a junction (lags × head rows × m).
+_JUNCTION_VALUES = 1 << 20
+
+
+class Compensated:
+    """An array sum carried as ``hi + lo`` (Kahan–Babuška/Neumaier): ``lo`` keeps the rounding errors."""
+
+    __slots__ = ("hi", "lo")
+
+    def __init__(self, value):
+        self.hi = np.array(value, dtype=np.float64)
+        self.lo = np.zeros_like(self.hi)
+
+    def add(self, x) -> None:
+        s = self.hi + x
+        b = s - self.hi
+        self.lo += (self.hi - (s - b)) + (x - b)
+        self.hi = s
+
+    def add_sum(self, other: Compensated) -> None:
+        self.add(other.hi)
+        self.lo += other.lo
+
+    def value(self) -> np.ndarray:
+        return self.hi + self.lo
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What a state holds: m joints, p regressor columns (0: none), lags of the residual's
+    autocorrelation (``acf_lags``) and of the cross-correlation (``xcorr_lags`` ≤ ``acf_lags``),
+    and whether the residuals' m × m product matrix is needed (the ``full`` noise model)."""
+
+    m: int
+    p: int
+    acf_lags: int
+    xcorr_lags: int
+    gram: bool
+
+
+class State:
+    """Centred, mergeable sums of a run of rows (see the module docstring)."""
+
+    def __init__(self, layout: Layout):
+        m, p, le, lx = layout.m, layout.p, layout.acf_lags, layout.xcorr_lags
+        self.layout = layout
+        self.n = 0
+        self.lengths: list[int] = []  # segment lengths, in order
+        self.start_break = False  # the first row must not join the rows before it
+        self.end_break = False  # the next row must not join the last row
+        # residual e: centre, lagged products and their boundary sums, pair counts, extremes
+        self.k_e = np.zeros(m)
+        self.prod_e = Compensated(np.zeros((le + 1, m)))
+        self.cur_e = Compensated(np.zeros((le + 1, m)))  # H_ℓ; H_0 = Σ(e − K)
+        self.lag_e = Compensated(np.zeros((le + 1, m)))  # T_ℓ
+        self.pairs = np.zeros(le + 1, dtype=np.int64)
+        self.gram = Compensated(np.zeros((m, m))) if layout.gram else None
+        self.min_e = np.full(m, np.inf)
+        self.max_e = np.full(m, -np.inf)
+        # target tau_meas: centre, Σ(τ − K), Σ(τ − K)², extremes
+        self.k_t = np.zeros(m)
+        self.sum_t = Compensated(np.zeros(m))
+        self.sq_t = Compensated(np.zeros(m))
+        self.min_t = np.full(m, np.inf)
+        self.max_t = np.full(m, -np.inf)
+        # regressor Y (m, p): centre, Σ(Y − K)², lagged sums (lag 0: Σ(Y − K)), cross products
+        self.k_y = np.zeros((m, p))
+        self.sq_y = Compensated(np.zeros((m, p)))
+        self.lag_y = Compensated(np.zeros((lx + 1, m, p)))
+        self.prod_ey = Compensated(np.zeros((lx + 1, m, p)))
+        self.min_y = np.full((m, p), np.inf)
+        self.max_y = np.full((m, p), -np.inf)
+        # boundary rows (raw values): the first segment's first rows, the last segment's last rows
+        self.head_e = np.zeros((0, m))
+        self.tail_e = np.zeros((0, m))
+        self.tail_y = np.zeros((0, m, p))
+
+    def copy(self) -> State:
+        return copy.deepcopy(self)
+
+    # ----------------------------------------------------------------------- one block
+
+    @classmethod
+    def from_block(cls, layout: Layout, e: np.ndarray, tau: np.ndarray, y: np.ndarray | None) -> State:
+        """The state of one segment of rows: ``e``, ``tau`` (c, m) and ``y`` (c, m, p) or None."""
+        st = cls(layout)
+        c = e.shape[0]
+        st.n = c
+        st.lengths = [c]
+        st.k_e, xe, st.min_e, st.max_e = _centred_rows(e)
+        st._set_lagged_sums(xe, c)
+        if st.gram is not None:
+            g = np.zeros((layout.m, layout.m))
+            for i in range(layout.m):
+                g[i, i:] = np.add.reduce(xe[i] * xe[i:], axis=1)
+            st.gram = Compensated(np.triu(g) + np.triu(g, 1).T)
+        st.k_t, xt, st.min_t, st.max_t = _centred_rows(tau)
+        st.sum_t = Compensated(np.add.reduce(xt, axis=1))
+        st.sq_t = Compensated(np.add.reduce(np.square(xt, out=xt), axis=1))
+        if layout.p:
+            st._set_regressor_sums(xe, y, c)
+        st.head_e = e[: layout.acf_lags].copy()
+        st.tail_e = _last(e, layout.acf_lags).copy()
+        return st
+
+    def _set_lagged_sums(self, xe: np.ndarray, c: int) -> None:
+        le = self.layout.acf_lags
+        top = min(le, c - 1)
+        prod = np.zeros((le + 1, xe.shape[0]))
+        prod[: top + 1] = _lagged_products(xe, xe, top)
+        self.prod_e = Compensated(prod)
+        cur, lag = _boundary_sums(xe, le)
+        self.cur_e, self.lag_e = Compensated(cur), Compensated(lag)
+        self.pairs = np.maximum(c - np.arange(le + 1), 0).astype(np.int64)
+
+    def _set_regressor_sums(self, xe: np.ndarray, y: np.ndarray, c: int) -> None:
+        m, p, lx = self.layout.m, self.layout.p, self.layout.xcorr_lags
+        k_y, xy, lo, hi = _centred_rows(y.reshape(c, m * p))  # row j·p + c: joint j, column c
+        self.k_y, self.min_y, self.max_y = k_y.reshape(m, p), lo.reshape(m, p), hi.reshape(m, p)
+        self.sq_y = Compensated(np.add.reduce(xy * xy, axis=1).reshape(m, p))
+        _, lag = _boundary_sums(xy, lx)
+        self.lag_y = Compensated(lag.reshape(lx + 1, m, p))
+        top = min(lx, c - 1)
+        prod = np.zeros((lx + 1, m * p))
+        prod[: top + 1] = _lagged_products(xe, xy, top, repeat=p)
+        self.prod_ey = Compensated(prod.reshape(lx + 1, m, p))
+        self.tail_y = _last(y, lx).copy()
+
+    # ----------------------------------------------------------------------- centres
+
+    def mean_e(self) -> np.ndarray:
+        return self.k_e + self.cur_e.value()[0] / self.n
+
+    def mean_t(self) -> np.ndarray:
+        return self.k_t + self.sum_t.value() / self.n
+
+    def mean_y(self) -> np.ndarray:
+        return self.k_y + self.lag_y.value()[0] / self.n
+
+    def recentre(self, k_e: np.ndarray, k_t: np.ndarray, k_y: np.ndarray) -> None:
+        """Move every sum to new centres: x − K' = (x − K) − δ (module docstring)."""
+        n, lx = self.n, self.layout.xcorr_lags
+        d = k_e - self.k_e
+        cur, lag = self.cur_e.value(), self.lag_e.value()
+        nl = self.pairs[:, None].astype(np.float64)
+        # Every correction is computed from the sums before any of them moves.
+        fix_prod = -d * (cur + lag) + nl * d * d
+        if self.gram is not None:
+            s = cur[0]
+            self.gram.add(-(np.outer(d, s) + np.outer(s, d)) + n * np.outer(d, d))
+        if self.layout.p:
+            dy = k_y - self.k_y
+            lag_y = self.lag_y.value()
+            nlx = nl[: lx + 1, :, None]
+            self.prod_ey.add(-dy[None] * cur[: lx + 1, :, None] - d[None, :, None] * lag_y
+                             + nlx * d[None, :, None] * dy[None])
+            self.sq_y.add(-2.0 * dy * lag_y[0] + n * dy * dy)
+            self.lag_y.add(-nlx * dy[None])
+            self.k_y = k_y
+        self.prod_e.add(fix_prod)
+        self.cur_e.add(-nl * d)
+        self.lag_e.add(-nl * d)
+        self.k_e = k_e
+        dt = k_t - self.k_t
+        self.sq_t.add(-2.0 * dt * self.sum_t.value() + n * dt * dt)
+        self.sum_t.add(-n * dt)
+        self.k_t = k_t
+
+    # ----------------------------------------------------------------------- merge
+
+    def merge(self, later: State) -> None:
+        """Add ``later`` (rows that follow this state's rows in time) to this state, in place.
+
+        Lags join across the junction unless this state ends with a break or ``later`` starts
+        with one. ``later`` is not modified.
+        """
+        if later.n == 0:
+            self.end_break = self.end_break or later.start_break or later.end_break
+            return
+        if self.n == 0:
+            pending = self.start_break or self.end_break
+            self.__dict__.update(later.copy().__dict__)
+            self.start_break = self.start_break or pending
+            return
+        b = later.copy()
+        n = self.n + b.n
+        w = b.n / n
+        ma, mb = self.mean_e(), b.mean_e()
+        ta, tb = self.mean_t(), b.mean_t()
+        ya, yb = self.mean_y(), b.mean_y()
+        centres = (ma + w * (mb - ma), ta + w * (tb - ta), ya + w * (yb - ya))
+        self.recentre(*centres)
+        b.recentre(*centres)
+        join = not (self.end_break or b.start_break)
+        if join:
+            self._add_junction(b)
+        self._add_sums(b)
+        self._join_boundaries(b, join)
+
+    def _add_sums(self, b: State) -> None:
+        for name in ("prod_e", "cur_e", "lag_e", "sum_t", "sq_t", "sq_y", "lag_y", "prod_ey"):
+            getattr(self, name).add_sum(getattr(b, name))
+        if self.gram is not None:
+            self.gram.add_sum(b.gram)
+        self.pairs = self.pairs + b.pairs
+        self.n += b.n
+        for lo, hi in (("min_e", "max_e"), ("min_t", "max_t"), ("min_y", "max_y")):
+            setattr(self, lo, np.minimum(getattr(self, lo), getattr(b, lo)))
+            setattr(self, hi, np.maximum(getattr(self, hi), getattr(b, hi)))
+
+    def _add_junction(self, b: State) -> None:
+        """The lagged products whose current element is in ``b``'s first segment and whose lagged
+        element is in this state's last segment (both already on the same centres)."""
+        le, lx = self.layout.acf_lags, self.layout.xcorr_lags
+        if le == 0:
+            return
+        head = b.head_e - self.k_e  # current elements: b's first rows
+        tail = self.tail_e - self.k_e  # lagged elements: this state's last rows
+        prod, cur, lag = (np.zeros((le + 1, head.shape[1])) for _ in range(3))
+        pairs = np.zeros(le + 1, dtype=np.int64)
+        # Lags in groups: the gathered (lags, rows, m) arrays stay small however long max_lag is.
+        group = max(1, _JUNCTION_VALUES // max(1, head.size))
+        for first in range(1, le + 1, group):
+            lags = np.arange(first, min(le, first + group - 1) + 1)
+            rows = slice(first, lags[-1] + 1)
+            prod[rows], cur[rows], lag[rows], pairs[rows] = _junction_sums(head, tail, lags)
+        self.prod_e.add(prod)
+        self.cur_e.add(cur)
+        self.lag_e.add(lag)
+        self.pairs = self.pairs + pairs
+        if self.layout.p and lx:
+            self._add_cross_junction(head, self.tail_y - self.k_y)
+
+    def _add_cross_junction(self, head: np.ndarray, tail_y: np.ndarray) -> None:
+        lx, m, p = self.layout.xcorr_lags, self.layout.m, self.layout.p
+        n_tail = tail_y.shape[0]
+        prod = np.zeros((lx + 1, m, p))
+        lag_sum = np.zeros((lx + 1, m, p))
+        for lag in range(1, lx + 1):
+            i0, i1 = max(0, lag - n_tail), min(lag, head.shape[0])
+            if i0 >= i1:
+                continue
+            ys = tail_y[n_tail - lag + i0: n_tail - lag + i1]  # (k, m, p)
+            prod[lag] = np.einsum("km,kmp->mp", head[i0:i1], ys)
+            lag_sum[lag] = ys.sum(axis=0)
+        self.prod_ey.add(prod)
+        self.lag_y.add(lag_sum)
+
+    def _join_boundaries(self, b: State, join: bool) -> None:
+        """Segment lengths and boundary rows of the concatenation."""
+        le, lx = self.layout.acf_lags, self.layout.xcorr_lags
+        single_a, single_b = len(self.lengths) == 1, len(b.lengths) == 1
+        if join and single_a:
+            self.head_e = np.concatenate([self.head_e, b.head_e])[:le]
+        if join and single_b:
+            self.tail_e = _last(np.concatenate([self.tail_e, b.tail_e]), le)
+            self.tail_y = _last(np.concatenate([self.tail_y, b.tail_y]), lx)
+        else:
+            self.tail_e, self.tail_y = b.tail_e, b.tail_y
+        if join:
+            self.lengths = self.lengths[:-1] + [self.lengths[-1] + b.lengths[0]] + b.lengths[1:]
+        else:
+            self.lengths = self.lengths + b.lengths
+        self.end_break = b.end_break
+
+
+def _junction_sums(head: np.ndarray, tail: np.ndarray, lags: np.ndarray):
+    """For each lag ℓ: Σ head_i·tail_{n−ℓ+i}, Σ head_i, Σ tail_{n−ℓ+i} and the count, over the head
+    rows i < ℓ whose partner n − ℓ + i ≥ 0 exists (n = len(tail))."""
+    n_tail = tail.shape[0]
+    i = np.arange(head.shape[0])[None, :]
+    idx = n_tail - lags[:, None] + i
+    valid = (idx >= 0) & (i < lags[:, None])
+    lagged = np.where(valid[:, :, None], tail[np.clip(idx, 0, n_tail - 1)], 0.0)  # (lags, rows, m)
+    current = np.where(valid[:, :, None], head[None], 0.0)
+    return (np.einsum("lim,lim->lm", current, lagged), current.sum(axis=1), lagged.sum(axis=1),
+            valid.sum(axis=1))
+
+
+def _lagged_products(x: np.ndarray, y: np.ndarray, top: int, repeat: int = 1) -> np.ndarray:
+    """S[ℓ, r] = Σ_t x[r // repeat, t]·y[r, t − ℓ] for ℓ = 0..top, over one segment's rows (k, c).
+
+    ``repeat = p`` pairs joint j's residual with its p regressor columns (rows j·p + c of ``y``).
+    Few lags: the reference kernel's direct pairwise sums. More: one batched real FFT per array
+    (length ≥ c + top, so no wrap-around), each residual row transformed once, not once per column.
+    """
+    if top + 1 <= DIRECT_MAX_LAGS:
+        xr = x if repeat == 1 else np.repeat(x, repeat, axis=0)
+        return row_lagged_products(xr, xr if y is x else y, top, _ONE_SEGMENT, "direct")
+    nfft = scipy.fft.next_fast_len(x.shape[1] + top, real=True)
+    fx = scipy.fft.rfft(x, nfft, axis=1)
+    if y is x:
+        spectrum = fx.real**2 + fx.imag**2
+    else:
+        spectrum = np.conj(scipy.fft.rfft(y, nfft, axis=1))
+        spectrum *= fx if repeat == 1 else np.repeat(fx, repeat, axis=0)
+    return scipy.fft.irfft(spectrum, nfft, axis=1)[:, : top + 1].T
+
+
+def _centred_rows(x: np.ndarray):
+    """(centre, rows − centre, min, max) of the columns of ``x`` (c, k), as contiguous rows (k, c):
+    numpy then sums each row pairwise at the speed of reading it. The centre is the block's mean."""
+    rows = joint_major(x)
+    if not rows.flags.owndata:
+        rows = rows.copy()  # joint-major input comes back as a view: the caller's data stay untouched
+    lo, hi = rows.min(axis=1), rows.max(axis=1)
+    centre = np.add.reduce(rows, axis=1) / rows.shape[1]
+    rows -= centre[:, None]
+    return centre, rows, lo, hi
+
+
+def _boundary_sums(x: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray]:
+    """For rows ``x`` (k, c) of one segment: Σ x_t over the current elements (t ≥ ℓ) and over the
+    lagged elements (t < c − ℓ) of the lag-ℓ pairs, ℓ = 0..lags; 0 where a lag has no pair."""
+    k, c = x.shape
+    total = np.add.reduce(x, axis=1)
+    cur = np.zeros((lags + 1, k))
+    lag = np.zeros((lags + 1, k))
+    cur[0] = lag[0] = total
+    top = min(lags, c - 1)
+    if top >= 1:
+        # The sums leave out the first (last) ℓ values: the total less a short prefix (suffix).
+        cur[1: top + 1] = total - np.cumsum(x[:, :top], axis=1).T
+        lag[1: top + 1] = total - np.cumsum(x[:, ::-1][:, :top], axis=1).T
+    return cur, lag
+
+
+def _last(rows: np.ndarray, k: int) -> np.ndarray:
+    """The last ``k`` rows (none for k = 0, where ``rows[-0:]`` would give them all)."""
+    return rows[rows.shape[0] - min(k, rows.shape[0]):]

@@ -1,0 +1,162 @@
+"""Validation of dask arrays chunked along time, on any dask scheduler: threads, or a cluster.
+
+Each time block becomes a :class:`dynval.stream.ValidationAccumulator` (its lagged sums and its
+first and last rows), and dask's own tree reduction (:func:`dask.array.reduction`) merges them in
+time order; lags join across block boundaries, so the report equals :func:`dynval.validate` on the
+same data within the backends' agreement tolerance, with the sections of contract §4.1
+(``dynval.stream``). Only the merged accumulator, O(L·m·p) numbers, travels to the caller.
+
+Install the extra: ``pip install "dynval[dask]"`` (``dask[distributed]``).
+
+Running on a cluster
+--------------------
+The computation runs on whatever dask scheduler is active. On this machine::
+
+    from dask.distributed import Client, LocalCluster
+    import dask.array as da, dynval.dask
+
+    client = Client(LocalCluster(n_workers=2, threads_per_worker=1))
+    tau = da.from_zarr("run.zarr/tau_meas")          # (N, m), chunked along time
+    pred = da.from_zarr("run.zarr/tau_pred")
+    report = dynval.dask.validate(tau, pred, n_params=12, max_lag=50)
+
+On a real cluster the only change is where the client connects, the scheduler's address::
+
+    client = Client("tcp://scheduler.example.org:8786")
+
+(the workers need dynval installed, and the arrays must be readable where the workers run, e.g.
+zarr or HDF5 files on shared storage or an object store). Each block's task allocates temporaries of
+the block's size; dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, under which
+glibc maps and zeroes each of them afresh (``benchmarks/README.md`` has the measurements).
+"""
+
+from __future__ import annotations
+
+import dask.array as da
+import numpy as np
+
+from . import _validation as v
+from ._errors import InvalidType
+from ._segments import parse_segments
+from .stream import ValidationAccumulator
+
+__all__ = ["validate", "accumulate"]
+
+
+def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, segments=None, split_every=None,
+             **keywords):
+    """:func:`dynval.validate` of dask arrays chunked along time (rows), as a
+    :class:`~dynval.ValidationReport` with the sections of ``dynval.stream`` (contract §4.1).
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : dask or numpy array, (N,) or (N, m)
+        Chunked along time; columns are gathered into one chunk per block.
+    n_params : int
+    regressor : dask or numpy array, (N, m, p) or (N·m, p) with ``n_joints``, optional
+        Rechunked along time to the torques' blocks.
+    segments : lengths or starts, optional
+        Independent records (contract §1.1): N is known here, so segments are given as to
+        ``validate``; each block gets the breaks that fall in it.
+    split_every : int, optional
+        How many partial accumulators dask merges per step of its tree (dask's default otherwise).
+    **keywords
+        The other keywords of :class:`~dynval.stream.ValidationAccumulator` (``max_lag``,
+        ``profile``, ``level``, ``noise_model``, ``nan_policy``, names, ...).
+
+    Examples
+    --------
+    >>> import dask.array as da, numpy as np, dynval, dynval.dask
+    >>> rng = np.random.default_rng(0)
+    >>> tau = rng.normal(size=(4000, 2)); pred = tau + 0.1 * rng.normal(size=(4000, 2))
+    >>> report = dynval.dask.validate(da.from_array(tau, chunks=(500, 2)), da.from_array(pred, chunks=(500, 2)),
+    ...                               n_params=3, max_lag=20)
+    >>> want = dynval.validate(tau, pred, n_params=3, max_lag=20)
+    >>> float(np.max(np.abs(report.autocorrelation["rho"] - want.autocorrelation["rho"]))) < 1e-14
+    True
+    """
+    return accumulate(tau_meas, tau_pred, n_params=n_params, regressor=regressor, n_joints=n_joints,
+                      segments=segments, split_every=split_every, **keywords).result()
+
+
+def accumulate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, segments=None, split_every=None,
+               **keywords) -> ValidationAccumulator:
+    """The merged :class:`~dynval.stream.ValidationAccumulator` of :func:`validate` (merge it with
+    accumulators of later data, or call ``.result()``)."""
+    keywords = dict(keywords, n_params=n_params, n_joints=n_joints)
+    ValidationAccumulator(**keywords)  # the settings are checked here, once, before any work
+    meas, pred, reg = _aligned(tau_meas, tau_pred, regressor, n_joints)
+    n = meas.shape[0]
+    starts = parse_segments(segments, n)
+    rows = da.arange(n, chunks=(meas.chunks[0],))
+    arrays = [rows, "i", meas, "ij", pred, "ij"] + ([] if reg is None else [reg, "ijk"])
+    block_starts = np.cumsum((0,) + meas.chunks[0][:-1])
+    blocks = da.blockwise(_block, "i", *arrays, starts=starts, block_starts=block_starts, keywords=keywords,
+                          dtype=object, adjust_chunks={"i": 1}, concatenate=True, meta=np.empty((0,), dtype=object))
+    merged = da.reduction(blocks, _keep, _merge_blocks, combine=_merge_blocks, axis=0, keepdims=True,
+                          concatenate=False, split_every=split_every, dtype=object,
+                          meta=np.empty((0,), dtype=object))
+    acc = merged.compute()[0]
+    acc._chunks, acc._rows_seen = int(meas.numblocks[0]), int(n)  # the messages count blocks and rows
+    return acc
+
+
+def _aligned(tau_meas, tau_pred, regressor, n_joints):
+    """The contract's type and shape checks on the arrays (without reading them), then one column
+    chunk each and the regressor as (N, m, p) with the torques' time blocks."""
+    meas0 = _as_dask(tau_meas, "tau_meas")
+    pred0 = _as_dask(tau_pred, "tau_pred")
+    reg0 = None if regressor is None else _as_dask(regressor, "regressor")
+    meas = v.promote_signal(meas0, "tau_meas")
+    pred = v.promote_signal(pred0, "tau_pred")
+    v.check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+    n, m = meas.shape
+    meas = meas.rechunk({1: -1})
+    pred = pred.rechunk(meas.chunks)
+    reg = None
+    if reg0 is not None:
+        p = v.regressor_shape(reg0, "tau_meas", n, m, n_joints)
+        if reg0.ndim == 2:
+            reg0 = reg0.rechunk({0: tuple(c * m for c in meas.chunks[0]), 1: -1}).reshape(n, m, p)
+        reg = reg0.rechunk((meas.chunks[0], m, p))
+    return meas, pred, reg
+
+
+def _as_dask(x, name):
+    arr = x if isinstance(x, da.Array) else da.asarray(v.to_float_array(x, name))
+    if arr.dtype.kind not in "biuf":
+        raise InvalidType(f"{name} must be an array of real numbers, got {arr.dtype}")
+    return arr.astype(np.float64)
+
+
+def _block(rows, meas, pred, reg=None, *, starts, block_starts, keywords):
+    """The accumulator of one time block, with the segment breaks that fall inside it."""
+    acc = ValidationAccumulator(**keywords)
+    if rows.size == 0:
+        return _holder(acc)
+    first = int(rows[0])
+    # A segment start at the block's first row (other than row 0) is a break before the block.
+    inside = starts[(starts >= max(first, 1)) & (starts < first + rows.size)] - first
+    # Errors then name the block as the chunk and give the row in the whole array.
+    acc._chunks, acc._rows_seen = int(np.searchsorted(block_starts, first)), first
+    acc._update(meas, pred, reg, [int(k) for k in inside])
+    return _holder(acc)
+
+
+def _holder(acc):
+    out = np.empty((1,), dtype=object)
+    out[0] = acc
+    return out
+
+
+def _keep(block, axis, keepdims):
+    return block
+
+
+def _merge_blocks(parts, axis, keepdims):
+    """Merge partial accumulators in time order (dask passes them in block order)."""
+    parts = [p[0] for p in (parts if isinstance(parts, list) else [parts])]
+    merged = parts[0].copy()
+    for later in parts[1:]:
+        merged.merge(later)
+    return _holder(merged)

@@ -1,0 +1,712 @@
+"""Streaming validation: the report of :func:`dynval.validate` from data read in chunks.
+
+:class:`ValidationAccumulator` takes the keywords of ``validate`` that make sense without the
+whole series, reads ``tau_meas``, ``tau_pred`` (and the regressor) chunk by chunk, and gives a
+:class:`~dynval.ValidationReport` equal, within the agreement tolerance of the backends (1e-14
+of each quantity's natural size), to ``validate`` on the concatenated data with the same segments:
+
+* point metrics pooled and per joint, their aggregates;
+* residual mean, variance (the profile's ddof) and the zero-mean test, both halves;
+* autocorrelation with its band and Ljung–Box, across chunk boundaries, honouring segments;
+* the cross-correlation ρ with the regressor columns at lags 0..max_lag;
+* the information criteria of the noise model (not their N_eff-based variants).
+
+Sections that need the whole series are None or partial (``bias``, ``spectrum``, ``design`` and
+``segment_metrics`` None; ``whiteness`` at the logged rate only; the cross-correlation without its
+colour-aware fields; findings from this evidence only): docs/contract.md §4.1 lists them.
+
+Two accumulators over consecutive time ranges combine with :meth:`~ValidationAccumulator.merge`
+(the argument's rows come after the accumulator's): the lags join across the junction, as they do
+between two chunks of one accumulator, unless a :meth:`~ValidationAccumulator.break_segment`
+separates them. Merging is associative, so partial accumulators can be combined in any tree
+(``dynval.dask`` does this on a cluster). The state is O(L·m·p) numbers (L the number of lags) plus
+one integer per segment, whatever the number of rows.
+
+Examples
+--------
+>>> import numpy as np, dynval
+>>> from dynval.stream import ValidationAccumulator
+>>> rng = np.random.default_rng(0)
+>>> tau = rng.normal(size=(1000, 2)); pred = tau + 0.1 * rng.normal(size=(1000, 2))
+>>> acc = ValidationAccumulator(n_params=4, max_lag=10)
+>>> for k in range(0, 1000, 64):
+...     acc.update(tau[k:k + 64], pred[k:k + 64])
+>>> report = acc.result()
+>>> want = dynval.validate(tau, pred, n_params=4, max_lag=10)
+>>> bool(np.allclose(report.autocorrelation["rho"], want.autocorrelation["rho"], rtol=0, atol=1e-14))
+True
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+import scipy.stats
+
+from . import _sections as sec
+from . import _validation as v
+from ._api import newey_west_bandwidth
+from ._errors import InputError, InvalidParameter, ShapeMismatch
+from ._findings import compute_findings, resolve_thresholds
+from ._profiles import Profile, get_profile
+from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
+from ._reference.information import _exp, _n_log, assemble
+from ._reference.portmanteau import chi2_logsf
+from ._report import REPORT_SCHEMA_VERSION, ValidationReport
+from ._results import ZeroMeanTest
+from ._stats import iid_t_test, z_two_sided
+from ._stream import Layout, State
+from ._version import CONTRACT_VERSION, __version__
+
+__all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
+
+ZERO_MEAN_MAX_SAMPLES = 10**9
+"""Largest N for which the accumulator carries the lags of the zero-mean test's N_eff half.
+
+Its Newey–West bandwidth K = ⌊4(N/100)^(2/9)⌋ grows with N, which a stream does not know in
+advance; the accumulator keeps K(1e9) = 143 lags of the residual's autocorrelation (a few
+kilobytes). Beyond that N the corrected half is None, as with ``max_lag=0``."""
+
+UNSUPPORTED = {
+    "segments": "call break_segment() between records instead",
+    "decimate": "whiteness at the information rate needs the whole series",
+    "q": "the repeat check compares whole trajectories",
+    "estimation": "the estimation run's refit and repeat check need whole series",
+    "cross_correlation_detail": "the colour-aware cross-correlation needs the whole series; rho is always given",
+    "model_columns": "the added-variable test projects whole columns",
+}
+"""Keywords of ``validate`` the accumulator refuses unless None, with the reason."""
+
+# Rows gathered before they are summed: small chunks are pooled into one block, so that the
+# per-block work (centring, lagged sums, the products across the junction) is shared.
+_MIN_BLOCK_ROWS = 256
+# Largest block, in values of m·(p + 2) columns: bounds the FFT temporaries of the lagged sums.
+_MAX_BLOCK_VALUES = 1 << 22
+_MAX_BLOCK_ROWS = 1 << 16
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The accumulator's checked keywords; two accumulators merge only with equal settings."""
+
+    n_params: int
+    max_lag: int | None
+    n_joints: int | None
+    profile: Profile
+    nan_policy: str
+    level: float
+    noise_model: str
+    sample_rate: float | None
+    joint_names: tuple | None
+    column_names: tuple | None
+    thresholds: object
+    allow_wide: bool
+
+
+class ValidationAccumulator:
+    """Validation report of data that arrive in chunks (module docstring; contract §4.1).
+
+    Parameters
+    ----------
+    n_params : int
+        Number of identified parameters p, as for :func:`dynval.validate`.
+    max_lag : int, optional
+        Largest lag of the autocorrelation and cross-correlation. ``None`` takes the profile's
+        cap (50 lesson and sklearn, 25 matlab), reduced to the longest segment − 1 at
+        :meth:`result` as ``validate`` does; the ``statsmodels`` profile's default depends on N,
+        which a stream does not know, so it needs an explicit value. ``0`` reads every chunk once.
+    n_joints : int, optional
+        Number of joints m: needed for a stacked ``(c·m, p)`` regressor chunk; otherwise taken
+        from the first chunk.
+    profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
+        As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
+        break where rows were deleted, across chunk boundaries too.
+    backend : None or "python"
+        The accumulator runs on numpy.
+    segments, decimate, q, estimation, cross_correlation_detail, model_columns
+        Not supported (they need the whole series): anything but None raises InvalidParameter
+        naming the keyword (:data:`UNSUPPORTED` gives the reasons).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> acc = ValidationAccumulator(n_params=1, max_lag=2)
+    >>> acc.update([1.0, 2.0, 3.0], [1.1, 1.9, 3.2])
+    >>> acc.break_segment()
+    >>> acc.update([4.0, 5.0, 6.0], [3.9, 5.1, 6.0])
+    >>> acc.result().provenance["segments"]
+    [3, 3]
+    """
+
+    def __init__(self, *, n_params, max_lag=None, n_joints=None, profile="lesson", level=None, noise_model=None,
+                 nan_policy="raise", backend=None, sample_rate=None, joint_names=None, column_names=None,
+                 thresholds=None, allow_wide=False, segments=None, decimate=None, q=None, estimation=None,
+                 cross_correlation_detail=None, model_columns=None):
+        # validate's parameter order (contract §2.1), the unsupported keywords in their places.
+        n_params = v.check_n_params(n_params)
+        if n_joints is not None and (not v.is_integer(n_joints) or n_joints <= 0):
+            raise v.parameter_error("n_joints", "None or a positive integer", n_joints)
+        prof = get_profile(profile)
+        v.check_nan_policy(nan_policy)
+        _refuse("segments", segments)
+        max_lag = _check_max_lag(max_lag, prof)
+        level = prof.level if level is None else v.check_level(level)
+        if backend is not None and backend != "python":
+            raise v.parameter_error("backend", "None or 'python' (the accumulator runs on numpy)", backend)
+        noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
+        sample_rate = v.check_sample_rate(sample_rate)
+        _refuse("decimate", decimate)
+        if n_joints is not None:
+            v.check_names("joint_names", joint_names, int(n_joints), "joint")
+        for name, value in (("q", q), ("estimation", estimation)):
+            _refuse(name, value)
+        thresholds = resolve_thresholds(thresholds)
+        for name, value in (("cross_correlation_detail", cross_correlation_detail), ("model_columns", model_columns)):
+            _refuse(name, value)
+        allow_wide = v.check_allow_wide(allow_wide)
+        self._settings = _Settings(
+            n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
+            nan_policy=nan_policy, level=level, noise_model=noise_model, sample_rate=sample_rate,
+            joint_names=_names(joint_names), column_names=_names(column_names), thresholds=thresholds,
+            allow_wide=allow_wide)
+        self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
+        self._state: State | None = None
+        self._pending: list = []  # rows of the current segment not yet summed
+        self._pending_rows = 0
+        self._break_first = False  # break_segment() before the first chunk
+        self._chunks = 0
+        self._rows_seen = 0
+        self._omitted = 0
+
+    # ----------------------------------------------------------------------- public
+
+    @property
+    def n_samples(self) -> int:
+        """Rows accumulated so far (after ``nan_policy="omit"``)."""
+        return (0 if self._state is None else self._state.n) + self._pending_rows
+
+    def update(self, tau_meas_chunk, tau_pred_chunk, regressor_chunk=None) -> None:
+        """Add the next rows: ``(c,)`` or ``(c, m)`` torques and, if any, the ``(c, m, p)`` or
+        ``(c·m, p)`` regressor (with ``n_joints``). Every chunk must have the same m (and p, and a
+        regressor either always or never); errors name the chunk, counted from 0. A rejected chunk
+        leaves the accumulator unchanged. Chunks of any length (1 row, fewer rows than max_lag, 0)
+        are fine: lags join across chunk boundaries.
+        """
+        self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, ())
+
+    def _update(self, tau_meas, tau_pred, regressor, breaks) -> None:
+        """:meth:`update` with segment breaks before the chunk's rows ``breaks`` (sorted; 0 is a
+        break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
+        meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
+        if self._layout is None:
+            self._layout = self._new_layout(meas.shape[1], 0 if reg is None else reg.shape[2])
+        self._chunks += 1
+        self._rows_seen += meas.shape[0]
+        feed = self._feed_omitting if self._settings.nan_policy == "omit" else self._feed
+        start = 0
+        for stop in breaks:
+            feed(meas[start:stop], pred[start:stop], None if reg is None else reg[start:stop])
+            self.break_segment()
+            start = stop
+        feed(meas[start:], pred[start:], None if reg is None else reg[start:])
+
+    def break_segment(self) -> None:
+        """End the current segment: no lagged product joins the rows before and after this call
+        (contract §1.1; means stay overall). Repeated breaks make no empty segment."""
+        self._flush()
+        if self._state is None:
+            self._break_first = True
+        else:
+            self._state.end_break = True
+
+    def merge(self, other: ValidationAccumulator) -> ValidationAccumulator:
+        """Add ``other``'s data, which come after this accumulator's in time; returns ``self``.
+
+        Lags join across the junction (as between two chunks) unless ``self`` ended, or ``other``
+        started, with :meth:`break_segment`. ``other`` is not modified. Both need equal settings
+        and the same m (and p). ``(a.merge(b)).merge(c)`` and ``a.merge(b.copy().merge(c))`` give
+        the same report.
+        """
+        if not isinstance(other, ValidationAccumulator):
+            raise v.parameter_error("other", "a ValidationAccumulator", type(other).__name__)
+        self._check_same_settings(other)
+        self._check_same_layout(other)
+        later = other.copy()
+        later._flush()
+        self._flush()
+        self._layout = self._layout or later._layout
+        if later._state is None:
+            if later._break_first:
+                self.break_segment()
+        else:
+            if self._state is None:
+                self._state = State(later._layout)
+                self._state.end_break = self._break_first
+            self._state.merge(later._state)
+        self._chunks += other._chunks
+        self._rows_seen += other._rows_seen
+        self._omitted += other._omitted
+        return self
+
+    def copy(self) -> ValidationAccumulator:
+        """An independent copy (merge trees that reuse a partial result need one)."""
+        return copy.deepcopy(self)
+
+    def result(self) -> ValidationReport:
+        """The report of every row so far (the accumulator stays usable).
+
+        Raises TooFewSamples below 2 rows (or N < m without ``allow_wide``) and InvalidParameter
+        when an explicit ``max_lag`` is not below the longest segment (contract §2.1 texts).
+        """
+        self._flush()
+        n = 0 if self._state is None else self._state.n
+        v.check_min_samples("ValidationAccumulator.result", n, 2)
+        st, cfg = self._state, self._settings
+        v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, self._layout.m), cfg.allow_wide)
+        return _report(st, cfg, self._omitted)
+
+    # ----------------------------------------------------------------------- chunks
+
+    def _checked_chunk(self, tau_meas, tau_pred, regressor):
+        """The contract's data checks on one chunk, then its agreement with the chunks before it."""
+        index = self._chunks
+        try:
+            meas0 = v.to_float_array(tau_meas, "tau_meas")
+            pred0 = v.to_float_array(tau_pred, "tau_pred")
+            reg0 = None if regressor is None else v.to_float_array(regressor, "regressor")
+            meas = v.promote_signal(meas0, "tau_meas")
+            pred = v.promote_signal(pred0, "tau_pred")
+            v.check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+            c, m = meas.shape
+            self._check_continues(meas0.shape, m, reg0)
+            reg = None
+            if reg0 is not None:
+                p = v.regressor_shape(reg0, "tau_meas", c, m, self._settings.n_joints)
+                self._check_columns(reg0.shape, p)
+                reg = v.regressor_to_2d(reg0, c, m, p).reshape(c, m, p)
+            if self._layout is None:
+                self._check_names(m, None if reg is None else reg.shape[2])
+            if self._settings.nan_policy == "raise":
+                self._check_finite(meas, pred, reg)
+        except InputError as exc:
+            raise type(exc)(f"chunk {index}: {exc}") from None
+        return meas, pred, reg
+
+    def _check_continues(self, shape, m, reg0) -> None:
+        n_joints = self._settings.n_joints
+        if n_joints is not None and m != n_joints:
+            raise ShapeMismatch(f"tau_meas must have n_joints={n_joints} columns, got shape {v.format_shape(shape)}")
+        layout = self._layout
+        if layout is None:
+            return
+        if m != layout.m:
+            raise ShapeMismatch(f"tau_meas must have m={layout.m} columns like the chunks before it, got shape "
+                                f"{v.format_shape(shape)}")
+        if (reg0 is None) != (layout.p == 0):
+            had = "one" if layout.p else "none"
+            raise ShapeMismatch("regressor must be given with every chunk or with none; the chunks before it "
+                                f"had {had}")
+
+    def _check_columns(self, shape, p) -> None:
+        layout = self._layout
+        if layout is not None and p != layout.p:
+            raise ShapeMismatch(f"regressor must have p={layout.p} columns like the chunks before it, got shape "
+                                f"{v.format_shape(shape)}")
+
+    def _check_names(self, m, p) -> None:
+        cfg = self._settings
+        v.check_names("joint_names", cfg.joint_names, m, "joint")
+        if cfg.column_names is not None and p is None:
+            raise v.parameter_error("column_names", "None without a regressor", list(cfg.column_names))
+        v.check_names("column_names", cfg.column_names, p or 0, "regressor column")
+
+    def _check_finite(self, meas, pred, reg) -> None:
+        """NonFiniteInput at the chunk's first bad value, with its row in the whole stream too."""
+        arrays = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
+        if reg is not None:
+            arrays.append((reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2]), "regressor", reg.shape[2]))
+        for a, name, n_columns in arrays:
+            found = v.first_nonfinite(a)
+            if found is not None:
+                row, col, value = found
+                exc = v.nonfinite_error(name, row, col, value, n_columns=n_columns)
+                raise type(exc)(f"{exc} (row {self._rows_seen + row} of the stream)")
+
+    def _feed_omitting(self, meas, pred, reg) -> None:
+        """``nan_policy="omit"``: delete bad rows; a break where rows were deleted (contract §1.2)."""
+        keep = v.in_range(meas).all(axis=1) & v.in_range(pred).all(axis=1)
+        if reg is not None:
+            keep &= v.in_range(reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2])).all(axis=1)
+        self._omitted += int(keep.size - keep.sum())
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], keep.astype(np.int8), [0]))))
+        for a, b in zip(edges[0::2], edges[1::2]):  # runs of kept rows [a, b)
+            if a > 0:
+                self.break_segment()
+            self._feed(meas[a:b], pred[a:b], None if reg is None else reg[a:b])
+        if keep.size and not keep[-1]:
+            self.break_segment()
+
+    def _feed(self, meas, pred, reg) -> None:
+        if meas.shape[0] == 0:
+            return
+        e = meas - pred
+        self._pending.append((e, meas, reg))
+        self._pending_rows += e.shape[0]
+        if self._pending_rows >= _buffer_rows(self._layout):
+            self._flush()
+
+    def _flush(self) -> None:
+        """Sum the gathered rows as blocks of one segment."""
+        if not self._pending:
+            return
+        layout = self._layout
+        e, tau, reg = (None if parts[0] is None else np.concatenate(parts) if len(parts) > 1 else parts[0]
+                       for parts in zip(*self._pending))
+        self._pending, self._pending_rows = [], 0
+        if self._state is None:
+            self._state = State(layout)
+            self._state.end_break = self._break_first
+        rows = _block_rows(layout)
+        for a in range(0, e.shape[0], rows):
+            block = slice(a, a + rows)
+            self._state.merge(State.from_block(layout, e[block], tau[block], None if reg is None else reg[block]))
+
+    def _new_layout(self, m: int, p: int) -> Layout:
+        cfg = self._settings
+        prof = cfg.profile
+        xcorr = prof.max_lag_cap if cfg.max_lag is None else cfg.max_lag
+        if xcorr == 0:
+            return Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
+        acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES), 10 if prof.ljung_box_rule == "statsmodels" else 0)
+        return Layout(m=m, p=p, acf_lags=acf, xcorr_lags=xcorr, gram=cfg.noise_model == "full")
+
+    # ----------------------------------------------------------------------- merge checks
+
+    def _check_same_settings(self, other) -> None:
+        for f in fields(_Settings):
+            mine, theirs = getattr(self._settings, f.name), getattr(other._settings, f.name)
+            if mine != theirs:
+                shown = (lambda x: x.name) if f.name == "profile" else (lambda x: x)
+                raise InvalidParameter(f"other must be a ValidationAccumulator with the same settings, got {f.name}="
+                                       f"{v.format_value(shown(theirs))} where this one has {f.name}="
+                                       f"{v.format_value(shown(mine))}")
+
+    def _check_same_layout(self, other) -> None:
+        mine, theirs = self._layout, other._layout
+        if mine is not None and theirs is not None and (mine.m, mine.p) != (theirs.m, theirs.p):
+            raise ShapeMismatch(f"other must hold data of the same shape, got m={theirs.m} joints and "
+                                f"p={theirs.p} regressor columns where this one has m={mine.m} and p={mine.p}")
+
+
+def _refuse(name: str, value) -> None:
+    if value is not None:
+        raise v.parameter_error(name, f"None for ValidationAccumulator ({UNSUPPORTED[name]})", value)
+
+
+def _check_max_lag(value, prof: Profile):
+    if value is None:
+        if prof.max_lag_cap is None:
+            raise v.parameter_error("max_lag", f"an integer with max_lag >= 0 for the {prof.name} profile (its "
+                                    "default depends on N, which a stream does not know)", value)
+        return None
+    if not v.is_integer(value) or value < 0 or value >= 2**63:
+        raise v.parameter_error("max_lag", "an integer with max_lag >= 0", value)
+    return int(value)
+
+
+def _names(value):
+    """Names as a tuple (settings are compared and hashed); checked when m and p are known."""
+    if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        return value
+    return tuple(value)
+
+
+def _buffer_rows(layout: Layout) -> int:
+    """Rows gathered before they are summed (a block shorter than its lags costs as much as a long one)."""
+    return max(_MIN_BLOCK_ROWS, 4 * (layout.acf_lags + 1))
+
+
+def _block_rows(layout: Layout) -> int:
+    per_row = layout.m * (layout.p + 2)
+    return int(min(_MAX_BLOCK_ROWS, max(4 * (layout.acf_lags + 1), _MAX_BLOCK_VALUES // per_row)))
+
+
+# --------------------------------------------------------------------------- the report
+
+
+@dataclass
+class _Moments:
+    """Centred sums of the whole stream, from the accumulated state."""
+
+    n: int
+    m: int
+    mean_e: np.ndarray  # (m,)
+    cov_e: np.ndarray  # (L+1, m): Σ(e_t − ē)(e_{t−ℓ} − ē) over the pairs
+    e_constant: np.ndarray
+    mean_t: np.ndarray
+    tss: np.ndarray
+    t_constant: np.ndarray
+    pairs: np.ndarray  # (L+1,) n_ℓ
+    cov_ey: np.ndarray | None  # (Lx+1, m, p)
+    ss_y: np.ndarray | None  # (m, p)
+    y_constant: np.ndarray | None
+    sigma: np.ndarray | None  # EᵀE/N (full noise model)
+
+
+def _moments(st: State) -> _Moments:
+    """Centre every sum on the overall means (contract §1.1: means are overall)."""
+    n, m = st.n, st.layout.m
+    cur, lag, pairs = st.cur_e.value(), st.lag_e.value(), st.pairs
+    a = cur[0] / n  # ē − K_e, tiny: the centres follow the running means
+    cov_e = st.prod_e.value() - a * (cur + lag) + pairs[:, None] * a * a
+    e_constant = st.min_e == st.max_e
+    cov_e[0] = np.where(e_constant, 0.0, np.maximum(cov_e[0], 0.0))
+    s_t = st.sum_t.value()
+    t_constant = st.min_t == st.max_t
+    tss = np.where(t_constant, 0.0, np.maximum(st.sq_t.value() - s_t * s_t / n, 0.0))
+    cov_ey = ss_y = y_constant = sigma = None
+    if st.layout.p:
+        lag_y = st.lag_y.value()
+        b = lag_y[0] / n
+        lx = st.layout.xcorr_lags
+        cov_ey = (st.prod_ey.value() - b[None] * cur[: lx + 1, :, None] - a[None, :, None] * lag_y
+                  + pairs[: lx + 1, None, None] * a[None, :, None] * b[None])
+        y_constant = st.min_y == st.max_y
+        ss_y = np.where(y_constant, 0.0, np.maximum(st.sq_y.value() - lag_y[0] * lag_y[0] / n, 0.0))
+    mean_e = st.k_e + a
+    if st.gram is not None:
+        s = cur[0]
+        centred = st.gram.value() - np.outer(s, s) / n
+        sigma = centred / n + np.outer(mean_e, mean_e)  # not demeaned (MATLAB's multi-output convention)
+    return _Moments(n=n, m=m, mean_e=mean_e, cov_e=cov_e, e_constant=e_constant, mean_t=st.k_t + s_t / n,
+                    tss=tss, t_constant=t_constant, pairs=pairs, cov_ey=cov_ey, ss_y=ss_y, y_constant=y_constant,
+                    sigma=sigma)
+
+
+def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, n: int, constant: bool) -> float:
+    """Σ over all N·m values of (x − x̄)² from per-joint parts: Σ_j SS_j + N Σ_j (x̄_j − x̄)², both ≥ 0.
+
+    Joint j's mean is ``centre[j] + offset[j]``; the differences between means are taken on that
+    pair (centres first, they are close floats), so the low digits of the offsets are not rounded
+    away against a large common mean.
+    """
+    if constant:
+        return 0.0
+    d = (centre - centre[0]) + offset
+    return float(np.sum(ss) + n * np.sum((d - np.mean(d)) ** 2))
+
+
+def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_model: str) -> dict:
+    """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
+    n, m = mo.n, mo.m
+    ssc_e = mo.cov_e[0]
+    sse = ssc_e + n * mo.mean_e * mo.mean_e  # both terms ≥ 0: nothing cancels
+    sse_total = float(np.sum(sse))
+    parts = {"sse": sse, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant}
+    t_flat = bool(st.min_t.min() == st.max_t.max())
+    e_flat = bool(st.min_e.min() == st.max_e.max())
+    tss_pooled = _pooled_ss(mo.tss, st.k_t, st.sum_t.value() / n, n, t_flat)
+    ssc_pooled = _pooled_ss(ssc_e, st.k_e, st.cur_e.value()[0] / n, n, e_flat)
+    flat = {"sse": np.array([sse_total]), "tss": np.array([tss_pooled]), "ssc_e": np.array([ssc_pooled]),
+            "constant": np.array([t_flat]), "e_constant": np.array([e_flat])}
+    rmse = np.sqrt(sse / n)
+    vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
+    max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))
+    out = {
+        "n_samples": n, "n_joints": m, "n_params": n_params, "sse": sse, "rmse": rmse, "max_abs_error": max_abs,
+        "vaf": vaf, "fit_percent": fit, "r2": r2, "residual_mean": mo.mean_e,
+        "residual_variance": ssc_e / (n - ddof), "constant_target": mo.t_constant.copy(),
+        "sse_total": sse_total, "rmse_per_element": math.sqrt(sse_total / (n * m)),
+        "rmse_per_sample": math.sqrt(sse_total / n), "max_abs_error_pooled": float(max_abs.max()),
+        "vaf_pooled": float(vaf_values(flat)[0]), "fit_percent_pooled": float(fit_values(flat)[0]),
+        "r2_pooled": float(r2_values(flat)[0]), "constant_target_pooled": t_flat,
+        "rmse_uniform_average": float(np.mean(rmse)), "vaf_uniform_average": uniform_average(vaf),
+        "fit_percent_uniform_average": uniform_average(fit), "r2_uniform_average": uniform_average(r2),
+        "vaf_variance_weighted": variance_weighted(vaf, parts),
+        "fit_percent_variance_weighted": variance_weighted(fit, parts),
+        "r2_variance_weighted": variance_weighted(r2, parts),
+    }
+    f, n_vec, n_ic, size = _fit_term(noise_model, n, m, sse, mo.sigma)
+    out.update(assemble(f, n_vec, n_ic, n_params, size))
+    return out
+
+
+def _fit_term(noise_model, n, m, sse, sigma):
+    """(F, N_vec, n, S) of contract §3.7, as the reference's ``fit_term`` computes them."""
+    if noise_model == "pooled":
+        variance = float(np.sum(sse)) / (n * m)
+        return _n_log(n * m, variance), n * m, n * m, variance
+    if noise_model == "per_joint":
+        variances = sse / n
+        if np.any(variances == 0):
+            return -math.inf, n, n, 0.0
+        log_size = float(np.sum(np.log(variances)))
+        return n * log_size, n, n, _exp(log_size)
+    eigenvalues = np.linalg.eigvalsh(sigma)
+    largest = float(eigenvalues[-1])
+    # numpy's matrix_rank tolerance decides singularity, as in the reference.
+    if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
+        return -math.inf, n, n, 0.0
+    logdet = math.fsum(np.log(eigenvalues))
+    return n * logdet, n, n, _exp(logdet)
+
+
+class _Kernel:
+    """The two kernel calls of the report's section builders (``_sections``), answered from the
+    centred sums: the builders then add the bands, the lags outside and the p-values as for
+    ``validate``. The data arguments are unused: the sums stand for them."""
+
+    def __init__(self, mo: _Moments):
+        self.mo = mo
+
+    def autocorrelation(self, e, max_lag, adjusted, starts) -> np.ndarray:
+        mo = self.mo
+        ss = mo.cov_e[0]
+        denom = mo.pairs[: max_lag + 1].astype(float) if adjusted else np.full(max_lag + 1, float(mo.n))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = (mo.cov_e[: max_lag + 1] / denom[:, None]) / (ss / mo.n)
+        rho[0] = 1.0
+        rho[:, mo.e_constant | (ss == 0)] = np.nan
+        return rho
+
+    def portmanteau(self, e, lags, model_df, starts, test) -> dict:
+        mo = self.mo
+        n = mo.n
+        h = int(np.max(lags))
+        rho = self.autocorrelation(None, h, False, None)[1:]
+        cumulative = n * (n + 2.0) * np.cumsum(rho**2 / mo.pairs[1: h + 1, None], axis=0)
+        statistic = cumulative[np.asarray(lags) - 1]
+        df = np.asarray(lags) - model_df
+        return {"statistic": statistic, "pvalue": np.asarray(scipy.stats.chi2.sf(statistic, df[:, None])),
+                "log_pvalue": chi2_logsf(statistic, df[:, None]), "df": df.astype(np.int64)}
+
+
+def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int) -> dict:
+    """``zero_mean_test`` (contract §3.3) from the sums; the N_eff half None past its lags."""
+    n = mo.n
+    mean = mo.mean_e
+    std = np.sqrt(mo.cov_e[0] / (n - 1))
+    t_iid, p_iid = iid_t_test(mean, std, n)
+    k = newey_west_bandwidth(n)
+    k_used = min(k, longest - 1)
+    eff = {"statistic_eff": None, "pvalue_eff": None, "df_eff": None, "n_eff": None, "bandwidth": None}
+    if k_used <= lags_held:
+        rho = kernel.autocorrelation(None, k_used, False, None)
+        weights = 1.0 - np.arange(1, k_used + 1) / (k + 1.0)
+        total = weights @ rho[1:] if k_used > 0 else np.zeros(mo.m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
+            n_eff = np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
+        t_eff, p_eff = iid_t_test(mean, std, n_eff)
+        eff = {"statistic_eff": t_eff, "pvalue_eff": p_eff, "df_eff": n_eff - 1.0, "n_eff": n_eff, "bandwidth": k}
+    zmt = ZeroMeanTest(mean=mean, std=std, n_samples=n, statistic_iid=t_iid, pvalue_iid=p_iid, df_iid=n - 1, **eff)
+    return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
+
+
+def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict:
+    """ρ of the residual with every regressor column at lags 0..max_lag (contract §3.6) and the
+    white band; the colour-aware fields of ``validate``'s section need whole series (§4.1)."""
+    n = mo.n
+    ss_e = mo.cov_e[0]
+    denom = mo.pairs[: max_lag + 1].astype(float) if prof.adjusted else np.full(max_lag + 1, float(n))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = (mo.cov_ey[: max_lag + 1] / denom[:, None, None]) / np.sqrt((ss_e / n)[:, None] * (mo.ss_y / n))
+    rho = np.moveaxis(rho, 0, 2).copy()  # (m, p, L+1)
+    dead = mo.y_constant | (mo.e_constant | (ss_e == 0))[:, None] | (mo.ss_y == 0)
+    rho[dead] = np.nan
+    band = z_two_sided(level) / math.sqrt(n)
+    with np.errstate(invalid="ignore"):
+        hits = np.argwhere(np.abs(rho) > band)
+    outside = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(abs(rho[j, c, lag]) / band))
+                      for j, c, lag in hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
+    return {"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mo.y_constant.copy(),
+            "band": float(band), "level": float(level), "n_outside_white_band": len(hits), "rho": rho,
+            "outside": outside}
+
+
+def _report(st: State, cfg: _Settings, omitted: int) -> ValidationReport:
+    prof = cfg.profile
+    n, m, p = st.n, st.layout.m, st.layout.p
+    longest = max(st.lengths)
+    max_lag = prof.default_max_lag(n, longest) if cfg.max_lag is None else v.check_max_lag(cfg.max_lag, longest)
+    mo = _moments(st)
+    kernel = _Kernel(mo)
+    km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
+    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
+    lagged = max_lag > 0
+    zmt = (_zero_mean_test(mo, kernel, longest, st.layout.acf_lags) if lagged
+           else sec.iid_zero_mean_test(km, n, prof.ddof))
+    residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                 "variance": np.asarray(km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
+                 "zero_mean_test": zmt}
+    ic = sec.information_criteria(km, prof, cfg.noise_model, n, m, cfg.n_params, None)
+    starts = np.concatenate(([0], np.cumsum(st.lengths[:-1]))).astype(np.int64)
+    acf = lb = white = None
+    lb_lags = prof.ljung_box_lags(n, max_lag, longest)
+    if lagged:
+        acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
+        if lb_lags:
+            lb = sec.ljung_box(kernel, None, lb_lags, starts)
+            white = sec.whiteness(kernel, None, None, starts, lb, None, cfg.sample_rate)
+    cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
+    joint_names = list(cfg.joint_names) if cfg.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
+    column_names = list(cfg.column_names) if cfg.column_names is not None else None
+    provenance = _provenance(cfg, n, m, p, max_lag, lb_lags, st.lengths, omitted, joint_names, column_names)
+    ev = sec.evidence(n=n, m=m, level=cfg.level, names=joint_names, per_joint=per_joint, pooled=pooled,
+                      constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
+                      force=prof.constant_target == "force_finite", bias=None, white=white, spec=None,
+                      xcorr_rho=None, xcorr_sd=None, xcorr_mask=None, design=None, column_names=column_names,
+                      acf=acf)
+    found = compute_findings(ev, cfg.thresholds)
+    return ValidationReport(
+        provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
+        autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
+        warnings_text=[f.message for f in found], findings=found, bias=None, whiteness=white, spectrum=None,
+        design=None, segment_metrics=None)
+
+
+def _provenance(cfg, n, m, p, max_lag, lb_lags, lengths, omitted, joint_names, column_names) -> dict:
+    """``validate``'s provenance (contract §4), with ``streaming`` set and what it leaves out marked."""
+    prof = cfg.profile
+    return {
+        "profile": prof.name,
+        "conventions": {
+            **prof.conventions(),
+            "noise_model": cfg.noise_model,
+            "max_lag": int(max_lag),
+            "level": cfg.level,
+            "ljung_box_lags": list(lb_lags),
+            "model_df": 0,
+            "nan_policy": cfg.nan_policy,
+            "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
+            "r2": "centred, 1 - SSE/TSS",
+            "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
+            "bias_test": None,
+            "multiple_testing": "Holm over every test of the report",
+            "cross_correlation_band": "white" if p else None,
+            "cross_correlation_findings": None,
+            "decimate": None,
+        },
+        "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
+                  "torque": "as given", "frequency": "Hz" if cfg.sample_rate else "cycles/sample"},
+        "n_samples": int(n),
+        "n_joints": int(m),
+        "n_params": int(cfg.n_params),
+        "n_regressor_columns": int(p) if p else None,
+        "segments": [int(x) for x in lengths],
+        "segment_names": None,
+        "omitted_rows": int(omitted),
+        "joint_names": joint_names,
+        "column_names": column_names,
+        "model_columns": None,
+        "sample_rate": cfg.sample_rate,
+        "thresholds": dict(vars(cfg.thresholds)) if hasattr(cfg.thresholds, "__dict__") else None,
+        "backend": "python",
+        "streaming": True,
+        "dynval_version": __version__,
+        "contract_version": CONTRACT_VERSION,
+        "report_schema_version": REPORT_SCHEMA_VERSION,
+    }

@@ -1,0 +1,60 @@
+"""dynval.dask on a two-process local cluster: the report equals validate on the same data.
+
+The cluster is what a real one is to dask (separate worker processes, the accumulators pickled
+between them); only the scheduler's address would differ.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+da = pytest.importorskip("dask.array")
+distributed = pytest.importorskip("distributed")
+
+import dynval  # noqa: E402
+import dynval.dask  # noqa: E402
+from test_stream import assert_same_report  # noqa: E402
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None)
+    with distributed.Client(cluster) as c:
+        yield c
+    cluster.close()
+
+
+def robot_like(n, m, p, seed):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 500.0
+    tau = 20.0 * np.sin(np.outer(t, np.arange(1, m + 1))) + rng.normal(size=(1, m)) * 5.0
+    e = 0.3 * rng.normal(size=(n, m)) + 0.05 * np.cumsum(rng.normal(size=(n, m)), axis=0) / np.sqrt(n) + 0.2
+    y = np.stack([np.sin(np.outer(t, np.arange(1, m + 1)) * (c + 1)) for c in range(p)], axis=2)
+    return tau, tau - e, y + rng.normal(scale=0.01, size=y.shape)
+
+
+def test_local_cluster_equals_validate(client):
+    tau, pred, y = robot_like(40_000, 3, 4, seed=0)
+    segments = [15_000, 25_000]
+    got = dynval.dask.validate(da.from_array(tau, chunks=(7_000, 3)), da.from_array(pred, chunks=(5_000, 3)),
+                               n_params=8, regressor=da.from_array(y, chunks=(10_000, 3, 4)), max_lag=30,
+                               segments=segments, split_every=3)
+    want = dynval.validate(tau, pred, n_params=8, regressor=y, max_lag=30, segments=segments, backend="python",
+                           cross_correlation_detail="full")
+    assert_same_report(got, want, tau, pred, y)
+    assert got.provenance["segments"] == segments
+
+
+def test_local_cluster_errors_name_the_block(client):
+    tau, pred, _ = robot_like(4_000, 2, 1, seed=1)
+    pred[2_503, 1] = np.nan
+    with pytest.raises(dynval.NonFiniteInput, match=r"^chunk 2: tau_pred has a non-finite value \(nan\) at row 503, "
+                                                    r"column 1 \(row 2503 of the stream\)$"):
+        dynval.dask.validate(da.from_array(tau, chunks=(1_000, 2)), da.from_array(pred, chunks=(1_000, 2)),
+                             n_params=1, max_lag=5)
+    report = dynval.dask.validate(da.from_array(tau, chunks=(1_000, 2)), da.from_array(pred, chunks=(1_000, 2)),
+                                  n_params=1, max_lag=5, nan_policy="omit")
+    assert report.provenance["omitted_rows"] == 1 and report.provenance["segments"] == [2_503, 1_496]
