@@ -1,7 +1,7 @@
 """NIST StRD univariate summary statistics: mean, SD (n−1) and lag-1 autocorrelation.
 
-The certified values come from ``../shared/data/nist_strd/certified.json`` (see its
-``SOURCES.md``). For NumAcc3/NumAcc4 the doubles nearest to the decimal data differ from the
+The data and certified values live in the repository, ``golden/data/nist_strd/`` (see its
+``SOURCES.md``): the test never depends on anything outside it. For NumAcc3/NumAcc4 the doubles nearest to the decimal data differ from the
 data enough that no float64 program can reach all certified digits, so each result is judged
 against the exact value for the doubles it was given (rational arithmetic, computed here with
 :mod:`fractions` and :mod:`mpmath`) and, beside it, against the certified value with the
@@ -20,8 +20,7 @@ import pytest
 
 import dynval
 
-STRD = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "nist_strd"
-STRD = STRD.resolve()
+STRD = Path(__file__).resolve().parents[1] / "golden" / "data" / "nist_strd"
 DATASETS = ["NumAcc1", "NumAcc2", "NumAcc3", "NumAcc4", "Michelso", "Lew", "Lottery", "Mavro", "PiDigits"]
 
 # Relative tolerances of the reference against the exact value for the float64 data.
@@ -29,11 +28,9 @@ TOL_MEAN = 1e-15
 TOL_SD = 1e-13
 TOL_LAG1 = 1e-13
 
-pytestmark = pytest.mark.skipif(not (STRD / "certified.json").is_file(), reason=f"NIST StRD data not found at {STRD}")
-
 
 def load(name):
-    lines = (STRD / "univariate" / f"{name}.dat").read_text().splitlines()
+    lines = (STRD / f"{name}.dat").read_text().splitlines()
     values = [line.strip() for line in lines if line.strip() and not line.lstrip().startswith("#")]
     return np.array([float(v) for v in values])
 
