@@ -1,9 +1,10 @@
 """Size and power of dynval's findings, measured by simulation (docs/conventions.md §7.4).
 
 Prints one table: for each noise (white Gaussian, Student t₃, AR(1) 0.9 and 0.99) and model
-(exact and estimated true structure; a model rightly without Coulomb friction; missing Coulomb friction, missing gravity term, unmodelled
-lightly damped mode), the share of replicates with any ``deficiency`` finding and the share where
-the right finding names the right cause, with a 95 % Clopper–Pearson interval.
+(exact and estimated true structure; a model rightly without Coulomb friction; missing Coulomb
+friction, missing gravity term, unmodelled lightly damped mode), the share of replicates with any
+``deficiency`` finding and the share where the right finding names the right cause, with a 95 %
+Clopper–Pearson interval.
 
     python benchmarks/calibrate_findings.py                 # 500 replicates per case
     python benchmarks/calibrate_findings.py --replicates 100 --backend python

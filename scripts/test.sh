@@ -2,11 +2,12 @@
 # Sets up and runs every dynval test on a fresh machine:
 #   1. Debian packages for the C++ tests (GoogleTest, Eigen) when run as root,
 #   2. pip install ".[test]" (builds the C++ backend dynval._core),
-#   3. the C++ core alone: ctest, then the example built against the installed CMake package,
-#   4. the pure-Python build switch (-Cwheel.cmake=false) in a throwaway venv,
-#   5. pytest: both backends against every golden vector, the protocol runner, the identities, the
+#   3. lint and types: ruff, and mypy (strict on the public modules; pyproject.toml says which),
+#   4. the C++ core alone: ctest, then the example built against the installed CMake package,
+#   5. the pure-Python build switch (-Cwheel.cmake=false) in a throwaway venv,
+#   6. pytest: both backends against every golden vector, the protocol runner, the identities, the
 #      findings and their calibration, the Java, MATLAB/Octave and Wolfram Language ports,
-#   6. the conformance matrix of README.md against a fresh run of the ports it lists.
+#   7. the conformance matrix of README.md against a fresh run of the ports it lists.
 # As root (CI) the ports' toolchains are installed and required: a missing one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -42,6 +43,10 @@ build_start=$(date +%s)
 "$PY" -m pip install --quiet --disable-pip-version-check "$src[test]"
 echo "installed in $(( $(date +%s) - build_start )) s"
 "$PY" -c "import dynval; print('dynval', dynval.__version__, dynval.backends())"
+
+step "lint and types"
+"$PY" -m ruff check python tests benchmarks golden examples
+"$PY" -m mypy python/dynval
 
 # Eigen from the cmeel-eigen wheel that the install above brought, for machines without Debian's.
 cmeel_prefix=$("$PY" -m cmeel cmake 2>/dev/null || true)

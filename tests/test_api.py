@@ -77,7 +77,9 @@ JAVA = dict(
 )
 
 
-@pytest.mark.parametrize(("meas", "pred", "p", "want"), [(OCTAVE_MEAS, OCTAVE_PRED, 4, OCTAVE), (JAVA_MEAS, JAVA_PRED, 2, JAVA)], ids=["octave", "java"])
+@pytest.mark.parametrize(("meas", "pred", "p", "want"),
+                         [(OCTAVE_MEAS, OCTAVE_PRED, 4, OCTAVE), (JAVA_MEAS, JAVA_PRED, 2, JAVA)],
+                         ids=["octave", "java"])
 def test_build_notes_examples(backend, meas, pred, p, want):
     got = dict(
         rmse=dynval.rmse(meas, pred, convention="per_sample", backend=backend),
@@ -98,7 +100,8 @@ def test_rmse_conventions(backend):
     assert dynval.rmse(e, zero, convention="per_element", backend=backend) == math.sqrt(25 / 4)
     assert dynval.rmse(e, zero, convention="per_sample", backend=backend) == math.sqrt(25 / 2)
     assert dynval.rmse(e, zero, multioutput="raw_values", backend=backend).tolist() == [math.sqrt(9 / 2), math.sqrt(8)]
-    assert dynval.rmse(e, zero, multioutput="uniform_average", backend=backend) == pytest.approx((math.sqrt(4.5) + math.sqrt(8)) / 2)
+    assert dynval.rmse(e, zero, multioutput="uniform_average", backend=backend) == pytest.approx(
+        (math.sqrt(4.5) + math.sqrt(8)) / 2)
     assert dynval.sse(e, zero, backend=backend) == 25.0
     assert dynval.sse(e, zero, multioutput="raw_values", backend=backend).tolist() == [9.0, 16.0]
     assert dynval.max_abs_error(e, -e, backend=backend) == 8.0
@@ -126,7 +129,8 @@ def _random_pair(seed, n=40, m=3):
 @pytest.mark.parametrize("multioutput", ["raw_values", "uniform_average", "variance_weighted"])
 def test_sklearn_r2_and_vaf(backend, seed, multioutput):
     meas, pred = _random_pair(seed)
-    np.testing.assert_allclose(dynval.r2(meas, pred, multioutput=multioutput, backend=backend), r2_score(meas, pred, multioutput=multioutput), rtol=1e-12)
+    np.testing.assert_allclose(dynval.r2(meas, pred, multioutput=multioutput, backend=backend),
+                               r2_score(meas, pred, multioutput=multioutput), rtol=1e-12)
     np.testing.assert_allclose(
         dynval.vaf(meas, pred, multioutput=multioutput, backend=backend),
         100 * np.asarray(explained_variance_score(meas, pred, multioutput=multioutput)),
@@ -138,7 +142,8 @@ def test_sklearn_r2_and_vaf(backend, seed, multioutput):
 def test_sklearn_rmse_and_max_error(backend, seed):
     meas, pred = _random_pair(seed)
     for mo in ("raw_values", "uniform_average"):
-        np.testing.assert_allclose(dynval.rmse(meas, pred, multioutput=mo, backend=backend), root_mean_squared_error(meas, pred, multioutput=mo), rtol=1e-13)
+        np.testing.assert_allclose(dynval.rmse(meas, pred, multioutput=mo, backend=backend),
+                                   root_mean_squared_error(meas, pred, multioutput=mo), rtol=1e-13)
     per_joint = dynval.max_abs_error(meas, pred, multioutput="raw_values", backend=backend)
     assert per_joint.tolist() == [max_error(meas[:, j], pred[:, j]) for j in range(meas.shape[1])]
     # Pooled r2 is sklearn's on the flattened values.
@@ -341,7 +346,8 @@ def test_cross_correlation_against_loops(backend):
                     assert cc.rho[j, c, lag] == pytest.approx(want, rel=1e-10, abs=1e-14)
     band = 1.959963984540054 / math.sqrt(n)
     assert cc.band == pytest.approx(band, rel=1e-14) and cc.level == 0.95
-    flagged = [(j, c, lag) for j in range(m) for c in range(p) for lag in range(max_lag + 1) if abs(cc.rho[j, c, lag]) > cc.band]
+    flagged = [(j, c, lag) for j in range(m) for c in range(p) for lag in range(max_lag + 1)
+               if abs(cc.rho[j, c, lag]) > cc.band]
     assert sorted((t[0], t[1], t[2]) for t in cc.outside) == flagged
     ratios = [t[4] for t in cc.outside]
     assert ratios == sorted(ratios, reverse=True)

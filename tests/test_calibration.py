@@ -65,5 +65,5 @@ def test_power_and_cause_under_white_noise(model):
 def test_bounds_can_fail():
     # The bounds are not vacuous: a detector firing at 20 % breaks the size test, one naming the
     # cause 60 % of the time breaks the power test.
-    assert 0.2 * 40 >= _size_bound(40)
-    assert 0.6 * 25 <= _power_bound(25)
+    assert _size_bound(40) <= 0.2 * 40
+    assert _power_bound(25) >= 0.6 * 25

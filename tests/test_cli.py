@@ -86,7 +86,7 @@ def test_npz_first_array_and_key(files, capsys):
 
 
 def test_output_file(files, capsys, tmp_path):
-    paths, meas, pred, _ = files
+    paths, _meas, _pred, _ = files
     target = tmp_path / "report.json"
     code, out, _ = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "2",
                        "--json", "--output", str(target))
@@ -95,7 +95,7 @@ def test_output_file(files, capsys, tmp_path):
 
 
 def test_segments_nan_policy_level(files, capsys, tmp_path):
-    paths, meas, pred, _ = files
+    paths, meas, _pred, _ = files
     bad = meas.copy()
     bad[10, 0] = np.nan
     np.save(tmp_path / "bad.npy", bad)
@@ -160,7 +160,7 @@ def test_bad_csv_is_an_input_error(tmp_path, capsys, files):
     [],
 ])
 def test_usage_errors_exit_2(argv, capsys):
-    code, out, err = run(capsys, *argv)
+    code, _out, err = run(capsys, *argv)
     assert code == 2
     assert "usage:" in err
 
@@ -245,7 +245,7 @@ def test_the_segments_examples_of_the_help_parse(command, files, capsys):
     help_line = re.search(r"--segments S (.*?) --", text).group(1)
     examples = re.findall(r"e\.g\. ([^ ,)]+(?:,[^ ,)]+)+)", help_line)
     assert len(examples) == 2, help_line
-    paths, meas, pred, _ = files
+    paths, _meas, _pred, _ = files
     for example in examples:   # 200 samples: lengths 150,50 and starts 0,150
         argv = ["validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1", "--segments", example,
                 "--json"]

@@ -11,11 +11,10 @@ import io
 import json
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import time
-
-import re
 
 import pytest
 
@@ -23,7 +22,6 @@ import dynval
 from dynval import protocol
 from dynval.conform import main
 from dynval.golden import FAMILIES
-
 from ports.tiny_corpus import case_ids, write_tiny_corpus
 
 PORTS = pathlib.Path(__file__).resolve().parent / "ports"

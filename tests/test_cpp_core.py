@@ -23,8 +23,8 @@ import dynval
 if not dynval.backends()["cpp"]["available"]:
     pytest.skip("the compiled backend dynval._core is not available", allow_module_level=True)
 
-from dynval import _core  # noqa: E402
-from dynval import _reference as ref  # noqa: E402
+from dynval import _core
+from dynval import _reference as ref
 
 
 def _signals(n=240, m=3, seed=0, offset=0.0):

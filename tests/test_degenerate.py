@@ -87,7 +87,8 @@ def test_variance_weighted_leaves_out_constant_joints(backend, name):
         multioutput="variance_weighted",
         backend=backend,
     )
-    without = metric(name, np.column_stack([a, b]), np.column_stack([pa, pb]), multioutput="variance_weighted", backend=backend)
+    without = metric(name, np.column_stack([a, b]), np.column_stack([pa, pb]), multioutput="variance_weighted",
+                     backend=backend)
     assert with_const == pytest.approx(without, rel=1e-14)
     assert math.isfinite(with_const)
 

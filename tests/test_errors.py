@@ -300,17 +300,21 @@ BAD_PARAMETERS = [
     (lambda b: dynval.cross_correlation(GOOD2, np.ones((20, 3)), 1, n_joints=0, backend=b),
      "n_joints must be a positive integer dividing the regressor rows, got 0"),
     (lambda b: dynval.autocorrelation(GOOD, 1, segments=[5, 4], backend=b),
-     "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got [5, 4]"),
+     "segments must be positive lengths summing to N=10, or increa"
+     "sing starts beginning at 0 and below N=10, got [5, 4]"),
     (lambda b: dynval.autocorrelation(GOOD, 1, segments=[0, 10], backend=b),
-     "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got [0, 10]"),
+     "segments must be positive lengths summing to N=10, or increa"
+     "sing starts beginning at 0 and below N=10, got [0, 10]"),
     (lambda b: dynval.autocorrelation(GOOD, 1, segments=[0, 5, 3], backend=b),
-     "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got [0, 5, 3]"),
+     "segments must be positive lengths summing to N=10, or increa"
+     "sing starts beginning at 0 and below N=10, got [0, 5, 3]"),
     (lambda b: dynval.zero_mean_test(GOOD, segments=10, backend=b),
      "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got 10"),
     (lambda b: dynval.zero_mean_test(GOOD, segments=[], backend=b),
      "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got []"),
     (lambda b: dynval.ljung_box(GOOD, 1, segments=[5.0, 5.0], backend=b),
-     "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got [5.0, 5.0]"),
+     "segments must be positive lengths summing to N=10, or increa"
+     "sing starts beginning at 0 and below N=10, got [5.0, 5.0]"),
     (lambda b: dynval.r2(GOOD, GOOD + 1, nan_policy="ignore", backend=b),
      "nan_policy must be one of 'raise', 'omit', got 'ignore'"),
 ]
@@ -344,7 +348,8 @@ def test_option_checks_used_by_reports():
 def test_numpy_values_are_written_as_python_values(backend):
     with raises("InvalidParameter", "max_lag must be an integer with 0 <= max_lag < 10, got 12"):
         dynval.autocorrelation(GOOD, np.int64(12), backend=backend)
-    with raises("InvalidParameter", "lags must be a positive integer or a non-empty sequence of positive integers less than 10, got [0, 1]"):
+    with raises("InvalidParameter", "lags must be a positive integer or a non-empty sequence of positive integers "
+                                    "less than 10, got [0, 1]"):
         dynval.ljung_box(GOOD, np.array([0, 1]), backend=backend)
     # numpy integers are integers
     assert dynval.autocorrelation(GOOD, np.int32(2), backend=backend).shape == (3,)
@@ -402,7 +407,8 @@ def test_omit_makes_parameter_errors_visible(backend):
 
 
 def test_order_within_parameters(backend):
-    seg = "segments must be positive lengths summing to N=10, or increasing starts beginning at 0 and below N=10, got [3]"
+    seg = ("segments must be positive lengths summing to N=10, or increa"
+           "sing starts beginning at 0 and below N=10, got [3]")
     with raises("InvalidParameter", "nan_policy must be one of 'raise', 'omit', got 'x'"):
         dynval.autocorrelation(GOOD, 99, segments=[3], nan_policy="x", backend="fortran")
     with raises("InvalidParameter", seg):
@@ -497,7 +503,8 @@ def test_omit_deletes_rows_with_out_of_range_values(backend):
 @pytest.mark.parametrize("value", [2**63, -(2**63) - 1, 10**20])
 def test_integer_parameters_must_fit_in_int64_in_every_backend(backend, value):
     meas = np.linspace(1.0, 2.0, 20)
-    with pytest.raises(dynval.InvalidParameter, match=rf"^n_params must be an integer with n_params >= 0, got {value}$"):
+    with pytest.raises(dynval.InvalidParameter,
+                       match=rf"^n_params must be an integer with n_params >= 0, got {value}$"):
         dynval.criteria(meas, meas + 0.1, n_params=value, backend=backend)
 
 

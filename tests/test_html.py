@@ -39,7 +39,7 @@ def scenario():
 
 
 class _TagBalance(HTMLParser):
-    VOID = {"meta", "img", "br", "hr", "link", "input"}
+    VOID = frozenset({"meta", "img", "br", "hr", "link", "input"})
 
     def __init__(self):
         super().__init__()
@@ -95,10 +95,10 @@ def test_validation_report_html(scenario, tmp_path):
     path = write_report(rep, tmp_path / "val.html", tau_meas=d.validation.tau_meas, tau_pred=preds["rigid"])
     text = (tmp_path / "val.html").read_text(encoding="utf-8")
     assert path.endswith("val.html")
-    root, parser = _check_self_contained(text)
+    _root, parser = _check_self_contained(text)
     assert "dynval validation report" in text
     # per-joint table: one row per joint + pooled, with the report's numbers
-    for j, name in enumerate(d.joint_names):
+    for _j, name in enumerate(d.joint_names):
         assert f'<td class="text">{name}</td>' in text
     assert f"{rep.per_joint['rmse'][0]:.4g}" in text
     # findings of the report are all there
@@ -112,7 +112,7 @@ def test_validation_report_html(scenario, tmp_path):
 
 
 def test_validation_report_without_torques_has_report_figures_only(scenario):
-    d, reports, preds = scenario
+    _d, reports, _preds = scenario
     text = render_report(reports["friction"])
     _, parser = _check_self_contained(text)
     alts = _images(parser)
@@ -135,7 +135,7 @@ def test_comparison_report_html_from_a_comparison_shaped_object(scenario, tmp_pa
     )
     write_report(cmp, tmp_path / "cmp.html", tau_meas=d.validation.tau_meas, tau_pred=preds)
     text = (tmp_path / "cmp.html").read_text(encoding="utf-8")
-    root, parser = _check_self_contained(text)
+    _root, parser = _check_self_contained(text)
     assert 'class="verdict accept"' in text and "lowest AIC" in text
     # decision table: ranked rows, the chosen one highlighted
     rows = re.findall(r'<tr(?: class="(\w*)")?><td class="text">([^<]+)</td><td>(\d)</td>', text)

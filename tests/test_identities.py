@@ -48,7 +48,8 @@ def test_vaf_does_not_depend_on_ddof(backend, data):
     vaf = dynval.vaf(meas, pred, multioutput="raw_values", backend=backend)
     e = meas - pred
     for ddof in (0, 1, 3):
-        ratio = dynval.residual_variance(e, ddof=ddof, backend=backend) / dynval.residual_variance(meas, ddof=ddof, backend=backend)
+        ratio = (dynval.residual_variance(e, ddof=ddof, backend=backend)
+                 / dynval.residual_variance(meas, ddof=ddof, backend=backend))
         close(vaf, 100.0 * (1.0 - ratio))
 
 
@@ -119,10 +120,13 @@ def test_aggregates(backend, data):
     close(dynval.r2(meas, pred, multioutput="variance_weighted", backend=backend), 1 - sse.sum() / tss.sum())
     for name in ("vaf", "fit_percent", "r2", "rmse"):
         f = getattr(dynval, name)
-        close(f(meas, pred, multioutput="uniform_average", backend=backend), np.mean(f(meas, pred, multioutput="raw_values", backend=backend)))
+        close(f(meas, pred, multioutput="uniform_average", backend=backend),
+              np.mean(f(meas, pred, multioutput="raw_values", backend=backend)))
     n, m = meas.shape
-    close(dynval.rmse(meas, pred, convention="per_sample", backend=backend), math.sqrt(m) * dynval.rmse(meas, pred, backend=backend))
-    close(dynval.rmse(meas, pred, multioutput="raw_values", backend=backend) ** 2 * n, dynval.sse(meas, pred, multioutput="raw_values", backend=backend))
+    close(dynval.rmse(meas, pred, convention="per_sample", backend=backend),
+          math.sqrt(m) * dynval.rmse(meas, pred, backend=backend))
+    close(dynval.rmse(meas, pred, multioutput="raw_values", backend=backend) ** 2 * n,
+          dynval.sse(meas, pred, multioutput="raw_values", backend=backend))
     close(dynval.sse(meas, pred, backend=backend), np.sum(e**2))
 
 
@@ -138,7 +142,8 @@ def test_point_metrics_ignore_sample_order(backend, data, seed):
 @given(data=pairs(max_m=1), p=st.integers(0, 2))
 def test_noise_models_agree_for_one_joint(backend, data, p):
     meas, pred = data
-    ics = [dynval.criteria(meas, pred, n_params=p, noise_model=nm, backend=backend) for nm in ("pooled", "per_joint", "full")]
+    ics = [dynval.criteria(meas, pred, n_params=p, noise_model=nm, backend=backend)
+           for nm in ("pooled", "per_joint", "full")]
     for ic in ics[1:]:
         for key in ("aic", "bic", "aicc", "fpe", "naic"):
             assert getattr(ic, key) == pytest.approx(getattr(ics[0], key), rel=1e-10, abs=1e-10)
@@ -161,7 +166,7 @@ def test_criteria_closed_forms(backend, data, p):
     sigma = e.T @ e / n
     # Near-singular covariances are a rounding question (the corpus owns det = 0).
     assume(np.linalg.cond(sigma) < 1e8)
-    sign, logdet = np.linalg.slogdet(sigma)
+    _sign, logdet = np.linalg.slogdet(sigma)
     assert full.aic == pytest.approx(n * logdet + 2 * p, rel=1e-8, abs=1e-8)
     assert full.naic == pytest.approx(logdet + 2 * p / n, rel=1e-8, abs=1e-8)
     if p < n - 1:

@@ -1,8 +1,9 @@
 """NIST StRD univariate summary statistics: mean, SD (n−1) and lag-1 autocorrelation.
 
 The data and certified values live in the repository, ``golden/data/nist_strd/`` (see its
-``SOURCES.md``): the test never depends on anything outside it. For NumAcc3/NumAcc4 the doubles nearest to the decimal data differ from the
-data enough that no float64 program can reach all certified digits, so each result is judged
+``SOURCES.md``): the test never depends on anything outside it. For NumAcc3/NumAcc4 the doubles
+nearest to the decimal data differ from the data enough that no float64 program can reach all
+certified digits, so each result is judged
 against the exact value for the doubles it was given (rational arithmetic, computed here with
 :mod:`fractions` and :mod:`mpmath`) and, beside it, against the certified value with the
 tolerance that float64 input allows.

@@ -55,7 +55,7 @@ def _renders(fig, tmp_path, name):
 
 
 def test_residuals_figure(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, preds, _reports = flexible
     fig = plot.residuals(d.validation.tau_meas, preds["friction"], sample_rate=100.0, segments=[500, 1000],
                          joint_names=d.joint_names)
     assert len(fig.axes) == 2
@@ -79,7 +79,7 @@ def test_residuals_without_rate_use_samples_and_default_names():
 
 
 def test_autocorrelation_figure(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     rep = reports["friction"]
     fig = plot.autocorrelation(rep)
     main_axes = [ax for ax in fig.axes if ax.get_ylabel()]
@@ -101,7 +101,7 @@ def test_autocorrelation_figure(flexible, tmp_path):
 
 
 def test_autocorrelation_seconds_axis_only_with_rate(flexible):
-    d, preds, reports = flexible
+    _d, _preds, reports = flexible
     fig = plot.autocorrelation(reports["friction"])
     top = [c for ax in fig.axes for c in ax.child_axes]
     assert len(top) == 1 and top[0].get_xlabel() == "lag (s)"
@@ -110,7 +110,7 @@ def test_autocorrelation_seconds_axis_only_with_rate(flexible):
 
 
 def test_spectrum_marks_the_found_oscillation(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     rep = reports["friction"]
     fig = plot.spectrum(rep, reference=d.mode_frequency, reference_label="simulated mode")
     assert len(fig.axes) == 2
@@ -140,7 +140,7 @@ def test_spectrum_from_residuals_and_explicit_peaks():
 
 
 def test_cross_correlation_heatmap(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     rep = reports["rigid"]
     fig = plot.cross_correlation(rep)
     ax = fig.axes[0]
@@ -163,7 +163,7 @@ def test_cross_correlation_heatmap(flexible, tmp_path):
 
 
 def test_metrics_bars(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     fig = plot.metrics(reports, chosen="friction")
     assert len(fig.axes) == 3
     assert [ax.get_ylabel() for ax in fig.axes] == ["VAF (%)", "fit (%)", "R² (fraction)"]
@@ -181,7 +181,7 @@ def test_metrics_bars(flexible, tmp_path):
 
 
 def test_metrics_cut_very_negative_bars_and_print_their_value(flexible):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     # A candidate predicting zero torque has R² far below -1 on a joint with a large mean.
     meas = d.validation.tau_meas
     bad = dynval.validate(meas, np.zeros_like(meas) + meas.mean(axis=0) + 5 * meas.std(axis=0), n_params=0,
@@ -214,7 +214,7 @@ def test_wrong_number_of_names_is_an_error():
 
 
 def test_autocorrelation_by_model(flexible, tmp_path):
-    d, preds, reports = flexible
+    d, _preds, reports = flexible
     fig = plot.autocorrelation_by_model(reports, joint=1, chosen="friction")
     axes = [ax for ax in fig.axes if ax.get_xlabel()]
     assert len(axes) == 3
@@ -224,6 +224,6 @@ def test_autocorrelation_by_model(flexible, tmp_path):
     for ax, name in zip(axes, d.candidates):
         lmax = reports[name].autocorrelation["max_lag"]
         assert sum(len(c.get_segments()) for c in ax.collections) == lmax + 1
-        band = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"][0]
+        band = next(ln for ln in ax.get_lines() if ln.get_linestyle() == "--")
         np.testing.assert_allclose(band.get_ydata(), reports[name].autocorrelation["band"][1:, 1])
     _renders(fig, tmp_path, "acf_models")

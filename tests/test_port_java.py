@@ -14,6 +14,7 @@ import shutil
 import subprocess
 
 import pytest
+
 from port_checks import assert_passes_whole_corpus, require_toolchain
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -15,6 +15,7 @@ import subprocess
 import threading
 
 import pytest
+
 from port_checks import assert_passes_whole_corpus, require_toolchain
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-from mpmath import mp, mpf
 from mpmath import log as mlog
+from mpmath import mp, mpf
 
 import dynval
 from dynval._profiles import PROFILE_NAMES, PROFILES, get_profile

@@ -208,11 +208,12 @@ def test_decode_array_errors(line, message):
 
 def test_result_lines_are_read_leniently():
     # Ports may write integers and booleans as reals, and booleans as true/false.
-    _, df = protocol.decode_array("result df int 1 2 1.0000000000000000e+00 3".split(), "result", strict_type=False)
+    _, df = protocol.decode_array(["result", "df", "int", "1", "2", "1.0000000000000000e+00", "3"], "result",
+                                  strict_type=False)
     assert df.tolist() == [1.0, 3.0]
-    _, df = protocol.decode_array("result df int 1 2 1 3".split(), "result", strict_type=False)
+    _, df = protocol.decode_array(["result", "df", "int", "1", "2", "1", "3"], "result", strict_type=False)
     assert df.dtype == np.int64
-    _, mask = protocol.decode_array("result m bool 1 3 true 0 1.0".split(), "result", strict_type=False)
+    _, mask = protocol.decode_array(["result", "m", "bool", "1", "3", "true", "0", "1.0"], "result", strict_type=False)
     assert mask.tolist() == [True, False, True]
 
 
@@ -428,7 +429,8 @@ def test_hex_case_and_reply():
     lines = protocol.encode_case("autocorrelation", 3, "autocorrelation", conventions, inputs, encoding="hex")
     assert lines[0] == ('case autocorrelation 3 autocorrelation level=0x1.e666666666666p-1 segments=[0,1] '
                         'adjusted=false multioutput="pooled"')
-    assert lines[1] == "array e real 2 2 2 0x1.999999999999ap-4 -0x0.0p+0 0x0.0000000000001p-1022 0x1.7e43c8800759cp+996"
+    assert lines[1] == ("array e real 2 2 2 0x1.999999999999ap-4 -0x0.0p+0 0x0.0000000000001p-1022 "
+                        "0x1.7e43c8800759cp+996")
     assert lines[2:] == ["scalar max_lag 1", "scalar rss 0x1.1000000000000p+3", "scalar lags [1,5]", "end"]
     with pytest.raises(ProtocolError):  # a decimal-only reader rejects the hex case
         for line in lines:

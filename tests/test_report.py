@@ -215,7 +215,7 @@ def test_cross_correlation_ranks_the_missing_column(backend):
     xc = r.cross_correlation
     assert xc["rho"].shape == (2, 3, 6) and xc["constant_mask"].shape == (2, 3)
     assert xc["band"] == pytest.approx(1.959963984540054 / math.sqrt(n), rel=1e-14)
-    j, c, lag, rho, ratio = xc["outside"][0]
+    j, c, lag, rho, _ratio = xc["outside"][0]
     assert (j, c, lag) == (1, 2, 0)
     e = tau[:, 1] - pred[:, 1]
     assert rho == pytest.approx(np.corrcoef(e, Y[:, 1, 2])[0, 1], rel=1e-10)

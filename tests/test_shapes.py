@@ -77,7 +77,8 @@ def test_array_likes(backend, convert):
 
 def test_int_bool_float32_are_converted_once(backend):
     ints = np.array([[1, 4], [2, 3], [5, 9], [7, 1]])
-    assert dynval.sse(ints, ints[::-1], backend=backend) == dynval.sse(ints.astype(float), ints[::-1].astype(float), backend=backend)
+    assert dynval.sse(ints, ints[::-1], backend=backend) == dynval.sse(ints.astype(float), ints[::-1].astype(float),
+                                                                       backend=backend)
     flags = np.array([True, False, True, True, False])
     assert dynval.sse(flags, ~flags, backend=backend) == 5.0
     f32 = np.array([0.1, 0.2, 0.7], dtype=np.float32)

@@ -150,7 +150,7 @@ def test_bad_arguments(kwargs):
 
 def test_elastic_joint_integration_has_converged():
     # Halving the RK4 step changes the link motion by far less than the sensor noise would show.
-    from dynval.simulate import _elastic_link_motion, fourier_trajectory, DEFAULT_ARM, GRAVITY
+    from dynval.simulate import DEFAULT_ARM, GRAVITY, _elastic_link_motion, fourier_trajectory
 
     rng_coefs = np.random.default_rng(0)
     offs, amps, phases = rng_coefs.uniform(-1, 1, 2), rng_coefs.uniform(0.6, 1.2, (2, 5)) / np.arange(1, 6), \

@@ -422,7 +422,7 @@ def test_state_does_not_grow_with_n():
     sizes = []
     for n in (2_000, 200_000):
         acc = ValidationAccumulator(n_params=1, max_lag=20)
-        for k in range(0, n, 1000):
+        for _ in range(0, n, 1000):
             acc.update(rng.normal(size=(1000, 4)), rng.normal(size=(1000, 4)), rng.normal(size=(1000, 4, 3)))
         acc.break_segment()
         sizes.append(len(pickle.dumps(acc)))
@@ -475,8 +475,8 @@ def test_unsupported_and_invalid_keywords():
                         ("model_columns", [0]), ("cross_correlation_detail", "full")]:
         with pytest.raises(dynval.InvalidParameter, match=rf"^{name} must be None for ValidationAccumulator \("):
             ValidationAccumulator(n_params=1, **{name: value})
-    with pytest.raises(dynval.InvalidParameter, match="^max_lag must be an integer with max_lag >= 0 for the "
-                                                      "statsmodels profile"):
+    with pytest.raises(dynval.InvalidParameter, match=r"^max_lag must be an integer with max_lag >= 0 for the "
+                                                      r"statsmodels profile"):
         ValidationAccumulator(n_params=1, profile="statsmodels")
     with pytest.raises(dynval.InvalidParameter, match=r"^max_lag must be an integer with max_lag >= 0, got -1$"):
         ValidationAccumulator(n_params=1, max_lag=-1)

@@ -36,7 +36,8 @@ def test_no_other_file_writes_a_version():
 
 def test_the_java_port_claims_this_release_and_contract():
     src = ROOT / "java/src/main/java/org/dynval"
-    assert re.search(r'CONTRACT_VERSION = "([^"]+)"', (src / "Dynval.java").read_text()).group(1) == dynval.CONTRACT_VERSION
+    java_contract = re.search(r'CONTRACT_VERSION = "([^"]+)"', (src / "Dynval.java").read_text())
+    assert java_contract.group(1) == dynval.CONTRACT_VERSION
     assert re.search(r'VERSION = "([^"]+)"', (src / "PortMain.java").read_text()).group(1) == dynval.__version__
     pom = (ROOT / "java/pom.xml").read_text()
     assert re.search(r"<artifactId>[^<]+</artifactId>\s*<version>([^<]+)</version>", pom).group(1) == dynval.__version__

@@ -67,8 +67,9 @@ def main(argv=None) -> int:
         print(f"kuka_lwr4: data not found (looked in --data, $DYNVAL_KUKA_DATA and {DEFAULT_DATA}); skipping.")
         return 0
     try:
-        from dynval.robots import URDFModel
         import pinocchio  # noqa: F401
+
+        from dynval.robots import URDFModel
     except ImportError:
         print("kuka_lwr4: pinocchio is not installed (pip install pin); skipping.")
         return 0

@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 import sys
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import mpmath
 from mpmath import mp

@@ -3,7 +3,8 @@ rounded once to float64 at the end, and the tolerance helpers that go with them.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
 
 import mpmath
 from mpmath import mpf

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import json
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from ._exact import f64
 
 
 def num(x: Any) -> Any:
     """Corpus encoding of one number (floats shortest round-trip, non-finite as strings)."""
-    if isinstance(x, bool) or isinstance(x, int):
+    if isinstance(x, (bool, int)):
         return x
     v = f64(x)
     if v != v:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-
 NOTES: dict[str, dict[str, Any]] = {
     "Basic": {"bugType": "BASIC", "description": "Ordinary, well-conditioned data; every port must pass."},
     "LessonShape": {

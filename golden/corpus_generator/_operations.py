@@ -8,7 +8,6 @@ from typing import Any
 
 from ._config import GOLDEN
 
-
 OPERATIONS_FILE = GOLDEN / "operations.json"
 
 
@@ -96,7 +95,7 @@ def operations_problems(doc: dict, spec: dict) -> list[str]:
             for data in op["data"]:
                 if _json_kind(test["inputs"].get(data)) != "array":
                     problems.append(f"{tag}: data input {data} missing or not an array")
-            for scalar, info in op["scalars"].items():
+            for scalar in op["scalars"]:
                 if scalar in test["inputs"] or scalar == "n_joints":
                     continue
                 problems.append(f"{tag}: scalar input {scalar} missing")

@@ -48,7 +48,7 @@ def build() -> Family:
             for comment, flags, cols in seg_sets:
                 for L in lags:
                     longest = max(b - a for a, b in seg_bounds(seg_n, segs))
-                    extra = ["LagZero"] if L == 0 else (["MaxLagLimit"] if L == longest - 1 else [])
+                    extra = ["LagZero"] if L == 0 else (["MaxLagLimit"] if longest - 1 == L else [])
                     values, tol = acf_expected(cols, L, adjusted, segs)
                     fam.add("autocorrelation", {"adjusted": adjusted, "segments": segs, "nan_policy": "raise"},
                             f"{comment}, N = {seg_n}, max_lag = {L}", flags + [base_flag] + seg_flags + extra,

@@ -2,14 +2,25 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import mpmath
 from mpmath import mpf
 
 from ._config import RTOL
-from ._exact import (M, NAN, f64, is_const, lag_products, mean_error, mmean, msum, norm_ppf_two_sided, rows_of,
-                     seg_bounds)
+from ._exact import (
+    NAN,
+    M,
+    f64,
+    is_const,
+    lag_products,
+    mean_error,
+    mmean,
+    msum,
+    norm_ppf_two_sided,
+    rows_of,
+    seg_bounds,
+)
 from ._family import Family
 from ._inputs import Stream, q
 from ._json import arr, mat, num

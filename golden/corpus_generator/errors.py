@@ -11,7 +11,6 @@ from ._json import arr, mat, num
 from .autocorrelation import acf_expected
 from .information_criteria import ic_terms
 
-
 NAN_F = float("nan")
 
 

@@ -107,7 +107,8 @@ def build() -> Family:
         flags = ["LessonProblem4"] + (["LessonSlip"] if model == 2 else [])
         inputs = {"tau_meas": arr(meas, [1000]), "tau_pred": arr(pred, [1000]), "n_params": p}
         fam.add("criteria", {"noise_model": "pooled", "nan_policy": "raise"},
-                f"Problem 4, model {model} from data: 1000 dyadic residuals with SSE exactly {'10' if model == 1 else '8.5'}",
+                f"Problem 4, model {model} from data: 1000 dyadic residuals with SSE exactly "
+                f"{'10' if model == 1 else '8.5'}",
                 flags + ["OneDimensional"], inputs, {**{k: num(v) for k, v in vals.items()}, "n_obs": nn},
                 {**tol, "n_obs": 0})
         for op in ("aic", "bic"):

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import mpmath
 from mpmath import mpf
 
 from ._config import RTOL
-from ._exact import INF, M, NAN, columns, css, f64, ieee_mean, is_const, msum, resid_cols
+from ._exact import INF, NAN, M, columns, css, f64, ieee_mean, is_const, msum, resid_cols
 from ._family import Family, out
 from ._inputs import Stream, enc_signal, metric_datasets, predict, q, trajectory
 from ._json import mat

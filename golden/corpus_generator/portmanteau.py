@@ -8,7 +8,7 @@ import mpmath
 from mpmath import mpf
 
 from ._config import RTOL
-from ._exact import M, NAN, acf_tol, chi2_sf, f64, msum, n_products, pspread, rows_of, seg_bounds
+from ._exact import NAN, M, acf_tol, chi2_sf, f64, msum, n_products, pspread, rows_of, seg_bounds
 from ._family import Family
 from ._inputs import Stream, q
 from ._json import arr, mat
@@ -47,8 +47,8 @@ def portmanteau_expected(cols, lags, model_df, segments, test):
             dq = RTOL * max(f64(qv), n) + f64(msum(w * (2 * abs(rho[k]) * drho[k] + drho[k] ** 2)
                                                    for w, k in zip(weights, range(1, h + 1))))
             tq.append(dq)
-            tp.append(pspread(lambda a, b: chi2_sf(a, df), qv, mpf(dq), mpf(0), mpf(0)))
-            tl.append(pspread(lambda a, b: mpmath.log(chi2_sf(a, df)), qv, mpf(dq), mpf(0), mpf(0)))
+            tp.append(pspread(lambda a, b, df=df: chi2_sf(a, df), qv, mpf(dq), mpf(0), mpf(0)))
+            tl.append(pspread(lambda a, b, df=df: mpmath.log(chi2_sf(a, df)), qv, mpf(dq), mpf(0), mpf(0)))
     k = len(lags)
     exp = {"statistic": arr(stat, [k, m]), "pvalue": arr(pv, [k, m]), "log_pvalue": arr(lp, [k, m]),
            "df": arr([h - model_df for h in lags], [k])}

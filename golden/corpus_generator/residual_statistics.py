@@ -8,7 +8,7 @@ import mpmath
 from mpmath import mpf
 
 from ._config import RTOL
-from ._exact import INF, M, NAN, acf_tol, css, f64, mmean, msum, pspread, rows_of, seg_bounds, t_sf2
+from ._exact import INF, NAN, M, acf_tol, css, f64, mmean, msum, pspread, rows_of, seg_bounds, t_sf2
 from ._family import Family
 from ._inputs import NIST_UNIVARIATE, Stream, check_certified, nist_certified, nist_univariate, q
 from ._json import arr, mat

@@ -34,6 +34,7 @@ from ._api import (
     zero_mean_test,
 )
 from ._backend import backends, set_backend
+from ._compare import ComparisonReport, Verdict, compare
 from ._errors import (
     ERROR_KINDS,
     InputError,
@@ -45,14 +46,12 @@ from ._errors import (
     TooFewSamples,
     error_class,
 )
-from ._compare import ComparisonReport, Verdict, compare
 from ._findings import KINDS as FINDING_KINDS
 from ._findings import Finding, Thresholds
 from ._report import ValidationReport, validate
-from .identify import IdentificationResult, identify
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
-
 from ._version import CONTRACT_VERSION, __version__
+from .identify import IdentificationResult, identify
 
 __all__ = [
     "__version__",

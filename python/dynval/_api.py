@@ -11,6 +11,8 @@ parameters are checked against), then the remaining keywords in signature order.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
@@ -19,6 +21,18 @@ from ._errors import InvalidParameter
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 from ._segments import longest_segment, omit_nonfinite, parse_segments
 from ._stats import iid_t_test, z_two_sided
+from ._typing import (
+    ArrayLike,
+    BackendName,
+    Convention,
+    FloatArray,
+    Integer,
+    LagsLike,
+    MultiOutput,
+    NanPolicy,
+    NoiseModel,
+    SegmentsLike,
+)
 from ._validation import (
     MULTIOUTPUT_OPTIONS,
     check_adjusted,
@@ -69,12 +83,13 @@ __all__ = [
 ]
 
 _NO_SEGMENTS = object()
+_T = TypeVar("_T")
 
 
 # --------------------------------------------------------------------------- plumbing
 
 
-def signal_pair(function: str, tau_meas, tau_pred):
+def signal_pair(function: str, tau_meas: ArrayLike, tau_pred: ArrayLike) -> tuple[FloatArray, FloatArray, bool]:
     """Type, shape and size checks of ``(tau_meas, tau_pred)``; returns the 2-D pair and 1-D flag."""
     a = to_float_array(tau_meas, "tau_meas")
     b = to_float_array(tau_pred, "tau_pred")
@@ -85,7 +100,7 @@ def signal_pair(function: str, tau_meas, tau_pred):
     return a2, b2, a.ndim == 1 and b.ndim == 1
 
 
-def residual_signal(function: str, e):
+def residual_signal(function: str, e: ArrayLike) -> tuple[FloatArray, bool]:
     """Type, shape and size checks of a residual ``e``; returns the 2-D array and 1-D flag."""
     a = to_float_array(e, "e")
     a2 = promote_signal(a, "e")
@@ -106,7 +121,8 @@ class Call:
     segments : the caller's value, or absent for functions without lags.
     """
 
-    def __init__(self, function, arrays, nan_policy, backend, segments=_NO_SEGMENTS):
+    def __init__(self, function: str, arrays: list[tuple[str, FloatArray, int | None]], nan_policy: object,
+                 backend: object, segments: object = _NO_SEGMENTS) -> None:
         self.function = function
         self._arrays = arrays
         self.nan_policy = "raise"  # until the caller's value is known to be valid
@@ -125,14 +141,19 @@ class Call:
 
     @property
     def n(self) -> int:
-        return self.data[0].shape[0]
+        return int(self.data[0].shape[0])
+
+    @property
+    def pair(self) -> tuple[FloatArray, FloatArray]:
+        """``(tau_meas, tau_pred)`` of a two-signal call, after omission."""
+        return self.data[0], self.data[1]
 
     @property
     def limit(self) -> int:
         """Longest segment: the bound on lags."""
         return longest_segment(self.starts, self.n)
 
-    def check(self, check, *args):
+    def check(self, check: Callable[..., _T], *args: Any) -> _T:
         """Run a parameter check; on failure, a non-finite value in the data wins."""
         try:
             return check(*args)
@@ -145,28 +166,36 @@ class Call:
             raise
 
 
-def _pair_call(function, tau_meas, tau_pred, nan_policy, backend):
+def _pair_call(function: str, tau_meas: ArrayLike, tau_pred: ArrayLike, nan_policy: object,
+               backend: object) -> tuple[Call, bool]:
     meas, pred, one_d = signal_pair(function, tau_meas, tau_pred)
     call = Call(function, [("tau_meas", meas, None), ("tau_pred", pred, None)], nan_policy, backend)
     return call, one_d
 
 
-def _residual_call(function, e, nan_policy, backend, segments=_NO_SEGMENTS):
+def _residual_call(function: str, e: ArrayLike, nan_policy: object, backend: object,
+                   segments: object = _NO_SEGMENTS) -> tuple[Call, bool]:
     e2, one_d = residual_signal(function, e)
     return Call(function, [("e", e2, None)], nan_policy, backend, segments), one_d
 
 
-def _out(value):
+def _out(value: float | FloatArray) -> float | FloatArray:
     """Aggregates as Python float, per-joint values as float64 (m,) arrays."""
     if np.ndim(value) == 0:
         return float(value)
     return np.asarray(value, dtype=np.float64)
 
 
+def _vec(value: ArrayLike) -> FloatArray:
+    """Per-joint values as a float64 (m,) array."""
+    return np.asarray(value, dtype=np.float64).reshape(-1)
+
+
 # --------------------------------------------------------------------------- point metrics
 
 
-def residuals(tau_meas, tau_pred, *, nan_policy="raise", backend=None):
+def residuals(tau_meas: ArrayLike, tau_pred: ArrayLike, *, nan_policy: NanPolicy = "raise",
+              backend: BackendName | None = None) -> FloatArray:
     """Residuals ``e = tau_meas − tau_pred``.
 
     Parameters
@@ -187,53 +216,102 @@ def residuals(tau_meas, tau_pred, *, nan_policy="raise", backend=None):
     >>> import dynval
     >>> dynval.residuals([1.0, 2.0], [0.5, 2.5])
     array([ 0.5, -0.5])
+
+    A perfect prediction gives zeros; 2-D input keeps its shape:
+
+    >>> dynval.residuals([[1.0], [2.0]], [[1.0], [2.0]])
+    array([[0.],
+           [0.]])
     """
     call, one_d = _pair_call("residuals", tau_meas, tau_pred, nan_policy, backend)
-    e = np.asarray(call.kernel.residuals(*call.data), dtype=np.float64)
+    e = np.asarray(call.kernel.residuals(*call.pair), dtype=np.float64)
     return e[:, 0].copy() if one_d else e
 
 
-def _point(function, allowed, tau_meas, tau_pred, multioutput, nan_policy, backend):
+def _point(function: str, allowed: tuple[str, ...], tau_meas: ArrayLike, tau_pred: ArrayLike, multioutput: object,
+           nan_policy: object, backend: object) -> tuple[Call, str]:
     call, _ = _pair_call(function, tau_meas, tau_pred, nan_policy, backend)
     multioutput = call.check(check_multioutput, multioutput, allowed, function)
     return call, multioutput
 
 
-def sse(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+def sse(tau_meas: ArrayLike, tau_pred: ArrayLike, *, multioutput: Literal["pooled", "raw_values"] = "pooled",
+        nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float | FloatArray:
     """Sum of squared errors Σ e².
 
     Parameters
     ----------
     tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
     multioutput : {"pooled", "raw_values"}
         ``pooled`` sums over all joints (float); ``raw_values`` gives SSE_j per joint (m,).
     nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
     backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float for ``pooled``; ``(m,)`` for ``raw_values``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.sse([[1.0, 2.0], [3.0, 4.0]], [[1.0, 1.0], [3.0, 2.0]])
     5.0
+    >>> dynval.sse([[1.0, 2.0], [3.0, 4.0]], [[1.0, 1.0], [3.0, 2.0]], multioutput="raw_values")
+    array([0., 5.])
+
+    A perfect prediction gives 0:
+
+    >>> dynval.sse([1.0, 2.0], [1.0, 2.0])
+    0.0
     """
     call, mo = _point("sse", ("pooled", "raw_values"), tau_meas, tau_pred, multioutput, nan_policy, backend)
-    return _out(call.kernel.sse(*call.data, mo))
+    return _out(call.kernel.sse(*call.pair, mo))
 
 
-def max_abs_error(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+def max_abs_error(tau_meas: ArrayLike, tau_pred: ArrayLike, *,
+                  multioutput: Literal["pooled", "raw_values"] = "pooled", nan_policy: NanPolicy = "raise",
+                  backend: BackendName | None = None) -> float | FloatArray:
     """Largest absolute residual, pooled or per joint.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    multioutput : {"pooled", "raw_values"}
+        ``pooled`` max over all joints (float); ``raw_values`` the max per joint (m,).
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float for ``pooled``; ``(m,)`` for ``raw_values``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.max_abs_error([1.0, 2.0, 3.0], [1.5, 2.0, 1.0])
     2.0
+
+    A perfect prediction gives 0:
+
+    >>> dynval.max_abs_error([1.0, 2.0], [1.0, 2.0])
+    0.0
     """
     call, mo = _point("max_abs_error", ("pooled", "raw_values"), tau_meas, tau_pred, multioutput, nan_policy, backend)
-    return _out(call.kernel.max_abs_error(*call.data, mo))
+    return _out(call.kernel.max_abs_error(*call.pair, mo))
 
 
-def rmse(tau_meas, tau_pred, *, multioutput="pooled", convention=None, nan_policy="raise", backend=None):
+def rmse(tau_meas: ArrayLike, tau_pred: ArrayLike, *,
+         multioutput: Literal["pooled", "raw_values", "uniform_average"] = "pooled",
+         convention: Convention | None = None, nan_policy: NanPolicy = "raise",
+         backend: BackendName | None = None) -> float | FloatArray:
     """Root mean squared error.
 
     Parameters
@@ -245,28 +323,54 @@ def rmse(tau_meas, tau_pred, *, multioutput="pooled", convention=None, nan_polic
         Only with ``pooled``: ``per_element`` (default) √(SSE/(N·m)), the lesson's formula;
         ``per_sample`` √(SSE/N), the lesson's code. The two agree for one joint.
     nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
     backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float for ``pooled`` and ``uniform_average``; ``(m,)`` for ``raw_values``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.rmse([[1.0, 1.0], [1.0, 1.0]], [[0.0, 0.0], [0.0, 0.0]], convention="per_sample")
     1.4142135623730951
+    >>> dynval.rmse([[1.0, 1.0], [1.0, 1.0]], [[0.0, 0.0], [0.0, 0.0]])
+    1.0
+
+    SSE = 0 gives 0 (contract §3.2):
+
+    >>> dynval.rmse([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
+    0.0
     """
-    call, mo = _point("rmse", ("pooled", "raw_values", "uniform_average"), tau_meas, tau_pred, multioutput, nan_policy, backend)
+    call, mo = _point("rmse", ("pooled", "raw_values", "uniform_average"), tau_meas, tau_pred, multioutput, nan_policy,
+                      backend)
     conv = call.check(check_convention, convention, mo)
-    return _out(call.kernel.rmse(*call.data, mo, conv))
+    return _out(call.kernel.rmse(*call.pair, mo, conv))
 
 
-def vaf(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+def vaf(tau_meas: ArrayLike, tau_pred: ArrayLike, *, multioutput: MultiOutput = "pooled",
+        nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float | FloatArray:
     """Variance accounted for, in percent: 100(1 − var(e)/var(τ)).
 
     Parameters
     ----------
     tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
     multioutput : {"pooled", "raw_values", "uniform_average", "variance_weighted"}
+        ``pooled`` all N·m values with one mean; ``raw_values`` per joint (m,); the averages as
+        scikit-learn's ``explained_variance_score``.
     nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
     backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        VAF in percent: a float, or ``(m,)`` for ``raw_values``.
 
     Notes
     -----
@@ -277,68 +381,175 @@ def vaf(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend
     >>> import dynval
     >>> round(dynval.vaf([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.1, 3.9]), 6)
     99.2
+
+    A constant target gives ``-inf``, or ``nan`` when the residual is constant too:
+
+    >>> dynval.vaf([2.0, 2.0, 2.0], [1.0, 2.0, 3.0])
+    -inf
+    >>> dynval.vaf([2.0, 2.0, 2.0], [1.5, 1.5, 1.5])
+    nan
     """
     call, mo = _point("vaf", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
-    return _out(call.kernel.vaf(*call.data, mo))
+    return _out(call.kernel.vaf(*call.pair, mo))
 
 
-def fit_percent(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+def fit_percent(tau_meas: ArrayLike, tau_pred: ArrayLike, *, multioutput: MultiOutput = "pooled",
+                nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float | FloatArray:
     """Normalised fit, in percent: 100(1 − √(SSE/TSS)) (= 100(1 − √(1 − R²))).
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    multioutput : {"pooled", "raw_values", "uniform_average", "variance_weighted"}
+        ``pooled`` all N·m values with one mean; ``raw_values`` per joint (m,); the averages as
+        for :func:`r2`.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Fit in percent: a float, or ``(m,)`` for ``raw_values``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.fit_percent([0.0, 2.0], [0.0, 2.0])
     100.0
+
+    A constant target gives ``-inf``, or ``nan`` for an exact prediction (contract §3.2):
+
+    >>> dynval.fit_percent([2.0, 2.0, 2.0], [1.0, 2.0, 3.0])
+    -inf
+    >>> dynval.fit_percent([2.0, 2.0, 2.0], [2.0, 2.0, 2.0])
+    nan
     """
     call, mo = _point("fit_percent", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
-    return _out(call.kernel.fit_percent(*call.data, mo))
+    return _out(call.kernel.fit_percent(*call.pair, mo))
 
 
-def r2(tau_meas, tau_pred, *, multioutput="pooled", nan_policy="raise", backend=None):
+def r2(tau_meas: ArrayLike, tau_pred: ArrayLike, *, multioutput: MultiOutput = "pooled",
+       nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float | FloatArray:
     """Coefficient of determination 1 − SSE/TSS (a fraction).
 
     ``pooled`` uses all N·m values with one global mean (the lesson); ``raw_values``,
     ``uniform_average`` and ``variance_weighted`` match scikit-learn's ``r2_score``.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    multioutput : {"pooled", "raw_values", "uniform_average", "variance_weighted"}
+        ``variance_weighted`` gives constant joints weight 0.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float, or ``(m,)`` for ``raw_values``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.r2([1.0, 2.0, 3.0], [1.0, 2.0, 4.0])
     0.5
+
+    A constant target gives ``-inf``, or ``nan`` for an exact prediction (IEEE values, contract
+    §3.2; ``validate(..., profile="sklearn")`` gives 0.0 / 1.0 instead, scikit-learn's
+    ``force_finite``):
+
+    >>> dynval.r2([2.0, 2.0, 2.0], [1.0, 2.0, 3.0])
+    -inf
+    >>> dynval.r2([2.0, 2.0, 2.0], [2.0, 2.0, 2.0])
+    nan
+    >>> tau = [[1.0, 2.0], [2.0, 2.0], [3.0, 2.0]]          # joint 2 is constant
+    >>> pred = [[1.0, 2.0], [2.5, 1.0], [3.0, 2.0]]
+    >>> dynval.r2(tau, pred, multioutput="raw_values")
+    array([0.875, -inf])
+    >>> dynval.r2(tau, pred, multioutput="variance_weighted")
+    0.875
     """
     call, mo = _point("r2", MULTIOUTPUT_OPTIONS, tau_meas, tau_pred, multioutput, nan_policy, backend)
-    return _out(call.kernel.r2(*call.data, mo))
+    return _out(call.kernel.r2(*call.pair, mo))
 
 
 # --------------------------------------------------------------------------- residual statistics
 
 
-def residual_mean(e, *, nan_policy="raise", backend=None):
+def residual_mean(e: ArrayLike, *, nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> FloatArray:
     """Mean of the residual of each joint, ``(m,)``.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m,)``, also for 1-D ``e``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.residual_mean([[1.0, 0.0], [3.0, 1.0]])
     array([2. , 0.5])
+
+    One sample (the minimum, N = 1) is its own mean:
+
+    >>> dynval.residual_mean([0.5])
+    array([0.5])
     """
     call, _ = _residual_call("residual_mean", e, nan_policy, backend)
-    return _out(call.kernel.residual_mean(call.data[0])).reshape(-1)
+    return _vec(call.kernel.residual_mean(call.data[0]))
 
 
-def residual_variance(e, *, ddof=1, nan_policy="raise", backend=None):
+def residual_variance(e: ArrayLike, *, ddof: Integer = 1, nan_policy: NanPolicy = "raise",
+                      backend: BackendName | None = None) -> FloatArray:
     """Variance of the residual of each joint, Σ(e − ē_j)²/(N − ddof), ``(m,)``.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    ddof : int
+        Delta degrees of freedom, ``0 <= ddof < N``.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m,)``, also for 1-D ``e``.
 
     Examples
     --------
     >>> import dynval
     >>> dynval.residual_variance([1.0, 2.0, 3.0])
     array([1.])
+    >>> dynval.residual_variance([1.0, 2.0, 3.0], ddof=0)
+    array([0.66666667])
+
+    A constant residual has zero variance:
+
+    >>> dynval.residual_variance([3.0, 3.0, 3.0])
+    array([0.])
     """
     call, _ = _residual_call("residual_variance", e, nan_policy, backend)
     ddof = call.check(check_ddof, ddof, call.n)
-    return _out(call.kernel.residual_variance(call.data[0], ddof)).reshape(-1)
+    return _vec(call.kernel.residual_variance(call.data[0], ddof))
 
 
 def newey_west_bandwidth(n: int) -> int:
@@ -346,7 +557,8 @@ def newey_west_bandwidth(n: int) -> int:
     return int(min(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)), n - 1))
 
 
-def zero_mean_test(e, *, segments=None, nan_policy="raise", backend=None):
+def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: NanPolicy = "raise",
+                   backend: BackendName | None = None) -> ZeroMeanTest:
     """Test whether each joint's residual has zero mean.
 
     Gives the i.i.d. Student t-test (as ``scipy.stats.ttest_1samp(e, 0)``) and a test
@@ -373,12 +585,21 @@ def zero_mean_test(e, *, segments=None, nan_policy="raise", backend=None):
     >>> res = dynval.zero_mean_test([0.1, -0.2, 0.15, -0.05, 0.0, 0.02])
     >>> res.df_iid
     5
+
+    Zero residual variance gives a statistic of ``±inf`` (mean ≠ 0, p-value 0), or ``nan``
+    (mean = 0, p-value nan) (contract §3.2); ``n_eff`` is then N:
+
+    >>> res = dynval.zero_mean_test([0.5, 0.5, 0.5])
+    >>> res.statistic_iid, res.pvalue_iid, res.n_eff
+    (array([inf]), array([0.]), array([3.]))
+    >>> dynval.zero_mean_test([0.0, 0.0, 0.0]).pvalue_eff
+    array([nan])
     """
     call, _ = _residual_call("zero_mean_test", e, nan_policy, backend, segments)
     e2 = call.data[0]
     n = call.n
-    mean = _out(call.kernel.residual_mean(e2)).reshape(-1)
-    std = np.sqrt(_out(call.kernel.residual_variance(e2, 1)).reshape(-1))
+    mean = _vec(call.kernel.residual_mean(e2))
+    std = np.sqrt(_vec(call.kernel.residual_variance(e2, 1)))
     k = newey_west_bandwidth(n)
     # Lags past the longest segment have no products: their ρ̂ is 0 and adds nothing.
     k_used = min(k, call.limit - 1)
@@ -408,7 +629,8 @@ def zero_mean_test(e, *, segments=None, nan_policy="raise", backend=None):
 # --------------------------------------------------------------------------- correlation
 
 
-def autocorrelation(e, max_lag, *, adjusted=True, segments=None, nan_policy="raise", backend=None):
+def autocorrelation(e: ArrayLike, max_lag: Integer, *, adjusted: bool = True, segments: SegmentsLike = None,
+                    nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> FloatArray:
     """Normalised autocorrelation ρ̂(ℓ) = R̂(ℓ)/R̂(0) of the residual, ℓ = 0..max_lag.
 
     Parameters
@@ -434,6 +656,11 @@ def autocorrelation(e, max_lag, *, adjusted=True, segments=None, nan_policy="rai
     >>> import dynval
     >>> dynval.autocorrelation([1.0, -1.0, 1.0, -1.0], 1, adjusted=False)
     array([ 1.  , -0.75])
+
+    A constant residual gives ``nan`` at every lag, lag 0 included (contract §3.2):
+
+    >>> dynval.autocorrelation([1.0, 1.0, 1.0, 1.0], 2)
+    array([nan, nan, nan])
     """
     call, one_d = _residual_call("autocorrelation", e, nan_policy, backend, segments)
     max_lag = call.check(check_max_lag, max_lag, call.limit)
@@ -442,14 +669,33 @@ def autocorrelation(e, max_lag, *, adjusted=True, segments=None, nan_policy="rai
     return rho[:, 0].copy() if one_d else rho
 
 
-def confidence_band(n, *, level=0.95, backend=None):
+def confidence_band(n: Integer, *, level: float = 0.95, backend: BackendName | None = None) -> float:
     """Half-width z/√n of the white-noise band, z = Φ⁻¹((1 + level)/2).
+
+    Parameters
+    ----------
+    n : int
+        Number of samples, ``n >= 1``.
+    level : float
+        Confidence level, ``0 < level < 1``.
+    backend : {None, "python", "cpp"}
+        Checked only; the value does not depend on it.
+
+    Returns
+    -------
+    float
+        The band's half-width.
 
     Examples
     --------
     >>> import dynval
     >>> round(dynval.confidence_band(100), 6)
     0.195996
+
+    With one sample the band is z itself:
+
+    >>> round(dynval.confidence_band(1), 6)
+    1.959964
     """
     _backend.resolve(backend)
     n = check_n(n)
@@ -457,14 +703,15 @@ def confidence_band(n, *, level=0.95, backend=None):
     return z_two_sided(level) / math.sqrt(n)
 
 
-def _portmanteau(function, e, lags, model_df, segments, nan_policy, backend):
+def _portmanteau(function: str, e: ArrayLike, lags: LagsLike, model_df: Integer, segments: SegmentsLike,
+                 nan_policy: NanPolicy, backend: BackendName | None) -> PortmanteauTest:
     call, _ = _residual_call(function, e, nan_policy, backend, segments)
-    lags = call.check(check_lags, lags, call.limit)
-    model_df = call.check(check_model_df, model_df, int(lags.min()))
-    out = call.kernel.portmanteau(call.data[0], lags, model_df, call.starts, function)
+    lag_array = call.check(check_lags, lags, call.limit)
+    model_df = call.check(check_model_df, model_df, int(lag_array.min()))
+    out = call.kernel.portmanteau(call.data[0], lag_array, model_df, call.starts, function)
     return PortmanteauTest(
         test=function,
-        lags=lags,
+        lags=lag_array,
         model_df=model_df,
         statistic=np.asarray(out["statistic"], dtype=np.float64),
         pvalue=np.asarray(out["pvalue"], dtype=np.float64),
@@ -473,7 +720,8 @@ def _portmanteau(function, e, lags, model_df, segments, nan_policy, backend):
     )
 
 
-def ljung_box(e, lags, *, model_df=0, segments=None, nan_policy="raise", backend=None):
+def ljung_box(e: ArrayLike, lags: LagsLike, *, model_df: Integer = 0, segments: SegmentsLike = None,
+              nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> PortmanteauTest:
     """Ljung–Box test Q(h) = N(N+2) Σ_{ℓ≤h} ρ̂_ℓ²/n_ℓ on the biased autocorrelation.
 
     Parameters
@@ -496,34 +744,61 @@ def ljung_box(e, lags, *, model_df=0, segments=None, nan_policy="raise", backend
     >>> res = dynval.ljung_box([1.0, -1.0, 1.0, -1.0, 1.0, -1.0], 1)
     >>> res.df.tolist()
     [1]
+
+    A constant residual gives a ``nan`` statistic and p-value (contract §3.2):
+
+    >>> res = dynval.ljung_box([1.0, 1.0, 1.0, 1.0], 1)
+    >>> res.statistic, res.pvalue
+    (array([[nan]]), array([[nan]]))
     """
     return _portmanteau("ljung_box", e, lags, model_df, segments, nan_policy, backend)
 
 
-def box_pierce(e, lags, *, model_df=0, segments=None, nan_policy="raise", backend=None):
+def box_pierce(e: ArrayLike, lags: LagsLike, *, model_df: Integer = 0, segments: SegmentsLike = None,
+               nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> PortmanteauTest:
     """Box–Pierce test Q(h) = N Σ_{ℓ≤h} ρ̂_ℓ²; arguments as :func:`ljung_box`.
+
+    Parameters
+    ----------
+    e : array_like, (N,) or (N, m)
+        Residuals.
+    lags : int or sequence of int
+        One statistic per entry, in the given order.
+    model_df : int
+        Degrees of freedom used by the model; df = h − model_df must be >= 1.
+    segments, nan_policy, backend : as in :func:`autocorrelation`.
+
+    Returns
+    -------
+    PortmanteauTest
+        ``statistic``, ``pvalue``, ``log_pvalue`` ``(n_lags, m)``; ``lags``, ``df`` ``(n_lags,)``.
 
     Examples
     --------
     >>> import dynval
     >>> float(dynval.box_pierce([1.0, -1.0, 1.0, -1.0], 1).statistic[0, 0])
     2.25
+
+    A constant residual gives a ``nan`` statistic and p-value (contract §3.2):
+
+    >>> dynval.box_pierce([1.0, 1.0, 1.0, 1.0], 1).pvalue
+    array([[nan]])
     """
     return _portmanteau("box_pierce", e, lags, model_df, segments, nan_policy, backend)
 
 
 def cross_correlation(
-    e,
-    Y,
-    max_lag,
+    e: ArrayLike,
+    Y: ArrayLike,
+    max_lag: Integer,
     *,
-    n_joints=None,
-    adjusted=True,
-    level=0.95,
-    segments=None,
-    nan_policy="raise",
-    backend=None,
-):
+    n_joints: Integer | None = None,
+    adjusted: bool = True,
+    level: float = 0.95,
+    segments: SegmentsLike = None,
+    nan_policy: NanPolicy = "raise",
+    backend: BackendName | None = None,
+) -> CrossCorrelation:
     """Cross-correlation of each joint's residual with that joint's regressor columns.
 
     Parameters
@@ -553,6 +828,14 @@ def cross_correlation(
     >>> Y = np.array([[1.0], [-1.0], [2.0], [0.0]])[:, None, :]
     >>> float(dynval.cross_correlation(e, Y, 0).rho[0, 0, 0])
     1.0
+
+    A regressor column constant on a joint gives ``nan`` and is marked in ``constant_mask``
+    (contract §3.2):
+
+    >>> Y2 = np.concatenate([Y, np.full((4, 1, 1), 5.0)], axis=2)
+    >>> res = dynval.cross_correlation(e, Y2, 0)
+    >>> res.rho[0, :, 0], res.constant_mask
+    (array([ 1., nan]), array([[False,  True]]))
     """
     e_arr = to_float_array(e, "e")
     y_arr = to_float_array(Y, "regressor")
@@ -582,17 +865,45 @@ def cross_correlation(
 # --------------------------------------------------------------------------- information criteria
 
 
-def information_criteria(rss, n_obs, n_params, *, backend=None):
+def information_criteria(rss: float, n_obs: Integer, n_params: Integer, *,
+                         backend: BackendName | None = None) -> InformationCriteria:
     """AIC, BIC, AICc, FPE and nAIC from a residual sum of squares (constants dropped).
 
     σ̂² = rss/n; aic = 2p + n·ln σ̂²; bic = p·ln n + n·ln σ̂²; aicc = aic + 2p(p+1)/(n − p − 1);
     fpe = σ̂²(1 + p/n)/(1 − p/n); naic = ln σ̂² + 2p/n. Requires p < n − 1.
+
+    Parameters
+    ----------
+    rss : float
+        Residual sum of squares, finite and ``>= 0``.
+    n_obs : int
+        Number of observations n, ``>= 1``.
+    n_params : int
+        Number of parameters p, ``0 <= p < n − 1``.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    InformationCriteria
+        ``aic``, ``bic``, ``aicc``, ``fpe``, ``naic`` (floats), ``noise_model="pooled"``.
+
+    Raises
+    ------
+    InvalidParameter
+        If p >= n − 1 (aicc and fpe are undefined there), or another argument is out of range.
 
     Examples
     --------
     >>> import dynval
     >>> round(dynval.information_criteria(10.0, 1000, 6).aic, 6)
     -4593.170186
+
+    A zero residual gives ``-inf`` for aic, bic and aicc, and fpe = 0 (contract §3.2):
+
+    >>> ic = dynval.information_criteria(0.0, 10, 2)
+    >>> ic.aic, ic.bic, ic.aicc, ic.fpe
+    (-inf, -inf, -inf, 0.0)
     """
     _, kernel = _backend.resolve(backend)
     rss = check_rss(rss)
@@ -611,7 +922,8 @@ def information_criteria(rss, n_obs, n_params, *, backend=None):
     )
 
 
-def criteria(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+def criteria(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, noise_model: NoiseModel = "pooled",
+             nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> InformationCriteria:
     """Information criteria of a model's residuals under an explicit noise model.
 
     Parameters
@@ -636,11 +948,21 @@ def criteria(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="
     >>> ic = dynval.criteria([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.1, 3.9], n_params=1)
     >>> ic.n_obs
     4
+
+    SSE = 0 gives ``-inf`` and fpe = 0; p >= n − 1 gives ``nan`` for aicc and fpe, also when
+    the residual is zero (contract §3.2, §3.7):
+
+    >>> ic = dynval.criteria([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], n_params=1)
+    >>> ic.aic, ic.aicc, ic.fpe
+    (-inf, -inf, 0.0)
+    >>> ic = dynval.criteria([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], n_params=2)
+    >>> ic.aic, ic.aicc, ic.fpe
+    (-inf, nan, nan)
     """
     call, _ = _pair_call("criteria", tau_meas, tau_pred, nan_policy, backend)
     n_params = call.check(check_n_params, n_params)
-    noise_model = call.check(check_noise_model, noise_model)
-    out = call.kernel.criteria(*call.data, n_params, noise_model)
+    nm = call.check(check_noise_model, noise_model)
+    out = call.kernel.criteria(*call.pair, n_params, nm)
     return InformationCriteria(
         aic=float(out["aic"]),
         bic=float(out["bic"]),
@@ -649,36 +971,91 @@ def criteria(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="
         naic=float(out["naic"]),
         n_obs=int(out["n_obs"]),
         n_params=n_params,
-        noise_model=noise_model,
+        noise_model=nm,
     )
 
 
-def _criterion(function, field, tau_meas, tau_pred, n_params, noise_model, nan_policy, backend):
+def _criterion(function: str, field: str, tau_meas: ArrayLike, tau_pred: ArrayLike, n_params: Integer,
+               noise_model: object, nan_policy: object, backend: object) -> float:
     call, _ = _pair_call(function, tau_meas, tau_pred, nan_policy, backend)
     n_params = call.check(check_n_params, n_params)
     noise_model = call.check(check_noise_model, noise_model)
-    return float(call.kernel.criteria(*call.data, n_params, noise_model)[field])
+    return float(call.kernel.criteria(*call.pair, n_params, noise_model)[field])
 
 
-def aic(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+def aic(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, noise_model: NoiseModel = "pooled",
+        nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float:
     """Akaike information criterion (constant dropped); see :func:`criteria`.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    n_params : int
+        Number of identified parameters p (always given; there is no default).
+    noise_model : {"pooled", "per_joint", "full"}
+        As in :func:`criteria`.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float
+        F + 2p, F the noise model's fit term.
 
     Examples
     --------
     >>> import dynval
     >>> round(dynval.aic([1.0, 2.5, 3.2, 4.1, 4.8, 6.1], [1.1, 2.4, 3.0, 4.3, 4.7, 6.0], n_params=2), 9)
     -19.472138033
+
+    SSE = 0 (pooled), or any joint's SSE_j = 0 (per_joint), gives ``-inf`` (contract §3.2):
+
+    >>> dynval.aic([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], n_params=1)
+    -inf
+    >>> dynval.aic([[1.0, 2.0], [2.0, 3.0], [3.0, 5.0]], [[1.0, 2.1], [2.0, 3.0], [3.0, 5.0]],
+    ...            n_params=1, noise_model="per_joint")
+    -inf
     """
     return _criterion("aic", "aic", tau_meas, tau_pred, n_params, noise_model, nan_policy, backend)
 
 
-def bic(tau_meas, tau_pred, *, n_params, noise_model="pooled", nan_policy="raise", backend=None):
+def bic(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, noise_model: NoiseModel = "pooled",
+        nan_policy: NanPolicy = "raise", backend: BackendName | None = None) -> float:
     """Bayesian information criterion (constant dropped); see :func:`criteria`.
+
+    Parameters
+    ----------
+    tau_meas, tau_pred : array_like, (N,) or (N, m)
+        Measured and predicted joint torques.
+    n_params : int
+        Number of identified parameters p (always given; there is no default).
+    noise_model : {"pooled", "per_joint", "full"}
+        As in :func:`criteria`.
+    nan_policy : {"raise", "omit"}
+        ``omit`` deletes rows holding a non-finite value.
+    backend : {None, "python", "cpp"}
+        Computation backend; ``None`` uses the default.
+
+    Returns
+    -------
+    float
+        F + p·ln n, F the noise model's fit term.
 
     Examples
     --------
     >>> import dynval
     >>> round(dynval.bic([1.0, 2.5, 3.2, 4.1, 4.8, 6.1], [1.1, 2.4, 3.0, 4.3, 4.7, 6.0], n_params=2), 9)
     -19.888619094
+
+    SSE = 0, or a numerically singular Σ̂ (full), gives ``-inf`` (contract §3.2):
+
+    >>> dynval.bic([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], n_params=1)
+    -inf
+    >>> dynval.bic([[1.0, 2.0], [2.0, 4.0], [3.0, 6.5]], [[1.0, 2.0], [2.1, 4.2], [3.0, 6.5]],
+    ...            n_params=1, noise_model="full")
+    -inf
     """
     return _criterion("bic", "bic", tau_meas, tau_pred, n_params, noise_model, nan_policy, backend)

@@ -6,21 +6,29 @@ The compiled module is imported lazily, once. The default is ``cpp`` when it imp
 
 from __future__ import annotations
 
-import importlib
 import os
+from typing import Any, TypedDict
 
 from . import _reference
+from ._typing import BackendName, Kernels
 from ._validation import parameter_error
 
 BACKEND_NAMES = ("python", "cpp")
 
-_state: dict = {"current": None, "core": None, "core_detail": None}
+
+class _State(TypedDict):
+    current: str | None
+    core: Kernels | None
+    core_detail: str | None
 
 
-def _load_core():
+_state: _State = {"current": None, "core": None, "core_detail": None}
+
+
+def _load_core() -> Kernels | None:
     if _state["core_detail"] is None:
         try:
-            core = importlib.import_module("dynval._core")
+            from . import _core as core
         except Exception as exc:  # any import failure means the backend is unavailable
             _state["core_detail"] = f"dynval._core could not be imported: {type(exc).__name__}: {exc}"
         else:
@@ -29,7 +37,7 @@ def _load_core():
     return _state["core"]
 
 
-def backends() -> dict:
+def backends() -> dict[str, dict[str, Any]]:
     """Backends and whether they can be used.
 
     Takes no arguments, and never raises.
@@ -75,7 +83,7 @@ def available() -> tuple[str, ...]:
     return ("python", "cpp") if _load_core() is not None else ("python",)
 
 
-def check_backend(name) -> str:
+def check_backend(name: object) -> str:
     """Return ``name`` if it is an available backend, else raise InvalidParameter."""
     names = available()
     if not isinstance(name, str) or name not in names:
@@ -83,7 +91,7 @@ def check_backend(name) -> str:
     return name
 
 
-def set_backend(name) -> None:
+def set_backend(name: BackendName | None) -> None:
     """Select the backend used when a function is called with ``backend=None``.
 
     Parameters
@@ -133,12 +141,16 @@ def default_backend() -> str:
     return _state["current"]
 
 
-def resolve(name=None) -> tuple[str, object]:
+def resolve(name: object = None) -> tuple[BackendName, Kernels]:
     """``(name, kernel module)`` for ``name`` (``None`` = the default)."""
-    name = default_backend() if name is None else check_backend(name)
-    return name, (_reference if name == "python" else _load_core())
+    chosen = default_backend() if name is None else check_backend(name)
+    if chosen == "python":
+        return "python", _reference
+    core = _load_core()
+    assert core is not None, "cpp is only chosen when dynval._core imports"
+    return "cpp", core
 
 
-def get_backend(name=None):
+def get_backend(name: object = None) -> Kernels:
     """The kernel module of a backend (``dynval._reference`` or ``dynval._core``)."""
     return resolve(name)[1]

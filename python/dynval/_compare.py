@@ -19,18 +19,25 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 
 from . import _validation as v
 from ._findings import Finding
 from ._report import ValidationReport, to_jsonable, validate
+from ._typing import ArrayLike, FloatArray, Integer
 
 __all__ = ["compare", "ComparisonReport", "Verdict", "CRITERIA", "DECISIONS"]
 
 CRITERIA = ("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff")
 DECISIONS = ("accept", "refine", "redesign")
+
+#: One candidate of :func:`compare`: ``(prediction, n_params)``, ``(prediction, n_params, regressor)``
+#: or a mapping with "prediction", "n_params" and optionally "regressor", "model_columns".
+CandidateSpec = tuple[ArrayLike, Integer] | tuple[ArrayLike, Integer, ArrayLike | None] | list[Any] | dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -40,9 +47,9 @@ class Verdict:
 
     decision: str
     model: str
-    reasons: tuple
+    reasons: tuple[str, ...]
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"decision": self.decision, "model": self.model, "reasons": list(self.reasons)}
 
 
@@ -69,15 +76,15 @@ class ComparisonReport:
         Findings about the comparison itself (e.g. whiteness cannot discriminate).
     """
 
-    names: list
-    ranking: list
+    names: list[str]
+    ranking: list[str]
     criterion: str
-    table: dict
-    reports: dict
+    table: dict[str, Any]
+    reports: dict[str, ValidationReport]
     verdict: Verdict
-    findings: list = field(default_factory=list)
+    findings: list[Finding] = field(default_factory=list)
 
-    def to_dict(self, *, reports: bool = True) -> dict:
+    def to_dict(self, *, reports: bool = True) -> dict[str, Any]:
         """JSON-ready dictionary; ``reports=False`` leaves out the candidates' full reports."""
         out = {"names": list(self.names), "ranking": list(self.ranking), "criterion": self.criterion,
                "table": to_jsonable(self.table), "verdict": self.verdict.to_dict(),
@@ -102,7 +109,7 @@ class ComparisonReport:
                 f"decision={self.verdict.decision!r}, model={self.verdict.model!r})")
 
 
-def _candidate(name, spec):
+def _candidate(name: str, spec: object) -> tuple[Any, Any, Any, Any]:
     """``(pred, p)``, ``(pred, p, regressor)`` or a mapping with prediction, n_params[, regressor,
     model_columns]."""
     if isinstance(spec, dict):
@@ -129,7 +136,14 @@ def _bias_state(report: ValidationReport) -> str:
     return "negligible" if kinds else "none"
 
 
-def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options) -> ComparisonReport:
+def compare(
+    tau_meas: ArrayLike,
+    candidates: Mapping[str, CandidateSpec],
+    *,
+    criterion: Literal["aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"] = "aic",
+    regressor: ArrayLike | None = None,
+    **options: Any,
+) -> ComparisonReport:
     """Validate several candidate models on the same data; rank them and give the decision.
 
     Parameters
@@ -173,7 +187,7 @@ def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options)
     v.check_choice("criterion", criterion, CRITERIA)
     if "n_params" in options:
         raise v.parameter_error("n_params", "given per candidate, not to compare", options["n_params"])
-    reports = {}
+    reports: dict[str, ValidationReport] = {}
     for name, spec in candidates.items():
         pred, p, reg, cols = _candidate(name, spec)
         reports[name] = validate(tau_meas, pred, n_params=p, regressor=reg if reg is not None else regressor,
@@ -184,7 +198,7 @@ def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options)
     crit = {n: reports[n].information_criteria[criterion] for n in names}
     deficient = {n: len(reports[n].deficiencies) for n in names}
 
-    def key(n):
+    def key(n: str) -> tuple[bool, float, str]:
         c = crit[n]
         return (deficient[n] > 0, math.inf if math.isnan(c) else c, n)
 
@@ -195,7 +209,8 @@ def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options)
         weights_raw = {n: math.exp(-0.5 * (crit[n] - best_c)) if np.isfinite(crit[n]) and finite else 0.0
                        for n in names}
     total = sum(weights_raw.values())
-    pooled, per_joint = {}, {}
+    pooled: dict[str, dict[str, Any]] = {}
+    per_joint: dict[str, dict[str, FloatArray]] = {}
     for n in names:
         r = reports[n]
         ic = r.information_criteria
@@ -221,7 +236,8 @@ def compare(tau_meas, candidates, *, criterion="aic", regressor=None, **options)
                             verdict=verdict, findings=findings)
 
 
-def _verdict(names, ranking, reports, criterion, crit):
+def _verdict(names: list[str], ranking: list[str], reports: dict[str, ValidationReport], criterion: str,
+             crit: dict[str, float]) -> tuple[list[Finding], Verdict]:
     best = ranking[0]
     findings: list[Finding] = []
     reasons: list[str] = []

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ class Thresholds:
     condition_number: float = 1e3
 
 
-def resolve_thresholds(value) -> Thresholds:
+def resolve_thresholds(value: object) -> Thresholds:
     """``None`` → defaults; a mapping overrides named fields; a :class:`Thresholds` as is."""
     from ._validation import parameter_error
 
@@ -125,8 +126,8 @@ class Finding:
 
     kind: str
     severity: str
-    joints: tuple = ()
-    columns: tuple = ()
+    joints: tuple[int, ...] = ()
+    columns: tuple[int, ...] = ()
     statistic: float | None = None
     pvalue: float | None = None
     pvalue_adjusted: float | None = None
@@ -135,13 +136,14 @@ class Finding:
     threshold: float | None = None
     action: str = ""
     message: str = ""
-    details: dict = field(default_factory=dict)
+    details: dict[str, Any] = field(default_factory=dict)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (non-finite numbers as strings, like the report)."""
         from ._report import to_jsonable
 
-        return to_jsonable(asdict(self))
+        out: dict[str, Any] = to_jsonable(asdict(self))
+        return out
 
 
 @dataclass
@@ -252,12 +254,13 @@ def _tests(ev: Evidence):
     return blocks
 
 
-def holm_family(ev: Evidence) -> dict:
+def holm_family(ev: Evidence) -> dict[str, Any]:
     """Raw and Holm-adjusted p-values of every test in the report, by family; and the count."""
     blocks = _tests(ev)
     flat = np.concatenate([b.reshape(-1) for _, b in blocks]) if blocks else np.zeros(0)
     adjusted = holm(flat)
-    out, pos = {}, 0
+    out: dict[str, Any] = {}
+    pos = 0
     for name, b in blocks:
         size = b.size
         out[name] = (b, adjusted[pos:pos + size].reshape(b.shape))
@@ -266,7 +269,7 @@ def holm_family(ev: Evidence) -> dict:
     return out
 
 
-def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list:
+def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list[Finding]:
     """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first."""
     th = thresholds or Thresholds()
     alpha = 1.0 - ev.level
@@ -428,7 +431,8 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
                 effect_unit="|ρ|", threshold=th.regressor_correlation,
                 action=(f"add or re-weight the term of {_col(cols, c)} on {_name(names, j)}: the model does not "
-                        "use the information in it" if big else "none: the correlation is real but too small to matter"),
+                        "use the information in it" if big
+                        else "none: the correlation is real but too small to matter"),
                 details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits)},
                 message=(f"{_name(names, j)}: the residual correlates with {listed} beyond what the colour of "
                          f"both series explains (Holm-adjusted p {_p_text(padj[j, c, lag])})"

@@ -11,19 +11,35 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
 from . import _estimation
 from . import _sections as sec
 from . import _validation as v
-from ._version import CONTRACT_VERSION, __version__
-from ._errors import InputError
-from ._findings import compute_findings, resolve_thresholds
+from ._errors import InputError, ShapeMismatch
+from ._findings import Finding, Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
 from ._summary import format_summary
+from ._typing import (
+    ArrayLike,
+    BackendName,
+    Decimate,
+    Detail,
+    FloatArray,
+    IntArray,
+    Integer,
+    Kernels,
+    NamedSegmentsLike,
+    NanPolicy,
+    NoiseModel,
+    ProfileName,
+)
+from ._version import CONTRACT_VERSION, __version__
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -33,7 +49,7 @@ REPORT_SCHEMA_VERSION = 1
 # --------------------------------------------------------------------------- JSON
 
 
-def to_jsonable(value):
+def to_jsonable(value: Any) -> Any:
     """Convert a report value to plain JSON types.
 
     Arrays become nested lists, numpy scalars Python scalars, tuples lists, and non-finite
@@ -117,29 +133,29 @@ class ValidationReport:
         Per-joint metrics of each named segment (``segments={"name": length, ...}``).
     """
 
-    provenance: dict
-    per_joint: dict
-    pooled: dict
-    aggregates: dict
-    residuals: dict
-    autocorrelation: dict | None
-    ljung_box: dict | None
-    cross_correlation: dict | None
-    information_criteria: dict
-    warnings_text: list = field(default_factory=list)
-    findings: list = field(default_factory=list)
-    bias: dict | None = None
-    whiteness: dict | None = None
-    spectrum: dict | None = None
-    design: dict | None = None
-    segment_metrics: dict | None = None
+    provenance: dict[str, Any]
+    per_joint: dict[str, Any]
+    pooled: dict[str, Any]
+    aggregates: dict[str, Any]
+    residuals: dict[str, Any]
+    autocorrelation: dict[str, Any] | None
+    ljung_box: dict[str, Any] | None
+    cross_correlation: dict[str, Any] | None
+    information_criteria: dict[str, Any]
+    warnings_text: list[str] = field(default_factory=list)
+    findings: list[Finding] = field(default_factory=list)
+    bias: dict[str, Any] | None = None
+    whiteness: dict[str, Any] | None = None
+    spectrum: dict[str, Any] | None = None
+    design: dict[str, Any] | None = None
+    segment_metrics: dict[str, Any] | None = None
 
     @property
-    def deficiencies(self) -> list:
+    def deficiencies(self) -> list[Finding]:
         """The findings that say the model should change."""
         return [f for f in self.findings if f.severity == "deficiency"]
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary: nested lists, non-finite numbers as strings.
 
         Returns
@@ -220,7 +236,7 @@ class ValidationReport:
 # --------------------------------------------------------------------------- validate
 
 
-def _backend_kernel(backend):
+def _backend_kernel(backend: object) -> tuple[Kernels, BackendName]:
     """Return ``(kernel_module, backend_name)``; unavailable names raise InvalidParameter."""
     from ._backend import resolve
 
@@ -228,7 +244,10 @@ def _backend_kernel(backend):
     return kernel, name
 
 
-def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allow_wide=False):
+def _prepare(
+    tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, n_joints: object, segments: object,
+    nan_policy: object, allow_wide: object = False,
+) -> tuple[FloatArray, FloatArray, FloatArray | None, int | None, IntArray | None, int, FloatArray | None]:
     """Type, shape, size and finiteness checks (the data half of the contract's order)."""
     meas0 = v.to_float_array(tau_meas, "tau_meas")
     pred0 = v.to_float_array(tau_pred, "tau_pred")
@@ -245,7 +264,7 @@ def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allo
     v.check_min_samples("validate", n)
     v.check_orientation("validate", "tau_meas", meas0.shape, allow_wide)
 
-    reg2 = None if reg0 is None else v.regressor_to_2d(reg0, n, m, p)
+    reg2 = None if reg0 is None or p is None else v.regressor_to_2d(reg0, n, m, p)
     omitted = 0
     if isinstance(nan_policy, str) and nan_policy == "omit":
         # Omission needs the caller's segments to refine them; a bad value is reported now.
@@ -266,7 +285,8 @@ def _prepare(tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allo
     return meas, pred, reg2, p, starts, omitted, reg0
 
 
-def check_data_finite(meas, pred, reg2=None, p=None):
+def check_data_finite(meas: FloatArray, pred: FloatArray, reg2: FloatArray | None = None,
+                      p: int | None = None) -> None:
     """The finiteness step of the contract's order, in argument order."""
     v.check_finite(meas, "tau_meas")
     v.check_finite(pred, "tau_pred")
@@ -282,23 +302,24 @@ class _Options:
     max_lag: int
     level: float
     prof: Profile
-    starts: np.ndarray
+    starts: IntArray
     longest: int
-    kernel: object
-    backend_name: str
+    kernel: Kernels
+    backend_name: BackendName
     noise_model: str
     sample_rate: float | None
-    decimate: object
-    joint_names: list
-    column_names: list | None
-    q: np.ndarray | None
-    estimation: dict | None
-    thresholds: object
+    decimate: str | int | None
+    joint_names: list[str]
+    column_names: list[str] | None
+    q: FloatArray | None
+    estimation: dict[str, FloatArray] | None
+    thresholds: Thresholds
     detail: str
-    model_columns: list | None
+    model_columns: list[int] | None
 
 
-def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
+def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int, p_cols: int | None,
+                      starts: IntArray | None, meas_shape: tuple[int, ...]) -> _Options:
     """validate's parameters in the documented order (contract §4)."""
     n_params = v.check_n_params(a["n_params"])
     if reg0 is not None:
@@ -324,11 +345,11 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
     estimation = v.check_estimation(a["estimation"], m)
     if estimation is not None and "regressor" in estimation and p_cols is not None \
             and estimation["regressor"].shape[2] != p_cols:
-        raise v.ShapeMismatch(f"estimation['regressor'] must have the p={p_cols} columns of regressor, got shape "
+        raise ShapeMismatch(f"estimation['regressor'] must have the p={p_cols} columns of regressor, got shape "
                               f"{v.format_shape(np.shape(a['estimation']['regressor']))}")
     if estimation is not None and "regressor" in estimation and "tau" in estimation \
             and estimation["regressor"].shape[0] != estimation["tau"].shape[0]:
-        raise v.ShapeMismatch(f"estimation['regressor'] and estimation['tau'] must have the same N, got "
+        raise ShapeMismatch(f"estimation['regressor'] and estimation['tau'] must have the same N, got "
                               f"{estimation['regressor'].shape[0]} and {estimation['tau'].shape[0]} samples")
     thresholds = resolve_thresholds(a["thresholds"])
     detail = v.check_detail(a["cross_correlation_detail"])
@@ -339,11 +360,15 @@ def _check_parameters(a, reg0, n, m, p_cols, starts, meas_shape) -> _Options:
                     model_columns)
 
 
-def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max_lag=None,
-             level=None, profile="lesson", segments=None, nan_policy="raise", backend=None,
-             noise_model=None, sample_rate=None, decimate="auto", joint_names=None, column_names=None,
-             q=None, estimation=None, thresholds=None, cross_correlation_detail="top", model_columns=None,
-             allow_wide=False):
+def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, regressor: ArrayLike | None = None,
+             n_joints: Integer | None = None, max_lag: Integer | None = None, level: float | None = None,
+             profile: ProfileName = "lesson", segments: NamedSegmentsLike = None, nan_policy: NanPolicy = "raise",
+             backend: BackendName | None = None, noise_model: NoiseModel | None = None,
+             sample_rate: float | None = None, decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
+             column_names: Sequence[str] | None = None, q: ArrayLike | None = None,
+             estimation: dict[str, ArrayLike] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
+             cross_correlation_detail: Detail = "top", model_columns: Sequence[Integer | str] | None = None,
+             allow_wide: bool = False) -> ValidationReport:
     """Validate predicted joint torques against measured ones: every metric, findings, one report.
 
     Parameters
@@ -465,12 +490,12 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     per_joint, pooled, aggregates = sec.point_metrics(km, prof)
     lagged = o.max_lag > 0
     e = np.ascontiguousarray(meas - pred) if lagged or reg2 is not None else None
-    reg3 = None if reg2 is None else reg2.reshape(n, m, p_cols)
+    reg3 = None if reg2 is None or p_cols is None else reg2.reshape(n, m, p_cols)
 
     # ---- residual statistics, and the bias evidence (coloured-noise standard error)
     from . import zero_mean_test
 
-    zmt = (_as_dict(zero_mean_test(e, segments=starts, backend=o.backend_name)) if lagged
+    zmt = (_as_dict(zero_mean_test(e, segments=starts, backend=o.backend_name)) if lagged and e is not None
            else sec.iid_zero_mean_test(km, n, prof.ddof))
     residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
@@ -479,11 +504,11 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
     est_fit = None
     est = o.estimation or {}
-    if reg3 is not None and e is not None and "regressor" in est and "tau" in est:
+    if reg3 is not None and p_cols is not None and e is not None and "regressor" in est and "tau" in est:
         est_fit = _estimation.fit_columns(est["regressor"], est["tau"],
                                           o.model_columns if o.model_columns is not None else range(p_cols))
     param_var = None
-    if est_fit is not None:
+    if est_fit is not None and reg3 is not None:
         param_var = _estimation.quadratic_forms(est_fit, reg3[:, :, list(est_fit.columns)].mean(axis=0))
     bias = sec.bias_test(e, starts, per_joint["rmse"], param_var) if lagged else None
     n_eff = None if bias is None else bias["n_eff"]
@@ -571,7 +596,7 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, max
         spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics)
 
 
-def _as_dict(result) -> dict:
+def _as_dict(result: Any) -> dict[str, Any]:
     if hasattr(result, "_asdict"):
         return dict(result._asdict())
     if hasattr(result, "__dataclass_fields__"):

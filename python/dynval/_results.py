@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+from ._typing import BoolArray, FloatArray, IntArray
 
 __all__ = ["ZeroMeanTest", "PortmanteauTest", "CrossCorrelation", "InformationCriteria"]
 
 
-def _plain(value):
+def _plain(value: object) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
@@ -21,7 +24,10 @@ def _plain(value):
 
 
 class _ToDict:
-    def to_dict(self) -> dict:
+    if TYPE_CHECKING:  # every subclass is a dataclass
+        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+    def to_dict(self) -> dict[str, Any]:
         """Fields as plain Python values (arrays become nested lists; nan/inf stay floats)."""
         return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
@@ -35,16 +41,16 @@ class ZeroMeanTest(_ToDict):
     size ``n_eff`` and is the one to read for robot residuals, which are autocorrelated.
     """
 
-    mean: np.ndarray
-    std: np.ndarray
+    mean: FloatArray
+    std: FloatArray
     n_samples: int
-    statistic_iid: np.ndarray
-    pvalue_iid: np.ndarray
+    statistic_iid: FloatArray
+    pvalue_iid: FloatArray
     df_iid: int
-    statistic_eff: np.ndarray
-    pvalue_eff: np.ndarray
-    df_eff: np.ndarray
-    n_eff: np.ndarray
+    statistic_eff: FloatArray
+    pvalue_eff: FloatArray
+    df_eff: FloatArray
+    n_eff: FloatArray
     bandwidth: int
 
 
@@ -57,12 +63,12 @@ class PortmanteauTest(_ToDict):
     """
 
     test: str
-    lags: np.ndarray
+    lags: IntArray
     model_df: int
-    statistic: np.ndarray
-    pvalue: np.ndarray
-    log_pvalue: np.ndarray
-    df: np.ndarray
+    statistic: FloatArray
+    pvalue: FloatArray
+    log_pvalue: FloatArray
+    df: IntArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,11 +80,11 @@ class CrossCorrelation(_ToDict):
     |rho| > band, largest ratio |rho|/band first.
     """
 
-    rho: np.ndarray
-    constant_mask: np.ndarray
+    rho: FloatArray
+    constant_mask: BoolArray
     band: float
     level: float
-    outside: list
+    outside: list[tuple[int, int, int, float, float]]
 
 
 @dataclass(frozen=True, eq=False)

@@ -7,6 +7,7 @@ computed from the evidence they collect (``_findings.py``) and worded in ``_summ
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -269,7 +270,8 @@ def spectrum(e, starts, reg3, sample_rate) -> dict:
             "_is_peak": spec.is_peak}
 
 
-def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff, detail) -> dict:
+def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
+                      detail) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
     """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
 
     The band of the lesson (z/√N) is kept for reference; the findings use Bartlett's variance
@@ -313,7 +315,7 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     top = sorted(keep, key=lambda t: (-t[4], t[0], t[1]))
     section = {
         "max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mask, "band": float(band),
-        "level": float(level), "n_outside_white_band": int(len(white_hits)),
+        "level": float(level), "n_outside_white_band": len(white_hits),
         "colour_lags": int(big), "colour_factor": colour, "max_abs_rho": np.abs(rho_max), "lag_of_max": lag_max,
         "z_max": z_max, "top_cells": top, "detail": detail,
         # (joint, column, lag, rho, z) of the strongest cells, strongest first
@@ -380,7 +382,7 @@ def added_variable(e, reg3, model_columns, starts, n_eff):
 
 def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
     """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     start = 0
     for name, length in zip(names, lengths):
         a, b = start, start + int(length)
@@ -452,7 +454,7 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
-def design(reg3, q_val, estimation, meas, threshold) -> dict:
+def design(reg3, q_val, estimation, meas, threshold) -> dict[str, Any] | None:
     """How far the validation run is from the estimation run, and how well it excites the model.
 
     Distances are time-aligned on the rows both runs have: the relative regressor distance
@@ -464,9 +466,9 @@ def design(reg3, q_val, estimation, meas, threshold) -> dict:
     (never excited); those the estimation regressor does not excite either are listed apart as
     ``unidentifiable`` (no experiment on this structure can test them).
     """
-    out = {}
+    out: dict[str, Any] = {}
     if estimation is not None:
-        rep = {}
+        rep: dict[str, Any] = {}
         if "regressor" in estimation and reg3 is not None:
             est = estimation["regressor"]
             rep["regressor"] = _relative_distance(reg3.reshape(reg3.shape[0], -1), est.reshape(est.shape[0], -1),

@@ -17,6 +17,8 @@ import scipy.ndimage
 import scipy.signal
 import scipy.stats
 
+from ._typing import ArrayLike, FloatArray
+
 __all__ = [
     "z_two_sided",
     "iid_t_test",
@@ -41,7 +43,7 @@ def z_two_sided(level: float) -> float:
     return float(scipy.stats.norm.ppf(0.5 * (1.0 + level)))
 
 
-def iid_t_test(mean, std, n):
+def iid_t_test(mean: ArrayLike, std: ArrayLike, n: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Two-sided one-sample Student t-test of zero mean; returns ``(t, pvalue)`` arrays.
 
     ``n`` may be an array (an effective sample size); the degrees of freedom are ``n − 1``.

@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 if TYPE_CHECKING:
     from ._report import ValidationReport
 
@@ -110,8 +108,8 @@ def format_summary(report: ValidationReport) -> str:
         frac = ", ".join(f"{names[j]}: {_num(100 * f, '.0f')} %" for j, f in enumerate(acf["fraction_outside"]))
         lines.append(
             f"Residual whiteness: lags 1..{acf['max_lag']}, {'adjusted' if acf['adjusted'] else 'biased'} "
-            f"autocorrelation, {acf['band_type']} band at {100 * acf['level']:g} % per lag (uncorrected; the findings correct over the "
-            f"whole report); lags outside: {frac}")
+            f"autocorrelation, {acf['band_type']} band at {100 * acf['level']:g} % per lag (uncorrected; the "
+            f"findings correct over the whole report); lags outside: {frac}")
     if report.cross_correlation is not None:
         xc = report.cross_correlation
         # A streamed report has no colour-aware band (it needs the whole series, contract §4.1).

@@ -21,6 +21,7 @@ from ._errors import (
     ShapeMismatch,
     TooFewSamples,
 )
+from ._typing import ArrayLike
 
 # Largest accepted |value| in the data (contract §1.2): beyond it float64 sums of squares can
 # overflow, and implementations would disagree (inf in one, nan in another).
@@ -206,7 +207,7 @@ def in_range(a) -> np.ndarray:
     return np.abs(a) <= MAX_MAGNITUDE
 
 
-def first_nonfinite(a: np.ndarray):
+def first_nonfinite(a: ArrayLike) -> tuple[int, int, float] | None:
     """Return ``(row, col, value)`` of the first value that is not :func:`in_range`, or None.
 
     Row-major order (the contract's "first bad index"): NaN, ±inf, or |x| > MAX_MAGNITUDE.
@@ -226,8 +227,8 @@ def first_nonfinite(a: np.ndarray):
     bad = ~in_range(a)
     if not bad.any():
         return None
-    flat = int(np.flatnonzero(bad.ravel(order="C"))[0])
-    row, col = divmod(flat, a.shape[1])
+    first = int(np.flatnonzero(bad.ravel(order="C"))[0])
+    row, col = divmod(first, a.shape[1])
     return row, col, float(a[row, col])
 
 
@@ -318,9 +319,8 @@ def check_lags(value, limit: int) -> np.ndarray:
     requirement = f"a positive integer or a non-empty sequence of positive integers less than {limit}"
     if is_integer(value):
         items = [value]
-    elif isinstance(value, np.ndarray) and value.ndim == 1:
-        items = list(value)
-    elif isinstance(value, Sequence) and not isinstance(value, (str, bytes)):
+    elif (isinstance(value, np.ndarray) and value.ndim == 1) or (
+            isinstance(value, Sequence) and not isinstance(value, (str, bytes))):
         items = list(value)
     else:
         raise parameter_error("lags", requirement, value)

@@ -15,9 +15,10 @@ the true structure, so a missing column can be named):
 ``exact``: the true structure with the true parameters (the residual is the noise itself: the exact
 null hypothesis); ``estimated``: the true structure estimated by least squares on the estimation
 run (the null with estimation error); ``zero_coulomb``: a robot without Coulomb friction and a
-model without its columns (right, and the null of the missing-term test, which tests them); ``no_coulomb``: Coulomb friction (F_c = σ on both joints) left
-out; ``no_gravity``: the gravity term MY1 (m₁c_y1·g = 2.2σ: an RMS of about σ) left out; ``mode``: an unmodelled, lightly
-damped mode (7 Hz, ζ = 0.02, standard deviation σ on the elbow) in the measured torque.
+model without its columns (right, and the null of the missing-term test, which tests them);
+``no_coulomb``: Coulomb friction (F_c = σ on both joints) left out; ``no_gravity``: the gravity term
+MY1 (m₁c_y1·g = 2.2σ: an RMS of about σ) left out; ``mode``: an unmodelled, lightly damped mode
+(7 Hz, ζ = 0.02, standard deviation σ on the elbow) in the measured torque.
 
 Run ``python benchmarks/calibrate_findings.py`` for the table.
 """

@@ -20,6 +20,7 @@ import argparse
 import os
 import re
 import sys
+from collections.abc import Sequence
 
 from ._errors import InputError
 from ._files import FileInputError, load_array, read_table
@@ -301,7 +302,7 @@ def _run_compare(args) -> int:
     return code if code else _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``dynval`` command line; returns the exit code.
 
     No traceback reaches the user: a closed output pipe ends quietly (141), Ctrl-C gives 130,

@@ -32,19 +32,25 @@ glibc maps and zeroes each of them afresh (``benchmarks/README.md`` has the meas
 
 from __future__ import annotations
 
+from typing import Any
+
 import dask.array as da
 import numpy as np
 
 from . import _validation as v
 from ._errors import InvalidType
+from ._report import ValidationReport
 from ._segments import parse_segments
+from ._typing import ArrayLike, Integer, SegmentsLike
 from .stream import ValidationAccumulator
 
 __all__ = ["validate", "accumulate"]
 
 
-def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, segments=None, split_every=None,
-             **keywords):
+def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,
+             regressor: da.Array | ArrayLike | None = None, n_joints: Integer | None = None,
+             segments: SegmentsLike = None, split_every: int | dict[int, int] | None = None,
+             **keywords: Any) -> ValidationReport:
     """:func:`dynval.validate` of dask arrays chunked along time (rows), as a
     :class:`~dynval.ValidationReport` with the sections of ``dynval.stream`` (contract §4.1).
 
@@ -79,8 +85,10 @@ def validate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, seg
                       segments=segments, split_every=split_every, **keywords).result()
 
 
-def accumulate(tau_meas, tau_pred, *, n_params, regressor=None, n_joints=None, segments=None, split_every=None,
-               **keywords) -> ValidationAccumulator:
+def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,
+               regressor: da.Array | ArrayLike | None = None, n_joints: Integer | None = None,
+               segments: SegmentsLike = None, split_every: int | dict[int, int] | None = None,
+               **keywords: Any) -> ValidationAccumulator:
     """The merged :class:`~dynval.stream.ValidationAccumulator` of :func:`validate` (merge it with
     accumulators of later data, or call ``.result()``)."""
     keywords = dict(keywords, n_params=n_params, n_joints=n_joints)

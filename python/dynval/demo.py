@@ -29,6 +29,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,11 +41,16 @@ from .simulate import (  # noqa: F401 - re-exported
     PARAMETER_NAMES,
     SCENARIOS,
     ArmParameters,
+    SimulatedData,
     base_parameters,
     fourier_trajectory,
     regressor,
     simulate,
 )
+
+if TYPE_CHECKING:
+    from ._compare import ComparisonReport
+    from ._typing import BackendName, ProfileName
 
 __all__ = [
     "ArmParameters",
@@ -78,11 +84,11 @@ class DemoResult:
     """
 
     scenario: str
-    data: object
+    data: SimulatedData
     identified: dict
     predictions: dict
     reports: dict
-    comparison: object | None
+    comparison: ComparisonReport | None
     chosen: str
     files: list = field(default_factory=list)
 
@@ -129,7 +135,7 @@ def _accepts(func, name) -> bool:
 
 
 def run_demo(scenario: str = "friction", out=None, progress=_stderr, *, seed: int = 0, n_samples: int = 2000,
-             noise: float = 0.2, profile: str = "lesson", backend=None) -> DemoResult:
+             noise: float = 0.2, profile: ProfileName = "lesson", backend: BackendName | None = None) -> DemoResult:
     """Simulate a scenario, identify the candidates, validate and compare them.
 
     Parameters
@@ -151,13 +157,14 @@ def run_demo(scenario: str = "friction", out=None, progress=_stderr, *, seed: in
     ['rigid', 'friction', 'friction+offset']
     """
     import dynval
+
     from .identify import identify
 
     say = progress or (lambda msg: None)
     say(f"simulating scenario '{scenario}': estimation and validation trajectories")
     d = simulate(scenario, seed=seed, n_samples=n_samples, noise=noise)
     est, val = d.estimation, d.validation
-    common = dict(sample_rate=d.sample_rate, joint_names=list(d.joint_names),
+    common: dict[str, Any] = dict(sample_rate=d.sample_rate, joint_names=list(d.joint_names),
                   column_names=list(d.full_column_names), q=val.q,
                   estimation={"q": est.q, "regressor": est.full_regressor, "tau": est.tau_meas})
 

@@ -335,7 +335,7 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
     try:
         full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
         parts.append(f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>")
-    except Exception as exc:  # noqa: BLE001 - the HTML is still useful without the JSON
+    except Exception as exc:
         parts.append(f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>')
 
     body = "\n".join(p for p in parts if p)

@@ -39,11 +39,15 @@ numbers gives the σ_j directly.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 import scipy.linalg
 
+from ._errors import InvalidShape, ShapeMismatch
+from ._typing import ArrayLike, FloatArray, Integer
 from ._validation import (
     check_finite,
     check_min_samples,
@@ -54,14 +58,13 @@ from ._validation import (
     regressor_shape,
     to_float_array,
 )
-from ._errors import InvalidShape, ShapeMismatch
 
 __all__ = ["IdentificationResult", "identify", "default_rcond"]
 
 
 def default_rcond(rows: int, p: int) -> float:
     """The default rank tolerance ``max(rows, p) · eps`` (relative to the largest pivot)."""
-    return max(rows, p) * np.finfo(np.float64).eps
+    return float(max(rows, p) * np.finfo(np.float64).eps)
 
 
 @dataclass(frozen=True)
@@ -102,31 +105,31 @@ class IdentificationResult:
         ``‖τ − Y_b π̂‖²`` of the unweighted torques.
     """
 
-    estimate: np.ndarray
-    std: np.ndarray
-    rel_std_percent: np.ndarray
-    base_columns: tuple
-    base_names: tuple
-    combination: np.ndarray
-    column_names: tuple
+    estimate: FloatArray
+    std: FloatArray
+    rel_std_percent: FloatArray
+    base_columns: tuple[int, ...]
+    base_names: tuple[str, ...]
+    combination: FloatArray
+    column_names: tuple[str, ...]
     condition_number: float
     rank: int
     rcond: float
     sigma2: float
-    covariance: np.ndarray
+    covariance: FloatArray
     rows: int
     n_joints: int
     n_columns: int
-    joint_std: np.ndarray | None = None
+    joint_std: FloatArray | None = None
     residual_sse: float = float("nan")
-    _meta: dict = field(default_factory=dict, repr=False, compare=False)
+    _meta: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_params(self) -> int:
         """Number of identified parameters (the rank): the ``n_params`` of :func:`dynval.validate`."""
         return self.rank
 
-    def predict(self, regressor, *, n_joints=None) -> np.ndarray:
+    def predict(self, regressor: ArrayLike, *, n_joints: Integer | None = None) -> FloatArray:
         """Torques predicted by the estimate on another regressor with the same ``p`` columns.
 
         ``regressor`` is ``(N, m, p)`` → result ``(N, m)``, or stacked ``(N·m, p)`` → result
@@ -149,11 +152,11 @@ class IdentificationResult:
         check_finite(y2, "regressor")
         return (y2[:, list(self.base_columns)] @ self.estimate).reshape(n, m)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
         from ._report import to_jsonable
 
-        return to_jsonable({
+        out: dict[str, Any] = to_jsonable({
             "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|",
             "rank": self.rank,
             "rcond": self.rcond,
@@ -173,6 +176,7 @@ class IdentificationResult:
             "combination": self.combination,
             "joint_std": self.joint_std,
         })
+        return out
 
     def table(self) -> str:
         """Readable table: base parameter, estimate, standard deviation and %σ."""
@@ -185,7 +189,8 @@ class IdentificationResult:
         return "\n".join(lines)
 
 
-def _stack(regressor, tau_meas, n_joints):
+def _stack(regressor: ArrayLike, tau_meas: ArrayLike,
+           n_joints: Integer | None) -> tuple[FloatArray, FloatArray, int, int, int]:
     """Check the inputs with the shared checker and return (A, b, N, m, p)."""
     meas = to_float_array(tau_meas, "tau_meas")
     y = to_float_array(regressor, "regressor")
@@ -209,7 +214,7 @@ def _stack(regressor, tau_meas, n_joints):
     return a, km.reshape(-1), n, m, p
 
 
-def _check_column_names(column_names, p):
+def _check_column_names(column_names: Sequence[str] | None, p: int) -> tuple[str, ...]:
     if column_names is None:
         return tuple(f"c{i}" for i in range(p))
     names = tuple(column_names)
@@ -218,7 +223,7 @@ def _check_column_names(column_names, p):
     return names
 
 
-def _check_rcond(rcond, rows, p):
+def _check_rcond(rcond: float | None, rows: int, p: int) -> float:
     if rcond is None:
         return default_rcond(rows, p)
     if not is_real_number(rcond) or not 0 <= rcond < 1:
@@ -229,7 +234,7 @@ def _check_rcond(rcond, rows, p):
 _SPLITTER = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit halves
 
 
-def _two_prod(a, b):
+def _two_prod(a: FloatArray, b: FloatArray | float) -> tuple[FloatArray, FloatArray]:
     """Error-free product: a*b = p + e exactly (Dekker), elementwise."""
     prod = a * b
     ca = _SPLITTER * a
@@ -242,13 +247,14 @@ def _two_prod(a, b):
     return prod, err
 
 
-def _two_sum(a, b):
+def _two_sum(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
     s = a + b
     z = s - a
     return s, (a - (s - z)) + (b - z)
 
 
-def _accurate_residuals(a, x, b, r):
+def _accurate_residuals(a: FloatArray, x: FloatArray, b: FloatArray,
+                        r: FloatArray) -> tuple[FloatArray, FloatArray]:
     """``f = b − r − A x`` (rows) and ``g = −Aᵀ r`` (columns), each as if in twice the working precision.
 
     Rows: Ogita–Rump–Oishi Dot2, vectorized over rows; columns: exact products summed by
@@ -267,9 +273,9 @@ def _accurate_residuals(a, x, b, r):
     return f, g
 
 
-def _solve(a, b, rcond):
+def _solve(a: FloatArray, b: FloatArray, rcond: float) -> dict[str, Any] | None:
     """Column-scaled pivoted QR solve with iterative refinement; the pieces the result needs."""
-    rows, p = a.shape
+    _rows, p = a.shape
     scale = np.sqrt(np.einsum("ij,ij->j", a, a))
     # A column whose norm is within rcond of the largest is roundoff of a structurally zero
     # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
@@ -292,8 +298,9 @@ def _solve(a, b, rcond):
     sb = scale[base]
     a_b = a[:, base]
 
-    def tri(rhs, trans=0):
-        return scipy.linalg.solve_triangular(r11, rhs, trans=trans, check_finite=False)
+    def tri(rhs: FloatArray, trans: int = 0) -> FloatArray:
+        out: FloatArray = scipy.linalg.solve_triangular(r11, rhs, trans=trans, check_finite=False)
+        return out
 
     x_s = tri(q1.T @ b)
     x = x_s / sb
@@ -333,14 +340,15 @@ def _solve(a, b, rcond):
     }
 
 
-def _fit(a, b, rcond, p):
+def _fit(a: FloatArray, b: FloatArray, rcond: float, p: int) -> tuple[dict[str, Any], FloatArray] | None:
     solved = _solve(a, b, rcond)
     if solved is None:
         return None
     return solved, solved["residual"]
 
 
-def identify(regressor, tau_meas, *, weights=None, rcond=None, column_names=None, n_joints=None,
+def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per_joint"] | ArrayLike | None = None,
+             rcond: float | None = None, column_names: Sequence[str] | None = None, n_joints: Integer | None = None,
              name_tolerance: float = 1e-10) -> IdentificationResult:
     """Least-squares estimate of the base parameters of ``τ = Y π + ε``.
 

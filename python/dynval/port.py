@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Sequence, TextIO
+from collections.abc import Sequence
+from typing import TextIO
 
 from . import protocol
 
@@ -49,14 +50,15 @@ def answer(case: protocol.CaseMessage, backend: str | None = None, encoding: str
     """
     from .golden import run_operation
 
+    contract_error: type[Exception]
     try:
-        from . import InputError
+        from . import InputError as contract_error
     except ImportError:  # pragma: no cover - the facade is always there in a release
-        InputError = ValueError  # noqa: N806
+        contract_error = ValueError
 
     try:
         outputs = run_operation(case.operation, case.inputs, case.conventions, backend=backend)
-    except InputError as exc:
+    except contract_error as exc:
         kind = getattr(exc, "kind", None) or "InternalError"
         return protocol.encode_reply(error_kind=kind, message=str(exc))
     except Exception as exc:
@@ -74,6 +76,7 @@ def serve(backend: str | None, stdin: TextIO, stdout: TextIO, encoding: str = "d
     handshake and answers in them too.
     """
     import dynval
+
     from .golden import OPERATIONS
 
     version = getattr(dynval, "__version__", "?")
@@ -107,7 +110,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="python -m dynval.port",
         description="dynval as a port of the conformance protocol (golden/PROTOCOL.md), for dynval conform.",
     )
-    parser.add_argument("--backend", choices=("python", "cpp"), default=None, help="backend computing the answers (default: dynval's default)")
+    parser.add_argument("--backend", choices=("python", "cpp"), default=None,
+                        help="backend computing the answers (default: dynval's default)")
     parser.add_argument("--encoding", choices=protocol.ENCODINGS, default="decimal",
                         help="number encoding to negotiate: decimal (default) or hex (C99 hexadecimal floats)")
     args = parser.parse_args(argv)

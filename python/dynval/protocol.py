@@ -47,8 +47,9 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Literal
 
 import numpy as np
 
@@ -134,7 +135,7 @@ def _check_encoding(encoding: str) -> str:
     return encoding
 
 
-def format_real(x: float, encoding: str = "decimal") -> str:
+def format_real(x: float | np.floating[Any], encoding: str = "decimal") -> str:
     """Write one float64 in the protocol's canonical form.
 
     Parameters
@@ -224,7 +225,7 @@ def parse_int(token: str) -> int:
     return int(token)
 
 
-def _format_int(value: int) -> str:
+def _format_int(value: int | np.integer[Any]) -> str:
     return str(int(value))
 
 
@@ -525,7 +526,7 @@ class CaseDecoder:
         self._case: CaseMessage | None = None
         self._hex = _check_encoding(encoding) == "hex"
 
-    def feed(self, line: str) -> CaseMessage | str | None:
+    def feed(self, line: str) -> CaseMessage | Literal["quit"] | None:
         tokens = split_line(line)
         if not tokens:
             return None
@@ -534,12 +535,14 @@ class CaseDecoder:
             if word == "quit":
                 return "quit"
             if word != "case" or len(tokens) < 4:
-                raise ProtocolError(f"expected 'case FAMILY TCID OPERATION [KEY=VALUE...]' or 'quit', got {_quote(line)}")
+                raise ProtocolError(
+                    f"expected 'case FAMILY TCID OPERATION [KEY=VALUE...]' or 'quit', got {_quote(line)}")
             conventions = {}
             for tok in tokens[4:]:
                 key, value = _parse_keyvalue(tok)
                 conventions[key] = parse_value(value, hex_ok=self._hex)
-            self._case = CaseMessage(_check_name(tokens[1], "a family name"), parse_int(tokens[2]), _check_name(tokens[3], "an operation name"), conventions)
+            self._case = CaseMessage(_check_name(tokens[1], "a family name"), parse_int(tokens[2]),
+                                     _check_name(tokens[3], "an operation name"), conventions)
             return None
         if word == "end":
             case, self._case = self._case, None
@@ -716,7 +719,8 @@ def parse_encoding(line: str) -> str:
     return tokens[1]
 
 
-def covered_outputs(capabilities: Iterable[Capability], operation: str, conventions: Mapping[str, Any]) -> frozenset[str] | None | bool:
+def covered_outputs(capabilities: Iterable[Capability], operation: str,
+                    conventions: Mapping[str, Any]) -> frozenset[str] | bool | None:
     """Outputs a port computes for a case: ``False`` if no capability covers it,
     ``None`` if a matching capability covers every output, else the union of
     the matching capabilities' output sets."""

@@ -41,7 +41,9 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
+from typing import Any, Literal, cast
 
 import numpy as np
 import scipy.stats
@@ -50,7 +52,7 @@ from . import _sections as sec
 from . import _validation as v
 from ._api import newey_west_bandwidth
 from ._errors import InputError, InvalidParameter, ShapeMismatch
-from ._findings import compute_findings, resolve_thresholds
+from ._findings import Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from ._reference.information import _exp, _n_log, assemble
@@ -59,6 +61,7 @@ from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
 from ._stream import Layout, State
+from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from ._version import CONTRACT_VERSION, __version__
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
@@ -100,9 +103,9 @@ class _Settings:
     level: float
     noise_model: str
     sample_rate: float | None
-    joint_names: tuple | None
-    column_names: tuple | None
-    thresholds: object
+    joint_names: tuple[str, ...] | None
+    column_names: tuple[str, ...] | None
+    thresholds: Thresholds
     allow_wide: bool
 
 
@@ -141,10 +144,13 @@ class ValidationAccumulator:
     [3, 3]
     """
 
-    def __init__(self, *, n_params, max_lag=None, n_joints=None, profile="lesson", level=None, noise_model=None,
-                 nan_policy="raise", backend=None, sample_rate=None, joint_names=None, column_names=None,
-                 thresholds=None, allow_wide=False, segments=None, decimate=None, q=None, estimation=None,
-                 cross_correlation_detail=None, model_columns=None):
+    def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
+                 profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
+                 nan_policy: NanPolicy = "raise", backend: Literal["python"] | None = None,
+                 sample_rate: float | None = None, joint_names: Sequence[str] | None = None,
+                 column_names: Sequence[str] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
+                 allow_wide: bool = False, segments: None = None, decimate: None = None, q: None = None,
+                 estimation: None = None, cross_correlation_detail: None = None, model_columns: None = None) -> None:
         # validate's parameter order (contract §2.1), the unsupported keywords in their places.
         n_params = v.check_n_params(n_params)
         if n_joints is not None and (not v.is_integer(n_joints) or n_joints <= 0):
@@ -156,25 +162,26 @@ class ValidationAccumulator:
         level = prof.level if level is None else v.check_level(level)
         if backend is not None and backend != "python":
             raise v.parameter_error("backend", "None or 'python' (the accumulator runs on numpy)", backend)
-        noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
+        checked_noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
         sample_rate = v.check_sample_rate(sample_rate)
         _refuse("decimate", decimate)
         if n_joints is not None:
             v.check_names("joint_names", joint_names, int(n_joints), "joint")
         for name, value in (("q", q), ("estimation", estimation)):
             _refuse(name, value)
-        thresholds = resolve_thresholds(thresholds)
+        checked_thresholds = resolve_thresholds(thresholds)
         for name, value in (("cross_correlation_detail", cross_correlation_detail), ("model_columns", model_columns)):
             _refuse(name, value)
         allow_wide = v.check_allow_wide(allow_wide)
         self._settings = _Settings(
             n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
-            nan_policy=nan_policy, level=level, noise_model=noise_model, sample_rate=sample_rate,
-            joint_names=_names(joint_names), column_names=_names(column_names), thresholds=thresholds,
+            nan_policy=nan_policy, level=level, noise_model=checked_noise_model, sample_rate=sample_rate,
+            joint_names=_names(joint_names), column_names=_names(column_names), thresholds=checked_thresholds,
             allow_wide=allow_wide)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | None = None
-        self._pending: list = []  # rows of the current segment not yet summed
+        # rows of the current segment not yet summed: (e, tau_meas, regressor) chunks
+        self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
         self._break_first = False  # break_segment() before the first chunk
         self._chunks = 0
@@ -188,7 +195,8 @@ class ValidationAccumulator:
         """Rows accumulated so far (after ``nan_policy="omit"``)."""
         return (0 if self._state is None else self._state.n) + self._pending_rows
 
-    def update(self, tau_meas_chunk, tau_pred_chunk, regressor_chunk=None) -> None:
+    def update(self, tau_meas_chunk: ArrayLike, tau_pred_chunk: ArrayLike,
+               regressor_chunk: ArrayLike | None = None) -> None:
         """Add the next rows: ``(c,)`` or ``(c, m)`` torques and, if any, the ``(c, m, p)`` or
         ``(c·m, p)`` regressor (with ``n_joints``). Every chunk must have the same m (and p, and a
         regressor either always or never); errors name the chunk, counted from 0. A rejected chunk
@@ -197,7 +205,8 @@ class ValidationAccumulator:
         """
         self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, ())
 
-    def _update(self, tau_meas, tau_pred, regressor, breaks) -> None:
+    def _update(self, tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
+                breaks: Sequence[int]) -> None:
         """:meth:`update` with segment breaks before the chunk's rows ``breaks`` (sorted; 0 is a
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
@@ -243,7 +252,7 @@ class ValidationAccumulator:
                 self.break_segment()
         else:
             if self._state is None:
-                self._state = State(later._layout)
+                self._state = State(later._state.layout)
                 self._state.end_break = self._break_first
             self._state.merge(later._state)
         self._chunks += other._chunks
@@ -265,12 +274,14 @@ class ValidationAccumulator:
         n = 0 if self._state is None else self._state.n
         v.check_min_samples("ValidationAccumulator.result", n, 2)
         st, cfg = self._state, self._settings
-        v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, self._layout.m), cfg.allow_wide)
+        assert st is not None  # check_min_samples refused an empty stream
+        v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, st.layout.m), cfg.allow_wide)
         return _report(st, cfg, self._omitted)
 
     # ----------------------------------------------------------------------- chunks
 
-    def _checked_chunk(self, tau_meas, tau_pred, regressor):
+    def _checked_chunk(self, tau_meas: ArrayLike, tau_pred: ArrayLike,
+                       regressor: ArrayLike | None) -> tuple[FloatArray, FloatArray, FloatArray | None]:
         """The contract's data checks on one chunk, then its agreement with the chunks before it."""
         index = self._chunks
         try:
@@ -295,7 +306,7 @@ class ValidationAccumulator:
             raise type(exc)(f"chunk {index}: {exc}") from None
         return meas, pred, reg
 
-    def _check_continues(self, shape, m, reg0) -> None:
+    def _check_continues(self, shape: tuple[int, ...], m: int, reg0: FloatArray | None) -> None:
         n_joints = self._settings.n_joints
         if n_joints is not None and m != n_joints:
             raise ShapeMismatch(f"tau_meas must have n_joints={n_joints} columns, got shape {v.format_shape(shape)}")
@@ -310,22 +321,22 @@ class ValidationAccumulator:
             raise ShapeMismatch("regressor must be given with every chunk or with none; the chunks before it "
                                 f"had {had}")
 
-    def _check_columns(self, shape, p) -> None:
+    def _check_columns(self, shape: tuple[int, ...], p: int) -> None:
         layout = self._layout
         if layout is not None and p != layout.p:
             raise ShapeMismatch(f"regressor must have p={layout.p} columns like the chunks before it, got shape "
                                 f"{v.format_shape(shape)}")
 
-    def _check_names(self, m, p) -> None:
+    def _check_names(self, m: int, p: int | None) -> None:
         cfg = self._settings
         v.check_names("joint_names", cfg.joint_names, m, "joint")
         if cfg.column_names is not None and p is None:
             raise v.parameter_error("column_names", "None without a regressor", list(cfg.column_names))
         v.check_names("column_names", cfg.column_names, p or 0, "regressor column")
 
-    def _check_finite(self, meas, pred, reg) -> None:
+    def _check_finite(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         """NonFiniteInput at the chunk's first bad value, with its row in the whole stream too."""
-        arrays = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
+        arrays: list[tuple[FloatArray, str, int | None]] = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
         if reg is not None:
             arrays.append((reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2]), "regressor", reg.shape[2]))
         for a, name, n_columns in arrays:
@@ -335,9 +346,9 @@ class ValidationAccumulator:
                 exc = v.nonfinite_error(name, row, col, value, n_columns=n_columns)
                 raise type(exc)(f"{exc} (row {self._rows_seen + row} of the stream)")
 
-    def _feed_omitting(self, meas, pred, reg) -> None:
+    def _feed_omitting(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         """``nan_policy="omit"``: delete bad rows; a break where rows were deleted (contract §1.2)."""
-        keep = v.in_range(meas).all(axis=1) & v.in_range(pred).all(axis=1)
+        keep = cast(BoolArray, v.in_range(meas).all(axis=1) & v.in_range(pred).all(axis=1))  # (c,)
         if reg is not None:
             keep &= v.in_range(reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2])).all(axis=1)
         self._omitted += int(keep.size - keep.sum())
@@ -349,22 +360,23 @@ class ValidationAccumulator:
         if keep.size and not keep[-1]:
             self.break_segment()
 
-    def _feed(self, meas, pred, reg) -> None:
+    def _feed(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         if meas.shape[0] == 0:
             return
         e = meas - pred
         self._pending.append((e, meas, reg))
         self._pending_rows += e.shape[0]
-        if self._pending_rows >= _buffer_rows(self._layout):
+        if self._pending_rows >= _buffer_rows(self._known_layout):
             self._flush()
 
     def _flush(self) -> None:
         """Sum the gathered rows as blocks of one segment."""
         if not self._pending:
             return
-        layout = self._layout
+        layout = self._known_layout
         e, tau, reg = (None if parts[0] is None else np.concatenate(parts) if len(parts) > 1 else parts[0]
                        for parts in zip(*self._pending))
+        assert e is not None and tau is not None  # only the regressor is optional
         self._pending, self._pending_rows = [], 0
         if self._state is None:
             self._state = State(layout)
@@ -374,10 +386,17 @@ class ValidationAccumulator:
             block = slice(a, a + rows)
             self._state.merge(State.from_block(layout, e[block], tau[block], None if reg is None else reg[block]))
 
+    @property
+    def _known_layout(self) -> Layout:
+        """The layout, which the first chunk sets before any rows are gathered."""
+        assert self._layout is not None
+        return self._layout
+
     def _new_layout(self, m: int, p: int) -> Layout:
         cfg = self._settings
         prof = cfg.profile
         xcorr = prof.max_lag_cap if cfg.max_lag is None else cfg.max_lag
+        assert xcorr is not None  # _check_max_lag refused max_lag=None for a profile without a cap
         if xcorr == 0:
             return Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
         acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES), 10 if prof.ljung_box_rule == "statsmodels" else 0)
@@ -385,28 +404,28 @@ class ValidationAccumulator:
 
     # ----------------------------------------------------------------------- merge checks
 
-    def _check_same_settings(self, other) -> None:
+    def _check_same_settings(self, other: ValidationAccumulator) -> None:
         for f in fields(_Settings):
             mine, theirs = getattr(self._settings, f.name), getattr(other._settings, f.name)
             if mine != theirs:
-                shown = (lambda x: x.name) if f.name == "profile" else (lambda x: x)
+                shown: Callable[[Any], Any] = (lambda x: x.name) if f.name == "profile" else (lambda x: x)
                 raise InvalidParameter(f"other must be a ValidationAccumulator with the same settings, got {f.name}="
                                        f"{v.format_value(shown(theirs))} where this one has {f.name}="
                                        f"{v.format_value(shown(mine))}")
 
-    def _check_same_layout(self, other) -> None:
+    def _check_same_layout(self, other: ValidationAccumulator) -> None:
         mine, theirs = self._layout, other._layout
         if mine is not None and theirs is not None and (mine.m, mine.p) != (theirs.m, theirs.p):
             raise ShapeMismatch(f"other must hold data of the same shape, got m={theirs.m} joints and "
                                 f"p={theirs.p} regressor columns where this one has m={mine.m} and p={mine.p}")
 
 
-def _refuse(name: str, value) -> None:
+def _refuse(name: str, value: object) -> None:
     if value is not None:
         raise v.parameter_error(name, f"None for ValidationAccumulator ({UNSUPPORTED[name]})", value)
 
 
-def _check_max_lag(value, prof: Profile):
+def _check_max_lag(value: Any, prof: Profile) -> int | None:
     if value is None:
         if prof.max_lag_cap is None:
             raise v.parameter_error("max_lag", f"an integer with max_lag >= 0 for the {prof.name} profile (its "
@@ -417,7 +436,7 @@ def _check_max_lag(value, prof: Profile):
     return int(value)
 
 
-def _names(value):
+def _names(value: Any) -> Any:
     """Names as a tuple (settings are compared and hashed); checked when m and p are known."""
     if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
         return value
@@ -499,7 +518,7 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, n: int, c
     return float(np.sum(ss) + n * np.sum((d - np.mean(d)) ** 2))
 
 
-def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_model: str) -> dict:
+def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
@@ -515,7 +534,7 @@ def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_mode
     rmse = np.sqrt(sse / n)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
     max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))
-    out = {
+    out: dict[str, Any] = {
         "n_samples": n, "n_joints": m, "n_params": n_params, "sse": sse, "rmse": rmse, "max_abs_error": max_abs,
         "vaf": vaf, "fit_percent": fit, "r2": r2, "residual_mean": mo.mean_e,
         "residual_variance": ssc_e / (n - ddof), "constant_target": mo.t_constant.copy(),
@@ -534,7 +553,8 @@ def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_mode
     return out
 
 
-def _fit_term(noise_model, n, m, sse, sigma):
+def _fit_term(noise_model: str, n: int, m: int, sse: FloatArray,
+              sigma: FloatArray | None) -> tuple[float, int, int, float]:
     """(F, N_vec, n, S) of contract §3.7, as the reference's ``fit_term`` computes them."""
     if noise_model == "pooled":
         variance = float(np.sum(sse)) / (n * m)
@@ -545,6 +565,7 @@ def _fit_term(noise_model, n, m, sse, sigma):
             return -math.inf, n, n, 0.0
         log_size = float(np.sum(np.log(variances)))
         return n * log_size, n, n, _exp(log_size)
+    assert sigma is not None  # the full noise model keeps EᵀE/N
     eigenvalues = np.linalg.eigvalsh(sigma)
     largest = float(eigenvalues[-1])
     # numpy's matrix_rank tolerance decides singularity, as in the reference.
@@ -559,20 +580,20 @@ class _Kernel:
     centred sums: the builders then add the bands, the lags outside and the p-values as for
     ``validate``. The data arguments are unused: the sums stand for them."""
 
-    def __init__(self, mo: _Moments):
+    def __init__(self, mo: _Moments) -> None:
         self.mo = mo
 
-    def autocorrelation(self, e, max_lag, adjusted, starts) -> np.ndarray:
+    def autocorrelation(self, e: object, max_lag: int, adjusted: bool, starts: object) -> FloatArray:
         mo = self.mo
         ss = mo.cov_e[0]
         denom = mo.pairs[: max_lag + 1].astype(float) if adjusted else np.full(max_lag + 1, float(mo.n))
         with np.errstate(divide="ignore", invalid="ignore"):
-            rho = (mo.cov_e[: max_lag + 1] / denom[:, None]) / (ss / mo.n)
+            rho: FloatArray = (mo.cov_e[: max_lag + 1] / denom[:, None]) / (ss / mo.n)
         rho[0] = 1.0
         rho[:, mo.e_constant | (ss == 0)] = np.nan
         return rho
 
-    def portmanteau(self, e, lags, model_df, starts, test) -> dict:
+    def portmanteau(self, e: object, lags: IntArray, model_df: int, starts: object, test: str) -> dict[str, Any]:
         mo = self.mo
         n = mo.n
         h = int(np.max(lags))
@@ -584,7 +605,7 @@ class _Kernel:
                 "log_pvalue": chi2_logsf(statistic, df[:, None]), "df": df.astype(np.int64)}
 
 
-def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int) -> dict:
+def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int) -> dict[str, Any]:
     """``zero_mean_test`` (contract §3.3) from the sums; the N_eff half None past its lags."""
     n = mo.n
     mean = mo.mean_e
@@ -592,7 +613,7 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     t_iid, p_iid = iid_t_test(mean, std, n)
     k = newey_west_bandwidth(n)
     k_used = min(k, longest - 1)
-    eff = {"statistic_eff": None, "pvalue_eff": None, "df_eff": None, "n_eff": None, "bandwidth": None}
+    eff: dict[str, Any] = {"statistic_eff": None, "pvalue_eff": None, "df_eff": None, "n_eff": None, "bandwidth": None}
     if k_used <= lags_held:
         rho = kernel.autocorrelation(None, k_used, False, None)
         weights = 1.0 - np.arange(1, k_used + 1) / (k + 1.0)
@@ -606,10 +627,11 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
-def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict:
+def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict[str, Any]:
     """ρ of the residual with every regressor column at lags 0..max_lag (contract §3.6) and the
     white band; the colour-aware fields of ``validate``'s section need whole series (§4.1)."""
     n = mo.n
+    assert mo.cov_ey is not None and mo.ss_y is not None and mo.y_constant is not None  # a regressor was given
     ss_e = mo.cov_e[0]
     denom = mo.pairs[: max_lag + 1].astype(float) if prof.adjusted else np.full(max_lag + 1, float(n))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -668,7 +690,8 @@ def _report(st: State, cfg: _Settings, omitted: int) -> ValidationReport:
         design=None, segment_metrics=None)
 
 
-def _provenance(cfg, n, m, p, max_lag, lb_lags, lengths, omitted, joint_names, column_names) -> dict:
+def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: Sequence[int], lengths: Sequence[int],
+                omitted: int, joint_names: list[str], column_names: list[str] | None) -> dict[str, Any]:
     """``validate``'s provenance (contract §4), with ``streaming`` set and what it leaves out marked."""
     prof = cfg.profile
     return {

@@ -13,7 +13,7 @@ import argparse
 import importlib.util
 import pathlib
 import sys
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 

@@ -3,9 +3,8 @@
 ``dynval conform`` must fail exactly those cases, with reason ``mismatch``.
 """
 
-import numpy as np
-
 import _oracle
+import numpy as np
 from _oracle import protocol
 
 

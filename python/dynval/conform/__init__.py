@@ -35,11 +35,12 @@ import os
 import pathlib
 import sys
 import time
-from typing import Sequence, TextIO
+from collections.abc import Sequence
+from typing import TextIO
 
 from .. import protocol
-from ._process import PortFailure, PortProcess, describe_command
 from ._matrix import BUILTIN_PORTS
+from ._process import PortFailure, PortProcess, describe_command
 from ._runner import STATUSES, CaseOutcome, RunResult, judge, run
 
 __all__ = ["main", "run", "RunResult", "CaseOutcome", "PortProcess", "PortFailure", "judge", "write_report"]
@@ -65,8 +66,10 @@ def _build_parser() -> argparse.ArgumentParser:
         help="seconds allowed for start-up and handshake (default: --timeout if given, else 120)",
     )
     parser.add_argument("--report", metavar="FILE", help="write a JSON report to FILE")
-    parser.add_argument("--corpus", metavar="DIR", help="corpus directory holding <family>.json (default: the shipped corpus)")
-    parser.add_argument("--max-failures", type=int, default=10, metavar="K", help="failures shown in detail (default 10)")
+    parser.add_argument("--corpus", metavar="DIR",
+                        help="corpus directory holding <family>.json (default: the shipped corpus)")
+    parser.add_argument("--max-failures", type=int, default=10, metavar="K",
+                        help="failures shown in detail (default 10)")
     parser.add_argument("--max-restarts", type=int, default=25, metavar="R", help="port restarts allowed (default 25)")
     parser.add_argument("--strict", action="store_true", help="also fail when a case is skipped or partial")
     parser.add_argument("--quiet", action="store_true", help="no progress output")

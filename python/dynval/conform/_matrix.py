@@ -19,7 +19,8 @@ import pathlib
 import shlex
 import shutil
 import sys
-from typing import Callable, Sequence, TextIO
+from collections.abc import Callable, Sequence
+from typing import TextIO
 
 from ._runner import RunResult, run
 

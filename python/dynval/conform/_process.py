@@ -24,7 +24,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 from .. import protocol
 
@@ -314,13 +314,15 @@ class PortProcess:
                 del self._buffer[: newline + 1]
                 budget[0] -= len(raw)
                 if budget[0] < 0:
-                    raise PortFailure("flood", f"output flood: the port wrote more than the allowed bytes while sending {what}")
+                    raise PortFailure("flood", "output flood: the port wrote more than the allowed bytes while "
+                                               f"sending {what}")
                 try:
                     return raw.decode("ascii").rstrip("\r\n")
                 except UnicodeDecodeError:
                     raise PortFailure("garbage", f"garbage from the port: non-ASCII bytes in {raw[:60]!r}") from None
             if len(self._buffer) > budget[0]:
-                raise PortFailure("flood", f"output flood: a line longer than {budget[0] + 1} bytes while reading {what}")
+                raise PortFailure("flood",
+                                  f"output flood: a line longer than {budget[0] + 1} bytes while reading {what}")
             if self._eof:
                 raise PortFailure("crash", self._exit_message(what))
             remaining = deadline - time.monotonic()

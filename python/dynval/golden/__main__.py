@@ -4,7 +4,7 @@ or render the operations reference of PROTOCOL.md."""
 from __future__ import annotations
 
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
 
 def main(argv: Sequence[str] | None = None) -> int:

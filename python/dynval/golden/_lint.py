@@ -16,10 +16,12 @@ import math
 import pathlib
 import re
 import sys
+from collections.abc import Iterator, Sequence
 from types import ModuleType
-from typing import Any, Iterator, Sequence
+from typing import Any
 
-from ._loader import FAMILIES, corpus_dir as default_corpus_dir, golden_root, schema_path
+from ._loader import FAMILIES, golden_root, schema_path
+from ._loader import corpus_dir as default_corpus_dir
 
 #: Deepest nesting of arrays and objects accepted. The corpus needs 9 and the schema 20;
 #: the limit keeps the parser and the validator far from Python's recursion limit.
