@@ -7,7 +7,9 @@
 #   5. the pure-Python build switch (-Cwheel.cmake=false) in a throwaway venv,
 #   6. pytest: both backends against every golden vector, the protocol runner, the identities, the
 #      findings and their calibration, the Java, MATLAB/Octave and Wolfram Language ports,
-#   7. the conformance matrix of README.md against a fresh run of the ports it lists.
+#   7. the fuzz suite against an AddressSanitizer + UndefinedBehaviorSanitizer build of the C++
+#      backend (scripts/sanitize.sh, bounded: 40 examples per test, about 2,300 in all),
+#   8. the conformance matrix of README.md against a fresh run of the ports it lists.
 # As root (CI) the ports' toolchains are installed and required: a missing one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -85,6 +87,9 @@ rm -rf "$(dirname "$venv")"
 
 step "pytest"
 "$PY" -m pytest -q --durations=15 "$@"
+
+step "sanitizers: the fuzz suite against dynval._core built with -fsanitize=address,undefined (bounded)"
+PYTHON="$PY" bash scripts/sanitize.sh 40
 
 step "conformance matrix (README.md against a fresh run of the ports it lists)"
 # The Wolfram port is left out until it runs the corpus within the runner's limits (wolfram/README.md).

@@ -9,6 +9,7 @@
 
 #include <dynval/dynval.hpp>
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,7 +21,21 @@ namespace dynval::bindings {
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 // C-contiguous float64 arrays bind without a copy; any other dtype or layout (Fortran order,
 // strided or reversed views, float32, int) is converted to a C-contiguous float64 copy once.
-using RowRef = Eigen::Ref<const RowMatrix>;
+// A distinct type (not an alias) so that its caster below can normalise strides first.
+struct RowRef : Eigen::Ref<const RowMatrix> {
+    explicit RowRef(const Eigen::Ref<const RowMatrix>& ref) : Eigen::Ref<const RowMatrix>(ref) {}
+};
+
+/// `a` itself, or a copy with canonical strides when a stride is negative. numpy calls an array
+/// C-contiguous whatever the stride of a length-1 axis (`tau[:, ::-1]` for one joint), so its
+/// own conversion keeps the negative stride, which pybind11's Eigen caster then refuses.
+inline py::object canonical_strides(py::handle a) {
+    if (!py::isinstance<py::array>(a)) return py::reinterpret_borrow<py::object>(a);
+    const auto arr = py::reinterpret_borrow<py::array>(a);
+    for (py::ssize_t i = 0; i < arr.ndim(); ++i)
+        if (arr.strides(i) < 0) return arr.attr("copy")();
+    return arr;
+}
 
 void register_errors(py::module_& m);
 void register_norms(py::module_& m);
@@ -70,7 +85,12 @@ inline param<long long> int_param(py::handle v) {
 
 inline param<double> real_param(py::handle v) {
     if (!is_real(v)) return param<double>::invalid(value_repr(v));
-    return param<double>(py::float_(py::reinterpret_borrow<py::object>(v)).cast<double>());
+    const double x = PyFloat_AsDouble(v.ptr());
+    if (x == -1.0 && PyErr_Occurred()) {  // an int beyond float64 (10**400): not a finite number
+        PyErr_Clear();
+        return param<double>(std::numeric_limits<double>::infinity(), value_repr(v));
+    }
+    return param<double>(x);
 }
 
 inline param<bool> bool_param(py::handle v) {
@@ -88,16 +108,21 @@ param<E> option_param(py::handle v) {
 inline param<std::vector<long long>> int_list_param(py::handle v) {
     using P = param<std::vector<long long>>;
     std::vector<long long> out;
+    // Each integer through int_param: one beyond 64 bits (2**63, numpy.uint64) is then an invalid
+    // parameter with the contract's message, not a pybind11 cast error.
     if (is_integer(v)) {
-        out.push_back(v.cast<long long>());
+        const auto one = int_param(v);
+        if (!one.valid()) return P::invalid(value_repr(v));
+        out.push_back(one.value());
         return P(std::move(out), value_repr(v));
     }
     if (py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) || !py::isinstance<py::sequence>(v)) {
         if (!py::isinstance(v, numpy().attr("ndarray"))) return P::invalid(value_repr(v));
     }
     for (py::handle item : py::reinterpret_borrow<py::iterable>(v)) {
-        if (!is_integer(item)) return P::invalid(value_repr(v));
-        out.push_back(item.cast<long long>());
+        const auto one = int_param(item);
+        if (!one.valid()) return P::invalid(value_repr(v));
+        out.push_back(one.value());
     }
     return P(std::move(out), value_repr(v));
 }
@@ -150,3 +175,28 @@ inline py::array_t<long long> int_array(const std::vector<long long>& values) {
 }
 
 }  // namespace dynval::bindings
+
+namespace pybind11::detail {
+
+/// RowRef: pybind11's Eigen::Ref caster, applied to the array with canonical strides.
+template <>
+struct type_caster<dynval::bindings::RowRef> {
+    using Base = Eigen::Ref<const dynval::bindings::RowMatrix>;
+    static constexpr auto name = type_caster<Base>::name;
+
+    bool load(handle src, bool convert) {
+        object normalised = dynval::bindings::canonical_strides(src);
+        if (!inner_.load(normalised, convert)) return false;
+        value_.emplace(static_cast<Base&>(inner_));
+        return true;
+    }
+    template <typename T>
+    using cast_op_type = const dynval::bindings::RowRef&;
+    operator const dynval::bindings::RowRef&() const { return *value_; }
+
+private:
+    type_caster<Base> inner_;  // keeps the (possibly copied) array alive for the call
+    std::optional<dynval::bindings::RowRef> value_;
+};
+
+}  // namespace pybind11::detail

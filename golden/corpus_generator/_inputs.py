@@ -167,3 +167,20 @@ def check_certified(name: str, what: str, value: mpf, certified: Any, digits: in
         ok = abs(value - ref) <= abs(ref) * mpf(10) ** (-digits)
     if not ok:
         raise AssertionError(f"NIST {name} {what}: computed {value}, certified {certified}")
+
+
+# Data scales of the ExtremeScale vectors (contract §1.3): products of two sums of squares overflow
+# (1e80) or underflow (1e-80); the largest accepted decade (1e140; 1e150 is beyond the 1e144 bound);
+# squares that underflow (1e-150 centred sums of a 1e-3 spread, 1e-162); subnormal data (1e-310).
+EXTREME_SCALES = (1e80, 1e-80, 1e140, 1e-150, 1e-162, 1e-310)
+
+
+def scaled(rows, factor: float) -> list:
+    """Every value times `factor`, rounded once to float64 (the vector's input is that float64)."""
+    if isinstance(rows, (list, tuple)):
+        return [scaled(r, factor) for r in rows]
+    return rows * factor
+
+
+def scale_comment(factor: float) -> str:
+    return f"data scaled by {factor:g}"

@@ -5,6 +5,13 @@ from __future__ import annotations
 from typing import Any
 
 NOTES: dict[str, dict[str, Any]] = {
+    "ExtremeScale": {
+        "bugType": "NUMERICAL",
+        "description": "Ordinary data multiplied by 1e80, 1e-80, 1e140, 1e-150, 1e-162 or 1e-310 (subnormal): "
+        "inside the accepted range, where squares or products of sums of squares leave float64 (contract §1.3).",
+        "effect": "An implementation that squares before scaling gives R² = 1, RMSE = 0, ρ = 0 or ±inf, or a "
+        "Box–Pierce Q of N·h instead of the value at scale 1.",
+    },
     "Basic": {"bugType": "BASIC", "description": "Ordinary, well-conditioned data; every port must pass."},
     "LessonShape": {
         "bugType": "BASIC",

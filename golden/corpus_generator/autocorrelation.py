@@ -7,7 +7,17 @@ import mpmath
 from ._config import RTOL
 from ._exact import M, acf_tol, f64, norm_ppf_two_sided, rows_of, seg_bounds
 from ._family import Family
-from ._inputs import NIST_UNIVARIATE, Stream, check_certified, nist_certified, nist_univariate, q
+from ._inputs import (
+    EXTREME_SCALES,
+    NIST_UNIVARIATE,
+    Stream,
+    check_certified,
+    nist_certified,
+    nist_univariate,
+    q,
+    scale_comment,
+    scaled,
+)
 from ._json import arr, mat, num
 
 
@@ -124,4 +134,15 @@ def build() -> Family:
             v = z / mpmath.sqrt(n)
             fam.add("confidence_band", {"level": level}, f"n = {n}, level = {level}", ["ConfidenceBand"],
                     {"n": n}, {"value": num(v)}, {"value": RTOL * f64(v)})
+    # ExtremeScale: lag sums whose squares underflow (1e-162, subnormal data) or sit near the bound.
+    s = Stream(352)
+    base_cols = [s.ar1(80, 0.7, 1.0), s.noise(80, 0.5)]
+    for factor in EXTREME_SCALES:
+        cols = scaled(base_cols, factor)
+        for adjusted in (True, False):
+            values, tol = acf_expected(cols, 6, adjusted, None)
+            fam.add("autocorrelation", {"adjusted": adjusted, "segments": None, "nan_policy": "raise"},
+                    f"{scale_comment(factor)}, N = 80, max_lag = 6",
+                    ["ExtremeScale", "AdjustedAcf" if adjusted else "BiasedAcf"],
+                    {"e": mat(rows_of(cols)), "max_lag": 6}, {"value": arr(values, [7, 2])}, {"value": tol})
     return fam

@@ -22,7 +22,7 @@ from ._exact import (
     seg_bounds,
 )
 from ._family import Family
-from ._inputs import Stream, q
+from ._inputs import EXTREME_SCALES, Stream, q, scale_comment, scaled
 from ._json import arr, mat, num
 
 
@@ -142,4 +142,20 @@ def build() -> Family:
             "N = 2: joint 1 residual constant (row NaN, mask false); column 1 of joint 0 constant (mask true)",
             ["MinimumSamples", "ConstantResidual", "ConstantColumn", "AdjustedAcf"],
             {"e": mat(rows_of(ecols)), "regressor": enc_regressor(Y, False), "max_lag": 1}, exp, tol)
+    # ExtremeScale: R_e(0)·R_Y(0) overflows at 1e80 and underflows at 1e-80; e and Y at the same
+    # scale, and e scaled with Y left at 1 (the normalisation must not mix the two scales).
+    s = Stream(552)
+    base_e = [s.ar1(40, 0.5, 1.0), s.noise(40, 0.7)]
+    base_y = regressor(s, 40, 2, 2)
+    for k in range(40):
+        for j in range(2):
+            base_y[k][j][0] = q(base_y[k][j][0] + 0.8 * base_e[j][k])
+    for factor in EXTREME_SCALES:
+        for y_factor in (factor, 1.0):
+            ecols, Y = scaled(base_e, factor), scaled(base_y, y_factor)
+            exp, tol = xcorr_expected(ecols, Y, 3, True, None, 0.95)
+            where = "e and regressor" if y_factor != 1.0 else "e only"
+            fam.add("cross_correlation", {"adjusted": True, "level": 0.95, "segments": None, "nan_policy": "raise"},
+                    f"{where} {scale_comment(factor)}, N = 40, max_lag = 3", ["ExtremeScale", "AdjustedAcf"],
+                    {"e": mat(rows_of(ecols)), "regressor": enc_regressor(Y, False), "max_lag": 3}, exp, tol)
     return fam

@@ -8,7 +8,7 @@ from mpmath import mpf
 from ._config import RTOL
 from ._exact import INF, NAN, f64, msum, resid_cols
 from ._family import Family
-from ._inputs import Stream, predict, q, trajectory
+from ._inputs import EXTREME_SCALES, Stream, predict, q, scale_comment, scaled, trajectory
 from ._json import arr, mat, num
 
 
@@ -174,4 +174,18 @@ def build() -> Family:
         fam.add(op, {"noise_model": "pooled", "nan_policy": "raise"},
                 f"1-D data predicted exactly ({op}): -Infinity", flags, inputs,
                 {"value": num(vals[op])}, {"value": tol[op]})
+    # ExtremeScale: F = n·ln σ² stays finite when σ² itself underflows; fpe is IEEE (0 or subnormal).
+    s = Stream(652)
+    base_meas = trajectory(s, 30, 2, [1.0, -2.0], [2.0, 1.0])
+    base_pred = predict(s, base_meas, [0.3, 0.2])
+    for factor in EXTREME_SCALES:
+        meas, pred = scaled(base_meas, factor), scaled(base_pred, factor)
+        for nm in ("pooled", "per_joint", "full"):
+            vals, tol, nn = criteria_values(meas, pred, 2, nm)
+            # An fpe below the normal range is rounded twice by a float64 implementation (σ² scaled
+            # back, then the factor): a few units of the smallest subnormal are allowed there.
+            tol = {**tol, "fpe": max(tol["fpe"], 2.0**-1070)}
+            fam.add("criteria", {"noise_model": nm, "nan_policy": "raise"}, f"{scale_comment(factor)}; p = 2",
+                    ["ExtremeScale", "NoiseModel"], {"tau_meas": mat(meas), "tau_pred": mat(pred), "n_params": 2},
+                    {**{k: num(v) for k, v in vals.items()}, "n_obs": nn}, {**tol, "n_obs": 0})
     return fam

@@ -11,7 +11,7 @@ from mpmath import mpf
 from ._config import RTOL
 from ._exact import INF, NAN, M, columns, css, f64, ieee_mean, is_const, msum, resid_cols
 from ._family import Family, out
-from ._inputs import Stream, enc_signal, metric_datasets, predict, q, trajectory
+from ._inputs import EXTREME_SCALES, Stream, enc_signal, metric_datasets, predict, q, scale_comment, scaled, trajectory
 from ._json import mat
 
 
@@ -106,4 +106,15 @@ def build() -> Family:
                     "constant target 0.1 (ten samples; its float mean is not exact): -Infinity by min = max",
                     ["ConstantTarget", "InexactConstantMean"], {"tau_meas": mat(meas), "tau_pred": mat(pred)},
                     {"value": out(v)}, {"value": tol})
+    # ExtremeScale: ratios of sums of squares that underflow (1e-162) or of data near the bound.
+    s = Stream(152)
+    base_meas = trajectory(s, 30, 2, [1.0, -2.0], [2.0, 1.0])
+    base_pred = predict(s, base_meas, [0.3, 0.2])
+    for factor in EXTREME_SCALES:
+        meas, pred = scaled(base_meas, factor), scaled(base_pred, factor)
+        for op in ("vaf", "fit_percent", "r2"):
+            for mo in ("pooled", "raw_values", "variance_weighted"):
+                v, tol = aggregate(op, meas, pred, mo)
+                fam.add(op, {"multioutput": mo, "nan_policy": "raise"}, scale_comment(factor), ["ExtremeScale"],
+                        {"tau_meas": mat(meas), "tau_pred": mat(pred)}, {"value": out(v)}, {"value": tol})
     return fam

@@ -9,7 +9,7 @@ import mpmath
 from ._config import RTOL
 from ._exact import f64, msum, resid_cols, rows_of
 from ._family import Family, out
-from ._inputs import enc_signal, metric_datasets
+from ._inputs import EXTREME_SCALES, Stream, enc_signal, metric_datasets, predict, scale_comment, scaled, trajectory
 from ._json import arr, mat
 
 
@@ -74,4 +74,19 @@ def build() -> Family:
         v, tol = norm_metric(op, meas, pred, "pooled", "per_element")
         fam.add(op, conventions, "one sample, two joints (minimum N = 1)", ["MinimumSamples"],
                 {"tau_meas": mat(meas), "tau_pred": mat(pred)}, {"value": out(v)}, {"value": tol})
+    # ExtremeScale: SSE only where it is itself a normal float64 (it underflows near 1e-162).
+    s = Stream(151)
+    base_meas = trajectory(s, 30, 2, [1.0, -2.0], [2.0, 1.0])
+    base_pred = predict(s, base_meas, [0.3, 0.2])
+    for factor in EXTREME_SCALES:
+        meas, pred = scaled(base_meas, factor), scaled(base_pred, factor)
+        inputs = {"tau_meas": mat(meas), "tau_pred": mat(pred)}
+        ops = [("rmse", "pooled", "per_element"), ("rmse", "pooled", "per_sample"), ("rmse", "raw_values", None),
+               ("max_abs_error", "raw_values", None)]
+        if 1e-150 <= factor <= 1e140:
+            ops.append(("sse", "raw_values", None))
+        for op, mo, conv in ops:
+            conventions = {"multioutput": mo, **({"convention": conv} if op == "rmse" else {}), "nan_policy": "raise"}
+            v, tol = norm_metric(op, meas, pred, mo, conv)
+            fam.add(op, conventions, scale_comment(factor), ["ExtremeScale"], inputs, {"value": out(v)}, {"value": tol})
     return fam

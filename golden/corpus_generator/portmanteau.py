@@ -10,7 +10,7 @@ from mpmath import mpf
 from ._config import RTOL
 from ._exact import NAN, M, acf_tol, chi2_sf, f64, msum, n_products, pspread, rows_of, seg_bounds
 from ._family import Family
-from ._inputs import Stream, q
+from ._inputs import EXTREME_SCALES, Stream, q, scale_comment, scaled
 from ._json import arr, mat
 
 
@@ -111,4 +111,14 @@ def build() -> Family:
         exp, tol = portmanteau_expected(cols, [1], 0, None, test)
         fam.add(test, {"model_df": 0, "segments": None, "nan_policy": "raise"}, "N = 2, lags = 1",
                 ["MinimumSamples"], {"e": mat(rows_of(cols)), "lags": 1}, exp, tol)
+    # ExtremeScale: at 1e-162 every square underflows and a naive Q is N·h.
+    s = Stream(452)
+    base_cols = [s.ar1(60, 0.5, 1.0), s.noise(60, 2.0)]
+    for factor in EXTREME_SCALES:
+        cols = scaled(base_cols, factor)
+        for test in ("ljung_box", "box_pierce"):
+            exp, tol = portmanteau_expected(cols, [5, 10], 0, None, test)
+            fam.add(test, {"model_df": 0, "segments": None, "nan_policy": "raise"},
+                    f"{scale_comment(factor)}, N = 60, lags = [5, 10]", ["ExtremeScale", "SeveralLags"],
+                    {"e": mat(rows_of(cols)), "lags": [5, 10]}, exp, tol)
     return fam

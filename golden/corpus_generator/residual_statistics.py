@@ -10,7 +10,17 @@ from mpmath import mpf
 from ._config import RTOL
 from ._exact import INF, NAN, M, acf_tol, css, f64, mmean, msum, pspread, rows_of, seg_bounds, t_sf2
 from ._family import Family
-from ._inputs import NIST_UNIVARIATE, Stream, check_certified, nist_certified, nist_univariate, q
+from ._inputs import (
+    EXTREME_SCALES,
+    NIST_UNIVARIATE,
+    Stream,
+    check_certified,
+    nist_certified,
+    nist_univariate,
+    q,
+    scale_comment,
+    scaled,
+)
 from ._json import arr, mat
 
 
@@ -189,4 +199,21 @@ def build() -> Family:
     fam.add("residual_mean", {"nan_policy": "omit"}, "row 1 holds a NaN and is omitted for every joint",
             ["NanOmit"], {"e": mat(e_rows)}, {"value": arr([mpf(4.5) / 3, mpf(1.5) / 3], [2])},
             {"value": RTOL * 3})
+    # ExtremeScale: the variance only where it is itself a normal float64.
+    s = Stream(252)
+    base_cols = [s.noise(60, 0.5), s.ar1(60, 0.7, 1.0)]
+    for factor in EXTREME_SCALES:
+        cols = scaled(base_cols, factor)
+        ec = [[M(x) for x in c] for c in cols]
+        big = max(abs(x) for c in cols for x in c)
+        e_in = mat(rows_of(cols))
+        fam.add("residual_mean", {"nan_policy": "raise"}, scale_comment(factor), ["ExtremeScale"], {"e": e_in},
+                {"value": arr([mmean(c) for c in ec], [len(cols)])}, {"value": RTOL * big})
+        if 1e-150 <= factor <= 1e140:
+            var = [css(c) / (len(c) - 1) for c in ec]
+            fam.add("residual_variance", {"ddof": 1, "nan_policy": "raise"}, scale_comment(factor), ["ExtremeScale"],
+                    {"e": e_in}, {"value": arr(var, [len(cols)])}, {"value": RTOL * f64(max(var)) + (1e-12 * big) ** 2})
+        exp, tol = zero_mean_expected(cols, None)
+        fam.add("zero_mean_test", {"segments": None, "nan_policy": "raise"}, scale_comment(factor),
+                ["ExtremeScale"], {"e": e_in}, exp, tol)
     return fam

@@ -74,6 +74,10 @@ function res = cross_correlation(e, Y, max_lag, varargin)
   adjusted = dynval.internal.check_adjusted(opt.adjusted);
   level = dynval.internal.check_level(opt.level);
 
+  % Each column scaled by a power of two before centring (contract §1.3): rho does not depend
+  % on it, and no square underflows.
+  e = dynval.internal.scale_columns(e);
+  y2 = dynval.internal.scale_columns(y2);
   e_constant = min(e, [], 1) == max(e, [], 1);
   de = dynval.internal.centred(e);
   ss_e = sum(de .^ 2, 1);
@@ -92,7 +96,7 @@ function res = cross_correlation(e, Y, max_lag, varargin)
   else
     denominators = n * ones(max_lag + 1, 1);
   end
-  rho = (s ./ denominators) ./ sqrt((ss_e / n) .* (ss_y / n));
+  rho = (s ./ denominators) ./ (sqrt(ss_e / n) .* sqrt(ss_y / n));
   rho(:, y_constant | e_constant | ss_e == 0 | ss_y == 0) = NaN;
   % rho is (max_lag+1)-by-(m*p) with column j*p + c; reorder to m-by-p-by-(max_lag+1).
   res = struct();

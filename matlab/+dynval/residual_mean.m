@@ -7,7 +7,8 @@ function mu = residual_mean(e, varargin)
   opt = dynval.internal.options('residual_mean', varargin, struct('nan_policy', 'raise'));
   e = dynval.internal.residual_signal('residual_mean', e);
   data = dynval.internal.prepare('residual_mean', {e}, {'e'}, 0, opt.nan_policy);
-  mu = dynval.internal.moments(data{1});
+  [es, k] = dynval.internal.scale_columns(data{1});  % contract §1.3
+  mu = dynval.internal.ldexp(dynval.internal.moments(es), k);
 end
 
 %!assert (dynval.residual_mean ([1 0; 3 1]), [2 0.5])

@@ -14,8 +14,9 @@ function v = residual_variance(e, varargin)
   if ~dynval.internal.is_integer(ddof) || ~(ddof >= 0 && ddof < n)
     dynval.internal.param_error('ddof', sprintf('an integer with 0 <= ddof < N=%d', n), ddof);
   end
-  [~, ss] = dynval.internal.moments(data{1});
-  v = ss / (n - double(ddof));
+  [es, k] = dynval.internal.scale_columns(data{1});  % contract §1.3
+  [~, ss] = dynval.internal.moments(es);
+  v = dynval.internal.ldexp(ss / (n - double(ddof)), 2 * k);
 end
 
 %!assert (dynval.residual_variance ([1; 2; 3]), 1)

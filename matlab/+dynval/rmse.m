@@ -26,14 +26,16 @@ function value = rmse(tau_meas, tau_pred, varargin)
   e = data{1} - data{2};
   [n, m] = size(e);
   if strcmp(mo, 'pooled')
-    total = sum(e(:) .^ 2);
+    [es, k] = dynval.internal.scale_columns(e(:));  % contract §1.3: the root is scaled back
+    total = sum(es .^ 2);
     if strcmp(convention, 'per_sample')
-      value = sqrt(total / n);
+      value = dynval.internal.ldexp(sqrt(total / n), k);
     else
-      value = sqrt(total / (n * m));
+      value = dynval.internal.ldexp(sqrt(total / (n * m)), k);
     end
   else
-    value = sqrt(sum(e .^ 2, 1) / n);
+    [es, k] = dynval.internal.scale_columns(e);
+    value = dynval.internal.ldexp(sqrt(sum(es .^ 2, 1) / n), k);
     if strcmp(mo, 'uniform_average')
       value = mean(value);
     end

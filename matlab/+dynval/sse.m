@@ -12,10 +12,10 @@ function value = sse(tau_meas, tau_pred, varargin)
   mo = dynval.internal.check_multioutput(opt.multioutput, {'pooled', 'raw_values'}, 'sse');
   e = data{1} - data{2};
   if strcmp(mo, 'pooled')
-    value = sum(e(:) .^ 2);
-  else
-    value = sum(e .^ 2, 1);
+    e = e(:);
   end
+  [es, k] = dynval.internal.scale_columns(e);  % contract §1.3: no square underflows
+  value = dynval.internal.ldexp(sum(es .^ 2, 1), 2 * k);
 end
 
 %!assert (dynval.sse ([1 2; 3 4], [1 1; 3 2]), 5)

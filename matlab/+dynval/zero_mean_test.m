@@ -17,7 +17,9 @@ function res = zero_mean_test(e, varargin)
   [data, starts] = dynval.internal.prepare('zero_mean_test', {e}, {'e'}, 0, opt.nan_policy, opt.segments);
   e = data{1};
   n = size(e, 1);
-  [mu, ss] = dynval.internal.moments(e);
+  % t is a ratio: computed on e scaled by a power of two per joint (contract §1.3).
+  [es, scale] = dynval.internal.scale_columns(e);
+  [mu, ss] = dynval.internal.moments(es);
   sd = sqrt(ss / (n - 1));
   k = min(floor(4 * (n / 100) ^ (2 / 9)), n - 1);
   % Lags past the longest segment have no products: their rho is 0 and adds nothing.
@@ -32,8 +34,8 @@ function res = zero_mean_test(e, varargin)
   n_eff = min(max(n ./ (1 + 2 * total), 2), n);
   n_eff(isnan(total) | total <= 0) = n;
   res = struct();
-  res.mean = mu;
-  res.std = sd;
+  res.mean = dynval.internal.ldexp(mu, scale);
+  res.std = dynval.internal.ldexp(sd, scale);
   res.n_samples = n;
   res.statistic_iid = mu * sqrt(n) ./ sd;
   res.pvalue_iid = dynval.internal.t_sf2(res.statistic_iid, n - 1);

@@ -557,6 +557,18 @@ def newey_west_bandwidth(n: int) -> int:
     return int(min(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)), n - 1))
 
 
+# Below this largest |e| of a joint, its squares leave float64's normal range (2^-400 squared is
+# 2^-800, the kernels' threshold for rescaling a sum of squares).
+_TINY_MAGNITUDE = 2.0**-400
+
+
+def _tiny_exponents(e2: np.ndarray) -> np.ndarray:
+    """Per column: k with max|e_j|·2^-k in [0.5, 1) where max|e_j| is below 2^-400, else 0."""
+    largest = np.max(np.abs(e2), axis=0)
+    k = np.frexp(largest)[1].astype(np.int64)
+    return np.where((largest > 0) & (largest < _TINY_MAGNITUDE), k, 0)
+
+
 def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: NanPolicy = "raise",
                    backend: BackendName | None = None) -> ZeroMeanTest:
     """Test whether each joint's residual has zero mean.
@@ -598,8 +610,12 @@ def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: N
     call, _ = _residual_call("zero_mean_test", e, nan_policy, backend, segments)
     e2 = call.data[0]
     n = call.n
-    mean = _vec(call.kernel.residual_mean(e2))
-    std = np.sqrt(_vec(call.kernel.residual_variance(e2, 1)))
+    # The t statistics are ratios: they are computed on e scaled by a power of two per joint
+    # (exact), so a residual near 1e-160, whose variance underflows, keeps them (contract §1.3).
+    exps = _tiny_exponents(e2)
+    scaled = np.ldexp(e2, -exps) if exps.any() else e2
+    mean = _vec(call.kernel.residual_mean(scaled))
+    std = np.sqrt(_vec(call.kernel.residual_variance(scaled, 1)))
     k = newey_west_bandwidth(n)
     # Lags past the longest segment have no products: their ρ̂ is 0 and adds nothing.
     k_used = min(k, call.limit - 1)
@@ -612,8 +628,8 @@ def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: N
     t_iid, p_iid = iid_t_test(mean, std, n)
     t_eff, p_eff = iid_t_test(mean, std, n_eff)
     return ZeroMeanTest(
-        mean=mean,
-        std=std,
+        mean=np.ldexp(mean, exps),
+        std=np.ldexp(std, exps),
         n_samples=n,
         statistic_iid=t_iid,
         pvalue_iid=p_iid,

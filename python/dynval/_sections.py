@@ -254,9 +254,21 @@ def _project_out(e, reg3):
         return e
     out = np.empty_like(e)
     for j in range(m):
-        beta, *_ = np.linalg.lstsq(reg3[:, j, :], e[:, j], rcond=None)
-        out[:, j] = e[:, j] - reg3[:, j, :] @ beta
+        # The projection does not depend on the scale of e or of any column: both are scaled by
+        # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
+        # 1e140 data do not overflow the normal equations.
+        y = _pow2_columns(reg3[:, j, :])[0]
+        ej, k = _pow2_columns(e[:, j : j + 1])
+        beta, *_ = np.linalg.lstsq(y, ej[:, 0], rcond=None)
+        out[:, j] = np.ldexp(ej[:, 0] - y @ beta, k[0])
     return out
+
+
+def _pow2_columns(x):
+    """(x·2^-k, k) per column, k the exponent of the column's largest |x| (0 for zeros)."""
+    largest = np.max(np.abs(x), axis=0)
+    k = np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+    return np.ldexp(x, -k), k
 
 
 def spectrum(e, starts, reg3, sample_rate) -> dict:

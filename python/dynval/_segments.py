@@ -51,11 +51,17 @@ def parse_segments(segments, n: int) -> np.ndarray:
     if isinstance(segments, np.ndarray):
         if segments.ndim != 1:
             raise error
-        items = list(segments)
-    elif isinstance(segments, Sequence) and not isinstance(segments, (str, bytes)):
-        items = list(segments)
-    else:
+    elif not isinstance(segments, Sequence) or isinstance(segments, (str, bytes)):
         raise error
+    # Either form has at most N entries: refuse a longer one (range(10**12)) before it is
+    # materialised. len() itself overflows past sys.maxsize (range(10**20)).
+    try:
+        too_long = len(segments) > n
+    except OverflowError:
+        too_long = True
+    if too_long:
+        raise error
+    items = list(segments)
     if not items or not all(is_integer(v) for v in items):
         raise error
     values = [int(v) for v in items]

@@ -377,6 +377,12 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     n, m = x.shape
     fs = 1.0 if sample_rate is None else float(sample_rate)
     nperseg = _default_nperseg(starts, n, nperseg)
+    # Each joint scaled by a power of two near its largest |e| (exact, contract §1.3): the
+    # periodogram squares FFT sums that overflow near 1e140 and underflow near 1e-160. Ratios and
+    # p-values do not see the scale; the power is scaled back (IEEE where it leaves float64).
+    largest = np.max(np.abs(x), axis=0) if n else np.zeros(m)
+    exps = np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+    x = np.ldexp(x, -exps)
     freq, power, windows = _welch(x, starts, fs, nperseg)
     if power is None:
         empty = np.zeros((0, m))
@@ -411,6 +417,8 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     peaks = [{"joint": int(j), "frequency": float(freq[b]), "ratio": float(ratio[b, j]),
               "pvalue": float(pvalue[b, j]), "share": float(share[b, j]), "bin": int(b)}
              for b, j in np.argwhere(is_peak)]
+    with np.errstate(over="ignore"):  # the power in the data's units: IEEE where it leaves float64
+        power = np.ldexp(power, 2 * exps)
     return Spectrum(frequency=freq, power=power, dof=dof, nperseg=nperseg, ratio=ratio, pvalue=pvalue,
                     share=share, is_peak=is_peak, peaks=peaks)
 
@@ -425,6 +433,9 @@ def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=No
     x = np.asarray(tau, dtype=np.float64)
     x = x[:, None] if x.ndim == 1 else x
     fs = 1.0 if sample_rate is None else float(sample_rate)
+    # Shares of power are scale-free: each joint scaled by a power of two first (contract §1.3).
+    largest = np.max(np.abs(x), axis=0) if x.shape[0] else np.zeros(x.shape[1])
+    x = np.ldexp(x, -np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64))
     freq, power, _ = _welch(x, starts, fs, _default_nperseg(starts, x.shape[0], None))
     if power is None:
         return float("nan")

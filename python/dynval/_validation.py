@@ -105,6 +105,12 @@ def to_float_array(x, name: str) -> np.ndarray:
     """
     if x is None or isinstance(x, (str, bytes)):
         raise InvalidType(f"{name} must be an array of real numbers, got {type(x).__name__}")
+    if isinstance(x, np.ma.MaskedArray):
+        # Converting would silently use the values under the mask (contract §1).
+        raise InvalidType(
+            f"{name} must be an array of real numbers, got a masked array (numpy.ma): fill the masked "
+            "values with nan (numpy.ma.filled(x, numpy.nan)) and pass nan_policy='omit'"
+        )
     if isinstance(x, np.ndarray):
         arr = x
     else:
@@ -382,9 +388,15 @@ def check_n_obs(value) -> int:
 
 
 def check_rss(value) -> float:
-    if not is_real_number(value) or not math.isfinite(value) or value < 0:
+    # An integer beyond float64's range (10**400) is not a finite float64: the same error, not
+    # Python's OverflowError from the conversion.
+    try:
+        as_float = float(value) if is_real_number(value) else math.nan
+    except OverflowError:
+        as_float = math.inf
+    if not math.isfinite(as_float) or as_float < 0:
         raise parameter_error("rss", "a finite number >= 0", value)
-    return float(value)
+    return as_float
 
 
 def check_n(value) -> int:

@@ -75,7 +75,8 @@ struct compensated {
         add(other.sum);
         add(other.carry);
     }
-    double value() const noexcept { return sum + carry; }
+    // With an infinite term the carry is inf − inf = nan: the IEEE sum is the running sum itself.
+    double value() const noexcept { return std::isfinite(sum) ? sum + carry : sum; }
 };
 
 /// Adds n·(a − b) to `sum` without rounding it first (exact difference and product terms).
@@ -122,6 +123,7 @@ std::optional<nonfinite_entry> scan_nonfinite(const Eigen::MatrixBase<D>& a, Ind
 template <class D>
 std::optional<nonfinite_entry> first_nonfinite(const Eigen::MatrixBase<D>& a) {
     constexpr Index block = 256;
+    if (a.cols() == 0) return std::nullopt;  // maxCoeff of an empty block is undefined
     for (Index start = 0; start < a.rows(); start += block) {
         const Index nb = std::min(block, a.rows() - start);
         // A block sum is finite whenever every entry is (barring overflow, which only costs a
@@ -146,6 +148,39 @@ struct joint_moments {
     Eigen::ArrayXd tau_min, tau_max, e_min, e_max;  ///< for the contract's constancy tests
     Eigen::MatrixXd residual_gram;    ///< EᵀE (m×m, not demeaned); empty unless requested
     std::optional<nonfinite_entry> nonfinite_meas, nonfinite_pred;
+    /// Power-of-two scales (contract §1.3): the tau_* fields describe tau·2^-tau_exp(j), the
+    /// e_*, sse and max_abs_e fields e·2^-e_exp(j), the gram e·2^-gram_exp. All 0 unless
+    /// `rescale_tiny` found a sum of squares below the normal range (data near 1e-160).
+    Eigen::ArrayXi tau_exp, e_exp;
+    int gram_exp = 0;
+
+    /// A sum of squares in scaled units: its value is `sum`·4^exp.
+    struct scaled_sum {
+        double sum = 0.0;
+        int exp = 0;
+        double value() const { return std::ldexp(sum, 2 * exp); }
+    };
+    /// a/b for two scaled sums, exact in the exponents.
+    static double ratio(const scaled_sum& a, const scaled_sum& b) {
+        return std::ldexp(a.sum / b.sum, 2 * (a.exp - b.exp));
+    }
+    scaled_sum sse_of(Index j) const { return {sse(j), e_exp(j)}; }
+    scaled_sum e_m2_of(Index j) const { return {e_m2(j), e_exp(j)}; }
+    scaled_sum tau_m2_of(Index j) const { return {tau_m2(j), tau_exp(j)}; }
+    /// Per-joint values in the data's units (a value below the float64 range underflows).
+    Eigen::ArrayXd sse_values() const { return unscale(sse, e_exp, 2); }
+    Eigen::ArrayXd e_m2_values() const { return unscale(e_m2, e_exp, 2); }
+    Eigen::ArrayXd tau_m2_values() const { return unscale(tau_m2, tau_exp, 2); }
+    Eigen::ArrayXd e_mean_values() const { return unscale(e_mean, e_exp, 1); }
+    Eigen::ArrayXd tau_mean_values() const { return unscale(tau_mean, tau_exp, 1); }
+    Eigen::ArrayXd max_abs_e_values() const { return unscale(max_abs_e, e_exp, 1); }
+    /// √(SSE_j/N) per joint, scaled back after the root (so it does not underflow).
+    Eigen::ArrayXd rmse_values() const {
+        Eigen::ArrayXd r(n_joints);
+        for (Index j = 0; j < n_joints; ++j)
+            r(j) = std::ldexp(std::sqrt(sse(j) / static_cast<double>(n_samples)), e_exp(j));
+        return r;
+    }
 
     /// Throws NonFiniteInput for the first non-finite entry, tau_meas before tau_pred.
     void throw_if_nonfinite(const std::string& meas_name = "tau_meas",
@@ -156,17 +191,34 @@ struct joint_moments {
             detail::throw_nonfinite(pred_name, nonfinite_pred->row, nonfinite_pred->col, nonfinite_pred->value);
     }
 
-    double sse_total() const;
+    /// Σ_j SSE_j in the data's units, and as a scaled sum (exponent of the largest joint).
+    double sse_total() const { return sse_pooled().value(); }
+    scaled_sum sse_pooled() const;
     /// Mean of all N·m values of tau_meas and the centred sum of squares about it (pooled TSS).
-    double pooled_tau_m2() const {
-        return tau_min.minCoeff() == tau_max.maxCoeff() ? 0.0 : pooled_m2(tau_shift, tau_dev, tau_m2);
+    scaled_sum pooled_tau_m2() const {
+        if (tau_min.minCoeff() == tau_max.maxCoeff()) return {};
+        return pooled_m2(tau_shift, tau_dev, tau_m2, tau_exp, tau_min, tau_max);
     }
-    double pooled_e_m2() const {
-        return e_min.minCoeff() == e_max.maxCoeff() ? 0.0 : pooled_m2(e_shift, e_dev, e_m2);
+    scaled_sum pooled_e_m2() const {
+        if (e_min.minCoeff() == e_max.maxCoeff()) return {};
+        return pooled_m2(e_shift, e_dev, e_m2, e_exp, e_min, e_max);
+    }
+    /// The largest exponent among joints that are not all zero: the pooled sums' common scale.
+    static int common_exp(const Eigen::ArrayXi& exps, const Eigen::ArrayXd& lo, const Eigen::ArrayXd& hi) {
+        int k = std::numeric_limits<int>::min();
+        for (Index j = 0; j < exps.size(); ++j)
+            if (lo(j) != 0.0 || hi(j) != 0.0) k = std::max(k, exps(j));
+        return k == std::numeric_limits<int>::min() ? 0 : k;
     }
 
 private:
-    double pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev, const Eigen::ArrayXd& m2) const;
+    static Eigen::ArrayXd unscale(const Eigen::ArrayXd& v, const Eigen::ArrayXi& exps, int power) {
+        Eigen::ArrayXd r(v.size());
+        for (Index j = 0; j < v.size(); ++j) r(j) = std::ldexp(v(j), power * exps(j));
+        return r;
+    }
+    scaled_sum pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev, const Eigen::ArrayXd& m2,
+                         const Eigen::ArrayXi& exps, const Eigen::ArrayXd& lo, const Eigen::ArrayXd& hi) const;
 };
 
 /// Per-joint accumulator: `update(rows)`, `merge(later rows)`, `result()`.
@@ -306,6 +358,8 @@ public:
         if (with_gram_) r.residual_gram = gram_.selfadjointView<Eigen::Lower>();
         r.nonfinite_meas = nonfinite_meas_;
         r.nonfinite_pred = nonfinite_pred_;
+        r.tau_exp = Eigen::ArrayXi::Zero(m_);
+        r.e_exp = Eigen::ArrayXi::Zero(m_);
         return r;
     }
 
@@ -576,17 +630,30 @@ private:
     bool next_shift_valid_ = false;
 };
 
-inline double joint_moments::sse_total() const {
+inline joint_moments::scaled_sum joint_moments::sse_pooled() const {
+    // Joints are brought to the largest joint's scale: smaller ones lose only what is below
+    // its sum's last digit.
+    const Eigen::ArrayXd zero = Eigen::ArrayXd::Zero(n_joints);
+    const int k = common_exp(e_exp, zero, max_abs_e);
     detail::compensated s;
-    for (Index j = 0; j < n_joints; ++j) s.add(sse(j));
-    return s.value();
+    for (Index j = 0; j < n_joints; ++j) s.add(std::ldexp(sse(j), 2 * (e_exp(j) - k)));
+    return {s.value(), k};
 }
 
-inline double joint_moments::pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev,
-                                      const Eigen::ArrayXd& m2) const {
+inline joint_moments::scaled_sum joint_moments::pooled_m2(const Eigen::ArrayXd& shift, const Eigen::ArrayXd& dev,
+                                                          const Eigen::ArrayXd& m2, const Eigen::ArrayXi& exps,
+                                                          const Eigen::ArrayXd& lo, const Eigen::ArrayXd& hi) const {
+    // Every joint at the common scale first (exact: powers of two).
+    const int k = common_exp(exps, lo, hi);
+    Eigen::ArrayXd sh(n_joints), dv(n_joints), q(n_joints);
+    for (Index j = 0; j < n_joints; ++j) {
+        sh(j) = std::ldexp(shift(j), exps(j) - k);
+        dv(j) = std::ldexp(dev(j), exps(j) - k);
+        q(j) = std::ldexp(m2(j), 2 * (exps(j) - k));
+    }
     // Exact decomposition: Σ_kj (x_kj − x̄)² = Σ_j [M2_j + N (x̄_j − x̄)²]. The joint means are
     // compared about the first joint's shift, so an offset common to all joints cancels exactly.
-    const Eigen::ArrayXd a = (shift - shift(0)) + dev;
+    const Eigen::ArrayXd a = (sh - sh(0)) + dv;
     detail::compensated grand;
     for (Index j = 0; j < n_joints; ++j) grand.add(a(j));
     const double overall = grand.value() / static_cast<double>(n_joints);
@@ -594,10 +661,10 @@ inline double joint_moments::pooled_m2(const Eigen::ArrayXd& shift, const Eigen:
     const double n = static_cast<double>(n_samples);
     for (Index j = 0; j < n_joints; ++j) {
         const double d = a(j) - overall;
-        total.add(m2(j));
+        total.add(q(j));
         total.add(n * d * d);
     }
-    return total.value();
+    return {total.value(), k};
 }
 
 /// Moments of one signal (a residual or a regressor) in one pass; its stats are the `tau_*`
@@ -616,6 +683,98 @@ joint_moments accumulate(const Eigen::MatrixBase<A>& tau_meas, const Eigen::Matr
     joint_accumulator acc(tau_meas.cols(), residual_gram);
     acc.update(tau_meas, tau_pred);
     return acc.result();
+}
+
+namespace detail {
+
+/// Below this, a sum of squares may hold terms that left float64's normal range (|x| < 2^-511
+/// squares to a subnormal or to 0). Above it, the terms lost cost less than 2^-270 of the sum.
+constexpr double tiny_sum_of_squares = 0x1p-800;
+
+/// Exponent k with largest·2^-k in [0.5, 1) for a sum of squares that needs rescaling; else 0.
+inline int scale_exponent(double sum_of_squares, double largest) {
+    if (!(sum_of_squares < tiny_sum_of_squares) || !(largest > 0.0)) return 0;
+    int k = 0;
+    std::frexp(largest, &k);
+    return k;
+}
+
+inline double largest_abs(double lo, double hi) { return std::max(std::fabs(lo), std::fabs(hi)); }
+
+/// x·2^-k column by column (exact: powers of two, scaling up). Two factors, because 2^-k alone
+/// overflows for subnormal data (k down to −1073).
+template <class D>
+Eigen::MatrixXd scaled_columns(const Eigen::MatrixBase<D>& x, const Eigen::ArrayXi& exps) {
+    Eigen::Array<double, 1, Eigen::Dynamic> f1(exps.size()), f2(exps.size());
+    for (Index j = 0; j < exps.size(); ++j) {
+        f1(j) = std::ldexp(1.0, -exps(j) / 2);
+        f2(j) = std::ldexp(1.0, -exps(j) - (-exps(j) / 2));
+    }
+    Eigen::MatrixXd out = x;
+    out.array().rowwise() *= f1;
+    out.array().rowwise() *= f2;
+    return out;
+}
+
+}  // namespace detail
+
+/// Moments whose sums of squares keep full precision on data of any magnitude (contract §1.3).
+///
+/// The fast pass is exact for every sum of squares at or above 2^-800; a joint whose sum of τ
+/// (centred) or of e (raw or centred) falls below it — data near 1e-160, whose squares underflow —
+/// is accumulated again with that quantity scaled by a power of two (exact), and the exponent is
+/// recorded. Data that do not need it are read once, as before.
+template <class A, class B>
+joint_moments rescale_tiny(joint_moments mo, const Eigen::MatrixBase<A>& tau_meas,
+                           const Eigen::MatrixBase<B>& tau_pred, bool residual_gram = false) {
+    const Index m = mo.n_joints;
+    Eigen::ArrayXi tk = Eigen::ArrayXi::Zero(m), ek = Eigen::ArrayXi::Zero(m);
+    for (Index j = 0; j < m; ++j) {
+        const bool tau_constant = mo.tau_min(j) == mo.tau_max(j);
+        const bool e_constant = mo.e_min(j) == mo.e_max(j);
+        if (!tau_constant) tk(j) = detail::scale_exponent(mo.tau_m2(j), detail::largest_abs(mo.tau_min(j), mo.tau_max(j)));
+        const double e_sum = e_constant ? mo.sse(j) : std::min(mo.sse(j), mo.e_m2(j));
+        ek(j) = detail::scale_exponent(e_sum, mo.max_abs_e(j));
+    }
+    // The full noise model's Σ̂ takes one scale for every joint, so its eigenvalue ratios stay.
+    int gk = 0;
+    if (residual_gram) gk = detail::scale_exponent(mo.sse_total(), mo.max_abs_e.maxCoeff());
+    if ((tk == 0).all() && (ek == 0).all() && gk == 0) return mo;
+    if (!(tk == 0).all()) {
+        const joint_moments t = accumulate_signal(detail::scaled_columns(tau_meas, tk));
+        mo.tau_mean = t.tau_mean;
+        mo.tau_m2 = t.tau_m2;
+        mo.tau_shift = t.tau_shift;
+        mo.tau_dev = t.tau_dev;
+        mo.tau_min = t.tau_min;
+        mo.tau_max = t.tau_max;
+        mo.tau_exp = tk;
+    }
+    if (!(ek == 0).all()) {
+        const joint_moments e = accumulate_signal(detail::scaled_columns(tau_meas - tau_pred, ek));
+        mo.e_mean = e.tau_mean;
+        mo.e_m2 = e.tau_m2;
+        mo.e_shift = e.tau_shift;
+        mo.e_dev = e.tau_dev;
+        mo.e_min = e.tau_min;
+        mo.e_max = e.tau_max;
+        mo.sse = e.sse;
+        mo.max_abs_e = e.max_abs_e;
+        mo.e_exp = ek;
+    }
+    if (gk != 0) {
+        joint_accumulator g(m, true);
+        g.update_signal(detail::scaled_columns(tau_meas - tau_pred, Eigen::ArrayXi::Constant(m, gk)));
+        mo.residual_gram = g.result().residual_gram;
+        mo.gram_exp = gk;
+    }
+    return mo;
+}
+
+/// Moments of one signal, rescaled where its sums of squares are tiny.
+template <class D>
+joint_moments rescale_tiny_signal(joint_moments mo, const Eigen::MatrixBase<D>& x) {
+    return rescale_tiny(mo, x, D::PlainObject::Zero(x.rows(), x.cols()));
 }
 
 }  // namespace dynval

@@ -192,6 +192,37 @@ Eigen::MatrixXd lag_sums(const Eigen::MatrixBase<D>& e, const joint_moments& mo,
     return sums;
 }
 
+/// lag_sums of `e`, with the joints whose centred sum of squares is tiny (data near 1e-160,
+/// whose squares underflow) scaled by a power of two first: ρ̂ does not depend on the scale.
+template <class D>
+Eigen::MatrixXd scaled_lag_sums(const Eigen::MatrixBase<D>& e, const joint_moments& mo,
+                                const std::vector<Index>& starts, Index max_lag) {
+    Eigen::ArrayXi k = Eigen::ArrayXi::Zero(e.cols());
+    for (Index j = 0; j < e.cols(); ++j)
+        if (mo.tau_min(j) != mo.tau_max(j))
+            k(j) = scale_exponent(mo.tau_m2(j), largest_abs(mo.tau_min(j), mo.tau_max(j)));
+    if ((k == 0).all()) return lag_sums(e, mo, starts, max_lag);
+    const Eigen::MatrixXd scaled = scaled_columns(e, k);
+    return lag_sums(scaled, accumulate_signal(scaled), starts, max_lag);
+}
+
+/// Column j of `a` centred into `buf`; returns Σ buf², the lag-0 sum that normalises the
+/// cross-correlation. A column whose centred sum of squares is tiny (data near 1e-160) is
+/// scaled by a power of two before it is centred, so its mean and squares keep their digits.
+template <class D>
+double centred_for_correlation(const Eigen::MatrixBase<D>& a, Index j, const joint_moments& mo, Eigen::VectorXd& buf) {
+    if (!(mo.tau_m2(j) < tiny_sum_of_squares) || mo.tau_min(j) == mo.tau_max(j)) {
+        centred_column(a, j, mo.tau_mean(j), buf);
+        return mo.tau_m2(j);
+    }
+    const int k = scale_exponent(0.0, largest_abs(mo.tau_min(j), mo.tau_max(j)));
+    const Eigen::MatrixXd scaled = scaled_columns(a.col(j), Eigen::ArrayXi::Constant(1, k));
+    compensated sum;
+    for (Index i = 0; i < scaled.rows(); ++i) sum.add(scaled(i, 0));
+    centred_column(scaled, 0, sum.value() / static_cast<double>(scaled.rows()), buf);
+    return buf.squaredNorm();
+}
+
 }  // namespace detail
 
 /// ρ̂(ℓ), ℓ = 0..max_lag, per joint: shape (max_lag+1, m). `adjusted` divides lag ℓ by its
@@ -204,7 +235,7 @@ row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, const param<long long>
     const std::vector<Index> starts = segment_starts(segments, n);
     const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
     const bool adj = detail::require_bool(adjusted, "adjusted");
-    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, lmax);
+    const Eigen::MatrixXd sums = detail::scaled_lag_sums(e, mo, starts, lmax);
     const auto lengths = segment_lengths(starts, n);
     row_matrix rho(lmax + 1, e.cols());
     const double nd = static_cast<double>(n);
@@ -323,7 +354,7 @@ PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vect
     const Index limit = detail::longest(starts, n);
     const detail::portmanteau_parameters checked = detail::check_portmanteau_parameters(lags, model_df, test, limit);
 
-    const Eigen::MatrixXd sums = detail::lag_sums(e, mo, starts, checked.max_lag);
+    const Eigen::MatrixXd sums = detail::scaled_lag_sums(e, mo, starts, checked.max_lag);
     const auto lengths = segment_lengths(starts, n);
     std::vector<Index> n_products(static_cast<std::size_t>(checked.max_lag + 1));
     for (Index l = 0; l <= checked.max_lag; ++l) n_products[static_cast<std::size_t>(l)] = lag_products(lengths, l);
@@ -375,7 +406,9 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     me.throw_if_nonfinite("e", "e");
     const joint_moments my = accumulate_signal(regressor);
     const Index total = regressor.cols();
-    const bool p_ok = n_columns.valid() && n_columns.value() > 0 && n_columns.value() * m == total;
+    // m·n_columns is formed with an overflow check: 2^62 + 1 columns on 4 joints must not wrap to 4.
+    const auto product = n_columns.valid() ? detail::checked_mul(n_columns.value(), m) : std::nullopt;
+    const bool p_ok = n_columns.valid() && n_columns.value() > 0 && product && *product == total;
     if (my.nonfinite_meas) {
         const auto& hit = *my.nonfinite_meas;
         // The sample/joint/column wording needs a usable column count; otherwise row/column.
@@ -406,8 +439,7 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     const double nan = std::numeric_limits<double>::quiet_NaN();
     for (Index j = 0; j < m; ++j) {
         const bool e_constant = me.tau_min(j) == me.tau_max(j);
-        detail::centred_column(e, j, me.tau_mean(j), ebuf);
-        const double re0 = me.tau_m2(j) / nd;
+        const double re0 = detail::centred_for_correlation(e, j, me, ebuf) / nd;
         for (Index c = 0; c < p; ++c) {
             const Index q = j * p + c;
             const bool y_constant = my.tau_min(q) == my.tau_max(q);
@@ -416,9 +448,15 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
                 r.rho.row(q).setConstant(nan);
                 continue;
             }
-            detail::centred_column(regressor, q, my.tau_mean(q), ybuf);
+            const double ry0 = detail::centred_for_correlation(regressor, q, my, ybuf) / nd;
+            if (!(re0 > 0.0 && ry0 > 0.0)) {  // a spread that underflows even scaled: no scale to divide by
+                r.rho.row(q).setConstant(nan);
+                continue;
+            }
             detail::lagged_sums(ebuf.data(), ybuf.data(), starts, n, lmax, out);
-            const double scale = 1.0 / std::sqrt(re0 * (my.tau_m2(q) / nd));
+            // Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
+            // and underflows near 1e-80, both inside the accepted range.
+            const double scale = 1.0 / (std::sqrt(re0) * std::sqrt(ry0));
             for (Index l = 0; l <= lmax; ++l)
                 r.rho(q, l) = out[static_cast<std::size_t>(l)] / denom[static_cast<std::size_t>(l)] * scale;
         }

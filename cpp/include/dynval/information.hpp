@@ -65,6 +65,7 @@ inline double log_det_psd(const Eigen::MatrixXd& sigma) {
 inline information_criteria_result criteria_from_moments(const joint_moments& mo, long long n_params,
                                                          noise_model model) {
     const double ninf = -std::numeric_limits<double>::infinity();
+    const double ln2 = std::log(2.0);
     const long long n = static_cast<long long>(mo.n_samples);
     const long long m = static_cast<long long>(mo.n_joints);
     const double nd = static_cast<double>(n);
@@ -72,27 +73,29 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
         case noise_model::pooled: {
             const long long nm = n * m;
             const double nmd = static_cast<double>(nm);
-            const double sse = mo.sse_total();
-            const double s = sse / nmd;
-            const double f = sse > 0.0 ? nmd * std::log(s) : ninf;
-            return criteria_from_fit(f, sse > 0.0 ? s : 0.0, nm, nmd, n_params);
+            // ln(SSE/nm) from the scaled sum: exact exponent, no underflow of SSE itself.
+            const auto sse = mo.sse_pooled();
+            const double log_s = std::log(sse.sum / nmd) + 2.0 * sse.exp * ln2;
+            const double f = sse.sum > 0.0 ? nmd * log_s : ninf;
+            return criteria_from_fit(f, sse.sum > 0.0 ? std::ldexp(sse.sum / nmd, 2 * sse.exp) : 0.0, nm, nmd, n_params);
         }
         case noise_model::per_joint: {
             bool degenerate = false;
-            double log_sum = 0.0, size = 1.0;
+            double log_sum = 0.0;
             for (Index j = 0; j < mo.n_joints; ++j) {
-                const double s = mo.sse(j) / nd;
                 if (!(mo.sse(j) > 0.0)) degenerate = true;
-                log_sum += std::log(s);
-                size *= s;
+                log_sum += std::log(mo.sse(j) / nd) + 2.0 * mo.e_exp(j) * ln2;
             }
+            // Π_j SSE_j/N as exp(Σ ln): a running product overflows or underflows part-way
+            // depending on the order of the joints (2.9e99 in one order, inf in another).
             const double f = degenerate ? ninf : nd * log_sum;
-            return criteria_from_fit(f, degenerate ? 0.0 : size, n, nd, n_params);
+            return criteria_from_fit(f, degenerate ? 0.0 : std::exp(log_sum), n, nd, n_params);
         }
         case noise_model::full: {
             const Eigen::MatrixXd sigma = mo.residual_gram / nd;
             bool degenerate = !(mo.sse > 0.0).all();
-            const double logdet = degenerate ? ninf : log_det_psd(sigma);
+            // Σ̂ of e·2^-k is Σ̂·4^-k: ln det gains 2k·m·ln 2.
+            const double logdet = degenerate ? ninf : log_det_psd(sigma) + 2.0 * mo.gram_exp * ln2 * static_cast<double>(m);
             degenerate = degenerate || std::isinf(logdet);
             const double f = degenerate ? ninf : nd * logdet;
             return criteria_from_fit(f, degenerate ? 0.0 : std::exp(logdet), n, nd, n_params);
@@ -133,8 +136,9 @@ information_criteria_result criteria(const Eigen::MatrixBase<A>& tau_meas, const
                              "tau_pred");
     detail::check_min_samples(tau_meas.rows(), 2, function);
     const bool full = model.valid() && model.value() == noise_model::full;
-    const joint_moments mo = accumulate(tau_meas, tau_pred, full);
+    joint_moments mo = accumulate(tau_meas, tau_pred, full);
     mo.throw_if_nonfinite();
+    mo = rescale_tiny(std::move(mo), tau_meas, tau_pred, full);
     const long long p = detail::require_int(n_params, "n_params", 0, -1, "an integer with n_params >= 0");
     const noise_model nm = detail::require_option(model, "noise_model");
     return detail::criteria_from_moments(mo, p, nm);

@@ -40,6 +40,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -62,7 +63,12 @@ public:
         if (max_lag < 0)
             detail::throw_parameter("max_lag", "an integer with max_lag >= 0",
                                     py_repr(static_cast<long long>(max_lag)));
-        const auto cells = static_cast<std::size_t>((L_ + 1) * m_);
+        // (max_lag + 1)·m cells per sum: a count that wraps would allocate a short buffer.
+        const auto lags = detail::checked_add(L_, 1);
+        const auto cell_count = lags ? detail::checked_mul(*lags, m_) : std::nullopt;
+        if (!cell_count || *cell_count > static_cast<long long>(std::vector<double>().max_size()))
+            throw std::length_error("lag_accumulator: (max_lag + 1) * n_joints cells do not fit in memory");
+        const auto cells = static_cast<std::size_t>(*cell_count);
         s_.assign(static_cast<std::size_t>(m_), {});
         p_.assign(cells, {});
         h_.assign(cells, {});

@@ -54,7 +54,6 @@ constexpr double ninf_v = -std::numeric_limits<double>::infinity();
 /// Degenerate rule of §3.2: a constant target gives nan when exact, −inf otherwise.
 inline double normalized(bool constant, bool exact, double good) { return constant ? (exact ? nan_v : ninf_v) : good; }
 
-inline Eigen::ArrayXd tss_per_joint(const joint_moments& mo) { return mo.tau_m2; }
 
 inline Eigen::Array<bool, Eigen::Dynamic, 1> constant_joints(const joint_moments& mo) {
     return mo.tau_min == mo.tau_max;
@@ -64,7 +63,7 @@ inline Eigen::ArrayXd vaf_joints(const joint_moments& mo) {
     Eigen::ArrayXd v(mo.n_joints);
     for (Index j = 0; j < mo.n_joints; ++j)
         v(j) = normalized(mo.tau_min(j) == mo.tau_max(j), mo.e_min(j) == mo.e_max(j),
-                          100.0 * (1.0 - mo.e_m2(j) / mo.tau_m2(j)));
+                          100.0 * (1.0 - joint_moments::ratio(mo.e_m2_of(j), mo.tau_m2_of(j))));
     return v;
 }
 
@@ -72,14 +71,15 @@ inline Eigen::ArrayXd fit_joints(const joint_moments& mo) {
     Eigen::ArrayXd v(mo.n_joints);
     for (Index j = 0; j < mo.n_joints; ++j)
         v(j) = normalized(mo.tau_min(j) == mo.tau_max(j), mo.sse(j) == 0.0,
-                          100.0 * (1.0 - std::sqrt(mo.sse(j) / mo.tau_m2(j))));
+                          100.0 * (1.0 - std::sqrt(joint_moments::ratio(mo.sse_of(j), mo.tau_m2_of(j)))));
     return v;
 }
 
 inline Eigen::ArrayXd r2_joints(const joint_moments& mo) {
     Eigen::ArrayXd v(mo.n_joints);
     for (Index j = 0; j < mo.n_joints; ++j)
-        v(j) = normalized(mo.tau_min(j) == mo.tau_max(j), mo.sse(j) == 0.0, 1.0 - mo.sse(j) / mo.tau_m2(j));
+        v(j) = normalized(mo.tau_min(j) == mo.tau_max(j), mo.sse(j) == 0.0,
+                          1.0 - joint_moments::ratio(mo.sse_of(j), mo.tau_m2_of(j)));
     return v;
 }
 
@@ -87,29 +87,43 @@ inline bool pooled_constant(const joint_moments& mo) { return mo.tau_min.minCoef
 
 inline double vaf_pooled(const joint_moments& mo) {
     return normalized(pooled_constant(mo), mo.e_min.minCoeff() == mo.e_max.maxCoeff(),
-                      100.0 * (1.0 - mo.pooled_e_m2() / mo.pooled_tau_m2()));
+                      100.0 * (1.0 - joint_moments::ratio(mo.pooled_e_m2(), mo.pooled_tau_m2())));
 }
 
 inline double fit_pooled(const joint_moments& mo) {
-    const double sse = mo.sse_total();
-    return normalized(pooled_constant(mo), sse == 0.0, 100.0 * (1.0 - std::sqrt(sse / mo.pooled_tau_m2())));
+    const auto sse = mo.sse_pooled();
+    return normalized(pooled_constant(mo), sse.sum == 0.0,
+                      100.0 * (1.0 - std::sqrt(joint_moments::ratio(sse, mo.pooled_tau_m2()))));
 }
 
 inline double r2_pooled(const joint_moments& mo) {
-    const double sse = mo.sse_total();
-    return normalized(pooled_constant(mo), sse == 0.0, 1.0 - sse / mo.pooled_tau_m2());
+    const auto sse = mo.sse_pooled();
+    return normalized(pooled_constant(mo), sse.sum == 0.0, 1.0 - joint_moments::ratio(sse, mo.pooled_tau_m2()));
+}
+
+/// M2_j / d in the data's units: divided before scaling back, so a tiny variance keeps its digits
+/// until it leaves the float64 range.
+inline Eigen::ArrayXd scaled_variance(const Eigen::ArrayXd& m2, const Eigen::ArrayXi& exps, double d) {
+    Eigen::ArrayXd v(m2.size());
+    for (Index j = 0; j < m2.size(); ++j) v(j) = std::ldexp(m2(j) / d, 2 * exps(j));
+    return v;
 }
 
 /// IEEE mean over joints (−inf or nan propagate).
 inline double uniform_average(const Eigen::ArrayXd& v) { return v.sum() / static_cast<double>(v.size()); }
 
 /// TSS-weighted mean; constant joints get weight 0 and are left out; all constant -> uniform.
+/// Weights are the TSS at the largest joint's scale, so they do not all underflow together.
 inline double variance_weighted(const Eigen::ArrayXd& v, const joint_moments& mo) {
+    int k = std::numeric_limits<int>::min();
+    for (Index j = 0; j < mo.n_joints; ++j)
+        if (mo.tau_min(j) != mo.tau_max(j)) k = std::max(k, mo.tau_exp(j));
     compensated num, den;
     for (Index j = 0; j < mo.n_joints; ++j) {
         if (mo.tau_min(j) == mo.tau_max(j)) continue;
-        num.add(mo.tau_m2(j) * v(j));
-        den.add(mo.tau_m2(j));
+        const double w = std::ldexp(mo.tau_m2(j), 2 * (mo.tau_exp(j) - k));
+        num.add(w * v(j));
+        den.add(w);
     }
     if (den.value() == 0.0) return uniform_average(v);
     return num.value() / den.value();
@@ -124,7 +138,7 @@ joint_moments checked_moments(const Eigen::MatrixBase<A>& meas, const Eigen::Mat
     check_min_samples(meas.rows(), min_samples, function);
     joint_moments mo = accumulate(meas, pred, gram);
     mo.throw_if_nonfinite();
-    return mo;
+    return rescale_tiny(std::move(mo), meas, pred, gram);
 }
 
 template <class D>
@@ -133,7 +147,7 @@ joint_moments checked_residual_moments(const Eigen::MatrixBase<D>& e, Index min_
     check_min_samples(e.rows(), min_samples, function);
     joint_moments mo = accumulate_signal(e);
     mo.throw_if_nonfinite("e", "e");
-    return mo;
+    return rescale_tiny_signal(std::move(mo), e);
 }
 
 /// `multioutput`: one of the four names, then one this metric supports.
@@ -188,7 +202,7 @@ metric_value sse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B
                  const param<multioutput>& how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 1, "sse");
     const multioutput h = detail::check_multioutput(how, {multioutput::pooled, multioutput::raw_values}, "sse");
-    return h == multioutput::pooled ? detail::scalar(mo.sse_total()) : detail::per_joint(mo.sse);
+    return h == multioutput::pooled ? detail::scalar(mo.sse_total()) : detail::per_joint(mo.sse_values());
 }
 
 /// Maximum absolute error, pooled or per joint.
@@ -198,7 +212,8 @@ metric_value max_abs_error(const Eigen::MatrixBase<A>& tau_meas, const Eigen::Ma
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 1, "max_abs_error");
     const multioutput h =
         detail::check_multioutput(how, {multioutput::pooled, multioutput::raw_values}, "max_abs_error");
-    return h == multioutput::pooled ? detail::scalar(mo.max_abs_e.maxCoeff()) : detail::per_joint(mo.max_abs_e);
+    const Eigen::ArrayXd joints = mo.max_abs_e_values();
+    return h == multioutput::pooled ? detail::scalar(joints.maxCoeff()) : detail::per_joint(joints);
 }
 
 /// RMSE. `convention` (pooled only; unset = per_element): √(SSE/(N·m)) or √(SSE/N).
@@ -216,14 +231,15 @@ metric_value rmse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<
         conv = detail::require_option(*convention, "convention");
     }
     const double n = static_cast<double>(mo.n_samples);
-    const Eigen::ArrayXd joints = (mo.sse / n).sqrt();
+    const Eigen::ArrayXd joints = mo.rmse_values();
     switch (h) {
         case multioutput::raw_values: return detail::per_joint(joints);
         case multioutput::uniform_average: return detail::scalar(detail::uniform_average(joints));
         default: break;
     }
     const double denom = conv == rmse_convention::per_element ? n * static_cast<double>(mo.n_joints) : n;
-    return detail::scalar(std::sqrt(mo.sse_total() / denom));
+    const auto total = mo.sse_pooled();
+    return detail::scalar(std::ldexp(std::sqrt(total.sum / denom), total.exp));
 }
 
 /// Variance accounted for, in percent.
@@ -256,7 +272,7 @@ metric_value r2(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>
 /// Mean of each joint's residual, shape (m,).
 template <class D>
 Eigen::ArrayXd residual_mean(const Eigen::MatrixBase<D>& e) {
-    return detail::checked_residual_moments(e, 1, "residual_mean").tau_mean;
+    return detail::checked_residual_moments(e, 1, "residual_mean").tau_mean_values();
 }
 
 /// Σ(e − ē_j)² / (N − ddof) per joint, shape (m,).
@@ -265,7 +281,7 @@ Eigen::ArrayXd residual_variance(const Eigen::MatrixBase<D>& e, const param<long
     const joint_moments mo = detail::checked_residual_moments(e, 2, "residual_variance");
     const long long n = mo.n_samples;
     const long long d = detail::require_int(ddof, "ddof", 0, n, "an integer with 0 <= ddof < N=" + std::to_string(n));
-    return mo.tau_m2 / static_cast<double>(n - d);
+    return detail::scaled_variance(mo.tau_m2, mo.tau_exp, static_cast<double>(n - d));
 }
 
 /// Every point metric from accumulated moments (no checks).
@@ -276,20 +292,21 @@ inline ValidationMetrics metrics_from_moments(const joint_moments& mo, long long
     r.n_samples = mo.n_samples;
     r.n_joints = mo.n_joints;
     r.n_params = n_params;
-    r.sse = mo.sse;
-    r.rmse = (mo.sse / n).sqrt();
-    r.max_abs_error = mo.max_abs_e;
+    r.sse = mo.sse_values();
+    r.rmse = mo.rmse_values();
+    r.max_abs_error = mo.max_abs_e_values();
     r.vaf = detail::vaf_joints(mo);
     r.fit_percent = detail::fit_joints(mo);
     r.r2 = detail::r2_joints(mo);
-    r.residual_mean = mo.e_mean;
-    r.residual_variance = mo.e_m2 / static_cast<double>(mo.n_samples - ddof);
+    r.residual_mean = mo.e_mean_values();
+    r.residual_variance = detail::scaled_variance(mo.e_m2, mo.e_exp, static_cast<double>(mo.n_samples - ddof));
     r.constant_target.resize(static_cast<std::size_t>(mo.n_joints));
     for (Index j = 0; j < mo.n_joints; ++j) r.constant_target[static_cast<std::size_t>(j)] = mo.tau_min(j) == mo.tau_max(j);
-    r.sse_total = mo.sse_total();
-    r.rmse_per_element = std::sqrt(r.sse_total / (n * static_cast<double>(mo.n_joints)));
-    r.rmse_per_sample = std::sqrt(r.sse_total / n);
-    r.max_abs_error_pooled = mo.max_abs_e.maxCoeff();
+    const auto total = mo.sse_pooled();
+    r.sse_total = total.value();
+    r.rmse_per_element = std::ldexp(std::sqrt(total.sum / (n * static_cast<double>(mo.n_joints))), total.exp);
+    r.rmse_per_sample = std::ldexp(std::sqrt(total.sum / n), total.exp);
+    r.max_abs_error_pooled = r.max_abs_error.maxCoeff();
     r.vaf_pooled = detail::vaf_pooled(mo);
     r.fit_percent_pooled = detail::fit_pooled(mo);
     r.r2_pooled = detail::r2_pooled(mo);

@@ -1,6 +1,7 @@
 // Segments: independent records concatenated along the sample axis (contract §1.1).
 #pragma once
 
+#include "checked.hpp"
 #include "errors.hpp"
 
 #include <algorithm>
@@ -46,7 +47,10 @@ inline std::vector<Index> segment_starts(const segment_spec& spec, Index n) {
     for (long long len : segments) {
         if (len <= 0) fail();
         starts.push_back(static_cast<Index>(total));
-        total += len;
+        // A sum that wraps could land on N and pass for valid lengths: refuse it at the overflow.
+        const auto next = detail::checked_add(total, len);
+        if (!next || *next > n) fail();
+        total = *next;
     }
     if (total != n) fail();
     return starts;

@@ -4,6 +4,7 @@ function rho = acf(e, max_lag, adjusted, starts)
 %   Means are overall (one per joint); a constant residual, or one whose centred sum of
 %   squares underflows to 0, gives a column of NaN.
   n = size(e, 1);
+  e = dynval.internal.scale_columns(e);  % rho does not depend on the scale (contract §1.3)
   constant = min(e, [], 1) == max(e, [], 1);
   d = dynval.internal.centred(e);
   ss = sum(d .^ 2, 1);

@@ -7,29 +7,36 @@ function [f, n, n_vec, size_term] = fit_term(e, noise_model)
   switch noise_model
     case 'pooled'
       n = n_samples * m;
-      variance = sum(e(:) .^ 2) / n;
-      if variance == 0
+      % Scaled sums (contract §1.3): ln σ² = ln(s/n) + 2k ln 2 stays finite when σ² underflows.
+      [es, k] = dynval.internal.scale_columns(e(:));
+      total = sum(es .^ 2);
+      if total == 0
         f = -Inf;
+        size_term = 0;
       else
-        f = n * log(variance);
+        f = n * (log(total / n) + 2 * k * log(2));
+        size_term = dynval.internal.ldexp(total / n, 2 * k);
       end
       n_vec = n;
-      size_term = variance;
     case 'per_joint'
       n = n_samples;
       n_vec = n;
-      variances = sum(e .^ 2, 1) / n_samples;
+      [es, k] = dynval.internal.scale_columns(e);
+      variances = sum(es .^ 2, 1) / n_samples;
       if any(variances == 0)
         f = -Inf;
         size_term = 0;
       else
-        log_size = sum(log(variances));
+        log_size = sum(log(variances) + 2 * k * log(2));
         f = n_samples * log_size;
         size_term = exp(log_size);
       end
     otherwise
       n = n_samples;
       n_vec = n;
+      % One power of two for every joint: eigenvalue ratios stay, ln det gains 2k·m·ln 2.
+      [~, k] = dynval.internal.scale_columns(e(:));
+      e = dynval.internal.ldexp(e, -k);
       sigma = (e' * e) / n_samples;
       sigma = (sigma + sigma') / 2;
       lambda = sort(eig(sigma));
@@ -38,7 +45,7 @@ function [f, n, n_vec, size_term] = fit_term(e, noise_model)
         f = -Inf;
         size_term = 0;
       else
-        log_det = sum(log(lambda));
+        log_det = sum(log(lambda)) + 2 * k * m * log(2);
         f = n_samples * log_det;
         size_term = exp(log_det);
       end

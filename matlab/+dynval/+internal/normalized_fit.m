@@ -13,9 +13,14 @@ function value = normalized_fit(metric, tau_meas, tau_pred, varargin)
     meas = meas(:);
     e = e(:);
   end
-  sse = sum(e .^ 2, 1);
-  [~, ssc_e, e_constant] = dynval.internal.moments(e);
-  [~, tss, constant] = dynval.internal.moments(meas);
+  % Sums of squares of e and tau each scaled by a power of two (contract §1.3); the residual's
+  % sums are then put on the target's scale (pow2: exact, IEEE where the ratio leaves float64).
+  [es, ke] = dynval.internal.scale_columns(e);
+  [ms, kt] = dynval.internal.scale_columns(meas);
+  sse = dynval.internal.ldexp(sum(es .^ 2, 1), 2 * (ke - kt));
+  [~, ssc_e, e_constant] = dynval.internal.moments(es);
+  ssc_e = dynval.internal.ldexp(ssc_e, 2 * (ke - kt));
+  [~, tss, constant] = dynval.internal.moments(ms);
   values = dynval.internal.fit_values(metric, sse, ssc_e, tss, constant, e_constant);
   switch mo
     case {'pooled', 'raw_values'}
@@ -27,7 +32,9 @@ function value = normalized_fit(metric, tau_meas, tau_pred, varargin)
       if ~any(live)
         value = mean(values);
       else
-        value = sum(tss(live) .* values(live)) / sum(tss(live));
+        % The TSS at the largest live joint's scale, so that tiny joints keep their weight.
+        weights = dynval.internal.ldexp(tss(live), 2 * (kt(live) - max(kt(live))));
+        value = sum(weights .* values(live)) / sum(weights);
       end
   end
 end

@@ -24,6 +24,7 @@ function res = portmanteau(test, e, lags, varargin)
   model_df = double(model_df);
   h_max = max(lags);
   % The biased autocorrelation, as Ljung & Box, R and statsmodels use it.
+  e = dynval.internal.scale_columns(e);  % rho does not depend on the scale (contract §1.3)
   constant = min(e, [], 1) == max(e, [], 1);
   d = dynval.internal.centred(e);
   ss = sum(d .^ 2, 1);

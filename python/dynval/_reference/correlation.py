@@ -19,7 +19,7 @@ from .._validation import (
     is_integer,
 )
 from ._common import as_2d, check_starts, finite_residual, segment_limit
-from .norms import centred, is_constant, joint_major, sumsq
+from .norms import centred, is_constant, joint_major, scale_exponents, sumsq
 
 # Up to this many lags per segment the O(n·L) direct sums are cheaper than an FFT (measured:
 # about even at 16 lags for 7 × 2e6 samples; shorter segments favour the FFT earlier).
@@ -90,11 +90,21 @@ def biased_rho(d: np.ndarray, ss: np.ndarray, max_lag: int, starts: np.ndarray) 
 
 
 def centred_and_ss(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Joint-major centred rows of ``x`` ``(N, m)``, their Σd² (0 when constant) and constancy."""
+    """Joint-major centred rows of ``x`` ``(N, m)``, their Σd² (0 when constant) and constancy.
+
+    A row whose Σd² leaves the normal range (data near 1e-160) is scaled by a power of two
+    and centred again: correlations do not depend on the scale, and its mean and squares then
+    keep their digits.
+    """
     rows = joint_major(x)
     constant = is_constant(rows)
     d = centred(rows)
     ss = sumsq(d)
+    k = scale_exponents(rows, ss, ~constant)
+    for i in np.flatnonzero(k):
+        # Scaled before centring, so that the mean is not rounded to the subnormal grid.
+        d[i] = centred(np.ldexp(rows[i : i + 1], -k[i]))[0]
+        ss[i] = sumsq(d[i : i + 1])[0]
     ss[constant] = 0.0
     return d, ss, constant
 
@@ -145,6 +155,8 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
     s = row_lagged_products(de, dy, max_lag, starts)
     r = s / denominators(starts, n, max_lag, adjusted)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        rho = r / np.sqrt((ss_e / n) * (ss_y / n))
+        # Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
+        # and underflows near 1e-80, both inside the accepted range.
+        rho = r / (np.sqrt(ss_e / n) * np.sqrt(ss_y / n))
     rho[:, constant_mask | e_constant | (ss_e == 0) | (ss_y == 0)] = np.nan
     return {"rho": np.ascontiguousarray(rho.T), "constant_mask": constant_mask}

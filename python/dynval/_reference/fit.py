@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validation import MULTIOUTPUT_OPTIONS, check_multioutput
 from ._common import finite_pair
-from .norms import joint_major, moments, pooled, sumsq
+from .norms import joint_major, moments_scaled, pooled, scaled_ratio, sumsq_scaled
 
 # The error-side sums each metric needs: r2 and fit use the SSE, vaf the centred residual.
 _ERROR_TERMS = {"vaf": ("ssc_e",), "fit_percent": ("sse",), "r2": ("sse",)}
@@ -20,15 +20,16 @@ def fit_parts(meas_rows: np.ndarray, e_rows: np.ndarray, error_terms=("sse", "ss
     """Per-row ingredients of the fit metrics for one view of the data (rows: see ``norms``).
 
     ``error_terms`` limits the residual side to what the caller uses. ``e_rows`` must be a
-    temporary of the same shape as ``meas_rows``: its last use squares it in place, and it then
-    holds the target's deviations.
+    temporary of the same shape as ``meas_rows``: it then holds the target's deviations.
+    Sums of squares are scaled (``*_exp``: the value is sum·4^exp), so ratios of tiny data keep
+    their digits.
     """
     parts = {}
     if "sse" in error_terms:
-        parts["sse"] = sumsq(e_rows, overwrite="ssc_e" not in error_terms)
+        parts["sse"], parts["sse_exp"] = sumsq_scaled(e_rows)
     if "ssc_e" in error_terms:
-        _, parts["ssc_e"], parts["e_constant"] = moments(e_rows, out=e_rows)
-    _, parts["tss"], parts["constant"] = moments(meas_rows, out=e_rows)
+        _, parts["ssc_e"], parts["e_constant"], parts["ssc_e_exp"] = moments_scaled(e_rows)
+    _, parts["tss"], parts["constant"], parts["tss_exp"] = moments_scaled(meas_rows, out=e_rows)
     return parts
 
 
@@ -38,21 +39,20 @@ def _degenerate(values, constant, exact):
 
 
 def r2_values(parts: dict) -> np.ndarray:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = 1.0 - parts["sse"] / parts["tss"]
+    values = 1.0 - scaled_ratio(parts["sse"], parts["sse_exp"], parts["tss"], parts["tss_exp"])
     return _degenerate(values, parts["constant"], parts["sse"] == 0)
 
 
 def fit_values(parts: dict) -> np.ndarray:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = 100.0 * (1.0 - np.sqrt(parts["sse"] / parts["tss"]))
+    ratio = scaled_ratio(parts["sse"], parts["sse_exp"], parts["tss"], parts["tss_exp"])
+    with np.errstate(invalid="ignore"):
+        values = 100.0 * (1.0 - np.sqrt(ratio))
     return _degenerate(values, parts["constant"], parts["sse"] == 0)
 
 
 def vaf_values(parts: dict) -> np.ndarray:
     # A ratio of two centred variances with the same ddof: N cancels, so use the sums.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = 100.0 * (1.0 - parts["ssc_e"] / parts["tss"])
+    values = 100.0 * (1.0 - scaled_ratio(parts["ssc_e"], parts["ssc_e_exp"], parts["tss"], parts["tss_exp"]))
     return _degenerate(values, parts["constant"], parts["e_constant"])
 
 
@@ -67,8 +67,14 @@ def variance_weighted(values: np.ndarray, parts: dict) -> float:
     live = ~parts["constant"]
     if not live.any():
         return uniform_average(values)
-    weights = parts["tss"][live]
-    return float(np.sum(weights * values[live]) / np.sum(weights))
+    # The TSS at the largest joint's scale: tiny joints do not all underflow to weight 0.
+    exps = parts["tss_exp"][live]
+    weights = np.ldexp(parts["tss"][live], 2 * (exps - exps.max()))
+    total = np.sum(weights)
+    if total == 0.0:
+        return uniform_average(values)
+    with np.errstate(invalid="ignore"):
+        return float(np.sum(weights * values[live]) / total)
 
 
 def _metric(meas, pred, multioutput, function, per_row):

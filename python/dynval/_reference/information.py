@@ -11,7 +11,9 @@ import numpy as np
 
 from .._validation import check_n_obs, check_n_params, check_noise_model, check_rss
 from ._common import finite_pair
-from .norms import joint_major, pooled, sumsq
+from .norms import joint_major, pooled, sumsq_scaled
+
+_LN2 = math.log(2.0)
 
 
 def assemble(fit_term: float, n_vec: int, n: int, p: int, size: float) -> dict:
@@ -41,24 +43,42 @@ def information_criteria(rss, n_obs, n_params) -> dict:
     return assemble(_n_log(n, variance), n, n, p, variance)
 
 
-def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None, overwrite: bool = False):
+def _pooled_sum(s: np.ndarray, k: np.ndarray) -> tuple[float, int]:
+    """Σ_j s_j·4^k_j as (total, K) with the value total·4^K, K the largest joint's exponent."""
+    live = s > 0
+    top = int(k[live].max()) if live.any() else 0
+    return float(np.sum(np.ldexp(s, 2 * (k - top)))), top
+
+
+def fit_term(e: np.ndarray, noise_model: str, sse=None):
     """(F, n, N_vec, S) of contract §3.7 for residuals ``e`` ``(N, m)``.
 
-    ``sse``, the per-joint Σe² when the caller has it already, saves a pass over ``e``;
-    ``overwrite=True`` lets the pooled model square a temporary ``e`` in place.
+    ``sse``, the per-joint Σe² as (s, k) scaled sums (value s·4^k) when the caller has it
+    already, saves a pass over ``e``. Logarithms take the exponent exactly, so F stays finite
+    for data whose squares underflow.
     """
     n_samples, m = e.shape
     if noise_model == "pooled":
         n = n_samples * m
-        total = float(np.sum(sse)) if sse is not None else sumsq(pooled(e), overwrite=overwrite)[0]
-        variance = total / n
-        return _n_log(n, variance), n, n, variance
+        if sse is not None:
+            total, k = _pooled_sum(*sse)
+        else:
+            s, ks = sumsq_scaled(pooled(e))
+            total, k = float(s[0]), int(ks[0])
+        if total == 0:
+            return -math.inf, n, n, 0.0
+        log_variance = math.log(total / n) + 2 * k * _LN2
+        return n * log_variance, n, n, float(np.ldexp(total / n, 2 * k))
     if noise_model == "per_joint":
-        variances = (sse if sse is not None else sumsq(joint_major(e))) / n_samples
-        if np.any(variances == 0):
+        s, k = sse if sse is not None else sumsq_scaled(joint_major(e))
+        if np.any(s == 0):
             return -math.inf, n_samples, n_samples, 0.0
-        log_size = float(np.sum(np.log(variances)))
+        log_size = float(np.sum(np.log(s / n_samples) + 2 * k * _LN2))
         return n_samples * log_size, n_samples, n_samples, _exp(log_size)
+    # One power of two for every joint (Σ̂ of e·2^-k is Σ̂·4^-k), so eigenvalue ratios stay.
+    k = int(sumsq_scaled(pooled(e))[1][0])
+    if k:
+        e = np.ldexp(e, -k)
     sigma = (e.T @ e) / n_samples  # not demeaned (MATLAB's multi-output convention)
     # Eigenvalues with numpy's matrix_rank tolerance decide singularity, so that both backends call
     # the same near-singular covariance singular (an LU or LDLT pivot test rounds differently).
@@ -66,7 +86,7 @@ def fit_term(e: np.ndarray, noise_model: str, sse: np.ndarray | None = None, ove
     largest = float(eigenvalues[-1])
     if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
         return -math.inf, n_samples, n_samples, 0.0
-    logdet = math.fsum(np.log(eigenvalues))
+    logdet = math.fsum(np.log(eigenvalues)) + 2 * k * m * _LN2
     return n_samples * logdet, n_samples, n_samples, _exp(logdet)
 
 
@@ -83,7 +103,7 @@ def criteria(meas, pred, n_params, noise_model) -> dict:
     meas, pred = finite_pair(meas, pred)
     p = check_n_params(n_params)
     noise_model = check_noise_model(noise_model)
-    f, n, n_vec, size = fit_term(meas - pred, noise_model, overwrite=True)
+    f, n, n_vec, size = fit_term(meas - pred, noise_model)
     out = assemble(f, n_vec, n, p, size)
     out["n_obs"] = int(n)
     out["fit_term"] = float(f)

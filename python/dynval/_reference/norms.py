@@ -18,6 +18,11 @@ import numpy as np
 from .._validation import check_convention, check_multioutput
 from ._common import finite_pair
 
+# Below this, a sum of squares may hold terms that left float64's normal range (|x| < 2^-511
+# squares to a subnormal or to 0); at or above it, the terms lost cost less than 2^-270 of the
+# sum. Rows whose sum falls below it are summed again scaled by a power of two (contract §1.3).
+TINY_SUM = 2.0**-800
+
 # Values compared before a full min/max scan: data that vary show it within the first few.
 _CONSTANT_PROBE = 64
 # Rows transposed at a time: a block of this many rows of (N, m) data stays in cache.
@@ -61,6 +66,36 @@ def sumsq(rows: np.ndarray, overwrite: bool = False) -> np.ndarray:
     return rowsum(np.square(rows, out=rows if overwrite else None))
 
 
+def scale_exponents(rows: np.ndarray, sums: np.ndarray, live: np.ndarray | None = None) -> np.ndarray:
+    """Per row: k with max|row|·2^-k in [0.5, 1) where the row's sum of squares is below
+    TINY_SUM (and the row is ``live`` and not all zero), else 0. Scaling by 2^-k is exact."""
+    k = np.zeros(rows.shape[0], dtype=np.int64)
+    low = sums < TINY_SUM
+    if live is not None:
+        low &= live
+    for i in np.flatnonzero(low):
+        largest = float(np.max(np.abs(rows[i])))
+        if largest > 0.0:
+            k[i] = np.frexp(largest)[1]
+    return k
+
+
+def sumsq_scaled(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s, k) per row with Σx² = s·4^k: rows whose squares leave the normal range are summed
+    scaled by 2^-k, so s keeps full precision however small the data are."""
+    s = sumsq(rows)
+    k = scale_exponents(rows, s)
+    for i in np.flatnonzero(k):
+        s[i] = sumsq(np.ldexp(rows[i : i + 1], -k[i]), overwrite=True)[0]
+    return s, k
+
+
+def scaled_ratio(a, ka, b, kb):
+    """(a·4^ka)/(b·4^kb) without forming either value (which may underflow); IEEE for b = 0."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # IEEE ±inf and nan are the result
+        return np.ldexp(a / b, 2 * (np.asarray(ka) - np.asarray(kb)))
+
+
 def is_constant(rows: np.ndarray) -> np.ndarray:
     """Per row: min equals max, decided on the data (contract §3.2).
 
@@ -75,7 +110,17 @@ def is_constant(rows: np.ndarray) -> np.ndarray:
 
 
 def moments(rows: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per row: the mean, Σ(x − x̄)² and constancy, from two passes over the data.
+    """:func:`moments_scaled` with the centred sum of squares in the data's units (it may
+    underflow: the variance of data near 1e-170 is below float64's range)."""
+    mean, ss, constant, k = moments_scaled(rows, out)
+    return mean, np.ldexp(ss, 2 * k), constant
+
+
+def moments_scaled(rows: np.ndarray, out: np.ndarray | None = None):
+    """Per row: the mean, Σ(x − x̄)²·4^-k, constancy and k, from two passes over the data.
+
+    k is 0 unless the centred sum of squares left the normal range (data near 1e-160); the row
+    is then summed again scaled by 2^-k (exact), see :func:`scale_exponents`.
 
     ``out``, an array shaped like ``rows`` that the caller no longer needs (``rows`` itself
     included), receives the deviations instead of a new temporary.
@@ -89,13 +134,19 @@ def moments(rows: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray
     n = rows.shape[1]
     constant = is_constant(rows)
     first = rowsum(rows) / n
+    # A tiny row is summed again from the data, which must therefore survive as scratch.
+    if out is not None and np.may_share_memory(out, rows):
+        out = None
     d = np.subtract(rows, first[:, None], out=out)
     shift = rowsum(d)
     squares = sumsq(d, overwrite=True)
     # Σd² ≥ (Σd)²/n holds exactly; the clamp only absorbs rounding of near-equal terms.
     ss = np.maximum(squares - shift * shift / n, 0.0)
     ss[constant] = 0.0
-    return first + shift / n, ss, constant
+    k = scale_exponents(rows, ss, ~constant)
+    for i in np.flatnonzero(k):
+        _, ss[i : i + 1], _, _ = moments_scaled(np.ldexp(rows[i : i + 1], -k[i]))
+    return first + shift / n, ss, constant, k
 
 
 def centred(rows: np.ndarray) -> np.ndarray:
@@ -122,8 +173,10 @@ def sse(meas, pred, multioutput):
     meas, pred = finite_pair(meas, pred)
     check_multioutput(multioutput, ("pooled", "raw_values"), "sse")
     if multioutput == "pooled":
-        return float(sumsq(pooled(meas - pred), overwrite=True)[0])
-    return sumsq(joint_major(meas, minus=pred), overwrite=True)
+        s, k = sumsq_scaled(pooled(meas - pred))
+        return float(np.ldexp(s, 2 * k)[0])
+    s, k = sumsq_scaled(joint_major(meas, minus=pred))
+    return np.ldexp(s, 2 * k)
 
 
 def max_abs_error(meas, pred, multioutput):
@@ -144,10 +197,13 @@ def rmse(meas, pred, multioutput, convention=""):
     check_multioutput(multioutput, ("pooled", "raw_values", "uniform_average"), "rmse")
     convention = check_convention(convention, multioutput)
     n, m = meas.shape
+    # The root is taken in scaled units and scaled back: it does not underflow with the squares.
     if multioutput == "pooled":
-        total = sumsq(pooled(meas - pred), overwrite=True)[0]
-        return float(math.sqrt(total / n if convention == "per_sample" else total / (n * m)))
-    per_joint = np.sqrt(sumsq(joint_major(meas, minus=pred), overwrite=True) / n)
+        s, k = sumsq_scaled(pooled(meas - pred))
+        root = math.sqrt(s[0] / n if convention == "per_sample" else s[0] / (n * m))
+        return float(np.ldexp(root, k[0]))
+    s, k = sumsq_scaled(joint_major(meas, minus=pred))
+    per_joint = np.ldexp(np.sqrt(s / n), k)
     if multioutput == "raw_values":
         return per_joint
     return float(np.mean(per_joint))

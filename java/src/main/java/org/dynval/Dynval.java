@@ -198,12 +198,12 @@ public final class Dynval {
         Call call = pairCall("sse", signalPair("sse", tauMeas, tauPred), nanPolicy);
         String mo = call.check(() -> Checks.checkMultioutput(multioutput, SSE_OPTIONS, "sse"));
         if (mo.equals("pooled")) {
-            return MetricValue.aggregate(Kernels.sumSquares(flatResidual(call.data[0], call.data[1])));
+            return MetricValue.aggregate(Kernels.scaledSumSquares(flatResidual(call.data[0], call.data[1])).value());
         }
         double[][] e = residualColumns(call.data[0], call.data[1]);
         double[] out = new double[e.length];
         for (int j = 0; j < e.length; j++) {
-            out[j] = Kernels.sumSquares(e[j]);
+            out[j] = Kernels.scaledSumSquares(e[j]).value();
         }
         return MetricValue.perJoint(out);
     }
@@ -237,13 +237,13 @@ public final class Dynval {
         int n = call.n();
         int m = call.data[0].m();
         if (mo.equals("pooled")) {
-            double total = Kernels.sumSquares(flatResidual(call.data[0], call.data[1]));
-            return MetricValue.aggregate(Math.sqrt(conv.equals("per_sample") ? total / n : total / ((double) n * m)));
+            Kernels.ScaledSum total = Kernels.scaledSumSquares(flatResidual(call.data[0], call.data[1]));
+            return MetricValue.aggregate(total.rootMean(conv.equals("per_sample") ? n : (double) n * m));
         }
         double[][] e = residualColumns(call.data[0], call.data[1]);
         double[] out = new double[m];
         for (int j = 0; j < m; j++) {
-            out[j] = Math.sqrt(Kernels.sumSquares(e[j]) / n);
+            out[j] = Kernels.scaledSumSquares(e[j]).rootMean(n);
         }
         return mo.equals("raw_values") ? MetricValue.perJoint(out) : MetricValue.aggregate(mean(out));
     }
@@ -258,11 +258,13 @@ public final class Dynval {
     }
 
     /** Ingredients of vaf, fit_percent and r2 for one series (a joint, or all values pooled). */
-    private record FitParts(double sse, double sscE, boolean eConstant, double tss, boolean constant) {
+    /** Sums of squares are scaled (contract §1.3): ratios of tiny data keep their digits. */
+    private record FitParts(Kernels.ScaledSum sse, Kernels.ScaledSum sscE, boolean eConstant, Kernels.ScaledSum tss,
+            boolean constant) {
         static FitParts of(double[] target, double[] e) {
-            Kernels.Moments me = Kernels.moments(e);
-            Kernels.Moments mt = Kernels.moments(target);
-            return new FitParts(Kernels.sumSquares(e), me.ss(), me.constant(), mt.ss(), mt.constant());
+            Kernels.ScaledMoments me = Kernels.scaledMoments(e);
+            Kernels.ScaledMoments mt = Kernels.scaledMoments(target);
+            return new FitParts(Kernels.scaledSumSquares(e), me.ss(), me.constant(), mt.ss(), mt.constant());
         }
     }
 
@@ -270,16 +272,16 @@ public final class Dynval {
 
     private static double fitValue(FitMetric metric, FitParts p) {
         if (p.constant()) {
-            boolean exact = metric == FitMetric.VAF ? p.eConstant() : p.sse() == 0.0;
+            boolean exact = metric == FitMetric.VAF ? p.eConstant() : p.sse().s() == 0.0;
             return exact ? Double.NaN : Double.NEGATIVE_INFINITY;
         }
         switch (metric) {
             case VAF:
-                return 100.0 * (1.0 - p.sscE() / p.tss());
+                return 100.0 * (1.0 - Kernels.ScaledSum.ratio(p.sscE(), p.tss()));
             case FIT_PERCENT:
-                return 100.0 * (1.0 - Math.sqrt(p.sse() / p.tss()));
+                return 100.0 * (1.0 - Math.sqrt(Kernels.ScaledSum.ratio(p.sse(), p.tss())));
             default:
-                return 1.0 - p.sse() / p.tss();
+                return 1.0 - Kernels.ScaledSum.ratio(p.sse(), p.tss());
         }
     }
 
@@ -308,17 +310,25 @@ public final class Dynval {
             return MetricValue.aggregate(mean(values));
         }
         // variance_weighted: constant joints get weight 0; all constant -> the uniform average.
+        // Weights are the TSS at the largest live joint's scale (contract §1.3).
+        int top = Integer.MIN_VALUE;
+        for (int j = 0; j < m; j++) {
+            if (!parts[j].constant()) {
+                top = Math.max(top, parts[j].tss().k());
+            }
+        }
         double num = 0.0;
         double den = 0.0;
         boolean live = false;
         for (int j = 0; j < m; j++) {
             if (!parts[j].constant()) {
-                num += parts[j].tss() * values[j];
-                den += parts[j].tss();
+                double w = Math.scalb(parts[j].tss().s(), 2 * (parts[j].tss().k() - top));
+                num += w * values[j];
+                den += w;
                 live = true;
             }
         }
-        return MetricValue.aggregate(live ? num / den : mean(values));
+        return MetricValue.aggregate(live && den != 0.0 ? num / den : mean(values));
     }
 
     static MetricValue vafImpl(Object tauMeas, Object tauPred, Object multioutput, Object nanPolicy) {
@@ -340,7 +350,7 @@ public final class Dynval {
         double[][] cols = call.data[0].columns();
         double[] out = new double[cols.length];
         for (int j = 0; j < cols.length; j++) {
-            out[j] = Kernels.moments(cols[j]).mean();
+            out[j] = Kernels.scaledMoments(cols[j]).mean();
         }
         return out;
     }
@@ -354,7 +364,8 @@ public final class Dynval {
     private static double[] variances(double[][] cols, int ddof) {
         double[] out = new double[cols.length];
         for (int j = 0; j < cols.length; j++) {
-            out[j] = Kernels.moments(cols[j]).ss() / (cols[j].length - ddof);
+            Kernels.ScaledSum ss = Kernels.scaledMoments(cols[j]).ss();
+            out[j] = Math.scalb(ss.s() / (cols[j].length - ddof), 2 * ss.k());
         }
         return out;
     }
@@ -381,9 +392,13 @@ public final class Dynval {
         double[] dfEff = new double[m];
         double[] nEff = new double[m];
         for (int j = 0; j < m; j++) {
-            Kernels.Moments mo = Kernels.moments(cols[j]);
-            mean[j] = mo.mean();
-            std[j] = Math.sqrt(mo.ss() / (n - 1));
+            // t is a ratio: computed on the series scaled by a power of two (contract §1.3).
+            int scale = Kernels.scaleExponent(cols[j]);
+            Kernels.Moments mo = Kernels.moments(Kernels.scaled(cols[j], scale));
+            double meanScaled = mo.mean();
+            double stdScaled = Math.sqrt(mo.ss() / (n - 1));
+            mean[j] = Math.scalb(meanScaled, scale);
+            std[j] = Math.scalb(stdScaled, scale);
             double total = 0.0;
             if (kUsed > 0) {
                 double[] rho = Kernels.biasedRho(cols[j], kUsed, call.starts);
@@ -399,8 +414,8 @@ public final class Dynval {
             }
             nEff[j] = ne;
             dfEff[j] = ne - 1.0;
-            tIid[j] = mean[j] * Math.sqrt(n) / std[j];
-            tEff[j] = mean[j] * Math.sqrt(ne) / std[j];
+            tIid[j] = meanScaled * Math.sqrt(n) / stdScaled;
+            tEff[j] = meanScaled * Math.sqrt(ne) / stdScaled;
             pIid[j] = Special.studentTwoSided(tIid[j], n - 1);
             pEff[j] = Special.studentTwoSided(tEff[j], ne - 1.0);
         }
@@ -504,7 +519,8 @@ public final class Dynval {
                     continue;
                 }
                 double[] s = Kernels.laggedProducts(ce.d(), cy.d(), lagMax, call.starts);
-                double scale = Math.sqrt((ce.ss() / nn) * (cy.ss() / nn));
+                // Two roots, not the root of the product (contract §1.3).
+                double scale = Math.sqrt(ce.ss() / nn) * Math.sqrt(cy.ss() / nn);
                 for (int lag = 0; lag <= lagMax; lag++) {
                     rho[j][c][lag] = (s[lag] / den[lag]) / scale;
                 }
@@ -556,24 +572,31 @@ public final class Dynval {
         int n = call.n();
         int m = e.length;
         if (model.equals("pooled")) {
-            double total = Kernels.sumSquares(flatResidual(call.data[0], call.data[1]));
+            Kernels.ScaledSum total = Kernels.scaledSumSquares(flatResidual(call.data[0], call.data[1]));
             long nv = (long) n * m;
-            double variance = total / nv;
-            return assemble(nLog(nv, variance), nv, nv, p, variance, model);
+            if (total.s() == 0.0) {
+                return assemble(Double.NEGATIVE_INFINITY, nv, nv, p, 0.0, model);
+            }
+            return assemble(nv * total.logMean(nv), nv, nv, p, Math.scalb(total.s() / nv, 2 * total.k()), model);
         }
         if (model.equals("per_joint")) {
             double[] logs = new double[m];
             for (int j = 0; j < m; j++) {
-                double variance = Kernels.sumSquares(e[j]) / n;
-                if (variance == 0.0) {
+                Kernels.ScaledSum sse = Kernels.scaledSumSquares(e[j]);
+                if (sse.s() == 0.0) {
                     return assemble(Double.NEGATIVE_INFINITY, n, n, p, 0.0, model);
                 }
-                logs[j] = Math.log(variance);
+                logs[j] = sse.logMean(n);
             }
             double logSize = Kernels.sum(logs);
             return assemble(n * logSize, n, n, p, Math.exp(logSize), model);
         }
-        // full: Σ̂ = EᵀE/N (m×m, not demeaned); singular by numpy's matrix_rank tolerance.
+        // full: Σ̂ = EᵀE/N (m×m, not demeaned); singular by numpy's matrix_rank tolerance. E is
+        // scaled by one power of two for every joint (eigenvalue ratios stay; ln det gains 2k·m·ln 2).
+        int scale = Kernels.scaleExponent(flatResidual(call.data[0], call.data[1]));
+        for (int j = 0; j < m; j++) {
+            e[j] = Kernels.scaled(e[j], scale);
+        }
         double[][] sigma = new double[m][m];
         double[] products = new double[n];
         for (int a = 0; a < m; a++) {
@@ -594,7 +617,7 @@ public final class Dynval {
         for (int i = 0; i < m; i++) {
             logs[i] = Math.log(eig[i]);
         }
-        double logDet = Kernels.sum(logs);
+        double logDet = Kernels.sum(logs) + 2.0 * scale * m * Math.log(2.0);
         return assemble(n * logDet, n, n, p, Math.exp(logDet), model);
     }
 

@@ -35,6 +35,69 @@ final class Kernels {
         return s + c;
     }
 
+    /**
+     * Exponent k with max|x|·2^-k in [0.5, 1), 0 for an all-zero series (contract §1.3): x·2^-k
+     * squares without underflow or overflow, and the scaling is exact.
+     */
+    static int scaleExponent(double[] x) {
+        double big = 0.0;
+        for (double v : x) {
+            big = Math.max(big, Math.abs(v));
+        }
+        if (big == 0.0) {
+            return 0;
+        }
+        // getExponent is −1023 for every subnormal: measure those after an exact shift.
+        return big >= Double.MIN_NORMAL ? Math.getExponent(big) + 1 : Math.getExponent(Math.scalb(big, 64)) + 1 - 64;
+    }
+
+    /** x·2^-k (exact: one rounding-free scalb per value). */
+    static double[] scaled(double[] x, int k) {
+        double[] out = new double[x.length];
+        for (int i = 0; i < x.length; i++) {
+            out[i] = Math.scalb(x[i], -k);
+        }
+        return out;
+    }
+
+    /** A sum of squares carried as {@code s}·4^k, so that it keeps its digits for tiny data. */
+    record ScaledSum(double s, int k) {
+        double value() {
+            return Math.scalb(s, 2 * k);
+        }
+
+        /** √(s/d)·2^k: a root mean square scaled back after the root. */
+        double rootMean(double d) {
+            return Math.scalb(Math.sqrt(s / d), k);
+        }
+
+        /** ln(s·4^k / d) without forming s·4^k. */
+        double logMean(double d) {
+            return Math.log(s / d) + 2.0 * k * Math.log(2.0);
+        }
+
+        /** a / b, exact in the exponents (IEEE ±inf and nan for b = 0). */
+        static double ratio(ScaledSum a, ScaledSum b) {
+            return Math.scalb(a.s() / b.s(), 2 * (a.k() - b.k()));
+        }
+    }
+
+    /** Σx² of x scaled by a power of two near its largest |x|. */
+    static ScaledSum scaledSumSquares(double[] x) {
+        int k = scaleExponent(x);
+        return new ScaledSum(sumSquares(scaled(x, k)), k);
+    }
+
+    /** Mean (in the data's units) and centred sum of squares (scaled) of one series. */
+    record ScaledMoments(double mean, ScaledSum ss, boolean constant) {
+    }
+
+    static ScaledMoments scaledMoments(double[] x) {
+        int k = scaleExponent(x);
+        Moments mo = moments(scaled(x, k));
+        return new ScaledMoments(Math.scalb(mo.mean(), k), new ScaledSum(mo.ss(), k), mo.constant());
+    }
+
     /** Min equals max: decided on the data, not on a rounded sum of squares (contract §3.2). */
     static boolean isConstant(double[] x) {
         double lo = x[0];
@@ -120,14 +183,16 @@ final class Kernels {
     record Centred(double[] d, double ss, boolean constant) {
     }
 
-    static Centred centredAndSs(double[] x) {
+    /** Centred (and scaled by a power of two: correlations do not depend on the scale) series. */
+    static Centred centredAndSs(double[] raw) {
+        double[] x = scaled(raw, scaleExponent(raw));
         boolean constant = isConstant(x);
         double[] d = centred(x);
         double ss = constant ? 0.0 : sumSquares(d);
         return new Centred(d, ss, constant);
     }
 
-    /** ρ̂(ℓ) of one joint, ℓ = 0..maxLag; nan throughout for a constant series or one whose Σd² underflows. */
+    /** ρ̂(ℓ) of one joint, ℓ = 0..maxLag; nan throughout for a constant series. */
     static double[] autocorrelation(double[] x, int maxLag, boolean adjusted, int[] starts) {
         int n = x.length;
         Centred c = centredAndSs(x);

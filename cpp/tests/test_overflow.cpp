@@ -1,0 +1,114 @@
+// Sizes and counts that do not fit in 64 bits: the public C++ API rejects them with the contract's
+// InvalidParameter instead of wrapping and reading out of bounds.
+#include <dynval/dynval.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace {
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+constexpr long long big = std::numeric_limits<long long>::max();
+
+Eigen::MatrixXd ramp(Eigen::Index rows, Eigen::Index cols) {
+    Eigen::MatrixXd a(rows, cols);
+    for (Eigen::Index i = 0; i < rows; ++i)
+        for (Eigen::Index j = 0; j < cols; ++j) a(i, j) = std::sin(0.3 * static_cast<double>(i * cols + j));
+    return a;
+}
+
+TEST(CheckedArithmetic, ProductsAndSums) {
+    using dynval::detail::checked_add;
+    using dynval::detail::checked_mul;
+    EXPECT_EQ(checked_mul(6, 7), 42);
+    EXPECT_EQ(checked_mul(0, big), 0);
+    EXPECT_EQ(checked_mul(big, 1), big);
+    EXPECT_FALSE(checked_mul((1LL << 62) + 1, 4).has_value());
+    EXPECT_FALSE(checked_mul(big, 2).has_value());
+    EXPECT_FALSE(checked_mul(-big, 2).has_value());
+    EXPECT_EQ(checked_mul(-3, 5), -15);
+    EXPECT_EQ(checked_add(big - 1, 1), big);
+    EXPECT_FALSE(checked_add(big, 1).has_value());
+    EXPECT_FALSE(checked_add(-big, -2).has_value());
+}
+
+// 2^62 + 1 columns on 4 joints: the product wraps to 4 = the regressor's column count.
+TEST(Overflow, CrossCorrelationColumnCountProduct) {
+    const Eigen::MatrixXd e = ramp(12, 4), y = ramp(12, 4);
+    try {
+        dynval::cross_correlation(e, y, (1LL << 62) + 1, 0);
+        FAIL() << "accepted n_columns = 2^62 + 1";
+    } catch (const dynval::input_error& err) {
+        EXPECT_EQ(err.kind(), dynval::error_kind::InvalidParameter);
+        EXPECT_EQ(std::string(err.what()),
+                  "n_columns must be a positive integer with m*n_columns = 4, got 4611686018427387905");
+    }
+}
+
+// Lengths (2^63 − 1) + (2^63 − 1) + 12 wrap to 10 = N.
+TEST(Overflow, SegmentLengthsThatWrapToN) {
+    const std::vector<long long> lengths{big, big, 12};
+    const Eigen::MatrixXd col_major = ramp(10, 2);
+    const RowMatrix row_major = col_major;
+    for (int layout = 0; layout < 2; ++layout) {
+        try {
+            if (layout == 0) dynval::autocorrelation(col_major, 1, true, lengths);
+            else dynval::autocorrelation(row_major, 1, true, lengths);
+            FAIL() << "accepted lengths whose sum wraps to N";
+        } catch (const dynval::input_error& err) {
+            EXPECT_EQ(err.kind(), dynval::error_kind::InvalidParameter) << err.what();
+        }
+    }
+    EXPECT_THROW(dynval::ljung_box(col_major, std::vector<long long>{1}, 0, lengths), dynval::invalid_parameter);
+    EXPECT_THROW(dynval::cross_correlation(col_major, col_major, 1, 0, true, lengths), dynval::invalid_parameter);
+    EXPECT_THROW(dynval::segment_starts(lengths, 10), dynval::invalid_parameter);
+    // A length sum that wraps to a negative value is rejected too, not read as a short record.
+    EXPECT_THROW(dynval::segment_starts(std::vector<long long>{big, 2}, 10), dynval::invalid_parameter);
+}
+
+// The streaming accumulator's buffers are (max_lag + 1)·m cells: a product that does not fit is
+// refused before anything is allocated.
+TEST(Overflow, LagAccumulatorBufferSize) {
+    EXPECT_THROW(dynval::lag_accumulator(4, (1LL << 62)), std::length_error);
+    EXPECT_THROW(dynval::lag_accumulator(1, big), std::length_error);
+}
+
+// Found by tests/test_fuzz.py: first_nonfinite of an (N, 0) array took the maxCoeff of an empty
+// block (undefined; a segfault through _core.first_nonfinite).
+TEST(EmptyInput, FirstNonfiniteOfNoColumns) {
+    const Eigen::MatrixXd none(5, 0);
+    EXPECT_FALSE(dynval::first_nonfinite(none).has_value());
+    const Eigen::MatrixXd empty(0, 0);
+    EXPECT_FALSE(dynval::first_nonfinite(empty).has_value());
+}
+
+// Neumaier's carry is inf − inf = nan once an infinite term is added: the sum is the IEEE one.
+TEST(Compensated, InfiniteTermsGiveTheIeeeSum) {
+    dynval::detail::compensated s;
+    s.add(1.0);
+    s.add(-std::numeric_limits<double>::infinity());
+    EXPECT_EQ(s.value(), -std::numeric_limits<double>::infinity());
+}
+
+// Data whose squares underflow (contract §1.3): the same R² and a scaled-back RMSE.
+TEST(Scale, TinyDataKeepTheirDigits) {
+    const Eigen::MatrixXd t = ramp(40, 2), p = 0.9 * ramp(40, 2).array() + 0.01;
+    for (double s : {1e-162, 1e-310, 1e80, 1e-80}) {
+        const Eigen::MatrixXd ts = t * s, ps = p * s;
+        const double tol = s < 1e-300 ? 1e-9 : 1e-13;  // subnormal data hold fewer digits themselves
+        EXPECT_NEAR(dynval::r2(ts, ps).value, dynval::r2(t, p).value, tol) << s;
+        EXPECT_NEAR(dynval::rmse(ts, ps).value / s, dynval::rmse(t, p).value, tol * dynval::rmse(t, p).value) << s;
+        const auto q = dynval::box_pierce(Eigen::MatrixXd(ts - ps), std::vector<long long>{5});
+        const auto q1 = dynval::box_pierce(Eigen::MatrixXd(t - p), std::vector<long long>{5});
+        EXPECT_NEAR(q.statistic(0, 0), q1.statistic(0, 0), 1e3 * tol * q1.statistic(0, 0)) << s;
+        const auto x = dynval::cross_correlation(Eigen::MatrixXd(ts - ps), ts, 1, 2);
+        const auto x1 = dynval::cross_correlation(Eigen::MatrixXd(t - p), t, 1, 2);
+        EXPECT_NEAR((x.rho - x1.rho).cwiseAbs().maxCoeff(), 0.0, 10 * tol) << s;
+    }
+}
+
+}  // namespace
