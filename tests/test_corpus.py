@@ -128,7 +128,7 @@ def test_every_operation_and_error_kind_is_covered():
                                   "RmsePerElement", "RmsePerSample", "DdofConvention", "AdjustedAcf", "BiasedAcf",
                                   "Segments", "SegmentStarts", "ModelDf", "SeveralLags", "ConstantColumn",
                                   "NoiseModel", "MinimumSamples", "ConstantTarget", "ExactFit", "TinyPValue",
-                                  "NistStrd", "NanOmit", "StackedRegressor"])
+                                  "NistStrd", "NanOmit", "StackedRegressor", "ExtremeScale"])
 def test_required_case_present(flag):
     assert any(flag in c.flags for c in ALL)
 
@@ -234,6 +234,24 @@ def _selected(operation, flag, **conventions):
             and all(c.conventions.get(k) == v for k, v in conventions.items())]
 
 
+def test_extreme_scale_needs_scaling_before_squaring():
+    # R² is scale-free: the two-pass formula on data divided by a power of two near their largest
+    # value meets every ExtremeScale vector; on the raw data it fails some (squares leave float64)
+    cases = [c for c in _selected("r2", "ExtremeScale", multioutput="raw_values")
+             if c.conventions.get("nan_policy") == "raise"]
+    assert cases
+    unscaled_failures = 0
+    for case in cases:
+        t = np.atleast_2d(case.inputs["tau_meas"].T).T
+        p = np.atleast_2d(case.inputs["tau_pred"].T).T
+        k = np.frexp(np.max(np.abs(t), axis=0))[1]
+        ok, detail = check_case(case, outputs={"value": _two_pass_r2(np.ldexp(t, -k), np.ldexp(p, -k))})
+        assert ok, f"{case.id}: {detail}"
+        with np.errstate(all="ignore"):
+            unscaled_failures += not check_case(case, outputs={"value": _two_pass_r2(t, p)})[0]
+    assert unscaled_failures > 0
+
+
 def test_large_offset_separates_two_pass_from_naive_r2():
     cases = _selected("r2", "LargeOffset", multioutput="raw_values")
     assert cases
@@ -260,7 +278,8 @@ def test_two_pass_r2_passes_every_plain_vector():
     for case in ALL:
         if case.operation == "r2" and case.conventions.get("multioutput") == "raw_values" \
                 and case.conventions.get("nan_policy") == "raise" and not {"ConstantTarget", "ConstantJoint",
-                                                                            "AllJointsConstant"} & set(case.flags):
+                                                                            "AllJointsConstant",
+                                                                            "ExtremeScale"} & set(case.flags):
             t = np.atleast_2d(case.inputs["tau_meas"].T).T
             p = np.atleast_2d(case.inputs["tau_pred"].T).T
             ok, detail = check_case(case, outputs={"value": _two_pass_r2(t, p)})
@@ -288,7 +307,8 @@ def test_r2_matches_scikit_learn():
         mo = case.conventions.get("multioutput")
         if case.operation != "r2" or case.result != "valid" or case.conventions.get("nan_policy") != "raise" \
                 or mo == "pooled" \
-                or {"ConstantTarget", "ConstantJoint", "AllJointsConstant", "LargeOffset"} & set(case.flags):
+                or {"ConstantTarget", "ConstantJoint", "AllJointsConstant", "LargeOffset",
+                    "ExtremeScale"} & set(case.flags):
             continue
         t, p = case.inputs["tau_meas"], case.inputs["tau_pred"]
         t = t.reshape(t.shape[0], -1)
@@ -305,7 +325,7 @@ def test_portmanteau_matches_statsmodels():
     checked = 0
     for case in ALL:
         if case.operation != "ljung_box" or case.result != "valid" or case.conventions["segments"] is not None \
-                or {"LargeOffset", "ConstantResidual", "TinyPValue"} & set(case.flags):
+                or {"LargeOffset", "ConstantResidual", "TinyPValue", "ExtremeScale"} & set(case.flags):
             continue
         lags = np.atleast_1d(case.inputs["lags"])
         e = case.inputs["e"]

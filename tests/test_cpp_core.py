@@ -311,14 +311,15 @@ def test_cross_correlation_column_count_that_wraps_is_refused():
     # (2^62 + 1)·4 wraps to 4, the regressor's column count: the product must be checked.
     e = np.sin(np.arange(48.0)).reshape(12, 4)
     y = np.cos(np.arange(48.0)).reshape(12, 4)
-    with pytest.raises(dynval.InvalidParameter, match=r"^n_columns must be a positive integer with m\*n_columns = 4, got 4611686018427387905$"):
+    message = r"^n_columns must be a positive integer with m\*n_columns = 4, got 4611686018427387905$"
+    with pytest.raises(dynval.InvalidParameter, match=message):
         _core.cross_correlation(e, y, 2**62 + 1, 0, True, np.array([0]))
 
 
 @pytest.mark.parametrize("n_columns", [2**63 - 1, -(2**62) - 1, 2**62, 2**63 // 4 + 1])
 def test_cross_correlation_huge_column_counts_are_parameter_errors(n_columns):
     e = np.sin(np.arange(48.0)).reshape(12, 4)
-    with pytest.raises(dynval.InvalidParameter, match="^n_columns must be"):
+    with pytest.raises(dynval.InvalidParameter, match=r"^n_columns must be"):
         _core.cross_correlation(e, e, n_columns, 0, True, np.array([0]))
 
 
@@ -329,5 +330,5 @@ def test_lags_beyond_64_bits_are_parameter_errors(lags):
     # beyond it escaped as pybind11's RuntimeError.
     e = np.sin(np.arange(40.0)).reshape(20, 2)
     for kernel in (_core, ref):
-        with pytest.raises(dynval.InvalidParameter, match="^lags must be"):
+        with pytest.raises(dynval.InvalidParameter, match=r"^lags must be"):
             kernel.portmanteau(e, lags, 0, np.array([0]), "ljung_box")

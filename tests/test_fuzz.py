@@ -191,7 +191,8 @@ def _shapes_match(a, b):
         assert a.keys() == b.keys()
         for k in a:
             _shapes_match(a[k], b[k])
-    elif not isinstance(a, (str, type(None))) and not (isinstance(a, list) and a and isinstance(a[0], (dict, tuple, list))):
+    elif not isinstance(a, (str, type(None))) \
+            and not (isinstance(a, list) and a and isinstance(a[0], (dict, tuple, list))):
         assert np.shape(a) == np.shape(b)
 
 
@@ -212,7 +213,8 @@ def _public_calls(tau, pred, y, extra):
         "zero_mean_test": lambda b: dynval.zero_mean_test(tau, segments=seg, backend=b),
         "autocorrelation": lambda b: dynval.autocorrelation(tau, lag, segments=seg, backend=b),
         "ljung_box": lambda b: dynval.ljung_box(tau, lag, segments=seg, backend=b),
-        "box_pierce": lambda b: dynval.box_pierce(tau, [1, lag] if isinstance(lag, int) else lag, segments=seg, backend=b),
+        "box_pierce": lambda b: dynval.box_pierce(tau, [1, lag] if isinstance(lag, int) else lag, segments=seg,
+                                                  backend=b),
         "cross_correlation": lambda b: dynval.cross_correlation(tau, y, lag, n_joints=n_joints, segments=seg,
                                                             backend=b).rho,
         "criteria": lambda b: dynval.criteria(tau, pred, n_params=2, noise_model="per_joint", backend=b),
@@ -256,7 +258,8 @@ def _tame(arrays) -> bool:
             continue
         spread = x.max(axis=0) - x.min(axis=0)
         big = np.abs(x).max(axis=0)
-        if not np.all(np.isfinite(x)) or np.any(spread < 1e-6 * big) or np.any(big > 1e130) or np.any((big > 0) & (big < 1e-300)):
+        if not np.all(np.isfinite(x)) or np.any(spread < 1e-6 * big) or np.any(big > 1e130) \
+                or np.any((big > 0) & (big < 1e-300)):
             return False
     return True
 

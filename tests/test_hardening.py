@@ -160,7 +160,7 @@ def test_core_rss_beyond_float64_is_an_invalid_parameter():
         pytest.skip("needs the compiled backend")
     from dynval import _core
 
-    with pytest.raises(dynval.InvalidParameter, match="^rss must be a finite number >= 0"):
+    with pytest.raises(dynval.InvalidParameter, match=r"^rss must be a finite number >= 0"):
         _core.information_criteria(10**400, 100, 2)
 
 
@@ -188,6 +188,6 @@ def test_masked_arrays_are_refused(call, backend):
 def test_huge_segment_sequences_are_refused_promptly(segments, backend):
     e = np.sin(np.arange(50.0))
     start = time.perf_counter()
-    with pytest.raises(dynval.InvalidParameter, match="^segments must be"):
+    with pytest.raises(dynval.InvalidParameter, match=r"^segments must be"):
         dynval.autocorrelation(e, 2, segments=segments, backend=backend)
     assert time.perf_counter() - start < 1.0

@@ -30,7 +30,8 @@ def ic_terms(fit: mpf, n: int, nvec: int, size: mpf, p: int, raise_near: bool) -
     base = abs(fit) + n
     tol = {"aic": RTOL * f64(base + 2 * p), "bic": RTOL * f64(base + abs(p * mpmath.log(n))),
            "aicc": RTOL * f64(base + 2 * p + (0 if p >= n - 1 else abs(aicc - aic))),
-           "fpe": 0.0 if mpmath.isnan(fpe) else RTOL * f64(abs(fpe)),
+           # an fpe beyond float64's range is +inf exactly: compared for equality, not within inf
+           "fpe": 0.0 if mpmath.isnan(fpe) or mpmath.isinf(f64(fpe)) else RTOL * f64(abs(fpe)),
            "naic": RTOL * f64(abs(fit) / nvec + 1 + mpf(2 * p) / n)}
     return {"aic": aic, "bic": bic, "aicc": aicc, "fpe": fpe, "naic": naic}, tol
 

@@ -524,13 +524,17 @@ def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_mode
     ssc_e = mo.cov_e[0]
     sse = ssc_e + n * mo.mean_e * mo.mean_e  # both terms ≥ 0: nothing cancels
     sse_total = float(np.sum(sse))
-    parts = {"sse": sse, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant}
+    # The streamed sums are not rescaled (contract §8): their scale exponents are 0.
+    k0 = np.zeros(m, dtype=np.int64)
+    parts = {"sse": sse, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant,
+             "sse_exp": k0, "tss_exp": k0, "ssc_e_exp": k0}
     t_flat = bool(st.min_t.min() == st.max_t.max())
     e_flat = bool(st.min_e.min() == st.max_e.max())
     tss_pooled = _pooled_ss(mo.tss, st.k_t, st.sum_t.value() / n, n, t_flat)
     ssc_pooled = _pooled_ss(ssc_e, st.k_e, st.cur_e.value()[0] / n, n, e_flat)
     flat = {"sse": np.array([sse_total]), "tss": np.array([tss_pooled]), "ssc_e": np.array([ssc_pooled]),
-            "constant": np.array([t_flat]), "e_constant": np.array([e_flat])}
+            "constant": np.array([t_flat]), "e_constant": np.array([e_flat]),
+            "sse_exp": k0[:1], "tss_exp": k0[:1], "ssc_e_exp": k0[:1]}
     rmse = np.sqrt(sse / n)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
     max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))

@@ -14,8 +14,7 @@ import numpy as np
 from .._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
 from .fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from .information import assemble, fit_term
-from .information import _pooled_sum
+from .information import _pooled_sum, assemble, fit_term
 from .norms import joint_major, moments_scaled, pooled, sumsq
 
 
