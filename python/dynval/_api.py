@@ -340,7 +340,7 @@ def rmse(tau_meas: ArrayLike, tau_pred: ArrayLike, *,
     >>> dynval.rmse([[1.0, 1.0], [1.0, 1.0]], [[0.0, 0.0], [0.0, 0.0]])
     1.0
 
-    SSE = 0 gives 0 (contract §3.2):
+    An exact fit (SSE = 0) gives 0 (contract §3.2):
 
     >>> dynval.rmse([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
     0.0

@@ -178,6 +178,13 @@ def compare(
     ...                      sample_rate=100.0)
     >>> cmp.ranking, cmp.verdict.decision
     (['friction', 'linear'], 'accept')
+
+    A candidate that reproduces the measurement exactly (SSE = 0) has AIC −inf and ranks first;
+    every other is +inf behind it:
+
+    >>> cmp = dynval.compare(tau, {"linear": (3.0 * x, 1), "exact": (tau, 2)}, sample_rate=100.0)
+    >>> cmp.ranking, cmp.verdict.reasons[-1]
+    (['exact', 'linear'], 'linear: Δaic = +inf')
     """
     if not isinstance(candidates, dict) or not candidates:
         raise v.parameter_error("candidates", "a non-empty mapping of names to (prediction, n_params[, regressor])",

@@ -114,7 +114,7 @@ def error_class(kind: str) -> type[InputError]:
     >>> error_class("TooFewSamples").__name__
     'TooFewSamples'
 
-    The base class is not a contract kind:
+    An unknown kind is a KeyError; the base class is not a contract kind:
 
     >>> error_class("InputError")
     Traceback (most recent call last):

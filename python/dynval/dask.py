@@ -59,8 +59,11 @@ def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, 
     tau_meas, tau_pred : dask or numpy array, (N,) or (N, m)
         Chunked along time; columns are gathered into one chunk per block.
     n_params : int
+        Number of identified parameters p.
     regressor : dask or numpy array, (N, m, p) or (N·m, p) with ``n_joints``, optional
         Rechunked along time to the torques' blocks.
+    n_joints : int, optional
+        Number of joints m, needed for a stacked ``(N·m, p)`` regressor.
     segments : lengths or starts, optional
         Independent records (contract §1.1): N is known here, so segments are given as to
         ``validate``; each block gets the breaks that fall in it.
@@ -69,6 +72,11 @@ def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, 
     **keywords
         The other keywords of :class:`~dynval.stream.ValidationAccumulator` (``max_lag``,
         ``profile``, ``level``, ``noise_model``, ``nan_policy``, names, ...).
+
+    Returns
+    -------
+    ValidationReport
+        Equal to ``dynval.validate`` on the whole arrays within 1e-14 for the streamed sections.
 
     Examples
     --------
@@ -90,7 +98,32 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
                segments: SegmentsLike = None, split_every: int | dict[int, int] | None = None,
                **keywords: Any) -> ValidationAccumulator:
     """The merged :class:`~dynval.stream.ValidationAccumulator` of :func:`validate` (merge it with
-    accumulators of later data, or call ``.result()``)."""
+    accumulators of later data, or call ``.result()``).
+
+    Parameters
+    ----------
+    tau_meas, tau_pred, n_params, regressor, n_joints, segments, split_every, **keywords
+        As for :func:`validate`.
+
+    Returns
+    -------
+    ValidationAccumulator
+
+    Examples
+    --------
+    >>> import dask.array as da, numpy as np, dynval.dask
+    >>> tau = np.sin(np.arange(300.0)); pred = tau + 0.01 * np.cos(np.arange(300.0))
+    >>> acc = dynval.dask.accumulate(da.from_array(tau, chunks=100), da.from_array(pred, chunks=100),
+    ...                              n_params=1, max_lag=3)
+    >>> acc.n_samples
+    300
+
+    A single block needs no merge and gives the same accumulator:
+
+    >>> dynval.dask.accumulate(da.from_array(tau, chunks=300), da.from_array(pred, chunks=300),
+    ...                        n_params=1, max_lag=3).n_samples
+    300
+    """
     keywords = dict(keywords, n_params=n_params, n_joints=n_joints)
     ValidationAccumulator(**keywords)  # the settings are checked here, once, before any work
     meas, pred, reg = _aligned(tau_meas, tau_pred, regressor, n_joints)

@@ -388,7 +388,11 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     >>> import numpy as np
     >>> from dynval.identify import identify
     >>> x = np.arange(6.0)
-    >>> Y = np.column_stack([np.ones(6), x, 2 * x])          # the third column repeats the second
+
+    A rank-deficient regressor (its third column repeats the second) is identified on its base
+    parameters, whose names say which combination each one is:
+
+    >>> Y = np.column_stack([np.ones(6), x, 2 * x])
     >>> res = identify(Y, 1.0 + 3.0 * x, column_names=["a", "b", "c"])
     >>> res.rank, res.base_names
     (2, ('a', 'b + 2*c'))

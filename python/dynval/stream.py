@@ -197,11 +197,40 @@ class ValidationAccumulator:
 
     def update(self, tau_meas_chunk: ArrayLike, tau_pred_chunk: ArrayLike,
                regressor_chunk: ArrayLike | None = None) -> None:
-        """Add the next rows: ``(c,)`` or ``(c, m)`` torques and, if any, the ``(c, m, p)`` or
-        ``(c·m, p)`` regressor (with ``n_joints``). Every chunk must have the same m (and p, and a
-        regressor either always or never); errors name the chunk, counted from 0. A rejected chunk
-        leaves the accumulator unchanged. Chunks of any length (1 row, fewer rows than max_lag, 0)
-        are fine: lags join across chunk boundaries.
+        """Add the next rows.
+
+        Every chunk must have the same m (and p, and a regressor either always or never); errors
+        name the chunk, counted from 0. A rejected chunk leaves the accumulator unchanged. Chunks
+        of any length (1 row, fewer rows than max_lag, 0) are fine: lags join across chunk
+        boundaries.
+
+        Parameters
+        ----------
+        tau_meas_chunk, tau_pred_chunk : array_like, (c,) or (c, m)
+            The next c rows of measured and predicted torque.
+        regressor_chunk : array_like, (c, m, p) or (c·m, p) with ``n_joints``, optional
+            The regressor's rows, for the cross-correlation section.
+
+        Returns
+        -------
+        None
+
+        Examples
+        --------
+        >>> acc = ValidationAccumulator(n_params=1, max_lag=1)
+        >>> acc.update([1.0, 2.0, 3.0], [1.1, 1.9, 3.2])
+        >>> acc.n_samples
+        3
+
+        An empty chunk adds nothing, and a chunk of the wrong width is refused, naming the chunk:
+
+        >>> acc.update(np.empty(0), np.empty(0))
+        >>> acc.update([[1.0, 2.0]], [[1.0, 2.0]])
+        Traceback (most recent call last):
+            ...
+        dynval._errors.ShapeMismatch: chunk 2: tau_meas must have m=1 columns like the chunks before it, ...
+        >>> acc.n_samples
+        3
         """
         self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, ())
 
@@ -224,7 +253,26 @@ class ValidationAccumulator:
 
     def break_segment(self) -> None:
         """End the current segment: no lagged product joins the rows before and after this call
-        (contract §1.1; means stay overall). Repeated breaks make no empty segment."""
+        (contract §1.1; means stay overall).
+
+        Returns
+        -------
+        None
+
+        Examples
+        --------
+        >>> acc = ValidationAccumulator(n_params=1, max_lag=1)
+        >>> acc.update([1.0, 2.0, 3.0], [1.1, 1.9, 3.2])
+        >>> acc.break_segment()
+        >>> acc.update([4.0, 5.0], [3.9, 5.1])
+
+        Repeated breaks make no empty segment:
+
+        >>> acc.break_segment(); acc.break_segment()
+        >>> acc.update([6.0, 7.0], [6.1, 6.8])
+        >>> acc.result().provenance["segments"]
+        [3, 2, 2]
+        """
         self._flush()
         if self._state is None:
             self._break_first = True
@@ -238,6 +286,32 @@ class ValidationAccumulator:
         started, with :meth:`break_segment`. ``other`` is not modified. Both need equal settings
         and the same m (and p). ``(a.merge(b)).merge(c)`` and ``a.merge(b.copy().merge(c))`` give
         the same report.
+
+        Parameters
+        ----------
+        other : ValidationAccumulator
+            Built with the same settings, holding data of the same m and p.
+
+        Returns
+        -------
+        ValidationAccumulator
+            ``self``, now holding both.
+
+        Examples
+        --------
+        >>> import dynval
+        >>> tau = np.sin(np.arange(200.0)); pred = tau + 0.1 * np.cos(np.arange(200.0) * 0.7)
+        >>> a = ValidationAccumulator(n_params=1, max_lag=5); a.update(tau[:120], pred[:120])
+        >>> b = ValidationAccumulator(n_params=1, max_lag=5); b.update(tau[120:], pred[120:])
+        >>> whole = dynval.validate(tau, pred, n_params=1, max_lag=5)
+        >>> rho = a.merge(b).result().autocorrelation["rho"]
+        >>> bool(np.max(np.abs(rho - whole.autocorrelation["rho"])) < 1e-14)
+        True
+
+        An empty accumulator merges as nothing:
+
+        >>> a.merge(ValidationAccumulator(n_params=1, max_lag=5)).n_samples
+        200
         """
         if not isinstance(other, ValidationAccumulator):
             raise v.parameter_error("other", "a ValidationAccumulator", type(other).__name__)
@@ -269,6 +343,25 @@ class ValidationAccumulator:
 
         Raises TooFewSamples below 2 rows (or N < m without ``allow_wide``) and InvalidParameter
         when an explicit ``max_lag`` is not below the longest segment (contract §2.1 texts).
+
+        Returns
+        -------
+        ValidationReport
+            The sections ``validate`` gives, some partial or None (contract §4.1).
+
+        Examples
+        --------
+        >>> acc = ValidationAccumulator(n_params=1, max_lag=1)
+        >>> acc.update([1.0, 2.0, 3.0], [1.1, 1.9, 3.2])
+        >>> round(float(acc.result().per_joint["rmse"][0]), 6)
+        0.141421
+
+        With fewer than 2 rows there is no report:
+
+        >>> ValidationAccumulator(n_params=1).result()
+        Traceback (most recent call last):
+            ...
+        dynval._errors.TooFewSamples: ValidationAccumulator.result needs at least 2 samples, got N=0
         """
         self._flush()
         n = 0 if self._state is None else self._state.n
