@@ -45,3 +45,20 @@ def test_without_googletest_a_developer_is_told_and_the_run_goes_on(tmp_path):
 def test_without_googletest_ci_fails(tmp_path):
     out = _run_block(tmp_path, ci=True)
     assert out.returncode != 0 and "AFTER" not in out.stdout
+
+
+def test_a_failed_build_says_what_to_try():
+    # pip shows the backend's output only when the build fails: the message must name the way out
+    import pytest
+
+    tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+    build = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["scikit-build"]
+    failure = build["messages"]["after-failure"]
+    assert "C++17" in failure and "pip install . -Cwheel.cmake=false" in failure
+
+
+def test_the_module_compiles_as_one_unit_by_default():
+    # benchmarks/build_time.sh: one unit builds about 5x faster than one per family
+    text = (ROOT / "CMakeLists.txt").read_text(encoding="utf-8")
+    assert re.search(r'option\(DYNVAL_UNITY_BUILD "[^"]*" ON\)', text)
+    assert re.search(r"set_target_properties\(_core PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 0\)", text)
