@@ -466,6 +466,18 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
+# Rows per block where a pass over the stacked regressor would otherwise copy it whole.
+_ROW_BLOCK = 1 << 16
+
+
+def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np.ndarray:
+    """The triangular factor R of x[:, columns] = QR, from the rows in blocks (R of [R; block])."""
+    r = np.zeros((0, columns.size))
+    for start in range(0, x.shape[0], block):
+        r = np.linalg.qr(np.vstack([r, x[start:start + block, columns]]), mode="r")
+    return r
+
+
 def design(reg3, q_val, estimation, meas, threshold) -> dict[str, Any] | None:
     """How far the validation run is from the estimation run, and how well it excites the model.
 
@@ -501,12 +513,15 @@ def design(reg3, q_val, estimation, meas, threshold) -> dict[str, Any] | None:
         out["repeat"] = rep or None
     if reg3 is not None:
         stacked = reg3.reshape(-1, reg3.shape[2])
-        norms = np.linalg.norm(stacked, axis=0)
+        norms = np.sqrt(sum(np.linalg.norm(stacked[i:i + _ROW_BLOCK], axis=0) ** 2
+                            for i in range(0, stacked.shape[0], _ROW_BLOCK)))
         unexcited = [int(c) for c in np.flatnonzero(norms <= 1e-12 * max(norms.max(), np.finfo(float).tiny))]
         live = np.setdiff1d(np.arange(stacked.shape[1]), unexcited)
-        sv = np.linalg.svd(stacked[:, live], compute_uv=False) if live.size else np.zeros(1)
-        scaled = stacked[:, live] / norms[live] if live.size else stacked[:, live]
-        sv_s = np.linalg.svd(scaled, compute_uv=False) if live.size else np.zeros(1)
+        # X = QR and XD = Q(RD): the singular values of the p × p factor R are those of X, raw and
+        # with the columns scaled, and R is built a block of rows at a time (no copy of X).
+        r = _r_factor(stacked, live) if live.size else None
+        sv = np.linalg.svd(r, compute_uv=False) if r is not None else np.zeros(1)
+        sv_s = np.linalg.svd(r / norms[live], compute_uv=False) if r is not None else np.zeros(1)
         # A column the estimation run does not excite either is not identifiable at all (a base
         # reduction removes it): not a flaw of the validation design.
         never = []

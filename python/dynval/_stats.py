@@ -81,6 +81,10 @@ def holm(pvalues) -> np.ndarray:
     return out.reshape(p.shape)
 
 
+# Memory of the transforms of one batch of columns in acf_fft.
+_FFT_BATCH_BYTES = 64 * 2**20
+
+
 def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k) by FFT.
 
@@ -91,18 +95,24 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
         x = x[:, None]
-    n = x.shape[0]
-    xc = x - x.mean(axis=0) if centre else x
+    n, k = x.shape
     bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
-    acov = np.zeros((max_lag + 1, x.shape[1]))
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        seg = xc[a:b]
-        length = b - a
-        size = scipy.fft.next_fast_len(2 * length)
-        spec = scipy.fft.rfft(seg, n=size, axis=0)
-        r = scipy.fft.irfft(spec * np.conj(spec), n=size, axis=0)
-        keep = min(max_lag + 1, length)
-        acov[:keep] += r[:keep]
+    acov = np.zeros((max_lag + 1, k))
+    # Columns in batches: a transform holds about 6 numbers per sample and column, so the whole
+    # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
+    batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
+    for c0 in range(0, k, batch):
+        cols = slice(c0, min(c0 + batch, k))
+        xc = x[:, cols] - x[:, cols].mean(axis=0) if centre else x[:, cols]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            length = b - a
+            size = scipy.fft.next_fast_len(2 * length)
+            spec = scipy.fft.rfft(xc[a:b], n=size, axis=0)
+            power = spec.real**2 + spec.imag**2
+            del spec
+            r = scipy.fft.irfft(power, n=size, axis=0)
+            keep = min(max_lag + 1, length)
+            acov[:keep, cols] += r[:keep]
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = acov / acov[0]
     rho[:, ~(acov[0] > 0)] = np.nan

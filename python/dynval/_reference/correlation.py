@@ -149,14 +149,20 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
     adjusted = check_adjusted(adjusted)
 
     de, ss_e, e_constant = centred_and_ss(e)
-    # Row j·p + c pairs joint j's residual with its regressor column c.
-    de, ss_e, e_constant = np.repeat(de, p, axis=0), np.repeat(ss_e, p), np.repeat(e_constant, p)
-    dy, ss_y, constant_mask = centred_and_ss(y)
-    s = row_lagged_products(de, dy, max_lag, starts)
-    r = s / denominators(starts, n, max_lag, adjusted)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
-        # and underflows near 1e-80, both inside the accepted range.
-        rho = r / (np.sqrt(ss_e / n) * np.sqrt(ss_y / n))
-    rho[:, constant_mask | e_constant | (ss_e == 0) | (ss_y == 0)] = np.nan
+    # Row j·p + c pairs joint j's residual with its regressor column c. One joint's p columns
+    # at a time: the temporaries are p rows, not a copy of the whole regressor per step.
+    rho = np.empty((max_lag + 1, m * p))
+    constant_mask = np.empty(m * p, dtype=bool)
+    d_l = denominators(starts, n, max_lag, adjusted)[:, None]
+    for j in range(m):
+        cols = slice(j * p, (j + 1) * p)
+        dy, ss_y, constant_mask[cols] = centred_and_ss(y[:, cols])
+        s = row_lagged_products(np.broadcast_to(de[j], dy.shape), dy, max_lag, starts)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
+            # and underflows near 1e-80, both inside the accepted range.
+            rho[:, cols] = s / d_l / (np.sqrt(ss_e[j] / n) * np.sqrt(ss_y / n))
+        if e_constant[j] or ss_e[j] == 0:
+            rho[:, cols] = np.nan
+        rho[:, cols][:, constant_mask[cols] | (ss_y == 0)] = np.nan
     return {"rho": np.ascontiguousarray(rho.T), "constant_mask": constant_mask}

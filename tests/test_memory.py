@@ -1,0 +1,59 @@
+"""Memory bounds of validate with a regressor (allocations traced, not timed).
+
+``tracemalloc`` sees numpy's buffers, so the bound is deterministic: the extra memory validate
+allocates while it runs, over the inputs it was given (at most 1.5 times their size at this N, where
+the fixed blocks weigh more; about 0.95 at N = 2,000,000). Before the blockwise passes the
+python backend needed about 5.7 times the input on top of it (an FFT of every regressor column at
+once, a centred copy of the regressor per joint, two SVDs of copies of the stacked regressor);
+benchmarks/bench_memory.py measures the peak RSS of the full-size case.
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import dynval
+from dynval import _sections, _stats
+
+
+def _inputs(n, m=7, p=8):
+    rng = np.random.default_rng(3)
+    regressor = rng.standard_normal((n, m, p))
+    pred = regressor @ rng.standard_normal(p)
+    return pred + 0.1 * rng.standard_normal((n, m)), pred, regressor
+
+
+def test_validate_with_a_regressor_allocates_at_most_the_input(backend):
+    # ``backend``: conftest's fixture, every available backend
+    tau, pred, regressor = _inputs(120_000)
+    size = tau.nbytes + pred.nbytes + regressor.nbytes
+    tracemalloc.start()
+    try:
+        dynval.validate(tau, pred, n_params=8, regressor=regressor, backend=backend, sample_rate=100.0)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak <= 1.5 * size, f"validate allocated {peak / size:.2f} times its input"
+
+
+def test_batched_autocorrelations_do_not_depend_on_the_batch(monkeypatch):
+    x = np.random.default_rng(4).standard_normal((3000, 11)) + np.arange(11)
+    starts = np.array([0, 1000, 2500])
+    whole = _stats.acf_fft(x, starts, 40)
+    monkeypatch.setattr(_stats, "_FFT_BATCH_BYTES", 48 * 3000 * 2)  # two columns per batch
+    # the transforms of one column do not depend on its neighbours, up to the FFT's rounding
+    np.testing.assert_allclose(_stats.acf_fft(x, starts, 40), whole, rtol=1e-12, atol=1e-15)
+
+
+def test_condition_numbers_from_the_blockwise_r_factor():
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal((5000, 6)) * np.array([1.0, 10.0, 1e-3, 1e4, 1.0, 3.0])
+    x[:, 5] = x[:, 0] + 1e-6 * x[:, 5]  # nearly dependent: a large condition number
+    cols = np.arange(6)
+    r = _sections._r_factor(x, cols, block=700)
+    np.testing.assert_allclose(np.linalg.svd(r, compute_uv=False), np.linalg.svd(x, compute_uv=False),
+                               rtol=1e-9)
+    norms = np.linalg.norm(x, axis=0)
+    np.testing.assert_allclose(np.linalg.svd(r / norms, compute_uv=False),
+                               np.linalg.svd(x / norms, compute_uv=False), rtol=1e-9)
