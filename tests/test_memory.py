@@ -13,6 +13,7 @@ from __future__ import annotations
 import tracemalloc
 
 import numpy as np
+
 import dynval
 from dynval import _sections, _stats
 

@@ -474,7 +474,7 @@ def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np
     """The triangular factor R of x[:, columns] = QR, from the rows in blocks (R of [R; block])."""
     r = np.zeros((0, columns.size))
     for start in range(0, x.shape[0], block):
-        r = np.linalg.qr(np.vstack([r, x[start:start + block, columns]]), mode="r")
+        r = np.asarray(np.linalg.qr(np.vstack([r, x[start:start + block, columns]]), mode="r"))
     return r
 
 
