@@ -58,3 +58,28 @@ def test_condition_numbers_from_the_blockwise_r_factor():
     norms = np.linalg.norm(x, axis=0)
     np.testing.assert_allclose(np.linalg.svd(r / norms, compute_uv=False),
                                np.linalg.svd(x / norms, compute_uv=False), rtol=1e-9)
+
+
+def test_singular_values_leave_the_gram_matrix_when_it_loses_digits():
+    rng = np.random.default_rng(6)
+    x = rng.standard_normal((20_000, 5))
+    x[:, 4] = x[:, 3] + 1e-9 * x[:, 4]  # condition number about 1e9: the Gram matrix keeps none of σ_min
+    cols = np.arange(5)
+    norms = np.linalg.norm(x, axis=0)
+    raw, scaled = _sections._singular_values(x, cols, norms)
+    np.testing.assert_allclose(raw, np.linalg.svd(x, compute_uv=False), rtol=1e-6)
+    np.testing.assert_allclose(scaled, np.linalg.svd(x / norms, compute_uv=False), rtol=1e-6)
+    # and on a regressor with condition number 1e5 the one-pass route is within eps·cond² ≈ 2e-6
+    y = rng.standard_normal((20_000, 5)) * np.array([1.0, 1e3, 1e-2, 5.0, 1.0])
+    raw, scaled = _sections._singular_values(y, cols, np.linalg.norm(y, axis=0))
+    np.testing.assert_allclose(raw, np.linalg.svd(y, compute_uv=False), rtol=2e-6)
+
+
+def test_least_squares_equals_lstsq_well_and_ill_conditioned():
+    rng = np.random.default_rng(7)
+    y = rng.standard_normal((5_000, 6)) * np.array([1.0, 1e4, 1e-3, 1.0, 2.0, 1.0])
+    b = y @ rng.standard_normal(6) + rng.standard_normal(5_000)
+    for design in (y, np.column_stack([y, y[:, 0] + 1e-10 * y[:, 1]])):
+        want = b - design @ np.linalg.lstsq(design, b, rcond=None)[0]
+        got = b - design @ _sections._least_squares(design, b)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.linalg.norm(b))

@@ -101,12 +101,14 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     # Columns in batches: a transform holds about 6 numbers per sample and column, so the whole
     # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
     batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
+    means = x.mean(axis=0) if centre else None  # one pass over the rows, not one per batch
     for c0 in range(0, k, batch):
         cols = slice(c0, min(c0 + batch, k))
-        xc = x[:, cols] - x[:, cols].mean(axis=0) if centre else x[:, cols]
+        xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
         for a, b in zip(bounds[:-1], bounds[1:]):
             length = b - a
-            size = scipy.fft.next_fast_len(2 * length)
+            # Zero padding to length + max_lag keeps the circular wrap-around out of the lags kept.
+            size = scipy.fft.next_fast_len(length + min(max_lag, length - 1), real=True)
             spec = scipy.fft.rfft(xc[a:b], n=size, axis=0)
             power = spec.real**2 + spec.imag**2
             del spec
