@@ -645,14 +645,14 @@ def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_mode
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
     }
-    f, n_vec, n_ic, size = _fit_term(noise_model, n, m, sse, mo.sigma)
-    out.update(assemble(f, n_vec, n_ic, n_params, size))
+    f, n_ic, n_vec, size = _fit_term(noise_model, n, m, sse, mo.sigma)
+    out.update(assemble(f, n_ic, n_vec, size, n_params))
     return out
 
 
 def _fit_term(noise_model: str, n: int, m: int, sse: FloatArray,
               sigma: FloatArray | None) -> tuple[float, int, int, float]:
-    """(F, N_vec, n, S) of contract §3.7, as the reference's ``fit_term`` computes them."""
+    """(F, n, N_vec, S) of contract §3.7, as the reference's ``fit_term`` computes them."""
     if noise_model == "pooled":
         variance = float(np.sum(sse)) / (n * m)
         return _n_log(n * m, variance), n * m, n * m, variance

@@ -27,9 +27,9 @@ struct information_criteria_result {
 
 namespace detail {
 
-/// The criteria from the fit term F, the σ² "size" S, n (for ln n, AICc, FPE) and N_vec (nAIC).
-/// p >= n − 1 leaves AICc and FPE undefined: they are NaN.
-inline information_criteria_result criteria_from_fit(double fit_term, double size, long long n, double n_vec,
+/// The criteria from the fit term F, n (for ln n, AICc, FPE), N_vec (nAIC), the σ² "size" S and p,
+/// in the order of the contract (§3.7) everywhere. p >= n − 1 leaves AICc and FPE undefined: NaN.
+inline information_criteria_result criteria_from_fit(double fit_term, long long n, double n_vec, double size,
                                                      long long n_params) {
     const double p = static_cast<double>(n_params);
     const double nd = static_cast<double>(n);
@@ -77,7 +77,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             const auto sse = mo.sse_pooled();
             const double log_s = std::log(sse.sum / nmd) + 2.0 * sse.exp * ln2;
             const double f = sse.sum > 0.0 ? nmd * log_s : ninf;
-            return criteria_from_fit(f, sse.sum > 0.0 ? std::ldexp(sse.sum / nmd, 2 * sse.exp) : 0.0, nm, nmd, n_params);
+            return criteria_from_fit(f, nm, nmd, sse.sum > 0.0 ? std::ldexp(sse.sum / nmd, 2 * sse.exp) : 0.0, n_params);
         }
         case noise_model::per_joint: {
             bool degenerate = false;
@@ -89,7 +89,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             // Π_j SSE_j/N as exp(Σ ln): a running product overflows or underflows part-way
             // depending on the order of the joints (2.9e99 in one order, inf in another).
             const double f = degenerate ? ninf : nd * log_sum;
-            return criteria_from_fit(f, degenerate ? 0.0 : std::exp(log_sum), n, nd, n_params);
+            return criteria_from_fit(f, n, nd, degenerate ? 0.0 : std::exp(log_sum), n_params);
         }
         case noise_model::full: {
             const Eigen::MatrixXd sigma = mo.residual_gram / nd;
@@ -98,7 +98,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             const double logdet = degenerate ? ninf : log_det_psd(sigma) + 2.0 * mo.gram_exp * ln2 * static_cast<double>(m);
             degenerate = degenerate || std::isinf(logdet);
             const double f = degenerate ? ninf : nd * logdet;
-            return criteria_from_fit(f, degenerate ? 0.0 : std::exp(logdet), n, nd, n_params);
+            return criteria_from_fit(f, n, nd, degenerate ? 0.0 : std::exp(logdet), n_params);
         }
     }
     return {};
@@ -121,7 +121,7 @@ inline information_criteria_result information_criteria(const param<double>& rss
     const double r = rss.value();
     const double sigma2 = r / nd;
     const double f = r > 0.0 ? nd * std::log(sigma2) : -std::numeric_limits<double>::infinity();
-    return detail::criteria_from_fit(f, r > 0.0 ? sigma2 : 0.0, n, nd, p);
+    return detail::criteria_from_fit(f, n, nd, r > 0.0 ? sigma2 : 0.0, p);
 }
 
 /// Criteria of `tau_meas` against `tau_pred` under a noise model (contract §3.7 table).

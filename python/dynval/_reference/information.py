@@ -16,8 +16,8 @@ from .norms import joint_major, pooled, sumsq_scaled
 _LN2 = math.log(2.0)
 
 
-def assemble(fit_term: float, n_vec: int, n: int, p: int, size: float) -> dict:
-    """aic, bic, aicc, fpe, naic from the fit term F, the sizes and p (nan where p >= n − 1)."""
+def assemble(fit_term: float, n: int, n_vec: int, size: float, p: int) -> dict:
+    """aic, bic, aicc, fpe, naic from F, n, N_vec, S and p (contract §3.7's order; nan where p >= n − 1)."""
     aic = fit_term + 2 * p
     bic = fit_term + p * math.log(n)
     if p < n - 1:
@@ -40,7 +40,7 @@ def information_criteria(rss, n_obs, n_params) -> dict:
     n = check_n_obs(n_obs)
     p = check_n_params(n_params, n)
     variance = rss / n
-    return assemble(_n_log(n, variance), n, n, p, variance)
+    return assemble(_n_log(n, variance), n, n, variance, p)
 
 
 def _pooled_sum(s: np.ndarray, k: np.ndarray) -> tuple[float, int]:
@@ -104,7 +104,7 @@ def criteria(meas, pred, n_params, noise_model) -> dict:
     p = check_n_params(n_params)
     noise_model = check_noise_model(noise_model)
     f, n, n_vec, size = fit_term(meas - pred, noise_model)
-    out = assemble(f, n_vec, n, p, size)
+    out = assemble(f, n, n_vec, size, p)
     out["n_obs"] = int(n)
     out["fit_term"] = float(f)
     return out

@@ -89,5 +89,5 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
     }
-    out.update(assemble(f, n_vec, n_ic, p, size))
+    out.update(assemble(f, n_ic, n_vec, size, p))
     return out
