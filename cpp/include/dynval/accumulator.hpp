@@ -24,7 +24,10 @@
 // that header for the streaming plan.
 #pragma once
 
+#include "compensated.hpp"
 #include "errors.hpp"
+#include "finite.hpp"
+#include "simd.hpp"
 
 #include <Eigen/Core>
 
@@ -34,107 +37,7 @@
 #include <optional>
 #include <vector>
 
-#if defined(_MSC_VER)
-#define DYNVAL_RESTRICT __restrict
-#else
-#define DYNVAL_RESTRICT __restrict__
-#endif
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(DYNVAL_NO_CLONES)
-#define DYNVAL_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define DYNVAL_VECTOR_CLONES
-#endif
-
 namespace dynval {
-
-/// First NaN, ±inf or out-of-range value (|x| > max_magnitude) of an array, in row-major order.
-struct nonfinite_entry {
-    Index row = 0;
-    Index col = 0;
-    double value = 0.0;
-};
-
-namespace detail {
-
-/// Neumaier's compensated summation of one running value.
-struct compensated {
-    double sum = 0.0;
-    double carry = 0.0;
-    void add(double x) noexcept {
-        const double t = sum + x;
-        if (std::abs(sum) >= std::abs(x)) {
-            carry += (sum - t) + x;
-        } else {
-            carry += (x - t) + sum;
-        }
-        sum = t;
-    }
-    void add(const compensated& other) noexcept {
-        add(other.sum);
-        add(other.carry);
-    }
-    // With an infinite term the carry is inf − inf = nan: the IEEE sum is the running sum itself.
-    double value() const noexcept { return std::isfinite(sum) ? sum + carry : sum; }
-};
-
-/// Adds n·(a − b) to `sum` without rounding it first (exact difference and product terms).
-inline void add_scaled_difference(compensated& sum, double n, double a, double b) {
-    const double d = a - b;
-    const double bv = d - a;
-    const double d_err = (a - (d - bv)) + (-b - bv);  // a − b = d + d_err exactly
-    const double p = n * d;
-    sum.add(p);
-    sum.add(std::fma(n, d, -p));
-    sum.add(n * d_err);
-}
-
-/// (n·shift + sum)/n with one rounding in practice: n·shift is split exactly (fma), the total
-/// is carried as a compensated sum, and the division is corrected by its exact remainder.
-inline double shifted_mean(double shift, const compensated& sum, double n) {
-    const double p = n * shift;
-    const double p_err = std::fma(n, shift, -p);
-    compensated total;
-    total.add(p);
-    total.add(p_err);
-    total.add(sum);
-    const double hi = total.sum, lo = total.carry;
-    double q = hi / n;
-    const double rem = std::fma(-q, n, hi);
-    q += (rem + lo) / n;
-    return std::isfinite(q) ? q : shift + sum.value() / n;
-}
-
-/// Row-major scan of rows [begin, begin + count) for the first non-finite entry.
-template <class D>
-std::optional<nonfinite_entry> scan_nonfinite(const Eigen::MatrixBase<D>& a, Index begin, Index count) {
-    for (Index i = begin; i < begin + count; ++i)
-        for (Index j = 0; j < a.cols(); ++j) {
-            const double v = a.coeff(i, j);
-            if (!in_range(v)) return nonfinite_entry{i, j, v};
-        }
-    return std::nullopt;
-}
-
-}  // namespace detail
-
-/// First non-finite entry of `a` in row-major order (the contract's "first bad index").
-template <class D>
-std::optional<nonfinite_entry> first_nonfinite(const Eigen::MatrixBase<D>& a) {
-    constexpr Index block = 256;
-    if (a.cols() == 0) return std::nullopt;  // maxCoeff of an empty block is undefined
-    for (Index start = 0; start < a.rows(); start += block) {
-        const Index nb = std::min(block, a.rows() - start);
-        // A block sum is finite whenever every entry is (barring overflow, which only costs a
-        // scan that then finds nothing); the largest magnitude catches values out of range.
-        const auto rows = a.middleRows(start, nb);
-        if (!std::isfinite(rows.sum()) || !(rows.cwiseAbs().maxCoeff() <= detail::max_magnitude)) {
-            if (auto hit = detail::scan_nonfinite(a, start, nb)) return hit;
-        }
-    }
-    return std::nullopt;
-}
 
 /// Moments of one or more blocks of rows, per joint (column).
 struct joint_moments {
