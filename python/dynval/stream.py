@@ -60,7 +60,8 @@ from ._reference.portmanteau import chi2_logsf
 from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
-from ._stream import Layout, State
+from ._backend import resolve as resolve_backend
+from ._stream import CoreState, Layout, State
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from ._version import CONTRACT_VERSION, __version__
 
@@ -107,6 +108,7 @@ class _Settings:
     column_names: tuple[str, ...] | None
     thresholds: Thresholds
     allow_wide: bool
+    backend: str
 
 
 class ValidationAccumulator:
@@ -127,8 +129,10 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
-    backend : None or "python"
-        The accumulator runs on numpy.
+    backend : None, "python" or "cpp"
+        Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
+        reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
+        in Python from the sums either way.
     segments, decimate, q, estimation, cross_correlation_detail, model_columns
         Not supported (they need the whole series): anything but None raises InvalidParameter
         naming the keyword (:data:`UNSUPPORTED` gives the reasons).
@@ -146,7 +150,7 @@ class ValidationAccumulator:
 
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
-                 nan_policy: NanPolicy = "raise", backend: Literal["python"] | None = None,
+                 nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
                  sample_rate: float | None = None, joint_names: Sequence[str] | None = None,
                  column_names: Sequence[str] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
                  allow_wide: bool = False, segments: None = None, decimate: None = None, q: None = None,
@@ -160,8 +164,7 @@ class ValidationAccumulator:
         _refuse("segments", segments)
         max_lag = _check_max_lag(max_lag, prof)
         level = prof.level if level is None else v.check_level(level)
-        if backend is not None and backend != "python":
-            raise v.parameter_error("backend", "None or 'python' (the accumulator runs on numpy)", backend)
+        backend_name, _ = resolve_backend(backend)
         checked_noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
         sample_rate = v.check_sample_rate(sample_rate)
         _refuse("decimate", decimate)
@@ -177,9 +180,9 @@ class ValidationAccumulator:
             n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
             nan_policy=nan_policy, level=level, noise_model=checked_noise_model, sample_rate=sample_rate,
             joint_names=_names(joint_names), column_names=_names(column_names), thresholds=checked_thresholds,
-            allow_wide=allow_wide)
+            allow_wide=allow_wide, backend=backend_name)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
-        self._state: State | None = None
+        self._state: State | CoreState | None = None
         # rows of the current segment not yet summed: (e, tau_meas, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
@@ -326,7 +329,7 @@ class ValidationAccumulator:
                 self.break_segment()
         else:
             if self._state is None:
-                self._state = State(later._state.layout)
+                self._state = self._new_state(later._state.layout)
                 self._state.end_break = self._break_first
             self._state.merge(later._state)
         self._chunks += other._chunks
@@ -369,7 +372,7 @@ class ValidationAccumulator:
         st, cfg = self._state, self._settings
         assert st is not None  # check_min_samples refused an empty stream
         v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, st.layout.m), cfg.allow_wide)
-        return _report(st, cfg, self._omitted)
+        return _report(st.snapshot(), cfg, self._omitted)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -472,12 +475,12 @@ class ValidationAccumulator:
         assert e is not None and tau is not None  # only the regressor is optional
         self._pending, self._pending_rows = [], 0
         if self._state is None:
-            self._state = State(layout)
+            self._state = self._new_state(layout)
             self._state.end_break = self._break_first
-        rows = _block_rows(layout)
-        for a in range(0, e.shape[0], rows):
-            block = slice(a, a + rows)
-            self._state.merge(State.from_block(layout, e[block], tau[block], None if reg is None else reg[block]))
+        self._state.append(e, tau, reg, _block_rows(layout))
+
+    def _new_state(self, layout: Layout) -> State | CoreState:
+        return CoreState(layout) if self._settings.backend == "cpp" else State(layout)
 
     @property
     def _known_layout(self) -> Layout:
@@ -824,7 +827,7 @@ def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: S
         "model_columns": None,
         "sample_rate": cfg.sample_rate,
         "thresholds": dict(vars(cfg.thresholds)) if hasattr(cfg.thresholds, "__dict__") else None,
-        "backend": "python",
+        "backend": cfg.backend,
         "streaming": True,
         "dynval_version": __version__,
         "contract_version": CONTRACT_VERSION,
