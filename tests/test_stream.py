@@ -334,7 +334,8 @@ def test_merge_is_associative(backend, problem, data):
     keywords = {"n_params": 1, "profile": "lesson", "max_lag": min(30, n - 1)}
     assume(usable(tau, pred, y, keywords))
     part = [(0, i), (i, j), (j, n)]
-    a, b, c = (accumulator_of(tau[s:t], pred[s:t], None if y is None else y[s:t], keywords, data, backend) for s, t in part)
+    a, b, c = (accumulator_of(tau[s:t], pred[s:t], None if y is None else y[s:t], keywords, data, backend)
+               for s, t in part)
     left = a.copy().merge(b).merge(c)
     right = a.copy().merge(b.copy().merge(c))
     want = reference(tau, pred, y, None, **keywords)
@@ -361,7 +362,8 @@ def test_omit_equals_validate(backend, problem, data):
     longest = max(want.provenance["segments"])
     keywords["max_lag"] = min(10, longest - 1)
     want = reference(tau, pred, y, None, **keywords)
-    acc = feed(ValidationAccumulator(backend=backend, allow_wide=True, **keywords), tau, pred, y, cut_points(data.draw, n))
+    acc = feed(ValidationAccumulator(backend=backend, allow_wide=True, **keywords), tau, pred, y,
+               cut_points(data.draw, n))
     got = acc.result()
     assert got.provenance["omitted_rows"] == want.provenance["omitted_rows"] == n - keep.sum()
     assert_same_report(got, want, tau[keep], pred[keep], None if y is None else y[keep])
@@ -391,8 +393,8 @@ def test_sections_left_out_and_findings(backend):
     tau = rng.normal(size=(400, 2)) * [30.0, 2.0]
     pred = tau + rng.normal(size=(400, 2))
     pred[:, 1] = tau[:, 1][::-1]  # joint 2 worse than a constant
-    acc = feed(ValidationAccumulator(backend=backend, n_params=2, max_lag=8, joint_names=["shoulder", "elbow"]), tau, pred,
-               rng.normal(size=(400, 2, 3)), [100, 200])
+    acc = feed(ValidationAccumulator(backend=backend, n_params=2, max_lag=8, joint_names=["shoulder", "elbow"]),
+               tau, pred, rng.normal(size=(400, 2, 3)), [100, 200])
     report = acc.result()
     assert report.bias is None and report.spectrum is None and report.design is None
     assert report.segment_metrics is None and report.provenance["streaming"] is True
@@ -497,3 +499,24 @@ def test_unsupported_and_invalid_keywords():
         acc.merge(other)
     with pytest.raises(dynval.TooFewSamples, match="look transposed"):
         feed(ValidationAccumulator(n_params=1, max_lag=0), np.ones((2, 5)), np.zeros((2, 5)), None, []).result()
+
+
+def test_backend_keyword_and_default(backend):
+    """backend=None takes dynval's default backend; the provenance names the backend that held the
+    sums; accumulators of different backends do not merge; pickling keeps the state."""
+    rng = np.random.default_rng(8)
+    tau = rng.normal(size=(200, 2))
+    pred = tau + rng.normal(size=(200, 2))
+    default = next(name for name, info in dynval.backends().items() if info["default"])
+    assert feed(ValidationAccumulator(n_params=1, max_lag=3), tau, pred, None, [50]).result() \
+        .provenance["backend"] == default
+    acc = feed(ValidationAccumulator(n_params=1, max_lag=3, backend=backend), tau, pred, None, [50])
+    assert acc.result().provenance["backend"] == backend
+    assert_same_report(pickle.loads(pickle.dumps(acc)).result(), acc.result(), tau, pred)
+    other = "python" if backend == "cpp" else "cpp"
+    if dynval.backends()[other]["available"]:
+        with pytest.raises(dynval.InvalidParameter, match=rf"got backend='{other}' where this one has "
+                                                          rf"backend='{backend}'"):
+            acc.merge(ValidationAccumulator(n_params=1, max_lag=3, backend=other))
+    with pytest.raises(dynval.InvalidParameter, match=r"^backend must be one of 'python'"):
+        ValidationAccumulator(n_params=1, backend="fortran")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.fft
@@ -119,6 +120,7 @@ class State:
             self.merge(State.from_block(self.layout, e[block], tau[block], None if y is None else y[block]))
 
     def snapshot(self) -> State:
+        """The sums the report reads (the state itself)."""
         return self
 
     # ----------------------------------------------------------------------- one block
@@ -211,12 +213,13 @@ class State:
 
     # ----------------------------------------------------------------------- merge
 
-    def merge(self, later: State) -> None:
+    def merge(self, later: State | CoreState) -> None:
         """Add ``later`` (rows that follow this state's rows in time) to this state, in place.
 
         Lags join across the junction unless this state ends with a break or ``later`` starts
         with one. ``later`` is not modified.
         """
+        assert isinstance(later, State)  # accumulators of different backends do not merge
         if later.n == 0:
             self.end_break = self.end_break or later.start_break or later.end_break
             return
@@ -394,7 +397,7 @@ class CoreState:
         from . import _core  # the cpp backend: imported only when it is used
 
         self.layout = layout
-        self._core = core if core is not None else _core.StreamState(
+        self._core: Any = core if core is not None else _core.StreamState(
             layout.m, layout.p, layout.acf_lags, layout.xcorr_lags, layout.gram)
 
     @property
@@ -419,7 +422,8 @@ class CoreState:
         c = e.shape[0]
         self._core.append(e, tau, None if y is None else y.reshape(c, -1))
 
-    def merge(self, later: CoreState) -> None:
+    def merge(self, later: State | CoreState) -> None:
+        assert isinstance(later, CoreState)  # accumulators of different backends do not merge
         self._core.merge(later._core)
 
     def copy(self) -> CoreState:
@@ -436,6 +440,25 @@ class _Snapshot:
     """The sums of a :class:`CoreState` under the attribute names of :class:`State` (for the report)."""
 
     _COMPENSATED = ("prod_e", "cur_e", "lag_e", "sum_t", "sq_t", "sq_y", "lag_y", "prod_ey")
+    prod_e: _Sum
+    cur_e: _Sum
+    lag_e: _Sum
+    sum_t: _Sum
+    sq_t: _Sum
+    sq_y: _Sum
+    lag_y: _Sum
+    prod_ey: _Sum
+    gram: _Sum | None
+    pairs: np.ndarray
+    k_e: np.ndarray
+    k_t: np.ndarray
+    k_y: np.ndarray
+    min_e: np.ndarray
+    max_e: np.ndarray
+    min_t: np.ndarray
+    max_t: np.ndarray
+    min_y: np.ndarray
+    max_y: np.ndarray
 
     def __init__(self, layout: Layout, n: int, lengths: list[int], sums: dict) -> None:
         self.layout, self.n, self.lengths = layout, n, lengths

@@ -51,6 +51,7 @@ import scipy.stats
 from . import _sections as sec
 from . import _validation as v
 from ._api import newey_west_bandwidth
+from ._backend import resolve as resolve_backend
 from ._errors import InputError, InvalidParameter, ShapeMismatch
 from ._findings import Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
@@ -60,8 +61,7 @@ from ._reference.portmanteau import chi2_logsf
 from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
-from ._backend import resolve as resolve_backend
-from ._stream import CoreState, Layout, State
+from ._stream import CoreState, Layout, State, _Snapshot
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from ._version import CONTRACT_VERSION, __version__
 
@@ -571,7 +571,7 @@ class _Moments:
     sigma: np.ndarray | None  # EᵀE/N (full noise model)
 
 
-def _moments(st: State) -> _Moments:
+def _moments(st: State | _Snapshot) -> _Moments:
     """Centre every sum on the overall means (contract §1.1: means are overall)."""
     n, m = st.n, st.layout.m
     cur, lag, pairs = st.cur_e.value(), st.lag_e.value(), st.pairs
@@ -614,7 +614,7 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, n: int, c
     return float(np.sum(ss) + n * np.sum((d - np.mean(d)) ** 2))
 
 
-def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
+def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
@@ -749,7 +749,7 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
-def _report(st: State, cfg: _Settings, omitted: int) -> ValidationReport:
+def _report(st: State | _Snapshot, cfg: _Settings, omitted: int) -> ValidationReport:
     prof = cfg.profile
     n, m, p = st.n, st.layout.m, st.layout.p
     longest = max(st.lengths)
