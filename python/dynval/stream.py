@@ -435,8 +435,10 @@ class ValidationAccumulator:
         arrays: list[tuple[FloatArray, str, int | None]] = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
         if reg is not None:
             arrays.append((reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2]), "regressor", reg.shape[2]))
+        # The backend's scan: the C++ core's is one compiled pass over the chunk.
+        first_nonfinite = resolve_backend(self._settings.backend)[1].first_nonfinite
         for a, name, n_columns in arrays:
-            found = v.first_nonfinite(a)
+            found = first_nonfinite(a)
             if found is not None:
                 row, col, value = found
                 exc = v.nonfinite_error(name, row, col, value, n_columns=n_columns)
