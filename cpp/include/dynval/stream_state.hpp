@@ -24,18 +24,62 @@
 // rescale (§1.3): data whose squares leave float64's normal range lose digits, as in Python.
 #pragma once
 
+#include "accumulator.hpp"  // DYNVAL_VECTOR_CLONES, DYNVAL_RESTRICT
 #include "errors.hpp"
 
 #include <Eigen/Core>
 
 #include <algorithm>
 #include <cstddef>
+#include <initializer_list>
 #include <limits>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace dynval {
+
+namespace detail {
+
+/// Σ a[i]·b[i] over eight independent lanes (the loop vectorises; an AVX2 clone where available).
+DYNVAL_VECTOR_CLONES inline double stream_dot(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
+                                              Index count) {
+    double part[8] = {};
+    const Index chunks = count / 8;
+    for (Index c = 0; c < chunks; ++c)
+        for (int l = 0; l < 8; ++l) part[l] += a[c * 8 + l] * b[c * 8 + l];
+    double tail = 0.0;
+    for (Index i = chunks * 8; i < count; ++i) tail += a[i] * b[i];
+    return (((part[0] + part[4]) + (part[1] + part[5])) + ((part[2] + part[6]) + (part[3] + part[7]))) + tail;
+}
+
+/// Minimum, maximum and sum of a run of values in one pass (eight lanes).
+DYNVAL_VECTOR_CLONES inline void stream_extremes(const double* DYNVAL_RESTRICT a, Index count, double& lo,
+                                                 double& hi, double& sum) {
+    double mn[8], mx[8], s[8] = {};
+    for (int l = 0; l < 8; ++l) {
+        mn[l] = std::numeric_limits<double>::infinity();
+        mx[l] = -std::numeric_limits<double>::infinity();
+    }
+    const Index chunks = count / 8;
+    for (Index c = 0; c < chunks; ++c)
+        for (int l = 0; l < 8; ++l) {
+            const double v = a[c * 8 + l];
+            mn[l] = v < mn[l] ? v : mn[l];
+            mx[l] = v > mx[l] ? v : mx[l];
+            s[l] += v;
+        }
+    for (Index i = chunks * 8; i < count; ++i) {
+        mn[0] = a[i] < mn[0] ? a[i] : mn[0];
+        mx[0] = a[i] > mx[0] ? a[i] : mx[0];
+        s[0] += a[i];
+    }
+    lo = std::min({mn[0], mn[1], mn[2], mn[3], mn[4], mn[5], mn[6], mn[7]});
+    hi = std::max({mx[0], mx[1], mx[2], mx[3], mx[4], mx[5], mx[6], mx[7]});
+    sum = ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
+}
+
+}  // namespace detail
 
 /// What a stream state holds: m joints, p regressor columns per joint (0: none), the lags of the
 /// residual's autocorrelation (`acf_lags`) and of the cross-correlation (`xcorr_lags` ≤ acf_lags),
@@ -293,35 +337,35 @@ public:
         centre_rows(xe, st.k_e, st.min_e, st.max_e);
         const Index top = std::min(le, c - 1);
         for (Index j = 0; j < m; ++j) {
-            const auto x = xe.row(j);
-            for (Index l = 0; l <= top; ++l)
-                st.prod_e.hi[l * m + j] = x.segment(l, c - l).dot(x.segment(0, c - l));
+            const double* x = xe.row(j).data();
+            for (Index l = 0; l <= top; ++l) st.prod_e.hi[l * m + j] = detail::stream_dot(x + l, x, c - l);
         }
         boundary_sums(xe, le, st.cur_e.hi.data(), st.lag_e.hi.data(), true);
         for (Index l = 0; l <= le; ++l) st.pairs[l] = std::max<long long>(c - l, 0);
         if (layout.gram)
             for (Index i = 0; i < m; ++i)
                 for (Index k = i; k < m; ++k)
-                    st.gram.hi[i * m + k] = st.gram.hi[k * m + i] = xe.row(i).dot(xe.row(k));
+                    st.gram.hi[i * m + k] = st.gram.hi[k * m + i] =
+                        detail::stream_dot(xe.row(i).data(), xe.row(k).data(), c);
         Rows xt = tau.transpose();
         centre_rows(xt, st.k_t, st.min_t, st.max_t);
         for (Index j = 0; j < m; ++j) {
+            const double* x = xt.row(j).data();
             st.sum_t.hi[j] = xt.row(j).sum();
-            st.sq_t.hi[j] = xt.row(j).squaredNorm();
+            st.sq_t.hi[j] = detail::stream_dot(x, x, c);
         }
         if (mp) {
             Rows xy = y.transpose();  // row j·p + c: joint j, column c
             centre_rows(xy, st.k_y, st.min_y, st.max_y);
-            for (Index q = 0; q < mp; ++q) st.sq_y.hi[q] = xy.row(q).squaredNorm();
+            for (Index q = 0; q < mp; ++q) st.sq_y.hi[q] = detail::stream_dot(xy.row(q).data(), xy.row(q).data(), c);
             boundary_sums(xy, lx, nullptr, st.lag_y.hi.data(), false);
             const Index topx = std::min(lx, c - 1);
             for (Index j = 0; j < m; ++j) {
-                const auto x = xe.row(j);
+                const double* x = xe.row(j).data();
                 for (Index col = 0; col < p; ++col) {
                     const Index q = j * p + col;
-                    const auto yq = xy.row(q);
-                    for (Index l = 0; l <= topx; ++l)
-                        st.prod_ey.hi[l * mp + q] = x.segment(l, c - l).dot(yq.segment(0, c - l));
+                    const double* yq = xy.row(q).data();
+                    for (Index l = 0; l <= topx; ++l) st.prod_ey.hi[l * mp + q] = detail::stream_dot(x + l, yq, c - l);
                 }
             }
             const Index ky = std::min(lx, c);
@@ -367,9 +411,9 @@ private:
     static void centre_rows(Rows& x, std::vector<double>& centre, std::vector<double>& lo, std::vector<double>& hi) {
         const double c = static_cast<double>(x.cols());
         for (Index r = 0; r < x.rows(); ++r) {
-            lo[r] = x.row(r).minCoeff();
-            hi[r] = x.row(r).maxCoeff();
-            centre[r] = x.row(r).sum() / c;
+            double sum = 0.0;
+            detail::stream_extremes(x.row(r).data(), x.cols(), lo[r], hi[r], sum);
+            centre[r] = sum / c;
             x.row(r).array() -= centre[r];
         }
     }
