@@ -388,17 +388,18 @@ private:
         const Index m = m_, lanes = 2 * m_;
         const double inf = std::numeric_limits<double>::infinity();
         lane_.resize(static_cast<std::size_t>(11 * lanes));
-        double* s1t = lane_.data();
-        double* s2t = s1t + lanes;
-        double* s1e = s2t + lanes;
-        double* s2e = s1e + lanes;
-        double* sq = s2e + lanes;
-        double* mnt = sq + lanes;
-        double* mxt = mnt + lanes;
-        double* mne = mxt + lanes;
-        double* mxe = mne + lanes;
-        double* kt = mxe + lanes;
-        double* ke = kt + lanes;
+        const lane_sums ls = lane_sums::over(lane_.data(), lanes);
+        double* s1t = ls.s1t;
+        double* s2t = ls.s2t;
+        double* s1e = ls.s1e;
+        double* s2e = ls.s2e;
+        double* sq = ls.sq;
+        double* mnt = ls.mnt;
+        double* mxt = ls.mxt;
+        double* mne = ls.mne;
+        double* mxe = ls.mxe;
+        double* kt = ls.kt;
+        double* ke = ls.ke;
         constexpr Index fast_rows = 256;
         for (Index start = 0; start < rows; start += fast_rows) {
             const Index nb = std::min(fast_rows, rows - start);
@@ -442,10 +443,9 @@ private:
                 mnt[l] = mne[l] = inf;
                 mxt[l] = mxe[l] = -inf;
             }
-            lane_kernel(tb, pb, pairs, lanes, s1t, s2t, s1e, s2e, sq, mnt, mxt, mne, mxe, kt, ke);
+            lane_kernel(tb, pb, pairs, lanes, ls);
             if (nb % 2)  // the last row of an odd block: one row of lanes 0..m-1
-                lane_kernel(tb + pairs * lanes, pb + pairs * lanes, 1, m, s1t, s2t, s1e, s2e, sq, mnt, mxt, mne, mxe,
-                            kt, ke);
+                lane_kernel(tb + pairs * lanes, pb + pairs * lanes, 1, m, ls);
             const double nbd = static_cast<double>(nb);
             bool finite = true;
             for (Index j = 0; j < m; ++j) {
@@ -509,14 +509,44 @@ private:
         }
     }
 
+    /// The per-lane partial sums of one block: eleven runs of `lanes` doubles in one buffer, named.
+    struct lane_sums {
+        double* s1t;  ///< Σ(τ − k_τ)
+        double* s2t;  ///< Σ(τ − k_τ)²
+        double* s1e;  ///< Σ(e − k_e)
+        double* s2e;  ///< Σ(e − k_e)²
+        double* sq;   ///< Σ e²
+        double* mnt;  ///< min τ
+        double* mxt;  ///< max τ
+        double* mne;  ///< min e
+        double* mxe;  ///< max e
+        double* kt;   ///< the shift k_τ of each lane (read only in the kernel)
+        double* ke;   ///< the shift k_e of each lane (read only in the kernel)
+
+        static lane_sums over(double* buffer, Index lanes) {
+            lane_sums r{};
+            double** runs[] = {&r.s1t, &r.s2t, &r.s1e, &r.s2e, &r.sq, &r.mnt, &r.mxt, &r.mne, &r.mxe, &r.kt, &r.ke};
+            for (std::size_t i = 0; i < 11; ++i) *runs[i] = buffer + static_cast<Index>(i) * lanes;
+            return r;
+        }
+    };
+
     // The lanes never alias each other or the data: `restrict` lets the loop vectorise. On
     // x86-64 with GCC an AVX2 clone is picked at load time where the CPU has it.
-    DYNVAL_VECTOR_CLONES static void lane_kernel(const double* DYNVAL_RESTRICT tb, const double* DYNVAL_RESTRICT pb, Index pairs,
-                            Index lanes, double* DYNVAL_RESTRICT s1t, double* DYNVAL_RESTRICT s2t,
-                            double* DYNVAL_RESTRICT s1e, double* DYNVAL_RESTRICT s2e, double* DYNVAL_RESTRICT sq,
-                            double* DYNVAL_RESTRICT mnt, double* DYNVAL_RESTRICT mxt, double* DYNVAL_RESTRICT mne,
-                            double* DYNVAL_RESTRICT mxe, const double* DYNVAL_RESTRICT kt,
-                            const double* DYNVAL_RESTRICT ke) {
+    DYNVAL_VECTOR_CLONES static void lane_kernel(const double* DYNVAL_RESTRICT tb, const double* DYNVAL_RESTRICT pb,
+                                                 Index pairs, Index lanes, const lane_sums& ls) {
+        lane_loop(tb, pb, pairs, lanes, ls.s1t, ls.s2t, ls.s1e, ls.s2e, ls.sq, ls.mnt, ls.mxt, ls.mne, ls.mxe, ls.kt,
+                  ls.ke);
+    }
+
+    // The loop itself takes the runs as separate restrict parameters (restrict on struct members
+    // is not honoured by every compiler, and the loop only vectorises when the runs cannot alias).
+    DYNVAL_VECTOR_CLONES static inline void lane_loop(
+        const double* DYNVAL_RESTRICT tb, const double* DYNVAL_RESTRICT pb, Index pairs, Index lanes,
+        double* DYNVAL_RESTRICT s1t, double* DYNVAL_RESTRICT s2t, double* DYNVAL_RESTRICT s1e,
+        double* DYNVAL_RESTRICT s2e, double* DYNVAL_RESTRICT sq, double* DYNVAL_RESTRICT mnt,
+        double* DYNVAL_RESTRICT mxt, double* DYNVAL_RESTRICT mne, double* DYNVAL_RESTRICT mxe,
+        const double* DYNVAL_RESTRICT kt, const double* DYNVAL_RESTRICT ke) {
         for (Index c = 0; c < pairs; ++c) {
             const double* tc = tb + c * lanes;
             const double* pc = pb + c * lanes;

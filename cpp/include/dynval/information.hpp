@@ -27,10 +27,12 @@ struct information_criteria_result {
 
 namespace detail {
 
-/// The criteria from the fit term F, the σ² "size" S, n (for ln n, AICc, FPE) and N_vec (nAIC).
-/// p >= n − 1 leaves AICc and FPE undefined: they are NaN.
-inline information_criteria_result criteria_from_fit(double fit_term, double size, long long n, double n_vec,
-                                                     long long n_params) {
+/// The criteria from their five inputs, in the one order every layer uses (the Python reference's
+/// `assemble`, the Java port's `assemble`): the fit term F, N_vec (nAIC), n (ln n, AICc, FPE), the
+/// number of parameters p and the σ² "size" S (contract §3.7). p >= n − 1 leaves AICc and FPE
+/// undefined: they are NaN.
+inline information_criteria_result criteria_from_fit(double fit_term, double n_vec, long long n, long long n_params,
+                                                     double size) {
     const double p = static_cast<double>(n_params);
     const double nd = static_cast<double>(n);
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -77,7 +79,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             const auto sse = mo.sse_pooled();
             const double log_s = std::log(sse.sum / nmd) + 2.0 * sse.exp * ln2;
             const double f = sse.sum > 0.0 ? nmd * log_s : ninf;
-            return criteria_from_fit(f, sse.sum > 0.0 ? std::ldexp(sse.sum / nmd, 2 * sse.exp) : 0.0, nm, nmd, n_params);
+            return criteria_from_fit(f, nmd, nm, n_params, sse.sum > 0.0 ? std::ldexp(sse.sum / nmd, 2 * sse.exp) : 0.0);
         }
         case noise_model::per_joint: {
             bool degenerate = false;
@@ -89,7 +91,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             // Π_j SSE_j/N as exp(Σ ln): a running product overflows or underflows part-way
             // depending on the order of the joints (2.9e99 in one order, inf in another).
             const double f = degenerate ? ninf : nd * log_sum;
-            return criteria_from_fit(f, degenerate ? 0.0 : std::exp(log_sum), n, nd, n_params);
+            return criteria_from_fit(f, nd, n, n_params, degenerate ? 0.0 : std::exp(log_sum));
         }
         case noise_model::full: {
             const Eigen::MatrixXd sigma = mo.residual_gram / nd;
@@ -98,7 +100,7 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
             const double logdet = degenerate ? ninf : log_det_psd(sigma) + 2.0 * mo.gram_exp * ln2 * static_cast<double>(m);
             degenerate = degenerate || std::isinf(logdet);
             const double f = degenerate ? ninf : nd * logdet;
-            return criteria_from_fit(f, degenerate ? 0.0 : std::exp(logdet), n, nd, n_params);
+            return criteria_from_fit(f, nd, n, n_params, degenerate ? 0.0 : std::exp(logdet));
         }
     }
     return {};
@@ -121,7 +123,7 @@ inline information_criteria_result information_criteria(const param<double>& rss
     const double r = rss.value();
     const double sigma2 = r / nd;
     const double f = r > 0.0 ? nd * std::log(sigma2) : -std::numeric_limits<double>::infinity();
-    return detail::criteria_from_fit(f, r > 0.0 ? sigma2 : 0.0, n, nd, p);
+    return detail::criteria_from_fit(f, nd, n, p, r > 0.0 ? sigma2 : 0.0);
 }
 
 /// Criteria of `tau_meas` against `tau_pred` under a noise model (contract §3.7 table).
