@@ -1,7 +1,9 @@
 """Speed of dynval's backends on N = 2,000,000 samples × 7 joints (float64), in one run.
 
 Every time is the best of ``--repeat`` calls (default 3) and is printed with its ratio to
-*reading both arrays once* (``np.sum`` of each), the floor for any one-pass computation.
+*reading both arrays once*, the floor for any one-pass computation, measured two ways: ``np.sum``
+of each, and a compiled tight loop that reads every element once (``_core._testing.read_sum``,
+the fairer floor for compiled code: ``np.sum``'s pairwise summation is not free).
 This is a benchmark, not a test: nothing here asserts a time.
 
 Rows
@@ -13,7 +15,11 @@ Rows
   criteria): C++ through ``validate(..., max_lag=0)`` and through the ``compute_metrics`` kernel;
   scikit-learn's rmse + r2 + explained_variance + max_error for comparison;
 * autocorrelation to 50 lags for 7 joints (C++ blocked direct sums, python reference) against
-  statsmodels' ``acf`` (FFT) for one joint.
+  statsmodels' ``acf`` (FFT) for one joint;
+* cross-correlation of the residual with ``--xc-p`` (70) regressor columns per joint at
+  ``--lags`` lags on ``--xc-n`` (200,000) rows: the C++ kernel against reading Y once (compiled),
+  its achieved rate (N·m·p·(L+1) multiply-adds), and ``validate`` with that regressor against the
+  kernel alone.
 
 Run: ``PYTHONPATH=python python3 benchmarks/bench_metrics.py`` (after building the extension).
 """
@@ -126,6 +132,8 @@ def main(argv=None):
     parser.add_argument("--p", type=int, default=30, help="number of model parameters")
     parser.add_argument("--lags", type=int, default=50)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--xc-n", type=int, default=200_000, help="rows of the cross-correlation rows")
+    parser.add_argument("--xc-p", type=int, default=70, help="regressor columns per joint (0: skip those rows)")
     args = parser.parse_args(argv)
 
     rng = np.random.default_rng(2024)
@@ -137,11 +145,13 @@ def main(argv=None):
     has_cpp = dynval.backends()["cpp"]["available"]
 
     base = best_of(lambda: (np.sum(tau_meas), np.sum(tau_pred)), args.repeat)
+    probe = dynval._backend.get_backend("cpp")._testing if has_cpp else None
+    cbase = best_of(lambda: (probe.read_sum(tau_meas), probe.read_sum(tau_pred)), args.repeat) if probe else None
     rows = []
 
     def row(group, label, f, repeat=args.repeat):
         t = best_of(f, repeat)
-        rows.append((group, label, t, t / base))
+        rows.append((group, label, t, t / base, t / cbase if cbase else float("nan")))
 
     row("six pooled", "lesson compute_basic_metrics", lambda: compute_basic_metrics(tau_meas, tau_pred, args.p))
     row("six pooled", "dynval python backend", lambda: six_pooled(tau_meas, tau_pred, args.p, "python"), 1)
@@ -175,14 +185,42 @@ def main(argv=None):
     print(f"N = {n:,} × m = {m} float64; best of {args.repeat} (python-backend rows: 1 run); "
           f"cpp backend: {'yes' if has_cpp else 'NOT AVAILABLE'}")
     print(f"read once (np.sum of both arrays): {base * 1e3:8.2f} ms")
-    print(f"{'group':<12} {'what':<42} {'ms':>10} {'× read once':>12}")
-    for group, label, t, ratio in rows:
-        print(f"{group:<12} {label:<42} {t * 1e3:10.2f} {ratio:12.2f}")
+    if cbase:
+        print(f"read once (compiled read_sum of both arrays): {cbase * 1e3:8.2f} ms "
+              f"({2 * tau_meas.nbytes / cbase / 1e9:.1f} GB/s)")
+    print(f"{'group':<12} {'what':<42} {'ms':>10} {'× np.sum':>10} {'× compiled read':>16}")
+    for group, label, t, ratio, cratio in rows:
+        print(f"{group:<12} {label:<42} {t * 1e3:10.2f} {ratio:10.2f} {cratio:16.2f}")
     if has_cpp:
         got = six_pooled(tau_meas, tau_pred, args.p, "cpp")
         want = (lesson.rmse, lesson.vaf, lesson.fit_percent, lesson.r2, lesson.aic, lesson.bic)
         diffs = ", ".join(f"{abs(g - w) / max(abs(w), 1e-300):.1e}" for g, w in zip(got, want))
         print(f"relative difference cpp vs lesson (rmse, vaf, fit, r2, aic, bic): {diffs}")
+    if has_cpp and args.xc_p:
+        cross_correlation_rows(tau_meas, tau_pred, args, probe)
+
+
+def cross_correlation_rows(tau_meas, tau_pred, args, probe):
+    """The cross-correlation kernel on (N, m, p) regressors: × reading Y once, rate, and validate."""
+    core = dynval._backend.get_backend("cpp")
+    n, m, p, lags = min(args.xc_n, tau_meas.shape[0]), tau_meas.shape[1], args.xc_p, args.lags
+    rng = np.random.default_rng(7)
+    tau, pred = tau_meas[:n], tau_pred[:n]
+    y = rng.normal(size=(n, m, p)) + tau[:, :, None] * rng.normal(size=(1, m, p))
+    e = tau - pred
+    y2 = y.reshape(n, m * p)
+    starts = np.zeros(1, dtype=np.int64)
+    read_y = best_of(lambda: probe.read_sum(y2), args.repeat)
+    kernel = best_of(lambda: core.cross_correlation(e, y2, p, lags, True, starts), args.repeat)
+    full = best_of(lambda: dynval.validate(tau, pred, n_params=args.p, regressor=y, max_lag=lags, backend="cpp"), 1)
+    fma = n * m * p * (lags + 1)
+    print(f"cross-correlation: N = {n:,} × m = {m}, p = {p} columns per joint, lags 0..{lags} "
+          f"(Y is {y.nbytes / 1e6:.0f} MB; {fma / 1e9:.2f} G multiply-adds)")
+    print(f"  read Y once (compiled read_sum): {read_y * 1e3:10.2f} ms ({y.nbytes / read_y / 1e9:.1f} GB/s)")
+    print(f"  cpp cross_correlation kernel: {kernel * 1e3:10.2f} ms = {kernel / read_y:6.1f} × read Y once; "
+          f"{fma / kernel / 1e9:.2f} G multiply-adds/s = {2 * fma / kernel / 1e9:.2f} GFLOP/s")
+    print(f"  cpp validate(..., regressor=Y, max_lag={lags}): {full * 1e3:.2f} ms = {full / kernel:6.2f} × the kernel "
+          f"alone (1 run)")
 
 
 if __name__ == "__main__":

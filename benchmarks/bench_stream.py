@@ -6,8 +6,13 @@ Rows printed (times in seconds; ratios as stated):
 * the same quantities as a streamed report holds, from the public functions on the whole arrays
   (``validate(..., max_lag=0)``, autocorrelation, Ljung–Box, zero-mean test, cross-correlation):
   the like-for-like in-memory cost;
-* the streaming accumulator (``dynval.stream``, numpy) fed ``--chunk`` rows at a time, and its ratio
-  to each in-memory run;
+* the streaming accumulator (``dynval.stream``) on each backend (``cpp``: the C++ ``stream_state``;
+  ``python``: numpy) fed ``--chunk`` rows at a time, and its ratio to each in-memory run;
+* the C++ accumulator's throughput against a compiled loop that reads tau_meas and tau_pred once
+  (``_core._testing.read_sum``), at ``--lags`` and at ``max_lag=0`` (every chunk read once);
+* with ``--rss-n N`` (e.g. 50000000): the C++ accumulator on N rows streamed from two memory-mapped
+  ``.npy`` files in ``--rss-dir`` (written first, chunk by chunk), in a fresh process: its peak RSS
+  (``ru_maxrss``) and its throughput against the compiled read of the same mapped files;
 * ``dynval.dask.validate`` on a ``LocalCluster`` of ``--workers`` worker processes (one thread
   each), the data already held by the workers (as they would read it from shared storage), and
   its ratio to the single-process accumulator on the same data: once with dask's default worker
@@ -68,8 +73,9 @@ def same_quantities(tau, pred, y, args, backend):
         dynval.cross_correlation(e, y, args.lags, backend=backend)
 
 
-def stream_report(tau, pred, y, args):
-    acc = ValidationAccumulator(n_params=args.params, max_lag=args.lags)
+def stream_report(tau, pred, y, args, backend=None, max_lag=None):
+    acc = ValidationAccumulator(n_params=args.params, max_lag=args.lags if max_lag is None else max_lag,
+                                backend=backend)
     for k in range(0, tau.shape[0], args.chunk):
         acc.update(tau[k:k + args.chunk], pred[k:k + args.chunk], None if y is None else y[k:k + args.chunk])
     return acc.result()
@@ -129,7 +135,13 @@ def main(argv=None):
     parser.add_argument("--chunk", type=int, default=100_000, help="rows per stream chunk and per dask block")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--rss-n", type=int, default=0, help="rows of the memory-mapped RSS run (0: skip)")
+    parser.add_argument("--rss-dir", default="/tmp", help="where the .npy files of the RSS run are written")
+    parser.add_argument("--rss-child", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--skip-dask", action="store_true")
     args = parser.parse_args(argv)
+    if args.rss_child:
+        return rss_child(args)
     tau, pred, y = (np.concatenate(parts) if parts[0] is not None else None for parts in zip(*(
         robot_like(np.arange(k, min(k + args.chunk, args.n)), args.m, args.p)
         for k in range(0, args.n, args.chunk))))
@@ -144,10 +156,21 @@ def main(argv=None):
         seconds = min(timed(lambda b=backend: same_quantities(tau, pred, y, args, b))[0] for _ in range(args.repeat))
         rows.append((f"same quantities ({backend})", seconds))
         print(f"{'same quantities in memory, ' + backend + ' backend':<44} {seconds:>9.2f}")
-    stream_seconds = min(timed(lambda: stream_report(tau, pred, y, args))[0] for _ in range(args.repeat))
-    print(f"{'stream accumulator (python)':<44} {stream_seconds:>9.2f}")
-    for name, seconds in rows:
-        print(f"{'stream / ' + name:<44} {stream_seconds / seconds:>9.2f}")
+    backends = [b for b in ("cpp", "python") if dynval.backends()[b]["available"]]
+    per_backend = {}
+    for backend in backends:
+        per_backend[backend] = min(timed(lambda b=backend: stream_report(tau, pred, y, args, b))[0]
+                                   for _ in range(args.repeat))
+        print(f"{'stream accumulator (' + backend + ')':<44} {per_backend[backend]:>9.2f}")
+        for name, seconds in rows:
+            print(f"{'  stream (' + backend + ') / ' + name:<44} {per_backend[backend] / seconds:>9.2f}")
+    stream_seconds = per_backend[backends[0]]
+    if "cpp" in backends:
+        compiled_read_rows(tau, pred, y, args, per_backend["cpp"])
+    if args.rss_n:
+        rss_run(args)
+    if args.skip_dask:
+        return
     try:
         import distributed  # noqa: F401
     except ImportError:
@@ -155,6 +178,99 @@ def main(argv=None):
         return
     for keep in (True, False):
         dask_row(args, stream_seconds, keep)
+
+
+def compiled_read_rows(tau, pred, y, args, stream_seconds):
+    """The C++ accumulator against a compiled loop that reads every input element once."""
+    probe = dynval._backend.get_backend("cpp")._testing
+    arrays = [tau, pred] + ([y] if y is not None else [])
+    read = min(timed(lambda: [probe.read_sum(a) for a in arrays])[0] for _ in range(max(3, args.repeat)))
+    zero = min(timed(lambda: stream_report(tau, pred, y, args, "cpp", 0))[0] for _ in range(args.repeat))
+    mb = sum(a.nbytes for a in arrays) / 1e6
+    print(f"{'compiled read of the inputs (read_sum)':<44} {read:>9.3f}   ({mb / read / 1e3:.1f} GB/s)")
+    for label, seconds in ((f"max_lag={args.lags}", stream_seconds), ("max_lag=0", zero)):
+        print(f"{'stream accumulator (cpp), ' + label:<44} {seconds:>9.3f}   {mb / seconds:8.0f} MB/s = "
+              f"{100 * read / seconds:5.1f} % of the compiled read")
+
+
+def rss_run(args):
+    """Writes N rows to two .npy files chunk by chunk, then streams them in a fresh process."""
+    import subprocess
+    import sys
+
+    paths = [os.path.join(args.rss_dir, f"dynval_bench_{name}.npy") for name in ("tau", "pred")]
+    start = time.perf_counter()
+    maps = [np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=(args.rss_n, args.m))
+            for path in paths]
+    for k in range(0, args.rss_n, args.chunk):
+        tau, pred, _ = robot_like(np.arange(k, min(k + args.chunk, args.rss_n)), args.m, 0)
+        maps[0][k:k + len(tau)] = tau
+        maps[1][k:k + len(tau)] = pred
+    for mm in maps:
+        mm.flush()
+    del maps
+    print(f"wrote {args.rss_n:,} × {args.m} rows to two .npy files ({2 * args.rss_n * args.m * 8 / 1e9:.1f} GB) "
+          f"in {time.perf_counter() - start:.1f} s")
+    try:
+        for lags in (args.lags, 0):
+            out = subprocess.run([sys.executable, __file__, "--rss-child", ",".join(paths), "--m", str(args.m),
+                                  "--lags", str(lags), "--chunk", str(args.chunk), "--params", str(args.params)],
+                                 check=True, capture_output=True, text=True)
+            print(out.stdout, end="")
+    finally:
+        for path in paths:
+            os.remove(path)
+
+
+def peak_rss_mb():
+    """This process's peak resident set (VmHWM; ru_maxrss would include the parent's before exec)."""
+    with open("/proc/self/status") as status:
+        line = next(x for x in status if x.startswith("VmHWM:"))
+    return int(line.split()[1]) / 1024
+
+
+def mapped_chunks(a, rows):
+    """Copies of consecutive chunks of a memory-mapped array, as a file reader would give them. The
+    pages of each chunk are released from the mapping once copied (madvise DONTNEED: they stay in
+    the page cache), so the resident set measures the reader, not the mapped file."""
+    import mmap
+
+    mm = a._mmap
+    page = mmap.PAGESIZE
+    done = 0
+    for k in range(0, a.shape[0], rows):
+        chunk = np.array(a[k:k + rows])
+        end = (a.offset + (k + len(chunk)) * a.strides[0]) // page * page
+        if end > done:
+            mm.madvise(mmap.MADV_DONTNEED, done, end - done)
+            done = end
+        yield chunk
+
+
+def rss_child(args):
+    """In a fresh process: compiled read of the mapped files, then the C++ accumulator over them."""
+    probe = dynval._backend.get_backend("cpp")._testing
+    paths = args.rss_child.split(",")
+    n, m = np.load(paths[0], mmap_mode="r").shape
+    before = peak_rss_mb()
+
+    def maps():
+        return [np.load(path, mmap_mode="r") for path in paths]
+
+    read = timed(lambda: [probe.read_sum(c) for a in maps() for c in mapped_chunks(a, args.chunk)])[0]
+
+    def run():
+        acc = ValidationAccumulator(n_params=args.params, max_lag=args.lags, backend="cpp")
+        tau, pred = maps()
+        for t, p in zip(mapped_chunks(tau, args.chunk), mapped_chunks(pred, args.chunk)):
+            acc.update(t, p)
+        return acc.result()
+
+    seconds, report = timed(run)
+    peak = peak_rss_mb()
+    print(f"memory-mapped run, N = {n:,} × {m}, max_lag={args.lags}: accumulator {seconds:.1f} s, "
+          f"compiled read of the same chunks {read:.1f} s ({100 * read / seconds:.1f} %); peak RSS {peak:.0f} MB "
+          f"(after imports {before:.0f} MB); N in the report {report.provenance['n_samples']:,}")
 
 
 if __name__ == "__main__":

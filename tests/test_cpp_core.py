@@ -137,6 +137,30 @@ def test_other_layouts_are_converted_once(make):
     np.testing.assert_array_equal(_core.residuals(view, np.zeros(view.shape)), view.astype(np.float64))
 
 
+def test_read_sum_reads_every_element_once():
+    a = np.random.default_rng(5).normal(size=(1001, 7))
+    assert _core._testing.read_sum(a) == pytest.approx(float(np.sum(a)), rel=1e-12, abs=1e-12)
+    assert _core._testing.read_sum(a[::3]) == pytest.approx(float(np.sum(a[::3])), rel=1e-12, abs=1e-12)
+    assert _core._testing.read_sum(np.zeros((0, 3))) == 0.0
+
+
+def test_stream_state_binding_checks_and_copies():
+    with pytest.raises(dynval.InvalidParameter, match=r"^n_joints must be a positive integer, got 0$"):
+        _core.StreamState(0, 0, 0, 0, False)
+    with pytest.raises(dynval.InvalidParameter, match=r"xcorr_lags <= acf_lags"):
+        _core.StreamState(2, 1, 3, 5, False)
+    st = _core.StreamState(2, 0, 3, 0, True)
+    e = np.random.default_rng(6).normal(size=(40, 2))
+    st.append(e, e + 1.0, None)
+    with pytest.raises(dynval.InvalidShape):
+        st.append(np.zeros((3, 3)), np.zeros((3, 3)), None)
+    twin = st.copy()
+    twin.append(e, e, None)
+    assert (st.n, twin.n, st.lengths) == (40, 80, [40])
+    sums = st.sums()
+    np.testing.assert_allclose(sums["k_e"] + sums["cur_e"][0] / 40, e.mean(axis=0), rtol=0, atol=1e-15)
+
+
 # --------------------------------------------------------------------------- errors
 
 

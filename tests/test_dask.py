@@ -36,16 +36,17 @@ def robot_like(n, m, p, seed):
     return tau, tau - e, y + rng.normal(scale=0.01, size=y.shape)
 
 
-def test_local_cluster_equals_validate(client):
+def test_local_cluster_equals_validate(client, backend):
     tau, pred, y = robot_like(40_000, 3, 4, seed=0)
     segments = [15_000, 25_000]
     got = dynval.dask.validate(da.from_array(tau, chunks=(7_000, 3)), da.from_array(pred, chunks=(5_000, 3)),
                                n_params=8, regressor=da.from_array(y, chunks=(10_000, 3, 4)), max_lag=30,
-                               segments=segments, split_every=3)
+                               segments=segments, split_every=3, backend=backend)
     want = dynval.validate(tau, pred, n_params=8, regressor=y, max_lag=30, segments=segments, backend="python",
                            cross_correlation_detail="full")
     assert_same_report(got, want, tau, pred, y)
     assert got.provenance["segments"] == segments
+    assert got.provenance["backend"] == backend
 
 
 def test_local_cluster_errors_name_the_block(client):

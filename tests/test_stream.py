@@ -251,7 +251,7 @@ def usable(tau, pred, y, keywords):
 
 
 @given(problems(), st.data())
-def test_random_chunkings_and_segments_equal_validate(problem, data):
+def test_random_chunkings_and_segments_equal_validate(backend, problem, data):
     tau, pred, y = problem
     n = tau.shape[0]
     cuts = cut_points(data.draw, n)
@@ -259,14 +259,14 @@ def test_random_chunkings_and_segments_equal_validate(problem, data):
     lengths = lengths_of(n, breaks)
     keywords = draw_settings(data, n, max(lengths))
     assume(usable(tau, pred, y, keywords))
-    acc = feed(ValidationAccumulator(allow_wide=True, **keywords), tau, pred, y, cuts, breaks)
+    acc = feed(ValidationAccumulator(backend=backend, allow_wide=True, **keywords), tau, pred, y, cuts, breaks)
     assert acc.n_samples == n
     assert_same_report(acc.result(), reference(tau, pred, y, lengths, **keywords), tau, pred, y)
 
 
 @settings(max_examples=30)
 @given(problems(max_n=160), st.data())
-def test_one_row_chunks_without_pooling(problem, data):
+def test_one_row_chunks_without_pooling(backend, problem, data):
     """Every chunk summed on its own (no pooling of small chunks): one-row chunks and chunks
     shorter than max_lag join across every boundary."""
     tau, pred, y = problem
@@ -277,12 +277,12 @@ def test_one_row_chunks_without_pooling(problem, data):
     cuts = list(range(size, n, size))
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(stream, "_buffer_rows", lambda layout: 1)
-        acc = feed(ValidationAccumulator(allow_wide=True, **keywords), tau, pred, y, cuts)
+        acc = feed(ValidationAccumulator(backend=backend, allow_wide=True, **keywords), tau, pred, y, cuts)
     assert_same_report(acc.result(), reference(tau, pred, y, None, **keywords), tau, pred, y)
 
 
-def accumulator_of(tau, pred, y, keywords, data, start_break=False, end_break=False):
-    acc = ValidationAccumulator(allow_wide=True, **keywords)
+def accumulator_of(tau, pred, y, keywords, data, backend, start_break=False, end_break=False):
+    acc = ValidationAccumulator(allow_wide=True, backend=backend, **keywords)
     if start_break:
         acc.break_segment()
     feed(acc, tau, pred, y, cut_points(data.draw, tau.shape[0], most=4))
@@ -300,7 +300,7 @@ def merge_tree(accs, data):
 
 
 @given(problems(max_n=500), st.data())
-def test_merge_trees_equal_validate(problem, data):
+def test_merge_trees_equal_validate(backend, problem, data):
     tau, pred, y = problem
     n = tau.shape[0]
     assume(n >= 4)
@@ -315,7 +315,7 @@ def test_merge_trees_equal_validate(problem, data):
     assume(usable(tau, pred, y, keywords))
     pieces = []
     for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
-        pieces.append(accumulator_of(tau[a:b], pred[a:b], None if y is None else y[a:b], keywords, data,
+        pieces.append(accumulator_of(tau[a:b], pred[a:b], None if y is None else y[a:b], keywords, data, backend,
                                      start_break=i > 0 and junction_breaks[i - 1] == "start",
                                      end_break=i < len(cuts) and junction_breaks[i] == "end"))
     want = reference(tau, pred, y, lengths, **keywords)
@@ -326,7 +326,7 @@ def test_merge_trees_equal_validate(problem, data):
 
 @settings(max_examples=40)
 @given(problems(max_n=300), st.data())
-def test_merge_is_associative(problem, data):
+def test_merge_is_associative(backend, problem, data):
     tau, pred, y = problem
     n = tau.shape[0]
     assume(n >= 3)
@@ -334,7 +334,8 @@ def test_merge_is_associative(problem, data):
     keywords = {"n_params": 1, "profile": "lesson", "max_lag": min(30, n - 1)}
     assume(usable(tau, pred, y, keywords))
     part = [(0, i), (i, j), (j, n)]
-    a, b, c = (accumulator_of(tau[s:t], pred[s:t], None if y is None else y[s:t], keywords, data) for s, t in part)
+    a, b, c = (accumulator_of(tau[s:t], pred[s:t], None if y is None else y[s:t], keywords, data, backend)
+               for s, t in part)
     left = a.copy().merge(b).merge(c)
     right = a.copy().merge(b.copy().merge(c))
     want = reference(tau, pred, y, None, **keywords)
@@ -344,7 +345,7 @@ def test_merge_is_associative(problem, data):
 
 @settings(max_examples=40)
 @given(problems(max_n=400), st.data())
-def test_omit_equals_validate(problem, data):
+def test_omit_equals_validate(backend, problem, data):
     tau, pred, y = problem
     n = tau.shape[0]
     assume(n >= 8)
@@ -361,7 +362,8 @@ def test_omit_equals_validate(problem, data):
     longest = max(want.provenance["segments"])
     keywords["max_lag"] = min(10, longest - 1)
     want = reference(tau, pred, y, None, **keywords)
-    acc = feed(ValidationAccumulator(allow_wide=True, **keywords), tau, pred, y, cut_points(data.draw, n))
+    acc = feed(ValidationAccumulator(backend=backend, allow_wide=True, **keywords), tau, pred, y,
+               cut_points(data.draw, n))
     got = acc.result()
     assert got.provenance["omitted_rows"] == want.provenance["omitted_rows"] == n - keep.sum()
     assert_same_report(got, want, tau[keep], pred[keep], None if y is None else y[keep])
@@ -369,7 +371,7 @@ def test_omit_equals_validate(problem, data):
 
 
 @pytest.mark.parametrize("offset", [0.0, 1e3, 1e6])
-def test_means_far_from_zero(offset):
+def test_means_far_from_zero(offset, backend):
     """Sums are kept about the running mean: an offset large against the spread loses nothing."""
     rng = np.random.default_rng(3)
     n, m = 20000, 3
@@ -377,7 +379,7 @@ def test_means_far_from_zero(offset):
     pred = tau - (0.2 * rng.normal(size=(n, m)) + 0.1 * np.cumsum(rng.normal(size=(n, m)), axis=0) / 30
                   + offset * 1e-3)
     y = tau[:, :, None] * [1.0, -0.5] + offset
-    acc = ValidationAccumulator(n_params=3, max_lag=40)
+    acc = ValidationAccumulator(backend=backend, n_params=3, max_lag=40)
     feed(acc, tau, pred, y, sorted(set(range(37, n, 997)) | set(range(5000, 5030))))
     want = reference(tau, pred, y, None, n_params=3, max_lag=40)
     assert_same_report(acc.result(), want, tau, pred, y)
@@ -386,13 +388,13 @@ def test_means_far_from_zero(offset):
 # --------------------------------------------------------------------------- sections and state
 
 
-def test_sections_left_out_and_findings():
+def test_sections_left_out_and_findings(backend):
     rng = np.random.default_rng(4)
     tau = rng.normal(size=(400, 2)) * [30.0, 2.0]
     pred = tau + rng.normal(size=(400, 2))
     pred[:, 1] = tau[:, 1][::-1]  # joint 2 worse than a constant
-    acc = feed(ValidationAccumulator(n_params=2, max_lag=8, joint_names=["shoulder", "elbow"]), tau, pred,
-               rng.normal(size=(400, 2, 3)), [100, 200])
+    acc = feed(ValidationAccumulator(backend=backend, n_params=2, max_lag=8, joint_names=["shoulder", "elbow"]),
+               tau, pred, rng.normal(size=(400, 2, 3)), [100, 200])
     report = acc.result()
     assert report.bias is None and report.spectrum is None and report.design is None
     assert report.segment_metrics is None and report.provenance["streaming"] is True
@@ -406,22 +408,22 @@ def test_sections_left_out_and_findings():
     report.to_json()
 
 
-def test_max_lag_zero_reads_once():
+def test_max_lag_zero_reads_once(backend):
     rng = np.random.default_rng(5)
     tau = rng.normal(size=(300, 3))
     pred = tau + 0.1 * rng.normal(size=(300, 3))
-    acc = feed(ValidationAccumulator(n_params=1, max_lag=0), tau, pred, None, [1, 2, 150])
+    acc = feed(ValidationAccumulator(backend=backend, n_params=1, max_lag=0), tau, pred, None, [1, 2, 150])
     got, want = acc.result(), reference(tau, pred, None, None, n_params=1, max_lag=0)
     assert got.autocorrelation is None and got.ljung_box is None
     assert got.residuals["zero_mean_test"]["n_eff"] is None
     assert_same_report(got, want, tau, pred)
 
 
-def test_state_does_not_grow_with_n():
+def test_state_does_not_grow_with_n(backend):
     rng = np.random.default_rng(6)
     sizes = []
     for n in (2_000, 200_000):
-        acc = ValidationAccumulator(n_params=1, max_lag=20)
+        acc = ValidationAccumulator(backend=backend, n_params=1, max_lag=20)
         for _ in range(0, n, 1000):
             acc.update(rng.normal(size=(1000, 4)), rng.normal(size=(1000, 4)), rng.normal(size=(1000, 4, 3)))
         acc.break_segment()
@@ -429,11 +431,11 @@ def test_state_does_not_grow_with_n():
     assert sizes[1] < 1.01 * sizes[0]
 
 
-def test_profile_default_max_lag_follows_the_longest_segment():
+def test_profile_default_max_lag_follows_the_longest_segment(backend):
     rng = np.random.default_rng(7)
     tau = rng.normal(size=(30, 1))
     pred = tau + rng.normal(size=(30, 1))
-    acc = ValidationAccumulator(n_params=1)
+    acc = ValidationAccumulator(backend=backend, n_params=1)
     feed(acc, tau, pred, None, [10, 20], breaks=[10, 20])
     assert acc.result().provenance["conventions"]["max_lag"] == 9
     assert_same_report(acc.result(), reference(tau, pred, None, [10, 10, 10], n_params=1), tau, pred)
@@ -442,8 +444,8 @@ def test_profile_default_max_lag_follows_the_longest_segment():
 # --------------------------------------------------------------------------- errors
 
 
-def test_chunk_errors_name_the_chunk_and_the_shape():
-    acc = ValidationAccumulator(n_params=1, max_lag=2)
+def test_chunk_errors_name_the_chunk_and_the_shape(backend):
+    acc = ValidationAccumulator(backend=backend, n_params=1, max_lag=2)
     acc.update(np.zeros((5, 3)), np.ones((5, 3)), np.ones((5, 3, 2)))
     cases = [
         ((np.zeros((4, 2)), np.zeros((4, 2)), np.ones((4, 2, 2))), dynval.ShapeMismatch,
@@ -497,3 +499,24 @@ def test_unsupported_and_invalid_keywords():
         acc.merge(other)
     with pytest.raises(dynval.TooFewSamples, match="look transposed"):
         feed(ValidationAccumulator(n_params=1, max_lag=0), np.ones((2, 5)), np.zeros((2, 5)), None, []).result()
+
+
+def test_backend_keyword_and_default(backend):
+    """backend=None takes dynval's default backend; the provenance names the backend that held the
+    sums; accumulators of different backends do not merge; pickling keeps the state."""
+    rng = np.random.default_rng(8)
+    tau = rng.normal(size=(200, 2))
+    pred = tau + rng.normal(size=(200, 2))
+    default = next(name for name, info in dynval.backends().items() if info["default"])
+    assert feed(ValidationAccumulator(n_params=1, max_lag=3), tau, pred, None, [50]).result() \
+        .provenance["backend"] == default
+    acc = feed(ValidationAccumulator(n_params=1, max_lag=3, backend=backend), tau, pred, None, [50])
+    assert acc.result().provenance["backend"] == backend
+    assert_same_report(pickle.loads(pickle.dumps(acc)).result(), acc.result(), tau, pred)
+    other = "python" if backend == "cpp" else "cpp"
+    if dynval.backends()[other]["available"]:
+        with pytest.raises(dynval.InvalidParameter, match=rf"got backend='{other}' where this one has "
+                                                          rf"backend='{backend}'"):
+            acc.merge(ValidationAccumulator(n_params=1, max_lag=3, backend=other))
+    with pytest.raises(dynval.InvalidParameter, match=r"^backend must be one of 'python'"):
+        ValidationAccumulator(n_params=1, backend="fortran")

@@ -44,6 +44,7 @@ void register_residual_statistics(py::module_& m);
 void register_correlation(py::module_& m);
 void register_portmanteau(py::module_& m);
 void register_information_criteria(py::module_& m);
+void register_stream(py::module_& m);
 void register_testing(py::module_& m);
 
 inline py::module_ numpy() { return py::module_::import("numpy"); }

@@ -15,5 +15,6 @@ PYBIND11_MODULE(_core, m) {
     dynval::bindings::register_correlation(m);
     dynval::bindings::register_portmanteau(m);
     dynval::bindings::register_information_criteria(m);
+    dynval::bindings::register_stream(m);
     dynval::bindings::register_testing(m);
 }

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.fft
@@ -111,6 +112,16 @@ class State:
 
     def copy(self) -> State:
         return copy.deepcopy(self)
+
+    def append(self, e: np.ndarray, tau: np.ndarray, y: np.ndarray | None, rows: int) -> None:
+        """Rows that continue the current segment, summed in blocks of ``rows`` and merged."""
+        for a in range(0, e.shape[0], rows):
+            block = slice(a, a + rows)
+            self.merge(State.from_block(self.layout, e[block], tau[block], None if y is None else y[block]))
+
+    def snapshot(self) -> State:
+        """The sums the report reads (the state itself)."""
+        return self
 
     # ----------------------------------------------------------------------- one block
 
@@ -202,12 +213,13 @@ class State:
 
     # ----------------------------------------------------------------------- merge
 
-    def merge(self, later: State) -> None:
+    def merge(self, later: State | CoreState) -> None:
         """Add ``later`` (rows that follow this state's rows in time) to this state, in place.
 
         Lags join across the junction unless this state ends with a break or ``later`` starts
         with one. ``later`` is not modified.
         """
+        assert isinstance(later, State)  # accumulators of different backends do not merge
         if later.n == 0:
             self.end_break = self.end_break or later.start_break or later.end_break
             return
@@ -362,3 +374,94 @@ def _boundary_sums(x: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray]:
 def _last(rows: np.ndarray, k: int) -> np.ndarray:
     """The last ``k`` rows (none for k = 0, where ``rows[-0:]`` would give them all)."""
     return rows[rows.shape[0] - min(k, rows.shape[0]):]
+
+
+class _Sum:
+    """A sum already combined (``hi + lo``), read with ``value()`` like :class:`Compensated`."""
+
+    __slots__ = ("_value",)
+
+    def __init__(self, value: np.ndarray) -> None:
+        self._value = value
+
+    def value(self) -> np.ndarray:
+        return self._value
+
+
+class CoreState:
+    """The same state in the C++ core (``dynval._core.StreamState``, cpp/include/dynval/stream_state.hpp),
+    which follows :class:`State` step by step. ``State`` stays the reference; the report reads
+    either through :meth:`snapshot`."""
+
+    def __init__(self, layout: Layout, core: object | None = None):
+        from . import _core  # the cpp backend: imported only when it is used
+
+        self.layout = layout
+        self._core: Any = core if core is not None else _core.StreamState(
+            layout.m, layout.p, layout.acf_lags, layout.xcorr_lags, layout.gram)
+
+    @property
+    def n(self) -> int:
+        return int(self._core.n)
+
+    @property
+    def lengths(self) -> list[int]:
+        return list(self._core.lengths)
+
+    @property
+    def end_break(self) -> bool:
+        return bool(self._core.end_break)
+
+    @end_break.setter
+    def end_break(self, value: bool) -> None:
+        self._core.end_break = bool(value)
+
+    def append(self, e: np.ndarray, tau: np.ndarray, y: np.ndarray | None, rows: int | None = None) -> None:
+        """Rows that continue the current segment: ``e``, ``tau`` (c, m), ``y`` (c, m, p) or None
+        (the core chooses its own block length; ``rows`` is the reference's)."""
+        c = e.shape[0]
+        self._core.append(e, tau, None if y is None else y.reshape(c, -1))
+
+    def merge(self, later: State | CoreState) -> None:
+        assert isinstance(later, CoreState)  # accumulators of different backends do not merge
+        self._core.merge(later._core)
+
+    def copy(self) -> CoreState:
+        return CoreState(self.layout, self._core.copy())
+
+    def __deepcopy__(self, memo: dict) -> CoreState:
+        return self.copy()
+
+    def snapshot(self) -> _Snapshot:
+        return _Snapshot(self.layout, self.n, self.lengths, self._core.sums())
+
+
+class _Snapshot:
+    """The sums of a :class:`CoreState` under the attribute names of :class:`State` (for the report)."""
+
+    _COMPENSATED = ("prod_e", "cur_e", "lag_e", "sum_t", "sq_t", "sq_y", "lag_y", "prod_ey")
+    prod_e: _Sum
+    cur_e: _Sum
+    lag_e: _Sum
+    sum_t: _Sum
+    sq_t: _Sum
+    sq_y: _Sum
+    lag_y: _Sum
+    prod_ey: _Sum
+    gram: _Sum | None
+    pairs: np.ndarray
+    k_e: np.ndarray
+    k_t: np.ndarray
+    k_y: np.ndarray
+    min_e: np.ndarray
+    max_e: np.ndarray
+    min_t: np.ndarray
+    max_t: np.ndarray
+    min_y: np.ndarray
+    max_y: np.ndarray
+
+    def __init__(self, layout: Layout, n: int, lengths: list[int], sums: dict) -> None:
+        self.layout, self.n, self.lengths = layout, n, lengths
+        for name, value in sums.items():
+            setattr(self, name, _Sum(value) if name in self._COMPENSATED else value)
+        self.gram = None if sums["gram"] is None else _Sum(sums["gram"])

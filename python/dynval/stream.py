@@ -51,6 +51,7 @@ import scipy.stats
 from . import _sections as sec
 from . import _validation as v
 from ._api import newey_west_bandwidth
+from ._backend import resolve as resolve_backend
 from ._errors import InputError, InvalidParameter, ShapeMismatch
 from ._findings import Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
@@ -60,7 +61,7 @@ from ._reference.portmanteau import chi2_logsf
 from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
-from ._stream import Layout, State
+from ._stream import CoreState, Layout, State, _Snapshot
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from ._version import CONTRACT_VERSION, __version__
 
@@ -107,6 +108,7 @@ class _Settings:
     column_names: tuple[str, ...] | None
     thresholds: Thresholds
     allow_wide: bool
+    backend: str
 
 
 class ValidationAccumulator:
@@ -127,8 +129,10 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
-    backend : None or "python"
-        The accumulator runs on numpy.
+    backend : None, "python" or "cpp"
+        Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
+        reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
+        in Python from the sums either way.
     segments, decimate, q, estimation, cross_correlation_detail, model_columns
         Not supported (they need the whole series): anything but None raises InvalidParameter
         naming the keyword (:data:`UNSUPPORTED` gives the reasons).
@@ -146,7 +150,7 @@ class ValidationAccumulator:
 
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
-                 nan_policy: NanPolicy = "raise", backend: Literal["python"] | None = None,
+                 nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
                  sample_rate: float | None = None, joint_names: Sequence[str] | None = None,
                  column_names: Sequence[str] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
                  allow_wide: bool = False, segments: None = None, decimate: None = None, q: None = None,
@@ -160,8 +164,7 @@ class ValidationAccumulator:
         _refuse("segments", segments)
         max_lag = _check_max_lag(max_lag, prof)
         level = prof.level if level is None else v.check_level(level)
-        if backend is not None and backend != "python":
-            raise v.parameter_error("backend", "None or 'python' (the accumulator runs on numpy)", backend)
+        backend_name, _ = resolve_backend(backend)
         checked_noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
         sample_rate = v.check_sample_rate(sample_rate)
         _refuse("decimate", decimate)
@@ -177,9 +180,9 @@ class ValidationAccumulator:
             n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
             nan_policy=nan_policy, level=level, noise_model=checked_noise_model, sample_rate=sample_rate,
             joint_names=_names(joint_names), column_names=_names(column_names), thresholds=checked_thresholds,
-            allow_wide=allow_wide)
+            allow_wide=allow_wide, backend=backend_name)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
-        self._state: State | None = None
+        self._state: State | CoreState | None = None
         # rows of the current segment not yet summed: (e, tau_meas, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
@@ -326,7 +329,7 @@ class ValidationAccumulator:
                 self.break_segment()
         else:
             if self._state is None:
-                self._state = State(later._state.layout)
+                self._state = self._new_state(later._state.layout)
                 self._state.end_break = self._break_first
             self._state.merge(later._state)
         self._chunks += other._chunks
@@ -369,7 +372,7 @@ class ValidationAccumulator:
         st, cfg = self._state, self._settings
         assert st is not None  # check_min_samples refused an empty stream
         v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, st.layout.m), cfg.allow_wide)
-        return _report(st, cfg, self._omitted)
+        return _report(st.snapshot(), cfg, self._omitted)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -432,8 +435,10 @@ class ValidationAccumulator:
         arrays: list[tuple[FloatArray, str, int | None]] = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
         if reg is not None:
             arrays.append((reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2]), "regressor", reg.shape[2]))
+        # The backend's scan: the C++ core's is one compiled pass over the chunk.
+        first_nonfinite = resolve_backend(self._settings.backend)[1].first_nonfinite
         for a, name, n_columns in arrays:
-            found = v.first_nonfinite(a)
+            found = first_nonfinite(a)
             if found is not None:
                 row, col, value = found
                 exc = v.nonfinite_error(name, row, col, value, n_columns=n_columns)
@@ -472,12 +477,12 @@ class ValidationAccumulator:
         assert e is not None and tau is not None  # only the regressor is optional
         self._pending, self._pending_rows = [], 0
         if self._state is None:
-            self._state = State(layout)
+            self._state = self._new_state(layout)
             self._state.end_break = self._break_first
-        rows = _block_rows(layout)
-        for a in range(0, e.shape[0], rows):
-            block = slice(a, a + rows)
-            self._state.merge(State.from_block(layout, e[block], tau[block], None if reg is None else reg[block]))
+        self._state.append(e, tau, reg, _block_rows(layout))
+
+    def _new_state(self, layout: Layout) -> State | CoreState:
+        return CoreState(layout) if self._settings.backend == "cpp" else State(layout)
 
     @property
     def _known_layout(self) -> Layout:
@@ -568,7 +573,7 @@ class _Moments:
     sigma: np.ndarray | None  # EᵀE/N (full noise model)
 
 
-def _moments(st: State) -> _Moments:
+def _moments(st: State | _Snapshot) -> _Moments:
     """Centre every sum on the overall means (contract §1.1: means are overall)."""
     n, m = st.n, st.layout.m
     cur, lag, pairs = st.cur_e.value(), st.lag_e.value(), st.pairs
@@ -611,7 +616,7 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, n: int, c
     return float(np.sum(ss) + n * np.sum((d - np.mean(d)) ** 2))
 
 
-def _fused_metrics(mo: _Moments, st: State, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
+def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
@@ -746,7 +751,7 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
-def _report(st: State, cfg: _Settings, omitted: int) -> ValidationReport:
+def _report(st: State | _Snapshot, cfg: _Settings, omitted: int) -> ValidationReport:
     prof = cfg.profile
     n, m, p = st.n, st.layout.m, st.layout.p
     longest = max(st.lengths)
@@ -824,7 +829,7 @@ def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: S
         "model_columns": None,
         "sample_rate": cfg.sample_rate,
         "thresholds": dict(vars(cfg.thresholds)) if hasattr(cfg.thresholds, "__dict__") else None,
-        "backend": "python",
+        "backend": cfg.backend,
         "streaming": True,
         "dynval_version": __version__,
         "contract_version": CONTRACT_VERSION,

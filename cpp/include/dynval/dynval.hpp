@@ -16,3 +16,4 @@
 #include "metrics.hpp"
 #include "options.hpp"
 #include "segments.hpp"
+#include "stream_state.hpp"

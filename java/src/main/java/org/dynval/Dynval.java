@@ -532,7 +532,7 @@ public final class Dynval {
 
     // =================================================================== information criteria (untyped core)
 
-    private static InformationCriteria assemble(double fitTerm, double nVec, long n, long p, double size,
+    private static InformationCriteria assemble(double fitTerm, long n, double nVec, double size, long p,
             String noiseModel) {
         double aic = fitTerm + 2.0 * p;
         double bic = fitTerm + p * Math.log(n);
@@ -560,7 +560,7 @@ public final class Dynval {
         long n = Checks.checkNObs(nObs);
         long p = Checks.checkNParams(nParams, n);
         double variance = r / n;
-        return assemble(nLog(n, variance), n, n, p, variance, "pooled");
+        return assemble(nLog(n, variance), n, n, variance, p, "pooled");
     }
 
     static InformationCriteria criteriaImpl(String function, Object tauMeas, Object tauPred, Object nParams,
@@ -575,21 +575,21 @@ public final class Dynval {
             Kernels.ScaledSum total = Kernels.scaledSumSquares(flatResidual(call.data[0], call.data[1]));
             long nv = (long) n * m;
             if (total.s() == 0.0) {
-                return assemble(Double.NEGATIVE_INFINITY, nv, nv, p, 0.0, model);
+                return assemble(Double.NEGATIVE_INFINITY, nv, nv, 0.0, p, model);
             }
-            return assemble(nv * total.logMean(nv), nv, nv, p, Math.scalb(total.s() / nv, 2 * total.k()), model);
+            return assemble(nv * total.logMean(nv), nv, nv, Math.scalb(total.s() / nv, 2 * total.k()), p, model);
         }
         if (model.equals("per_joint")) {
             double[] logs = new double[m];
             for (int j = 0; j < m; j++) {
                 Kernels.ScaledSum sse = Kernels.scaledSumSquares(e[j]);
                 if (sse.s() == 0.0) {
-                    return assemble(Double.NEGATIVE_INFINITY, n, n, p, 0.0, model);
+                    return assemble(Double.NEGATIVE_INFINITY, n, n, 0.0, p, model);
                 }
                 logs[j] = sse.logMean(n);
             }
             double logSize = Kernels.sum(logs);
-            return assemble(n * logSize, n, n, p, Math.exp(logSize), model);
+            return assemble(n * logSize, n, n, Math.exp(logSize), p, model);
         }
         // full: Σ̂ = EᵀE/N (m×m, not demeaned); singular by numpy's matrix_rank tolerance. E is
         // scaled by one power of two for every joint (eigenvalue ratios stay; ln det gains 2k·m·ln 2).
@@ -611,14 +611,14 @@ public final class Dynval {
         double[] eig = Kernels.symmetricEigenvalues(sigma);
         double largest = eig[m - 1];
         if (largest <= 0.0 || eig[0] <= m * Math.ulp(1.0) * largest) {
-            return assemble(Double.NEGATIVE_INFINITY, n, n, p, 0.0, model);
+            return assemble(Double.NEGATIVE_INFINITY, n, n, 0.0, p, model);
         }
         double[] logs = new double[m];
         for (int i = 0; i < m; i++) {
             logs[i] = Math.log(eig[i]);
         }
         double logDet = Kernels.sum(logs) + 2.0 * scale * m * Math.log(2.0);
-        return assemble(n * logDet, n, n, p, Math.exp(logDet), model);
+        return assemble(n * logDet, n, n, Math.exp(logDet), p, model);
     }
 
     // =================================================================== public, typed API
