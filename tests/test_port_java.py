@@ -49,6 +49,6 @@ def test_java_unit_tests():
 
 @pytest.mark.slow
 def test_java_port_passes_the_whole_corpus(tmp_path):
-    """``dynval conform --strict -- java/run-port``: exit 0 and every vector of all eight families passed."""
+    """``dynval conform --strict -- java/run-port``: exit 0 and every vector of the eight required families passed."""
     _require_java()
     assert_passes_whole_corpus(RUN_PORT, tmp_path / "java-conform.json")

@@ -80,6 +80,6 @@ def test_matlab_port_answers_in_lock_step():
 
 @pytest.mark.slow
 def test_matlab_port_passes_the_whole_corpus(tmp_path):
-    """``dynval conform --strict -- matlab/run-port``: exit 0 and every vector of all eight families passed."""
+    """``dynval conform --strict -- matlab/run-port``: exit 0 and every vector of the eight required families passed."""
     _require_octave()
     assert_passes_whole_corpus(RUN_PORT, tmp_path / "matlab-conform.json")

@@ -43,6 +43,7 @@ from . import (
     norms,
     portmanteau,
     residual_statistics,
+    streaming,
 )
 from ._config import CORPUS_VERSION, DPS, FAMILIES, GOLDEN, MPMATH_VERSION, RTOL, SCHEMA_NAME
 from ._family import Family
@@ -63,6 +64,7 @@ BUILDERS: dict[str, Callable[[], Family]] = {
     "cross_correlation": cross_correlation.build,
     "information_criteria": information_criteria.build,
     "errors": errors.build,
+    "streaming": streaming.build,
 }
 
 

@@ -23,6 +23,7 @@ FAMILIES = (
     "cross_correlation",
     "information_criteria",
     "errors",
+    "streaming",
 )
 
 # Relative size of every tolerance: absolute tolerance = RTOL * natural size of the

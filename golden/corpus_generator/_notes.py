@@ -117,6 +117,30 @@ NOTES: dict[str, dict[str, Any]] = {
         "means stay overall, n_l = sum_s max(n_s - l, 0).",
         "effect": "Ports that ignore segments include products across the joint and fail.",
     },
+    "Streaming": {
+        "bugType": "CONVENTION",
+        "description": "accumulate: the rows reach the port's accumulator in the blocks of `chunks`, combined as "
+        "`merge` says; every output equals the in-memory operation on the whole series.",
+        "effect": "An accumulator that drops the lagged products across a block junction, restarts its means per "
+        "block or merges in the wrong order gives autocorrelations, cross-correlations or variances that "
+        "depend on the blocks.",
+    },
+    "MergeOrder": {
+        "bugType": "CONVENTION",
+        "description": "The same blocks combined one after another, left to right, right to left or pairwise: "
+        "merging must be associative.",
+    },
+    "ShortBlocks": {
+        "bugType": "EDGE_CASE",
+        "description": "Blocks shorter than max_lag (down to one row): lagged products span several blocks.",
+        "effect": "Ports that keep only the previous block's tail of its own length lose products.",
+    },
+    "BlockAtRecordBoundary": {
+        "bugType": "EDGE_CASE",
+        "description": "A record of `segments` starts exactly where a block starts: the break belongs to the "
+        "junction of two accumulators.",
+        "effect": "Ports that join lags across every junction, or break at every junction, fail.",
+    },
     "SegmentStarts": {
         "bugType": "CONVENTION",
         "description": "The same segments given as starts (first element 0); identical values to the lengths form.",

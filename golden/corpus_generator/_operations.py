@@ -46,6 +46,8 @@ def _convention_ok(kind: str, value: Any) -> bool:
     got = _json_kind(value)
     if kind == "segments":
         return got == "none" or (got == "list" and all(_json_kind(v) == "integer" for v in value))
+    if kind == "lengths":
+        return got == "list" and len(value) > 0 and all(_json_kind(v) == "integer" and v > 0 for v in value)
     if kind == "string or none":
         return got in ("string", "none")
     return got == {"string": "string", "integer": "integer", "boolean": "boolean", "real": "real"}[kind]
@@ -77,7 +79,7 @@ def operations_problems(doc: dict, spec: dict) -> list[str]:
         for test in group["tests"]:
             tag = f"{family}-{test['tcId']} ({name})"
             strict = test["result"] != "invalid"
-            unknown = set(test["inputs"]) - set(op["data"]) - set(op["scalars"])
+            unknown = set(test["inputs"]) - set(op["data"]) - set(op.get("optional_data", ())) - set(op["scalars"])
             if unknown:
                 problems.append(f"{tag}: inputs {sorted(unknown)} not in operations.json")
             outputs = {k for k in test["expected"] if k != "error"}
@@ -95,6 +97,9 @@ def operations_problems(doc: dict, spec: dict) -> list[str]:
             for data in op["data"]:
                 if _json_kind(test["inputs"].get(data)) != "array":
                     problems.append(f"{tag}: data input {data} missing or not an array")
+            for data in op.get("optional_data", ()):
+                if data in test["inputs"] and _json_kind(test["inputs"][data]) != "array":
+                    problems.append(f"{tag}: data input {data} not an array")
             for scalar in op["scalars"]:
                 if scalar in test["inputs"] or scalar == "n_joints":
                     continue

@@ -96,14 +96,21 @@ def _split_command(argv: list[str]) -> tuple[list[str], list[str]]:
     return argv, []
 
 
-def _resolve_corpus(path: str | None, families: list[str]) -> pathlib.Path | None:
+def _resolve_corpus(path: str | None, families: list[str], explicit: bool) -> pathlib.Path | None:
+    """The corpus directory; an optional family not named on purpose may be missing from it
+    (it is then removed from ``families``)."""
+    from ..golden import OPTIONAL_FAMILIES
+
     if path is None:
         return None
     directory = pathlib.Path(path)
     if not (directory / f"{families[0]}.json").is_file() and (directory / "vectors").is_dir():
         directory = directory / "vectors"  # the golden/ root was given
-    for family in families:
+    for family in list(families):
         if not (directory / f"{family}.json").is_file():
+            if not explicit and family in OPTIONAL_FAMILIES:
+                families.remove(family)
+                continue
             raise FileNotFoundError(f"--corpus {path}: no {family}.json in {directory}")
     return directory
 
@@ -190,6 +197,7 @@ def _report_dict(result: RunResult, exit_code: int) -> dict:
         "command": result.command,
         "corpus": result.corpus or str(golden.corpus_dir()),
         "families": result.families,
+        "unclaimed_families": result.unclaimed,
         "port": {
             "name": result.port_name,
             "protocol_version": result.protocol_version,
@@ -268,7 +276,7 @@ def _matrix_main(args, out: TextIO, err: TextIO) -> int:
         return 2
     root = pathlib.Path(args.root)
     try:
-        corpus = _resolve_corpus(args.corpus, families)
+        corpus = _resolve_corpus(args.corpus, families, bool(args.families))
         if args.ports is not None:
             names = [p.strip() for p in args.ports.split(",") if p.strip()]
         else:
@@ -297,7 +305,8 @@ def _matrix_main(args, out: TextIO, err: TextIO) -> int:
             err.flush()
 
     rows = _matrix.run_matrix(specs, families, corpus=str(corpus) if corpus else None, timeout=args.timeout,
-                              startup_timeout=args.startup_timeout, max_restarts=args.max_restarts, log=log)
+                              startup_timeout=args.startup_timeout, max_restarts=args.max_restarts, log=log,
+                              skip_unclaimed=not args.families)
     table = _matrix.format_matrix(rows, families)
     out.write(table + "\n")
     for row in rows:
@@ -364,7 +373,7 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
         err.write(problem)
         return 2
     try:
-        corpus = _resolve_corpus(args.corpus, families)
+        corpus = _resolve_corpus(args.corpus, families, bool(args.families))
     except FileNotFoundError as exc:
         err.write(f"dynval conform: {exc}\n")
         return 2
@@ -378,6 +387,7 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
         startup_timeout=args.startup_timeout,
         max_restarts=args.max_restarts,
         progress=progress,
+        skip_unclaimed=not args.families,
     )
     counts = result.counts()["total"]
     failed = counts["failed"] > 0
@@ -393,6 +403,9 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
     if result.startup_error:
         out.write(f"port did not start: {result.startup_error}\n")
     out.write(format_table(result) + "\n")
+    if result.unclaimed:
+        out.write(f"optional families not claimed by the port (it declares none of their operations), not run: "
+                  f"{', '.join(result.unclaimed)}\n")
     if result.restarts:
         out.write(f"port restarts: {result.restarts}\n")
     failures = result.failures

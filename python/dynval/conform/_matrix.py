@@ -101,6 +101,7 @@ def run_matrix(
     startup_timeout: float = 300.0,
     max_restarts: int = 25,
     log: Callable[[str], None] | None = None,
+    skip_unclaimed: bool = True,
 ) -> list[MatrixRow]:
     """Run every port that can run over ``families``; keep the others with their reason."""
     rows = []
@@ -114,7 +115,8 @@ def run_matrix(
         os.environ.update(spec.env)
         try:
             result = run(spec.command, corpus=corpus, families=families, timeout=timeout,
-                         startup_timeout=startup_timeout, max_restarts=max_restarts)
+                         startup_timeout=startup_timeout, max_restarts=max_restarts,
+                         skip_unclaimed=skip_unclaimed)
         finally:
             for key, value in saved.items():
                 if value is None:
@@ -132,7 +134,8 @@ def run_matrix(
 def format_matrix(rows: Sequence[MatrixRow], families: Sequence[str]) -> str:
     """The Markdown table (rows: ports that ran; cells: passed/total), then the ports not run.
 
-    Only facts that a fresh run reproduces go in: no timings, no paths.
+    Only facts that a fresh run reproduces go in: no timings, no paths. An optional family the
+    port does not claim is ``—``.
     """
     head = "| port | " + " | ".join(f"`{f}`" for f in families) + " | all |"
     rule = "|---|" + "---:|" * (len(families) + 1)
@@ -142,7 +145,10 @@ def format_matrix(rows: Sequence[MatrixRow], families: Sequence[str]) -> str:
             continue
         counts = row.result.counts()
         cells = []
-        for family in families + ["total"]:
+        for family in [*families, "total"]:
+            if family in row.result.unclaimed:
+                cells.append("—")
+                continue
             c = counts.get(family, {})
             total = sum(c.values())
             cells.append(f"{c.get('passed', 0)}/{total}")

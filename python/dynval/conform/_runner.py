@@ -67,6 +67,9 @@ class RunResult:
     restarts: int = 0
     seconds: float = 0.0
     startup_error: str = ""
+    #: Optional families (``OPTIONAL_FAMILIES``) left out because the port declares none of their
+    #: operations; only when the families were not named explicitly.
+    unclaimed: list[str] = field(default_factory=list)
 
     def counts(self) -> dict[str, dict[str, int]]:
         """Family → status → number of cases (families in corpus order, plus ``total``)."""
@@ -167,6 +170,7 @@ def run(
     startup_timeout: float | None = None,
     max_restarts: int = 25,
     progress: Callable[[int, int, RunResult], None] | None = None,
+    skip_unclaimed: bool | None = None,
 ) -> RunResult:
     """Feed every selected vector to the port ``command`` and judge the answers.
 
@@ -177,7 +181,8 @@ def run(
     corpus : path, optional
         Directory holding ``<family>.json`` (default: the corpus shipped with dynval).
     families : sequence of str, optional
-        Families to run (default: all).
+        Families to run (default: all, except an optional family in which the port declares
+        no operation: it is listed in ``RunResult.unclaimed`` instead).
     timeout : float, optional
         Seconds allowed per case, from sending the case to reading ``end`` (default 30).
     startup_timeout : float, optional
@@ -188,12 +193,15 @@ def run(
         the remaining covered cases fail with reason ``not-run``.
     progress : callable, optional
         Called as ``progress(done, total, result)`` after every case.
+    skip_unclaimed : bool, optional
+        Leave out an optional family in which the port declares no operation (default: when
+        ``families`` is not given). A family named on purpose is run, and its cases skipped.
 
     Returns
     -------
     RunResult
     """
-    from ..golden import FAMILIES
+    from ..golden import FAMILIES, OPTIONAL_FAMILIES
 
     timeout, startup_timeout = resolve_timeouts(timeout, startup_timeout)
     selected = list(families) if families else list(FAMILIES)
@@ -214,6 +222,15 @@ def run(
         result.capabilities = [protocol.format_capability(c) for c in port.capabilities]
         result.encoding = port.encoding
     capabilities = port.capabilities if port is not None else []
+    if (not families if skip_unclaimed is None else skip_unclaimed) and capabilities:
+        declared = {c.operation for c in capabilities}
+        for family in OPTIONAL_FAMILIES:
+            operations = {c.operation for c in cases if c.family == family}
+            if family in selected and not operations & declared:
+                result.unclaimed.append(family)
+        if result.unclaimed:
+            result.families = [f for f in selected if f not in result.unclaimed]
+            cases = [c for c in cases if c.family not in result.unclaimed]
 
     try:
         for done, case in enumerate(cases, 1):

@@ -18,6 +18,7 @@ True
 from ._compare import check_case
 from ._loader import (
     FAMILIES,
+    OPTIONAL_FAMILIES,
     SCHEMA_NAME,
     Case,
     corpus_dir,
@@ -31,6 +32,7 @@ from ._ops import OPERATIONS, run_operation
 __all__ = [
     "FAMILIES",
     "OPERATIONS",
+    "OPTIONAL_FAMILIES",
     "SCHEMA_NAME",
     "Case",
     "check_case",

@@ -29,6 +29,7 @@ POSITIONAL: dict[str, tuple[str, ...]] = {
     "criteria": ("tau_meas", "tau_pred"),
     "aic": ("tau_meas", "tau_pred"),
     "bic": ("tau_meas", "tau_pred"),
+    "accumulate": ("tau_meas", "tau_pred"),
 }
 
 #: Named outputs of the operations that return a result object (contract field names).
@@ -45,6 +46,16 @@ FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 OPERATIONS: tuple[str, ...] = tuple(POSITIONAL)
+
+#: Outputs of ``accumulate``: (report section, field, column of a per-joint table or None).
+_ACCUMULATED = {
+    "sse": ("per_joint", "sse"), "rmse": ("per_joint", "rmse"), "max_abs_error": ("per_joint", "max_abs_error"),
+    "vaf": ("per_joint", "vaf"), "fit_percent": ("per_joint", "fit_percent"), "r2": ("per_joint", "r2"),
+    "residual_mean": ("residuals", "mean"), "residual_variance": ("residuals", "variance"),
+    "autocorrelation": ("autocorrelation", "rho"), "aic": ("information_criteria", "aic"),
+    "bic": ("information_criteria", "bic"), "aicc": ("information_criteria", "aicc"),
+    "fpe": ("information_criteria", "fpe"), "naic": ("information_criteria", "naic"),
+}
 
 
 def _field(result: Any, name: str) -> Any:
@@ -96,6 +107,8 @@ def run_operation(
     if operation not in POSITIONAL:
         msg = f"operation must be one of {', '.join(OPERATIONS)}, got {operation!r}"
         raise ValueError(msg)
+    if operation == "accumulate":
+        return _accumulate(inputs, conventions, backend)
     function = getattr(dynval, operation)
     positional = [inputs[name] for name in POSITIONAL[operation]]
     keywords = {k: v for k, v in inputs.items() if k not in POSITIONAL[operation]}
@@ -111,4 +124,97 @@ def run_operation(
             out[name] = np.asarray(_field(result, name))
         except (AttributeError, KeyError):
             continue  # absent fields are reported as missing by check_case when expected
+    return out
+
+
+def _blocks(n: int, chunks: Any) -> list[tuple[int, int]]:
+    """Row ranges of the blocks of ``chunks`` (positive lengths summing to N)."""
+    from .._validation import is_integer, parameter_error
+
+    if not isinstance(chunks, (list, tuple)) or not chunks or not all(is_integer(c) and c >= 1 for c in chunks) \
+            or sum(int(c) for c in chunks) != n:
+        raise parameter_error("chunks", f"a non-empty list of positive lengths summing to N={n}", chunks)
+    ends = np.cumsum([int(c) for c in chunks])
+    return list(zip([0, *ends[:-1].tolist()], ends.tolist()))
+
+
+def _merged(accumulators: list, merge: str):
+    """One accumulator from the blocks' own, combined in the order ``merge`` names."""
+    if merge == "left":
+        out = accumulators[0]
+        for acc in accumulators[1:]:
+            out = out.merge(acc)
+        return out
+    if merge == "right":
+        out = accumulators[-1]
+        for acc in reversed(accumulators[:-1]):
+            out = acc.merge(out)
+        return out
+    level = accumulators
+    while len(level) > 1:  # tree: adjacent pairs, an odd last one passed up unchanged
+        level = [level[k].merge(level[k + 1]) if k + 1 < len(level) else level[k] for k in range(0, len(level), 2)]
+    return level[0]
+
+
+def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
+                backend: str | None) -> dict[str, np.ndarray]:
+    """``accumulate``: feed the rows in the blocks of ``chunks`` to accumulators and merge them (contract §4.1).
+
+    The data are checked as ``criteria`` checks them first (type, shape, size, finiteness), then the
+    driver's own parameters (``chunks``, ``merge``, ``segments``, ``max_lag``), so the check order is
+    the contract's.
+    """
+    import dynval
+
+    from .._segments import longest_segment, parse_segments
+    from .._validation import check_choice, check_max_lag
+    from ..stream import ValidationAccumulator
+
+    meas, pred, reg = inputs["tau_meas"], inputs["tau_pred"], inputs.get("regressor")
+    nan_policy = conventions.get("nan_policy", "raise")
+    # the in-memory operation's data checks, so that errors are those of the other families
+    dynval.criteria(meas, pred, n_params=0, nan_policy=nan_policy)
+    meas2 = np.asarray(meas, dtype=float).reshape(len(meas), -1)
+    pred2 = np.asarray(pred, dtype=float).reshape(len(pred), -1)
+    if reg is not None:
+        dynval.cross_correlation(meas2 - pred2, reg, 0, nan_policy=nan_policy)
+        reg = np.asarray(reg, dtype=float)
+    n = meas2.shape[0]
+    blocks = _blocks(n, conventions.get("chunks"))
+    merge = check_choice("merge", conventions.get("merge", "none"), ("none", "left", "right", "tree"))
+    starts = parse_segments(conventions.get("segments"), n)
+    max_lag = check_max_lag(inputs["max_lag"], longest_segment(starts, n))
+    record_starts = set(starts.tolist()) - {0}
+
+    def new() -> ValidationAccumulator:
+        return ValidationAccumulator(n_params=inputs["n_params"], max_lag=max_lag,
+                                     noise_model=conventions.get("noise_model", "pooled"), nan_policy=nan_policy,
+                                     backend=backend)
+
+    def feed(acc: ValidationAccumulator, a: int, b: int) -> None:
+        # a block is split where a record starts inside it; a record starting at the block's
+        # first row is a break before it (the junction with the block before)
+        cuts = sorted(k for k in record_starts if a <= k < b)
+        edges = [a, *[k for k in cuts if k > a], b]
+        if a in record_starts:
+            acc.break_segment()
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            if lo > a:
+                acc.break_segment()
+            acc.update(meas2[lo:hi], pred2[lo:hi], None if reg is None else reg[lo:hi])
+
+    if merge == "none":
+        acc = new()
+        for a, b in blocks:
+            feed(acc, a, b)
+    else:
+        parts = []
+        for a, b in blocks:
+            parts.append(new())
+            feed(parts[-1], a, b)
+        acc = _merged(parts, merge)
+    report = acc.result()
+    out = {name: np.asarray(getattr(report, section)[key]) for name, (section, key) in _ACCUMULATED.items()}
+    if reg is not None:
+        out["rho"] = np.asarray(report.cross_correlation["rho"])
     return out

@@ -81,10 +81,14 @@ def _error_steps(op: dict, spec: dict) -> list[str]:
                 shape_rule.append(f"`{d}` is not 1-D or 2-D (0-D, 3-D, ...) or has zero columns `(N, 0)`")
             else:
                 shape_rule.append(f"`{d}` is not 3-D or 2-D, or is 2-D without `n_joints`")
+        if "regressor" in op.get("optional_data", ()):
+            shape_rule.append("`regressor`, when sent, is not 3-D `(N, m, p)` or has zero columns")
         steps.append("**InvalidShape**: " + "; then ".join(shape_rule) + ".")
         if data == ["tau_meas", "tau_pred"]:
             steps.append("**ShapeMismatch**: after promoting `(N,)` to `(N, 1)`, the shapes of `tau_meas` and "
-                         "`tau_pred` differ (`(3,)` with `(3, 2)` is a mismatch; `(3,)` with `(3, 1)` is not).")
+                         "`tau_pred` differ (`(3,)` with `(3, 2)` is a mismatch; `(3,)` with `(3, 1)` is not)"
+                         + ("; then a regressor whose N or m differs from theirs."
+                            if "regressor" in op.get("optional_data", ()) else "."))
         elif "regressor" in data:
             steps.append("**ShapeMismatch**: a 3-D regressor whose N or m differs from `e`'s (after promoting "
                          "`(N,)` to `(N, 1)`), or a stacked regressor whose rows are not N*m.")
@@ -107,6 +111,8 @@ def render_operation(name: str, op: dict, spec: dict) -> str:
     if op["data"]:
         for d in op["data"]:
             lines.append(f"* Data `{d}` (`array` line): {_DATA_TEXT[_data_kind(d)]}.")
+        for d in op.get("optional_data", ()):
+            lines.append(f"* Data `{d}` (`array` line, in some vectors only): {_DATA_TEXT[_data_kind(d)]}.")
     for s, info in op["scalars"].items():
         lines.append(f"* Scalar input `{s}` (`scalar` line, {info['type'].replace('integers', 'integer or list')}"
                      f"): {info['text']}.")
@@ -228,6 +234,7 @@ def _convention_schema(shared: dict, own: dict) -> dict:
     if values is not None:
         return {"enum": values}
     return {"segments": {"type": ["array", "null"], "items": {"type": "integer"}}, "integer": {"type": "integer"},
+            "lengths": {"type": "array", "items": {"type": "integer", "minimum": 1}, "minItems": 1},
             "real": {"type": "number"}}[shared["type"]]
 
 
@@ -240,10 +247,11 @@ def operation_schema(name: str, spec: dict) -> dict:
     Invalid vectors carry anything in their inputs (that is their point).
     """
     op = spec["operations"][name]
-    inputs = list(op["data"]) + list(op["scalars"])
+    optional_data = list(op.get("optional_data", ()))
+    inputs = list(op["data"]) + optional_data + list(op["scalars"])
     outputs = {o: _output_schema(info) for o, info in op["outputs"].items()}
     required_inputs = list(op["data"]) + [s for s in op["scalars"] if s != "n_joints"]
-    strict_inputs = {d: _data_schema(_data_kind(d)) for d in op["data"]}
+    strict_inputs = {d: _data_schema(_data_kind(d)) for d in op["data"] + optional_data}
     strict_inputs.update({s: _scalar_schema(info["type"]) for s, info in op["scalars"].items()})
     required_outputs = [o for o, info in op["outputs"].items() if not info.get("optional")]
     test = {
