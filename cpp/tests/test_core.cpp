@@ -399,6 +399,54 @@ TEST(Correlation, CrossCorrelationAgainstDirectLoop) {
         }
 }
 
+// Row-major regressors take the register-tiled path (4 lags x 8 columns, blocks of 256 rows,
+// compensated every 1024); column-major ones the dot product per lag. Both must equal direct
+// long-double sums: lags and columns that are not multiples of the tile, a segment boundary, a
+// constant column, and a joint with a column near 1e-170 (scaled, so that joint is not tiled).
+TEST(Correlation, TiledCrossCorrelationAgainstDirectSums) {
+    const Eigen::Index n = 2600, m = 3, p = 11, max_lag = 9;
+    const MatrixXd e = random_matrix(n, m, 41);
+    RowMatrix y = random_matrix(n, m * p, 42);
+    y.col(3).setConstant(-1.5);
+    y.col(2 * p + 5) *= 1e-170;
+    const Eigen::MatrixXd y_col_major = y;
+    const std::vector<long long> lengths{1000, 1600};
+    const auto tiled = dynval::cross_correlation(e, y, p, max_lag, true, lengths);
+    const auto direct = dynval::cross_correlation(e, y_col_major, p, max_lag, true, lengths);
+    for (Eigen::Index j = 0; j < m; ++j)
+        for (Eigen::Index c = 0; c < p; ++c) {
+            const Eigen::Index q = j * p + c;
+            if (q == 3) {
+                EXPECT_TRUE(tiled.constant_mask[3] && std::isnan(tiled.rho(3, 0)));
+                continue;
+            }
+            long double me = 0, my = 0;
+            for (Eigen::Index k = 0; k < n; ++k) {
+                me += e(k, j);
+                my += y(k, q);
+            }
+            me /= n;
+            my /= n;
+            long double re0 = 0, ry0 = 0;
+            for (Eigen::Index k = 0; k < n; ++k) {
+                re0 += (e(k, j) - me) * (e(k, j) - me);
+                ry0 += (y(k, q) - my) * (y(k, q) - my);
+            }
+            for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
+                long double s = 0;
+                Eigen::Index products = 0;
+                for (Eigen::Index k = lag; k < n; ++k) {
+                    if ((k < 1000) != (k - lag < 1000)) continue;  // never across the segments
+                    s += (e(k, j) - me) * (y(k - lag, q) - my);
+                    ++products;
+                }
+                const double want = static_cast<double>((s / products) / std::sqrt(re0 / n * ry0 / n));
+                EXPECT_NEAR(tiled.rho(q, lag), want, 1e-14) << "joint " << j << " column " << c << " lag " << lag;
+                EXPECT_NEAR(direct.rho(q, lag), want, 1e-14) << "joint " << j << " column " << c << " lag " << lag;
+            }
+        }
+}
+
 TEST(Correlation, PortmanteauFromHandComputedRho) {
     Eigen::VectorXd e(4);
     e << 1, -1, 1, -1;  // biased ρ1 = −0.75, ρ2 = 0.5

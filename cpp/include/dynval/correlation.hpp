@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -221,6 +222,113 @@ double centred_for_correlation(const Eigen::MatrixBase<D>& a, Index j, const joi
     for (Index i = 0; i < scaled.rows(); ++i) sum.add(scaled(i, 0));
     centred_column(scaled, 0, sum.value() / static_cast<double>(scaled.rows()), buf);
     return buf.squaredNorm();
+}
+
+/// acc[ℓ·p + c] += Σ_{u < rows} e[u + ℓ]·y[u·p + c] for ℓ < n_lags, c < p: the lagged products
+/// of one joint's residual with a block of its (centred, row-contiguous) regressor rows. Tiles of
+/// 4 lags × 8 columns stay in registers across the rows, so each loaded regressor value feeds 4
+/// multiply-adds and each residual value 8 (27 GFLOP/s with AVX2 here, against 5 for one dot
+/// product per lag, which is bound by its loads). GCC/Clang vector types; a plain loop elsewhere.
+DYNVAL_VECTOR_CLONES inline void lag_block_products(const double* DYNVAL_RESTRICT e, const double* DYNVAL_RESTRICT y,
+                                                    Index rows, Index p, Index n_lags, double* DYNVAL_RESTRICT acc) {
+    constexpr Index TL = 4;
+    Index l0 = 0;
+#if defined(__GNUC__)
+    typedef double v4 __attribute__((vector_size(32)));
+    for (; l0 + TL <= n_lags; l0 += TL) {
+        Index c0 = 0;
+        for (; c0 + 8 <= p; c0 += 8) {
+            v4 s[TL][2] = {};
+            for (Index u = 0; u < rows; ++u) {
+                v4 y0, y1;  // memcpy: unaligned loads, no aliasing questions
+                std::memcpy(&y0, y + u * p + c0, sizeof y0);
+                std::memcpy(&y1, y + u * p + c0 + 4, sizeof y1);
+                for (Index t = 0; t < TL; ++t) {
+                    const v4 et = v4{} + e[u + l0 + t];
+                    s[t][0] += et * y0;
+                    s[t][1] += et * y1;
+                }
+            }
+            for (Index t = 0; t < TL; ++t)
+                for (int h = 0; h < 2; ++h)
+                    for (int i = 0; i < 4; ++i) acc[(l0 + t) * p + c0 + 4 * h + i] += s[t][h][i];
+        }
+        for (; c0 < p; ++c0) {  // the last p mod 8 columns
+            double part[TL] = {};
+            for (Index u = 0; u < rows; ++u)
+                for (Index t = 0; t < TL; ++t) part[t] += e[u + l0 + t] * y[u * p + c0];
+            for (Index t = 0; t < TL; ++t) acc[(l0 + t) * p + c0] += part[t];
+        }
+    }
+#endif
+    for (; l0 < n_lags; ++l0) {  // the last n_lags mod 4 lags (every lag without vector types)
+        double* a = acc + l0 * p;
+        for (Index u = 0; u < rows; ++u) {
+            const double ev = e[u + l0];
+            const double* yr = y + u * p;
+            for (Index c = 0; c < p; ++c) a[c] += ev * yr[c];
+        }
+    }
+}
+
+/// Σ_k ê_k·Ŷ_{k−ℓ,c} (ℓ = 0..max_lag, c < p) of every joint j with `use[j]`, products within
+/// segments, for a regressor whose rows are contiguous (row stride `stride`, joint j's columns
+/// from j·p): one (L+1, p) matrix per joint (empty where `use[j]` is false). `e` holds the centred
+/// residuals as columns. The regressor is read once, a block of rows at a time for every joint
+/// (reading it joint by joint streamed it m times), each joint's rows centred with the moments'
+/// shift and deviation; partial sums go into compensated totals every `sum_rows` rows.
+inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e, const std::vector<bool>& use,
+                                                        const double* y, Index stride, Index p, const joint_moments& my,
+                                                        const std::vector<Index>& starts, Index n, Index max_lag) {
+    constexpr Index block = 256, sum_rows = 1024;  // 1 MB of a 7 × 70-column regressor per block
+    const Index m = e.cols(), n_lags = max_lag + 1;
+    const auto lengths = segment_lengths(starts, n);
+    const auto per_joint = static_cast<std::size_t>(n_lags * p);
+    std::vector<double> epad, ybuf(static_cast<std::size_t>(block * p)), acc(per_joint * static_cast<std::size_t>(m));
+    std::vector<compensated> total(per_joint * static_cast<std::size_t>(m));
+    std::vector<double> shift(static_cast<std::size_t>(m * p)), dev(static_cast<std::size_t>(m * p));
+    for (Index q = 0; q < m * p; ++q) {
+        shift[static_cast<std::size_t>(q)] = my.tau_shift(q);
+        dev[static_cast<std::size_t>(q)] = my.tau_dev(q);
+    }
+    const auto flush = [&] {
+        for (std::size_t i = 0; i < acc.size(); ++i) total[i].add(acc[i]);
+        std::fill(acc.begin(), acc.end(), 0.0);
+    };
+    for (std::size_t s = 0; s < starts.size(); ++s) {
+        const Index s0 = starts[s], len = lengths[s], padded = len + max_lag;
+        // each joint's residual on the segment followed by max_lag zeros: lags never reach the next one
+        epad.assign(static_cast<std::size_t>(padded * m), 0.0);
+        for (Index j = 0; j < m; ++j)
+            std::copy(e.col(j).data() + s0, e.col(j).data() + s0 + len, epad.begin() + j * padded);
+        for (Index a = 0; a < len; a += block) {
+            const Index rows = std::min(block, len - a);
+            for (Index j = 0; j < m; ++j) {
+                if (!use[static_cast<std::size_t>(j)]) continue;
+                const double* sh = shift.data() + j * p;
+                const double* dv = dev.data() + j * p;
+                for (Index u = 0; u < rows; ++u) {
+                    const double* src = y + (s0 + a + u) * stride + j * p;
+                    double* dst = ybuf.data() + u * p;
+                    for (Index c = 0; c < p; ++c) dst[c] = (src[c] - sh[c]) - dv[c];
+                }
+                lag_block_products(epad.data() + j * padded + a, ybuf.data(), rows, p, n_lags,
+                                   acc.data() + static_cast<std::size_t>(j) * per_joint);
+            }
+            if ((a + rows) % sum_rows == 0) flush();
+        }
+        flush();
+    }
+    std::vector<Eigen::MatrixXd> sums(static_cast<std::size_t>(m));
+    for (Index j = 0; j < m; ++j) {
+        if (!use[static_cast<std::size_t>(j)]) continue;
+        Eigen::MatrixXd& out = sums[static_cast<std::size_t>(j)];
+        out.resize(n_lags, p);
+        for (Index l = 0; l < n_lags; ++l)
+            for (Index c = 0; c < p; ++c)
+                out(l, c) = total[static_cast<std::size_t>(j) * per_joint + static_cast<std::size_t>(l * p + c)].value();
+    }
+    return sums;
 }
 
 }  // namespace detail
@@ -437,9 +545,39 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     for (Index l = 0; l <= lmax; ++l)
         denom[static_cast<std::size_t>(l)] = adj && l > 0 ? static_cast<double>(lag_products(lengths, l)) : nd;
     const double nan = std::numeric_limits<double>::quiet_NaN();
+    // Row-contiguous regressors (an (N, m, p) numpy array) take the register-tiled path for the
+    // joints none of whose columns needs the power-of-two scaling of tiny data.
+    const double* rows_data = nullptr;
+    Index row_stride = 0;
+    if constexpr ((int(DY::Flags) & Eigen::DirectAccessBit) && (int(DY::Flags) & Eigen::RowMajorBit)) {
+        if (regressor.derived().innerStride() == 1) {
+            rows_data = regressor.derived().data();
+            row_stride = regressor.derived().outerStride();
+        }
+    }
+    // The centred residuals and R_e(0) first, then the register-tiled sums of every joint none of
+    // whose columns needs the power-of-two scaling of tiny data, in one read of the regressor.
+    Eigen::MatrixXd ecent(n, m);
+    std::vector<double> re0s(static_cast<std::size_t>(m));
+    std::vector<bool> tiled(static_cast<std::size_t>(m), false);
+    for (Index j = 0; j < m; ++j) {
+        re0s[static_cast<std::size_t>(j)] = detail::centred_for_correlation(e, j, me, ebuf) / nd;
+        ecent.col(j) = ebuf;
+        bool ok = rows_data != nullptr && me.tau_min(j) != me.tau_max(j) && re0s[static_cast<std::size_t>(j)] > 0.0;
+        for (Index c = 0; ok && c < p; ++c) {
+            const Index q = j * p + c;  // constant columns are nan whatever their sums
+            ok = my.tau_min(q) == my.tau_max(q) || !(my.tau_m2(q) < detail::tiny_sum_of_squares);
+        }
+        tiled[static_cast<std::size_t>(j)] = ok;
+    }
+    std::vector<Eigen::MatrixXd> tiled_sums;
+    if (std::find(tiled.begin(), tiled.end(), true) != tiled.end())
+        tiled_sums = detail::cross_lag_sums_rows(ecent, tiled, rows_data, row_stride, p, my, starts, n, lmax);
     for (Index j = 0; j < m; ++j) {
         const bool e_constant = me.tau_min(j) == me.tau_max(j);
-        const double re0 = detail::centred_for_correlation(e, j, me, ebuf) / nd;
+        const double re0 = re0s[static_cast<std::size_t>(j)];
+        const bool is_tiled = tiled[static_cast<std::size_t>(j)];
+        if (!is_tiled) ebuf = ecent.col(j);
         for (Index c = 0; c < p; ++c) {
             const Index q = j * p + c;
             const bool y_constant = my.tau_min(q) == my.tau_max(q);
@@ -448,12 +586,18 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
                 r.rho.row(q).setConstant(nan);
                 continue;
             }
-            const double ry0 = detail::centred_for_correlation(regressor, q, my, ybuf) / nd;
+            const double ry0 =
+                (is_tiled ? my.tau_m2(q) : detail::centred_for_correlation(regressor, q, my, ybuf)) / nd;
             if (!(re0 > 0.0 && ry0 > 0.0)) {  // a spread that underflows even scaled: no scale to divide by
                 r.rho.row(q).setConstant(nan);
                 continue;
             }
-            detail::lagged_sums(ebuf.data(), ybuf.data(), starts, n, lmax, out);
+            if (is_tiled) {
+                const Eigen::MatrixXd& sums = tiled_sums[static_cast<std::size_t>(j)];
+                out.assign(sums.col(c).data(), sums.col(c).data() + lmax + 1);
+            } else {
+                detail::lagged_sums(ebuf.data(), ybuf.data(), starts, n, lmax, out);
+            }
             // Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
             // and underflows near 1e-80, both inside the accepted range.
             const double scale = 1.0 / (std::sqrt(re0) * std::sqrt(ry0));
