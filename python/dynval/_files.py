@@ -38,6 +38,10 @@ _SHOWN_CHARS = 40
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")  # an archive with members, an empty archive
 _DELIMITERS = ("\t", ";", ",")
+# Parquet and HDF5 (dynval._columnar), optional extras
+PARQUET_SUFFIXES = (".parquet", ".pq")
+HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
+_COLUMNAR_SUFFIXES = PARQUET_SUFFIXES + HDF5_SUFFIXES
 
 
 class FileInputError(InputError):
@@ -61,8 +65,10 @@ class Table:
 
 
 def load_array(spec: str) -> np.ndarray:
-    """Load one numeric array from ``.npy``, ``.npz`` (``file.npz:key``, else the first array)
-    or CSV text (``.csv``, ``.tsv``, ``.txt``; contract §7 has the rules and limits).
+    """Load one numeric array from ``.npy``, ``.npz`` (``file.npz:key``, else the first array),
+    CSV text (``.csv``, ``.tsv``, ``.txt``), Parquet (``file.parquet[:a,b,c]``, extra
+    ``dynval[parquet]``) or HDF5 (``file.h5[:/dataset]``, extra ``dynval[hdf5]``); contract §7 has
+    the rules and limits.
 
     Pickled objects are refused. Raises :class:`FileInputError` with a message naming the file.
 
@@ -85,10 +91,19 @@ def read_table(spec: str) -> Table:
     if lower.endswith((".pkl", ".pickle")):
         raise FileInputError(f"{path}: pickle files are refused (they can run arbitrary code); "
                              "use .npy, .npz or .csv")
+    if lower.endswith(_COLUMNAR_SUFFIXES):
+        from ._columnar import hdf5_dataset, parquet_table
+
+        source = parquet_table(path, key) if lower.endswith(PARQUET_SUFFIXES) else hdf5_dataset(path, key)
+        try:
+            return Table(source.all())
+        except MemoryError:
+            raise FileInputError(f"{path}: not enough memory to hold its data") from None
     if not lower.endswith((".npy", ".npz", ".csv", ".txt", ".tsv")):
         if not os.path.exists(path):
             raise FileInputError(f"{path}: no such file")
-        raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key) or .csv")
+        raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key), .csv, "
+                             ".parquet (file.parquet:a,b,c) or .h5 (file.h5:/dataset)")
     handle, size = _open_regular(path)
     with handle:
         try:
@@ -104,11 +119,16 @@ def read_table(spec: str) -> Table:
 
 
 def _split_key(spec: str):
-    """``file.npz:key`` → (``file.npz``, ``key``); anything else → (spec, None)."""
+    """``file.npz:key``, ``file.parquet:a,b``, ``file.h5:/group/set`` → (file, key); else (spec, None)."""
     head, sep, tail = spec.rpartition(":")
-    if sep and head.lower().endswith(".npz") and tail and not os.path.exists(spec):
+    if sep and head.lower().endswith((".npz", *_COLUMNAR_SUFFIXES)) and tail and not os.path.exists(spec):
         return head, tail
     return spec, None
+
+
+def file_path(spec: str) -> str:
+    """The file of a spec (``file.npz:key`` → ``file.npz``)."""
+    return _split_key(spec)[0]
 
 
 # --------------------------------------------------------------------------- opening
@@ -383,7 +403,11 @@ def _header_or_error(cells, path: str, number: int, header_allowed: bool) -> Non
     raise FileInputError(f"{path}: line {number}, column {column + 1}: {_shown(bad)} is not a number{rule}")
 
 
-def _read_csv(handle, path: str) -> Table:
+def _csv_blocks(handle, path: str, rows: int):
+    """Yield ``(values, lines)`` blocks of at most ``rows`` data rows of a CSV file, checked by the
+    rules of contract §7 in file order: values (k, width) float64, lines (k,) the 1-based file line
+    of each row. The whole-file loader and the streamed reader both use it, so their checks and
+    messages are one."""
     values = array.array("d")
     lines = array.array("q")
     delimiter = width = first = None  # first: the header line, then the first data line
@@ -405,7 +429,38 @@ def _read_csv(handle, path: str) -> Table:
             raise FileInputError(f"{path}: line {number} has {len(numbers)} values, line {first} has {width}")
         values.extend(numbers)
         lines.append(number)
-    if not lines:
+        if len(lines) == rows:
+            yield np.frombuffer(values, dtype=np.float64).reshape(len(lines), width).copy(), \
+                np.frombuffer(lines, dtype=np.int64).copy()
+            values, lines = array.array("d"), array.array("q")
+    if first is None or width is None:
         raise FileInputError(f"{path}: no data rows" if first is None else f"{path}: no data rows after the header")
-    data = np.frombuffer(values, dtype=np.float64).reshape(len(lines), width)
-    return Table(data[:, 0] if width == 1 else data, np.frombuffer(lines, dtype=np.int64))
+    if lines:
+        yield np.frombuffer(values, dtype=np.float64).reshape(len(lines), width), np.frombuffer(lines, dtype=np.int64)
+
+
+def _read_csv(handle, path: str) -> Table:
+    blocks = list(_csv_blocks(handle, path, rows=-1))  # -1: one block, the whole file
+    data, lines = blocks[0] if len(blocks) == 1 else (np.concatenate([b[0] for b in blocks]),
+                                                      np.concatenate([b[1] for b in blocks]))
+    return Table(data[:, 0] if data.shape[1] == 1 else data, lines)
+
+
+def csv_layout(handle, path: str) -> tuple[int, int]:
+    """(data rows, values per row) of a CSV file, for a reader that streams it: the first lines
+    go through :func:`_csv_blocks` up to the first data row; the others are only counted (every
+    line that is neither blank nor a comment is a data row; the streaming pass checks them)."""
+    width = first_line = None
+    for block, lines in _csv_blocks(handle, path, rows=1):
+        width, first_line = block.shape[1], int(lines[0])
+        break
+    assert width is not None and first_line is not None  # _csv_blocks raises when there is no data row
+    handle.seek(0)
+    count = 0
+    for number, line in _lines(handle, path):
+        if number < first_line:
+            continue
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            count += 1
+    return count, width

@@ -7,29 +7,36 @@ yields consecutive blocks of rows as float64 arrays. Only the block in hand is i
 * ``.npy``, and ``.npz`` members stored without compression (``numpy.savez``): read with ``seek``
   and ``readinto`` at the block's offset, C or Fortran order (a Fortran-ordered block is read
   column by column);
-* anything else (CSV text, compressed ``.npz`` members from ``numpy.savez_compressed``) is read
-  whole by ``read_table`` and then handed out in blocks: those formats do not allow a seek to a
-  row.
+* CSV text: a first pass counts the data rows (its first lines go through the loader's checks up
+  to the first data row), then the rows are parsed and checked a block at a time by the loader's
+  own code, so errors and their line numbers are those of the whole-file loader;
+* Parquet (row groups, in batches) and HDF5 (hyperslabs of rows): ``dynval._columnar``;
+* compressed ``.npz`` members (``numpy.savez_compressed``) are read whole by ``read_table`` and
+  then handed out in blocks: a deflate stream does not allow a seek to a row.
 """
 
 from __future__ import annotations
 
 import math
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import BinaryIO
 
 import numpy as np
 
 from ._files import (
+    _COLUMNAR_SUFFIXES,
     _NPY_MAGIC,
+    PARQUET_SUFFIXES,
     FileInputError,
     _content_hint,
+    _csv_blocks,
     _open_regular,
     _read_exact,
     _read_npy_header,
     _split_key,
+    csv_layout,
     read_table,
 )
 
@@ -49,6 +56,8 @@ class RowSource:
     _offset: int = 0
     _fortran: bool = False
     _data: np.ndarray | None = None
+    _csv: bool = False
+    _blocks: Callable[[int], Iterator[np.ndarray]] | None = None
 
     @property
     def n_rows(self) -> int:
@@ -63,6 +72,15 @@ class RowSource:
         if self._data is not None:
             for start in range(0, max(self.n_rows, 1), rows):
                 yield np.asarray(self._data[start:start + rows], dtype=np.float64)
+            return
+        if self._blocks is not None:
+            yield from self._blocks(rows)
+            return
+        if self._csv:
+            handle, _ = _open_regular(self.path)
+            with handle:
+                for block, _lines in _csv_blocks(handle, self.path, rows):
+                    yield block[:, 0] if len(self.shape) == 1 else block
             return
         assert self._dtype is not None
         inner = math.prod(self.shape[1:])
@@ -90,7 +108,8 @@ class RowSource:
 
 
 def open_rows(spec: str) -> RowSource:
-    """The :class:`RowSource` of ``spec`` (``file.npy``, ``file.npz[:key]`` or CSV text).
+    """The :class:`RowSource` of ``spec`` (``file.npy``, ``file.npz[:key]``, CSV text,
+    ``file.parquet[:a,b,c]`` or ``file.h5[:/dataset]``).
 
     Errors are :class:`~dynval._files.FileInputError` with the messages of ``read_table``.
     """
@@ -102,7 +121,17 @@ def open_rows(spec: str) -> RowSource:
         source = _npz_member_source(path, key)
         if source is not None:
             return source
-    data = read_table(spec).data  # CSV and compressed members: whole, then in blocks
+    if lower.endswith((".csv", ".txt", ".tsv")):
+        handle, _ = _open_regular(path)
+        with handle:
+            n, width = csv_layout(handle, path)
+        return RowSource(path=path, shape=(n,) if width == 1 else (n, width), streamed=True, _csv=True)
+    if lower.endswith(_COLUMNAR_SUFFIXES):
+        from ._columnar import hdf5_dataset, parquet_table
+
+        table = parquet_table(path, key) if lower.endswith(PARQUET_SUFFIXES) else hdf5_dataset(path, key)
+        return RowSource(path=spec, shape=table.shape, streamed=True, _blocks=table.blocks)
+    data = read_table(spec).data  # compressed .npz members (and refusals): whole, then in blocks
     return RowSource(path=spec, shape=tuple(data.shape), streamed=False, _data=data)
 
 

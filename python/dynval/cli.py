@@ -3,7 +3,7 @@
 Subcommands:
 
 * ``dynval validate MEAS PRED --n-params P [...]`` — validate predicted torques against
-  measured ones from .npy, .npz or .csv files and print the report (text or JSON);
+  measured ones from .npy, .npz, .csv, Parquet or HDF5 files and print the report (text or JSON);
 * ``dynval compare MEAS --model NAME=PRED:P [--model ...]`` — candidate models side by side,
   a ranking and the decision (accept, refine, redesign);
 * ``dynval demo`` — the embedded demonstration (a simulated 2-DOF arm), no input needed;
@@ -23,7 +23,7 @@ import sys
 from collections.abc import Sequence
 
 from ._errors import InputError
-from ._files import FileInputError, _physical_memory, load_array, read_table
+from ._files import FileInputError, _physical_memory, file_path, load_array, read_table
 from ._profiles import PROFILE_NAMES
 from ._readers import DEFAULT_CHUNK_ROWS, open_rows
 
@@ -73,8 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
         description="Validate predicted joint torques against measured ones and print the report. "
-                    "Files: .npy, .npz (file.npz:key, else the first array) or .csv (tab, ';', ',' or "
-                    "whitespace; a first line without any number is a header); pickles are refused.",
+                    "Files: .npy, .npz (file.npz:key, else the first array), .csv (tab, ';', ',' or "
+                    "whitespace; a first line without any number is a header), .parquet (file.parquet:a,b,c, "
+                    "else every column; extra dynval[parquet]) or .h5 (file.h5:/dataset, else the only "
+                    "dataset; extra dynval[hdf5]); pickles are refused.",
         epilog=_EXIT_CODES)
     val.add_argument("meas", metavar="MEAS", help="measured torques, (N,) or (N, m)")
     val.add_argument("pred", metavar="PRED", help="predicted torques, same shape as MEAS")
@@ -84,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     stream = val.add_argument_group(
         "files larger than memory",
         "--stream reads the files a block of rows at a time into dynval.stream.ValidationAccumulator "
-        "(.npy and uncompressed .npz members from disk; CSV and compressed members are read whole first). "
+        "(.npy, uncompressed .npz members, CSV, Parquet and HDF5 from disk; compressed .npz members are read "
+        "whole first). "
         "It is chosen by itself when the inputs together exceed a quarter of this machine's memory. A "
         "streamed report leaves out what needs the whole series: bias, spectrum, decimated whiteness, the "
         "colour-aware cross-correlation fields (contract §4.1); --segments, --q, --estimation and "
@@ -305,8 +308,7 @@ def _too_large_for_memory(args) -> bool:
     for spec in (args.meas, args.pred, args.regressor):
         if spec:
             try:
-                total += os.stat(spec.split(":", 1)[0] if spec.lower().split(":", 1)[0].endswith(".npz")
-                                 else spec).st_size
+                total += os.stat(file_path(spec)).st_size
             except OSError:
                 return False  # the loader gives the message
     return total > memory // 4
