@@ -18,11 +18,6 @@ Begin["`Private`"];
 
 (* ------------------------------------------------------------------ numbers *)
 
-(* Applied one after the other: 0 and 1 first, so that no rule meets the digits an earlier one wrote. *)
-hexDigitRules = {"0x" -> "x", "0" -> "0000", "1" -> "0001", "2" -> "0010", "3" -> "0011", "4" -> "0100",
-  "5" -> "0101", "6" -> "0110", "7" -> "0111", "8" -> "1000", "9" -> "1001", "a" -> "1010", "b" -> "1011",
-  "c" -> "1100", "d" -> "1101", "e" -> "1110", "f" -> "1111", "x" -> "2^^"};
-
 decimalRegex = RegularExpression["[+-]?(\\d+(\\.\\d*)?|\\.\\d+)(e[+-]?\\d+)?"];
 hexRegex = RegularExpression["[+-]?0x[0-9a-f]+(\\.[0-9a-f]*)?p[+-]?\\d+"];
 
@@ -63,25 +58,52 @@ readReal[token_String] := Module[{t = ToLowerCase[token]},
     StringMatchQ[t, decimalRegex], readDecimal[t],
     True, $Failed]];
 
-(* A whole array at once: the reader of the language turns "d.ddd`*^e" (decimal) and
-   "2^^b.bbb`*^e" (binary, from the hexadecimal digits) into the nearest machine real, which is
-   exact, in one pass over the line. Tokens outside these forms are read one at a time. *)
-readReals[tokens_List] := Module[{joined, parts, mants, exps, bins, text},
-  joined = StringRiffle[tokens, " "];
-  Which[
-    tokens === {}, {},
-    StringMatchQ[joined, RegularExpression["[0-9e.+\\- ]*"]] && StringFreeQ[joined, "e" ~~ " "] &&
-      StringTake[joined, -1] =!= "e" && AllTrue[tokens, StringContainsQ[#, "e"] &],
-      ToExpression["{" <> StringReplace[joined, {"e" -> "`*^", " " -> ","}] <> "}"],
-    StringMatchQ[joined, RegularExpression["[0-9a-fxp.+\\- ]*"]] && AllTrue[tokens, StringContainsQ[#, "p"] &],
-      parts = StringSplit[joined, {" ", "p"}];
-      mants = parts[[1 ;; ;; 2]]; exps = parts[[2 ;; ;; 2]];
-      (* one rule per pass: Mathics3 replaces a list of rules far more slowly than one rule *)
-      bins = StringSplit[Fold[StringReplace, StringRiffle[mants, " "], hexDigitRules], " "];
-      text = Fold[StringReplace, StringRiffle[Riffle[bins, exps], "|"],
-        {"|-2^^" -> ",-2^^", "|+2^^" -> ",+2^^", "|2^^" -> ",2^^", "|" -> "`*^"}];
-      ToExpression["{" <> text <> "}"],
-    True, readReal /@ tokens]];
+(* A whole array at once, with no arithmetic per value: Mathics3 evaluates every element of a
+   listable operation on its own (0.2-0.5 ms each), while a string or list operation over the whole
+   line is one step. float.hex writes every finite double as [-]0x<d>.<13 hex digits>p<exponent>
+   (zero as 0x0.0p+0), so after "0x" -> "2^^" a line is a list of base-2 literals of the language
+   once the 13 hex digits of each fraction are written as 52 binary digits. Those come from one
+   integer: the hex digits of all values joined, read as one base-16 number and written in base 2.
+   The reader then turns each "2^^d.bbb`*^e" into the double it denotes, exactly, and the braces
+   put between the values give the array its shape, all in one ToExpression. A line with nan, inf
+   or -inf, decimal tokens ("d.ddd`*^e", rounded once by the reader) and anything else are read
+   as a flat list (token by token where needed) and then reshaped. *)
+hexLineRegex = RegularExpression["-?2\\^\\^[01]\\.[0-9a-f]{13}p[+-]\\d+( -?2\\^\\^[01]\\.[0-9a-f]{13}p[+-]\\d+)*"];
+decimalLineRegex = RegularExpression["[+-]?\\d+\\.\\d*e[+-]?\\d+( [+-]?\\d+\\.\\d*e[+-]?\\d+)*"];
+
+(* What follows each value of an array of shape {d1, d2, ...} within one block of d2 d3 ... values:
+   "," inside a row, "},{" after a row, "}},{{" after a matrix, ... (remembered per shape). *)
+valueSeparators[{}] = {","};
+valueSeparators[{d_, rest___}] := valueSeparators[{d, rest}] = With[{inner = valueSeparators[{rest}]},
+  Join[Flatten[ConstantArray[inner, d - 1]], Most[inner], {"}" <> Last[inner] <> "{"}]];
+pieceSeparators[rest_List] := pieceSeparators[rest] = Flatten[{"^^", ".", "`*^", #} & /@ valueSeparators[rest]];
+
+readHexLine[text_String, dims_List] := Module[{pieces, bits, braces = Length[dims]},
+  pieces = StringSplit[text, {" ", "^^", ".", "p"}];
+  bits = StringDrop[IntegerString[ToExpression["16^^1" <> StringJoin[pieces[[3 ;; ;; 4]]]], 2], 1];
+  pieces[[3 ;; ;; 4]] = StringCases[bits, RegularExpression["[01]{52}"]];
+  (* Riffle cycles through the separators; when there are as many as pieces it also appends the last *)
+  pieces = Riffle[pieces, pieceSeparators[Rest[dims]]];
+  ToExpression[StringJoin[ConstantArray["{", braces], If[EvenQ[Length[pieces]], Most[pieces], pieces],
+    ConstantArray["}", braces]]]];
+
+(* Tokens joined by blanks (for one token Mathics3's Riffle would also append the separator). *)
+joinTokens[tokens_List] := If[Length[tokens] === 1, First[tokens], StringJoin[Riffle[tokens, " "]]];
+
+(* The values of a flat list of tokens. *)
+readReals[tokens_List] := Module[{n = Length[tokens], special, plain, text, hexText, values},
+  (* nan, inf and -inf (the only tokens without a digit point) are read on their own. Mathics3 ends
+     the process on a Part assignment to a list of positions, so ReplacePart puts them in place. *)
+  special = Position[StringFreeQ[tokens, "."], True];
+  plain = If[special === {}, tokens, ReplacePart[tokens, special -> "0x0.0p+0"]];
+  text = joinTokens[plain];
+  hexText = StringReplace[text, {"0x" -> "2^^", ".0p" -> ".0000000000000p"}];
+  values = Which[
+    n === 0, {},
+    StringMatchQ[hexText, hexLineRegex], readHexLine[hexText, {n}],
+    StringMatchQ[text, decimalLineRegex], ToExpression["{" <> StringReplace[text, {"e" -> "`*^", " " -> ","}] <> "}"],
+    True, readReal /@ plain];
+  If[special === {}, values, ReplacePart[values, Thread[special -> (readReal /@ Extract[tokens, special])]]]];
 
 signOf[x_] := If[x < 0, "-", ""];
 
@@ -130,49 +152,54 @@ readValue[token_String] := Which[
 
 reshape[flat_, dims_] := Which[
   dims === {}, First[flat],
-  MemberQ[dims, 0], ConstantArray[0., dims],
-  Length[dims] == 1, flat,
+  ! FreeQ[dims, 0], ConstantArray[0., dims],
+  Length[dims] === 1, flat,
   True, Fold[Partition, flat, Reverse[Rest[dims]]]];
 
-readArray[tokens_List] := Module[{type = tokens[[1]], nd = ToExpression[tokens[[2]]], dims, values},
+readArray[tokens_List] := Module[{nd = ToExpression[tokens[[2]]], dims, values, hexText},
   dims = ToExpression /@ tokens[[3 ;; 2 + nd]];
   values = tokens[[3 + nd ;;]];
-  values = If[type === "real", readReals[values],
-    N[readValue /@ values]];
-  reshape[values, dims]];
+  Which[
+    tokens[[1]] =!= "real", reshape[N[readValue /@ values], dims],
+    (* the usual line: finite hexadecimal floats only, read straight into their shape *)
+    dims =!= {} && FreeQ[dims, 0] && (hexText = StringReplace[joinTokens[values],
+      {"0x" -> "2^^", ".0p" -> ".0000000000000p"}]; StringMatchQ[hexText, hexLineRegex]),
+      readHexLine[hexText, dims],
+    True, reshape[readReals[values], dims]]];
 
 (* ------------------------------------------------------------------ answers *)
 
 dims[x_] := If[ListQ[x], Dimensions[x], {}];
 
-(* A whole list at once, every step one listable operation over the list. Each value x is written
-   as an integer mantissa and a binary exponent, x = M 2^E ("0x1999999999999ap-56", a C99
-   hexadecimal float without a point). With E = Floor[Log2 |x|] - 53, M = x 2^-E is an integer
-   of 53 to 55 bits even where Log rounds across a power of two, so the scaling is exact and
-   nothing needs correcting. Non-finite, zero, tiny (subnormal range), integer and boolean values
-   are written one at a time by writeReal. *)
-writeReals[values_List] := Module[{n = Length[values], special, plain, x, a, e, m, text},
-  (* Position matches patterns without evaluating anything per element *)
-  special = Union[Cases[Join[Position[values, Except[_Real], {1}], Position[values, 0., {1}]], {k_Integer} /; k >= 1 :> k]];
-  plain = Complement[Range[n], special];
-  If[plain =!= {} && Min[Abs[values[[plain]]]] < 1.*^-290,
-    special = Union[special, Select[plain, Abs[values[[#]]] < 1.*^-290 &]];
-    plain = Complement[Range[n], special]];
-  text = If[plain === {}, {},
-    x = values[[plain]];
-    a = Abs[x];
-    e = Floor[Log[2., a]] - 53;
-    m = Round[a 2.^(-e)];
-    MapThread[StringJoin, {
-      Sign[x] /. {1 -> "0x", -1 -> "-0x"},
-      IntegerString[#, 16] <> "p" & /@ m,
-      StringSplit[StringTake[ToString[e], {2, -2}], ", "]}]];
-  If[special === {}, text,
-    (* the special values go back to their places in ascending order *)
-    Module[{out = text}, Do[out = Insert[out, writeReal[values[[k]]], k], {k, special}]; out]]];
+(* A whole list at once, exactly. All finite values are scaled by one power of two 2^k, chosen
+   so that every nonzero |x| 2^k is an integer (k = 53 - the smallest binary exponent) and the
+   largest stays a double: the scaling is then exact, Floor reads each integer M, and x is written
+   as the C99 hexadecimal float "0x<M in hex>p-<k>" (float.fromhex and strtod read it). That is
+   five listable steps over the list (Abs, Times, Floor, Sign, IntegerString); Mathics3 has no
+   faster way to reach the bits of a double. When the values span more binary exponents than a
+   double can hold in one scaling, and for the non-real values (nan, inf, integers, booleans),
+   writeReal writes them one at a time. *)
+writeReals[{}] = {};
+writeReals[values_List] := Module[{special, x, a, nonzero, k, m, scale, text},
+  special = Position[values, Except[_Real], {1}, Heads -> False];
+  x = ReplacePart[values, special -> 0.];
+  a = Abs[x];
+  nonzero = DeleteCases[a, 0.];
+  k = If[nonzero === {}, 0, 53 - Floor[Log[2., Min[nonzero]]]];
+  text = If[nonzero =!= {} && Floor[Log[2., Max[nonzero]]] + k > 1020,
+    writeReal /@ x,
+    (* 2^k itself may be beyond the doubles: two exact steps then *)
+    m = Floor[If[k > 1000, (x 2.^(k - 600)) 2.^600, x 2.^k]];
+    scale = If[k >= 0, "p-", "p+"] <> ToString[Abs[k]];
+    (* one string for the whole list, split again: no string operation per value (StringTrim: for
+       one value Mathics3's Riffle also appends the separator) *)
+    StringSplit[StringReplace[StringTrim[StringJoin[Riffle[Riffle[Replace[Sign[m], {-1 -> "-0x", _ -> "0x"}, {1}],
+      IntegerString[m, 16]], {"", " "}]]], " " -> scale <> " "] <> scale]];
+  If[special === {}, text, ReplacePart[text, Thread[special -> (writeReal /@ Extract[values, special])]]]];
 
 resultLine[name_, value_] := Module[{flat = If[ListQ[value], Flatten[value], {value}], d = dims[value]},
-  StringRiffle[Join[{"result", name, "real", ToString[Length[d]]}, ToString /@ d, writeReals[flat]], " "]];
+  (* StringRiffle converts every piece with ToString, slowly; the pieces are strings already *)
+  StringJoin[Riffle[Join[{"result", name, "real", ToString[Length[d]]}, ToString /@ d, writeReals[flat]], " "]]];
 
 errorLines[DynVal`DynValError[kind_, message_]] := {"error " <> kind <> " " <> StringReplace[message, "\n" -> " "], "end"};
 
@@ -189,42 +216,43 @@ $operations = {"residuals", "sse", "rmse", "max_abs_error", "vaf", "fit_percent"
   "residual_variance", "zero_mean_test", "autocorrelation", "confidence_band", "ljung_box", "box_pierce",
   "cross_correlation", "information_criteria", "criteria", "aic", "bic"};
 
-(* Conventions as options; a key the case does not send takes DynVal's default. *)
-hasKey[a_, k_] := MemberQ[Keys[a], k];
-opts[conventions_, keys_] := Map[# -> conventions[#] &, Select[keys, hasKey[conventions, #] &]];
+(* A value of an Association, or a default: Mathics3 has no Lookup or KeyExistsQ, and
+   MemberQ[Keys[a], k] costs some milliseconds there. *)
+valueOr[a_, key_, default_] := With[{v = a[key]}, If[Head[v] === Missing, default, v]];
+in[inputs_, name_] := valueOr[inputs, name, None];
 
-in[inputs_, name_] := If[hasKey[inputs, name], inputs[name], None];
-
-compute[op_, c_, i_] := Switch[op,
-  "residuals", DynVal`residuals[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"nan_policy"}]],
-  "sse", DynVal`sse[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "nan_policy"}]],
-  "rmse", DynVal`rmse[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "convention", "nan_policy"}]],
-  "max_abs_error", DynVal`maxAbsError[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "nan_policy"}]],
-  "vaf", DynVal`vaf[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "nan_policy"}]],
-  "fit_percent", DynVal`fitPercent[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "nan_policy"}]],
-  "r2", DynVal`r2[in[i, "tau_meas"], in[i, "tau_pred"], Sequence @@ opts[c, {"multioutput", "nan_policy"}]],
-  "residual_mean", DynVal`residualMean[in[i, "e"], Sequence @@ opts[c, {"nan_policy"}]],
-  "residual_variance", DynVal`residualVariance[in[i, "e"], Sequence @@ opts[c, {"ddof", "nan_policy"}]],
-  "zero_mean_test", DynVal`zeroMeanTest[in[i, "e"], Sequence @@ opts[c, {"segments", "nan_policy"}]],
-  "autocorrelation", DynVal`autocorrelation[in[i, "e"], in[i, "max_lag"], Sequence @@ opts[c, {"adjusted", "segments", "nan_policy"}]],
-  "confidence_band", DynVal`confidenceBand[in[i, "n"], Sequence @@ opts[c, {"level"}]],
-  "ljung_box", DynVal`ljungBox[in[i, "e"], in[i, "lags"], Sequence @@ opts[c, {"model_df", "segments", "nan_policy"}]],
-  "box_pierce", DynVal`boxPierce[in[i, "e"], in[i, "lags"], Sequence @@ opts[c, {"model_df", "segments", "nan_policy"}]],
-  "cross_correlation", DynVal`crossCorrelation[in[i, "e"], in[i, "regressor"], in[i, "max_lag"],
-    Sequence @@ Join[opts[c, {"adjusted", "level", "segments", "nan_policy"}],
-      If[hasKey[i, "n_joints"], {"n_joints" -> i["n_joints"]}, {}]]],
+(* Every case sends all the conventions of its operation (golden/PROTOCOL.md), so they go to DynVal
+   as they are, as options; a key a function does not know is ignored. The inputs are held by a
+   local variable: Mathics3 copies an argument into every place of the body where its pattern
+   variable appears (some forty here), and walks every copy, which for an array costs seconds. *)
+compute[op_, c_, inputs_] := Module[{i = inputs, o = Sequence @@ Normal[c]}, Switch[op,
+  "residuals", DynVal`residuals[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "sse", DynVal`sse[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "rmse", DynVal`rmse[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "max_abs_error", DynVal`maxAbsError[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "vaf", DynVal`vaf[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "fit_percent", DynVal`fitPercent[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "r2", DynVal`r2[in[i, "tau_meas"], in[i, "tau_pred"], o],
+  "residual_mean", DynVal`residualMean[in[i, "e"], o],
+  "residual_variance", DynVal`residualVariance[in[i, "e"], o],
+  "zero_mean_test", DynVal`zeroMeanTest[in[i, "e"], o],
+  "autocorrelation", DynVal`autocorrelation[in[i, "e"], in[i, "max_lag"], o],
+  "confidence_band", DynVal`confidenceBand[in[i, "n"], o],
+  "ljung_box", DynVal`ljungBox[in[i, "e"], in[i, "lags"], o],
+  "box_pierce", DynVal`boxPierce[in[i, "e"], in[i, "lags"], o],
+  "cross_correlation", DynVal`crossCorrelation[in[i, "e"], in[i, "regressor"], in[i, "max_lag"], o,
+    Sequence @@ If[Head[i["n_joints"]] === Missing, {}, {"n_joints" -> i["n_joints"]}]],
   "information_criteria", DynVal`informationCriteria[in[i, "rss"], in[i, "n_obs"], in[i, "n_params"]],
-  "criteria", DynVal`criteria[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], Sequence @@ opts[c, {"noise_model", "nan_policy"}]],
-  "aic", DynVal`aic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], Sequence @@ opts[c, {"noise_model", "nan_policy"}]],
-  "bic", DynVal`bic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], Sequence @@ opts[c, {"noise_model", "nan_policy"}]],
-  _, DynVal`DynValError["InternalError", "unknown operation " <> op]];
+  "criteria", DynVal`criteria[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
+  "aic", DynVal`aic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
+  "bic", DynVal`bic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
+  _, DynVal`DynValError["InternalError", "unknown operation " <> op]]];
 
-answerCase[op_, conventions_, inputs_] := Module[{out = compute[op, conventions, inputs]},
+answerCase[op_, conventions_, inputs_] := Module[{out = compute[op, conventions, inputs], fields = valueOr[$fields, op, None]},
   Which[
     Head[out] === DynVal`DynValError, errorLines[out],
-    hasKey[$fields, op],
-      Append[Map[resultLine[#, out[#]] &, Select[$fields[op], hasKey[out, #] &]], "end"],
-    True, {resultLine["value", out], "end"}]];
+    fields === None, {resultLine["value", out], "end"},
+    True, Append[resultLine[#, out[#]] & /@ Select[fields, Head[out[#]] =!= Missing &], "end"]]];
 
 (* ------------------------------------------------------------------ the session *)
 
@@ -236,7 +264,15 @@ emit[lines_List] := WriteString[$stdout, StringRiffle[lines, "\n"] <> "\n"];
 readConventions[tokens_List] := Association @@ (Map[
   With[{kv = StringSplit[#, "="]}, kv[[1]] -> readValue[kv[[2]]]] &, tokens]);
 
-serve[] := Module[{in = $stdin, line, tokens, op = None, conventions = <||>, inputs = {}, lines},
+(* Mathics3 10 counts every evaluation of a variable that holds a list or an association towards
+   $IterationLimit (4096) for the whole of one top-level evaluation and never resets the count; at
+   the limit it aborts the evaluation. serve[] is one evaluation for the whole session, so the port
+   stopped (exit status 0, no message: the answer is Quiet) after some dozens of cases. The limit
+   is meant for one expression rewritten without end; a session needs it lifted. (Mathics3 does not
+   accept Infinity here; Mathematica does not count this way.) *)
+serve[] := Block[{$IterationLimit = 2^63 - 1}, serveLoop[]];
+
+serveLoop[] := Module[{in = $stdin, line, tokens, op = None, conventions = <||>, inputs = {}, lines},
   emit[Join[{"dynval-port 1 dynval-wolfram 0.1 (Wolfram Language, " <> $Version <> ")", "encoding hex"},
     ("capability " <> #) & /@ $operations, {"ready"}]];
   While[True,

@@ -118,7 +118,23 @@ check["integral float is not an integer", kindOf[DynVal`residualVariance[{1., 2.
 check["omit deletes rows", DynVal`sse[{1., Indeterminate, 3.}, {0., 0., 0.}, "nan_policy" -> "omit"], 10., approx];
 check["omit then too few", kindOf[DynVal`r2[{1., Indeterminate}, {1., 2.}, "nan_policy" -> "omit"]], "TooFewSamples"];
 check["segments as starts", DynVal`Private`parseSegments[{0, 500}, 800], {0, 500}];
-check["segments as lengths", DynVal`Private`parseSegments[{500, 300}, 800], {0, 500}];
+
+(* ---- centred lagged sums (one exact integer product) against the sums written out *)
+directSums[x_, y_, maxLag_, starts_] := Module[{bounds = Transpose[{starts, Append[Rest[starts], Length[x]]}],
+    dx = x - Mean[x], dy = y - Mean[y]},
+  Table[Total[If[#[[2]] - #[[1]] > lag, Total[dx[[#[[1]] + lag + 1 ;; #[[2]]]] dy[[#[[1]] + 1 ;; #[[2]] - lag]]], 0.] & /@ bounds],
+    {lag, 0, maxLag}]];
+series1 = {0.3, -1.2, 2.5, 0.7, -0.4, 1.9, -2.2, 0.05, 1.1, -0.6, 0.8, -1.7};
+series2 = {1.5, 0.2, -0.9, 2.2, -1.1, 0.4, 0.6, -2.5, 1.3, 0.1, -0.3, 0.9};
+check["lagged sums, one segment", DynVal`Private`laggedSums[series1, series2, 5, {0}], directSums[series1, series2, 5, {0}], near[1.*^-14]];
+check["lagged sums, three segments", DynVal`Private`laggedSums[series1, series1, 4, {0, 3, 8}],
+  directSums[series1, series1, 4, {0, 3, 8}], near[1.*^-14]];
+check["lagged sums, lag beyond a segment", DynVal`Private`laggedSums[series1, series2, 6, {0, 3, 8}],
+  directSums[series1, series2, 6, {0, 3, 8}], near[1.*^-14]];
+(* 10^7 + 10^-3 s: x - 10^7 is exact in doubles, so the exact centring must agree with the sums of the small values *)
+offsetSeries = 1.*^7 + 1.*^-3 series1;
+check["lagged sums, large offset", DynVal`Private`laggedSums[offsetSeries, offsetSeries, 2, {0}],
+  directSums[offsetSeries - 1.*^7, offsetSeries - 1.*^7, 2, {0}], near[1.*^-12]];
 
 (* ---- protocol numbers *)
 check["hex read", DynValProtocol`readReal["-0x1.8000000000000p+1"], -3.];
@@ -133,9 +149,15 @@ check["array, decimal", DynValProtocol`readArray[{"real", "1", "2", "1.000000000
 check["hex write", DynValProtocol`writeReal /@ {1., -2.5, 0.1, 4.940656458412465*^-324, 1.7976931348623157*^308, 0.},
   {"0x1.0000000000000p+0", "-0x1.4000000000000p+1", "0x1.999999999999ap-4", "0x0.0000000000001p-1022",
    "0x1.fffffffffffffp+1023", "0x0.0p+0"}];
-(* 0.1 = 0x1999999999999a 2^-56 = 0x33333333333334 2^-57 (Floor[Log2 0.1] - 53 = -57); 3 = 0x30000000000000 2^-52 *)
+(* one scale for the list, 2^57 (53 - Floor[Log2 0.1]): 0.1 = 0x1999999999999a 2^-56 = 0x33333333333334 2^-57,
+   3 = 3 2^57 2^-57 = 0x600000000000000 2^-57, 0 = 0x0 2^-57 *)
 check["hex write, list", DynValProtocol`Private`writeReals[{0.1, Indeterminate, 3., -Infinity, 0.}],
-  {"0x33333333333334p-57", "nan", "0x30000000000000p-52", "-inf", "0x0.0p+0"}];
+  {"0x33333333333334p-57", "nan", "0x600000000000000p-57", "-inf", "0x0p-57"}];
+check["hex write, one value", DynValProtocol`Private`writeReals[{-0.1}], {"-0x33333333333334p-57"}];
+check["hex write, no value", DynValProtocol`Private`writeReals[{}], {}];
+check["array, hex, one value", DynValProtocol`readArray[{"real", "1", "1", "-0x1.8000000000000p+1"}], {-3.}];
+check["array, hex with nan and zeros", DynValProtocol`readArray[{"real", "1", "5", "0x1.0000000000000p+0", "nan",
+  "-0x0.0p+0", "-inf", "0x1.999999999999ap-4"}], {1., Indeterminate, 0., -Infinity, 0.1}];
 extremes = {-1.7976931348623157`*^308, 2.2250738585072014`*^-308, 4.940656458412465`*^-324, 0.9999999999999999`, 1.0000000000000002`};
 check["hex write, round trip of the extremes", DynValProtocol`readReal /@ DynValProtocol`Private`writeReals[extremes], extremes];
 check["typed values", DynValProtocol`readValue /@ {"none", "true", "12", "\"raw_values\"", "[1,2]", "\"a%20b\""},
