@@ -235,6 +235,28 @@ centred[x_List] := Module[{d = x - Total[x]/Length[x]}, d - Total[d]/Length[d]];
 
 sumSq[x_List] := Total[x x];
 
+(* Sums of squares scaled by a power of two (contract 1.3): x 2^-k, k the exponent of max |x|,
+   squares without underflow or overflow, and the scaling is exact. A sum of squares is carried as
+   {s, k}, its value s 4^k, so that ratios and logarithms of data near 1e-162 or 1e140 keep their
+   digits. Mathics3 turns a machine overflow into Overflow[] (not Infinity): restore checks first. *)
+scaleExponent[x_List] := With[{big = Max[Abs[extremes[Flatten[x]]]]}, If[big == 0, 0, Floor[Log[2., big]] + 1]];
+pow2[x_, 0] := x;
+pow2[x_, j_Integer] := If[Abs[j] <= 1000, x 2.^j, pow2[x 2.^(1000 Sign[j]), j - 1000 Sign[j]]];
+restore[v_, j_Integer] := Which[
+  ! NumberQ[v] || v == 0, v,
+  Log[2., Abs[v]] + j >= 1024., Sign[v] Infinity,
+  True, pow2[v, j]];
+scaledSumSq[x_List] := With[{k = scaleExponent[x]}, {sumSq[pow2[x, -k]], k}];
+ssValue[{s_, k_}] := restore[s, 2 k];
+rootMean[{s_, k_}, d_] := restore[Sqrt[s/d], k];
+logMean[{s_, k_}, d_] := Log[s/d] + 2 k Log[2.];
+ssRatio[{sa_, ka_}, {sb_, kb_}] := restore[sa/sb, 2 (ka - kb)];
+(* {mean, {centred sum of squares, k}, constant} *)
+scaledMoments[x_List] := With[{k = scaleExponent[x]}, With[{mo = moments[pow2[x, -k]]},
+  {restore[mo[[1]], k], {mo[[2]], k}, mo[[3]]}]];
+(* x scaled to max |x| in [0.5, 1): for ratios that do not depend on the scale (correlations) *)
+unitScaled[x_List] := pow2[x, -scaleExponent[x]];
+
 (* Centred lagged sums: over segments, Sum (x[k] - xbar) (y[k - lag] - ybar), lag = 0..maxLag,
    never across a segment break, with the means of the whole series.
    Mathics3 evaluates each product of a listable Times on its own (about 0.3 ms), so the direct
@@ -302,12 +324,14 @@ nLog[n_, v_] := If[v == 0, -Infinity, n Log[v]];
 degenerate[value_, constant_, exact_] := Which[constant && exact, Indeterminate, constant, -Infinity, True, value];
 
 (* Only what the metric needs: R^2 and fit use the SSE, VAF the centred sum of the residual. *)
-fitParts[meas_List, e_List, vafQ_] := Module[{tm = moments[meas], te = If[vafQ, moments[e], {0., 0., False}]},
-  <|"sse" -> If[vafQ, 0., sumSq[e]], "tss" -> tm[[2]], "constant" -> tm[[3]], "ssc_e" -> te[[2]], "e_constant" -> te[[3]]|>];
+fitParts[meas_List, e_List, vafQ_] := Module[{tm = scaledMoments[meas], te = If[vafQ, scaledMoments[e], {0., {0., 0}, False}]},
+  <|"sse" -> If[vafQ, {0., 0}, scaledSumSq[e]], "tss" -> tm[[2]], "constant" -> tm[[3]], "ssc_e" -> te[[2]],
+    "e_constant" -> te[[3]]|>];
 
-r2Value[p_] := degenerate[If[p["constant"], 0., 1. - p["sse"]/p["tss"]], p["constant"], p["sse"] == 0];
-fitValue[p_] := degenerate[If[p["constant"], 0., 100. (1. - Sqrt[p["sse"]/p["tss"]])], p["constant"], p["sse"] == 0];
-vafValue[p_] := degenerate[If[p["constant"], 0., 100. (1. - p["ssc_e"]/p["tss"])], p["constant"], p["e_constant"]];
+r2Value[p_] := degenerate[If[p["constant"], 0., 1. - ssRatio[p["sse"], p["tss"]]], p["constant"], First[p["sse"]] == 0];
+fitValue[p_] := degenerate[If[p["constant"], 0., 100. (1. - Sqrt[ssRatio[p["sse"], p["tss"]]])], p["constant"],
+  First[p["sse"]] == 0];
+vafValue[p_] := degenerate[If[p["constant"], 0., 100. (1. - ssRatio[p["ssc_e"], p["tss"]])], p["constant"], p["e_constant"]];
 
 fitMetric[function_, valueOf_, meas_, pred_, opts_] := guard @ Module[{a, b, mo, cols, parts, values, live},
   {a, b} = pairData[function, 2, meas, pred];
@@ -323,7 +347,10 @@ fitMetric[function_, valueOf_, meas_, pred_, opts_] := guard @ Module[{a, b, mo,
     "variance_weighted",
       live = Pick[Range[Length[parts]], Not[#["constant"]] & /@ parts];
       If[live === {}, ieeeMean[values],
-        Total[(#["tss"] & /@ parts[[live]]) values[[live]]]/Total[#["tss"] & /@ parts[[live]]]]]]];
+        (* the weights TSS_j at the largest live joint's scale: tiny data keep their weights *)
+        With[{top = Max[#["tss"][[2]] & /@ parts[[live]]]},
+          With[{w = restore[#["tss"][[1]], 2 (#["tss"][[2]] - top)] & /@ parts[[live]]},
+            Total[w values[[live]]]/Total[w]]]]]]];
 
 (* Association holds its arguments in Mathics3: build it from an evaluated list of rules. *)
 optionValues[opts_, defaults_] := Association @@ Join[defaults, opts];
@@ -342,7 +369,7 @@ sse[meas_, pred_, opts : OptionsPattern[]] := guard @ Module[{o, a, b, mo},
   {a, b} = pairData["sse", 1, meas, pred];
   {a, b} = prepare["sse", 1, {{"tau_meas", a, None}, {"tau_pred", b, None}}, o["nan_policy"], None, False][[1]];
   mo = checkMultioutput[o["multioutput"], {"pooled", "raw_values"}, "sse"];
-  If[mo === "pooled", sumSq[Flatten[a - b]], sumSq /@ (a - b)]];
+  If[mo === "pooled", ssValue[scaledSumSq[Flatten[a - b]]], ssValue[scaledSumSq[#]] & /@ (a - b)]];
 
 maxAbsError[meas_, pred_, opts : OptionsPattern[]] := guard @ Module[{o, a, b, mo, e},
   o = optionValues[{opts}, {"multioutput" -> "pooled", "nan_policy" -> "raise"}];
@@ -359,8 +386,8 @@ rmse[meas_, pred_, opts : OptionsPattern[]] := guard @ Module[{o, a, b, mo, conv
   mo = checkMultioutput[o["multioutput"], {"pooled", "raw_values", "uniform_average"}, "rmse"];
   conv = checkConvention[o["convention"], mo];
   {m, n} = Dimensions[a];
-  If[mo === "pooled", Sqrt[sumSq[Flatten[a - b]]/If[conv === "per_sample", n, n m]],
-    perJoint = Sqrt[(sumSq /@ (a - b))/n];
+  If[mo === "pooled", rootMean[scaledSumSq[Flatten[a - b]], If[conv === "per_sample", n, n m]],
+    perJoint = rootMean[scaledSumSq[#], n] & /@ (a - b);
     If[mo === "raw_values", perJoint, Total[perJoint]/m]]];
 
 vaf[meas_, pred_, opts : OptionsPattern[]] :=
@@ -384,7 +411,7 @@ residualVariance[e_, opts : OptionsPattern[]] := guard @ Module[{o, a, n, ddof},
   a = prepare["residual_variance", 2, {{"e", a, None}}, o["nan_policy"], None, False][[1, 1]];
   n = Length[First[a]];
   ddof = checkIntRange["ddof", o["ddof"], 0, n, "an integer with 0 <= ddof < N=" <> ToString[n]];
-  (moments[#][[2]] & /@ a)/(n - ddof)];
+  With[{ss = scaledMoments[#][[2]]}, restore[ss[[1]]/(n - ddof), 2 ss[[2]]]] & /@ a];
 
 (* Two-sided Student t p-value 2 P(T > |t|) for df degrees of freedom (real df allowed). *)
 tTwoSided[t_, df_] := Which[
@@ -398,7 +425,7 @@ tStatistic[mean_, n_, s_] := Which[
   mean > 0, Infinity, mean < 0, -Infinity, True, Indeterminate];
 
 zeroMeanTest[e_, opts : OptionsPattern[]] := guard @ Module[
-  {o, a, starts, n, limit, k, kUsed, means, stds, rho, weights, total, nEff, tIid, tEff},
+  {o, a, starts, n, limit, k, kUsed, means, stds, rho, weights, total, nEff, tIid, tEff, scaledParts},
   o = optionValues[{opts}, {"segments" -> None, "nan_policy" -> "raise"}];
   a = residualData["zero_mean_test", 2, e];
   {a, starts} = prepare["zero_mean_test", 2, {{"e", a, None}}, o["nan_policy"], o["segments"], True];
@@ -406,15 +433,17 @@ zeroMeanTest[e_, opts : OptionsPattern[]] := guard @ Module[
   limit = Max[segmentLengths[starts, n]];
   k = Min[Floor[4. (n/100.)^(2./9.)], n - 1];
   kUsed = Min[k, limit - 1];
-  means = moments /@ a;
-  stds = Sqrt[means[[All, 2]]/(n - 1)];
-  means = means[[All, 1]];
+  (* the t statistics are ratios: computed on each series scaled by a power of two (contract 1.3) *)
+  scaledParts = Function[x, With[{k = scaleExponent[x]}, With[{mo = moments[pow2[x, -k]]},
+    {mo[[1]], Sqrt[mo[[2]]/(n - 1)], k}]]] /@ a;
+  means = MapThread[restore, {scaledParts[[All, 1]], scaledParts[[All, 3]]}];
+  stds = MapThread[restore, {scaledParts[[All, 2]], scaledParts[[All, 3]]}];
   weights = 1. - Range[kUsed]/(k + 1.);
   total = Map[If[kUsed > 0, With[{r = biasedRho[#, kUsed, starts]},
       If[nanQ[First[r]], Indeterminate, weights . Rest[r]]], 0.] &, a];
   nEff = Map[If[nanQ[#] || # <= 0, N[n], Min[Max[n/(1. + 2. #), 2.], N[n]]] &, total];
-  tIid = MapThread[tStatistic[#1, n, #2] &, {means, stds}];
-  tEff = MapThread[tStatistic[#1, #3, #2] &, {means, stds, nEff}];
+  tIid = MapThread[tStatistic[#1, n, #2] &, {scaledParts[[All, 1]], scaledParts[[All, 2]]}];
+  tEff = MapThread[tStatistic[#1, #3, #2] &, {scaledParts[[All, 1]], scaledParts[[All, 2]], nEff}];
   <|"mean" -> means, "std" -> stds, "n_samples" -> n,
     "statistic_iid" -> tIid, "pvalue_iid" -> (tTwoSided[#, n - 1] & /@ tIid), "df_iid" -> n - 1,
     "statistic_eff" -> tEff, "pvalue_eff" -> MapThread[tTwoSided[#1, #2 - 1.] &, {tEff, nEff}],
@@ -425,12 +454,12 @@ zeroMeanTest[e_, opts : OptionsPattern[]] := guard @ Module[
 (* Biased autocorrelation rho(0..maxLag) of one series (segments respected); Indeterminate when constant. *)
 biasedRho[x_List, maxLag_, starts_] := Module[{s},
   If[constantQ[x], ConstantArray[Indeterminate, maxLag + 1],
-    s = laggedSums[x, x, maxLag, starts];
+    s = With[{u = unitScaled[x]}, laggedSums[u, u, maxLag, starts]];
     If[First[s] == 0, ConstantArray[Indeterminate, maxLag + 1], Prepend[Rest[s]/First[s], 1.]]]];
 
 acfColumn[x_List, maxLag_, adjusted_, starts_] := Module[{n = Length[x], s, denominators},
   If[constantQ[x], ConstantArray[Indeterminate, maxLag + 1],
-    s = laggedSums[x, x, maxLag, starts];
+    s = With[{u = unitScaled[x]}, laggedSums[u, u, maxLag, starts]];
     If[First[s] == 0, ConstantArray[Indeterminate, maxLag + 1],
       denominators = If[adjusted, productCounts[starts, n, maxLag], ConstantArray[n, maxLag + 1]];
       Prepend[Rest[(s/denominators)/(First[s]/n)], 1.]]]];
@@ -597,7 +626,7 @@ crossCorrelation[e_, regressor_, maxLag_, opts : OptionsPattern[]] := guard @ Mo
   level = checkLevel[o["level"]];
   mask = Partition[constantQ /@ yCols, p];
   (* each series is centred and packed once, then paired with every series it meets *)
-  ePacked = If[constantQ[#], None, packSeries[#, lag, starts]] & /@ a;
+  ePacked = If[constantQ[#], None, packSeries[unitScaled[#], lag, starts]] & /@ a;
   rho = MapThread[crossColumn[#1, #2, lag, adjusted, starts, n] &,
     {Join @@ (ConstantArray[#, p] & /@ ePacked), yCols}];
   <|"rho" -> Partition[rho, p], "constant_mask" -> mask, "band" -> normalQuantile[(1. + level)/2.]/Sqrt[N[n]]|>];
@@ -605,7 +634,7 @@ crossCorrelation[e_, regressor_, maxLag_, opts : OptionsPattern[]] := guard @ Mo
 (* rho(0..maxLag) of one joint's residual (packed, None when constant) and one regressor column. *)
 crossColumn[ex_, y_List, maxLag_, adjusted_, starts_, n_] := Module[{py, sx, sy, s, den},
   If[ex === None || constantQ[y], ConstantArray[Indeterminate, maxLag + 1],
-    py = packSeries[y, maxLag, starts];
+    py = packSeries[unitScaled[y], maxLag, starts];
     sx = First[packedSums[ex, ex, 0]]; sy = First[packedSums[py, py, 0]];
     If[sx == 0 || sy == 0, ConstantArray[Indeterminate, maxLag + 1],
       s = packedSums[ex, py, maxLag];
@@ -635,21 +664,25 @@ informationCriteria[rss_, nObs_, nParams_] := guard @ Module[{n, p, variance},
   Association @@ assemble[nLog[n, variance], n, n, p, variance]];
 
 (* {F, n, N_vec, S} of contract 3.7 for joint-major residual columns. *)
-fitTerm[e_, noiseModel_] := Module[{m = Length[e], n = Length[First[e]], variance, variances, logSize, sigma, eig},
+fitTerm[e_, noiseModel_] := Module[{m = Length[e], n = Length[First[e]], ss, sums, logSize, k, es, sigma, eig},
   Switch[noiseModel,
     "pooled",
-      variance = sumSq[Flatten[e]]/(n m);
-      {nLog[n m, variance], n m, n m, variance},
+      ss = scaledSumSq[Flatten[e]];
+      If[First[ss] == 0, {-Infinity, n m, n m, 0.},
+        {n m logMean[ss, n m], n m, n m, restore[First[ss]/(n m), 2 Last[ss]]}],
     "per_joint",
-      variances = (sumSq /@ e)/n;
-      If[Min[variances] == 0, {-Infinity, n, n, 0.},
-        logSize = Total[Log[variances]];
+      sums = scaledSumSq /@ e;
+      If[Min[sums[[All, 1]]] == 0, {-Infinity, n, n, 0.},
+        logSize = Total[logMean[#, n] & /@ sums];
         {n logSize, n, n, safeExp[logSize]}],
     "full",
-      sigma = Table[Total[e[[i]] e[[j]]]/n, {i, m}, {j, m}];
+      (* one power of two for every joint: eigenvalue ratios stay, ln det gains 2 k m ln 2 *)
+      k = scaleExponent[e];
+      es = pow2[e, -k];
+      sigma = Table[Total[es[[i]] es[[j]]]/n, {i, m}, {j, m}];
       eig = Sort[Re[Eigenvalues[sigma]]];
       If[Last[eig] <= 0. || First[eig] <= m $MachineEpsilon Last[eig], {-Infinity, n, n, 0.},
-        logSize = Total[Log[eig]];
+        logSize = Total[Log[eig]] + 2 k m Log[2.];
         {n logSize, n, n, safeExp[logSize]}]]];
 
 criteriaAll[function_, meas_, pred_, opts_] := Module[{o, a, b, p, model, f, n, nVec, size, out},

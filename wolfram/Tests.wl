@@ -163,6 +163,28 @@ check["hex write, round trip of the extremes", DynValProtocol`readReal /@ DynVal
 check["typed values", DynValProtocol`readValue /@ {"none", "true", "12", "\"raw_values\"", "[1,2]", "\"a%20b\""},
   {None, True, 12, "raw_values", {1, 2}, "a b"}];
 
+(* ---- data near the ends of the double range (contract 1.3): sums of squares are scaled by a
+   power of two; unscaled, the squares underflow (r2 degenerate, rmse 0, rho Indeterminate) or the
+   eigenvalues of the full noise model overflow *)
+rel[tol_][a_, b_] := Which[
+  ListQ[a] && ListQ[b], Length[a] == Length[b] && And @@ MapThread[rel[tol], {a, b}],
+  NumberQ[a] && NumberQ[b], Abs[a - b] <= tol Abs[b],
+  True, a === b];
+tiny = 2.^-540; huge = 2.^270;
+pair2 = {{1.0, 2.0}, {2.5, 1.5}, {3.2, 0.7}, {4.1, -0.4}, {4.8, -1.2}, {6.1, -2.1}};
+pred2 = {{1.1, 1.9}, {2.4, 1.6}, {3.0, 0.9}, {4.3, -0.5}, {4.7, -1.0}, {6.0, -2.3}};
+check["rmse of data near 1e-163", DynVal`rmse[tiny pair2, tiny pred2] / tiny, DynVal`rmse[pair2, pred2], rel[1.*^-14]];
+check["r2 of data near 1e-163", DynVal`r2[tiny pair2, tiny pred2, "multioutput" -> "raw_values"],
+  DynVal`r2[pair2, pred2, "multioutput" -> "raw_values"], rel[1.*^-13]];
+check["variance_weighted r2, joints at 1e-163 and 1", DynVal`r2[{1., tiny} # & /@ pair2, {1., tiny} # & /@ pred2,
+  "multioutput" -> "variance_weighted"], DynVal`r2[pair2[[All, 1]], pred2[[All, 1]]], rel[1.*^-13]];
+check["autocorrelation of data near 1e-301", DynVal`autocorrelation[2.^-1000 (pair2 - pred2), 3],
+  DynVal`autocorrelation[pair2 - pred2, 3], rel[1.*^-13]];
+check["zero-mean t of data near 1e-163", DynVal`zeroMeanTest[tiny (pair2 - pred2)]["statistic_iid"],
+  DynVal`zeroMeanTest[pair2 - pred2]["statistic_iid"], rel[1.*^-13]];
+check["full noise model of data near 1e81", DynVal`aic[huge pair2, huge pred2, "n_params" -> 2, "noise_model" -> "full"],
+  DynVal`aic[pair2, pred2, "n_params" -> 2, "noise_model" -> "full"] + 6 2 270 2 Log[2.], rel[1.*^-13]];
+
 (* ---- report and exit status *)
 failed = Select[$results, ! #[[2]] &];
 Scan[WriteString[First[Streams["stdout"]], "FAILED " <> #[[1]] <> ": got " <> ToString[InputForm[#[[3]]]] <>
