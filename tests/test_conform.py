@@ -638,3 +638,27 @@ def test_a_port_that_runs_nothing_fails_loudly(tiny, tmp_path):
     assert code == 1, out.getvalue()
     assert "nothing was tested" in err.getvalue()
     assert "0 passed, 0 failed, 20 skipped" in out.getvalue()
+
+
+def test_several_port_processes_give_the_report_of_one(tiny, tmp_path):
+    single = tmp_path / "single"
+    single.mkdir()
+    code1, _, one = conform(port("oracle.py", corpus=tiny), single, corpus=tiny)
+    record = tmp_path / "received.txt"
+    code3, out3, three = conform(["--jobs", "3", *port("oracle.py", "--record", str(record), corpus=tiny)],
+                                 tmp_path, corpus=tiny)
+    assert code1 == code3 == 0, out3
+    assert [c["id"] for c in three["cases"]] == [c["id"] for c in one["cases"]]  # corpus order kept
+    assert three["counts"] == one["counts"]
+    # three processes, each told to quit, and each case sent exactly once
+    received = record.read_text().splitlines()
+    assert received.count("quit") == 3
+    sent = [line.split()[1:3] for line in received if line.startswith("case ")]
+    expressible = [c for c in one["cases"] if c["status"] != "skipped"]
+    assert sorted(map(tuple, sent)) == sorted((c["family"], str(c["tcId"])) for c in expressible)
+
+
+def test_jobs_must_be_positive(tmp_path):
+    err = io.StringIO()
+    assert main(["--jobs", "0", "--", "true"], stdout=io.StringIO(), stderr=err) == 2
+    assert "--jobs must be a positive integer" in err.getvalue()

@@ -71,6 +71,9 @@ def _build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-failures", type=int, default=10, metavar="K",
                         help="failures shown in detail (default 10)")
     parser.add_argument("--max-restarts", type=int, default=25, metavar="R", help="port restarts allowed (default 25)")
+    parser.add_argument("--jobs", type=int, default=1, metavar="J",
+                        help="port processes run at once, each on an interleaved share of the cases (default 1; "
+                             "for ports that are slow per case)")
     parser.add_argument("--strict", action="store_true", help="also fail when a case is skipped or partial")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
     matrix = parser.add_argument_group("conformance matrix (no command after --)")
@@ -244,6 +247,8 @@ def _check_numbers(args) -> str:
             return f"dynval conform: {name} must be a positive number of seconds, got {value!r}\n"
     if args.max_failures < 0 or args.max_restarts < 0:
         return "dynval conform: --max-failures and --max-restarts must be >= 0\n"
+    if args.jobs < 1:
+        return f"dynval conform: --jobs must be a positive integer, got {args.jobs}\n"
     return ""
 
 
@@ -306,7 +311,7 @@ def _matrix_main(args, out: TextIO, err: TextIO) -> int:
 
     rows = _matrix.run_matrix(specs, families, corpus=str(corpus) if corpus else None, timeout=args.timeout,
                               startup_timeout=args.startup_timeout, max_restarts=args.max_restarts, log=log,
-                              skip_unclaimed=not args.families)
+                              skip_unclaimed=not args.families, jobs=args.jobs)
     table = _matrix.format_matrix(rows, families)
     out.write(table + "\n")
     for row in rows:
@@ -388,6 +393,7 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
         max_restarts=args.max_restarts,
         progress=progress,
         skip_unclaimed=not args.families,
+        jobs=args.jobs,
     )
     counts = result.counts()["total"]
     failed = counts["failed"] > 0

@@ -102,6 +102,7 @@ def run_matrix(
     max_restarts: int = 25,
     log: Callable[[str], None] | None = None,
     skip_unclaimed: bool = True,
+    jobs: int = 1,
 ) -> list[MatrixRow]:
     """Run every port that can run over ``families``; keep the others with their reason."""
     rows = []
@@ -116,7 +117,7 @@ def run_matrix(
         try:
             result = run(spec.command, corpus=corpus, families=families, timeout=timeout,
                          startup_timeout=startup_timeout, max_restarts=max_restarts,
-                         skip_unclaimed=skip_unclaimed)
+                         skip_unclaimed=skip_unclaimed, jobs=jobs)
         finally:
             for key, value in saved.items():
                 if value is None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -171,6 +172,7 @@ def run(
     max_restarts: int = 25,
     progress: Callable[[int, int, RunResult], None] | None = None,
     skip_unclaimed: bool | None = None,
+    jobs: int = 1,
 ) -> RunResult:
     """Feed every selected vector to the port ``command`` and judge the answers.
 
@@ -196,6 +198,9 @@ def run(
     skip_unclaimed : bool, optional
         Leave out an optional family in which the port declares no operation (default: when
         ``families`` is not given). A family named on purpose is run, and its cases skipped.
+    jobs : int
+        Port processes run at once, each on an interleaved share of the cases (for ports that
+        are slow per case; each has its own ``max_restarts``). Outcomes keep the corpus order.
 
     Returns
     -------
@@ -232,84 +237,128 @@ def run(
             result.families = [f for f in selected if f not in result.unclaimed]
             cases = [c for c in cases if c.family not in result.unclaimed]
 
-    try:
-        for done, case in enumerate(cases, 1):
-            outcome = CaseOutcome(
-                id=case.id, family=case.family, tc_id=case.tc_id, operation=case.operation,
-                conventions=_conventions_text(case.conventions), status="failed",
-                flags=case.flags, comment=case.comment,
-            )
+    lock = threading.Lock()
+    indexed: list[tuple[int, CaseOutcome]] = []
+    done = [0]
+
+    def record(index: int, outcome: CaseOutcome) -> None:
+        with lock:
+            indexed.append((index, outcome))
             result.outcomes.append(outcome)
-            if dead_reason and not capabilities:
-                outcome.reason, outcome.detail = "handshake", dead_reason
-                _report_progress(progress, done, len(cases), result)
-                continue
-            covered = protocol.covered_outputs(capabilities, case.operation, case.conventions)
-            if covered is False:
-                outcome.status, outcome.reason = "skipped", "not-covered"
-                outcome.detail = "no capability of the port covers this operation and these conventions"
-                _report_progress(progress, done, len(cases), result)
-                continue
-            values = [k for k in case.expected if k != "error"]
-            if covered is not None and case.result == "valid" and not any(k in covered for k in values):
-                outcome.status, outcome.reason = "skipped", "not-covered"
-                outcome.detail = "the port computes none of this case's outputs"
-                outcome.skipped_outputs = tuple(values)
-                _report_progress(progress, done, len(cases), result)
-                continue
-            try:
-                lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions, case.inputs)
-            except (TypeError, ValueError) as exc:
-                outcome.status, outcome.reason = "skipped", "not-expressible"
-                outcome.detail = f"protocol {protocol.PROTOCOL_VERSION} cannot carry this case: {exc}"
-                _report_progress(progress, done, len(cases), result)
-                continue
-            outcome.expected = {k: (v if k == "error" else _jsonable(v)) for k, v in case.expected.items()}
+            done[0] += 1
+            _report_progress(progress, done[0], len(cases), result)
 
-            if port is None and not dead_reason:
-                if result.restarts >= max_restarts:
-                    dead_reason = f"not run: the port needed more than {max_restarts} restarts"
-                else:
-                    result.restarts += 1
-                    port = PortProcess(command, startup_timeout)
-                    try:
-                        port.start()
-                    except PortFailure as exc:
-                        dead_reason = "not run: the port could not be restarted: " + _with_stderr(str(exc), port)
-                        port = None
-            if port is None:
-                outcome.reason, outcome.detail = "not-run", dead_reason
-                _report_progress(progress, done, len(cases), result)
-                continue
+    def exchange(shard: list[tuple[int, Case]], port: PortProcess | None, dead_reason: str) -> int:
+        """Send the shard's cases to ``port`` (restarted when it breaks); returns the restarts."""
+        restarts = 0
+        try:
+            for index, case in shard:
+                outcome = CaseOutcome(
+                    id=case.id, family=case.family, tc_id=case.tc_id, operation=case.operation,
+                    conventions=_conventions_text(case.conventions), status="failed",
+                    flags=case.flags, comment=case.comment,
+                )
+                if dead_reason and not capabilities:
+                    outcome.reason, outcome.detail = "handshake", dead_reason
+                    record(index, outcome)
+                    continue
+                covered = protocol.covered_outputs(capabilities, case.operation, case.conventions)
+                if covered is False:
+                    outcome.status, outcome.reason = "skipped", "not-covered"
+                    outcome.detail = "no capability of the port covers this operation and these conventions"
+                    record(index, outcome)
+                    continue
+                values = [k for k in case.expected if k != "error"]
+                if covered is not None and case.result == "valid" and not any(k in covered for k in values):
+                    outcome.status, outcome.reason = "skipped", "not-covered"
+                    outcome.detail = "the port computes none of this case's outputs"
+                    outcome.skipped_outputs = tuple(values)
+                    record(index, outcome)
+                    continue
+                try:
+                    lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions,
+                                                 case.inputs)
+                except (TypeError, ValueError) as exc:
+                    outcome.status, outcome.reason = "skipped", "not-expressible"
+                    outcome.detail = f"protocol {protocol.PROTOCOL_VERSION} cannot carry this case: {exc}"
+                    record(index, outcome)
+                    continue
+                outcome.expected = {k: (v if k == "error" else _jsonable(v)) for k, v in case.expected.items()}
 
-            if port.encoding != "decimal":
-                lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions, case.inputs,
-                                             encoding=port.encoding)
-            t0 = time.monotonic()
-            try:
-                reply = port.exchange(lines, timeout, _answer_budget(case))
-            except PortFailure as exc:
+                if port is None and not dead_reason:
+                    if restarts >= max_restarts:
+                        dead_reason = f"not run: the port needed more than {max_restarts} restarts"
+                    else:
+                        restarts += 1
+                        port = PortProcess(command, startup_timeout)
+                        try:
+                            port.start()
+                        except PortFailure as exc:
+                            dead_reason = "not run: the port could not be restarted: " + _with_stderr(str(exc), port)
+                            port = None
+                if port is None:
+                    outcome.reason, outcome.detail = "not-run", dead_reason
+                    record(index, outcome)
+                    continue
+
+                if port.encoding != "decimal":
+                    lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions,
+                                                 case.inputs, encoding=port.encoding)
+                t0 = time.monotonic()
+                try:
+                    reply = port.exchange(lines, timeout, _answer_budget(case))
+                except PortFailure as exc:
+                    outcome.seconds = time.monotonic() - t0
+                    message = str(exc)
+                    if exc.reason == "timeout":
+                        message = f"timed out after {timeout:g} s: {message}"
+                    port.kill()
+                    outcome.reason, outcome.detail = exc.reason, _with_stderr(message, port)
+                    port = None
+                    record(index, outcome)
+                    continue
                 outcome.seconds = time.monotonic() - t0
-                message = str(exc)
-                if exc.reason == "timeout":
-                    message = f"timed out after {timeout:g} s: {message}"
-                port.kill()
-                outcome.reason, outcome.detail = exc.reason, _with_stderr(message, port)
-                port = None
-                _report_progress(progress, done, len(cases), result)
-                continue
-            outcome.seconds = time.monotonic() - t0
-            outcome.status, outcome.reason, outcome.detail, outcome.skipped_outputs = judge(case, reply, covered)
-            if reply.error_kind is not None:
-                outcome.got = {"error": reply.error_kind}
-            else:
-                outcome.got = {k: _jsonable(v) for k, v in reply.outputs.items()}
-            if outcome.status != "failed":
-                outcome.expected, outcome.got = {}, {}  # keep the report small
-            _report_progress(progress, done, len(cases), result)
-    finally:
-        if port is not None:
-            port.close()
+                outcome.status, outcome.reason, outcome.detail, outcome.skipped_outputs = judge(case, reply, covered)
+                if reply.error_kind is not None:
+                    outcome.got = {"error": reply.error_kind}
+                else:
+                    outcome.got = {k: _jsonable(v) for k, v in reply.outputs.items()}
+                if outcome.status != "failed":
+                    outcome.expected, outcome.got = {}, {}  # keep the report small
+                record(index, outcome)
+        finally:
+            if port is not None:
+                port.close()
+        return restarts
+
+    # Several port processes, each on an interleaved share of the cases (a slow port's run
+    # divided among cores); every process but the first is started here, like a restart.
+    numbered = list(enumerate(cases))
+    shards = [numbered[k::jobs] for k in range(max(1, min(jobs, len(numbered))))]
+    if len(shards) == 1:
+        result.restarts = exchange(shards[0], port, dead_reason)
+    else:
+        restarts = [0] * len(shards)
+
+        def shard_worker(k: int) -> None:
+            own = port if k == 0 else None
+            reason = dead_reason
+            if k > 0 and not dead_reason:
+                own = PortProcess(command, startup_timeout)
+                try:
+                    own.start()
+                except PortFailure as exc:
+                    reason = "not run: another port process could not be started: " + _with_stderr(str(exc), own)
+                    own = None
+            restarts[k] = exchange(shards[k], own, reason)
+
+        threads = [threading.Thread(target=shard_worker, args=(k,), daemon=True) for k in range(len(shards))]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        result.restarts = sum(restarts)
+    result.outcomes = [outcome for _, outcome in sorted(indexed, key=lambda pair: pair[0])]
     result.seconds = time.monotonic() - started
     return result
 
