@@ -32,11 +32,13 @@ def require_toolchain(name: str, missing: list, hint: str) -> None:
     pytest.skip(reason)
 
 
-def assert_passes_whole_corpus(run_port: pathlib.Path, report_path: pathlib.Path, timeout: float = 1200) -> dict:
+def assert_passes_whole_corpus(run_port: pathlib.Path, report_path: pathlib.Path, timeout: float = 1200,
+                               jobs: int = 1) -> dict:
     """``dynval conform --strict -- RUN_PORT``: exit 0 and every vector of the eight required families
     passed (and of the optional ``streaming`` family when the port claims it)."""
     proc = subprocess.run(
-        [sys.executable, "-m", "dynval", "conform", "--strict", "--report", str(report_path), "--", str(run_port)],
+        [sys.executable, "-m", "dynval", "conform", "--strict", "--jobs", str(jobs), "--report", str(report_path), "--",
+         str(run_port)],
         cwd=ROOT, capture_output=True, text=True, timeout=timeout)
     assert proc.returncode == 0, f"conform exited {proc.returncode}:\n{proc.stdout[-6000:]}\n{proc.stderr[-3000:]}"
     report = json.loads(report_path.read_text())

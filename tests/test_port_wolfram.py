@@ -9,6 +9,7 @@ cannot pass by skipping.
 from __future__ import annotations
 
 import importlib.util
+import os
 import pathlib
 import re
 import shutil
@@ -44,12 +45,14 @@ def test_wolfram_unit_tests():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(run=False, strict=True, reason=(
-    "not yet: under Mathics3 10.0.1 the whole corpus takes 25-30 min on this machine and the largest vectors "
-    "(200x6 residuals, N=2000 lag-50 portmanteau) exceed the runner's 30 s per-case timeout; the last full run "
-    "had 17 failures in 779 vectors (timeouts and restarts), and information_criteria-55 and -86 end with the port "
-    "exiting while it answers (wolfram/README.md)"))
 def test_wolfram_port_passes_the_whole_corpus(tmp_path):
-    """``dynval conform --strict -- wolfram/run-port``: exit 0 and every vector of all eight families passed."""
+    """``dynval conform --strict --jobs 2 -- wolfram/run-port``: exit 0 and every vector of the eight required
+    families passed (Mathics3 is slow per case: two port processes share the corpus).
+
+    scripts/test.sh names this port in DYNVAL_CORPUS_IN_MATRIX: its conformance-matrix step runs the same
+    corpus through it with ``--check-readme``, which fails on any failed or skipped vector, so the run is
+    not made twice there."""
     _require_mathics()
-    assert_passes_whole_corpus(RUN_PORT, tmp_path / "wolfram-conform.json", timeout=3600)
+    if "wolfram" in os.environ.get("DYNVAL_CORPUS_IN_MATRIX", "").split(","):
+        pytest.skip("the whole corpus of the Wolfram port is run by the conformance-matrix step of scripts/test.sh")
+    assert_passes_whole_corpus(RUN_PORT, tmp_path / "wolfram-conform.json", timeout=3600, jobs=2)
