@@ -447,6 +447,44 @@ TEST(Correlation, TiledCrossCorrelationAgainstDirectSums) {
         }
 }
 
+// Wide row-major data (m >= 16, the regressor's columns) take the register-tiled autocorrelation:
+// equal to direct long-double sums with a column count and lag count off the tiles, blocks of 512
+// rows and records that start inside a block.
+TEST(Correlation, WideAutocorrelationAgainstDirectSums) {
+    const Eigen::Index n = 1300, m = 19, max_lag = 10;
+    RowMatrix e = random_matrix(n, m, 51);
+    e.col(7).setConstant(0.25);
+    const std::vector<long long> lengths{300, 530, 470};
+    for (const bool adjusted : {true, false}) {
+        const auto rho = dynval::autocorrelation(e, max_lag, adjusted, lengths);
+        const std::vector<Eigen::Index> starts{0, 300, 830};
+        const auto record = [&](Eigen::Index k) { return k < 300 ? 0 : (k < 830 ? 1 : 2); };
+        for (Eigen::Index j = 0; j < m; ++j) {
+            if (j == 7) {
+                EXPECT_TRUE(std::isnan(rho(0, 7)) && std::isnan(rho(max_lag, 7)));
+                continue;
+            }
+            long double mean = 0;
+            for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
+            mean /= n;
+            long double r0 = 0;
+            for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
+            for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
+                long double s = 0;
+                Eigen::Index pairs = 0;
+                for (Eigen::Index k = lag; k < n; ++k) {
+                    if (record(k) != record(k - lag)) continue;
+                    s += (e(k, j) - mean) * (e(k - lag, j) - mean);
+                    ++pairs;
+                }
+                const long double d = adjusted && lag > 0 ? pairs : n;
+                const double want = static_cast<double>((s / d) / (r0 / n));
+                EXPECT_NEAR(rho(lag, j), want, 1e-14) << "column " << j << " lag " << lag;
+            }
+        }
+    }
+}
+
 TEST(Correlation, PortmanteauFromHandComputedRho) {
     Eigen::VectorXd e(4);
     e << 1, -1, 1, -1;  // biased ρ1 = −0.75, ρ2 = 0.5

@@ -129,41 +129,79 @@ DYNVAL_VECTOR_CLONES inline void lane_products(const double* DYNVAL_RESTRICT a, 
     for (Index i = chunks * lanes; i < count; ++i) acc[i - chunks * lanes] += a[i] * b[i];
 }
 
-/// Lag sums of C-contiguous (N, m) data in one pass: blocks of rows are centred into a buffer
-/// that keeps the previous max_lag rows (the tail needed by lagged products), and each lag is
-/// a lane-wise product of the buffer with itself shifted by ℓ rows (lane l is joint l mod m).
-inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const joint_moments& mo,
-                                     const std::vector<Index>& starts, Index max_lag) {
+/// acc[ℓ·m + j] += Σ_{u ∈ [u0, u1)} r[u·m + j]·r[(u − ℓ)·m + j] for the 4 lags ℓ = l0..l0+3 and every
+/// column j, rows counted from `r` (which must hold the rows u − l0 − 3 before u0). Tiles of 4 lags ×
+/// 8 columns stay in registers across the rows: each loaded row chunk feeds 4 multiply-adds. For
+/// wide data (many columns: the regressor's 490), where one lane per column does not fit in registers.
+DYNVAL_VECTOR_CLONES inline void lag_tile_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index l0,
+                                               double* DYNVAL_RESTRICT acc) {
+    constexpr Index TL = 4;
+    Index c0 = 0;
+#if defined(__GNUC__)
+    typedef double v4 __attribute__((vector_size(32)));
+    for (; c0 + 8 <= m; c0 += 8) {
+        v4 s[TL][2] = {};
+        for (Index u = u0; u < u1; ++u) {
+            v4 x0, x1;
+            std::memcpy(&x0, r + u * m + c0, sizeof x0);
+            std::memcpy(&x1, r + u * m + c0 + 4, sizeof x1);
+            for (Index t = 0; t < TL; ++t) {
+                v4 y0, y1;
+                std::memcpy(&y0, r + (u - l0 - t) * m + c0, sizeof y0);
+                std::memcpy(&y1, r + (u - l0 - t) * m + c0 + 4, sizeof y1);
+                s[t][0] += x0 * y0;
+                s[t][1] += x1 * y1;
+            }
+        }
+        for (Index t = 0; t < TL; ++t)
+            for (int h = 0; h < 2; ++h)
+                for (int i = 0; i < 4; ++i) acc[(l0 + t) * m + c0 + 4 * h + i] += s[t][h][i];
+    }
+#endif
+    for (; c0 < m; ++c0)  // the last m mod 8 columns (every column without vector types)
+        for (Index t = 0; t < TL; ++t) {
+            double part = 0.0;
+            for (Index u = u0; u < u1; ++u) part += r[u * m + c0] * r[(u - l0 - t) * m + c0];
+            acc[(l0 + t) * m + c0] += part;
+        }
+}
+
+/// One lag ℓ of every column over rows [u0, u1): acc[ℓ·m + j] += Σ r[u·m + j]·r[(u − ℓ)·m + j].
+DYNVAL_VECTOR_CLONES inline void lag_row_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index lag,
+                                              double* DYNVAL_RESTRICT acc) {
+    double* a = acc + lag * m;
+    for (Index u = u0; u < u1; ++u) {
+        const double* x = r + u * m;
+        const double* y = r + (u - lag) * m;
+        for (Index j = 0; j < m; ++j) a[j] += x[j] * y[j];
+    }
+}
+
+/// The blocks shared by the lag-sum kernels of C-contiguous (N, m) data, read once: blocks of rows
+/// are centred into a buffer that also keeps the previous max_lag rows (the tail lagged products
+/// need); `products(rows, a, nb, s0, s1, acc)` adds the products of each segment [s0, s1) that
+/// meets the block [a, a + nb) (row k at rows + (k − a)·m) into the block's partial sums `acc`, and
+/// `fold(acc, total)` adds those to the compensated totals (lag ℓ, joint j at ℓ·m + j).
+template <class Products, class Fold>
+Eigen::MatrixXd blocked_lag_sums(const double* x, Index n, Index m, const joint_moments& mo,
+                                 const std::vector<Index>& starts, Index max_lag, std::size_t acc_size,
+                                 Products&& products, Fold&& fold) {
     constexpr Index block = 512;
-    const Index lanes = 2 * m;
     const auto lengths = segment_lengths(starts, n);
-    std::vector<double> buf(static_cast<std::size_t>((block + max_lag) * m));
-    std::vector<double> acc(static_cast<std::size_t>((max_lag + 1) * lanes));
+    std::vector<double> buf(static_cast<std::size_t>((block + max_lag) * m)), acc(acc_size);
     std::vector<compensated> total(static_cast<std::size_t>((max_lag + 1) * m));
     for (Index a = 0; a < n; a += block) {
         const Index nb = std::min(block, n - a);
-        double* rows = buf.data() + max_lag * m;  // row k of the block at rows + (k − a)·m
+        double* rows = buf.data() + max_lag * m;
         for (Index i = 0; i < nb; ++i)
             for (Index j = 0; j < m; ++j)
                 rows[i * m + j] = (x[(a + i) * m + j] - mo.tau_shift(j)) - mo.tau_dev(j);
         std::fill(acc.begin(), acc.end(), 0.0);
         for (std::size_t s = 0; s < starts.size(); ++s) {
             const Index s0 = starts[s], s1 = starts[s] + lengths[s];
-            if (s1 <= a || s0 >= a + nb) continue;
-            for (Index lag = 0; lag <= max_lag; ++lag) {
-                const Index lo = std::max(a, s0 + lag), hi = std::min(a + nb, s1);
-                if (lo >= hi) continue;
-                const double* cur = rows + (lo - a) * m;
-                // lane of element (lo − a)·m + i must be joint i mod m: start at lane 0 of a row.
-                lane_products(cur, cur - lag * m, (hi - lo) * m, lanes,
-                              acc.data() + static_cast<std::size_t>(lag * lanes));
-            }
+            if (s1 > a && s0 < a + nb) products(rows, a, nb, s0, s1, acc.data());
         }
-        for (Index lag = 0; lag <= max_lag; ++lag)
-            for (Index j = 0; j < m; ++j) {
-                const double* l0 = acc.data() + lag * lanes;
-                total[static_cast<std::size_t>(lag * m + j)].add(l0[j] + l0[j + m]);
-            }
+        fold(acc.data(), total);
         // Keep the last max_lag rows (of this block and before) for the next block's lags.
         // (std::copy is safe for this overlapping move towards the front.)
         if (max_lag > 0) std::copy(buf.begin() + nb * m, buf.begin() + (nb + max_lag) * m, buf.begin());
@@ -172,6 +210,56 @@ inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const jo
     for (Index lag = 0; lag <= max_lag; ++lag)
         for (Index j = 0; j < m; ++j) sums(lag, j) = total[static_cast<std::size_t>(lag * m + j)].value();
     return sums;
+}
+
+/// Lag sums of C-contiguous (N, m) data in one pass (blocked_lag_sums). Up to 15 joints each lag
+/// is a lane-wise product of the buffer with itself shifted by ℓ rows (lane l is joint l mod m);
+/// from 16 columns (a regressor's) lag_tile_wide forms 4 lags at a time, lag_row_wide the lags
+/// left over and the first rows of a segment, where the 4 lags of a tile start at different rows.
+inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const joint_moments& mo,
+                                     const std::vector<Index>& starts, Index max_lag) {
+    const auto size = static_cast<std::size_t>((max_lag + 1) * m);
+    if (m >= 16) {
+        constexpr Index TL = 4;
+        const auto tiled = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
+            const Index hi = std::min(a + nb, s1) - a;  // rows of this block, relative to a
+            Index l0 = 0;
+            for (; l0 + TL - 1 <= max_lag; l0 += TL) {
+                // rows where all 4 lags have a partner in the segment; before them, lag by lag
+                const Index tile_from = std::max(a, s0 + l0 + TL - 1) - a;
+                for (Index t = 0; t < TL; ++t) {
+                    const Index from = std::max(a, s0 + l0 + t) - a;
+                    if (from < std::min(tile_from, hi)) lag_row_wide(rows, m, from, std::min(tile_from, hi), l0 + t, acc);
+                }
+                if (tile_from < hi) lag_tile_wide(rows, m, tile_from, hi, l0, acc);
+            }
+            for (; l0 <= max_lag; ++l0) {
+                const Index from = std::max(a, s0 + l0) - a;
+                if (from < hi) lag_row_wide(rows, m, from, hi, l0, acc);
+            }
+        };
+        const auto fold = [](const double* acc, std::vector<compensated>& total) {
+            for (std::size_t i = 0; i < total.size(); ++i) total[i].add(acc[i]);
+        };
+        return blocked_lag_sums(x, n, m, mo, starts, max_lag, size, tiled, fold);
+    }
+    const Index lanes = 2 * m;
+    const auto laned = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
+        for (Index lag = 0; lag <= max_lag; ++lag) {
+            const Index lo = std::max(a, s0 + lag), hi = std::min(a + nb, s1);
+            if (lo >= hi) continue;
+            const double* cur = rows + (lo - a) * m;
+            // lane of element (lo − a)·m + i must be joint i mod m: start at lane 0 of a row.
+            lane_products(cur, cur - lag * m, (hi - lo) * m, lanes, acc + lag * lanes);
+        }
+    };
+    const auto fold = [&](const double* acc, std::vector<compensated>& total) {
+        for (Index lag = 0; lag <= max_lag; ++lag)
+            for (Index j = 0; j < m; ++j)
+                total[static_cast<std::size_t>(lag * m + j)].add(acc[lag * lanes + j] + acc[lag * lanes + j + m]);
+    };
+    return blocked_lag_sums(x, n, m, mo, starts, max_lag, static_cast<std::size_t>((max_lag + 1) * lanes), laned,
+                            fold);
 }
 
 /// Biased lag sums S_ℓ (ℓ = 0..max_lag) of every joint, columns of the result.
