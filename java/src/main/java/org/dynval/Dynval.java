@@ -259,7 +259,7 @@ public final class Dynval {
 
     /** Ingredients of vaf, fit_percent and r2 for one series (a joint, or all values pooled). */
     /** Sums of squares are scaled (contract §1.3): ratios of tiny data keep their digits. */
-    private record FitParts(Kernels.ScaledSum sse, Kernels.ScaledSum sscE, boolean eConstant, Kernels.ScaledSum tss,
+    record FitParts(Kernels.ScaledSum sse, Kernels.ScaledSum sscE, boolean eConstant, Kernels.ScaledSum tss,
             boolean constant) {
         static FitParts of(double[] target, double[] e) {
             Kernels.ScaledMoments me = Kernels.scaledMoments(e);
@@ -268,9 +268,9 @@ public final class Dynval {
         }
     }
 
-    private enum FitMetric { VAF, FIT_PERCENT, R2 }
+    enum FitMetric { VAF, FIT_PERCENT, R2 }
 
-    private static double fitValue(FitMetric metric, FitParts p) {
+    static double fitValue(FitMetric metric, FitParts p) {
         if (p.constant()) {
             boolean exact = metric == FitMetric.VAF ? p.eConstant() : p.sse().s() == 0.0;
             return exact ? Double.NaN : Double.NEGATIVE_INFINITY;
@@ -532,7 +532,7 @@ public final class Dynval {
 
     // =================================================================== information criteria (untyped core)
 
-    private static InformationCriteria assemble(double fitTerm, long n, double nVec, double size, long p,
+    static InformationCriteria assemble(double fitTerm, long n, double nVec, double size, long p,
             String noiseModel) {
         double aic = fitTerm + 2.0 * p;
         double bic = fitTerm + p * Math.log(n);

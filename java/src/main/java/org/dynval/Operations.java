@@ -18,7 +18,8 @@ public final class Operations {
     public static final List<String> OPERATIONS = List.of(
             "residuals", "sse", "rmse", "max_abs_error", "vaf", "fit_percent", "r2",
             "residual_mean", "residual_variance", "zero_mean_test", "autocorrelation", "confidence_band",
-            "ljung_box", "box_pierce", "cross_correlation", "information_criteria", "criteria", "aic", "bic");
+            "ljung_box", "box_pierce", "cross_correlation", "information_criteria", "criteria", "aic", "bic",
+            "accumulate");
 
     /** One named output: a shape, row-major values and the type to write them as. */
     public record Output(int[] shape, double[] values, NdArray.Type type) {
@@ -253,6 +254,8 @@ public final class Operations {
                 out.put("value", Output.scalar(operation.equals("aic") ? ic.aic() : ic.bic()));
                 break;
             }
+            case "accumulate":
+                return AccumulateDriver.run(inputs, conventions);
             default:
                 throw new UnknownCall("unknown operation " + operation);
         }

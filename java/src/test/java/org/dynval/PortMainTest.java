@@ -37,6 +37,7 @@ class PortMainTest {
         String[] lines = out.split("\n");
         assertTrue(lines[0].startsWith("dynval-port 1 "), lines[0]);
         assertTrue(out.contains("capability cross_correlation\n"));
+        assertTrue(out.contains("capability accumulate\n"));
         assertTrue(out.contains("ready\nresult value real 1 2 0.0000000000000000e+00 0.0000000000000000e+00\nend\n"), out);
         assertTrue(out.contains("error TooFewSamples r2 needs at least 2 samples, got N=1\nend\n"), out);
         assertTrue(out.contains("error InvalidType tau_meas must be an array of real numbers, got NoneType\nend\n"), out);
