@@ -79,6 +79,14 @@ def test_an_accumulator_that_ignores_records_is_caught(monkeypatch):
     assert failed and set(failed) <= with_records
 
 
+def test_the_driver_checks_n_params_before_max_lag():
+    # golden/operations.json lists accumulate's parameters in this order (the Java driver follows it)
+    case = next(c for c in STREAMING if c.result == "valid")
+    inputs = {**case.inputs, "n_params": -1, "max_lag": 10**6}
+    with pytest.raises(dynval.InvalidParameter, match="n_params"):
+        run_operation("accumulate", inputs, case.conventions)
+
+
 # --------------------------------------------------------------------------- the runner's rule
 
 

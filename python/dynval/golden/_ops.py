@@ -167,7 +167,7 @@ def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
     import dynval
 
     from .._segments import longest_segment, parse_segments
-    from .._validation import check_choice, check_max_lag
+    from .._validation import check_choice, check_max_lag, check_n_params
     from ..stream import ValidationAccumulator
 
     meas, pred, reg = inputs["tau_meas"], inputs["tau_pred"], inputs.get("regressor")
@@ -183,6 +183,7 @@ def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
     blocks = _blocks(n, conventions.get("chunks"))
     merge = check_choice("merge", conventions.get("merge", "none"), ("none", "left", "right", "tree"))
     starts = parse_segments(conventions.get("segments"), n)
+    check_n_params(inputs["n_params"])  # operations.json's order: n_params before max_lag
     max_lag = check_max_lag(inputs["max_lag"], longest_segment(starts, n))
     record_starts = set(starts.tolist()) - {0}
 
