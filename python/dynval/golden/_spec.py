@@ -74,7 +74,8 @@ def _error_steps(op: dict, spec: dict) -> list[str]:
     steps = []
     if data:
         names = ", then ".join(f"`{d}`" for d in data)
-        steps.append(f"**InvalidType**: {names} is `none` (or a `scalar` line) instead of an array of reals.")
+        steps.append(f"**InvalidType**: {names} is `none` or a string instead of an array of reals (a number "
+                     "on a `scalar` line is a 0-D array: InvalidShape below).")
         shape_rule = []
         for d in data:
             if _data_kind(d) == "signal":
