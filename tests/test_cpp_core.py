@@ -220,6 +220,19 @@ def _error_cases():
         "rss": lambda k: k.information_criteria(-1.0, 10, 2),
         "rss-nan": lambda k: k.information_criteria(float("nan"), 10, 2),
         "n_obs": lambda k: k.information_criteria(1.0, 0, 2),
+        # The core takes plain C++ values; the binding turns a wrong-typed argument into one the
+        # core refuses at its place in the order, and writes the caller's argument back.
+        "max_lag-float": lambda k: k.autocorrelation(e, 2.0, True, s0),
+        "max_lag-str-after-segments": lambda k: k.autocorrelation(e, "2", True, np.array([0, 25])),
+        "adjusted-after-max_lag": lambda k: k.autocorrelation(e, 20, "yes", s0),
+        "adjusted-after-nonfinite": lambda k: k.cross_correlation(e, y_bad, 2, 2, None, s0),
+        "adjusted-last": lambda k: k.cross_correlation(e, y, 2, 2, np.float64(1.0), s0),
+        "n_columns-float": lambda k: k.cross_correlation(e, y, 2.0, 2, True, s0),
+        "lags-float-list": lambda k: k.portmanteau(e, [1, 2.0], 0, s0, "ljung_box"),
+        "model_df-before-test": lambda k: k.portmanteau(e, np.array([2]), 5, s0, 3),
+        "rss-int-beyond-float": lambda k: k.information_criteria(10**400, 10, 2),
+        "n_params-numpy": lambda k: k.information_criteria(1.0, 10, np.int64(-3)),
+        "noise_model-none": lambda k: k.compute_metrics(t, p, 2, 1, None),
         "n_params-aicc": lambda k: k.information_criteria(1.0, 10, 9),
     }
 
@@ -294,6 +307,24 @@ def test_normal_quantile_and_band_against_scipy():
     np.testing.assert_allclose(_core._testing.normal_quantile(p), scipy.stats.norm.ppf(p), rtol=1e-14, atol=1e-15)
     assert _core._testing.confidence_band(400, 0.99) == pytest.approx(
         scipy.stats.norm.ppf(0.995) / 20.0, rel=1e-14)
+
+
+@pytest.mark.parametrize(("n", "level", "message"), [
+    (10, 1.0, "level must be a number with 0 < level < 1, got 1.0"),      # the core writes 1
+    (10, "0.9", "level must be a number with 0 < level < 1, got '0.9'"),  # the core gets NaN
+    (True, 0.9, "n must be an integer with n >= 1, got True"),            # the core gets -1
+    (2**64, 0.9, "n must be an integer with n >= 1, got 18446744073709551616"),
+])
+def test_binding_writes_the_callers_argument_in_parameter_errors(n, level, message):
+    # The core takes plain values and writes them the C++ way; the binding shows the argument as
+    # Python writes it, as the facade's own message does.
+    with pytest.raises(dynval.InvalidParameter) as info:
+        _core._testing.confidence_band(n, level)
+    assert str(info.value) == message
+    if isinstance(n, int) and not isinstance(n, bool) and n < 2**63:
+        with pytest.raises(dynval.InvalidParameter) as facade:
+            dynval.confidence_band(n, level=level)
+        assert str(facade.value) == message
 
 
 # --------------------------------------------------------------------------- accuracy

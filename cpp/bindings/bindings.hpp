@@ -1,5 +1,5 @@
 // Shared by every binding translation unit: array types and conversions of Python arguments to
-// the core's parameter types. Bindings only convert; every check lives in the core.
+// the core's plain parameter types. Bindings only convert; every check lives in the core.
 #pragma once
 
 #include <pybind11/eigen.h>
@@ -74,58 +74,91 @@ inline bool is_real(py::handle v) {
            py::isinstance(v, numpy().attr("floating"));
 }
 
-inline param<long long> int_param(py::handle v) {
-    if (!is_integer(v)) return param<long long>::invalid(value_repr(v));
+// Parameters. The core takes plain C++ values and checks them after the data, in the contract's
+// order. An argument that is not even of the right type becomes a value the core refuses (a
+// negative integer, NaN, an empty list, an option outside its enum), so the core still reports
+// it at its place in that order; `python_values` then writes the caller's own argument into the
+// message, as the facade does. Every requirement of an integer parameter excludes negatives.
+constexpr long long not_an_integer = -1;
+
+/// An int or numpy integer that fits in 64 bits, else `not_an_integer`.
+inline long long int_arg(py::handle v) {
+    if (!is_integer(v)) return not_an_integer;
     int overflow = 0;
     py::object as_int = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
     const long long x = PyLong_AsLongLongAndOverflow(as_int.ptr(), &overflow);
-    if (overflow != 0) return param<long long>::invalid(value_repr(v));
-    auto p = param<long long>(x);
-    return p;
+    return overflow != 0 ? not_an_integer : x;
 }
 
-inline param<double> real_param(py::handle v) {
-    if (!is_real(v)) return param<double>::invalid(value_repr(v));
+/// A real number; NaN when it is not one, inf for an int beyond float64 (10**400).
+inline double real_arg(py::handle v) {
+    if (!is_real(v)) return std::numeric_limits<double>::quiet_NaN();
     const double x = PyFloat_AsDouble(v.ptr());
-    if (x == -1.0 && PyErr_Occurred()) {  // an int beyond float64 (10**400): not a finite number
+    if (x == -1.0 && PyErr_Occurred()) {
         PyErr_Clear();
-        return param<double>(std::numeric_limits<double>::infinity(), value_repr(v));
+        return std::numeric_limits<double>::infinity();
     }
-    return param<double>(x);
+    return x;
 }
 
-inline param<bool> bool_param(py::handle v) {
-    if (!is_bool(v)) return param<bool>::invalid(value_repr(v));
-    return param<bool>(py::bool_(py::reinterpret_borrow<py::object>(v)).cast<bool>());
+/// True or False (Python or numpy), else nothing: no bool value can stand for "not a bool".
+inline std::optional<bool> bool_arg(py::handle v) {
+    if (!is_bool(v)) return std::nullopt;
+    return py::bool_(py::reinterpret_borrow<py::object>(v)).cast<bool>();
 }
 
+/// The option named by a str, else a value outside the enum.
 template <class E>
-param<E> option_param(py::handle v) {
-    if (!py::isinstance<py::str>(v)) return param<E>::invalid(value_repr(v));
-    return param<E>(v.cast<std::string>());
+E option_arg(py::handle v) {
+    if (py::isinstance<py::str>(v))
+        if (const auto value = option_traits<E>::parse(v.cast<std::string>())) return *value;
+    return static_cast<E>(-1);
 }
 
-/// Integers from an int or a 1-D sequence of ints (lags); anything else stays invalid.
-inline param<std::vector<long long>> int_list_param(py::handle v) {
-    using P = param<std::vector<long long>>;
+/// Integers from an int or a 1-D sequence of ints (lags); anything else is the empty list.
+inline std::vector<long long> int_list_arg(py::handle v) {
+    const auto one = [](py::handle item, std::vector<long long>& out) {
+        // Each integer through int_arg: one beyond 64 bits (2**63, numpy.uint64) is refused as a
+        // parameter with the contract's message, not as a pybind11 cast error.
+        if (!is_integer(item)) return false;
+        const long long x = int_arg(item);
+        if (x == not_an_integer) return false;
+        out.push_back(x);
+        return true;
+    };
     std::vector<long long> out;
-    // Each integer through int_param: one beyond 64 bits (2**63, numpy.uint64) is then an invalid
-    // parameter with the contract's message, not a pybind11 cast error.
-    if (is_integer(v)) {
-        const auto one = int_param(v);
-        if (!one.valid()) return P::invalid(value_repr(v));
-        out.push_back(one.value());
-        return P(std::move(out), value_repr(v));
+    if (is_integer(v)) return one(v, out) ? out : std::vector<long long>{};
+    if (py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) ||
+        !(py::isinstance<py::sequence>(v) || py::isinstance(v, numpy().attr("ndarray"))))
+        return {};
+    for (py::handle item : py::reinterpret_borrow<py::iterable>(v))
+        if (!one(item, out)) return {};
+    return out;
+}
+
+/// A Python argument by the name the core gives its parameter.
+struct named_arg {
+    const char* name;
+    py::handle value;
+};
+
+/// `call()`, with the value in an InvalidParameter message replaced by the caller's argument
+/// written as Python writes it (the core writes C++ values: `2` for 2.0, `-1` for a non-integer).
+template <class F>
+decltype(auto) python_values(std::initializer_list<named_arg> args, F&& call) {
+    try {
+        return call();
+    } catch (const invalid_parameter& err) {
+        for (const auto& a : args)
+            if (err.parameter() == a.name) throw invalid_parameter(err.parameter(), err.requirement(), value_repr(a.value));
+        throw;
     }
-    if (py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) || !py::isinstance<py::sequence>(v)) {
-        if (!py::isinstance(v, numpy().attr("ndarray"))) return P::invalid(value_repr(v));
-    }
-    for (py::handle item : py::reinterpret_borrow<py::iterable>(v)) {
-        const auto one = int_param(item);
-        if (!one.valid()) return P::invalid(value_repr(v));
-        out.push_back(one.value());
-    }
-    return P(std::move(out), value_repr(v));
+}
+
+/// InvalidParameter for a bool parameter that is not True or False. The core has no refused
+/// bool, so the binding raises it itself, after the core has checked everything before it.
+[[noreturn]] inline void throw_not_bool(const char* name, py::handle value) {
+    throw invalid_parameter(name, "True or False", value_repr(value));
 }
 
 /// The kernels' int64 segment starts (None: one segment).
@@ -150,12 +183,11 @@ void def_pair_metric(py::module_& m, const char* name, F f, const char* doc) {
     m.def(
         name,
         [f](const RowRef& meas, const RowRef& pred, py::object multioutput) {
-            const auto how = option_param<dynval::multioutput>(multioutput);
-            metric_value v;
-            {
+            const auto how = option_arg<dynval::multioutput>(multioutput);
+            const metric_value v = python_values({{"multioutput", multioutput}}, [&] {
                 py::gil_scoped_release release;
-                v = f(meas, pred, how);
-            }
+                return f(meas, pred, how);
+            });
             return metric_to_python(v);
         },
         py::arg("meas"), py::arg("pred"), py::arg("multioutput"), doc);

@@ -7,11 +7,15 @@ void register_correlation(py::module_& m) {
     m.def(
         "autocorrelation",
         [](const RowRef& e, py::object max_lag, py::object adjusted, py::object starts) {
-            const auto lag = int_param(max_lag);
-            const auto adj = bool_param(adjusted);
+            const auto lag = int_arg(max_lag);
+            const auto adj = bool_arg(adjusted);
             const auto seg = starts_list(starts);
-            py::gil_scoped_release release;
-            return dynval::autocorrelation(e, lag, adj, seg);
+            row_matrix rho = python_values({{"max_lag", max_lag}}, [&] {
+                py::gil_scoped_release release;
+                return dynval::autocorrelation(e, lag, adj.value_or(true), seg);
+            });
+            if (!adj) throw_not_bool("adjusted", adjusted);  // checked last: after the core's checks
+            return rho;
         },
         py::arg("e"), py::arg("max_lag"), py::arg("adjusted"), py::arg("starts"),
         "ρ̂(ℓ) for ℓ = 0..max_lag per joint, (max_lag+1, m).");
@@ -19,15 +23,15 @@ void register_correlation(py::module_& m) {
         "cross_correlation",
         [](const RowRef& e, const RowRef& y, py::object n_columns, py::object max_lag, py::object adjusted,
            py::object starts) {
-            const auto p = int_param(n_columns);
-            const auto lag = int_param(max_lag);
-            const auto adj = bool_param(adjusted);
+            const auto p = int_arg(n_columns);
+            const auto lag = int_arg(max_lag);
+            const auto adj = bool_arg(adjusted);
             const auto seg = starts_list(starts);
-            CrossCorrelation r;
-            {
+            const CrossCorrelation r = python_values({{"n_columns", n_columns}, {"max_lag", max_lag}}, [&] {
                 py::gil_scoped_release release;
-                r = dynval::cross_correlation(e, y, p, lag, adj, seg);
-            }
+                return dynval::cross_correlation(e, y, p, lag, adj.value_or(true), seg);
+            });
+            if (!adj) throw_not_bool("adjusted", adjusted);  // checked last: after the core's checks
             py::dict out;
             out["rho"] = py::cast(r.rho);
             out["constant_mask"] = bool_array(r.constant_mask);

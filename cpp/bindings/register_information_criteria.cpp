@@ -19,19 +19,21 @@ void register_information_criteria(py::module_& m) {
     m.def(
         "information_criteria",
         [](py::object rss, py::object n_obs, py::object n_params) {
-            return criteria_dict(dynval::information_criteria(real_param(rss), int_param(n_obs), int_param(n_params)));
+            return criteria_dict(python_values({{"rss", rss}, {"n_obs", n_obs}, {"n_params", n_params}}, [&] {
+                return dynval::information_criteria(real_arg(rss), int_arg(n_obs), int_arg(n_params));
+            }));
         },
         py::arg("rss"), py::arg("n_obs"), py::arg("n_params"), "aic, bic, aicc, fpe, naic with σ̂² = rss/n_obs.");
     m.def(
         "criteria",
         [](const RowRef& meas, const RowRef& pred, py::object n_params, py::object noise_model) {
-            const auto p = int_param(n_params);
-            const auto nm = option_param<dynval::noise_model>(noise_model);
-            information_criteria_result r;
-            {
-                py::gil_scoped_release release;
-                r = dynval::criteria(meas, pred, p, nm);
-            }
+            const auto p = int_arg(n_params);
+            const auto nm = option_arg<dynval::noise_model>(noise_model);
+            const information_criteria_result r =
+                python_values({{"n_params", n_params}, {"noise_model", noise_model}}, [&] {
+                    py::gil_scoped_release release;
+                    return dynval::criteria(meas, pred, p, nm);
+                });
             py::dict out = criteria_dict(r);
             out["n_obs"] = r.n_obs;
             out["fit_term"] = r.fit_term;

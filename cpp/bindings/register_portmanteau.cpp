@@ -7,15 +7,15 @@ void register_portmanteau(py::module_& m) {
     m.def(
         "portmanteau",
         [](const RowRef& e, py::object lags, py::object model_df, py::object starts, py::object test) {
-            const auto h = int_list_param(lags);
-            const auto mdf = int_param(model_df);
+            const auto h = int_list_arg(lags);
+            const auto mdf = int_arg(model_df);
             const auto seg = starts_list(starts);
-            const auto which = option_param<portmanteau_test>(test);
-            PortmanteauTest r;
-            {
-                py::gil_scoped_release release;
-                r = dynval::portmanteau(e, h, mdf, seg, which);
-            }
+            const auto which = option_arg<portmanteau_test>(test);
+            const PortmanteauTest r =
+                python_values({{"lags", lags}, {"model_df", model_df}, {"test", test}}, [&] {
+                    py::gil_scoped_release release;
+                    return dynval::portmanteau(e, h, mdf, seg, which);
+                });
             py::dict out;
             out["statistic"] = py::cast(Eigen::MatrixXd(r.statistic.matrix()));
             out["pvalue"] = py::cast(Eigen::MatrixXd(r.pvalue.matrix()));

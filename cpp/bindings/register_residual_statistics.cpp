@@ -22,26 +22,25 @@ void register_residual_statistics(py::module_& m) {
     m.def(
         "residual_variance",
         [](const RowRef& e, py::object ddof) {
-            const auto d = int_param(ddof);
-            Eigen::ArrayXd v;
-            {
+            const auto d = int_arg(ddof);
+            const Eigen::ArrayXd v = python_values({{"ddof", ddof}}, [&] {
                 py::gil_scoped_release release;
-                v = dynval::residual_variance(e, d);
-            }
+                return dynval::residual_variance(e, d);
+            });
             return vec(v);
         },
         py::arg("e"), py::arg("ddof"), "Σ(e − ē)²/(N − ddof) per joint, (m,).");
     m.def(
         "compute_metrics",
         [](const RowRef& meas, const RowRef& pred, py::object n_params, py::object ddof, py::object noise_model) {
-            const auto p = int_param(n_params);
-            const auto d = int_param(ddof);
-            const auto nm = option_param<dynval::noise_model>(noise_model);
-            ValidationMetrics r;
-            {
-                py::gil_scoped_release release;
-                r = dynval::compute_metrics(meas, pred, p, d, nm);
-            }
+            const auto p = int_arg(n_params);
+            const auto d = int_arg(ddof);
+            const auto nm = option_arg<dynval::noise_model>(noise_model);
+            const ValidationMetrics r =
+                python_values({{"n_params", n_params}, {"ddof", ddof}, {"noise_model", noise_model}}, [&] {
+                    py::gil_scoped_release release;
+                    return dynval::compute_metrics(meas, pred, p, d, nm);
+                });
             py::dict out;
             out["n_samples"] = r.n_samples;
             out["n_joints"] = r.n_joints;

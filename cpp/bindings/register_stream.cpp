@@ -40,16 +40,19 @@ void register_stream(py::module_& m) {
                              "dynval._stream.State.")
         .def(py::init([](py::object n_joints, py::object n_columns, py::object acf_lags, py::object xcorr_lags,
                          py::object gram) {
+                 const auto count = [](py::handle v, const char* name, long long lo, const char* requirement) {
+                     const long long x = int_arg(v);
+                     if (x < lo) throw invalid_parameter(name, requirement, value_repr(v));
+                     return x;
+                 };
                  stream_layout l;
-                 l.m = detail::require_int(int_param(n_joints), "n_joints", 1, -1,
-                                   "a positive integer");
-                 l.p = detail::require_int(int_param(n_columns), "n_columns", 0, -1,
-                                   "an integer with n_columns >= 0");
-                 l.acf_lags = detail::require_int(int_param(acf_lags), "acf_lags", 0, -1,
-                                          "an integer with acf_lags >= 0");
-                 l.xcorr_lags = detail::require_int(int_param(xcorr_lags), "xcorr_lags", 0, -1,
-                                                    "an integer with xcorr_lags >= 0");
-                 l.gram = detail::require_bool(bool_param(gram), "gram");
+                 l.m = count(n_joints, "n_joints", 1, "a positive integer");
+                 l.p = count(n_columns, "n_columns", 0, "an integer with n_columns >= 0");
+                 l.acf_lags = count(acf_lags, "acf_lags", 0, "an integer with acf_lags >= 0");
+                 l.xcorr_lags = count(xcorr_lags, "xcorr_lags", 0, "an integer with xcorr_lags >= 0");
+                 const auto g = bool_arg(gram);
+                 if (!g) throw_not_bool("gram", gram);
+                 l.gram = *g;
                  return stream_state(l);
              }),
              py::arg("n_joints"), py::arg("n_columns"), py::arg("acf_lags"), py::arg("xcorr_lags"), py::arg("gram"))

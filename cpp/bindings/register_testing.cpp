@@ -34,7 +34,10 @@ void register_testing(py::module_& m) {
     t.def("normal_quantile", py::vectorize(&dynval::normal_quantile), py::arg("p"));
     t.def(
         "confidence_band",
-        [](py::object n, py::object level) { return dynval::confidence_band(int_param(n), real_param(level)); },
+        [](py::object n, py::object level) {
+            return python_values({{"n", n}, {"level", level}},
+                                 [&] { return dynval::confidence_band(int_arg(n), real_arg(level)); });
+        },
         py::arg("n"), py::arg("level"));
 }
 

@@ -94,27 +94,27 @@ TEST(PointMetrics, Aggregations) {
     ASSERT_TRUE(raw.per_joint);
     EXPECT_DOUBLE_EQ(raw.values(0), 0.85);
     EXPECT_DOUBLE_EQ(raw.values(1), 0.75);
-    EXPECT_DOUBLE_EQ(dynval::r2(t, p, "uniform_average").value, 0.8);
+    EXPECT_DOUBLE_EQ(dynval::r2(t, p, dynval::multioutput::uniform_average).value, 0.8);
     // variance_weighted = 1 − ΣSSE/ΣTSS when no joint is constant.
-    EXPECT_NEAR(dynval::r2(t, p, "variance_weighted").value, 1.0 - 1.75 / 9.0, 1e-15);
+    EXPECT_NEAR(dynval::r2(t, p, dynval::multioutput::variance_weighted).value, 1.0 - 1.75 / 9.0, 1e-15);
     // pooled: all 8 values, one mean (1.75): TSS = Σt² − 8·1.75² = 38 − 24.5 = 13.5.
     EXPECT_NEAR(dynval::r2(t, p).value, 1.0 - 1.75 / 13.5, 1e-15);
-    EXPECT_DOUBLE_EQ(dynval::sse(t, p, "raw_values").values(1), 1.0);
-    EXPECT_DOUBLE_EQ(dynval::rmse(t, p, "uniform_average").value, 0.5 * (std::sqrt(0.75 / 4) + 0.5));
-    EXPECT_DOUBLE_EQ(dynval::rmse(t, p, "pooled", dynval::rmse_convention::per_sample).value, std::sqrt(1.75 / 4));
+    EXPECT_DOUBLE_EQ(dynval::sse(t, p, dynval::multioutput::raw_values).values(1), 1.0);
+    EXPECT_DOUBLE_EQ(dynval::rmse(t, p, dynval::multioutput::uniform_average).value, 0.5 * (std::sqrt(0.75 / 4) + 0.5));
+    EXPECT_DOUBLE_EQ(dynval::rmse(t, p, dynval::multioutput::pooled, dynval::rmse_convention::per_sample).value, std::sqrt(1.75 / 4));
     EXPECT_DOUBLE_EQ(dynval::rmse(t, p).value, std::sqrt(1.75 / 8));
-    EXPECT_DOUBLE_EQ(dynval::fit_percent(t, p, "raw_values").values(1), 100.0 * (1.0 - std::sqrt(0.25)));
+    EXPECT_DOUBLE_EQ(dynval::fit_percent(t, p, dynval::multioutput::raw_values).values(1), 100.0 * (1.0 - std::sqrt(0.25)));
 }
 
 TEST(PointMetrics, DegenerateValues) {
     MatrixXd t(3, 2), p(3, 2);
     t << 2, 1, 2, 2, 2, 3;  // joint 0 constant
     p << 2, 1, 2, 2, 2.5, 3.5;
-    const auto r2 = dynval::r2(t, p, "raw_values").values;
+    const auto r2 = dynval::r2(t, p, dynval::multioutput::raw_values).values;
     EXPECT_EQ(r2(0), -inf);
-    const auto vw = dynval::r2(t, p, "variance_weighted").value;
+    const auto vw = dynval::r2(t, p, dynval::multioutput::variance_weighted).value;
     EXPECT_DOUBLE_EQ(vw, r2(1));  // the constant joint has weight 0 and is left out
-    EXPECT_EQ(dynval::r2(t, p, "uniform_average").value, -inf);
+    EXPECT_EQ(dynval::r2(t, p, dynval::multioutput::uniform_average).value, -inf);
     // exact fit of a constant target: nan
     MatrixXd c = MatrixXd::Constant(3, 1, 4.0);
     EXPECT_TRUE(std::isnan(dynval::r2(c, c).value));
@@ -128,10 +128,10 @@ TEST(PointMetrics, DegenerateValues) {
     MatrixXd cc(3, 2), pc(3, 2);
     cc << 1, 5, 1, 5, 1, 5;
     pc << 1, 5, 1, 5, 1, 6;
-    const auto per = dynval::r2(cc, pc, "raw_values").values;
+    const auto per = dynval::r2(cc, pc, dynval::multioutput::raw_values).values;
     EXPECT_TRUE(std::isnan(per(0)));
     EXPECT_EQ(per(1), -inf);
-    EXPECT_TRUE(std::isnan(dynval::r2(cc, pc, "variance_weighted").value));
+    EXPECT_TRUE(std::isnan(dynval::r2(cc, pc, dynval::multioutput::variance_weighted).value));
     // perfect fit
     const MatrixXd a = lesson_meas();
     const auto r = dynval::compute_metrics(a, a, 2);
@@ -542,21 +542,21 @@ TEST(Criteria, NoiseModels) {
     const MatrixXd e = t - p;
     const double n = 6.0;
     const double s00 = e.col(0).squaredNorm(), s11 = e.col(1).squaredNorm(), s01 = e.col(0).dot(e.col(1));
-    const auto pj = dynval::criteria(t, p, 3, "per_joint");
+    const auto pj = dynval::criteria(t, p, 3, dynval::noise_model::per_joint);
     EXPECT_NEAR(pj.aic, n * (std::log(s00 / n) + std::log(s11 / n)) + 6.0, 1e-12);
     EXPECT_EQ(pj.n_obs, 6);
-    const auto full = dynval::criteria(t, p, 3, "full");
+    const auto full = dynval::criteria(t, p, 3, dynval::noise_model::full);
     const double det = (s00 * s11 - s01 * s01) / (n * n);
     EXPECT_NEAR(full.aic, n * std::log(det) + 6.0, 1e-12);
     EXPECT_NEAR(full.bic, n * std::log(det) + 3.0 * std::log(n), 1e-12);
     EXPECT_NEAR(full.fpe, det * (1.0 + 0.5) / (1.0 - 0.5), 1e-15);
     EXPECT_NEAR(full.naic, std::log(det) + 1.0, 1e-13);
     // one joint: every noise model is the same
-    const auto a = dynval::criteria(t.col(0), p.col(0), 1, "pooled");
-    const auto b = dynval::criteria(t.col(0), p.col(0), 1, "full");
+    const auto a = dynval::criteria(t.col(0), p.col(0), 1, dynval::noise_model::pooled);
+    const auto b = dynval::criteria(t.col(0), p.col(0), 1, dynval::noise_model::full);
     EXPECT_NEAR(a.aic, b.aic, 1e-12);
     // p >= n − 1: aicc and fpe undefined, not an error, in criteria
-    const auto wide = dynval::criteria(t, p, 5, "full");
+    const auto wide = dynval::criteria(t, p, 5, dynval::noise_model::full);
     EXPECT_TRUE(std::isnan(wide.aicc) && std::isnan(wide.fpe));
 }
 
@@ -581,12 +581,18 @@ TEST(Errors, EveryKindWithContractMessages) {
     EXPECT_EQ(error_message([&] { dynval::sse(bad_t, bad_p); }, K::NonFiniteInput),
               "tau_meas has a non-finite value (nan) at row 4, column 1");
     // finiteness is checked before parameters
-    EXPECT_EQ(error_message([&] { dynval::sse(bad_t, b, "nope"); }, K::NonFiniteInput).substr(0, 8), "tau_meas");
-    EXPECT_EQ(error_message([&] { dynval::r2(a, b, "nope"); }, K::InvalidParameter),
+    EXPECT_EQ(error_message([&] { dynval::sse(bad_t, b, static_cast<dynval::multioutput>(9)); }, K::NonFiniteInput).substr(0, 8), "tau_meas");
+    // An enum cast from an integer outside it is refused, showing the integer.
+    EXPECT_EQ(error_message([&] { dynval::r2(a, b, static_cast<dynval::multioutput>(7)); }, K::InvalidParameter),
+              "multioutput must be one of 'pooled', 'raw_values', 'uniform_average', 'variance_weighted', got 7");
+    // Options read as text go through option_from_name, which names the bad text.
+    EXPECT_EQ(error_message([&] { dynval::option_from_name<dynval::multioutput>("nope", "multioutput"); },
+                            K::InvalidParameter),
               "multioutput must be one of 'pooled', 'raw_values', 'uniform_average', 'variance_weighted', got 'nope'");
-    EXPECT_EQ(error_message([&] { dynval::sse(a, b, "variance_weighted"); }, K::InvalidParameter),
+    EXPECT_EQ(dynval::option_from_name<dynval::noise_model>("per_joint", "noise_model"), dynval::noise_model::per_joint);
+    EXPECT_EQ(error_message([&] { dynval::sse(a, b, dynval::multioutput::variance_weighted); }, K::InvalidParameter),
               "multioutput must be one of 'pooled', 'raw_values' for sse, got 'variance_weighted'");
-    EXPECT_EQ(error_message([&] { dynval::rmse(a, b, "raw_values", dynval::rmse_convention::per_sample); },
+    EXPECT_EQ(error_message([&] { dynval::rmse(a, b, dynval::multioutput::raw_values, dynval::rmse_convention::per_sample); },
                             K::InvalidParameter),
               "convention must be None unless multioutput='pooled', got 'per_sample'");
     EXPECT_EQ(error_message([&] { dynval::residual_variance(a, 6); }, K::InvalidParameter),
@@ -603,14 +609,17 @@ TEST(Errors, EveryKindWithContractMessages) {
               "model_df must be an integer with 0 <= model_df < 2, got 2");
     EXPECT_EQ(error_message([&] { dynval::criteria(a, b, -1); }, K::InvalidParameter),
               "n_params must be an integer with n_params >= 0, got -1");
-    EXPECT_EQ(error_message([&] { dynval::criteria(a, b, 1, "gauss"); }, K::InvalidParameter),
-              "noise_model must be one of 'pooled', 'per_joint', 'full', got 'gauss'");
+    EXPECT_EQ(error_message([&] { dynval::criteria(a, b, 1, static_cast<dynval::noise_model>(-1)); },
+                            K::InvalidParameter),
+              "noise_model must be one of 'pooled', 'per_joint', 'full', got -1");
     EXPECT_EQ(error_message([&] { dynval::information_criteria(-0.5, 10, 1); }, K::InvalidParameter),
               "rss must be a finite number >= 0, got -0.5");
     EXPECT_EQ(error_message([&] { dynval::information_criteria(1.0, 10, 9); }, K::InvalidParameter),
               "n_params must be less than n_obs - 1 = 9, got 9");
     EXPECT_EQ(error_message([&] { dynval::confidence_band(10, 1.0); }, K::InvalidParameter),
-              "level must be a number with 0 < level < 1, got 1.0");
+              "level must be a number with 0 < level < 1, got 1");
+    EXPECT_EQ(error_message([&] { dynval::confidence_band(10, std::nan("")); }, K::InvalidParameter),
+              "level must be a number with 0 < level < 1, got nan");
     EXPECT_EQ(error_message([&] { dynval::cross_correlation(a, a, 2, 1); }, K::InvalidParameter),
               "n_columns must be a positive integer with m*n_columns = 2, got 2");
     // InvalidType cannot arise from typed Eigen input; the kind and its name still exist for
@@ -621,18 +630,32 @@ TEST(Errors, EveryKindWithContractMessages) {
     EXPECT_NE(dynamic_cast<const std::invalid_argument*>(&type_error), nullptr);
 }
 
-TEST(Errors, PythonReprOfValues) {
-    EXPECT_EQ(dynval::py_repr(0.1), "0.1");
-    EXPECT_EQ(dynval::py_repr(3.0), "3.0");
-    EXPECT_EQ(dynval::py_repr(1e-5), "1e-05");
-    EXPECT_EQ(dynval::py_repr(0.0001), "0.0001");
-    EXPECT_EQ(dynval::py_repr(1e16), "1e+16");
-    EXPECT_EQ(dynval::py_repr(1.5e300), "1.5e+300");
-    EXPECT_EQ(dynval::py_repr(123456789012345.6), "123456789012345.6");
-    EXPECT_EQ(dynval::py_repr(-0.0), "-0.0");
-    EXPECT_EQ(dynval::py_repr(std::numeric_limits<double>::quiet_NaN()), "nan");
-    EXPECT_EQ(dynval::py_repr_str("it's"), "\"it's\"");
-    EXPECT_EQ(dynval::py_repr_str("a'b\"c"), "'a\\'b\"c'");
+TEST(Errors, ValuesInMessages) {
+    // The shortest text that reads back as the same double; C++ spelling, not Python's.
+    EXPECT_EQ(dynval::value_text(0.1), "0.1");
+    EXPECT_EQ(dynval::value_text(3.0), "3");
+    EXPECT_EQ(dynval::value_text(-0.0), "-0");
+    EXPECT_EQ(dynval::value_text(std::numeric_limits<double>::quiet_NaN()), "nan");
+    EXPECT_EQ(dynval::value_text(-inf), "-inf");
+    // Out-of-range data (|x| > 1e144) are written as Python writes them: the NonFiniteInput
+    // message is the same from every backend.
+    EXPECT_EQ(dynval::value_text(1e145), "1e+145");
+    EXPECT_EQ(dynval::value_text(-1.5e300), "-1.5e+300");
+    EXPECT_EQ(dynval::value_text(1.7976931348623157e308), "1.7976931348623157e+308");
+    EXPECT_EQ(dynval::value_text(std::vector<long long>{2, -6}), "[2, -6]");
+    EXPECT_EQ(dynval::value_text(-9223372036854775807LL - 1), "-9223372036854775808");
+    MatrixXd a = lesson_meas();
+    a(2, 1) = 2.5e200;
+    EXPECT_EQ(error_message([&] { dynval::residual_mean(a); }, dynval::error_kind::NonFiniteInput),
+              "e has a value out of range (2.5e+200) at row 2, column 1: |x| must be at most 1e+144");
+    // InvalidParameter keeps its parts for the bindings.
+    try {
+        dynval::autocorrelation(a.topRows(2).cwiseMin(1.0), 5);
+        FAIL() << "no error";
+    } catch (const dynval::invalid_parameter& err) {
+        EXPECT_EQ(err.parameter(), "max_lag");
+        EXPECT_EQ(err.requirement(), "an integer with 0 <= max_lag < 2");
+    }
 }
 
 }  // namespace

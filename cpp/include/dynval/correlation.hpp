@@ -87,7 +87,7 @@ joint_moments checked_signal(const Eigen::MatrixBase<D>& e, const std::string& f
     return mo;
 }
 
-inline long long check_max_lag(const param<long long>& max_lag, Index limit) {
+inline long long check_max_lag(long long max_lag, Index limit) {
     return require_int(max_lag, "max_lag", 0, limit, "an integer with 0 <= max_lag < " + std::to_string(limit));
 }
 
@@ -424,13 +424,13 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
 /// ρ̂(ℓ), ℓ = 0..max_lag, per joint: shape (max_lag+1, m). `adjusted` divides lag ℓ by its
 /// number of products (the lesson), otherwise by N (biased). A constant residual gives nan.
 template <class D>
-row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, const param<long long>& max_lag,
-                           const param<bool>& adjusted = true, const segment_spec& segments = {}) {
+row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, long long max_lag, bool adjusted = true,
+                           const segment_spec& segments = {}) {
     const joint_moments mo = detail::checked_signal(e, "autocorrelation");
     const Index n = e.rows();
     const std::vector<Index> starts = segment_starts(segments, n);
     const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
-    const bool adj = detail::require_bool(adjusted, "adjusted");
+    const bool adj = adjusted;
     const Eigen::MatrixXd sums = detail::scaled_lag_sums(e, mo, starts, lmax);
     const auto lengths = segment_lengths(starts, n);
     row_matrix rho(lmax + 1, e.cols());
@@ -447,11 +447,10 @@ row_matrix autocorrelation(const Eigen::MatrixBase<D>& e, const param<long long>
 }
 
 /// z/√n with z = Φ⁻¹((1 + level)/2): the white-noise band of ρ̂.
-inline double confidence_band(const param<long long>& n, const param<double>& level = 0.95) {
+inline double confidence_band(long long n, double level = 0.95) {
     const long long nn = detail::require_int(n, "n", 1, -1, "an integer with n >= 1");
-    if (!level.valid() || !(level.value() > 0.0 && level.value() < 1.0))
-        detail::throw_parameter("level", "a number with 0 < level < 1", level.repr());
-    return normal_quantile(0.5 * (1.0 + level.value())) / std::sqrt(static_cast<double>(nn));
+    if (!(level > 0.0 && level < 1.0)) detail::throw_parameter("level", "a number with 0 < level < 1", value_text(level));
+    return normal_quantile(0.5 * (1.0 + level)) / std::sqrt(static_cast<double>(nn));
 }
 
 /// Ljung–Box or Box–Pierce statistics at each lag h of `lags`, per joint.
@@ -472,15 +471,14 @@ struct portmanteau_parameters {
 };
 
 /// The parameter step of the portmanteau tests: lags (each in [1, limit)), model_df, test.
-inline portmanteau_parameters check_portmanteau_parameters(const param<std::vector<long long>>& lags,
-                                                           const param<long long>& model_df,
-                                                           const param<portmanteau_test>& test, Index limit) {
+inline portmanteau_parameters check_portmanteau_parameters(const std::vector<long long>& lags, long long model_df,
+                                                           portmanteau_test test, Index limit) {
     const std::string lag_req =
         "a positive integer or a non-empty sequence of positive integers less than " + std::to_string(limit);
-    if (!lags.valid() || lags.value().empty()) throw_parameter("lags", lag_req, lags.repr());
+    if (lags.empty()) throw_parameter("lags", lag_req, value_text(lags));
     long long min_lag = limit, max_lag = 0;
-    for (long long h : lags.value()) {
-        if (h <= 0 || h >= limit) throw_parameter("lags", lag_req, lags.repr());
+    for (long long h : lags) {
+        if (h <= 0 || h >= limit) throw_parameter("lags", lag_req, value_text(lags));
         min_lag = std::min(min_lag, h);
         max_lag = std::max(max_lag, h);
     }
@@ -539,11 +537,10 @@ inline PortmanteauTest portmanteau_from_sums(const Eigen::MatrixXd& sums, const 
 
 /// Portmanteau test on the biased autocorrelation (contract §3.5).
 template <class D>
-PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                            const param<long long>& model_df, const segment_spec& segments,
-                            const param<portmanteau_test>& test) {
+PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const std::vector<long long>& lags, long long model_df,
+                            const segment_spec& segments, portmanteau_test test) {
     const std::string function =
-        test.valid() ? option_name(test.value()) : std::string("portmanteau");
+        option_traits<portmanteau_test>::valid(test) ? option_name(test) : std::string("portmanteau");
     const joint_moments mo = detail::checked_signal(e, function);
     const Index n = e.rows();
     const std::vector<Index> starts = segment_starts(segments, n);
@@ -556,21 +553,21 @@ PortmanteauTest portmanteau(const Eigen::MatrixBase<D>& e, const param<std::vect
     for (Index l = 0; l <= checked.max_lag; ++l) n_products[static_cast<std::size_t>(l)] = lag_products(lengths, l);
     std::vector<bool> constant(static_cast<std::size_t>(e.cols()));
     for (Index j = 0; j < e.cols(); ++j) constant[static_cast<std::size_t>(j)] = mo.tau_min(j) == mo.tau_max(j);
-    return detail::portmanteau_from_sums(sums, n_products, static_cast<double>(n), constant, lags.value(),
+    return detail::portmanteau_from_sums(sums, n_products, static_cast<double>(n), constant, lags,
                                          checked.model_df, checked.test);
 }
 
 /// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ.
 template <class D>
-PortmanteauTest ljung_box(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                          const param<long long>& model_df = 0LL, const segment_spec& segments = {}) {
+PortmanteauTest ljung_box(const Eigen::MatrixBase<D>& e, const std::vector<long long>& lags, long long model_df = 0,
+                          const segment_spec& segments = {}) {
     return portmanteau(e, lags, model_df, segments, portmanteau_test::ljung_box);
 }
 
 /// Box–Pierce Q(h) = N Σ ρ̂²_ℓ.
 template <class D>
-PortmanteauTest box_pierce(const Eigen::MatrixBase<D>& e, const param<std::vector<long long>>& lags,
-                           const param<long long>& model_df = 0LL, const segment_spec& segments = {}) {
+PortmanteauTest box_pierce(const Eigen::MatrixBase<D>& e, const std::vector<long long>& lags, long long model_df = 0,
+                           const segment_spec& segments = {}) {
     return portmanteau(e, lags, model_df, segments, portmanteau_test::box_pierce);
 }
 
@@ -586,8 +583,8 @@ struct CrossCorrelation {
 /// column j·p + c is joint j, column c (an (N, m, p) row-major array is exactly this view).
 template <class DE, class DY>
 CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::MatrixBase<DY>& regressor,
-                                   const param<long long>& n_columns, const param<long long>& max_lag,
-                                   const param<bool>& adjusted = true, const segment_spec& segments = {}) {
+                                   long long n_columns, long long max_lag, bool adjusted = true,
+                                   const segment_spec& segments = {}) {
     const Index n = e.rows(), m = e.cols();
     detail::check_columns(n, m, "e");
     if (regressor.cols() == 0)
@@ -603,21 +600,21 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     const joint_moments my = accumulate_signal(regressor);
     const Index total = regressor.cols();
     // m·n_columns is formed with an overflow check: 2^62 + 1 columns on 4 joints must not wrap to 4.
-    const auto product = n_columns.valid() ? detail::checked_mul(n_columns.value(), m) : std::nullopt;
-    const bool p_ok = n_columns.valid() && n_columns.value() > 0 && product && *product == total;
+    const auto product = detail::checked_mul(n_columns, m);
+    const bool p_ok = n_columns > 0 && product && *product == total;
     if (my.nonfinite_meas) {
         const auto& hit = *my.nonfinite_meas;
         // The sample/joint/column wording needs a usable column count; otherwise row/column.
-        if (p_ok) detail::throw_nonfinite_regressor(hit.row, hit.col, n_columns.value(), hit.value);
+        if (p_ok) detail::throw_nonfinite_regressor(hit.row, hit.col, n_columns, hit.value);
         detail::throw_nonfinite("regressor", hit.row, hit.col, hit.value);
     }
     const std::vector<Index> starts = segment_starts(segments, n);
     if (!p_ok)
         detail::throw_parameter("n_columns", "a positive integer with m*n_columns = " + std::to_string(total),
-                                n_columns.repr());
-    const Index p = n_columns.value();
+                                value_text(n_columns));
+    const Index p = n_columns;
     const Index lmax = detail::check_max_lag(max_lag, detail::longest(starts, n));
-    const bool adj = detail::require_bool(adjusted, "adjusted");
+    const bool adj = adjusted;
 
     const auto lengths = segment_lengths(starts, n);
     const double nd = static_cast<double>(n);

@@ -2,12 +2,11 @@
 //
 // The kind names and every message text are fixed by docs/contract.md §2 and are identical to
 // the Python facade (python/dynval/_validation.py), so a C++ caller, a Python caller and a port
-// see the same words. Values inside messages are written as Python would write them (repr.hpp);
-// parameters that may arrive invalid are param<T> (param.hpp).
+// see the same words. The values inside them are written the C++ way (value_text); the Python
+// bindings replace a parameter's value with the caller's own argument (contract §2.1).
 #pragma once
 
-#include "param.hpp"
-#include "repr.hpp"
+#include "types.hpp"
 
 #include <Eigen/Core>
 
@@ -68,32 +67,74 @@ DYNVAL_DEFINE_INPUT_ERROR(invalid_shape, InvalidShape)
 DYNVAL_DEFINE_INPUT_ERROR(shape_mismatch, ShapeMismatch)
 DYNVAL_DEFINE_INPUT_ERROR(too_few_samples, TooFewSamples)
 DYNVAL_DEFINE_INPUT_ERROR(non_finite_input, NonFiniteInput)
-DYNVAL_DEFINE_INPUT_ERROR(invalid_parameter, InvalidParameter)
 #undef DYNVAL_DEFINE_INPUT_ERROR
+
+/// InvalidParameter. Built from its parts, `{parameter} must be {requirement}, got {value}`, it
+/// keeps them, so that a binding can show the value as its own language writes the argument.
+class invalid_parameter : public input_error {
+public:
+    explicit invalid_parameter(const std::string& message) : input_error(error_kind::InvalidParameter, message) {}
+    invalid_parameter(std::string parameter, std::string requirement, const std::string& value)
+        : input_error(error_kind::InvalidParameter, parameter + " must be " + requirement + ", got " + value),
+          parameter_(std::move(parameter)),
+          requirement_(std::move(requirement)) {}
+    /// The parameter's name; empty for a message that is not of the `must be` form.
+    const std::string& parameter() const noexcept { return parameter_; }
+    const std::string& requirement() const noexcept { return requirement_; }
+
+private:
+    std::string parameter_, requirement_;
+};
+
+// ------------------------------------------------------------------------------------------
+// Values inside messages.
+
+/// A 2-D shape written as a tuple: "(5, 2)".
+inline std::string shape_text(Index rows, Index cols) {
+    return "(" + std::to_string(rows) + ", " + std::to_string(cols) + ")";
+}
+
+/// "nan", "inf" or "-inf".
+inline std::string nonfinite_text(double value) {
+    if (std::isnan(value)) return "nan";
+    return value > 0 ? "inf" : "-inf";
+}
+
+inline std::string value_text(long long value) { return std::to_string(value); }
+
+/// The shortest text that reads back as the same double ("0.5", "2", "1e+145", "nan"). For the
+/// data's out-of-range values (|x| > 1e144) it is also the text Python's repr gives.
+inline std::string value_text(double value) {
+    if (!std::isfinite(value)) return nonfinite_text(value);
+    char buf[64];
+    const auto res = std::to_chars(buf, buf + sizeof(buf), value);
+    return std::string(buf, res.ptr);
+}
+
+inline std::string value_text(const std::vector<long long>& values) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        if (i) out += ", ";
+        out += std::to_string(values[i]);
+    }
+    return out + "]";
+}
+
+/// An option name in a message: 'raw_values'.
+inline std::string quoted(std::string_view name) { return "'" + std::string(name) + "'"; }
 
 namespace detail {
 
 [[noreturn]] inline void throw_parameter(const std::string& name, const std::string& requirement,
-                                         const std::string& repr) {
-    throw invalid_parameter(name + " must be " + requirement + ", got " + repr);
+                                         const std::string& value) {
+    throw invalid_parameter(name, requirement, value);
 }
 
 /// An integer parameter with lo <= value < hi (hi < 0: no upper bound).
-inline long long require_int(const param<long long>& p, const std::string& name, long long lo, long long hi,
+inline long long require_int(long long value, const std::string& name, long long lo, long long hi,
                              const std::string& requirement) {
-    if (!p.valid() || p.value() < lo || (hi >= 0 && p.value() >= hi)) throw_parameter(name, requirement, p.repr());
-    return p.value();
-}
-
-inline bool require_bool(const param<bool>& p, const std::string& name) {
-    if (!p.valid()) throw_parameter(name, "True or False", p.repr());
-    return p.value();
-}
-
-template <class E>
-E require_option(const param<E>& p, const std::string& name) {
-    if (!p.valid()) throw_parameter(name, "one of " + option_traits<E>::quoted_names(), p.repr());
-    return p.value();
+    if (value < lo || (hi >= 0 && value >= hi)) throw_parameter(name, requirement, value_text(value));
+    return value;
 }
 
 inline void check_columns(Index rows, Index cols, const std::string& name) {
@@ -122,7 +163,7 @@ inline bool in_range(double v) noexcept { return std::fabs(v) <= max_magnitude; 
 /// NonFiniteInput for a bad value at `where`: non-finite, or finite but out of range.
 [[noreturn]] inline void throw_bad_value(const std::string& name, double value, const std::string& where) {
     if (std::isfinite(value))
-        throw non_finite_input(name + " has a value out of range (" + py_repr(value) + ") " + where +
+        throw non_finite_input(name + " has a value out of range (" + value_text(value) + ") " + where +
                                ": |x| must be at most 1e+144");
     throw non_finite_input(name + " has a non-finite value (" + nonfinite_text(value) + ") " + where);
 }

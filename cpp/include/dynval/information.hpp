@@ -110,15 +110,14 @@ inline information_criteria_result criteria_from_moments(const joint_moments& mo
 ///
 /// Throws InvalidParameter for rss < 0 or non-finite, n_obs < 1, n_params < 0 or
 /// n_params >= n_obs − 1 (AICc and FPE are undefined there).
-inline information_criteria_result information_criteria(const param<double>& rss, const param<long long>& n_obs,
-                                                        const param<long long>& n_params) {
-    if (!rss.valid() || !std::isfinite(rss.value()) || rss.value() < 0.0)
-        detail::throw_parameter("rss", "a finite number >= 0", rss.repr());
+inline information_criteria_result information_criteria(double rss, long long n_obs, long long n_params) {
+    if (!std::isfinite(rss) || rss < 0.0) detail::throw_parameter("rss", "a finite number >= 0", value_text(rss));
     const long long n = detail::require_int(n_obs, "n_obs", 1, -1, "an integer with n_obs >= 1");
     const long long p = detail::require_int(n_params, "n_params", 0, -1, "an integer with n_params >= 0");
-    if (!(p < n - 1)) detail::throw_parameter("n_params", "less than n_obs - 1 = " + std::to_string(n - 1), n_params.repr());
+    if (!(p < n - 1))
+        detail::throw_parameter("n_params", "less than n_obs - 1 = " + std::to_string(n - 1), value_text(p));
     const double nd = static_cast<double>(n);
-    const double r = rss.value();
+    const double r = rss;
     const double sigma2 = r / nd;
     const double f = r > 0.0 ? nd * std::log(sigma2) : -std::numeric_limits<double>::infinity();
     return detail::criteria_from_fit(f, n, nd, r > 0.0 ? sigma2 : 0.0, p);
@@ -127,15 +126,14 @@ inline information_criteria_result information_criteria(const param<double>& rss
 /// Criteria of `tau_meas` against `tau_pred` under a noise model (contract §3.7 table).
 template <class A, class B>
 information_criteria_result criteria(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                                     const param<long long>& n_params,
-                                     const param<noise_model>& model = noise_model::pooled,
+                                     long long n_params, noise_model model = noise_model::pooled,
                                      const std::string& function = "criteria") {
     detail::check_columns(tau_meas.rows(), tau_meas.cols(), "tau_meas");
     detail::check_columns(tau_pred.rows(), tau_pred.cols(), "tau_pred");
     detail::check_same_shape(tau_meas.rows(), tau_meas.cols(), tau_pred.rows(), tau_pred.cols(), "tau_meas",
                              "tau_pred");
     detail::check_min_samples(tau_meas.rows(), 2, function);
-    const bool full = model.valid() && model.value() == noise_model::full;
+    const bool full = model == noise_model::full;
     joint_moments mo = accumulate(tau_meas, tau_pred, full);
     mo.throw_if_nonfinite();
     mo = rescale_tiny(std::move(mo), tau_meas, tau_pred, full);
@@ -147,14 +145,14 @@ information_criteria_result criteria(const Eigen::MatrixBase<A>& tau_meas, const
 /// AIC of `tau_meas` against `tau_pred`.
 template <class A, class B>
 double aic(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-           const param<long long>& n_params, const param<noise_model>& model = noise_model::pooled) {
+           long long n_params, noise_model model = noise_model::pooled) {
     return criteria(tau_meas, tau_pred, n_params, model, "aic").aic;
 }
 
 /// BIC of `tau_meas` against `tau_pred`.
 template <class A, class B>
 double bic(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-           const param<long long>& n_params, const param<noise_model>& model = noise_model::pooled) {
+           long long n_params, noise_model model = noise_model::pooled) {
     return criteria(tau_meas, tau_pred, n_params, model, "bic").bic;
 }
 

@@ -61,8 +61,7 @@ public:
     lag_accumulator(Index n_joints, Index max_lag) : m_(n_joints), L_(max_lag) {
         if (n_joints < 1) throw invalid_shape("e must have at least one column, got " + std::to_string(n_joints));
         if (max_lag < 0)
-            detail::throw_parameter("max_lag", "an integer with max_lag >= 0",
-                                    py_repr(static_cast<long long>(max_lag)));
+            detail::throw_parameter("max_lag", "an integer with max_lag >= 0", value_text(static_cast<long long>(max_lag)));
         // (max_lag + 1)·m cells per sum: a count that wraps would allocate a short buffer.
         const auto lags = detail::checked_add(L_, 1);
         const auto cell_count = lags ? detail::checked_mul(*lags, m_) : std::nullopt;
@@ -311,7 +310,7 @@ public:
         if (nonfinite_) detail::throw_nonfinite("e", nonfinite_->row, nonfinite_->col, nonfinite_->value);
         if (lag_limit - 1 >= longest_)
             detail::throw_parameter("max_lag", "an integer with 0 <= max_lag < " + std::to_string(longest_),
-                                    py_repr(static_cast<long long>(lag_limit - 1)));
+                                    value_text(static_cast<long long>(lag_limit - 1)));
     }
 
 private:
@@ -415,27 +414,28 @@ private:
 
 /// Ljung–Box or Box–Pierce statistics (contract §3.5) of the rows in `acc`, at lags
 /// 1 <= h <= acc.max_lag().
-inline PortmanteauTest portmanteau(const lag_accumulator& acc, const param<std::vector<long long>>& lags,
-                                   const param<long long>& model_df, const param<portmanteau_test>& test) {
-    const std::string function = test.valid() ? option_name(test.value()) : std::string("portmanteau");
+inline PortmanteauTest portmanteau(const lag_accumulator& acc, const std::vector<long long>& lags, long long model_df,
+                                   portmanteau_test test) {
+    const std::string function =
+        option_traits<portmanteau_test>::valid(test) ? option_name(test) : std::string("portmanteau");
     acc.check(function, 1);
     const Index limit = std::min(acc.longest_segment(), acc.max_lag() + 1);
     const auto checked = detail::check_portmanteau_parameters(lags, model_df, test, limit);
     const Eigen::MatrixXd sums = acc.lag_sums();
     return detail::portmanteau_from_sums(sums.topRows(checked.max_lag + 1), acc.lag_products(),
-                                         static_cast<double>(acc.n_samples()), acc.constant_joints(), lags.value(),
+                                         static_cast<double>(acc.n_samples()), acc.constant_joints(), lags,
                                          checked.model_df, checked.test);
 }
 
 /// Ljung–Box Q(h) = N(N+2) Σ ρ̂²_ℓ / n_ℓ of the rows in `acc`.
-inline PortmanteauTest ljung_box(const lag_accumulator& acc, const param<std::vector<long long>>& lags,
-                                 const param<long long>& model_df = 0LL) {
+inline PortmanteauTest ljung_box(const lag_accumulator& acc, const std::vector<long long>& lags,
+                                 long long model_df = 0) {
     return portmanteau(acc, lags, model_df, portmanteau_test::ljung_box);
 }
 
 /// Box–Pierce Q(h) = N Σ ρ̂²_ℓ of the rows in `acc`.
-inline PortmanteauTest box_pierce(const lag_accumulator& acc, const param<std::vector<long long>>& lags,
-                                  const param<long long>& model_df = 0LL) {
+inline PortmanteauTest box_pierce(const lag_accumulator& acc, const std::vector<long long>& lags,
+                                  long long model_df = 0) {
     return portmanteau(acc, lags, model_df, portmanteau_test::box_pierce);
 }
 

@@ -151,7 +151,7 @@ joint_moments checked_residual_moments(const Eigen::MatrixBase<D>& e, Index min_
 }
 
 /// `multioutput`: one of the four names, then one this metric supports.
-inline multioutput check_multioutput(const param<multioutput>& mo, const std::vector<multioutput>& allowed,
+inline multioutput check_multioutput(multioutput mo, const std::vector<multioutput>& allowed,
                                      const std::string& function) {
     const multioutput value = require_option(mo, "multioutput");
     for (multioutput a : allowed)
@@ -159,9 +159,9 @@ inline multioutput check_multioutput(const param<multioutput>& mo, const std::ve
     std::string names;
     for (std::size_t i = 0; i < allowed.size(); ++i) {
         if (i) names += ", ";
-        names += py_repr_str(option_name(allowed[i]));
+        names += quoted(option_name(allowed[i]));
     }
-    throw_parameter("multioutput", "one of " + names + " for " + function, mo.repr());
+    throw_parameter("multioutput", "one of " + names + " for " + function, quoted(option_name(value)));
 }
 
 inline metric_value scalar(double v) { return metric_value{false, v, {}}; }
@@ -199,7 +199,7 @@ Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> residuals
 /// Sum of squared errors: `pooled` Σ SSE_j or `raw_values` SSE_j.
 template <class A, class B>
 metric_value sse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                 const param<multioutput>& how = multioutput::pooled) {
+                 multioutput how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 1, "sse");
     const multioutput h = detail::check_multioutput(how, {multioutput::pooled, multioutput::raw_values}, "sse");
     return h == multioutput::pooled ? detail::scalar(mo.sse_total()) : detail::per_joint(mo.sse_values());
@@ -208,7 +208,7 @@ metric_value sse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B
 /// Maximum absolute error, pooled or per joint.
 template <class A, class B>
 metric_value max_abs_error(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                           const param<multioutput>& how = multioutput::pooled) {
+                           multioutput how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 1, "max_abs_error");
     const multioutput h =
         detail::check_multioutput(how, {multioutput::pooled, multioutput::raw_values}, "max_abs_error");
@@ -219,15 +219,18 @@ metric_value max_abs_error(const Eigen::MatrixBase<A>& tau_meas, const Eigen::Ma
 /// RMSE. `convention` (pooled only; unset = per_element): √(SSE/(N·m)) or √(SSE/N).
 template <class A, class B>
 metric_value rmse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                  const param<multioutput>& how = multioutput::pooled,
-                  const std::optional<param<rmse_convention>>& convention = std::nullopt) {
+                  multioutput how = multioutput::pooled,
+                  const std::optional<rmse_convention>& convention = std::nullopt) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 1, "rmse");
     const multioutput h = detail::check_multioutput(
         how, {multioutput::pooled, multioutput::raw_values, multioutput::uniform_average}, "rmse");
     rmse_convention conv = rmse_convention::per_element;
     if (convention) {
         if (h != multioutput::pooled)
-            detail::throw_parameter("convention", "None unless multioutput='pooled'", convention->repr());
+            detail::throw_parameter("convention", "None unless multioutput='pooled'",
+                                    option_traits<rmse_convention>::valid(*convention)
+                                        ? quoted(option_name(*convention))
+                                        : std::to_string(static_cast<long long>(*convention)));
         conv = detail::require_option(*convention, "convention");
     }
     const double n = static_cast<double>(mo.n_samples);
@@ -245,7 +248,7 @@ metric_value rmse(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<
 /// Variance accounted for, in percent.
 template <class A, class B>
 metric_value vaf(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                 const param<multioutput>& how = multioutput::pooled) {
+                 multioutput how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 2, "vaf");
     const multioutput h = detail::require_option(how, "multioutput");
     return detail::aggregate_normalized(h, detail::vaf_joints(mo), h == multioutput::pooled ? detail::vaf_pooled(mo) : 0.0, mo);
@@ -254,7 +257,7 @@ metric_value vaf(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B
 /// Normalised-RMSE fit, in percent: 100(1 − √(SSE/TSS)).
 template <class A, class B>
 metric_value fit_percent(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                         const param<multioutput>& how = multioutput::pooled) {
+                         multioutput how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 2, "fit_percent");
     const multioutput h = detail::require_option(how, "multioutput");
     return detail::aggregate_normalized(h, detail::fit_joints(mo), h == multioutput::pooled ? detail::fit_pooled(mo) : 0.0, mo);
@@ -263,7 +266,7 @@ metric_value fit_percent(const Eigen::MatrixBase<A>& tau_meas, const Eigen::Matr
 /// Coefficient of determination, 1 − SSE/TSS.
 template <class A, class B>
 metric_value r2(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                const param<multioutput>& how = multioutput::pooled) {
+                multioutput how = multioutput::pooled) {
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 2, "r2");
     const multioutput h = detail::require_option(how, "multioutput");
     return detail::aggregate_normalized(h, detail::r2_joints(mo), h == multioutput::pooled ? detail::r2_pooled(mo) : 0.0, mo);
@@ -277,7 +280,7 @@ Eigen::ArrayXd residual_mean(const Eigen::MatrixBase<D>& e) {
 
 /// Σ(e − ē_j)² / (N − ddof) per joint, shape (m,).
 template <class D>
-Eigen::ArrayXd residual_variance(const Eigen::MatrixBase<D>& e, const param<long long>& ddof = 1LL) {
+Eigen::ArrayXd residual_variance(const Eigen::MatrixBase<D>& e, long long ddof = 1) {
     const joint_moments mo = detail::checked_residual_moments(e, 2, "residual_variance");
     const long long n = mo.n_samples;
     const long long d = detail::require_int(ddof, "ddof", 0, n, "an integer with 0 <= ddof < N=" + std::to_string(n));
@@ -331,9 +334,8 @@ inline ValidationMetrics metrics_from_moments(const joint_moments& mo, long long
 /// aggregation and the information criteria of `model`.
 template <class A, class B>
 ValidationMetrics compute_metrics(const Eigen::MatrixBase<A>& tau_meas, const Eigen::MatrixBase<B>& tau_pred,
-                                  const param<long long>& n_params, const param<long long>& ddof = 1LL,
-                                  const param<noise_model>& model = noise_model::pooled) {
-    const bool full = model.valid() && model.value() == noise_model::full;
+                                  long long n_params, long long ddof = 1, noise_model model = noise_model::pooled) {
+    const bool full = model == noise_model::full;
     const joint_moments mo = detail::checked_moments(tau_meas, tau_pred, 2, "compute_metrics", full);
     const long long p = detail::require_int(n_params, "n_params", 0, -1, "an integer with n_params >= 0");
     const long long n = mo.n_samples;

@@ -1,4 +1,4 @@
-// Named options of the contract (§3, §5.1), as enums that also parse from their contract names.
+// Named options of the contract (§3, §5.1), as enums with their contract names.
 #pragma once
 
 #include "errors.hpp"
@@ -19,6 +19,9 @@ enum class noise_model { pooled, per_joint, full };
 /// Portmanteau statistic.
 enum class portmanteau_test { ljung_box, box_pierce };
 
+template <class E>
+struct option_traits;  // specialised below for each option enum
+
 namespace detail {
 template <class E, std::size_t K>
 struct named_options {
@@ -31,7 +34,7 @@ struct named_options {
         std::string out;
         for (std::size_t i = 0; i < K; ++i) {
             if (i) out += ", ";
-            out += py_repr_str(names[i]);
+            out += dynval::quoted(names[i]);
         }
         return out;
     }
@@ -45,7 +48,8 @@ struct named_options {
         static std::optional<E> parse(std::string_view t) {                                          \
             return detail::named_options<E, K>::parse_in(names, t);                                  \
         }                                                                                            \
-        static const char* name(E v) { return names[static_cast<std::size_t>(v)]; }                  \
+        static bool valid(E v) { return static_cast<std::size_t>(v) < K; }                             \
+        static const char* name(E v) { return valid(v) ? names[static_cast<std::size_t>(v)] : "?"; }  \
         static std::string quoted_names() { return detail::named_options<E, K>::quoted(names); }     \
     };
 DYNVAL_OPTION_TRAITS(multioutput, 4, "pooled", "raw_values", "uniform_average", "variance_weighted")
@@ -59,5 +63,25 @@ template <class E>
 const char* option_name(E value) {
     return option_traits<E>::name(value);
 }
+
+/// The option called `name` ("raw_values"), for callers that read options as text; an unknown
+/// name is InvalidParameter for `parameter`.
+template <class E>
+E option_from_name(std::string_view name, const std::string& parameter) {
+    const auto value = option_traits<E>::parse(name);
+    if (!value) detail::throw_parameter(parameter, "one of " + option_traits<E>::quoted_names(), quoted(name));
+    return *value;
+}
+
+namespace detail {
+/// An option value that is one of the enumerators (an enum cast from any other integer is not).
+template <class E>
+E require_option(E value, const std::string& parameter) {
+    if (!option_traits<E>::valid(value))
+        throw_parameter(parameter, "one of " + option_traits<E>::quoted_names(),
+                        std::to_string(static_cast<long long>(value)));
+    return value;
+}
+}  // namespace detail
 
 }  // namespace dynval

@@ -31,7 +31,7 @@ inline std::vector<Index> segment_starts(const segment_spec& spec, Index n) {
         detail::throw_parameter("segments",
                                 "positive lengths summing to N=" + std::to_string(n) +
                                     ", or increasing starts beginning at 0 and below N=" + std::to_string(n),
-                                py_repr(segments));
+                                value_text(segments));
     };
     std::vector<Index> starts;
     if (segments.empty()) fail();
