@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <random>
 #include <string>
@@ -445,6 +446,36 @@ TEST(Correlation, TiledCrossCorrelationAgainstDirectSums) {
                 EXPECT_NEAR(direct.rho(q, lag), want, 1e-14) << "joint " << j << " column " << c << " lag " << lag;
             }
         }
+}
+
+// Above about 1e8 multiply-adds the tiled cross-correlation splits the joints over threads: the
+// result is bit for bit the one-thread result whatever the split (each joint's sums are formed by
+// one thread in the same order), and equals the per-lag dot products of a column-major regressor.
+TEST(Correlation, ThreadedCrossCorrelationIsTheOneThreadResult) {
+    const Eigen::Index n = 40000, m = 5, p = 25, max_lag = 20;  // 1.05e8 multiply-adds
+    const MatrixXd e = random_matrix(n, m, 61);
+    const RowMatrix y = random_matrix(n, m * p, 62);
+    const std::vector<long long> lengths{15000, 25000};
+    const auto with_threads = [&](const char* count) {
+        setenv("DYNVAL_NUM_THREADS", count, 1);
+        auto r = dynval::cross_correlation(e, y, p, max_lag, true, lengths);
+        unsetenv("DYNVAL_NUM_THREADS");
+        return r;
+    };
+    EXPECT_EQ(dynval::detail::worker_count(m, 1.05e8), dynval::detail::worker_count(m, 2e8));
+    setenv("DYNVAL_NUM_THREADS", "3", 1);
+    EXPECT_EQ(dynval::detail::worker_count(m, 1.05e8), 3);
+    EXPECT_EQ(dynval::detail::worker_count(m, 1e6), 1);  // too little work to start a thread
+    EXPECT_EQ(dynval::detail::worker_count(2, 1e9), 2);  // never more threads than items
+    unsetenv("DYNVAL_NUM_THREADS");
+    const auto one = with_threads("1");
+    const Eigen::MatrixXd y_col_major = y;
+    const auto direct = dynval::cross_correlation(e, y_col_major, p, max_lag, true, lengths);
+    for (const char* count : {"2", "3", "5", "8"}) {
+        const auto many = with_threads(count);
+        EXPECT_TRUE((many.rho.array() == one.rho.array()).all()) << count << " threads";
+    }
+    EXPECT_LT((one.rho - direct.rho).cwiseAbs().maxCoeff(), 1e-14);
 }
 
 // Wide row-major data (m >= 16, the regressor's columns) take the register-tiled autocorrelation:

@@ -20,6 +20,7 @@
 #include "distributions.hpp"
 #include "errors.hpp"
 #include "options.hpp"
+#include "parallel.hpp"
 #include "segments.hpp"
 
 #include <Eigen/Core>
@@ -372,41 +373,62 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
     const Index m = e.cols(), n_lags = max_lag + 1;
     const auto lengths = segment_lengths(starts, n);
     const auto per_joint = static_cast<std::size_t>(n_lags * p);
-    std::vector<double> epad, ybuf(static_cast<std::size_t>(block * p)), acc(per_joint * static_cast<std::size_t>(m));
+    std::vector<double> acc(per_joint * static_cast<std::size_t>(m));
     std::vector<compensated> total(per_joint * static_cast<std::size_t>(m));
     std::vector<double> shift(static_cast<std::size_t>(m * p)), dev(static_cast<std::size_t>(m * p));
     for (Index q = 0; q < m * p; ++q) {
         shift[static_cast<std::size_t>(q)] = my.tau_shift(q);
         dev[static_cast<std::size_t>(q)] = my.tau_dev(q);
     }
-    const auto flush = [&] {
-        for (std::size_t i = 0; i < acc.size(); ++i) total[i].add(acc[i]);
-        std::fill(acc.begin(), acc.end(), 0.0);
-    };
+    // Each residual on its segment followed by max_lag zeros: lags never reach the next segment.
+    Index padded_total = 0;
+    std::vector<Index> seg_offset(starts.size());
     for (std::size_t s = 0; s < starts.size(); ++s) {
-        const Index s0 = starts[s], len = lengths[s], padded = len + max_lag;
-        // each joint's residual on the segment followed by max_lag zeros: lags never reach the next one
-        epad.assign(static_cast<std::size_t>(padded * m), 0.0);
-        for (Index j = 0; j < m; ++j)
-            std::copy(e.col(j).data() + s0, e.col(j).data() + s0 + len, epad.begin() + j * padded);
-        for (Index a = 0; a < len; a += block) {
-            const Index rows = std::min(block, len - a);
-            for (Index j = 0; j < m; ++j) {
-                if (!use[static_cast<std::size_t>(j)]) continue;
-                const double* sh = shift.data() + j * p;
-                const double* dv = dev.data() + j * p;
-                for (Index u = 0; u < rows; ++u) {
-                    const double* src = y + (s0 + a + u) * stride + j * p;
-                    double* dst = ybuf.data() + u * p;
-                    for (Index c = 0; c < p; ++c) dst[c] = (src[c] - sh[c]) - dv[c];
-                }
-                lag_block_products(epad.data() + j * padded + a, ybuf.data(), rows, p, n_lags,
-                                   acc.data() + static_cast<std::size_t>(j) * per_joint);
-            }
-            if ((a + rows) % sum_rows == 0) flush();
-        }
-        flush();
+        seg_offset[s] = padded_total;
+        padded_total += lengths[s] + max_lag;
     }
+    std::vector<double> epad(static_cast<std::size_t>(padded_total * m), 0.0);
+    for (Index j = 0; j < m; ++j)
+        for (std::size_t s = 0; s < starts.size(); ++s)
+            std::copy(e.col(j).data() + starts[s], e.col(j).data() + starts[s] + lengths[s],
+                      epad.begin() + j * padded_total + seg_offset[s]);
+    std::vector<Index> joints;  // the joints to sum, split over threads (each joint's sums on one)
+    for (Index j = 0; j < m; ++j)
+        if (use[static_cast<std::size_t>(j)]) joints.push_back(j);
+    const Index n_joints = static_cast<Index>(joints.size());
+    const double work = static_cast<double>(n) * static_cast<double>(p * n_lags) * static_cast<double>(n_joints);
+    detail::for_ranges(n_joints, detail::worker_count(n_joints, work), [&](Index first, Index last) {
+        std::vector<double> ybuf(static_cast<std::size_t>(block * p));
+        const auto flush = [&] {
+            for (Index i = first; i < last; ++i) {
+                const std::size_t at = static_cast<std::size_t>(joints[static_cast<std::size_t>(i)]) * per_joint;
+                for (std::size_t k = at; k < at + per_joint; ++k) {
+                    total[k].add(acc[k]);
+                    acc[k] = 0.0;
+                }
+            }
+        };
+        for (std::size_t s = 0; s < starts.size(); ++s) {
+            const Index s0 = starts[s], len = lengths[s];
+            for (Index a = 0; a < len; a += block) {
+                const Index rows = std::min(block, len - a);
+                for (Index i = first; i < last; ++i) {
+                    const Index j = joints[static_cast<std::size_t>(i)];
+                    const double* sh = shift.data() + j * p;
+                    const double* dv = dev.data() + j * p;
+                    for (Index u = 0; u < rows; ++u) {
+                        const double* src = y + (s0 + a + u) * stride + j * p;
+                        double* dst = ybuf.data() + u * p;
+                        for (Index c = 0; c < p; ++c) dst[c] = (src[c] - sh[c]) - dv[c];
+                    }
+                    lag_block_products(epad.data() + j * padded_total + seg_offset[s] + a, ybuf.data(), rows, p,
+                                       n_lags, acc.data() + static_cast<std::size_t>(j) * per_joint);
+                }
+                if ((a + rows) % sum_rows == 0) flush();
+            }
+            flush();
+        }
+    });
     std::vector<Eigen::MatrixXd> sums(static_cast<std::size_t>(m));
     for (Index j = 0; j < m; ++j) {
         if (!use[static_cast<std::size_t>(j)]) continue;

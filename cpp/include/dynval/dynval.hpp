@@ -15,5 +15,6 @@
 #include "lag_accumulator.hpp"
 #include "metrics.hpp"
 #include "options.hpp"
+#include "parallel.hpp"
 #include "segments.hpp"
 #include "stream_state.hpp"
