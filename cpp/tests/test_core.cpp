@@ -478,6 +478,33 @@ TEST(Correlation, ThreadedCrossCorrelationIsTheOneThreadResult) {
     EXPECT_LT((one.rho - direct.rho).cwiseAbs().maxCoeff(), 1e-14);
 }
 
+// A regressor of 2^24 values or more has its moments from two halves of rows, merged (one thread
+// each): the same moments as one pass to rounding, the same whatever the thread count, and the
+// first non-finite value of the second half at its row in the whole.
+TEST(Correlation, RegressorMomentsFromTwoHalves) {
+    const Eigen::Index n = 70000, cols = 240;  // 1.68e7 values
+    RowMatrix y = random_matrix(n, cols, 71);
+    y.col(5).array() += 1e6;
+    const Eigen::Ref<const RowMatrix> ref(y);
+    setenv("DYNVAL_NUM_THREADS", "1", 1);
+    const auto one = dynval::detail::accumulate_signal_halves(ref);
+    setenv("DYNVAL_NUM_THREADS", "2", 1);
+    const auto two = dynval::detail::accumulate_signal_halves(ref);
+    unsetenv("DYNVAL_NUM_THREADS");
+    const auto whole = dynval::accumulate_signal(ref);
+    EXPECT_TRUE((one.tau_m2 == two.tau_m2).all() && (one.tau_mean == two.tau_mean).all());
+    EXPECT_LT(((one.tau_m2 - whole.tau_m2) / whole.tau_m2).abs().maxCoeff(), 1e-13);
+    EXPECT_LT((one.tau_mean - whole.tau_mean).abs().maxCoeff(), 1e-9);  // 1e6 offset on column 5
+    EXPECT_TRUE((one.tau_min == whole.tau_min).all() && (one.tau_max == whole.tau_max).all());
+    EXPECT_EQ(one.n_samples, n);
+    y(60000, 17) = std::numeric_limits<double>::quiet_NaN();
+    y(50000, 200) = inf;
+    const auto bad = dynval::detail::accumulate_signal_halves(Eigen::Ref<const RowMatrix>(y));
+    ASSERT_TRUE(bad.nonfinite_meas.has_value());
+    EXPECT_EQ(bad.nonfinite_meas->row, 50000);
+    EXPECT_EQ(bad.nonfinite_meas->col, 200);
+}
+
 // Wide row-major data (m >= 16, the regressor's columns) take the register-tiled autocorrelation:
 // equal to direct long-double sums with a column count and lag count off the tiles, blocks of 512
 // rows and records that start inside a block.

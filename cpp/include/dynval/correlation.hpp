@@ -360,6 +360,27 @@ DYNVAL_VECTOR_CLONES inline void lag_block_products(const double* DYNVAL_RESTRIC
     }
 }
 
+/// Moments of a large regressor as those of its two halves of rows, merged: one thread per half
+/// when the machine has two. Whether to split depends on the size alone (at least 2^24 values),
+/// so the result does not depend on the thread count.
+template <class D>
+joint_moments accumulate_signal_halves(const Eigen::MatrixBase<D>& x) {
+    const Index n = x.rows(), cols = x.cols();
+    const double values = static_cast<double>(n) * static_cast<double>(cols);
+    if (values < 0x1p24 || n < 2) return accumulate_signal(x);
+    const Index h = n / 2;
+    joint_accumulator top(cols), bottom(cols);
+    // About four operations per value (shift, two sums, the range) for the thread threshold.
+    for_ranges(2, worker_count(2, 4.0 * values), [&](Index first, Index last) {
+        for (Index half = first; half < last; ++half) {
+            if (half == 0) top.update_signal(x.topRows(h));
+            else bottom.update_signal(x.bottomRows(n - h));
+        }
+    });
+    top.merge(bottom);
+    return top.result();
+}
+
 /// Σ_k ê_k·Ŷ_{k−ℓ,c} (ℓ = 0..max_lag, c < p) of every joint j with `use[j]`, products within
 /// segments, for a regressor whose rows are contiguous (row stride `stride`, joint j's columns
 /// from j·p): one (L+1, p) matrix per joint (empty where `use[j]` is false). `e` holds the centred
@@ -619,7 +640,7 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     detail::check_min_samples(n, 2, "cross_correlation");
     joint_moments me = accumulate_signal(e);
     me.throw_if_nonfinite("e", "e");
-    const joint_moments my = accumulate_signal(regressor);
+    const joint_moments my = detail::accumulate_signal_halves(regressor);
     const Index total = regressor.cols();
     // m·n_columns is formed with an overflow check: 2^62 + 1 columns on 4 joints must not wrap to 4.
     const auto product = detail::checked_mul(n_columns, m);
