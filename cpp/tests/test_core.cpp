@@ -505,6 +505,24 @@ TEST(Correlation, RegressorMomentsFromTwoHalves) {
     EXPECT_EQ(bad.nonfinite_meas->col, 200);
 }
 
+// Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 4 lags over threads (the
+// last thread also takes the lags after the last whole tile): bit for bit the one-thread result.
+TEST(Correlation, ThreadedWideAutocorrelationIsTheOneThreadResult) {
+    const Eigen::Index n = 100000, m = 40, max_lag = 26;  // 1.08e8 multiply-adds; 6 tiles + 3 lags
+    const RowMatrix e = random_matrix(n, m, 81);
+    const std::vector<long long> lengths{37001, 62999};
+    setenv("DYNVAL_NUM_THREADS", "1", 1);
+    const auto one = dynval::autocorrelation(e, max_lag, true, lengths);
+    for (const char* count : {"2", "3", "4", "7"}) {
+        setenv("DYNVAL_NUM_THREADS", count, 1);
+        const auto many = dynval::autocorrelation(e, max_lag, true, lengths);
+        EXPECT_TRUE((many.array() == one.array()).all()) << count << " threads";
+    }
+    unsetenv("DYNVAL_NUM_THREADS");
+    const Eigen::MatrixXd col_major = e;  // the per-column dot products
+    EXPECT_LT((dynval::autocorrelation(col_major, max_lag, true, lengths) - one).cwiseAbs().maxCoeff(), 1e-14);
+}
+
 // Wide row-major data (m >= 16, the regressor's columns) take the register-tiled autocorrelation:
 // equal to direct long-double sums with a column count and lag count off the tiles, blocks of 512
 // rows and records that start inside a block.

@@ -222,10 +222,19 @@ inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const jo
     const auto size = static_cast<std::size_t>((max_lag + 1) * m);
     if (m >= 16) {
         constexpr Index TL = 4;
-        const auto tiled = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
+        // Tiles of 4 lags (l0 = 0, 4, ...) and the lags after the last whole tile. Threads take
+        // contiguous runs of tiles, the last one also the lags left over; each forms its lags'
+        // sums in the one-thread order and leaves the other lags 0, so the parts add exactly.
+        const Index tiles = (max_lag + 1) / TL;
+        const double work = static_cast<double>(n) * static_cast<double>(m) * static_cast<double>(max_lag + 1);
+        const Index workers = tiles > 0 ? worker_count(tiles, work) : 1;
+        std::vector<Eigen::MatrixXd> parts(static_cast<std::size_t>(workers));
+        for_ranges(std::max<Index>(tiles, 1), workers, [&](Index w, Index tile_begin, Index tile_end) {
+            const bool rest = w == workers - 1;
+            const auto tiled = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
             const Index hi = std::min(a + nb, s1) - a;  // rows of this block, relative to a
-            Index l0 = 0;
-            for (; l0 + TL - 1 <= max_lag; l0 += TL) {
+            Index l0 = tile_begin * TL;
+            for (; l0 < tile_end * TL && l0 + TL - 1 <= max_lag; l0 += TL) {
                 // rows where all 4 lags have a partner in the segment; before them, lag by lag
                 const Index tile_from = std::max(a, s0 + l0 + TL - 1) - a;
                 for (Index t = 0; t < TL; ++t) {
@@ -234,15 +243,18 @@ inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const jo
                 }
                 if (tile_from < hi) lag_tile_wide(rows, m, tile_from, hi, l0, acc);
             }
-            for (; l0 <= max_lag; ++l0) {
+            for (l0 = std::max(l0, tiles * TL); rest && l0 <= max_lag; ++l0) {
                 const Index from = std::max(a, s0 + l0) - a;
                 if (from < hi) lag_row_wide(rows, m, from, hi, l0, acc);
             }
-        };
-        const auto fold = [](const double* acc, std::vector<compensated>& total) {
-            for (std::size_t i = 0; i < total.size(); ++i) total[i].add(acc[i]);
-        };
-        return blocked_lag_sums(x, n, m, mo, starts, max_lag, size, tiled, fold);
+            };
+            const auto fold = [](const double* acc, std::vector<compensated>& total) {
+                for (std::size_t i = 0; i < total.size(); ++i) total[i].add(acc[i]);
+            };
+            parts[static_cast<std::size_t>(w)] = blocked_lag_sums(x, n, m, mo, starts, max_lag, size, tiled, fold);
+        });
+        for (std::size_t w = 1; w < parts.size(); ++w) parts[0] += parts[w];
+        return parts[0];
     }
     const Index lanes = 2 * m;
     const auto laned = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
@@ -371,7 +383,7 @@ joint_moments accumulate_signal_halves(const Eigen::MatrixBase<D>& x) {
     const Index h = n / 2;
     joint_accumulator top(cols), bottom(cols);
     // About four operations per value (shift, two sums, the range) for the thread threshold.
-    for_ranges(2, worker_count(2, 4.0 * values), [&](Index first, Index last) {
+    for_ranges(2, worker_count(2, 4.0 * values), [&](Index, Index first, Index last) {
         for (Index half = first; half < last; ++half) {
             if (half == 0) top.update_signal(x.topRows(h));
             else bottom.update_signal(x.bottomRows(n - h));
@@ -418,7 +430,7 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
         if (use[static_cast<std::size_t>(j)]) joints.push_back(j);
     const Index n_joints = static_cast<Index>(joints.size());
     const double work = static_cast<double>(n) * static_cast<double>(p * n_lags) * static_cast<double>(n_joints);
-    detail::for_ranges(n_joints, detail::worker_count(n_joints, work), [&](Index first, Index last) {
+    detail::for_ranges(n_joints, detail::worker_count(n_joints, work), [&](Index, Index first, Index last) {
         std::vector<double> ybuf(static_cast<std::size_t>(block * p));
         const auto flush = [&] {
             for (Index i = first; i < last; ++i) {

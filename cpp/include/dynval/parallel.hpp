@@ -28,18 +28,18 @@ inline Index worker_count(Index items, double work) {
     return std::max<Index>(1, std::min<Index>(items, static_cast<Index>(wanted)));
 }
 
-/// f(begin, end) over `workers` contiguous ranges of [0, items), the first on this thread. An
-/// exception in any range is rethrown here after every thread has finished.
+/// f(w, begin, end) for the w-th of `workers` contiguous ranges of [0, items), the first on this
+/// thread. An exception in any range is rethrown here after every thread has finished.
 template <class F>
 void for_ranges(Index items, Index workers, F&& f) {
     if (workers <= 1) {
-        f(Index{0}, items);
+        f(Index{0}, Index{0}, items);
         return;
     }
     std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
     const auto run = [&](Index w) {
         try {
-            f(items * w / workers, items * (w + 1) / workers);
+            f(w, items * w / workers, items * (w + 1) / workers);
         } catch (...) {
             errors[static_cast<std::size_t>(w)] = std::current_exception();
         }
