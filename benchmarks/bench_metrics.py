@@ -27,12 +27,15 @@ Run: ``PYTHONPATH=python python3 benchmarks/bench_metrics.py`` (after building t
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 import dynval
+from dynval import _sections
 
 
 # --------------------------------------------------------------------------- the lesson (§6)
@@ -213,6 +216,11 @@ def cross_correlation_rows(tau_meas, tau_pred, args, probe):
     read_y = best_of(lambda: probe.read_sum(y2), args.repeat)
     kernel = best_of(lambda: core.cross_correlation(e, y2, p, lags, True, starts), args.repeat)
     full = best_of(lambda: dynval.validate(tau, pred, n_params=args.p, regressor=y, max_lag=lags, backend="cpp"), 1)
+    # validate's one pass of Gram matrices, with the BLAS's own threads and with the one thread
+    # validate limits it to (dynval/_blas.py): on a busy machine the first can be 100× slower
+    gram_default = best_of(lambda: _sections.JointGrams(y), 1)
+    with threadpool_limits(limits=1, user_api="blas"):
+        gram_one = best_of(lambda: _sections.JointGrams(y), 1)
     fma = n * m * p * (lags + 1)
     print(f"cross-correlation: N = {n:,} × m = {m}, p = {p} columns per joint, lags 0..{lags} "
           f"(Y is {y.nbytes / 1e6:.0f} MB; {fma / 1e9:.2f} G multiply-adds)")
@@ -221,6 +229,8 @@ def cross_correlation_rows(tau_meas, tau_pred, args, probe):
           f"{fma / kernel / 1e9:.2f} G multiply-adds/s = {2 * fma / kernel / 1e9:.2f} GFLOP/s")
     print(f"  cpp validate(..., regressor=Y, max_lag={lags}): {full * 1e3:.2f} ms = {full / kernel:6.2f} × the kernel "
           f"alone (1 run)")
+    print(f"  each joint's Gram matrix (validate's pass): {gram_default * 1e3:.2f} ms with the BLAS's threads, "
+          f"{gram_one * 1e3:.2f} ms with one (1 run each; load average {os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

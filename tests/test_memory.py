@@ -10,9 +10,11 @@ benchmarks/bench_memory.py measures the peak RSS of the full-size case.
 
 from __future__ import annotations
 
+import importlib
 import tracemalloc
 
 import numpy as np
+import pytest
 
 import dynval
 from dynval import _sections, _stats
@@ -83,3 +85,78 @@ def test_least_squares_equals_lstsq_well_and_ill_conditioned():
         want = b - design @ np.linalg.lstsq(design, b, rcond=None)[0]
         got = b - design @ _sections._least_squares(design, b)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.linalg.norm(b))
+
+
+def _regressor_with_zero_columns(n=4000, m=3, p=5, seed=8):
+    rng = np.random.default_rng(seed)
+    reg3 = rng.standard_normal((n, m, p)) * np.array([1.0, 30.0, 1e-3, 2.0, 1.0])
+    reg3[:, 1, 0] = 0.0  # a link's parameter that does not act on an earlier joint
+    reg3[:, :, 4] = 0.0  # a column no joint excites
+    e = 0.3 * rng.standard_normal((n, m)) + reg3[:, :, 1] * 1e-3
+    return e, reg3
+
+
+def test_joint_grams_are_each_joints_gram_and_their_sum_the_stacked_one():
+    _, reg3 = _regressor_with_zero_columns()
+    grams = _sections.JointGrams(reg3, block=333)  # blocks that do not divide N
+    for j in range(reg3.shape[1]):
+        np.testing.assert_allclose(grams.gram[j], reg3[:, j, :].T @ reg3[:, j, :], rtol=1e-13, atol=1e-9)
+    stacked = reg3.reshape(-1, reg3.shape[2])
+    np.testing.assert_allclose(grams.stacked(), stacked.T @ stacked, rtol=1e-13, atol=1e-9)
+    assert grams.usable  # exactly zero columns do not force the scaled routes
+
+
+@pytest.mark.parametrize("tiny", [1e-170, 2.0**-1040])
+def test_joint_grams_are_not_used_where_squares_underflow(tiny):
+    _, reg3 = _regressor_with_zero_columns()
+    reg3[:, 2, 0] = tiny  # squares underflow to a zero diagonal: not a zero column
+    assert not _sections.JointGrams(reg3).usable
+    reg3[:, 2, 0] = 1e150  # sums of squares beyond 1e280
+    assert not _sections.JointGrams(reg3).usable
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-170, 1e140])
+def test_projection_and_excitation_are_the_same_with_the_shared_gram_pass(scale):
+    e, reg3 = _regressor_with_zero_columns()
+    e, reg3 = e * scale, reg3 * scale
+    grams = _sections.JointGrams(reg3)
+    shared = _sections._project_out(e, reg3, grams)
+    alone = _sections._project_out(e, reg3)  # the exactly scaled route, joint by joint
+    np.testing.assert_allclose(shared, alone, rtol=0, atol=1e-12 * np.abs(e).max())
+    # and the projection is one: orthogonal to every column of its joint
+    for j in range(reg3.shape[1]):
+        y = reg3[:, j, :] / scale
+        assert np.max(np.abs(y.T @ (shared[:, j] / scale))) < 1e-9 * np.linalg.norm(y) * np.linalg.norm(e[:, j] / scale)
+    a = _sections.design(reg3, None, None, None, 0.1, grams)["excitation"]
+    b = _sections.design(reg3, None, None, None, 0.1)["excitation"]
+    assert a["unexcited"] == b["unexcited"] == [4]
+    np.testing.assert_allclose(a["column_norms"], b["column_norms"], rtol=1e-13)
+    np.testing.assert_allclose([a["condition_raw"], a["condition_scaled"]],
+                               [b["condition_raw"], b["condition_scaled"]], rtol=1e-6)  # eps·cond², cond 3e4
+
+
+def test_validate_and_identify_run_their_linear_algebra_on_one_blas_thread(monkeypatch):
+    # A multi-threaded BLAS spinning at its barriers on a busy machine made one Gram matrix 100×
+    # slower (benchmarks/README.md); the caller's own limit comes back afterwards.
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    identify_module = importlib.import_module("dynval.identify")
+
+    def blas_threads():
+        return {lib["num_threads"] for lib in threadpoolctl.threadpool_info() if lib["user_api"] == "blas"}
+
+    seen = {}
+
+    def spy(name, func):
+        def recorded(*args, **kwargs):
+            seen[name] = blas_threads()
+            return func(*args, **kwargs)
+        return recorded
+
+    monkeypatch.setattr(_sections, "design", spy("validate", _sections.design))
+    monkeypatch.setattr(identify_module, "_solve", spy("identify", identify_module._solve))
+    tau, pred, regressor = _inputs(600, m=2, p=3)
+    with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
+        dynval.validate(tau, pred, n_params=3, regressor=regressor)
+        dynval.identify(regressor, tau)
+        assert blas_threads() == {2}
+    assert seen == {"validate": {1}, "identify": {1}}

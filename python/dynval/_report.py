@@ -20,6 +20,7 @@ import numpy as np
 from . import _estimation
 from . import _sections as sec
 from . import _validation as v
+from ._blas import one_blas_thread
 from ._errors import InputError, ShapeMismatch
 from ._findings import Finding, Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
@@ -360,6 +361,7 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
                     model_columns)
 
 
+@one_blas_thread
 def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, regressor: ArrayLike | None = None,
              n_joints: Integer | None = None, max_lag: Integer | None = None, level: float | None = None,
              profile: ProfileName = "lesson", segments: NamedSegmentsLike = None, nan_policy: NanPolicy = "raise",
@@ -514,6 +516,9 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     n_eff = None if bias is None else bias["n_eff"]
     ic = sec.information_criteria(km, prof, o.noise_model, n, m, o.n_params, n_eff)
 
+    # One pass over the regressor for both the spectrum's projection and the excitation section.
+    grams = sec.JointGrams(reg3) if reg3 is not None else None
+
     # ---- lag analysis: ACF, Ljung–Box, whiteness at the information rate, spectrum
     acf = lb = white = spec = None
     lb_lags = prof.ljung_box_lags(n, o.max_lag, o.longest)
@@ -522,7 +527,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         if lb_lags:
             lb = sec.ljung_box(kernel, e, lb_lags, starts)
             white = sec.whiteness(kernel, e, meas, starts, lb, o.decimate, o.sample_rate)
-        spec = sec.spectrum(e, starts, reg3, o.sample_rate)
+        spec = sec.spectrum(e, starts, reg3, o.sample_rate, grams)
 
     cross = xrho = xsd = missing = None
     if reg2 is not None:
@@ -538,7 +543,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                 missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
             if missing is not None:
                 cross["missing_terms"] = {k: v for k, v in missing.items()}
-    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance)
+    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance, grams)
     seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
                                        v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
                                        seg_names, segments, o.n_params, prof)

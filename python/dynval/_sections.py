@@ -15,6 +15,8 @@ from . import _estimation, _stats
 from ._findings import Evidence
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
+# Rows per block where a pass over the stacked regressor would otherwise copy it whole.
+_ROW_BLOCK = 1 << 16
 
 
 def _force_finite(values, constant):
@@ -247,18 +249,70 @@ def whiteness(kernel, e, meas, starts, lb, decimate, sample_rate) -> dict:
     return out
 
 
-def _project_out(e, reg3):
+class JointGrams:
+    """Each joint's regressor Gram matrix Y_jᵀY_j (m, p, p), from one blocked pass over the rows.
+
+    The residual spectrum's projection (each joint's least squares) and the excitation section
+    (the stacked regressor's Gram matrix is Σ_j Y_jᵀY_j, its column norms the root of its
+    diagonal) share it. ``usable`` is False when an entry is not finite, or a diagonal entry is
+    outside [1e-280, 1e280] without its column being exactly zero: then sums of squares may
+    have overflowed or underflowed, and both users take their exactly scaled routes instead.
+    """
+
+    def __init__(self, reg3: np.ndarray, block: int | None = None):
+        n, m, p = reg3.shape
+        block = block or max(1, _ROW_BLOCK // max(m, 1))
+        self.gram = np.zeros((m, p, p))
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            for i in range(0, n, block):
+                rows = reg3[i:i + block]
+                for j in range(m):
+                    y = rows[:, j, :]
+                    self.gram[j] += y.T @ y
+        diag = np.diagonal(self.gram, axis1=1, axis2=2)
+        in_range = (diag >= 1e-280) & (diag <= 1e280)
+        # A joint's column that is zero throughout is common (a link's parameters do not act on
+        # the joints before it); a zero diagonal of tiny nonzero values is an underflow.
+        zero = np.flatnonzero(diag == 0)  # index j·p + c of the (n, m·p) view
+        self.usable = bool(np.all(np.isfinite(self.gram)) and np.count_nonzero(~in_range) == zero.size
+                           and not (zero.size and _any_nonzero(reg3.reshape(n, m * p), zero)))
+
+    def stacked(self) -> np.ndarray:
+        """The Gram matrix of the regressor stacked over joints, (p, p)."""
+        return self.gram.sum(axis=0)
+
+
+def _any_nonzero(x: np.ndarray, columns: np.ndarray) -> bool:
+    """Whether x[:, columns] holds a nonzero, a block of rows at a time (stops at the first)."""
+    return any(np.any(x[i:i + _ROW_BLOCK, columns]) for i in range(0, x.shape[0], _ROW_BLOCK))
+
+
+def _project_out(e, reg3, grams: JointGrams | None = None):
     """The residual less its least-squares projection on each joint's regressor columns."""
     n, m, p = reg3.shape
     if n < 4 * p:
         return e
     out = np.empty_like(e)
-    # The projection does not depend on the scale of e or of any column: both are scaled by
-    # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
-    # 1e140 data do not overflow the normal equations. The exponents of every column at once:
-    # one contiguous pass instead of a strided one per joint.
-    k_reg = _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p)
+    k_reg = None
     for j in range(m):
+        beta = None
+        if grams is not None and grams.usable:
+            # The joint's zero columns add nothing to its projection: solved without them.
+            live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
+            cols = slice(None) if live.size == p else live  # a slice is a view, an index a copy
+            with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+                yb = e[:, j] @ reg3[:, j, cols]
+            if live.size and np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
+                beta = _solve_normal_equations(grams.gram[j][np.ix_(live, live)], yb)
+        if beta is not None:
+            out[:, j] = e[:, j] - reg3[:, j, cols] @ beta
+            continue
+        # The projection does not depend on the scale of e or of any column: both are scaled by
+        # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
+        # 1e140 data do not overflow the normal equations. The exponents of every column at
+        # once: one contiguous pass instead of a strided one per joint.
+        if k_reg is None:
+            k_reg = _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p)
         y = _scale_pow2(reg3[:, j, :], k_reg[j])
         ej, k = _pow2_columns(e[:, j : j + 1])
         out[:, j] = np.ldexp(ej[:, 0] - y @ _least_squares(y, ej[:, 0]), k[0])
@@ -270,16 +324,28 @@ def _project_out(e, reg3):
 _NORMAL_EQUATIONS_COND = 1e4
 
 
+def _sum_squares(x):
+    with np.errstate(over="ignore", under="ignore"):
+        return float(x @ x)
+
+
+def _solve_normal_equations(g, yb):
+    """β from the normal equations gβ = yb of the column-scaled problem, or None when the scaled
+    condition number reaches _NORMAL_EQUATIONS_COND (or a column is zero)."""
+    d = np.sqrt(np.diag(g))
+    if not np.all(d > 0):
+        return None
+    gs = g / np.outer(d, d)  # the condition number of the column-scaled problem decides
+    w = np.linalg.eigvalsh(gs)
+    if w[0] > 0 and np.sqrt(w[-1] / w[0]) < _NORMAL_EQUATIONS_COND:
+        return np.linalg.solve(gs, yb / d) / d
+    return None
+
+
 def _least_squares(y, b):
     """argmin ‖yβ − b‖: by the normal equations (one BLAS pass) when y is well conditioned."""
-    g = y.T @ y
-    d = np.sqrt(np.diag(g))
-    if np.all(d > 0):
-        gs = g / np.outer(d, d)  # the condition number of the column-scaled problem decides
-        w = np.linalg.eigvalsh(gs)
-        if w[0] > 0 and np.sqrt(w[-1] / w[0]) < _NORMAL_EQUATIONS_COND:
-            return np.linalg.solve(gs, (y.T @ b) / d) / d
-    return np.linalg.lstsq(y, b, rcond=None)[0]
+    beta = _solve_normal_equations(y.T @ y, y.T @ b)
+    return beta if beta is not None else np.linalg.lstsq(y, b, rcond=None)[0]
 
 
 def _pow2_exponents(x):
@@ -302,9 +368,9 @@ def _pow2_columns(x):
     return _scale_pow2(x, k), k
 
 
-def spectrum(e, starts, reg3, sample_rate) -> dict:
+def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> dict:
     """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests."""
-    x = _project_out(e, reg3) if reg3 is not None else e
+    x = _project_out(e, reg3, grams) if reg3 is not None else e
     spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
     return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
@@ -515,10 +581,6 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
-# Rows per block where a pass over the stacked regressor would otherwise copy it whole.
-_ROW_BLOCK = 1 << 16
-
-
 def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np.ndarray:
     """The triangular factor R of x[:, columns] = QR, from the rows in blocks (R of [R; block])."""
     r = np.zeros((0, columns.size))
@@ -527,7 +589,7 @@ def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np
     return r
 
 
-def _singular_values(x, live, norms):
+def _singular_values(x, live, norms, gram=None):
     """Singular values of x[:, live], raw and with unit-norm columns, without copying x.
 
     From the Gram matrix (one BLAS pass) while both condition numbers stay below
@@ -535,21 +597,27 @@ def _singular_values(x, live, norms):
     beyond, from the p × p factor R of a blockwise QR (X = QR and XD = Q(RD): R's singular values
     are X's), which is exact to rounding but several times slower.
     """
-    g = np.zeros((live.size, live.size))
-    for i in range(0, x.shape[0], _ROW_BLOCK):
-        block = x[i:i + _ROW_BLOCK, live]
-        g += block.T @ block
+    if gram is not None:
+        g = gram[np.ix_(live, live)]
+    else:
+        g = np.zeros((live.size, live.size))
+        every = live.size == x.shape[1]  # a slice is a view; indexing by live would copy each block
+        for i in range(0, x.shape[0], _ROW_BLOCK):
+            block = x[i:i + _ROW_BLOCK] if every else x[i:i + _ROW_BLOCK, live]
+            g += block.T @ block
     d = norms[live]
-    raw = np.sqrt(np.clip(np.linalg.eigvalsh(g)[::-1], 0.0, None))
-    scaled = np.sqrt(np.clip(np.linalg.eigvalsh(g / np.outer(d, d))[::-1], 0.0, None))
-    limit = _NORMAL_EQUATIONS_COND**2 / 100
-    if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
-        return raw, scaled
+    # squares of 1e-170 or 1e150 data underflow or overflow in g: the QR route scales itself
+    if np.all(np.isfinite(g)) and np.all((d > 1e-140) & (d < 1e140)):
+        raw = np.sqrt(np.clip(np.linalg.eigvalsh(g)[::-1], 0.0, None))
+        scaled = np.sqrt(np.clip(np.linalg.eigvalsh(g / np.outer(d, d))[::-1], 0.0, None))
+        limit = _NORMAL_EQUATIONS_COND**2 / 100
+        if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
+            return raw, scaled
     r = _r_factor(x, live)
     return np.linalg.svd(r, compute_uv=False), np.linalg.svd(r / d, compute_uv=False)
 
 
-def design(reg3, q_val, estimation, meas, threshold) -> dict[str, Any] | None:
+def design(reg3, q_val, estimation, meas, threshold, grams: JointGrams | None = None) -> dict[str, Any] | None:
     """How far the validation run is from the estimation run, and how well it excites the model.
 
     Distances are time-aligned on the rows both runs have: the relative regressor distance
@@ -584,11 +652,18 @@ def design(reg3, q_val, estimation, meas, threshold) -> dict[str, Any] | None:
         out["repeat"] = rep or None
     if reg3 is not None:
         stacked = reg3.reshape(-1, reg3.shape[2])
-        norms = np.sqrt(sum(np.linalg.norm(stacked[i:i + _ROW_BLOCK], axis=0) ** 2
-                            for i in range(0, stacked.shape[0], _ROW_BLOCK)))
+        gram = grams.stacked() if grams is not None and grams.usable else None
+        if gram is not None:
+            norms = np.sqrt(np.diag(gram).copy())
+        else:
+            # each column scaled by the power of two of its largest |x| (exact), so that the
+            # squares of 1e-170 or 1e150 data neither underflow nor overflow
+            k = _pow2_exponents(stacked)
+            norms = np.ldexp(np.sqrt(sum(np.linalg.norm(_scale_pow2(stacked[i:i + _ROW_BLOCK], k), axis=0) ** 2
+                                         for i in range(0, stacked.shape[0], _ROW_BLOCK))), k)
         unexcited = [int(c) for c in np.flatnonzero(norms <= 1e-12 * max(norms.max(), np.finfo(float).tiny))]
         live = np.setdiff1d(np.arange(stacked.shape[1]), unexcited)
-        sv, sv_s = _singular_values(stacked, live, norms) if live.size else (np.zeros(1), np.zeros(1))
+        sv, sv_s = _singular_values(stacked, live, norms, gram) if live.size else (np.zeros(1), np.zeros(1))
         # A column the estimation run does not excite either is not identifiable at all (a base
         # reduction removes it): not a flaw of the validation design.
         never = []

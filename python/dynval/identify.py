@@ -46,6 +46,7 @@ from typing import Any, Literal
 import numpy as np
 import scipy.linalg
 
+from ._blas import one_blas_thread
 from ._errors import InvalidShape, ShapeMismatch
 from ._typing import ArrayLike, FloatArray, Integer
 from ._validation import (
@@ -347,6 +348,7 @@ def _fit(a: FloatArray, b: FloatArray, rcond: float, p: int) -> tuple[dict[str, 
     return solved, solved["residual"]
 
 
+@one_blas_thread
 def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per_joint"] | ArrayLike | None = None,
              rcond: float | None = None, column_names: Sequence[str] | None = None, n_joints: Integer | None = None,
              name_tolerance: float = 1e-10) -> IdentificationResult:
