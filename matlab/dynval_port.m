@@ -10,7 +10,8 @@ function dynval_port()
 %   plain MATLAB.
   operations = {'residuals', 'sse', 'rmse', 'max_abs_error', 'vaf', 'fit_percent', 'r2', ...
     'residual_mean', 'residual_variance', 'zero_mean_test', 'autocorrelation', 'confidence_band', ...
-    'ljung_box', 'box_pierce', 'cross_correlation', 'information_criteria', 'criteria', 'aic', 'bic'};
+    'ljung_box', 'box_pierce', 'cross_correlation', 'information_criteria', 'criteria', 'aic', 'bic', ...
+    'accumulate'};
   out = sprintf('dynval-port 1 dynval-matlab 1.0 (%s %s)\n', runtime_name(), version());
   for i = 1:numel(operations)
     out = [out sprintf('capability %s\n', operations{i})]; %#ok<AGROW>
@@ -326,6 +327,25 @@ function outputs = compute(kase)
       else
         outputs = {{'value', feval(['dynval.' op], data{:}, input_value(kase, 'n_params'), opts{:}), []}};
       end
+    case 'accumulate'
+      precheck_signals(kase, {'tau_meas', 'tau_pred'});
+      args = {input_value(kase, 'tau_meas'), input_value(kase, 'tau_pred'), input_value(kase, 'n_params'), ...
+        input_value(kase, 'max_lag'), c};
+      if isfield(kase.inputs, 'regressor')
+        args = [args, {input_value(kase, 'regressor'), declared_dims(kase, 'regressor')}];
+      end
+      r = dvport.accumulate(args{:});
+      m = numel(r.sse);
+      outputs = {{'sse', r.sse, m}, {'rmse', r.rmse, m}, {'max_abs_error', r.max_abs_error, m}, ...
+        {'vaf', r.vaf, m}, {'fit_percent', r.fit_percent, m}, {'r2', r.r2, m}, ...
+        {'residual_mean', r.residual_mean, m}, {'residual_variance', r.residual_variance, m}, ...
+        {'autocorrelation', r.autocorrelation, size(r.autocorrelation)}};
+      if ~isempty(r.rho)
+        outputs{end + 1} = {'rho', r.rho, [m, numel(r.rho) / (m * size(r.autocorrelation, 1)), size(r.autocorrelation, 1)]};
+      end
+      ic = r.criteria;
+      outputs = [outputs, {{'aic', ic.aic, []}, {'bic', ic.bic, []}, {'aicc', ic.aicc, []}, {'fpe', ic.fpe, []}, ...
+        {'naic', ic.naic, []}}];
     otherwise
       error('dvport:operation', 'unknown operation %s', op);
   end
@@ -355,6 +375,11 @@ function precheck_signals(kase, names)
     end
     if numel(d) == 0
       dynval.internal.raise('InvalidShape', sprintf('%s must be 1-D (N,) or 2-D (N, m), got shape ()', names{i}));
+    end
+    if numel(d) > 2 && ndims(input_value(kase, names{i})) == 2
+      % (N, m, 1) arrives as an N-by-m matrix, which the library would take for a signal.
+      dynval.internal.raise('InvalidShape', sprintf('%s must be 1-D (N,) or 2-D (N, m), got shape %s', ...
+        names{i}, dynval.internal.format_shape(d)));
     end
     if numel(d) > 2 || (numel(d) == 2 && d(2) == 0)
       return;  % the library rejects this one, in order

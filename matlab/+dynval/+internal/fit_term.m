@@ -37,15 +37,12 @@ function [f, n, n_vec, size_term] = fit_term(e, noise_model)
       % One power of two for every joint: eigenvalue ratios stay, ln det gains 2k·m·ln 2.
       [~, k] = dynval.internal.scale_columns(e(:));
       e = dynval.internal.ldexp(e, -k);
-      sigma = (e' * e) / n_samples;
-      sigma = (sigma + sigma') / 2;
-      lambda = sort(eig(sigma));
-      largest = lambda(end);
-      if largest <= 0 || lambda(1) <= m * eps * largest
+      log_det = dynval.internal.log_det_term((e' * e) / n_samples);
+      if log_det == -Inf
         f = -Inf;
         size_term = 0;
       else
-        log_det = sum(log(lambda)) + 2 * k * m * log(2);
+        log_det = log_det + 2 * k * m * log(2);
         f = n_samples * log_det;
         size_term = exp(log_det);
       end
