@@ -43,3 +43,15 @@ def test_the_route_depends_on_backend_lags_and_layout(columns, monkeypatch):
     _sections._regressor_acf(Spy(), np.asfortranarray(columns), starts, 5)  # would need a copy: FFT
     _sections._regressor_acf(_reference, columns, starts, 5)  # the python backend: FFT
     assert calls == [_sections._DIRECT_ACF_LAGS]
+
+
+@pytest.mark.parametrize("starts", [[0], [0, 3, 250, 600]])  # a segment of 3 rows: shorter than the lags
+@pytest.mark.parametrize("centre", [True, False])
+def test_few_lags_summed_directly_equal_the_fft(columns, starts, centre, monkeypatch):
+    starts = np.asarray(starts, dtype=np.int64)
+    lags = _stats._DIRECT_LAGS
+    direct = _stats.acf_fft(columns + 1e3, starts, lags, centre=centre)
+    monkeypatch.setattr(_stats, "_DIRECT_LAGS", -1)  # every lag count by FFT
+    fft = _stats.acf_fft(columns + 1e3, starts, lags, centre=centre)
+    np.testing.assert_array_equal(np.isnan(direct), np.isnan(fft))
+    np.testing.assert_allclose(direct, fft, rtol=0, atol=1e-13, equal_nan=True)

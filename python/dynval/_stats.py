@@ -85,12 +85,32 @@ def holm(pvalues) -> np.ndarray:
 _FFT_BATCH_BYTES = 64 * 2**20
 
 
+# Up to this many lags the lagged products are summed directly (one dot product per column and
+# lag, O(N·max_lag)); two transforms of length N cost more than that. The Newey–West effective
+# sample size asks for lag 1 twice per report: at N = 2,000,000 × 7, 0.88 s by FFT against 0.10 s
+# direct, and the whole long_run_variance 2.73 s against 0.62 s (best of 3, one run).
+_DIRECT_LAGS = 8
+
+
+def _lag_products(xc, bounds, max_lag: int) -> np.ndarray:
+    """Σ x_t·x_{t−ℓ} of each column of ``xc`` (N, k), ℓ = 0..max_lag, no pair across two segments."""
+    cols = np.ascontiguousarray(xc.T)  # one contiguous run per column for each dot product
+    acov = np.zeros((max_lag + 1, cols.shape[0]))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        for lag in range(min(max_lag, b - a - 1) + 1):
+            for j, col in enumerate(cols):
+                acov[lag, j] += np.dot(col[a + lag:b], col[a:b - lag])
+    return acov
+
+
 def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
-    """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k) by FFT.
+    """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k), by FFT beyond a
+    few lags.
 
     Means are overall (one per column), products never join two segments (contract §1.1), the
     denominator is N at every lag. A constant column gives nan. ``scipy.fft`` makes long lags
-    cheap: O(N log N) per column instead of O(N·max_lag).
+    cheap: O(N log N) per column instead of O(N·max_lag); up to ``_DIRECT_LAGS`` lags the
+    products are summed directly.
     """
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
@@ -105,6 +125,9 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     for c0 in range(0, k, batch):
         cols = slice(c0, min(c0 + batch, k))
         xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
+        if max_lag <= _DIRECT_LAGS:
+            acov[:, cols] = _lag_products(xc, bounds, max_lag)
+            continue
         for a, b in zip(bounds[:-1], bounds[1:]):
             length = b - a
             # Zero padding to length + max_lag keeps the circular wrap-around out of the lags kept.
