@@ -22,7 +22,7 @@ def columns():
 def test_direct_sums_equal_the_fft(columns, starts):
     core = get_backend("cpp")
     starts = np.asarray(starts, dtype=np.int64)
-    direct = _sections._regressor_acf(core, columns, starts, 12)
+    direct = _sections._biased_acf(core, columns, starts, 12)
     fft = _stats.acf_fft(columns, starts, 12)
     np.testing.assert_array_equal(np.isnan(direct), np.isnan(fft))
     np.testing.assert_allclose(direct, fft, rtol=0, atol=1e-14, equal_nan=True)
@@ -37,11 +37,11 @@ def test_the_route_depends_on_backend_lags_and_layout(columns, monkeypatch):
             return get_backend("cpp").autocorrelation(*args)
 
     starts = np.zeros(1, dtype=np.int64)
-    _sections._regressor_acf(Spy(), columns, starts, _sections._DIRECT_ACF_LAGS)
+    _sections._biased_acf(Spy(), columns, starts, _sections._DIRECT_ACF_LAGS)
     assert calls == [_sections._DIRECT_ACF_LAGS]
-    _sections._regressor_acf(Spy(), columns, starts, _sections._DIRECT_ACF_LAGS + 1)  # more lags: FFT
-    _sections._regressor_acf(Spy(), np.asfortranarray(columns), starts, 5)  # would need a copy: FFT
-    _sections._regressor_acf(_reference, columns, starts, 5)  # the python backend: FFT
+    _sections._biased_acf(Spy(), columns, starts, _sections._DIRECT_ACF_LAGS + 1)  # more lags: FFT
+    _sections._biased_acf(Spy(), np.asfortranarray(columns), starts, 5)  # would need a copy: FFT
+    _sections._biased_acf(_reference, columns, starts, 5)  # the python backend: FFT
     assert calls == [_sections._DIRECT_ACF_LAGS]
 
 

@@ -385,16 +385,16 @@ def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> d
 _DIRECT_ACF_LAGS = 128
 
 
-def _regressor_acf(kernel, reg2, starts, big: int) -> np.ndarray:
-    """Biased autocorrelation of every regressor column to lag ``big`` (acf_fft's definition):
-    the compiled kernel's direct sums when the backend is cpp, the lags few and the array
-    contiguous (no copy), else the FFT."""
+def _biased_acf(kernel, x, starts, big: int) -> np.ndarray:
+    """Biased autocorrelation of every column of ``x`` (the residual's, the regressor's) to lag
+    ``big`` (acf_fft's definition): the compiled kernel's direct sums when the backend is cpp,
+    the lags few and the array contiguous (no copy), else :func:`dynval._stats.acf_fft`."""
     from . import _reference
 
-    if kernel is not _reference and big <= _DIRECT_ACF_LAGS and reg2.flags.c_contiguous \
-            and reg2.dtype == np.float64:
-        return np.asarray(kernel.autocorrelation(reg2, big, False, np.asarray(starts, dtype=np.int64)))
-    return _stats.acf_fft(reg2, starts, big)
+    if kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous \
+            and x.dtype == np.float64:
+        return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
+    return _stats.acf_fft(x, starts, big)
 
 
 def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
@@ -414,8 +414,8 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
     tau_int = tau_int if np.isfinite(tau_int) else 1.0
     big = int(min(longest - 1, max(max_lag, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
-    rho_e = _stats.acf_fft(e, starts, big)
-    rho_y = _regressor_acf(kernel, reg2, starts, big).reshape(big + 1, m, p)
+    rho_e = _biased_acf(kernel, e, starts, big)
+    rho_y = _biased_acf(kernel, reg2, starts, big).reshape(big + 1, m, p)
     lags = np.arange(max_lag + 1)
     n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
     d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))
