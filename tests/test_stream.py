@@ -419,6 +419,23 @@ def test_max_lag_zero_reads_once(backend):
     assert_same_report(got, want, tau, pred)
 
 
+def test_a_reused_input_buffer_changes_nothing_already_given(backend):
+    """A reader that fills one buffer again for each chunk (np.copyto, readinto) must not change
+    rows the accumulator was already given, even rows it has not summed yet (short chunks are
+    gathered before they are summed)."""
+    rng = np.random.default_rng(8)
+    tau = rng.normal(size=(700, 3)).cumsum(axis=0)
+    pred = tau + 0.1 * rng.normal(size=(700, 3))
+    y = rng.normal(size=(700, 3, 2))
+    acc = ValidationAccumulator(backend=backend, n_params=2, max_lag=6)
+    buf_t, buf_p, buf_y = np.empty((50, 3)), np.empty((50, 3)), np.empty((50, 3, 2))
+    for a in range(0, 700, 50):
+        np.copyto(buf_t, tau[a:a + 50]), np.copyto(buf_p, pred[a:a + 50]), np.copyto(buf_y, y[a:a + 50])
+        acc.update(buf_t, buf_p, buf_y)
+    buf_t[:], buf_p[:], buf_y[:] = np.nan, np.nan, np.nan
+    assert_same_report(acc.result(), reference(tau, pred, y, None, n_params=2, max_lag=6), tau, pred, y)
+
+
 def test_state_does_not_grow_with_n(backend):
     rng = np.random.default_rng(6)
     sizes = []

@@ -73,6 +73,22 @@ void register_stream(py::module_& m) {
             py::arg("e"), py::arg("tau"), py::arg("y"),
             "Adds rows continuing the current segment: e, tau (c, m), y (c, m*p) or None.")
         .def(
+            "append_measured",
+            [](stream_state& st, const RowRef& meas, const RowRef& pred, py::object y) {
+                if (y.is_none()) {
+                    py::gil_scoped_release release;
+                    st.append_measured(meas, pred, meas, false);
+                } else {
+                    auto cast = py::detail::make_caster<RowRef>();
+                    if (!cast.load(y, true)) throw invalid_parameter("y must be a float64 matrix or None");
+                    const RowRef& yr = cast;
+                    py::gil_scoped_release release;
+                    st.append_measured(meas, pred, yr, true);
+                }
+            },
+            py::arg("meas"), py::arg("pred"), py::arg("y"),
+            "append of the residual meas - pred, formed block by block: meas, pred (c, m), y (c, m*p) or None.")
+        .def(
             "merge",
             [](stream_state& st, const stream_state& later) {
                 py::gil_scoped_release release;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
@@ -84,6 +85,34 @@ TEST(EmptyInput, FirstNonfiniteOfNoColumns) {
     EXPECT_FALSE(dynval::first_nonfinite(none).has_value());
     const Eigen::MatrixXd empty(0, 0);
     EXPECT_FALSE(dynval::first_nonfinite(empty).has_value());
+}
+
+// The flat test of contiguous rows must find the same first bad entry as a plain row-major scan,
+// wherever it is (first and last element, block edges, tail beyond the eight lanes) and whatever
+// it is (NaN, ±inf, finite but beyond max_magnitude); strided input takes the block route.
+TEST(Finiteness, FirstNonfiniteMatchesARowMajorScan) {
+    using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const double bad[] = {std::nan(""), std::numeric_limits<double>::infinity(),
+                          -std::numeric_limits<double>::infinity(), 2e144, -1.5e200};
+    for (Eigen::Index cols : {1, 3, 7, 9}) {
+        const Eigen::Index rows = 5000 / cols + 3;
+        RowMatrix a = RowMatrix::Random(rows, cols) * 1e144;  // in range: |x| <= 1e144
+        EXPECT_FALSE(dynval::first_nonfinite(a).has_value());
+        const Eigen::Index n = rows * cols;
+        for (Eigen::Index flat : {Eigen::Index{0}, Eigen::Index{7}, Eigen::Index{4095}, Eigen::Index{4096}, n - 9, n - 1}) {
+            for (double v : bad) {
+                RowMatrix b = a;
+                b(flat / cols, flat % cols) = v;
+                if (flat + 3 < n) b((flat + 3) / cols, (flat + 3) % cols) = std::nan("");  // a later one
+                for (const auto& hit : {dynval::first_nonfinite(b), dynval::first_nonfinite(Eigen::MatrixXd(b))}) {
+                    ASSERT_TRUE(hit.has_value()) << cols << " " << flat << " " << v;
+                    EXPECT_EQ(hit->row, flat / cols);
+                    EXPECT_EQ(hit->col, flat % cols);
+                    EXPECT_TRUE(std::isnan(v) ? std::isnan(hit->value) : hit->value == v);
+                }
+            }
+        }
+    }
 }
 
 // Neumaier's carry is inf − inf = nan once an infinite term is added: the sum is the IEEE one.

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <random>
 #include <vector>
@@ -254,6 +255,84 @@ TEST(StreamState, MergeWithEmptyAndShapeChecks) {
     EXPECT_THROW(st.merge(dynval::stream_state(dynval::stream_layout{3, 1, 17, 6, true})), dynval::input_error);
     EXPECT_THROW(st.append(d.e, d.tau), dynval::input_error);  // the layout has p = 2
     EXPECT_THROW(dynval::stream_state(dynval::stream_layout{3, 2, 4, 6, false}), dynval::input_error);
+}
+
+// append_measured forms e = meas − pred block by block; the state is the one `append` builds from
+// the same e, bit for bit (same blocks, same order), with and without a regressor.
+TEST(StreamState, AppendMeasuredIsAppendOfTheResidual) {
+    const auto d = make_data(5000, 3, 2, 9, 4.0);
+    const RowMatrix pred = d.tau - d.e;
+    const RowMatrix meas = d.tau;
+    std::mt19937_64 gen(10);
+    for (const auto& layout : {kLayout, dynval::stream_layout{3, 0, 0, 0, false}, dynval::stream_layout{3, 0, 9, 0, true}}) {
+        const bool has_y = layout.p > 0;
+        dynval::stream_state by_e(layout), by_pair(layout);
+        Index a = 0;
+        while (a < 5000) {
+            const Index b = std::min<Index>(5000, a + std::uniform_int_distribution<Index>(0, 3000)(gen));
+            const RowMatrix e = meas.middleRows(a, b - a) - pred.middleRows(a, b - a);
+            if (has_y)
+                by_e.append(e, meas.middleRows(a, b - a), d.y.middleRows(a, b - a));
+            else
+                by_e.append(e, meas.middleRows(a, b - a));
+            by_pair.append_measured(meas.middleRows(a, b - a), pred.middleRows(a, b - a), d.y.middleRows(a, b - a), has_y);
+            a = b;
+        }
+        ASSERT_EQ(by_pair.n, 5000);
+        EXPECT_EQ(by_pair.lengths, by_e.lengths);
+        for (auto [x, y] : {std::pair{&by_pair.prod_e, &by_e.prod_e}, {&by_pair.cur_e, &by_e.cur_e},
+                            {&by_pair.lag_e, &by_e.lag_e}, {&by_pair.gram, &by_e.gram}, {&by_pair.sum_t, &by_e.sum_t},
+                            {&by_pair.sq_t, &by_e.sq_t}, {&by_pair.sq_y, &by_e.sq_y}, {&by_pair.prod_ey, &by_e.prod_ey},
+                            {&by_pair.lag_y, &by_e.lag_y}}) {
+            EXPECT_EQ(x->hi, y->hi);
+            EXPECT_EQ(x->lo, y->lo);
+        }
+        EXPECT_EQ(by_pair.head_e, by_e.head_e);
+        EXPECT_EQ(by_pair.tail_e, by_e.tail_e);
+        EXPECT_EQ(by_pair.tail_y, by_e.tail_y);
+        EXPECT_EQ(by_pair.min_e, by_e.min_e);
+        EXPECT_EQ(by_pair.max_t, by_e.max_t);
+        if (layout.p == 0) expect_moments(by_pair, Data{d.e, d.tau, RowMatrix(5000, 0)}, {5000});
+    }
+    dynval::stream_state st(kLayout);
+    EXPECT_THROW(st.append_measured(meas, pred.leftCols(2), d.y, true), dynval::input_error);
+    EXPECT_THROW(st.append_measured(meas, pred, d.y, false), dynval::input_error);  // the layout has p = 2
+    EXPECT_EQ(st.n, 0);
+}
+
+// With enough work the blocks of a chunk are formed on several threads and merged in order: the
+// state is the one-thread state bit for bit (DYNVAL_NUM_THREADS = 1, 2, 3, 8).
+TEST(StreamState, ThreadedBlocksAreTheOneThreadState) {
+    const dynval::stream_layout layout{4, 8, 60, 40, true};
+    const auto d = make_data(64000, 4, 8, 11, 2.0);
+    const RowMatrix pred = d.tau - d.e;
+    const auto with_threads = [&](const char* count) {
+        setenv("DYNVAL_NUM_THREADS", count, 1);
+        dynval::stream_state st(layout);
+        st.append_measured(d.tau.topRows(1000), pred.topRows(1000), d.y.topRows(1000), true);
+        st.append_measured(d.tau.bottomRows(63000), pred.bottomRows(63000), d.y.bottomRows(63000), true);  // 31 blocks
+        unsetenv("DYNVAL_NUM_THREADS");
+        return st;
+    };
+    const double work = 63000.0 * 4 * (60 + 4 + 8 * 43);  // 1.03e8 multiply-adds
+    setenv("DYNVAL_NUM_THREADS", "3", 1);
+    const bool threaded = dynval::detail::worker_count(63000 / 2048 + 1, work) == 3;
+    unsetenv("DYNVAL_NUM_THREADS");
+    ASSERT_TRUE(threaded) << "the test's chunk is too small to be split";
+    const auto one = with_threads("1");
+    expect_moments(one, d, {64000});
+    for (const char* count : {"2", "3", "8"}) {
+        const auto many = with_threads(count);
+        for (auto [x, y] : {std::pair{&many.prod_e, &one.prod_e}, {&many.cur_e, &one.cur_e}, {&many.lag_e, &one.lag_e},
+                            {&many.gram, &one.gram}, {&many.sq_t, &one.sq_t}, {&many.prod_ey, &one.prod_ey},
+                            {&many.lag_y, &one.lag_y}, {&many.sq_y, &one.sq_y}}) {
+            EXPECT_EQ(x->hi, y->hi) << count << " threads";
+            EXPECT_EQ(x->lo, y->lo) << count << " threads";
+        }
+        EXPECT_EQ(many.k_e, one.k_e);
+        EXPECT_EQ(many.tail_y, one.tail_y);
+        EXPECT_EQ(many.head_e, one.head_e);
+    }
 }
 
 }  // namespace

@@ -136,4 +136,9 @@ def build() -> Family:
     err("one sample", {"chunks": [1]}, {**good, "tau_meas": mat(meas[:1]), "tau_pred": mat(pred[:1])},
         "TooFewSamples")
     err("a regressor with 39 rows", {}, {**good, "regressor": arr([0.5] * 39 * 2 * 2, [39, 2, 2])}, "ShapeMismatch")
+    # operations.json lists only "raise": "omit" is refused, after the data checks (a NaN is still
+    # NonFiniteInput), so that every port's accumulator is held to the same policy.
+    err("nan_policy \"omit\", which accumulate does not take", {"nan_policy": "omit"}, good, "InvalidParameter")
+    err("nan_policy \"omit\" with a NaN in the data: the data checks come first", {"nan_policy": "omit"},
+        {**good, "tau_pred": mat(pred[:3] + [[float("nan"), pred[3][1]]] + pred[4:])}, "NonFiniteInput")
     return fam

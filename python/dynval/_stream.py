@@ -113,11 +113,14 @@ class State:
     def copy(self) -> State:
         return copy.deepcopy(self)
 
-    def append(self, e: np.ndarray, tau: np.ndarray, y: np.ndarray | None, rows: int) -> None:
-        """Rows that continue the current segment, summed in blocks of ``rows`` and merged."""
-        for a in range(0, e.shape[0], rows):
+    def append_measured(self, meas: np.ndarray, pred: np.ndarray, y: np.ndarray | None, rows: int) -> None:
+        """Rows that continue the current segment: measured and predicted torque (c, m), ``y``
+        (c, m, p) or None; summed in blocks of ``rows``, each block's residual formed on its own,
+        and merged."""
+        for a in range(0, meas.shape[0], rows):
             block = slice(a, a + rows)
-            self.merge(State.from_block(self.layout, e[block], tau[block], None if y is None else y[block]))
+            self.merge(State.from_block(self.layout, meas[block] - pred[block], meas[block],
+                                        None if y is None else y[block]))
 
     def snapshot(self) -> State:
         """The sums the report reads (the state itself)."""
@@ -416,11 +419,13 @@ class CoreState:
     def end_break(self, value: bool) -> None:
         self._core.end_break = bool(value)
 
-    def append(self, e: np.ndarray, tau: np.ndarray, y: np.ndarray | None, rows: int | None = None) -> None:
-        """Rows that continue the current segment: ``e``, ``tau`` (c, m), ``y`` (c, m, p) or None
-        (the core chooses its own block length; ``rows`` is the reference's)."""
-        c = e.shape[0]
-        self._core.append(e, tau, None if y is None else y.reshape(c, -1))
+    def append_measured(self, meas: np.ndarray, pred: np.ndarray, y: np.ndarray | None,
+                        rows: int | None = None) -> None:
+        """Rows that continue the current segment: ``meas``, ``pred`` (c, m), ``y`` (c, m, p) or None;
+        the core forms the residual block by block and chooses its own block length (``rows`` is
+        the reference's)."""
+        c = meas.shape[0]
+        self._core.append_measured(meas, pred, None if y is None else y.reshape(c, -1))
 
     def merge(self, later: State | CoreState) -> None:
         assert isinstance(later, CoreState)  # accumulators of different backends do not merge

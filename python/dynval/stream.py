@@ -183,7 +183,7 @@ class ValidationAccumulator:
             allow_wide=allow_wide, backend=backend_name)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
-        # rows of the current segment not yet summed: (e, tau_meas, regressor) chunks
+        # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
         self._break_first = False  # break_segment() before the first chunk
@@ -461,25 +461,27 @@ class ValidationAccumulator:
     def _feed(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         if meas.shape[0] == 0:
             return
-        e = meas - pred
-        self._pending.append((e, meas, reg))
-        self._pending_rows += e.shape[0]
+        self._pending.append((meas, pred, reg))
+        self._pending_rows += meas.shape[0]
         if self._pending_rows >= _buffer_rows(self._known_layout):
             self._flush()
+        else:
+            # Rows kept for later are copied: the caller may refill its buffer for the next chunk.
+            self._pending[-1] = (meas.copy(), pred.copy(), None if reg is None else reg.copy())
 
     def _flush(self) -> None:
         """Sum the gathered rows as blocks of one segment."""
         if not self._pending:
             return
         layout = self._known_layout
-        e, tau, reg = (None if parts[0] is None else np.concatenate(parts) if len(parts) > 1 else parts[0]
-                       for parts in zip(*self._pending))
-        assert e is not None and tau is not None  # only the regressor is optional
+        meas, pred, reg = (None if parts[0] is None else np.concatenate(parts) if len(parts) > 1 else parts[0]
+                           for parts in zip(*self._pending))
+        assert meas is not None and pred is not None  # only the regressor is optional
         self._pending, self._pending_rows = [], 0
         if self._state is None:
             self._state = self._new_state(layout)
             self._state.end_break = self._break_first
-        self._state.append(e, tau, reg, _block_rows(layout))
+        self._state.append_measured(meas, pred, reg, _block_rows(layout))
 
     def _new_state(self, layout: Layout) -> State | CoreState:
         return CoreState(layout) if self._settings.backend == "cpp" else State(layout)

@@ -26,6 +26,7 @@
 
 #include "accumulator.hpp"  // DYNVAL_VECTOR_CLONES, DYNVAL_RESTRICT
 #include "errors.hpp"
+#include "parallel.hpp"
 
 #include <Eigen/Core>
 
@@ -191,22 +192,40 @@ public:
     /// `block_rows()`, each block merged as the Python reference merges its blocks.
     template <class E, class T, class Y>
     void append(const Eigen::MatrixBase<E>& e, const Eigen::MatrixBase<T>& tau, const Eigen::MatrixBase<Y>& y) {
-        const Index c = e.rows();
         check_rows(e.rows(), e.cols(), tau.rows(), tau.cols(), y.rows(), y.cols(), true);
-        for (Index a = 0; a < c; a += block_rows()) {
-            const Index k = std::min(block_rows(), c - a);
-            merge_owned(from_block(layout_, e.middleRows(a, k), tau.middleRows(a, k), y.middleRows(a, k), true));
-        }
+        append_blocks(e.rows(), [&](Index a, Index k) {
+            return from_block(layout_, e.middleRows(a, k), tau.middleRows(a, k), y.middleRows(a, k), true);
+        });
     }
+    /// `append` of measured and predicted rows (c, m): the residual e = meas − pred is formed block
+    /// by block inside the state, so the caller holds no copy of the chunk (the Python facade's
+    /// path). `y` as in `append`; `has_y` false when p = 0 (then `y` is not read).
+    template <class A, class B, class Y>
+    void append_measured(const Eigen::MatrixBase<A>& meas, const Eigen::MatrixBase<B>& pred,
+                         const Eigen::MatrixBase<Y>& y, bool has_y) {
+        const Index c = meas.rows();
+        check_rows(c, meas.cols(), pred.rows(), pred.cols(), has_y ? y.rows() : c, has_y ? y.cols() : 0, has_y);
+        const Index m = layout_.m, mp = has_y ? m * layout_.p : 0;
+        append_blocks(c, [&](Index a, Index k) {
+            JointRows xe(m, k), xt(m, k), xy(mp, k);
+            for (Index i = 0; i < k; ++i)  // joint-major: each lagged product is then a contiguous dot product
+                for (Index j = 0; j < m; ++j) {
+                    const double t = meas(a + i, j);
+                    xt(j, i) = t;
+                    xe(j, i) = t - pred(a + i, j);
+                }
+            if (mp) xy = y.middleRows(a, k).transpose();
+            return from_joint_major(layout_, xe, xt, xy);
+        });
+    }
+
     /// `append` without a regressor (p = 0).
     template <class E, class T>
     void append(const Eigen::MatrixBase<E>& e, const Eigen::MatrixBase<T>& tau) {
-        const Index c = e.rows();
-        check_rows(e.rows(), e.cols(), tau.rows(), tau.cols(), c, 0, false);
-        for (Index a = 0; a < c; a += block_rows()) {
-            const Index k = std::min(block_rows(), c - a);
-            merge_owned(from_block(layout_, e.middleRows(a, k), tau.middleRows(a, k), e.middleRows(a, k), false));
-        }
+        check_rows(e.rows(), e.cols(), tau.rows(), tau.cols(), e.rows(), 0, false);
+        append_blocks(e.rows(), [&](Index a, Index k) {
+            return from_block(layout_, e.middleRows(a, k), tau.middleRows(a, k), e.middleRows(a, k), false);
+        });
     }
 
     /// Ends the current segment: no lagged product joins the rows before and after.
@@ -325,15 +344,67 @@ public:
     template <class E, class T, class Y>
     static stream_state from_block(const stream_layout& layout, const Eigen::MatrixBase<E>& e,
                                    const Eigen::MatrixBase<T>& tau, const Eigen::MatrixBase<Y>& y, bool has_y) {
+        JointRows xe = e.transpose(), xt = tau.transpose(), xy;
+        if (has_y && layout.p) xy = y.transpose();
+        return from_joint_major(layout, xe, xt, xy);
+    }
+
+private:
+    using JointRows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+    /// Merges block(a, k), the state of rows [a, a + k), for the blocks of `block_rows()` rows of
+    /// c rows, in order. With enough work the blocks of a batch are formed on the machine's
+    /// threads (each by one thread, as without threads) and then merged in order on this one, so
+    /// the state is the same bit for bit whatever the thread count.
+    template <class Block>
+    void append_blocks(Index c, Block&& block) {
+        const Index rows = block_rows(), blocks = (c + rows - 1) / rows;
+        const double per_row = static_cast<double>(layout_.m) *
+                               static_cast<double>(layout_.acf_lags + 4 + layout_.p * (layout_.xcorr_lags + 3));
+        const Index workers = detail::worker_count(blocks, static_cast<double>(c) * per_row);
+        if (workers == 1) {
+            for (Index b = 0; b < blocks; ++b) merge_owned(block(b * rows, std::min(rows, c - b * rows)));
+            return;
+        }
+        const Index batch = 4 * workers;  // bounds the states held at once
+        std::vector<stream_state> states;
+        for (Index first = 0; first < blocks; first += batch) {
+            const Index count = std::min(batch, blocks - first);
+            states.assign(static_cast<std::size_t>(count), stream_state(layout_));
+            detail::for_ranges(count, workers, [&](Index, Index b0, Index b1) {
+                for (Index b = b0; b < b1; ++b) {
+                    const Index a = (first + b) * rows;
+                    states[static_cast<std::size_t>(b)] = block(a, std::min(rows, c - a));
+                }
+            });
+            for (auto& st : states) merge_owned(std::move(st));
+        }
+    }
+
+    /// `from_block` of joint-major copies (m, c) of e and tau and (m·p, c) of the regressor (0 rows
+    /// without one), which it centres in place.
+    static stream_state from_joint_major(const stream_layout& layout, JointRows& xe, JointRows& xt, JointRows& xy) {
         stream_state st(layout);
-        const Index c = e.rows(), m = layout.m, p = has_y ? layout.p : 0, mp = m * p;
+        const Index c = xe.cols(), m = layout.m, mp = xy.rows(), p = mp ? layout.p : 0;
         if (c == 0) return st;
         const Index le = layout.acf_lags, lx = layout.xcorr_lags;
         st.n = c;
         st.lengths = {c};
-        using Rows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-        // Joint-major centred copies: each lagged product is then a dot product of two contiguous runs.
-        Rows xe = e.transpose();
+        // The raw boundary rows, before centring.
+        const Index kh = std::min(le, c);
+        st.head_e.resize(static_cast<std::size_t>(kh * m));
+        st.tail_e.resize(static_cast<std::size_t>(kh * m));
+        for (Index i = 0; i < kh; ++i)
+            for (Index j = 0; j < m; ++j) {
+                st.head_e[i * m + j] = xe(j, i);
+                st.tail_e[i * m + j] = xe(j, c - kh + i);
+            }
+        if (mp) {
+            const Index ky = std::min(lx, c);
+            st.tail_y.resize(static_cast<std::size_t>(ky * mp));
+            for (Index i = 0; i < ky; ++i)
+                for (Index q = 0; q < mp; ++q) st.tail_y[i * mp + q] = xy(q, c - ky + i);
+        }
         centre_rows(xe, st.k_e, st.min_e, st.max_e);
         const Index top = std::min(le, c - 1);
         for (Index j = 0; j < m; ++j) {
@@ -347,7 +418,6 @@ public:
                 for (Index k = i; k < m; ++k)
                     st.gram.hi[i * m + k] = st.gram.hi[k * m + i] =
                         detail::stream_dot(xe.row(i).data(), xe.row(k).data(), c);
-        Rows xt = tau.transpose();
         centre_rows(xt, st.k_t, st.min_t, st.max_t);
         for (Index j = 0; j < m; ++j) {
             const double* x = xt.row(j).data();
@@ -355,8 +425,7 @@ public:
             st.sq_t.hi[j] = detail::stream_dot(x, x, c);
         }
         if (mp) {
-            Rows xy = y.transpose();  // row j·p + c: joint j, column c
-            centre_rows(xy, st.k_y, st.min_y, st.max_y);
+            centre_rows(xy, st.k_y, st.min_y, st.max_y);  // row j·p + c: joint j, column c
             for (Index q = 0; q < mp; ++q) st.sq_y.hi[q] = detail::stream_dot(xy.row(q).data(), xy.row(q).data(), c);
             boundary_sums(xy, lx, nullptr, st.lag_y.hi.data(), false);
             const Index topx = std::min(lx, c - 1);
@@ -368,23 +437,10 @@ public:
                     for (Index l = 0; l <= topx; ++l) st.prod_ey.hi[l * mp + q] = detail::stream_dot(x + l, yq, c - l);
                 }
             }
-            const Index ky = std::min(lx, c);
-            st.tail_y.resize(static_cast<std::size_t>(ky * mp));
-            for (Index i = 0; i < ky; ++i)
-                for (Index q = 0; q < mp; ++q) st.tail_y[i * mp + q] = y(c - ky + i, q);
         }
-        const Index kh = std::min(le, c);
-        st.head_e.resize(static_cast<std::size_t>(kh * m));
-        st.tail_e.resize(static_cast<std::size_t>(kh * m));
-        for (Index i = 0; i < kh; ++i)
-            for (Index j = 0; j < m; ++j) {
-                st.head_e[i * m + j] = e(i, j);
-                st.tail_e[i * m + j] = e(c - kh + i, j);
-            }
         return st;
     }
 
-private:
     stream_layout layout_;
 
     void check_rows(Index re, Index ce, Index rt, Index ct, Index ry, Index cy, bool has_y) const {

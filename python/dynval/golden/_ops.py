@@ -172,13 +172,17 @@ def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
 
     meas, pred, reg = inputs["tau_meas"], inputs["tau_pred"], inputs.get("regressor")
     nan_policy = conventions.get("nan_policy", "raise")
-    # the in-memory operation's data checks, so that errors are those of the other families
-    dynval.criteria(meas, pred, n_params=0, nan_policy=nan_policy)
+    # The in-memory operation's data checks, so that errors are those of the other families.
+    # operations.json lists only "raise" for accumulate: "omit" is refused after the data, as the
+    # other ports refuse it, so that a refused policy does not hide a non-finite value.
+    data_policy = "raise" if nan_policy == "omit" else nan_policy
+    dynval.criteria(meas, pred, n_params=0, nan_policy=data_policy)
     meas2 = np.asarray(meas, dtype=float).reshape(len(meas), -1)
     pred2 = np.asarray(pred, dtype=float).reshape(len(pred), -1)
     if reg is not None:
-        dynval.cross_correlation(meas2 - pred2, reg, 0, nan_policy=nan_policy)
+        dynval.cross_correlation(meas2 - pred2, reg, 0, nan_policy=data_policy)
         reg = np.asarray(reg, dtype=float)
+    check_choice("nan_policy", nan_policy, ("raise",))
     n = meas2.shape[0]
     blocks = _blocks(n, conventions.get("chunks"))
     merge = check_choice("merge", conventions.get("merge", "none"), ("none", "left", "right", "tree"))
