@@ -32,6 +32,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <string>
@@ -54,23 +55,98 @@ DYNVAL_VECTOR_CLONES inline double stream_dot(const double* DYNVAL_RESTRICT a, c
     return (((part[0] + part[4]) + (part[1] + part[5])) + ((part[2] + part[6]) + (part[3] + part[7]))) + tail;
 }
 
-/// Minimum, maximum and sum of a run of values in one pass (eight lanes).
-DYNVAL_VECTOR_CLONES inline void stream_extremes(const double* DYNVAL_RESTRICT a, Index count, double& lo,
-                                                 double& hi, double& sum) {
-    double mn[8], mx[8], s[8] = {};
-    for (int l = 0; l < 8; ++l) {
-        mn[l] = std::numeric_limits<double>::infinity();
-        mx[l] = -std::numeric_limits<double>::infinity();
+/// The lagged products Σ_{t=l}^{c-1} x[t]·x[t−l] for the four lags l = l0..l0+3 at once: each
+/// loaded x[t] feeds four products (one dot product per lag loads two values per product), eight
+/// lanes per lag. `out` receives the four sums.
+DYNVAL_VECTOR_CLONES inline void stream_lag_tile(const double* DYNVAL_RESTRICT x, Index c, Index l0, double* out) {
+    const Index start = l0 + 3;  // every lag of the tile has its pair from here on
+    Index t_end = start;         // the products before t_end are in the lanes
+    double lanes[4] = {};
+#if defined(__GNUC__)
+    typedef double v4 __attribute__((vector_size(32)));
+    v4 acc[4][2] = {};
+    for (; t_end + 8 <= c; t_end += 8) {
+        v4 x0, x1;
+        std::memcpy(&x0, x + t_end, sizeof x0);
+        std::memcpy(&x1, x + t_end + 4, sizeof x1);
+        for (int k = 0; k < 4; ++k) {
+            v4 y0, y1;
+            std::memcpy(&y0, x + t_end - l0 - k, sizeof y0);
+            std::memcpy(&y1, x + t_end - l0 - k + 4, sizeof y1);
+            acc[k][0] += x0 * y0;
+            acc[k][1] += x1 * y1;
+        }
     }
+    for (int k = 0; k < 4; ++k) {
+        const v4 a = acc[k][0] + acc[k][1];
+        lanes[k] = (a[0] + a[2]) + (a[1] + a[3]);
+    }
+#endif
+    for (int k = 0; k < 4; ++k) {
+        double sum = lanes[k];
+        for (Index t = std::max(t_end, start); t < c; ++t) sum += x[t] * x[t - l0 - k];
+        for (Index t = l0 + k; t < std::min(start, c); ++t) sum += x[t] * x[t - l0 - k];
+        out[k] = sum;
+    }
+}
+
+/// Joint-major copies of k rows of m values (row strides sa, sp): t[j·k + i] = a[i·sa + j] and
+/// e[j·k + i] = a[i·sa + j] − p[i·sp + j].
+inline void residual_joint_major(const double* DYNVAL_RESTRICT a, Index sa, const double* DYNVAL_RESTRICT p, Index sp,
+                                 Index k, Index m, double* DYNVAL_RESTRICT e, double* DYNVAL_RESTRICT t) {
+    for (Index j = 0; j < m; ++j) {
+        double* tj = t + j * k;
+        double* ej = e + j * k;
+        for (Index i = 0; i < k; ++i) {
+            const double x = a[i * sa + j];
+            tj[i] = x;
+            ej[i] = x - p[i * sp + j];
+        }
+    }
+}
+
+/// Σ a[i] over eight independent lanes.
+DYNVAL_VECTOR_CLONES inline double stream_sum(const double* DYNVAL_RESTRICT a, Index count) {
+    double part[8] = {};
     const Index chunks = count / 8;
     for (Index c = 0; c < chunks; ++c)
-        for (int l = 0; l < 8; ++l) {
-            const double v = a[c * 8 + l];
-            mn[l] = v < mn[l] ? v : mn[l];
-            mx[l] = v > mx[l] ? v : mx[l];
-            s[l] += v;
+        for (int l = 0; l < 8; ++l) part[l] += a[c * 8 + l];
+    double tail = 0.0;
+    for (Index i = chunks * 8; i < count; ++i) tail += a[i];
+    return (((part[0] + part[4]) + (part[1] + part[5])) + ((part[2] + part[6]) + (part[3] + part[7]))) + tail;
+}
+
+/// Minimum, maximum and sum of a run of values in one pass (eight lanes, as vector types where
+/// the compiler has them: written as plain arrays the loop stays scalar).
+DYNVAL_VECTOR_CLONES inline void stream_extremes(const double* DYNVAL_RESTRICT a, Index count, double& lo,
+                                                 double& hi, double& sum) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    double mn[8], mx[8], s[8];
+    Index done = 0;
+#if defined(__GNUC__)
+    typedef double v4 __attribute__((vector_size(32)));
+    v4 vmn[2] = {v4{inf, inf, inf, inf}, v4{inf, inf, inf, inf}}, vmx[2] = {-vmn[0], -vmn[0]}, vs[2] = {};
+    for (; done + 8 <= count; done += 8)
+        for (int h = 0; h < 2; ++h) {
+            v4 v;
+            std::memcpy(&v, a + done + 4 * h, sizeof v);
+            vmn[h] = v < vmn[h] ? v : vmn[h];
+            vmx[h] = v > vmx[h] ? v : vmx[h];
+            vs[h] += v;
         }
-    for (Index i = chunks * 8; i < count; ++i) {
+    for (int l = 0; l < 8; ++l) {
+        mn[l] = vmn[l / 4][l % 4];
+        mx[l] = vmx[l / 4][l % 4];
+        s[l] = vs[l / 4][l % 4];
+    }
+#else
+    for (int l = 0; l < 8; ++l) {
+        mn[l] = inf;
+        mx[l] = -inf;
+        s[l] = 0.0;
+    }
+#endif
+    for (Index i = done; i < count; ++i) {
         mn[0] = a[i] < mn[0] ? a[i] : mn[0];
         mx[0] = a[i] > mx[0] ? a[i] : mx[0];
         s[0] += a[i];
@@ -207,13 +283,26 @@ public:
         check_rows(c, meas.cols(), pred.rows(), pred.cols(), has_y ? y.rows() : c, has_y ? y.cols() : 0, has_y);
         const Index m = layout_.m, mp = has_y ? m * layout_.p : 0;
         append_blocks(c, [&](Index a, Index k) {
+            // Joint-major copies: each lagged product is then a dot product of contiguous runs.
             JointRows xe(m, k), xt(m, k), xy(mp, k);
-            for (Index i = 0; i < k; ++i)  // joint-major: each lagged product is then a contiguous dot product
-                for (Index j = 0; j < m; ++j) {
-                    const double t = meas(a + i, j);
-                    xt(j, i) = t;
-                    xe(j, i) = t - pred(a + i, j);
+            constexpr bool rows_in_memory = (static_cast<int>(A::Flags) & Eigen::RowMajorBit) &&
+                                            (static_cast<int>(A::Flags) & Eigen::DirectAccessBit) &&
+                                            (static_cast<int>(B::Flags) & Eigen::RowMajorBit) &&
+                                            (static_cast<int>(B::Flags) & Eigen::DirectAccessBit);
+            if constexpr (rows_in_memory) {
+                if (meas.derived().innerStride() == 1 && pred.derived().innerStride() == 1) {
+                    detail::residual_joint_major(meas.derived().data() + a * meas.derived().outerStride(),
+                                                 meas.derived().outerStride(),
+                                                 pred.derived().data() + a * pred.derived().outerStride(),
+                                                 pred.derived().outerStride(), k, m, xe.data(), xt.data());
+                } else {
+                    xt = meas.middleRows(a, k).transpose();
+                    xe = xt - pred.middleRows(a, k).transpose();
                 }
+            } else {
+                xt = meas.middleRows(a, k).transpose();
+                xe = xt - pred.middleRows(a, k).transpose();
+            }
             if (mp) xy = y.middleRows(a, k).transpose();
             return from_joint_major(layout_, xe, xt, xy);
         });
@@ -409,7 +498,12 @@ private:
         const Index top = std::min(le, c - 1);
         for (Index j = 0; j < m; ++j) {
             const double* x = xe.row(j).data();
-            for (Index l = 0; l <= top; ++l) st.prod_e.hi[l * m + j] = detail::stream_dot(x + l, x, c - l);
+            Index l = 0;
+            for (double tile[4]; l + 3 <= top; l += 4) {
+                detail::stream_lag_tile(x, c, l, tile);
+                for (int k = 0; k < 4; ++k) st.prod_e.hi[(l + k) * m + j] = tile[k];
+            }
+            for (; l <= top; ++l) st.prod_e.hi[l * m + j] = detail::stream_dot(x + l, x, c - l);
         }
         boundary_sums(xe, le, st.cur_e.hi.data(), st.lag_e.hi.data(), true);
         for (Index l = 0; l <= le; ++l) st.pairs[l] = std::max<long long>(c - l, 0);
@@ -524,26 +618,22 @@ private:
         const Index le = layout_.acf_lags, lx = layout_.xcorr_lags, m = layout_.m, p = layout_.p, mp = m * p;
         if (le == 0) return;
         const Index n_head = static_cast<Index>(b.head_e.size()) / m, n_tail = static_cast<Index>(tail_e.size()) / m;
-        std::vector<double> prod(m), cur(m), lag(m);
+        // Centred joint-major copies of b's first rows and this state's last rows: each lag's
+        // junction products and sums are then runs of contiguous values (L²/2 pairs per joint).
+        std::vector<double> h(static_cast<std::size_t>(m * n_head)), g(static_cast<std::size_t>(m * n_tail));
+        for (Index j = 0; j < m; ++j) {
+            for (Index i = 0; i < n_head; ++i) h[j * n_head + i] = b.head_e[i * m + j] - k_e[j];
+            for (Index t = 0; t < n_tail; ++t) g[j * n_tail + t] = tail_e[t * m + j] - k_e[j];
+        }
         for (Index l = 1; l <= le; ++l) {
             const Index i0 = std::max<Index>(0, l - n_tail), i1 = std::min(l, n_head);
             if (i0 >= i1) continue;
-            std::fill(prod.begin(), prod.end(), 0.0);
-            std::fill(cur.begin(), cur.end(), 0.0);
-            std::fill(lag.begin(), lag.end(), 0.0);
-            for (Index i = i0; i < i1; ++i) {
-                const Index t = n_tail - l + i;
-                for (Index j = 0; j < m; ++j) {
-                    const double h = b.head_e[i * m + j] - k_e[j], g = tail_e[t * m + j] - k_e[j];
-                    prod[j] += h * g;
-                    cur[j] += h;
-                    lag[j] += g;
-                }
-            }
             for (Index j = 0; j < m; ++j) {
-                prod_e.add(l * m + j, prod[j]);
-                cur_e.add(l * m + j, cur[j]);
-                lag_e.add(l * m + j, lag[j]);
+                const double* hj = h.data() + j * n_head + i0;  // current elements, rows i0..i1 of b
+                const double* gj = g.data() + j * n_tail + (n_tail - l + i0);  // their lagged partners
+                prod_e.add(l * m + j, detail::stream_dot(hj, gj, i1 - i0));
+                cur_e.add(l * m + j, detail::stream_sum(hj, i1 - i0));
+                lag_e.add(l * m + j, detail::stream_sum(gj, i1 - i0));
             }
             pairs[l] += i1 - i0;
         }
