@@ -70,8 +70,12 @@ layout[m_, p_, lags_, gram_] := layout[m, p, lags, gram] = With[
 flatSums[parts_List] := Join @@ (Flatten /@ parts);
 
 (* One part of the flat values v of the state s: a vector, or a matrix of rows of L + 1 (or m) values. *)
-sumsPart[s_, v_, name_] := With[{span = layout[s["m"], s["p"], s["lags"], s["gram"]][name]}, v[[span[[1]] ;; span[[2]]]]];
-lagMatrix[s_, v_, name_] := Partition[sumsPart[s, v, name], s["lags"] + 1];
+(* Arguments that hold lists or associations are bound to local variables first: Mathics3 puts an
+   argument into every place of the body where its pattern variable appears and evaluates each copy
+   again, which for a state costs milliseconds per place (and per iteration of a loop). *)
+sumsPart[sIn_, vIn_, name_] := Module[{s = sIn, v = vIn, span},
+  span = layout[s["m"], s["p"], s["lags"], s["gram"]][name]; v[[span[[1]] ;; span[[2]]]]];
+lagMatrix[sIn_, vIn_, name_] := Module[{s = sIn}, Partition[sumsPart[s, vIn, name], s["lags"] + 1]];
 
 (* ------------------------------------------------------------------ one block *)
 
@@ -111,69 +115,87 @@ streamBlock[p_, lags_, gram_, eIn_, tIn_, yIn_] := Module[
 
 (* ------------------------------------------------------------------ merging two states *)
 
-meansOf[s_] := With[{v = val[s["sums"]], n = s["n"]},
-  {s["k_e"] + lagMatrix[s, v, "cur_e"][[All, 1]]/n, s["k_t"] + sumsPart[s, v, "sum_t"]/n,
-   If[s["p"] > 0, s["k_y"] + lagMatrix[s, v, "lag_y"][[All, 1]]/n, {}]}];
+(* Index vectors of a layout, remembered per shape: for the flat m (L+1) lagged parts the joint
+   and the lag of each entry, for the m p (L+1) regressor parts the column, the lag and the entry of
+   the column's joint in cur_e; the entries of lag 0. *)
+lagIndex[m_, p_, lags_] := lagIndex[m, p, lags] = With[{k = lags + 1},
+  <|"joint" -> Flatten[Table[ConstantArray[j, k], {j, m}]], "lag" -> Flatten[ConstantArray[Range[k], m]],
+    "lag0" -> Range[1, m k, k],
+    "column" -> Flatten[Table[ConstantArray[j, k], {j, m p}]], "lagY" -> Flatten[ConstantArray[Range[k], m p]],
+    "curOfY" -> Flatten[Table[(jointIndex[m, p][[j]] - 1) k + Range[k], {j, m p}]], "lag0Y" -> Range[1, m p k, k]|>];
 
-(* Moves every sum to new centres: x - K' = (x - K) - d, so Sum (x_t - K')(y_(t-l) - K'') =
-   P - d_y H - d_x T + n_l d_x d_y, every correction taken from the sums before any of them moves. *)
-recentre[sIn_, ke_, kt_, ky_] := Module[{s = sIn, v, n, nl, d, cur, lag, c0, joint, dy, ly, dj, dt, st, shift},
+(* The flat values of the parts of a state, from one evaluation of hi + lo. *)
+spanOf[s_, name_] := layout[s["m"], s["p"], s["lags"], s["gram"]][name];
+piece[v_, {a_, b_}] := v[[a ;; b]];
+
+meansOf[sIn_] := Module[{s = sIn, v, n, ix},
+  v = val[s["sums"]]; n = s["n"]; ix = lagIndex[s["m"], s["p"], s["lags"]];
+  {s["k_e"] + piece[v, spanOf[s, "cur_e"]][[ix["lag0"]]]/n, s["k_t"] + piece[v, spanOf[s, "sum_t"]]/n,
+   If[s["p"] > 0, s["k_y"] + piece[v, spanOf[s, "lag_y"]][[ix["lag0Y"]]]/n, {}]}];
+
+(* What moves every sum of s to new centres: x - K' = (x - K) - d, so Sum (x_t - K')(y_(t-l) - K'')
+   = P - d_y H - d_x T + n_l d_x d_y, every correction taken from the sums before any of them moves.
+   Flat vectors throughout: d and n_l are spread over the entries by index vectors. *)
+recentreDelta[sIn_, ke_, kt_, ky_] := Module[{s = sIn, v, n, nl, ix, d, dR, dn, cur, lag, c0, dy, dyR, djR, dyn, ly, dt, st},
   v = val[s["sums"]];
-  n = s["n"]; nl = s["pairs"];
+  n = s["n"]; nl = s["pairs"]; ix = lagIndex[s["m"], s["p"], s["lags"]];
   d = ke - s["k_e"]; dt = kt - s["k_t"];
-  cur = lagMatrix[s, v, "cur_e"]; lag = lagMatrix[s, v, "lag_e"];
-  c0 = cur[[All, 1]];
-  st = sumsPart[s, v, "sum_t"];
-  shift = -outer[d, nl];
+  dR = d[[ix["joint"]]]; dn = dR nl[[ix["lag"]]];
+  cur = piece[v, spanOf[s, "cur_e"]]; lag = piece[v, spanOf[s, "lag_e"]];
+  st = piece[v, spanOf[s, "sum_t"]];
   If[s["p"] > 0,
-    joint = jointIndex[s["m"], s["p"]];
-    dy = ky - s["k_y"]; ly = lagMatrix[s, v, "lag_y"]; dj = d[[joint]]];
-  put[s, "sums", compAdd[s["sums"], flatSums[{
-    -d (cur + lag) + outer[d^2, nl], shift, shift,
-    If[s["gram"], -(outer[d, c0] + outer[c0, d]) + n outer[d, d], {}],
-    -n dt, -2. dt st + n dt^2,
-    If[s["p"] > 0, -2. dy ly[[All, 1]] + n dy^2, {}],
-    If[s["p"] > 0, -outer[dy, nl], {}],
-    If[s["p"] > 0, -dy cur[[joint]] - dj ly + outer[dj dy, nl], {}]}]]];
-  put[s, "k_e", ke]; put[s, "k_t", kt]; put[s, "k_y", ky];
-  s];
+    dy = ky - s["k_y"]; dyR = dy[[ix["column"]]]; djR = d[[jointIndex[s["m"], s["p"]]]][[ix["column"]]];
+    dyn = dyR nl[[ix["lagY"]]];
+    ly = piece[v, spanOf[s, "lag_y"]]];
+  c0 = cur[[ix["lag0"]]];
+  Join[
+      dR (dn - cur - lag), -dn, -dn,
+      If[s["gram"], Flatten[-(outer[d, c0] + outer[c0, d]) + n outer[d, d]], {}],
+      -n dt, dt (n dt - 2. st),
+      If[s["p"] > 0, dy (n dy - 2. ly[[ix["lag0Y"]]]), {}],
+      If[s["p"] > 0, -dyn, {}],
+      If[s["p"] > 0, djR (dyn - ly) - dyR cur[[ix["curOfY"]]], {}]]];
 
-(* The lagged products across the junction: lag l pairs b's head row i (0-based, i < l) with a's
-   tail row tailRows - l + i. Both states are centred on the same K already. *)
-addJunction[aIn_, b_] := Module[{a = aIn, lags, m, p, joint, tailRows, headRows, zero, zeroY, prod, cur, lag, py, sy,
-    counts, i, t, h, g, gy},
-  lags = a["lags"]; m = a["m"]; p = a["p"];
-  joint = jointIndex[m, p];
-  tailRows = Length[First[a["tail_e"]]]; headRows = Length[First[b["head_e"]]];
-  zero = ConstantArray[0., m]; zeroY = ConstantArray[0., m p];
-  {prod, cur, lag, py, sy} = {{zero}, {zero}, {zero}, {zeroY}, {zeroY}};
-  counts = {0};
+(* The pairs across a junction of a's last tailRows rows and b's first headRows rows, remembered
+   per shape: lag l pairs b's head row i (0-based, i < l) with a's tail row tailRows - l + i. Gives
+   the head and tail columns of every pair (1-based), and per lag 0..L the first pair and the count. *)
+junctionIndex[tailRows_, headRows_, lags_] := junctionIndex[tailRows, headRows, lags] = Module[
+  {heads = {}, tails = {}, groups = {{1, 0}}, i},
   Do[
     i = Range[Max[0, l - tailRows], Min[l, headRows] - 1];
-    If[i === {},
-      prod = Append[prod, zero]; cur = Append[cur, zero]; lag = Append[lag, zero];
-      py = Append[py, zeroY]; sy = Append[sy, zeroY],
-      t = tailRows - l + i;
-      h = b["head_e"][[All, i + 1]] - a["k_e"];
-      g = a["tail_e"][[All, t + 1]] - a["k_e"];
-      prod = Append[prod, Total /@ (h g)]; cur = Append[cur, Total /@ h]; lag = Append[lag, Total /@ g];
-      If[p > 0,
-        gy = a["tail_y"][[All, t + 1]] - a["k_y"];
-        py = Append[py, Total /@ (h[[joint]] gy)]; sy = Append[sy, Total /@ gy]]];
-    counts = Append[counts, Length[i]],
+    groups = Append[groups, {Length[heads] + 1, Length[i]}];
+    heads = Join[heads, i + 1]; tails = Join[tails, tailRows - l + i + 1],
     {l, 1, lags}];
-  put[a, "sums", compAdd[a["sums"], flatSums[{transpose[prod], transpose[cur], transpose[lag],
-    If[a["gram"], ConstantArray[0., m m], {}], zero, zero,
-    If[p > 0, zeroY, {}], If[p > 0, transpose[sy], {}], If[p > 0, transpose[py], {}]}]]];
-  put[a, "pairs", a["pairs"] + counts];
-  a];
+  {heads, tails, groups}];
+
+(* Per row of x (joint or column), the sums over the pairs of each lag: rows of L + 1 values (one
+   Total over the rows per lag). *)
+groupSums[x_, groups_] := transpose[Table[If[g[[2]] == 0, ConstantArray[0., Length[x]],
+  Total /@ x[[All, g[[1]] ;; g[[1]] + g[[2]] - 1]]], {g, groups}]];
+
+(* The lagged products across the junction, of rows centred on the common K of both states (in a's
+   k_e, k_y): {the flat sums, the pair counts per lag}. *)
+junctionDelta[aIn_, bIn_] := Module[{a = aIn, b = bIn, m, p, heads, tails, groups, h, g, gy, sums, zero},
+  m = a["m"]; p = a["p"];
+  {heads, tails, groups} = junctionIndex[Length[First[a["tail_e"]]], Length[First[b["head_e"]]], a["lags"]];
+  If[heads === {}, {0., 0 a["pairs"]},
+    h = (b["head_e"] - a["k_e"])[[All, heads]];
+    g = (a["tail_e"] - a["k_e"])[[All, tails]];
+    zero = ConstantArray[0., m];
+    If[p > 0,
+      gy = (a["tail_y"] - a["k_y"])[[All, tails]];
+      sums = groupSums[Join[h g, h, g, gy, h[[jointIndex[m, p]]] gy], groups],
+      sums = groupSums[Join[h g, h, g], groups]];
+    {Join[Flatten[sums[[1 ;; 3 m]]], If[a["gram"], ConstantArray[0., m m], {}], zero, zero,
+       If[p > 0, Join[ConstantArray[0., m p], Flatten[sums[[3 m + 1 ;; 3 m + m p]]], Flatten[sums[[3 m + m p + 1 ;;]]]], {}]],
+     Last /@ groups}]];
 
 (* Columns side by side: {m x k, m x l} -> m x (k + l). *)
 joinColumns[x_, y_] := MapThread[Join, {x, y}];
 
 (* The first L rows of the first record, the last L rows of the last one and the record lengths
    of the concatenation. *)
-joinBoundaries[aIn_, b_, join_] := Module[{a = aIn, lags, singleA, singleB, headRows, extra, fromA, tailRows, joined},
+joinBoundaries[aIn_, bIn_, join_] := Module[{a = aIn, b = bIn, lags, singleA, singleB, headRows, extra, fromA, tailRows, joined},
   lags = a["lags"];
   singleA = a["segments"] == 1; singleB = b["segments"] == 1;
   headRows = Length[First[a["head_e"]]];
@@ -200,16 +222,20 @@ joinBoundaries[aIn_, b_, join_] := Module[{a = aIn, lags, singleA, singleB, head
   a];
 
 (* The state of a's rows followed by b's: both moved to their combined mean (Chan's pairwise
-   update), the junction's products added unless a segment break lies there, then the sums added. *)
-streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, join},
+   update), the junction's products added unless a segment break lies there, and b's sums added.
+   The running sums take one compensated addition per merge: the corrections that move a and b,
+   the junction's products and b's sums are added together first, and b's own compensation term is
+   carried over (each compensated step costs Mathics3 seven whole-vector operations). *)
+streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, ke, kt, ky, join, delta, junction},
   w = b["n"]/(a["n"] + b["n"]);
   {ea, ta, ya} = meansOf[a]; {eb, tb, yb} = meansOf[b];
-  a = recentre[a, ea + w (eb - ea), ta + w (tb - ta), ya + w (yb - ya)];
-  b = recentre[b, a["k_e"], a["k_t"], a["k_y"]];
+  {ke, kt, ky} = {ea + w (eb - ea), ta + w (tb - ta), ya + w (yb - ya)};
+  delta = recentreDelta[a, ke, kt, ky] + recentreDelta[b, ke, kt, ky] + b["sums"][[1]];
+  a = Join[a, <|"k_e" -> ke, "k_t" -> kt, "k_y" -> ky|>];
   join = ! (a["end_break"] || b["start_break"]);
-  If[join, a = addJunction[a, b]];
-  put[a, "sums", compAdd[a["sums"], b["sums"]]];
-  put[a, "pairs", a["pairs"] + b["pairs"]];
+  junction = If[join, junctionDelta[a, b], {0., 0 a["pairs"]}];
+  put[a, "sums", compAdd[a["sums"], comp[delta + junction[[1]], b["sums"][[2]]]]];
+  put[a, "pairs", a["pairs"] + b["pairs"] + junction[[2]]];
   put[a, "n", a["n"] + b["n"]];
   Scan[Function[x,
     put[a, "min_" <> x, MapThread[Min, {a["min_" <> x], b["min_" <> x]}]];
@@ -220,10 +246,11 @@ streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, 
 
 (* Every sum is moved to the overall mean first (means are overall, lags stay inside records),
    then the in-memory definitions apply, with the same degenerate values. *)
-streamMetrics[s_, maxLag_, nParams_, noiseModel_] := Module[
-  {m = s["m"], p = s["p"], n = s["n"], v, nl, cur, lag, prod, a, meanE, eConstant, cov, ssc, sumT, sqT, tConstant, tss,
+streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
+  {s = sIn, m, p, n, v, nl, cur, lag, prod, a, meanE, eConstant, cov, ssc, sumT, sqT, tConstant, tss,
    sse, acf, out, joint, lagY, prodEY, sqY, b, yConstant, ssY, aj, c0, rho, dead,
    f, nObs, nVec, size, total, logSize, g, c, sigma, eig},
+  {m, p, n} = {s["m"], s["p"], s["n"]};
   v = val[s["sums"]];
   nl = s["pairs"][[1 ;; maxLag + 1]];
   cur = lagMatrix[s, v, "cur_e"][[All, 1 ;; maxLag + 1]];
@@ -298,7 +325,8 @@ accumulatorSamples[acc_ValidationAccumulator] := With[{s = accState[acc]["sums"]
 
 (* Rows already checked, joint-major: e and t m x c, y m p x c ({} without a regressor). Each call
    is one block of sums, merged at once: nothing is kept of the rows but the first and last L. *)
-addRows[acc_, e_, t_, y_] := Module[{s = accState[acc], block, c = Length[First[e]]},
+addRows[acc_, eIn_, tIn_, yIn_] := Module[{s = accState[acc], e = eIn, t = tIn, y = yIn, block, c},
+  c = Length[First[e]];
   put[s, "chunks", s["chunks"] + 1];
   If[c > 0,
     If[s["m"] === None, put[s, "m", Length[e]]; put[s, "p", If[y === {}, 0, Length[y]/Length[e]]]];
@@ -365,7 +393,7 @@ accumulatorMerge[acc_ValidationAccumulator, later_ValidationAccumulator] := guar
   ValidationAccumulator[s]];
 
 accumulatorResult[acc_ValidationAccumulator] := guard @ Module[{s = accState[acc], n},
-  n = accumulatorSamples[acc];
+  n = If[s["sums"] === None, 0, s["sums"]["n"]];
   If[n < 2, fail["TooFewSamples", "ValidationAccumulator.result needs at least 2 samples, got N=" <> ToString[n]]];
   checkIntRange["max_lag", s["max_lag"], 0, s["sums"]["longest"], "an integer with 0 <= max_lag < " <> ToString[s["sums"]["longest"]]];
   streamMetrics[s["sums"], s["max_lag"], s["n_params"], s["noise_model"]]];
@@ -378,7 +406,7 @@ blockEnds[chunks_, n_] := If[ListQ[chunks] && chunks =!= {} && AllTrue[chunks, i
 
 (* Rows lo+1..hi to one accumulator, split where a record starts inside the block with a break
    between the parts; a record starting at the block's first row is a break before it. *)
-feedBlock[accIn_, cols_, lo_, hi_, recordStarts_] := Module[{acc = accIn, cuts, from = lo},
+feedBlock[accIn_, colsIn_, lo_, hi_, recordStarts_] := Module[{acc = accIn, cols = colsIn, cuts, from = lo},
   If[MemberQ[recordStarts, lo], acc = accumulatorBreak[acc]];
   cuts = Append[Select[recordStarts, lo < # < hi &], hi];
   Do[
@@ -389,15 +417,16 @@ feedBlock[accIn_, cols_, lo_, hi_, recordStarts_] := Module[{acc = accIn, cuts, 
   acc];
 
 (* One accumulator from the blocks' own in the order merge names (a + b is accumulatorMerge[a, b]). *)
-combine[parts_, order_] := Switch[order,
+combine[partsIn_, order_] := Module[{parts = partsIn}, Switch[order,
   "none" | "left", Fold[accumulatorMerge, First[parts], Rest[parts]],
   "right", Fold[accumulatorMerge[#2, #1] &, Last[parts], Reverse[Most[parts]]],
   _, NestWhile[Function[level, If[Length[level] == 1, level,
-      Join[accumulatorMerge @@@ Partition[level, 2], If[OddQ[Length[level]], {Last[level]}, {}]]]], parts, Length[#] > 1 &][[1]]];
+      Join[accumulatorMerge @@@ Partition[level, 2], If[OddQ[Length[level]], {Last[level]}, {}]]]], parts, Length[#] > 1 &][[1]]]];
 
-streamAccumulate[meas_, pred_, regressor_, nParams_, maxLag_, opts : OptionsPattern[]] := guard @ Module[
-  {o, a, b, da, db, yDims, hasY = regressor =!= None, n, m, p = 0, y = {}, bad, ends, order, starts, lag, model,
+streamAccumulate[measIn_, predIn_, regressorIn_, nParams_, maxLag_, opts : OptionsPattern[]] := guard @ Module[
+  {meas = measIn, pred = predIn, regressor = regressorIn, hasY, o, a, b, da, db, yDims, n, m, p = 0, y = {}, bad, ends, order, starts, lag, model,
    recordStarts, empty, parts = {}, lo = 0, cols},
+  hasY = regressor =!= None;
   o = optionValues[{opts}, {"chunks" -> None, "merge" -> "none", "segments" -> None, "noise_model" -> "pooled", "nan_policy" -> "raise"}];
   (* the data checks of criteria and cross_correlation, in the protocol's order; "omit" is refused
      after them: a refused policy must not hide a non-finite value *)
