@@ -13,9 +13,11 @@
    offset costs no digits, and carried as a compensated pair comp[hi, lo] (TwoSum), so that many
    small chunks sum as accurately as one block.
 
-   Arrays are joint-major: a signal is m lists of c values, a lagged sum m lists of L + 1 values
-   (the regressor m p lists, column j p + k for joint j, column k). A block's sums cost
-   (L + 1) c m products, as whole-list Times and Total per lag and column. *)
+   Rows arrive joint-major: a signal is m lists of c values (the regressor m p lists, column
+   j p + k for joint j, column k). The compensated sums of a state are one flat vector (layout
+   below), so that a merge is a few whole-vector steps: Mathics3 spends its time per step and per
+   element. A block's sums cost (L + 1) c m products, as whole-list Times and Total per lag and
+   column; a merge costs O(L m p + m^2 + L^2 m p), independent of the rows. *)
 
 BeginPackage["DynVal`"];
 
