@@ -738,3 +738,7 @@ residualAutocorrelation[e_List, L_Integer] := Module[{n, e0, r0},
 
 End[];
 EndPackage[];
+
+(* The streaming accumulator (contract 4.1) and the protocol operation accumulate, in Stream.wl
+   next to this file. *)
+Get[FileNameJoin[{DirectoryName[$InputFileName], "Stream.wl"}]];

@@ -210,11 +210,13 @@ $fields = <|
   "box_pierce" -> {"lags", "statistic", "pvalue", "log_pvalue", "df"},
   "cross_correlation" -> {"rho", "constant_mask", "band"},
   "information_criteria" -> {"aic", "bic", "aicc", "fpe", "naic"},
-  "criteria" -> {"aic", "bic", "aicc", "fpe", "naic", "n_obs"}|>;
+  "criteria" -> {"aic", "bic", "aicc", "fpe", "naic", "n_obs"},
+  "accumulate" -> {"sse", "rmse", "max_abs_error", "vaf", "fit_percent", "r2", "residual_mean", "residual_variance",
+    "autocorrelation", "rho", "aic", "bic", "aicc", "fpe", "naic"}|>;
 
 $operations = {"residuals", "sse", "rmse", "max_abs_error", "vaf", "fit_percent", "r2", "residual_mean",
   "residual_variance", "zero_mean_test", "autocorrelation", "confidence_band", "ljung_box", "box_pierce",
-  "cross_correlation", "information_criteria", "criteria", "aic", "bic"};
+  "cross_correlation", "information_criteria", "criteria", "aic", "bic", "accumulate"};
 
 (* A value of an Association, or a default: Mathics3 has no Lookup or KeyExistsQ, and
    MemberQ[Keys[a], k] costs some milliseconds there. *)
@@ -246,6 +248,8 @@ compute[op_, c_, inputs_] := Module[{i = inputs, o = Sequence @@ Normal[c]}, Swi
   "criteria", DynVal`criteria[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
   "aic", DynVal`aic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
   "bic", DynVal`bic[in[i, "tau_meas"], in[i, "tau_pred"], "n_params" -> in[i, "n_params"], o],
+  "accumulate", DynVal`streamAccumulate[in[i, "tau_meas"], in[i, "tau_pred"], in[i, "regressor"], in[i, "n_params"],
+    in[i, "max_lag"], o],
   _, DynVal`DynValError["InternalError", "unknown operation " <> op]]];
 
 answerCase[op_, conventions_, inputs_] := Module[{out = compute[op, conventions, inputs], fields = valueOr[$fields, op, None]},

@@ -185,6 +185,88 @@ check["zero-mean t of data near 1e-163", DynVal`zeroMeanTest[tiny (pair2 - pred2
 check["full noise model of data near 1e81", DynVal`aic[huge pair2, huge pred2, "n_params" -> 2, "noise_model" -> "full"],
   DynVal`aic[pair2, pred2, "n_params" -> 2, "noise_model" -> "full"] + 6 2 270 2 Log[2.], rel[1.*^-13]];
 
+(* ---- streaming accumulator (contract 4.1): every output equals the in-memory functions on the
+   whole series, whatever the blocks, the merge order and the breaks; its state does not grow *)
+(* one top-level evaluation of many merges would reach Mathics3's iteration count (Protocol.wl, serve) *)
+$IterationLimit = 2^63 - 1;
+streamData[n_, offset_] := {
+  Table[offset + {5. Sin[0.3 k] + k/20., 3. Cos[0.17 k] - 2.}, {k, n}],
+  Table[offset + {5. Sin[0.3 k] + k/20., 3. Cos[0.17 k] - 2.} + {0.4 Sin[1.3 k] + 0.05, 0.3 Cos[2.9 k + 1.] - 0.1 Sin[0.5 k]}, {k, n}],
+  Table[{{Sin[0.2 k], Cos[0.11 k]^2}, {k/N[n], 1. + Sin[0.7 k]}}, {k, n}]};
+inMemory[t_, y_, yReg_, maxLag_, nParams_, model_, segments_] := Module[{raw = "multioutput" -> "raw_values", c},
+  c = DynVal`criteria[t, y, "n_params" -> nParams, "noise_model" -> model];
+  Join[<|"sse" -> DynVal`sse[t, y, raw], "rmse" -> DynVal`rmse[t, y, raw], "max_abs_error" -> DynVal`maxAbsError[t, y, raw],
+    "vaf" -> DynVal`vaf[t, y, raw]/100., "fit_percent" -> DynVal`fitPercent[t, y, raw]/100., "r2" -> DynVal`r2[t, y, raw],
+    "residual_mean" -> DynVal`residualMean[t - y], "residual_variance" -> DynVal`residualVariance[t - y],
+    "autocorrelation" -> DynVal`autocorrelation[t - y, maxLag, "segments" -> segments],
+    "aic" -> c["aic"], "bic" -> c["bic"], "aicc" -> c["aicc"], "fpe" -> c["fpe"], "naic" -> c["naic"]|>,
+    If[yReg === None, <||>, <|"rho" -> DynVal`crossCorrelation[t - y, yReg, maxLag, "segments" -> segments]["rho"]|>]]];
+(* the stream's outputs (percentages as fractions) in the order of the in-memory ones *)
+streamed[r_, want_] := If[Head[r] === DynVal`DynValError, r,
+  Association @@ ((# -> If[MemberQ[{"vaf", "fit_percent"}, #], r[#]/100., r[#]]) & /@ Keys[want])];
+streamCase[{t_, y_, yReg_}, maxLag_, nParams_, chunks_, order_, segments_, model_] :=
+  DynVal`streamAccumulate[t, y, yReg, nParams, maxLag, "chunks" -> chunks, "merge" -> order, "segments" -> segments,
+    "noise_model" -> model];
+sameAs[tol_][a_, b_] := Keys[a] === Keys[b] && And @@ (near[tol][a[#], b[#]] & /@ Keys[b]);
+sd = streamData[30, 0.];
+wantPlain = inMemory[sd[[1]], sd[[2]], sd[[3]], 4, 3, "pooled", None];
+(* random chunkings (a fixed seed): one block, one-row blocks, blocks shorter than max_lag = 4 *)
+SeedRandom[20261127];
+randomChunks[n_] := Module[{left = n, out = {}, c}, While[left > 0, c = Min[left, RandomInteger[{1, 9}]]; out = Append[out, c]; left -= c]; out];
+Do[With[{chunks = randomChunks[30]},
+  check["stream: random chunking " <> ToString[chunks], streamed[streamCase[sd, 4, 3, chunks, "none", None, "pooled"], wantPlain],
+    wantPlain, sameAs[1.*^-12]]], {3}];
+check["stream: one block", streamed[streamCase[sd, 4, 3, {30}, "none", None, "pooled"], wantPlain], wantPlain, sameAs[1.*^-12]];
+check["stream: one-row blocks, tree", streamed[streamCase[sd, 4, 3, ConstantArray[1, 30], "tree", None, "pooled"], wantPlain],
+  wantPlain, sameAs[1.*^-12]];
+(* the four merge orders, with records starting at a junction (12) and inside a block (21) *)
+wantSeg = inMemory[sd[[1]], sd[[2]], sd[[3]], 3, 3, "per_joint", {12, 9, 9}];
+Scan[check["stream: merge " <> # <> ", breaks at a junction and inside a block",
+    streamed[streamCase[sd, 3, 3, {5, 7, 3, 2, 4, 9}, #, {0, 12, 21}, "per_joint"], wantSeg], wantSeg, sameAs[1.*^-12]] &,
+  {"none", "left", "right", "tree"}];
+wantFull = inMemory[sd[[1]], sd[[2]], None, 3, 3, "full", {12, 18}];
+check["stream: full noise model, break at a junction, no regressor",
+  streamed[streamCase[{sd[[1]], sd[[2]], None}, 3, 3, {4, 8, 3, 15}, "left", {12, 18}, "full"], wantFull], wantFull, sameAs[1.*^-12]];
+(* the accumulator itself: a break at a merge junction is the same as the segments *)
+accA = DynVal`validationAccumulator[3, 3, "noise_model" -> "per_joint"];
+accA = DynVal`accumulatorUpdate[accA, sd[[1, 1 ;; 7]], sd[[2, 1 ;; 7]], sd[[3, 1 ;; 7]]];
+accA = DynVal`accumulatorUpdate[accA, sd[[1, 8 ;; 12]], sd[[2, 8 ;; 12]], sd[[3, 8 ;; 12]]];
+accB = DynVal`accumulatorUpdate[DynVal`accumulatorBreak[DynVal`validationAccumulator[3, 3, "noise_model" -> "per_joint"]],
+  sd[[1, 13 ;; 21]], sd[[2, 13 ;; 21]], sd[[3, 13 ;; 21]]];
+accB = DynVal`accumulatorUpdate[DynVal`accumulatorBreak[accB], sd[[1, 22 ;; 30]], sd[[2, 22 ;; 30]], sd[[3, 22 ;; 30]]];
+check["stream: accumulatorBreak at a merge junction and between chunks",
+  streamed[DynVal`accumulatorResult[DynVal`accumulatorMerge[accA, accB]], wantSeg], wantSeg, sameAs[1.*^-12]];
+check["stream: samples", DynVal`accumulatorSamples[DynVal`accumulatorMerge[accA, accB]], 30];
+(* torques about 1e7 with a spread of a few units: the sums stay centred *)
+sdBig = streamData[30, 1.*^7];
+wantBig = inMemory[sdBig[[1]], sdBig[[2]], None, 3, 3, "pooled", None];
+check["stream: large offset", streamed[streamCase[{sdBig[[1]], sdBig[[2]], None}, 3, 3, {13, 1, 9, 7}, "right", None, "pooled"], wantBig],
+  wantBig, sameAs[1.*^-9]];
+(* the state after 300 rows is as large as after 30 *)
+sdLong = streamData[300, 0.];
+feedAll[n_] := Fold[DynVal`accumulatorUpdate[#1, sdLong[[1, #2]], sdLong[[2, #2]], sdLong[[3, #2]]] &,
+  DynVal`validationAccumulator[3, 4], Span @@@ Partition[Range[n], 10][[All, {1, -1}]]];
+check["stream: state size independent of N", LeafCount[feedAll[300]] - LeafCount[feedAll[30]], 0];
+(* errors, in the protocol's order *)
+check["stream: omit refused", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> {30}, "nan_policy" -> "omit"]],
+  "InvalidParameter"];
+check["stream: omit with a NaN is NonFiniteInput", kindOf[DynVal`streamAccumulate[ReplacePart[sd[[1]], {5, 2} -> Indeterminate], sd[[2]],
+  None, 3, 3, "chunks" -> {30}, "nan_policy" -> "omit"]], "NonFiniteInput"];
+check["stream: chunks not summing to N", DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> {10, 19}],
+  DynVal`DynValError["InvalidParameter", "chunks must be a non-empty list of positive lengths summing to N=30, got [10, 19]"]];
+check["stream: a block of length 0", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> {10, 0, 20}]], "InvalidParameter"];
+check["stream: chunks none", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> None]], "InvalidParameter"];
+check["stream: bad merge", DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> {30}, "merge" -> "sideways"],
+  DynVal`DynValError["InvalidParameter", "merge must be one of 'none', 'left', 'right', 'tree', got 'sideways'"]];
+check["stream: bad chunks before bad merge", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 3, "chunks" -> {3}, "merge" -> "x"]],
+  "InvalidParameter"];
+check["stream: max_lag below the longest record", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], None, 3, 18, "chunks" -> {30},
+  "segments" -> {12, 18}, "merge" -> "left"]], "InvalidParameter"];
+check["stream: regressor rows", kindOf[DynVal`streamAccumulate[sd[[1]], sd[[2]], Most[sd[[3]]], 3, 3, "chunks" -> {30}]], "ShapeMismatch"];
+check["stream: one sample", kindOf[DynVal`streamAccumulate[sd[[1, {1}]], sd[[2, {1}]], None, 3, 0, "chunks" -> {1}]], "TooFewSamples"];
+check["stream: chunk message", DynVal`accumulatorUpdate[DynVal`accumulatorUpdate[DynVal`validationAccumulator[1, 1], {{1., 2.}, {2., 1.}}, {{0., 0.}, {0., 0.}}],
+  {1., 2.}, {0., 0.}], DynVal`DynValError["ShapeMismatch", "chunk 1: tau_meas must have m=2 columns like the chunks before it, got shape (2,)"]];
+
 (* ---- report and exit status *)
 failed = Select[$results, ! #[[2]] &];
 Scan[WriteString[First[Streams["stdout"]], "FAILED " <> #[[1]] <> ": got " <> ToString[InputForm[#[[3]]]] <>
