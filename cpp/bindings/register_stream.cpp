@@ -20,6 +20,21 @@ std::vector<double> from_array(py::handle a) {
     return std::vector<double>(arr.data(), arr.data() + arr.size());
 }
 
+// f(&y as rows) or f(nullptr) for None, without the GIL; anything else is InvalidParameter.
+template <class F>
+void with_optional_rows(py::handle y, F&& f) {
+    if (y.is_none()) {
+        py::gil_scoped_release release;
+        f(static_cast<const RowRef*>(nullptr));
+        return;
+    }
+    auto cast = py::detail::make_caster<RowRef>();
+    if (!cast.load(y, true)) throw invalid_parameter("y must be a float64 matrix or None");
+    const RowRef& rows = cast;
+    py::gil_scoped_release release;
+    f(&rows);
+}
+
 // Every compensated sum and plain vector of the state, in one fixed order (pickling).
 template <class S, class F>
 void each_field(S& st, F&& f) {
@@ -59,32 +74,19 @@ void register_stream(py::module_& m) {
         .def(
             "append",
             [](stream_state& st, const RowRef& e, const RowRef& tau, py::object y) {
-                if (y.is_none()) {
-                    py::gil_scoped_release release;
-                    st.append(e, tau);
-                } else {
-                    auto cast = py::detail::make_caster<RowRef>();
-                    if (!cast.load(y, true)) throw invalid_parameter("y must be a float64 matrix or None");
-                    const RowRef& yr = cast;
-                    py::gil_scoped_release release;
-                    st.append(e, tau, yr);
-                }
+                with_optional_rows(y, [&](const RowRef* yr) {
+                    if (yr)
+                        st.append(e, tau, *yr);
+                    else
+                        st.append(e, tau);
+                });
             },
             py::arg("e"), py::arg("tau"), py::arg("y"),
             "Adds rows continuing the current segment: e, tau (c, m), y (c, m*p) or None.")
         .def(
             "append_measured",
             [](stream_state& st, const RowRef& meas, const RowRef& pred, py::object y) {
-                if (y.is_none()) {
-                    py::gil_scoped_release release;
-                    st.append_measured(meas, pred, meas, false);
-                } else {
-                    auto cast = py::detail::make_caster<RowRef>();
-                    if (!cast.load(y, true)) throw invalid_parameter("y must be a float64 matrix or None");
-                    const RowRef& yr = cast;
-                    py::gil_scoped_release release;
-                    st.append_measured(meas, pred, yr, true);
-                }
+                with_optional_rows(y, [&](const RowRef* yr) { st.append_measured(meas, pred, yr ? *yr : meas, yr != nullptr); });
             },
             py::arg("meas"), py::arg("pred"), py::arg("y"),
             "append of the residual meas - pred, formed block by block: meas, pred (c, m), y (c, m*p) or None.")

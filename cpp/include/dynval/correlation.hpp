@@ -27,7 +27,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -138,18 +137,17 @@ DYNVAL_VECTOR_CLONES inline void lag_tile_wide(const double* DYNVAL_RESTRICT r, 
                                                double* DYNVAL_RESTRICT acc) {
     constexpr Index TL = 4;
     Index c0 = 0;
-#if defined(__GNUC__)
-    typedef double v4 __attribute__((vector_size(32)));
+#if defined(DYNVAL_VECTOR_TYPES)
     for (; c0 + 8 <= m; c0 += 8) {
-        v4 s[TL][2] = {};
+        vec4 s[TL][2] = {};
         for (Index u = u0; u < u1; ++u) {
-            v4 x0, x1;
-            std::memcpy(&x0, r + u * m + c0, sizeof x0);
-            std::memcpy(&x1, r + u * m + c0 + 4, sizeof x1);
+            vec4 x0, x1;
+            load4(x0, r + u * m + c0);
+            load4(x1, r + u * m + c0 + 4);
             for (Index t = 0; t < TL; ++t) {
-                v4 y0, y1;
-                std::memcpy(&y0, r + (u - l0 - t) * m + c0, sizeof y0);
-                std::memcpy(&y1, r + (u - l0 - t) * m + c0 + 4, sizeof y1);
+                vec4 y0, y1;
+                load4(y0, r + (u - l0 - t) * m + c0);
+                load4(y1, r + (u - l0 - t) * m + c0 + 4);
                 s[t][0] += x0 * y0;
                 s[t][1] += x1 * y1;
             }
@@ -334,18 +332,17 @@ DYNVAL_VECTOR_CLONES inline void lag_block_products(const double* DYNVAL_RESTRIC
                                                     Index rows, Index p, Index n_lags, double* DYNVAL_RESTRICT acc) {
     constexpr Index TL = 4;
     Index l0 = 0;
-#if defined(__GNUC__)
-    typedef double v4 __attribute__((vector_size(32)));
+#if defined(DYNVAL_VECTOR_TYPES)
     for (; l0 + TL <= n_lags; l0 += TL) {
         Index c0 = 0;
         for (; c0 + 8 <= p; c0 += 8) {
-            v4 s[TL][2] = {};
+            vec4 s[TL][2] = {};
             for (Index u = 0; u < rows; ++u) {
-                v4 y0, y1;  // memcpy: unaligned loads, no aliasing questions
-                std::memcpy(&y0, y + u * p + c0, sizeof y0);
-                std::memcpy(&y1, y + u * p + c0 + 4, sizeof y1);
+                vec4 y0, y1;
+                load4(y0, y + u * p + c0);
+                load4(y1, y + u * p + c0 + 4);
                 for (Index t = 0; t < TL; ++t) {
-                    const v4 et = v4{} + e[u + l0 + t];
+                    const vec4 et = vec4{} + e[u + l0 + t];
                     s[t][0] += et * y0;
                     s[t][1] += et * y1;
                 }

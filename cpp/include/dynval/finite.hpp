@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <optional>
 
 namespace dynval {
@@ -36,19 +35,17 @@ std::optional<nonfinite_entry> scan_nonfinite(const Eigen::MatrixBase<D>& a, Ind
 
 /// Whether every one of `count` contiguous values is finite and in range: x·0 is 0 for a finite x
 /// and NaN otherwise (NaN sticks in a sum), and the largest magnitude catches values out of range.
-/// Eight independent lanes, so the loop vectorises (an AVX2 clone where available).
+/// Eight independent lanes (vector types, an AVX2 clone where available).
 DYNVAL_VECTOR_CLONES inline bool all_in_range(const double* DYNVAL_RESTRICT x, Index count) {
     Index done = 0;
     bool ok = true;
-#if defined(__GNUC__)
-    // As vector types: written as plain arrays the loop stays scalar.
-    typedef double v4 __attribute__((vector_size(32)));
-    v4 nan_lane[2] = {}, big[2] = {};
+#if defined(DYNVAL_VECTOR_TYPES)
+    vec4 nan_lane[2] = {}, big[2] = {};
     for (; done + 8 <= count; done += 8)
         for (int h = 0; h < 2; ++h) {
-            v4 v;
-            std::memcpy(&v, x + done + 4 * h, sizeof v);
-            const v4 a = v < 0.0 ? -v : v;
+            vec4 v;
+            load4(v, x + done + 4 * h);
+            const vec4 a = v < 0.0 ? -v : v;
             nan_lane[h] += v * 0.0;
             big[h] = a > big[h] ? a : big[h];
         }

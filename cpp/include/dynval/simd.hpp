@@ -14,3 +14,22 @@
 #else
 #define DYNVAL_VECTOR_CLONES
 #endif
+
+#if defined(__GNUC__)
+#include <cstring>
+
+namespace dynval::detail {
+
+/// Four doubles as one GCC/Clang vector (one AVX register in the AVX2 clone, two SSE registers in
+/// the default one). Kernels written with it vectorise where the same loop over plain eight-lane
+/// arrays compiles to scalar code. DYNVAL_VECTOR_TYPES says it exists; kernels keep a plain loop
+/// for compilers without it.
+#define DYNVAL_VECTOR_TYPES 1
+typedef double vec4 __attribute__((vector_size(32)));
+
+/// v = four consecutive doubles from any address (memcpy: no alignment asked, no aliasing
+/// question). An output argument, not a returned vector, whose ABI would depend on the clone.
+inline void load4(vec4& v, const double* p) noexcept { std::memcpy(&v, p, sizeof v); }
+
+}  // namespace dynval::detail
+#endif

@@ -32,7 +32,6 @@
 
 #include <algorithm>
 #include <cstddef>
-#include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <string>
@@ -62,23 +61,22 @@ DYNVAL_VECTOR_CLONES inline void stream_lag_tile(const double* DYNVAL_RESTRICT x
     const Index start = l0 + 3;  // every lag of the tile has its pair from here on
     Index t_end = start;         // the products before t_end are in the lanes
     double lanes[4] = {};
-#if defined(__GNUC__)
-    typedef double v4 __attribute__((vector_size(32)));
-    v4 acc[4][2] = {};
+#if defined(DYNVAL_VECTOR_TYPES)
+    vec4 acc[4][2] = {};
     for (; t_end + 8 <= c; t_end += 8) {
-        v4 x0, x1;
-        std::memcpy(&x0, x + t_end, sizeof x0);
-        std::memcpy(&x1, x + t_end + 4, sizeof x1);
+        vec4 x0, x1;
+        load4(x0, x + t_end);
+        load4(x1, x + t_end + 4);
         for (int k = 0; k < 4; ++k) {
-            v4 y0, y1;
-            std::memcpy(&y0, x + t_end - l0 - k, sizeof y0);
-            std::memcpy(&y1, x + t_end - l0 - k + 4, sizeof y1);
+            vec4 y0, y1;
+            load4(y0, x + t_end - l0 - k);
+            load4(y1, x + t_end - l0 - k + 4);
             acc[k][0] += x0 * y0;
             acc[k][1] += x1 * y1;
         }
     }
     for (int k = 0; k < 4; ++k) {
-        const v4 a = acc[k][0] + acc[k][1];
+        const vec4 a = acc[k][0] + acc[k][1];
         lanes[k] = (a[0] + a[2]) + (a[1] + a[3]);
     }
 #endif
@@ -116,20 +114,18 @@ DYNVAL_VECTOR_CLONES inline double stream_sum(const double* DYNVAL_RESTRICT a, I
     return (((part[0] + part[4]) + (part[1] + part[5])) + ((part[2] + part[6]) + (part[3] + part[7]))) + tail;
 }
 
-/// Minimum, maximum and sum of a run of values in one pass (eight lanes, as vector types where
-/// the compiler has them: written as plain arrays the loop stays scalar).
+/// Minimum, maximum and sum of a run of values in one pass (eight lanes).
 DYNVAL_VECTOR_CLONES inline void stream_extremes(const double* DYNVAL_RESTRICT a, Index count, double& lo,
                                                  double& hi, double& sum) {
     constexpr double inf = std::numeric_limits<double>::infinity();
     double mn[8], mx[8], s[8];
     Index done = 0;
-#if defined(__GNUC__)
-    typedef double v4 __attribute__((vector_size(32)));
-    v4 vmn[2] = {v4{inf, inf, inf, inf}, v4{inf, inf, inf, inf}}, vmx[2] = {-vmn[0], -vmn[0]}, vs[2] = {};
+#if defined(DYNVAL_VECTOR_TYPES)
+    vec4 vmn[2] = {vec4{inf, inf, inf, inf}, vec4{inf, inf, inf, inf}}, vmx[2] = {-vmn[0], -vmn[0]}, vs[2] = {};
     for (; done + 8 <= count; done += 8)
         for (int h = 0; h < 2; ++h) {
-            v4 v;
-            std::memcpy(&v, a + done + 4 * h, sizeof v);
+            vec4 v;
+            load4(v, a + done + 4 * h);
             vmn[h] = v < vmn[h] ? v : vmn[h];
             vmx[h] = v > vmx[h] ? v : vmx[h];
             vs[h] += v;
@@ -289,17 +285,17 @@ public:
                                             (static_cast<int>(A::Flags) & Eigen::DirectAccessBit) &&
                                             (static_cast<int>(B::Flags) & Eigen::RowMajorBit) &&
                                             (static_cast<int>(B::Flags) & Eigen::DirectAccessBit);
+            bool copied = false;
             if constexpr (rows_in_memory) {
                 if (meas.derived().innerStride() == 1 && pred.derived().innerStride() == 1) {
                     detail::residual_joint_major(meas.derived().data() + a * meas.derived().outerStride(),
                                                  meas.derived().outerStride(),
                                                  pred.derived().data() + a * pred.derived().outerStride(),
                                                  pred.derived().outerStride(), k, m, xe.data(), xt.data());
-                } else {
-                    xt = meas.middleRows(a, k).transpose();
-                    xe = xt - pred.middleRows(a, k).transpose();
+                    copied = true;
                 }
-            } else {
+            }
+            if (!copied) {  // any other layout: Eigen's own transposed copies
                 xt = meas.middleRows(a, k).transpose();
                 xe = xt - pred.middleRows(a, k).transpose();
             }
