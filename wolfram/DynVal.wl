@@ -663,8 +663,13 @@ informationCriteria[rss_, nObs_, nParams_] := guard @ Module[{n, p, variance},
   variance = N[rss]/n;
   Association @@ assemble[nLog[n, variance], n, n, p, variance]];
 
+(* ln det of an m x m residual covariance for the "full" noise model, or -Infinity when it is
+   numerically singular: lambda_min <= m eps lambda_max (contract 3.2), in memory and streamed. *)
+logDetFull[sigma_, m_] := Module[{eig = Sort[Re[Eigenvalues[sigma]]]},
+  If[Last[eig] <= 0. || First[eig] <= m $MachineEpsilon Last[eig], -Infinity, Total[Log[eig]]]];
+
 (* {F, n, N_vec, S} of contract 3.7 for joint-major residual columns. *)
-fitTerm[e_, noiseModel_] := Module[{m = Length[e], n = Length[First[e]], ss, sums, logSize, k, es, sigma, eig},
+fitTerm[e_, noiseModel_] := Module[{m = Length[e], n = Length[First[e]], ss, sums, logSize, k, es, sigma},
   Switch[noiseModel,
     "pooled",
       ss = scaledSumSq[Flatten[e]];
@@ -680,9 +685,9 @@ fitTerm[e_, noiseModel_] := Module[{m = Length[e], n = Length[First[e]], ss, sum
       k = scaleExponent[e];
       es = pow2[e, -k];
       sigma = Table[Total[es[[i]] es[[j]]]/n, {i, m}, {j, m}];
-      eig = Sort[Re[Eigenvalues[sigma]]];
-      If[Last[eig] <= 0. || First[eig] <= m $MachineEpsilon Last[eig], {-Infinity, n, n, 0.},
-        logSize = Total[Log[eig]] + 2 k m Log[2.];
+      logSize = logDetFull[sigma, m];
+      If[logSize === -Infinity, {-Infinity, n, n, 0.},
+        logSize = logSize + 2 k m Log[2.];
         {n logSize, n, n, safeExp[logSize]}]]];
 
 criteriaAll[function_, meas_, pred_, opts_] := Module[{o, a, b, p, model, f, n, nVec, size, out},

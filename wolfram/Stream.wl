@@ -251,7 +251,7 @@ streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, 
 streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
   {s = sIn, m, p, n, v, nl, cur, lag, prod, a, meanE, eConstant, cov, ssc, sumT, sqT, tConstant, tss,
    sse, acf, out, joint, lagY, prodEY, sqY, b, yConstant, ssY, aj, c0, rho, dead,
-   f, nObs, nVec, size, total, logSize, g, c, sigma, eig},
+   f, nObs, nVec, size, total, logSize, g, c, sigma},
   {m, p, n} = {s["m"], s["p"], s["n"]};
   v = val[s["sums"]];
   nl = s["pairs"][[1 ;; maxLag + 1]];
@@ -305,10 +305,8 @@ streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
       g = Partition[sumsPart[s, v, "products"], m]; c = cur[[All, 1]];
       sigma = (g - outer[c, c]/n)/n + outer[meanE, meanE];
       sigma = (sigma + transpose[sigma])/2.;
-      eig = Sort[Re[Eigenvalues[sigma]]];
-      (* numerically singular: lambda_min <= m eps lambda_max, as in memory *)
-      If[Last[eig] <= 0. || First[eig] <= m $MachineEpsilon Last[eig], f = -Infinity; size = 0.,
-        logSize = Total[Log[eig]]; f = n logSize; size = safeExp[logSize]]];
+      logSize = logDetFull[sigma, m];
+      If[logSize === -Infinity, f = -Infinity; size = 0., f = n logSize; size = safeExp[logSize]]];
   Join[out, Association @@ assemble[f, nVec, nObs, nParams, size]]];
 
 (* ------------------------------------------------------------------ the accumulator *)
