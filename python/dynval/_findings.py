@@ -37,8 +37,15 @@ KINDS = {
     "whiteness": "the residual is not white (Ljung–Box); a deficiency only together with evidence above",
     "sampling_colour": "the residual's colour lies above the band the motion occupies: it is the sensor, "
                        "its filters and the sampling rate, not the model",
+    "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
+                       "inertia, offset, drift), named from q without its column",
+    "delay": "the measured torque lags (or leads) the prediction: realigning removes a practical share of the error",
+    "predictive_failure": "the validation error exceeds what the estimation run's noise and parameter "
+                          "uncertainty allow (Chow-type test)",
     "repeat_trajectory": "the validation trajectory repeats the estimation trajectory",
-    "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned",
+    "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned, or a joint moves "
+                  "far less than in the estimation run",
+    "low_information": "the run has too few effective samples to detect a term of practical size",
     "pooling": "the pooled value hides a joint that does much worse",
     "constant_target": "a joint's measured torque is constant",
     "omitted_rows": "rows with non-finite values were omitted",
@@ -63,6 +70,19 @@ class Thresholds:
         adding the term would remove (0.01).
     oscillation : float
         Share of the residual variance in a spectral peak above the background (0.05).
+    missing_physics : float
+        Share of a joint's mean square the library of physical terms removes (0.05): a term that
+        explains a twentieth of the error is worth modelling; less is left to the noise.
+    delay : float
+        Share of a joint's mean square that realigning measured and predicted torque removes (0.05).
+    predictive_ratio : float
+        Validation mean square over what the estimation run's noise and Cov(π̂) allow (2.0).
+    joint_motion : float
+        A joint whose validation motion (RMS about its mean) is below this fraction of its
+        estimation motion is not validated (0.1).
+    detectable_share : float
+        A run whose smallest detectable term (90 % power, per joint) must remove more than this
+        share of the mean square cannot decide (0.25).
     repeat_distance : float
         Relative distance ‖Y_val − Y_est‖/‖Y_est‖ (or of q, or of τ) below which the validation
         run counts as a repeat of the estimation run (0.1).
@@ -75,6 +95,11 @@ class Thresholds:
     regressor_correlation: float = 0.15
     missing_term: float = 0.01
     oscillation: float = 0.05
+    missing_physics: float = 0.05
+    delay: float = 0.05
+    predictive_ratio: float = 2.0
+    joint_motion: float = 0.1
+    detectable_share: float = 0.25
     repeat_distance: float = 0.1
     condition_number: float = 1e3
 
@@ -196,9 +221,16 @@ class Evidence:
     missing_pvalue: np.ndarray | None = None  # (m, q) or (q,)
     missing_share: np.ndarray | None = None  # (m, q): share of the validation mean square it removes
     missing_explains_bias: np.ndarray | None = None  # (m, q) bool: the term accounts for the joint's mean
+    # the motion: physics library (with q), predictive test (with the estimation run)
+    physics: dict | None = None
+    predictive: dict | None = None
+    sample_rate: float | None = None
     # validation design
     repeat: dict | None = None
     excitation: dict | None = None
+    joint_motion_ratio: np.ndarray | None = None
+    detectable_share: np.ndarray | None = None
+    noise_n_eff: np.ndarray | None = None
     extra_notes: list = field(default_factory=list)
 
 
@@ -251,6 +283,12 @@ def _tests(ev: Evidence):
         blocks.append(("xcorr", correlation_pvalue(ev.xcorr_rho, ev.xcorr_sd)))
     if ev.missing_pvalue is not None:
         blocks.append(("missing", np.asarray(ev.missing_pvalue, dtype=float)))
+    if ev.physics is not None:
+        blocks.append(("physics", np.asarray(ev.physics["pvalue"], dtype=float)))
+        if "delay" in ev.physics:
+            blocks.append(("delay", np.asarray(ev.physics["delay"]["pvalue"], dtype=float)))
+    if ev.predictive is not None:
+        blocks.append(("predictive", np.asarray(ev.predictive["pvalue"], dtype=float)))
     return blocks
 
 
@@ -469,6 +507,10 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          + (": unmodelled dynamics, e.g. joint flexibility (the lesson's Problem 5)." if big
                             else ": significant but negligible."))))
 
+    motion, motion_joints = _motion_findings(ev, fam, th, alpha)
+    out.extend(motion)
+    deficient_joints |= motion_joints
+
     # ---- whiteness and sampling colour
     if "whiteness" in fam:
         _, padj = fam["whiteness"]
@@ -534,7 +576,160 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 message=(f"The validation regressor is ill-conditioned (column-scaled condition number "
                          f"{x['condition_scaled']:.3g} > {th.condition_number:g}): it cannot separate the "
                          "effects of the parameters.")))
+    out.extend(_design_findings(ev, th))
     out.extend(ev.extra_notes)
     order = {s: i for i, s in enumerate(SEVERITIES)}
     out.sort(key=lambda f: order[f.severity])
+    return out
+
+
+def _motion_findings(ev: Evidence, fam, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
+    """The rules that read the motion: missing physics, delay, predictive failure."""
+    out: list[Finding] = []
+    joints: set[int] = set()
+    if "physics" in fam:
+        found, bad = _physics_findings(ev, fam["physics"], th, alpha)
+        out += found
+        joints |= bad
+    if "delay" in fam:
+        found, bad = _delay_findings(ev, fam["delay"], th, alpha)
+        out += found
+        joints |= bad
+    if "predictive" in fam:
+        found, bad = _predictive_findings(ev, fam["predictive"], th, alpha)
+        out += found
+        joints |= bad
+    return out, joints
+
+
+def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
+    from ._physics import LABELS
+
+    p, padj = pvalues
+    names = ev.joint_names
+    out: list[Finding] = []
+    bad: set[int] = set()
+    for j, t in enumerate(ev.physics["tests"]):
+        if not (padj[j] <= alpha) or _delay_explains(ev, j):
+            continue
+        shares = t["shares"]
+        term = t["term"]
+        if term is None:
+            continue
+        big = bool(t["share"] >= th.missing_physics and t["term_share"] >= th.missing_physics / 2)
+        if big:
+            bad.add(j)
+        label = LABELS[term]
+        others = [f"{LABELS[g]} {100 * s:.0f} %" for g, s in sorted(shares.items(), key=lambda kv: -kv[1])
+                  if g != term and s >= 0.01]
+        out.append(Finding(
+            kind="missing_physics", severity="deficiency" if big else "note", joints=(j,),
+            statistic=float(t["statistic"]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
+            effect=float(t["share"]), effect_unit="share of the joint's mean square the physical terms remove",
+            threshold=th.missing_physics,
+            action=(f"add {label} on {_name(names, j)} to the model" if big
+                    else "none: the structure is real but too small to matter"),
+            details={"term": term, "label": label, "term_share": float(t["term_share"]),
+                     "selected": list(t["selected"]), "shares": dict(shares), "n_eff": float(t["n_eff"]),
+                     "method": ev.physics["method"], "derivatives": ev.physics["derivatives"]},
+            message=(f"{_name(names, j)}: the residual follows the motion: {label} removes "
+                     f"{100 * t['term_share']:.0f} % of its mean square"
+                     + (f" (with {', '.join(others)})" if others else "")
+                     + f"; all physical terms together {100 * t['share']:.0f} % (prewhitened Wald test, "
+                     f"Holm-adjusted p {_p_text(padj[j])})"
+                     + (": a term the model lacks." if big else ": significant but negligible."))))
+    return out, bad
+
+
+def _delay_explains(ev: Evidence, j: int) -> bool:
+    """Realigning removes at least as much of joint j's mean square as the physical terms: the
+    structure is a time shift, not a missing term (a missing viscous term looks like a small shift)."""
+    dl = ev.physics.get("delay") if ev.physics else None
+    if dl is None:
+        return False
+    share = float(dl["share"][j])
+    lib = ev.physics["tests"][j]["share"]
+    return bool(share >= (lib if lib == lib else 0.0))
+
+
+def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
+    """One finding for a common delay: joints whose test rejects and whose realignment removes at
+    least the threshold's share of the mean square."""
+    p, padj = pvalues
+    dl = ev.physics["delay"]
+    share = np.asarray(dl["share"], dtype=float)
+    joints = [j for j in range(share.size) if padj[j] <= alpha and share[j] >= th.delay and _delay_explains(ev, j)]
+    if not joints:
+        return [], set()
+    names = ev.joint_names
+    fs = ev.sample_rate
+    d = float(dl["shift_samples"])
+    unit, value = ("ms", 1000.0 * d / fs) if fs else ("samples", d)
+    j0 = max(joints, key=lambda j: share[j])
+    each = "; ".join(f"{_name(names, j)} {100 * share[j]:.0f} %" for j in joints)
+    return [Finding(
+        kind="delay", severity="deficiency", joints=tuple(joints), statistic=d, pvalue=float(p[j0]),
+        pvalue_adjusted=float(padj[j0]), effect=float(share[j0]),
+        effect_unit="share of the joint's mean square realigning removes", threshold=th.delay,
+        action=(f"realign the measured torque with the encoders (shift it by {value:+.3g} {unit}), "
+                "or model the sensor's filter"),
+        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share]},
+        message=(f"The measured torque lags the prediction by {value:+.3g} {unit} (realigning removes {each} "
+                 f"of the mean square; Holm-adjusted p {_p_text(padj[j0])}): a delay between the torque "
+                 "sensor and the encoders, not a missing term."))], set(joints)
+
+
+def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
+    p, padj = pvalues
+    ratio = np.asarray(ev.predictive["ratio"], dtype=float)
+    out: list[Finding] = []
+    bad: set[int] = set()
+    for j in range(ratio.size):
+        if not (padj[j] <= alpha) or not ratio[j] >= th.predictive_ratio:
+            continue
+        bad.add(j)
+        out.append(Finding(
+            kind="predictive_failure", severity="deficiency", joints=(j,), statistic=float(ratio[j]),
+            pvalue=float(p[j]), pvalue_adjusted=float(padj[j]), effect=float(ratio[j]),
+            effect_unit="validation mean square / what the estimation run allows",
+            threshold=th.predictive_ratio,
+            action=(f"the model does not carry over to new motion on {_name(ev.joint_names, j)}: look for a term "
+                    "the estimation trajectory did not need (a payload, a changed friction) or refit on richer data"),
+            details={"expected_mse": float(ev.predictive["expected_mse"][j]),
+                     "validation_mse": float(ev.predictive["validation_mse"][j])},
+            message=(f"{_name(ev.joint_names, j)}: the validation mean square is {ratio[j]:.3g}× what the "
+                     "estimation run's noise and parameter uncertainty allow (Chow-type F test, Holm-adjusted p "
+                     f"{_p_text(padj[j])}).")))
+    return out, bad
+
+
+def _design_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
+    """Runs that cannot decide: a joint that hardly moves, too few effective samples."""
+    out: list[Finding] = []
+    names = ev.joint_names
+    if ev.joint_motion_ratio is not None:
+        ratio = np.asarray(ev.joint_motion_ratio, dtype=float)
+        for j in np.flatnonzero(ratio < th.joint_motion):
+            out.append(Finding(
+                kind="excitation", severity="design", joints=(int(j),), effect=float(ratio[j]),
+                effect_unit="joint motion (RMS) relative to the estimation run", threshold=th.joint_motion,
+                action=f"move {_name(names, j)} in the validation run as much as in the estimation run",
+                details={"joint_motion_ratio": float(ratio[j])},
+                message=(f"{_name(names, j)} moves {100 * ratio[j]:.1f} % of its estimation-run motion: the "
+                         "validation cannot test the terms of this joint.")))
+    if ev.detectable_share is not None:
+        mde = np.asarray(ev.detectable_share, dtype=float)
+        low = [int(j) for j in np.flatnonzero(mde > th.detectable_share)]
+        if low:
+            n_eff = np.asarray(ev.noise_n_eff, dtype=float)
+            each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {100 * mde[j]:.0f} %" for j in low)
+            out.append(Finding(
+                kind="low_information", severity="design", joints=tuple(low), effect=float(mde[low].max()),
+                effect_unit="smallest detectable share of the mean square (90 % power)",
+                threshold=th.detectable_share,
+                action="validate on a longer or faster-varying run (more effective samples)",
+                details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff]},
+                message=(f"This run cannot decide: its noise leaves so few effective samples that a missing term "
+                         f"must remove more than {100 * th.detectable_share:.0f} % of the mean square to be found "
+                         f"({each}).")))
     return out

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _estimation
+from . import _estimation, _motion
 from . import _sections as sec
 from . import _validation as v
 from ._blas import one_blas_thread
@@ -132,6 +132,13 @@ class ValidationReport:
         Distance to the estimation run (``estimation=``) and excitation of the regressor.
     segment_metrics : dict or None
         Per-joint metrics of each named segment (``segments={"name": length, ...}``).
+    physics : dict or None
+        With ``q``: each joint's residual tested against the library of physical terms (per joint
+        ``tests``: statistic, p-value, the share of the mean square the library removes, the term
+        named and its share, a delay in seconds, the noise's N_eff).
+    predictive : dict or None
+        With the estimation run: the validation mean square against what the estimation run's noise
+        and Cov(π̂) allow (Chow-type F test; ``ratio`` per joint).
     """
 
     provenance: dict[str, Any]
@@ -150,6 +157,8 @@ class ValidationReport:
     spectrum: dict[str, Any] | None = None
     design: dict[str, Any] | None = None
     segment_metrics: dict[str, Any] | None = None
+    physics: dict[str, Any] | None = None
+    predictive: dict[str, Any] | None = None
 
     @property
     def deficiencies(self) -> list[Finding]:
@@ -313,6 +322,8 @@ class _Options:
     joint_names: list[str]
     column_names: list[str] | None
     q: FloatArray | None
+    dq: FloatArray | None
+    ddq: FloatArray | None
     estimation: dict[str, FloatArray] | None
     thresholds: Thresholds
     detail: str
@@ -343,6 +354,11 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
         raise v.parameter_error("column_names", "None without a regressor", a["column_names"])
     column_names = v.check_names("column_names", a["column_names"], p_cols or 0, "regressor column")
     q = None if a["q"] is None else v.check_signal_like(a["q"], "q", meas_shape[0], m)
+    dq = None if a["dq"] is None else v.check_signal_like(a["dq"], "dq", meas_shape[0], m)
+    ddq = None if a["ddq"] is None else v.check_signal_like(a["ddq"], "ddq", meas_shape[0], m)
+    if q is None and (dq is not None or ddq is not None):
+        raise v.parameter_error("dq" if dq is not None else "ddq", "None without q", a["dq"] if dq is not None
+                                else a["ddq"])
     estimation = v.check_estimation(a["estimation"], m)
     if estimation is not None and "regressor" in estimation and p_cols is not None \
             and estimation["regressor"].shape[2] != p_cols:
@@ -357,7 +373,7 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
     model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
     v.check_allow_wide(a["allow_wide"])
     return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
-                    sample_rate, decimate, joint_names, column_names, q, estimation, thresholds, detail,
+                    sample_rate, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds, detail,
                     model_columns)
 
 
@@ -368,6 +384,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
              backend: BackendName | None = None, noise_model: NoiseModel | None = None,
              sample_rate: float | None = None, decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
              column_names: Sequence[str] | None = None, q: ArrayLike | None = None,
+             dq: ArrayLike | None = None, ddq: ArrayLike | None = None,
              estimation: dict[str, ArrayLike] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
              cross_correlation_detail: Detail = "top", model_columns: Sequence[Integer | str] | None = None,
              allow_wide: bool = False) -> ValidationReport:
@@ -412,7 +429,12 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     joint_names, column_names : sequence of str, optional
         Names used in every table, finding and the JSON.
     q : array_like, (N, m), optional
-        Joint positions of the validation run (for the repeat check).
+        Joint positions of the validation run: the repeat check, and the library of physical terms
+        (friction, gravity, inertia, offset, drift, delay) the residual is tested against, so that
+        a missing term is named without its column (``missing_physics``, ``delay``).
+    dq, ddq : array_like, (N, m), optional
+        Joint velocities and accelerations of the validation run; derived from ``q`` by zero-phase
+        Savitzky–Golay differentiation (0.1 s window) when not given (the report says which).
     estimation : mapping, optional
         The estimation run: any of ``"q"`` (N_e, m), ``"regressor"`` (N_e, m, p) and ``"tau"``
         (N_e, m); the report states how far the validation run is from it and warns on a repeat.
@@ -437,7 +459,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     InvalidType, InvalidShape, ShapeMismatch, TooFewSamples, NonFiniteInput, InvalidParameter
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
-        sample_rate, decimate, joint_names, column_names, q, estimation, thresholds,
+        sample_rate, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds,
         cross_correlation_detail, model_columns, allow_wide.
 
     Notes
@@ -476,7 +498,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     n, m = meas.shape
     args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+                decimate=decimate, joint_names=joint_names, column_names=column_names, q=q, dq=dq, ddq=ddq,
                 estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
                 model_columns=model_columns, allow_wide=allow_wide)
     try:
@@ -526,7 +548,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         acf = sec.autocorrelation(kernel, e, o.max_lag, prof, o.level, starts, n)
         if lb_lags:
             lb = sec.ljung_box(kernel, e, lb_lags, starts)
-            white = sec.whiteness(kernel, e, meas, starts, lb, o.decimate, o.sample_rate)
+            white = sec.whiteness(kernel, e, pred, starts, lb, o.decimate, o.sample_rate)
         spec = sec.spectrum(e, starts, reg3, o.sample_rate, grams)
 
     cross = xrho = xsd = missing = None
@@ -544,6 +566,13 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
             if missing is not None:
                 cross["missing_terms"] = {k: v for k, v in missing.items()}
     design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance, grams)
+    phys = pred_test = None
+    if o.q is not None and e is not None and not omitted:
+        phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level)
+        phys["delay"] = _motion.delay(meas, pred, o.sample_rate)
+    if est_fit is not None and n_eff is not None:
+        pred_test = _motion.predictive(e, est_fit, reg3, n_eff)
+    design = _motion_design(design, o, phys, m)
     seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
                                        v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
                                        seg_names, segments, o.n_params, prof)
@@ -592,13 +621,35 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                       constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
                       force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
                       xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
-                      design=design, column_names=o.column_names, acf=acf, missing=missing)
+                      design=design, column_names=o.column_names, acf=acf, missing=missing, physics=phys,
+                      predictive=pred_test, sample_rate=o.sample_rate)
     found = compute_findings(ev, o.thresholds)
     return ValidationReport(
         provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
         autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
         warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
-        spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics)
+        spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics, physics=phys,
+        predictive=pred_test)
+
+
+def _motion_design(design: dict[str, Any] | None, o: _Options, phys: dict[str, Any] | None,
+                   m: int) -> dict[str, Any] | None:
+    """The design section completed with what the motion says: each joint's motion against the
+    estimation run's, and the smallest effect this run can detect per joint."""
+    est_q = (o.estimation or {}).get("q")
+    ratio = _motion.joint_excitation(o.q, est_q)
+    # the noise's N_eff: what the physical terms leave (the residual's own N_eff counts a missing
+    # term's slow structure as colour); without q it is not known
+    noise_n_eff = phys["n_eff"] if phys is not None else None
+    if ratio is None and noise_n_eff is None:
+        return design
+    design = dict(design or {})
+    if ratio is not None:
+        design["joint_motion_ratio"] = ratio
+    if noise_n_eff is not None:
+        design["noise_n_eff"] = np.asarray(noise_n_eff, dtype=float)
+        design["detectable_share"] = _motion.detectable_share(noise_n_eff, m, o.level)
+    return design
 
 
 def _as_dict(result: Any) -> dict[str, Any]:

@@ -214,10 +214,12 @@ def ljung_box(kernel, e, lags, starts) -> dict:
             "df": np.asarray(lb["df"], dtype=np.int64)}
 
 
-def whiteness(kernel, e, meas, starts, lb, decimate, sample_rate) -> dict:
+def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate) -> dict:
     """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
 
-    ``decimate="auto"``: the information band f_I holds 99 % of the measured torque's power;
+    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
+    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
+    noise would fill the band on light joints and hide the motion's);
     the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
     used as given; None or 1 tests at the logged rate only.
     """
@@ -227,14 +229,15 @@ def whiteness(kernel, e, meas, starts, lb, decimate, sample_rate) -> dict:
     band = None
     q = 1
     if decimate == "auto":
-        band = _stats.information_bandwidth(meas, starts, sample_rate=sample_rate)
+        band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
         if np.isfinite(band) and band > 0:
             q = int(math.floor(fs / (4.0 * band)))
     elif decimate is not None:
         q = int(decimate)
     out = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
            "log_pvalue_raw": np.asarray(lb["log_pvalue"][0], dtype=float), "decimation": 1,
-           "information_band": band, "pvalue_decimated": None, "lag_decimated": None,
+           "information_band": band, "information_band_source": "prediction" if band is not None else None,
+           "pvalue_decimated": None, "lag_decimated": None,
            "n_decimated": None}
     if q >= 2:
         d, d_starts = _stats.decimate_segments(e, starts, q)
@@ -530,7 +533,8 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
-             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None) -> Evidence:
+             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
+             predictive=None, sample_rate=None) -> Evidence:
     """Collect what the findings' rules read."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
@@ -558,6 +562,10 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
     if design is not None:
         ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
+        ev.joint_motion_ratio = design.get("joint_motion_ratio")
+        ev.detectable_share = design.get("detectable_share")
+        ev.noise_n_eff = design.get("noise_n_eff")
+    ev.physics, ev.predictive, ev.sample_rate = physics, predictive, sample_rate
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]

@@ -1,0 +1,100 @@
+"""Section builders that read the motion: missing physics, predictive failure and the run's power.
+
+They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or the estimation run
+(docs/conventions.md §5.2): each takes what it needs and returns one dict, and the rules in
+``_findings.py`` read them through the evidence record.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import scipy.stats
+
+from . import _physics
+
+__all__ = ["physics", "delay", "predictive", "joint_excitation", "detectable_share"]
+
+
+def delay(meas, pred, sample_rate) -> dict[str, Any]:
+    """The time shift between measured and predicted torque (:func:`dynval._physics.delay_test`)."""
+    return _physics.delay_test(meas, pred, sample_rate=sample_rate)
+
+
+def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level) -> dict[str, Any]:
+    """Each joint's residual against the physics library (:mod:`dynval._physics`).
+
+    The model's own columns: with the estimation run their estimation error widens the test
+    (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
+    represent is not missing); with neither, the prediction alone is given and nothing is refitted.
+    """
+    d = _physics.derivatives(q, sample_rate, dq, ddq)
+    kwargs: dict[str, Any] = {}
+    how = "none (no regressor: the model's own columns are unknown)"
+    if est_fit is not None and reg3 is not None:
+        kwargs["model_regressor"] = reg3[:, :, list(est_fit.columns)]
+        kwargs["parameter_covariance"] = est_fit.covariance
+        how = "their estimation error, Cov(π̂) from the estimation run, widens the test"
+    elif reg3 is not None:
+        cols = list(range(reg3.shape[2])) if model_columns is None else list(model_columns)
+        kwargs["nuisance"] = [reg3[:, j, cols] for j in range(reg3.shape[1])]
+        how = "refitted on the validation run (what they represent is not missing)"
+    tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
+    return {"method": "prewhitened least squares (AR by BIC), heteroscedasticity-robust Wald test per joint",
+            "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
+            "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
+            "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
+            "n_eff": np.array([t.n_eff for t in tests])}
+
+
+def predictive(e, est_fit, reg3, n_eff_val) -> dict[str, Any] | None:
+    """Does the validation error exceed what the estimation run's noise and Cov(π̂) allow?
+
+    A Chow-type predictive test per joint: the validation mean square against s²_est (the
+    estimation residual's, with its degrees of freedom) plus the mean of y_kᵀ Cov(π̂) y_k over the
+    validation rows; F with (N_eff,val, N_eff,est − k/m) degrees of freedom, so colour is allowed for.
+    The effect is the ratio of mean squares.
+    """
+    if est_fit is None or reg3 is None or e is None:
+        return None
+    cols = list(est_fit.columns)
+    n, m = e.shape
+    res = est_fit.residual
+    n_est = res.shape[0]
+    k = len(cols)
+    dof = max(n_est * m - k, 1)
+    s2 = np.sum(res**2, axis=0) / (dof / m)
+    gram = np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / n
+    param = np.einsum("mkl,kl->m", gram, est_fit.covariance)
+    expected = s2 + param
+    mse = np.mean(e**2, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = mse / expected
+    df1 = np.clip(np.asarray(n_eff_val, dtype=float), 1.0, None)
+    df2 = np.clip(np.asarray(est_fit.n_eff, dtype=float) - k / m, 1.0, None)
+    p = scipy.stats.f.sf(ratio, df1, df2)
+    return {"method": "Chow-type predictive F test (N_eff degrees of freedom)", "ratio": ratio,
+            "expected_mse": expected, "validation_mse": mse, "noise_variance_estimation": s2,
+            "parameter_variance": param, "df": np.column_stack([df1, df2]), "pvalue": p}
+
+
+def joint_excitation(q_val, q_est) -> np.ndarray | None:
+    """Each joint's motion on the validation run relative to the estimation run (RMS about the mean)."""
+    if q_val is None or q_est is None or q_val.shape[1] != q_est.shape[1]:
+        return None
+    sv = np.std(q_val, axis=0)
+    se = np.std(q_est, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(se > 0, sv / se, np.nan)
+
+
+def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> np.ndarray:
+    """The smallest share of a joint's mean square that one added term must remove to be found with
+    probability ``power`` at the Holm-corrected level: s = c/(N_eff + c), c = (z₁₋α/(2T) + z_power)²
+    (the t statistic of a term that removes s is about √(N_eff s/(1 − s)))."""
+    alpha = (1.0 - level) / max(n_tests, 1)
+    c = (scipy.stats.norm.isf(alpha / 2.0) + scipy.stats.norm.ppf(power)) ** 2
+    n_eff = np.asarray(n_eff, dtype=float)
+    return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)

@@ -1,0 +1,405 @@
+"""Missing physics named without its column: the residual against a library of physical terms.
+
+A user validates a model because they do not know what it lacks, so the column of the missing
+term is usually not in the regressor they hand over. The joint positions are: from q (and q̇, q̈,
+given or derived with a stated bandwidth) this module builds, for each joint j, the terms that
+robot dynamics is made of (docs/conventions.md §5.2):
+
+* ``coulomb``: sign(q̇_j), tanh(q̇_j/v) at three velocity scales and a Stribeck term
+  sign(q̇_j)·exp(−(q̇_j/v_s)²) (an asymmetric friction is Coulomb plus ``offset``);
+* ``viscous``: q̇_j; ``velocity_squared``: q̇_j|q̇_j|;
+* ``gravity``: sin and cos of q_i + … + q_k for every chain i ≤ j ≤ k (a planar sub-chain's link
+  angle; coupled links show on every joint before them); ``position_harmonic``: sin/cos of 2q_j and
+  3q_j (cogging, a gravity term of a link with two CoMs);
+* ``inertia``: q̈_k of every joint (a payload, a wrong link inertia);
+* ``offset``: 1; ``drift``: t and t² (a sensor that drifts over the run);
+
+A delay of the measured torque behind the encoders is not a missing term: :func:`delay_test`
+shifts the prediction (one shift for every joint, sub-sample, linear interpolation) to the lag that
+best aligns it and reports the share of each joint's mean square the realignment removes, with the
+joint's prewhitened test of the residual against −τ̂' (τ(t − d) ≈ τ(t) − d τ'(t)).
+
+The model's own columns (its regressor when given, else its prediction) are nuisance terms: what
+they can represent is not missing. The test is one Wald test per joint of every library term
+together, after prewhitening by an AR(p) model of the residual (feasible GLS, p by BIC) and with a
+heteroscedasticity-robust covariance (HC1), so coloured and heteroscedastic noise keep the size.
+Terms that interact are refitted together: groups enter by forward selection on the whitened
+problem, and the term named is the selected group with the largest share of the joint's mean square
+once the others are in.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+import scipy.stats
+
+__all__ = ["GROUPS", "LABELS", "PhysicsTest", "derivatives", "library", "physics_test", "delay_test"]
+
+GROUPS = ("coulomb", "viscous", "velocity_squared", "gravity", "position_harmonic", "inertia", "offset",
+          "drift")
+LABELS = {
+    "coulomb": "Coulomb friction",
+    "viscous": "viscous friction",
+    "velocity_squared": "a velocity-squared (q̇|q̇|) drag term",
+    "gravity": "a gravity term",
+    "position_harmonic": "a position harmonic (cogging, or gravity of an unmodelled link)",
+    "inertia": "an inertial term (a payload or a wrong link inertia)",
+    "offset": "a torque offset (sensor bias, or asymmetric friction)",
+    "drift": "a drift over the run (sensor drift, temperature)",
+    "delay": "a delay of the measured torque behind the prediction",
+}
+# AR(≤ 2) prewhitening, fitted on the residual as given. A model of what the library leaves would be
+# too white (twenty smooth columns absorb the slow part of AR(1) 0.9 noise: 10–25 % false alarms at
+# p < 0.01, measured); a higher order would take a missing term's own shape for colour.
+_MAX_AR = 2
+_OUTSIDE = 0.01
+_MAX_ROWS = 40_000  # longer runs are decimated by a whole factor (anti-aliased) before the test
+
+
+@dataclass(frozen=True)
+class Derivatives:
+    dq: np.ndarray
+    ddq: np.ndarray
+    method: str
+    bandwidth_hz: float | None
+
+
+def derivatives(q, sample_rate, dq=None, ddq=None) -> Derivatives:
+    """q̇ and q̈ as given, or by zero-phase Savitzky–Golay differentiation of q (0.1 s window)."""
+    if dq is not None and ddq is not None:
+        return Derivatives(np.asarray(dq, float), np.asarray(ddq, float), "given", None)
+    from .robots import differentiate
+
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    n = q.shape[0]
+    window = max(0.1, 7.0 / fs)
+    if n < int(round(window * fs)) + 2:
+        d1 = np.gradient(q, 1.0 / fs, axis=0)
+        return Derivatives(d1 if dq is None else np.asarray(dq, float),
+                           np.gradient(d1, 1.0 / fs, axis=0) if ddq is None else np.asarray(ddq, float),
+                           "central differences", None)
+    d = differentiate(q, fs, window=window)
+    return Derivatives(d.dq if dq is None else np.asarray(dq, float),
+                       d.ddq if ddq is None else np.asarray(ddq, float),
+                       f"Savitzky–Golay, {window:g} s window, degree 4", float(d.bandwidth_hz))
+
+
+def _scale(x):
+    s = float(np.sqrt(np.mean(x * x))) if x.size else 0.0
+    return s if s > 0 and math.isfinite(s) else 1.0
+
+
+def library(j: int, q, dq, ddq, pred_j, sample_rate) -> dict[str, np.ndarray]:
+    """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None."""
+    n = pred_j.shape[0]
+    1.0 if sample_rate is None else float(sample_rate)
+    t = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)
+    groups: dict[str, list[np.ndarray]] = {"offset": [np.ones(n)], "drift": [t, t * t - np.mean(t * t)]}
+    if q is not None:
+        m = q.shape[1]
+        v = dq[:, j]
+        vs = _scale(v)
+        groups["coulomb"] = [np.sign(v)] + [np.tanh(v / (c * vs)) for c in (0.02, 0.1, 0.3)] + \
+            [np.sign(v) * np.exp(-(v / (0.1 * vs)) ** 2)]
+        groups["viscous"] = [v]
+        groups["velocity_squared"] = [v * np.abs(v)]
+        grav = []
+        for i in range(j + 1):
+            for k in range(j, m):
+                s = q[:, i:k + 1].sum(axis=1)
+                grav += [np.sin(s), np.cos(s)]
+        groups["gravity"] = grav
+        groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
+        groups["inertia"] = [ddq[:, k] for k in range(m)]
+    out = {}
+    for g in GROUPS:
+        if g in groups:
+            cols = np.column_stack(groups[g])
+            out[g] = cols / np.array([_scale(c) for c in cols.T])
+    return out
+
+
+def _orthonormal(x, rel=1e-7, floor=0.0):
+    """An orthonormal basis of x's column space (SVD; directions below rel·σ_max or below
+    ``floor`` dropped)."""
+    if x.shape[1] == 0:
+        return x
+    u, s, _ = np.linalg.svd(x, full_matrices=False)
+    keep = (s > rel * max(s[0], 1e-300)) & (s > floor) if s.size else np.zeros(0, bool)
+    return u[:, keep]
+
+
+def _ar_prewhitener(u, max_order):
+    """AR coefficients a (x_k − Σ a_i x_{k−i} white) by Yule–Walker, order by BIC; and N_eff."""
+    n = u.shape[0]
+    uc = u - u.mean()
+    var = float(uc @ uc) / n
+    if var <= 0:
+        return np.zeros(0), float(n)
+    nfft = 1 << (2 * n - 1).bit_length()
+    f = np.fft.rfft(uc, nfft)
+    acov = np.fft.irfft(f * np.conj(f), nfft)[:max_order + 1] / n
+    best = (math.log(var), np.zeros(0))
+    best_bic = math.log(var)
+    for p in range(1, max_order + 1):
+        try:
+            a = scipy.linalg.solve_toeplitz(acov[:p], acov[1:p + 1])
+        except (np.linalg.LinAlgError, ValueError):
+            break
+        s2 = acov[0] - a @ acov[1:p + 1]
+        if not s2 > 0:
+            break
+        bic = math.log(s2) + p * math.log(n) / n
+        if bic < best_bic:
+            best_bic, best = bic, (math.log(s2), a)
+    a = best[1]
+    s2 = math.exp(best[0])
+    denom = (1.0 - float(a.sum())) ** 2
+    lrv = s2 / max(denom, 1e-12)
+    n_eff = float(np.clip(n * var / lrv, 2.0, n))
+    return a, n_eff
+
+
+def _whiten(x, a):
+    if a.size == 0 or x.size == 0:
+        return x[a.size:]
+    return scipy.signal.lfilter(np.concatenate([[1.0], -a]), [1.0], x, axis=0)[a.size:]
+
+
+def _wald(xw, yw, cols=None, gw=None, cov_p=None):
+    """OLS of yw on xw with HC1 covariance; Wald statistic of ``cols`` (all by default), its df.
+
+    ``gw`` (N, k_p) and ``cov_p`` (k_p, k_p): the model's own columns (whitened) and Cov(π̂) of its
+    estimated parameters; their error Y δ is part of the residual and adds
+    (XᵀX)⁻¹ Xᵀ G Cov(π̂) Gᵀ X (XᵀX)⁻¹ to the coefficients' covariance.
+    """
+    n, k = xw.shape
+    b, *_ = np.linalg.lstsq(xw, yw, rcond=None)
+    r = yw - xw @ b
+    g = xw.T @ xw
+    ginv = np.linalg.pinv(g)
+    scores = xw * r[:, None]
+    meat = scores.T @ scores * (n / max(n - k, 1))
+    if gw is not None and cov_p is not None:
+        xg = xw.T @ gw
+        meat = meat + xg @ cov_p @ xg.T
+    cov = ginv @ meat @ ginv
+    idx = np.arange(k) if cols is None else np.asarray(cols)
+    bs, cs = b[idx], cov[np.ix_(idx, idx)]
+    w = float(bs @ np.linalg.pinv(cs) @ bs) if idx.size else 0.0
+    return w, int(idx.size), b, r
+
+
+@dataclass
+class PhysicsTest:
+    """One joint's library test."""
+
+    joint: int
+    statistic: float  # F = Wald/k of every library term together (prewhitened, HC1)
+    df: tuple[int, int]
+    pvalue: float
+    share: float  # share of the joint's validation mean square the library removes
+    term: str | None  # the group named
+    term_share: float  # its share once the other selected groups are in
+    selected: list[str] = field(default_factory=list)
+    shares: dict[str, float] = field(default_factory=dict)
+    n_eff: float = float("nan")  # effective samples of the residual left by the library (the noise's)
+    ar_order: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
+                "share": self.share, "term": self.term, "term_share": self.term_share,
+                "selected": list(self.selected), "shares": dict(self.shares), "n_eff": self.n_eff,
+                "ar_order": self.ar_order}
+
+
+def _decimation(n):
+    return max(1, math.ceil(n / _MAX_ROWS))
+
+
+def _down(x, q):
+    if q == 1:
+        return x
+    return scipy.signal.decimate(x, q, ftype="fir", axis=0, zero_phase=True)
+
+
+def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisance=None, alpha=0.05,
+                 groups=None, model_regressor=None, parameter_covariance=None) -> list[PhysicsTest]:
+    """Each joint's residual against the physics library (module docstring).
+
+    e, pred : (N, m) residual and prediction; q, dq, ddq : (N, m) or None (then only ``offset``,
+    ``drift`` and ``delay`` are tested); nuisance : list of (N, k_j) arrays refitted on the
+    validation run (the model's own columns when their estimation error is unknown), or None;
+    model_regressor (N, m, k) and parameter_covariance (k, k): the model's columns and Cov(π̂) from
+    the estimation run, whose error then widens the test instead of being refitted away.
+    """
+    n, m = e.shape
+    dec = _decimation(n)
+    1.0 if sample_rate is None else float(sample_rate)
+    out = []
+    for j in range(m):
+        lib = library(j, q, dq, ddq, pred[:, j], sample_rate)
+        if groups is not None:
+            lib = {g: x for g, x in lib.items() if g in groups}
+        nz = None if nuisance is None else nuisance[j]
+        gj = None if model_regressor is None else model_regressor[:, j, :]
+        ej = e[:, j]
+        if dec > 1:
+            lib = {g: _down(x, dec) for g, x in lib.items()}
+            ej = _down(ej, dec)
+            nz = None if nz is None else _down(nz, dec)
+            gj = None if gj is None else _down(gj, dec)
+        out.append(_joint_test(j, ej, lib, nz, alpha, gj, parameter_covariance))
+    return out
+
+
+def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
+    """One joint. ``nz``: nuisance columns refitted on the validation run (the model's columns when
+    Cov(π̂) is unknown), or None; ``g``, ``cov_p``: the model's columns and Cov(π̂) when known."""
+    n = ej.shape[0]
+    total = float(ej @ ej)
+    nan_result = PhysicsTest(j, float("nan"), (0, 0), float("nan"), float("nan"), None, float("nan"))
+    if not total > 0 or n < 50:
+        return nan_result
+    nz = np.zeros((n, 0)) if nz is None else np.asarray(nz, float).reshape(n, -1)
+    # Feasible GLS with the AR(≤ 2) model of the residual as given (see _MAX_AR); when groups enter,
+    # the AR model is fitted again to what those few groups leave (a large missing term would
+    # otherwise be taken for colour and whitened away), and the test is repeated once.
+    a, _ = _ar_prewhitener(ej, min(_MAX_AR, n // 50))
+    fit = _whitened_fit(ej, nz, lib, a, alpha, gw_of=g, cov_p=cov_p)
+    if fit is None:
+        return nan_result
+    if fit["selected"]:
+        chosen = np.hstack([nz] + [fit["raw"][s] for s in fit["selected"]])
+        c1, *_ = np.linalg.lstsq(chosen, ej, rcond=None)
+        a, _ = _ar_prewhitener(ej - chosen @ c1, min(_MAX_AR, n // 50))
+        fit = _whitened_fit(ej, nz, lib, a, alpha, gw_of=g, cov_p=cov_p) or fit
+    names, raw, selected = fit["names"], fit["raw"], fit["selected"]
+    f_stat, k, df2, pvalue = fit["f"], fit["k"], fit["df2"], fit["pvalue"]
+    ew = _whiten(ej, a)
+
+    def sse(groups):
+        """SSE on the raw residual of the GLS fit of the nuisance columns and ``groups``."""
+        cols = np.hstack([nz] + [raw[i] for i in groups])
+        if cols.shape[1] == 0:
+            return total, np.zeros(0)
+        coef, *_ = np.linalg.lstsq(_whiten(cols, a), ew, rcond=None)
+        return float(np.sum((ej - cols @ coef) ** 2)), coef
+
+    base, _ = sse([])
+    full, coef_full = sse(range(len(raw)))
+    # the noise's N_eff (what the model's columns and the library leave), for the design rule
+    left = ej - np.hstack([nz] + raw) @ coef_full
+    _, n_eff = _ar_prewhitener(left, min(_MAX_AR, n // 50))
+    share = max(0.0, (base - full) / total)
+    shares: dict[str, float] = {}
+    if selected:
+        fit_all, _ = sse(selected)
+        for s in selected:
+            without, _ = sse([t for t in selected if t != s])
+            shares[names[s]] = max(0.0, (without - fit_all) / total)
+    term = max(shares, key=lambda name: shares[name]) if shares else None
+    return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term,
+                       float(shares.get(term, 0.0)) if term else 0.0, [names[s] for s in selected], shares,
+                       n_eff, int(a.size))
+
+
+def _whitened_fit(ej, nz, lib, a, alpha, gw_of=None, cov_p=None):
+    """The whitened problem: the library's groups outside the nuisance columns, the Wald test of
+    them all and the forward selection; None when no group keeps a direction of its own."""
+    ew, nzw = _whiten(ej, a), _whiten(nz, a)
+    gw = None if gw_of is None else _whiten(gw_of, a)
+    basis = _orthonormal(nzw) if nzw.shape[1] else nzw
+
+    def perp(x):
+        return x - basis @ (basis.T @ x) if basis.shape[1] else x
+
+    yw = perp(ew)
+    names, blocks, raw = [], [], []
+    for name, x in lib.items():
+        xw = _whiten(x, a)
+        # a direction that keeps less than 1 % of its size outside the model's columns is the
+        # model's own term (or numerical dust): not a candidate
+        floor = _OUTSIDE * float(np.sqrt(np.max(np.sum(xw * xw, axis=0))))
+        b = _orthonormal(perp(xw), rel=1e-6, floor=floor)
+        if b.shape[1]:
+            names.append(name)
+            blocks.append(b)
+            raw.append(x)
+    if not blocks:
+        return None
+    xw_all = np.hstack(blocks)
+    k = xw_all.shape[1]
+    w, _, _, _ = _wald(xw_all, yw, None, gw, cov_p)
+    df2 = max(xw_all.shape[0] - k - basis.shape[1], 1)
+    return {"names": names, "raw": raw, "f": w / k, "k": k, "df2": df2,
+            "pvalue": float(scipy.stats.f.sf(w / k, k, df2)),
+            "selected": _forward_selection(blocks, yw, alpha, gw, cov_p)}
+
+
+def _forward_selection(blocks, yw, alpha, gw=None, cov_p=None):
+    """Groups in order of entry while the next one is significant at α / (number of groups)."""
+    selected: list[int] = []
+    while len(selected) < len(blocks):
+        best = None
+        for i in range(len(blocks)):
+            if i in selected:
+                continue
+            cols = np.hstack([blocks[s] for s in selected + [i]])
+            idx = np.arange(cols.shape[1] - blocks[i].shape[1], cols.shape[1])
+            wi, ki, _, _ = _wald(cols, yw, idx, gw, cov_p)
+            pi = float(scipy.stats.chi2.sf(wi, ki))
+            if best is None or pi < best[1] or (pi == best[1] and wi / ki > best[2]):
+                best = (i, pi, wi / ki)
+        if best is None or best[1] > alpha / len(blocks):
+            break
+        selected.append(best[0])
+    return selected
+
+
+def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any]:
+    """The common time shift d (samples; > 0: the measurement lags) that best aligns the prediction
+    with the measured torque, each joint's share of the mean square realigning removes, and each
+    joint's p-value of the residual against −τ̂' (prewhitened AR(≤ 2), HC1)."""
+    n, m = meas.shape
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    big = int(max_shift if max_shift is not None else min(max(10, round(0.05 * fs)), n // 20))
+    grid = np.arange(-big, big + 0.001, 0.25)
+    t = np.arange(n, dtype=float)
+    inner = slice(big + 1, n - big - 1)  # rows every shift reaches
+    e0 = meas - pred
+    sse0 = np.sum(e0[inner] ** 2, axis=0)
+    if big < 1 or not np.all(sse0 > 0):
+        return {"shift_samples": 0.0, "share": np.zeros(m), "pvalue": np.full(m, np.nan), "grid_limit": big}
+
+    def sse(shift):
+        shifted = np.column_stack([np.interp(t - shift, t, pred[:, j]) for j in range(m)])
+        return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
+
+    cost = np.array([np.sum(sse(d) / sse0) for d in grid])
+    i = int(np.argmin(cost))
+    d = float(grid[i])
+    if 0 < i < grid.size - 1:  # parabolic refinement between grid points
+        c0, c1, c2 = cost[i - 1], cost[i], cost[i + 1]
+        den = c0 - 2.0 * c1 + c2
+        if den > 0:
+            d += 0.25 * 0.5 * (c0 - c2) / den
+    share = np.clip(1.0 - sse(d) / sse0, 0.0, 1.0)
+    p = np.full(m, np.nan)
+    for j in range(m):
+        col = -np.gradient(pred[:, j]) * fs
+        if not np.any(col):
+            continue
+        # one column absorbs little of the noise: the AR model of what it leaves is not too white
+        b = float(col @ e0[:, j]) / float(col @ col)
+        a, _ = _ar_prewhitener(e0[:, j] - b * col, min(_MAX_AR, n // 50))
+        w, k, _, _ = _wald(_whiten(col[:, None], a), _whiten(e0[:, j], a))
+        p[j] = float(scipy.stats.chi2.sf(w, k))
+    return {"shift_samples": d, "delay_s": d / fs if sample_rate else None, "share": share, "pvalue": p,
+            "grid_limit": big, "method": "common shift of the prediction (linear interpolation, 1/4-sample grid)"}
