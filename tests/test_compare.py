@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 
 import numpy as np
@@ -11,9 +12,11 @@ import dynval
 from dynval import calibration as C
 from dynval import simulate as sim
 from dynval.cli import main
+from dynval.html import render_report
 
 NAMES = list(sim.PARAMETER_NAMES)
 NO_FC = [i for i, n in enumerate(NAMES) if not n.startswith("Fc")]
+JOINTS = ["shoulder", "elbow"]
 
 
 def _runs(seed=0, noise=0.2, fc=None, repeat=False, ar=None):
@@ -131,3 +134,131 @@ def test_cli_compare(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["ranking"][0] == "full" and d["verdict"]["decision"] in ("accept", "refine", "redesign")
     assert main(["compare", str(tmp_path / "tau.npy"), "--model", "broken"]) == 2
+
+
+def _matter(report):
+    """The findings a candidate's reasons are made of: its deficiencies and design findings."""
+    return [f for f in report.findings if f.severity in ("deficiency", "design")]
+
+
+def _strict(cmp):
+    return json.loads(json.dumps(cmp.to_dict(), allow_nan=False))
+
+
+def test_every_candidate_has_its_reasons_in_summary_json_and_html():
+    est, val = _runs(fc=0.6)
+    cmp = dynval.compare(val[2], _candidates(est, val), regressor=val[1], column_names=NAMES,
+                         joint_names=JOINTS, sample_rate=100.0)
+    assert list(cmp.reasons) == cmp.ranking == ["full", "rigid+viscous"]
+    # the winner, with no deficiency: one positive reason with its rank and criterion
+    (won,) = cmp.reasons["full"]
+    assert won.startswith("no deficiency: rank 1 of 2") and "aic" in won
+    # the deficient non-winner: one reason per finding, and each missing term named with its effect
+    # and threshold, in the finding's own numbers
+    rep = cmp.reports["rigid+viscous"]
+    lost = cmp.reasons["rigid+viscous"]
+    assert len(lost) == len(_matter(rep)) >= 2
+    missing = [(f, r) for f, r in zip(_matter(rep), lost) if f.kind == "regressor_correlation"]
+    assert missing
+    for f, r in missing:
+        term = NAMES[f.columns[0]]
+        assert term.startswith("Fc")
+        assert r.startswith(f"{JOINTS[f.joints[0]]}: missing term {term} ")
+        assert f"{100 * f.effect:.3g} %" in r and f"≥ {100 * f.threshold:g} %" in r
+    # summary(): after the decision table, every candidate in ranking order with all its reasons
+    text = cmp.summary()
+    assert text.index("Decision table") < text.index("Reasons per candidate") < text.index("Verdict:")
+    block = text.split("Reasons per candidate", 1)[1].split("\nPer joint", 1)[0]
+    assert block.index("1. full") < block.index("2. rigid+viscous")
+    for n in cmp.ranking:
+        for r in cmp.reasons[n]:
+            assert f"- {r}" in block
+    # to_dict(): the same reasons, ranking order, strict JSON
+    d = _strict(cmp)
+    assert d["reasons"] == {n: list(r) for n, r in cmp.reasons.items()}
+    assert list(d["reasons"]) == cmp.ranking
+    # the HTML comparison page shows them too, escaped
+    page = render_report(cmp)
+    assert "Reasons per candidate" in page
+    for n in cmp.ranking:
+        for r in cmp.reasons[n]:
+            assert f"<li>{html.escape(r, quote=False)}</li>" in page
+
+
+def test_accept_is_decided_by_no_finding():
+    est, val = _runs(fc=0.6)
+    cmp = dynval.compare(val[2], _candidates(est, val), regressor=val[1], column_names=NAMES,
+                         joint_names=JOINTS, sample_rate=100.0)
+    v = cmp.verdict
+    assert v.decision == "accept" and v.decided_by == ()
+    assert v.first_step == "nothing to change: use full"
+    d = _strict(cmp)["verdict"]
+    assert d["decided_by"] == [] and d["first_step"] == v.first_step
+    lines = cmp.summary().split("Verdict: ACCEPT — full\n", 1)[1].splitlines()
+    assert lines[0].startswith("  decided by: ") and "aic ranks it first" in lines[0]
+    assert lines[1] == "  do first: nothing to change: use full"
+
+
+def test_refine_is_decided_by_the_winners_deficiency():
+    est, val = _runs(fc=0.6)
+    cands = _candidates(est, val)
+    cmp = dynval.compare(val[2], {"rigid+viscous": cands["rigid+viscous"]}, regressor=val[1],
+                         column_names=NAMES, joint_names=JOINTS, sample_rate=100.0)
+    v = cmp.verdict
+    assert v.decision == "refine" and v.model == "rigid+viscous"
+    # every deficiency of the winner but the whiteness ones, which only follow from the others
+    primary = [f for f in cmp.reports["rigid+viscous"].deficiencies if f.kind != "whiteness"]
+    assert primary and [(d.kind, d.message) for d in v.decided_by] == [(f.kind, f.message) for f in primary]
+    for d, f in zip(v.decided_by, primary):
+        assert isinstance(d, dynval.Decisive)
+        assert (d.model, d.severity) == ("rigid+viscous", "deficiency")
+        assert d.joints == tuple(JOINTS[j] for j in f.joints) and d.columns == tuple(NAMES[c] for c in f.columns)
+    assert any(c.startswith("Fc") for d in v.decided_by for c in d.columns)
+    assert v.first_step == primary[0].action and "Fc" in v.first_step
+    # the verdict's text: decided by, then what to do first, then the reasons
+    text = v.summary()
+    assert text == str(v) and text in cmp.summary()
+    assert text.index("decided by:") < text.index(f"do first: {v.first_step}") < text.index(v.reasons[0])
+    for d in v.decided_by:
+        assert d.label() in text
+    got = _strict(cmp)["verdict"]["decided_by"]
+    assert got == [{"model": d.model, "kind": d.kind, "severity": d.severity, "joints": list(d.joints),
+                    "columns": list(d.columns), "message": d.message} for d in v.decided_by]
+
+
+def test_redesign_is_decided_by_the_design_finding_said_once():
+    est, val = _runs(repeat=True, fc=0.6)
+    cmp = dynval.compare(val[2], _candidates(est, val), regressor=val[1], column_names=NAMES,
+                         joint_names=JOINTS, estimation={"regressor": est[1], "q": est[0]}, q=val[0],
+                         sample_rate=100.0)
+    v = cmp.verdict
+    assert v.decision == "redesign"
+    design = {(f.kind, f.message) for n in cmp.names for f in cmp.reports[n].findings if f.severity == "design"}
+    assert [d.kind for d in v.decided_by].count("repeat_trajectory") == 1   # every report has it: said once
+    assert {(d.kind, d.message) for d in v.decided_by} == design and len(v.decided_by) == len(design)
+    assert all(d.severity == "design" and d.model in cmp.names for d in v.decided_by)
+    assert v.decided_by[0].model == cmp.ranking[0]
+    repeat = next(f for f in cmp.reports[cmp.ranking[0]].findings if f.kind == "repeat_trajectory")
+    if v.decided_by[0].kind == "repeat_trajectory":
+        assert v.first_step == repeat.action
+    # each candidate's reasons say it, with the distance and its threshold
+    for n in cmp.names:
+        said = [r for r in cmp.reasons[n] if "repeats the estimation run" in r]
+        assert len(said) == 1 and said[0].startswith("design: ") and "< 0.1" in said[0]
+    text = cmp.summary()
+    assert "decided by:" in text.split("Verdict: REDESIGN", 1)[1]
+    assert [d["kind"] for d in _strict(cmp)["verdict"]["decided_by"]] == [d.kind for d in v.decided_by]
+
+
+def test_reasons_with_infinite_criteria_stay_strict_json():
+    # An exact candidate (SSE = 0) has AIC −inf: its reason and the other's Δ are infinite, the JSON strict.
+    rng = np.random.default_rng(0)
+    t = np.arange(2000) / 100.0
+    x = np.sin(2 * np.pi * 0.3 * t)
+    tau = 3.0 * x + 0.5 * np.sign(x) + rng.normal(0.0, 0.1, t.size)
+    cmp = dynval.compare(tau, {"linear": (3.0 * x, 1), "exact": (tau, 2)}, sample_rate=100.0)
+    assert list(cmp.reasons) == cmp.ranking == ["exact", "linear"]
+    assert cmp.reasons["exact"][0].startswith("no deficiency: rank 1 of 2") and "(-inf)" in cmp.reasons["exact"][0]
+    assert all(cmp.reasons[n] for n in cmp.names)
+    d = _strict(cmp)
+    assert set(d["reasons"]) == {"exact", "linear"} and d["verdict"]["decision"] == cmp.verdict.decision

@@ -34,7 +34,7 @@ from ._api import (
     zero_mean_test,
 )
 from ._backend import backends, set_backend
-from ._compare import ComparisonReport, Verdict, compare
+from ._compare import ComparisonReport, Decisive, Verdict, compare
 from ._errors import (
     ERROR_KINDS,
     InputError,
@@ -80,6 +80,7 @@ __all__ = [
     "compare",
     "ComparisonReport",
     "Verdict",
+    "Decisive",
     "Finding",
     "Thresholds",
     "FINDING_KINDS",

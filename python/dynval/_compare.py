@@ -30,7 +30,7 @@ from ._findings import Finding
 from ._report import ValidationReport, to_jsonable, validate
 from ._typing import ArrayLike, FloatArray, Integer
 
-__all__ = ["compare", "ComparisonReport", "Verdict", "CRITERIA", "DECISIONS"]
+__all__ = ["compare", "ComparisonReport", "Verdict", "Decisive", "CRITERIA", "DECISIONS"]
 
 CRITERIA = ("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff")
 DECISIONS = ("accept", "refine", "redesign")
@@ -41,16 +41,72 @@ CandidateSpec = tuple[ArrayLike, Integer] | tuple[ArrayLike, Integer, ArrayLike 
 
 
 @dataclass(frozen=True)
+class Decisive:
+    """A finding that decided the verdict, named by the candidate whose report holds it.
+
+    Attributes
+    ----------
+    model : str
+        The candidate whose report holds the finding (the best-ranked one first when several hold
+        the same finding); ``""`` for a finding of the comparison itself (whiteness cannot
+        discriminate).
+    kind, severity : str
+        The finding's ``kind`` (see :data:`dynval._findings.KINDS`) and ``severity``.
+    joints, columns : tuple of str
+        The joint and regressor-column names it concerns (strongest first); names from the
+        report's ``joint_names``/``column_names``, else "joint 1", "column 1", ...
+    message : str
+        The finding's message, its evidence in plain words.
+    """
+
+    model: str
+    kind: str
+    severity: str
+    joints: tuple[str, ...] = ()
+    columns: tuple[str, ...] = ()
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.model, "kind": self.kind, "severity": self.severity, "joints": list(self.joints),
+                "columns": list(self.columns), "message": self.message}
+
+    def label(self) -> str:
+        """A short name for the text: "oscillation on shoulder (deficiency of friction)"."""
+        where = ", ".join(self.joints + self.columns)
+        owner = f"{self.severity} of {self.model}" if self.model else f"{self.severity} of the comparison"
+        return f"{self.kind}{' on ' + where if where else ''} ({owner})"
+
+
+@dataclass(frozen=True)
 class Verdict:
     """The decision of the lesson's flowchart: ``decision`` (accept, refine, redesign), the
-    ``model`` it concerns (the best-ranked candidate) and the ``reasons``, each with its numbers."""
+    ``model`` it concerns (the best-ranked candidate) and the ``reasons``, each with its numbers.
+
+    ``decided_by`` names the finding(s) that decided it: the design finding(s) for a redesign, the
+    best model's deficiencies for refine (a whiteness deficiency only follows from another
+    deficiency on its joint, so it is left out unless it is all there is), the comparison's own
+    finding when whiteness cannot discriminate, nothing for accept. ``first_step`` is what to do
+    first: the action of the first decisive finding, or "nothing to change" for accept.
+    """
 
     decision: str
     model: str
     reasons: tuple[str, ...]
+    decided_by: tuple[Decisive, ...] = ()
+    first_step: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"decision": self.decision, "model": self.model, "reasons": list(self.reasons)}
+        return {"decision": self.decision, "model": self.model, "reasons": list(self.reasons),
+                "decided_by": [d.to_dict() for d in self.decided_by], "first_step": self.first_step}
+
+    def summary(self) -> str:
+        """The verdict as text: the decision, what decided it, what to do first, the reasons."""
+        from ._summary import format_verdict
+
+        return "\n".join(format_verdict(self))
+
+    def __str__(self) -> str:
+        return self.summary()
 
 
 @dataclass
@@ -74,6 +130,10 @@ class ComparisonReport:
     verdict : Verdict
     findings : list of Finding
         Findings about the comparison itself (e.g. whiteness cannot discriminate).
+    reasons : dict
+        Candidate name → tuple of short reasons, in ranking order: one per deficiency or design
+        finding of its report (joint and column names, the effect and its threshold), or, for a
+        candidate with none, one positive reason ("no deficiency: ...", its rank and criterion).
     """
 
     names: list[str]
@@ -83,12 +143,14 @@ class ComparisonReport:
     reports: dict[str, ValidationReport]
     verdict: Verdict
     findings: list[Finding] = field(default_factory=list)
+    reasons: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def to_dict(self, *, reports: bool = True) -> dict[str, Any]:
         """JSON-ready dictionary; ``reports=False`` leaves out the candidates' full reports."""
         out = {"names": list(self.names), "ranking": list(self.ranking), "criterion": self.criterion,
                "table": to_jsonable(self.table), "verdict": self.verdict.to_dict(),
-               "findings": [f.to_dict() for f in self.findings]}
+               "findings": [f.to_dict() for f in self.findings],
+               "reasons": {k: list(r) for k, r in self.reasons.items()}}
         if reports:
             out["reports"] = {k: r.to_dict() for k, r in self.reports.items()}
         return out
@@ -240,7 +302,114 @@ def compare(
     table = {"pooled": pooled, "per_joint": per_joint}
     findings, verdict = _verdict(names, ranking, reports, criterion, crit)
     return ComparisonReport(names=names, ranking=ranking, criterion=criterion, table=table, reports=reports,
-                            verdict=verdict, findings=findings)
+                            verdict=verdict, findings=findings, reasons=_reasons(ranking, reports, criterion, crit))
+
+
+def _joint_name(report: ValidationReport, j: int) -> str:
+    names = report.provenance.get("joint_names")
+    return str(names[j]) if names and 0 <= j < len(names) else f"joint {j + 1}"
+
+
+def _column_name(report: ValidationReport, c: int) -> str:
+    names = report.provenance.get("column_names")
+    return str(names[c]) if names and 0 <= c < len(names) else f"column {c + 1}"
+
+
+def _decisive(model: str, report: ValidationReport, f: Finding) -> Decisive:
+    return Decisive(model=model, kind=f.kind, severity=f.severity,
+                    joints=tuple(_joint_name(report, j) for j in f.joints),
+                    columns=tuple(_column_name(report, c) for c in f.columns), message=f.message)
+
+
+def _g(x: float | None, fmt: str = ".3g") -> str:
+    """A number of a finding (None or non-finite as a word)."""
+    if x is None:
+        return "n/a"
+    x = float(x)
+    return format(x, fmt) if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
+
+
+def _pct(x: float | None) -> str:
+    """A share as a percentage: 0.846 → "84.6 %", 0.01 → "1 %"."""
+    return "n/a" if x is None else f"{_g(100.0 * float(x))} %"
+
+
+def _finding_reason(f: Finding, report: ValidationReport) -> str:
+    """One short reason from a finding's own fields: where, what, the effect and its threshold."""
+    joints = ", ".join(_joint_name(report, j) for j in f.joints)
+    cols = [_column_name(report, c) for c in f.columns]
+    th = f.threshold
+    if f.kind == "regressor_correlation" and "share" in f.effect_unit:
+        text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {_pct(f.effect)} of the residual's "
+                f"mean square ≥ {_pct(th)})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
+    elif f.kind == "regressor_correlation":
+        text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
+                f"{_g(f.effect, '.2f')} ≥ {_g(th, 'g')}): a missing or mis-weighted term")
+    elif f.kind == "bias":
+        text = (f"residual bias (|mean| = {_pct(f.effect)} of the RMSE ≥ {_pct(th)})"
+                + (f", which the missing term {cols[0]} accounts for" if cols else ""))
+    elif f.kind == "oscillation":
+        text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
+                f"({_pct(f.effect)} of the residual variance ≥ {_pct(th)})")
+    elif f.kind == "whiteness":
+        rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
+        text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
+                "findings above on this joint")
+    elif f.kind == "worse_than_constant":
+        text = f"worse than a constant (R² = {_g(f.statistic, '.3f')} < {_g(th, 'g')})"
+    elif f.kind == "missing_physics":
+        label = f.details.get("label") or f.details.get("term") or "a physical term"
+        text = f"missing {label} (the physical terms would remove {_pct(f.effect)} of the mean square ≥ {_pct(th)})"
+    elif f.kind == "delay":
+        d_s = f.details.get("delay_s")
+        lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
+               else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
+        text = (f"torque delayed by {lag} against the encoders (realigning removes {_pct(f.effect)} of the mean "
+                f"square ≥ {_pct(th)})")
+    elif f.kind == "predictive_failure":
+        text = (f"predictive failure (validation mean square {_g(f.effect)}× what the estimation run allows "
+                f"≥ {_g(th, 'g')}×)")
+    elif f.kind == "low_information":
+        text = (f"too few effective samples (the smallest detectable term removes {_pct(f.effect)} of the mean "
+                f"square > {_pct(th)})")
+    elif f.kind == "repeat_trajectory":
+        measure = f.details.get("measure", "")
+        text = (f"the validation run repeats the estimation run (relative {measure + ' ' if measure else ''}"
+                f"distance {_g(f.effect)} < {_g(th, 'g')})")
+    elif f.kind == "excitation" and cols:
+        text = f"the validation run never excites {', '.join(cols)}"
+    elif f.kind == "excitation" and "condition" in f.effect_unit:
+        text = (f"ill-conditioned validation regressor (column-scaled condition number {_g(f.effect)} > "
+                f"{_g(th, 'g')})")
+    elif f.kind == "excitation" and "motion" in f.effect_unit:
+        text = f"hardly moves ({_pct(f.effect)} of its estimation-run motion < {_pct(th)})"
+    else:  # a kind this wording does not know yet: its name, effect and threshold
+        text = f.kind.replace("_", " ")
+        if f.effect is not None:
+            share = "share" in f.effect_unit
+            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{_pct(f.effect) if share else _g(f.effect)}"
+                     + (f", threshold {_pct(th) if share else _g(th, 'g')}" if th is not None else "") + ")")
+    prefix = "design: " if f.severity == "design" else ""
+    return prefix + (f"{joints}: " if joints else "") + text
+
+
+def _reasons(ranking: list[str], reports: dict[str, ValidationReport], criterion: str,
+             crit: dict[str, float]) -> dict[str, tuple[str, ...]]:
+    """Every candidate's reasons, in ranking order (see :class:`ComparisonReport`)."""
+    out: dict[str, tuple[str, ...]] = {}
+    best = ranking[0]
+    for rank, n in enumerate(ranking, 1):
+        r = reports[n]
+        matter = [f for f in r.findings if f.severity in ("deficiency", "design")]
+        if matter:
+            out[n] = tuple(_finding_reason(f, r) for f in matter)
+        elif rank == 1:
+            out[n] = (f"no deficiency: rank 1 of {len(ranking)}, the lowest {criterion} "
+                      f"({_g(crit[n], '.1f')}) among the candidates without a deficiency",)
+        else:
+            out[n] = (f"no deficiency: rank {rank} of {len(ranking)}, {criterion} {_g(crit[n], '.1f')} "
+                      f"(Δ{criterion} = {_g(crit[n] - crit[best], '+.1f')} to {best})",)
+    return out
 
 
 def _verdict(names: list[str], ranking: list[str], reports: dict[str, ValidationReport], criterion: str,
@@ -248,26 +417,37 @@ def _verdict(names: list[str], ranking: list[str], reports: dict[str, Validation
     best = ranking[0]
     findings: list[Finding] = []
     reasons: list[str] = []
+    decided: list[Decisive] = []
+    first = ""
     seen = set()
-    for n in names:
+    for n in ranking:
         for f in reports[n].findings:
-            if f.severity == "design" and f.message not in seen:
-                seen.add(f.message)
+            if f.severity == "design" and (f.kind, f.message) not in seen:
+                seen.add((f.kind, f.message))
                 reasons.append(f"{f.message} ({f.action})")
+                decided.append(_decisive(n, reports[n], f))
+                first = first or f.action
     if reasons:
-        return findings, Verdict("redesign", best, tuple(reasons))
+        return findings, Verdict("redesign", best, tuple(reasons), tuple(decided), first)
     deficiencies = reports[best].deficiencies
     if deficiencies:
-        return findings, Verdict("refine", best, tuple(f"{f.message} → {f.action}" for f in deficiencies))
+        # A whiteness deficiency only follows from another deficiency on its joint (conventions §5):
+        # the other decides.
+        primary = [f for f in deficiencies if f.kind != "whiteness"] or deficiencies
+        return findings, Verdict("refine", best, tuple(f"{f.message} → {f.action}" for f in deficiencies),
+                                 tuple(_decisive(best, reports[best], f) for f in primary), primary[0].action)
     analysed = [n for n in names if reports[n].whiteness is not None]
     if len(analysed) >= 2 and all(_rejects_whiteness(reports[n]) for n in analysed):
         # No deficiency explains the best model's colour, and every candidate has it.
         msg = ("whiteness cannot discriminate these models on this data: every candidate's residual is coloured "
                "at the information rate, so the whiteness test says nothing about which is better")
-        findings.append(Finding(kind="whiteness", severity="design", action=(
+        own = Finding(kind="whiteness", severity="design", action=(
             "log less-filtered torques, or validate at a rate where the noise is white; meanwhile rank on "
-            "the criteria and the other findings"), message=msg[0].upper() + msg[1:] + "."))
-        return findings, Verdict("redesign", best, (msg + f" (best on {criterion}: {best})",))
+            "the criteria and the other findings"), message=msg[0].upper() + msg[1:] + ".")
+        findings.append(own)
+        return findings, Verdict("redesign", best, (msg + f" (best on {criterion}: {best})",),
+                                 (Decisive(model="", kind=own.kind, severity=own.severity, message=own.message),),
+                                 own.action)
     r = reports[best]
     reason = (f"{best} has no deficiency finding at α = {1 - r.provenance['conventions']['level']:g} "
               f"(Holm over its report) and the lowest {criterion} among such candidates "
@@ -277,4 +457,4 @@ def _verdict(names: list[str], ranking: list[str], reports: dict[str, Validation
         d = len(reports[n].deficiencies)
         extra.append(f"{n}: Δ{criterion} = {crit[n] - crit[best]:+.2f}"
                      + (f", {d} deficiency finding{'s' if d != 1 else ''}" if d else ""))
-    return findings, Verdict("accept", best, tuple([reason] + extra))
+    return findings, Verdict("accept", best, tuple([reason] + extra), (), f"nothing to change: use {best}")

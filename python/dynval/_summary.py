@@ -178,6 +178,7 @@ def format_comparison(cmp) -> str:
             + "".join(f" {_num(row['delta_' + c], '.1f'):>12}" for c in extra)
             + f" {_num(row['akaike_weight'], '.3f'):>7} {row['whiteness']:>10} {row['bias']:>10} "
             f"{row['n_deficiencies']:>9}")
+    lines += _format_candidate_reasons(cmp)
     lines += ["", "Per joint (RMSE / R²):"]
     jw = max(len(x) for x in names)
     lines.append(f"  {'model':<{w}} " + " ".join(f"{x:>{max(jw, 18)}}" for x in names))
@@ -191,6 +192,40 @@ def format_comparison(cmp) -> str:
     lines += format_findings(cmp.reports[best].findings)
     for f in cmp.findings:
         lines.append(f"  - [{_SEVERITY_LABEL[f.severity]}] {f.message}")
-    lines += ["", f"Verdict: {cmp.verdict.decision.upper()} — {best}"]
-    lines += [f"  - {r}" for r in cmp.verdict.reasons]
+    lines += [""] + format_verdict(cmp.verdict, criterion=crit)
     return "\n".join(lines)
+
+
+def _format_candidate_reasons(cmp) -> list:
+    """The "Reasons per candidate" block: every candidate in ranking order with its reasons."""
+    reasons = getattr(cmp, "reasons", None) or {}
+    if not reasons:
+        return []
+    lines = ["", "Reasons per candidate (ranking order; one per deficiency or design finding):"]
+    for i, n in enumerate(cmp.ranking):
+        row = cmp.table["pooled"].get(n, {})
+        d = row.get("n_deficiencies", 0)
+        lines.append(f"  {i + 1}. {n}" + (f" — {d} deficienc{'y' if d == 1 else 'ies'}" if d else ""))
+        lines += [f"       - {r}" for r in reasons.get(n, ())]
+    return lines
+
+
+def format_verdict(verdict, criterion=None) -> list:
+    """The verdict's lines: decision and model, what decided it, what to do first, the reasons."""
+    lines = [f"Verdict: {verdict.decision.upper()} — {verdict.model}"]
+    decided = tuple(getattr(verdict, "decided_by", ()) or ())
+    if decided:
+        labels = [d.label() for d in decided]
+        if len(labels) == 1:
+            lines.append(f"  decided by: {labels[0]}")
+        else:
+            lines.append("  decided by:")
+            lines += [f"    * {x}" for x in labels]
+    elif verdict.decision == "accept":
+        lines.append(f"  decided by: the criterion — no finding stands against {verdict.model} (no deficiency in "
+                     f"its report, no design finding in any) and {criterion or 'the criterion'} ranks it first")
+    first = getattr(verdict, "first_step", "")
+    if first:
+        lines.append(f"  do first: {first}")
+    lines += [f"  - {r}" for r in verdict.reasons]
+    return lines

@@ -36,6 +36,8 @@ th, td { border: 1px solid #ccc; padding: 0.3em 0.6em; text-align: right; vertic
 th { background: #f2f2f2; }
 td.text, th.text { text-align: left; }
 tr.chosen td { background: #eef6ee; font-weight: 600; }
+td ul { margin: 0; padding-left: 1.2em; }
+td li { font-weight: normal; }
 .verdict { border-radius: 6px; padding: 0.8em 1.2em; margin: 1em 0; border: 2px solid; }
 .verdict.accept { background: #eef8ee; border-color: #2e7d32; }
 .verdict.refine { background: #fff7e6; border-color: #e08a00; }
@@ -234,6 +236,46 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
     return figs
 
 
+def _decided_html(verdict, chosen, cmp) -> str:
+    """The verdict's "decided by" and "do first" lines (nothing for an object without them)."""
+    decided = tuple(getattr(verdict, "decided_by", ()) or ())
+    out = ""
+    if decided:
+        items = []
+        for d in decided:
+            where = ", ".join(tuple(d.joints) + tuple(d.columns))
+            owner = f"{d.severity} of {d.model}" if d.model else f"{d.severity} of the comparison"
+            items.append(f"<li><b>{_e(d.kind)}</b>{' on ' + _e(where) if where else ''} ({_e(owner)})</li>")
+        out += "<p>Decided by:</p><ul>" + "".join(items) + "</ul>"
+    elif hasattr(verdict, "decided_by") and getattr(verdict, "decision", "") == "accept":
+        crit = getattr(cmp, "criterion", None) or "the criterion"
+        out += (f"<p>Decided by: the criterion — no finding stands against <b>{_e(chosen)}</b> (no deficiency in "
+                f"its report, no design finding in any) and {_e(crit)} ranks it first.</p>")
+    first = getattr(verdict, "first_step", "")
+    if first:
+        out += f"<p>Do first: <b>{_e(first)}</b></p>"
+    return out
+
+
+def _candidate_reasons_html(cmp, ranking, chosen) -> str:
+    """Every candidate in ranking order with its reasons (``ComparisonReport.reasons``)."""
+    reasons = getattr(cmp, "reasons", None) or {}
+    if not reasons:
+        return ""
+    pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
+    rows, classes = [], []
+    for i, n in enumerate(ranking):
+        d = pooled.get(n, {}).get("n_deficiencies")
+        rows.append([str(i + 1), _e(n), _num(d),
+                     "<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons.get(n, ())) + "</ul>"])
+        classes.append("chosen" if n == chosen else "")
+    return ("<h2>Reasons per candidate</h2>"
+            + _table(["rank", "model", "deficiencies", "reasons (one per deficiency or design finding)"], rows,
+                     text_cols=(1, 3), row_classes=classes)
+            + '<p class="muted">In ranking order; a candidate without a deficiency or design finding gets its '
+              "rank and criterion instead.</p>")
+
+
 def _is_comparison(obj) -> bool:
     return hasattr(obj, "reports") and hasattr(obj, "verdict")
 
@@ -267,7 +309,7 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
         decision = str(getattr(verdict, "decision", ""))
         reasons = getattr(verdict, "reasons", []) or []
         parts.append(f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
-                     f"<p>Model: <b>{_e(chosen)}</b></p>"
+                     f"<p>Model: <b>{_e(chosen)}</b></p>" + _decided_html(verdict, chosen, cmp)
                      + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
                      + "</div>")
         parts.append("<h2>Decision table</h2>")
@@ -288,6 +330,7 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
                                                                         if c in ("whiteness", "bias"))))
         parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
                      "(best first); the chosen model is highlighted.</p>")
+        parts.append(_candidate_reasons_html(cmp, ranking, chosen))
         if have_plot:
             from . import plot
 
