@@ -19,7 +19,8 @@ PRED = np.array([[11.0, 2.0], [19.0, 1.0], [31.0, 2.0], [39.0, 1.0]])
 
 SECTIONS = {"provenance", "per_joint", "pooled", "aggregates", "residuals", "autocorrelation",
             "ljung_box", "cross_correlation", "information_criteria", "warnings_text",
-            "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics"}
+            "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics", "physics",
+            "predictive"}
 
 
 def _signals(n=400, seed=0, scales=(20.0, 2.0, 0.5)):

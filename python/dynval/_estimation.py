@@ -68,13 +68,19 @@ def quadratic_forms(fit: EstimationFit, g) -> np.ndarray:
 
 
 def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
-    """Refit with each column outside ``model_columns`` added; test it and measure what it removes.
+    """Refit with every column outside ``model_columns`` added together; test each and measure
+    what it removes once the others are in.
 
-    Returns a dict: ``columns`` (q,), ``statistic`` (q,) Wald t of the added coefficient with the
-    coloured-noise covariance, ``pvalue`` (q,) from Student t with N_eff − 1 degrees of freedom
-    (N_eff the smallest effective sample size of the estimation residual's joints), ``share`` (m, q)
-    the share of each joint's validation mean square the refit with the column removes (negative
-    when it makes the validation worse), and ``explains_bias`` (m, q): the refit also halves the
+    Terms that interact are refitted together (a shoulder friction column refitted alone also moves
+    the elbow's parameters and can look like the elbow's missing term): one least-squares refit on
+    the estimation run with the model's columns and every absent column, the Wald t of each added
+    coefficient with the coloured-noise covariance, and, per column c, the refit without c.
+
+    Returns a dict: ``columns`` (q,), ``statistic`` (q,) Wald t of each added coefficient in the
+    joint refit, ``pvalue`` (q,) from Student t with N_eff − 1 degrees of freedom (N_eff the
+    smallest effective sample size of the estimation residual's joints), ``share`` (m, q) the share
+    of each joint's validation mean square column c removes from the refit without it (negative when
+    it makes the validation worse), and ``explains_bias`` (m, q): adding c at least halves the
     joint's validation mean. None when every column is in the model.
     """
     p = est_reg3.shape[2]
@@ -82,24 +88,43 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     outside = [c for c in range(p) if c not in set(inside)]
     if not outside:
         return None
-    m = est_tau.shape[1]
+    n_val, m = val_tau.shape
     _, coef0, _ = _least_squares(est_reg3, est_tau, inside) if inside else (None, np.zeros(0), est_tau)
     e0 = val_tau - (val_reg3[:, :, inside] @ coef0 if inside else 0.0)
-    mse0, mean0 = np.mean(e0**2, axis=0), e0.mean(axis=0)
+    mse0 = np.mean(e0**2, axis=0)
     q = len(outside)
     stat, pval = np.full(q, np.nan), np.full(q, np.nan)
     share, explains = np.full((m, q), np.nan), np.zeros((m, q), dtype=bool)
-    for i, c in enumerate(outside):
-        cols = inside + [c]
-        x, coef, resid = _least_squares(est_reg3, est_tau, cols)
-        cov, n_eff = _sandwich(x, resid)
-        df = max(float(np.min(n_eff)) - 1.0, 1.0)
-        if cov[-1, -1] > 0:
-            stat[i] = coef[-1] / np.sqrt(cov[-1, -1])
+    every = inside + outside
+    x, coef, resid = _least_squares(est_reg3, est_tau, every)
+    cov, n_eff = _sandwich(x, resid)
+    df = max(float(np.min(n_eff)) - 1.0, 1.0)
+    for i in range(q):
+        k = len(inside) + i
+        if cov[k, k] > 0:
+            stat[i] = coef[k] / np.sqrt(cov[k, k])
             pval[i] = 2.0 * scipy.stats.t.sf(abs(stat[i]), df)
-        e1 = val_tau - val_reg3[:, :, cols] @ coef
+    # The refits without one column from the estimation run's Gram matrix, their validation mean
+    # squares and means from the validation run's (per joint): no pass over the rows per column.
+    stacked = est_reg3[:, :, every].reshape(-1, len(every))
+    gram, rhs = stacked.T @ stacked, stacked.T @ est_tau.reshape(-1)
+    yv = val_reg3[:, :, every]
+    gv = np.einsum("nmk,nml->mkl", yv, yv)
+    bv = np.einsum("nmk,nm->mk", yv, val_tau)
+    tt = np.einsum("nm,nm->m", val_tau, val_tau)
+    ysum, tsum = yv.sum(axis=0), val_tau.sum(axis=0)
+
+    def validation(keep, c):
+        mse = (tt - 2.0 * bv[:, keep] @ c + np.einsum("k,mkl,l->m", c, gv[np.ix_(range(m), keep, keep)], c)) / n_val
+        return mse, (tsum - ysum[:, keep] @ c) / n_val
+
+    mse_all, mean_all = validation(list(range(len(every))), coef)
+    for i in range(q):
+        keep = [k for k in range(len(every)) if k != len(inside) + i]
+        c_wo = np.linalg.lstsq(gram[np.ix_(keep, keep)], rhs[keep], rcond=None)[0]
+        mse_wo, mean_wo = validation(keep, c_wo)
         with np.errstate(invalid="ignore", divide="ignore"):
-            share[:, i] = (mse0 - np.mean(e1**2, axis=0)) / mse0
-        explains[:, i] = np.abs(e1.mean(axis=0)) <= 0.5 * np.abs(mean0)
+            share[:, i] = (mse_wo - mse_all) / mse0
+        explains[:, i] = np.abs(mean_all) <= 0.5 * np.abs(mean_wo)
     return {"columns": outside, "statistic": stat, "pvalue": pval, "share": share, "explains_bias": explains,
             "method": "estimation_refit"}

@@ -616,12 +616,13 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
         term = t["term"]
         if term is None:
             continue
-        big = bool(t["share"] >= th.missing_physics and t["term_share"] >= th.missing_physics / 2)
+        big = bool(t["share"] >= th.missing_physics and t["term_share"] >= th.missing_physics)
         if big:
             bad.add(j)
         label = LABELS[term]
-        others = [f"{LABELS[g]} {100 * s:.0f} %" for g, s in sorted(shares.items(), key=lambda kv: -kv[1])
-                  if g != term and s >= 0.01]
+        others = [LABELS[g] for g, sh in sorted(shares.items(), key=lambda kv: -kv[1]) if g != term and sh >= 0.01]
+        named = label + (f" (with {', '.join(others)})" if others else "")
+        together = float(t.get("selected_share", t["term_share"]))
         out.append(Finding(
             kind="missing_physics", severity="deficiency" if big else "note", joints=(j,),
             statistic=float(t["statistic"]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
@@ -630,13 +631,13 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
             action=(f"add {label} on {_name(names, j)} to the model" if big
                     else "none: the structure is real but too small to matter"),
             details={"term": term, "label": label, "term_share": float(t["term_share"]),
-                     "selected": list(t["selected"]), "shares": dict(shares), "n_eff": float(t["n_eff"]),
-                     "method": ev.physics["method"], "derivatives": ev.physics["derivatives"]},
-            message=(f"{_name(names, j)}: the residual follows the motion: {label} removes "
-                     f"{100 * t['term_share']:.0f} % of its mean square"
-                     + (f" (with {', '.join(others)})" if others else "")
-                     + f"; all physical terms together {100 * t['share']:.0f} % (prewhitened Wald test, "
-                     f"Holm-adjusted p {_p_text(padj[j])})"
+                     "selected_share": together, "selected": list(t["selected"]), "shares": dict(shares),
+                     "n_eff": float(t["n_eff"]), "method": ev.physics["method"],
+                     "derivatives": ev.physics["derivatives"]},
+            message=(f"{_name(names, j)}: the residual follows the motion: {named} removes "
+                     f"{100 * together:.0f} % of its mean square ({100 * t['term_share']:.0f} % by {label} alone; "
+                     f"every physical term together {100 * t['share']:.0f} %, "
+                     f"prewhitened Wald test, Holm-adjusted p {_p_text(padj[j])})"
                      + (": a term the model lacks." if big else ": significant but negligible."))))
     return out, bad
 

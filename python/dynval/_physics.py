@@ -206,16 +206,17 @@ class PhysicsTest:
     pvalue: float
     share: float  # share of the joint's validation mean square the library removes
     term: str | None  # the group named
-    term_share: float  # its share once the other selected groups are in
+    term_share: float  # the share it removes alone
     selected: list[str] = field(default_factory=list)
     shares: dict[str, float] = field(default_factory=dict)
+    selected_share: float = 0.0  # share the selected groups remove together
     n_eff: float = float("nan")  # effective samples of the residual left by the library (the noise's)
     ar_order: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
                 "share": self.share, "term": self.term, "term_share": self.term_share,
-                "selected": list(self.selected), "shares": dict(self.shares), "n_eff": self.n_eff,
+                "selected": list(self.selected), "shares": dict(self.shares), "selected_share": self.selected_share, "n_eff": self.n_eff,
                 "ar_order": self.ar_order}
 
 
@@ -299,15 +300,19 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
     _, n_eff = _ar_prewhitener(left, min(_MAX_AR, n // 50))
     share = max(0.0, (base - full) / total)
     shares: dict[str, float] = {}
+    selected_share = 0.0
     if selected:
         fit_all, _ = sse(selected)
+        selected_share = max(0.0, (base - fit_all) / total)
         for s in selected:
             without, _ = sse([t for t in selected if t != s])
             shares[names[s]] = max(0.0, (without - fit_all) / total)
-    term = max(shares, key=lambda name: shares[name]) if shares else None
-    return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term,
-                       float(shares.get(term, 0.0)) if term else 0.0, [names[s] for s in selected], shares,
-                       n_eff, int(a.size))
+    # The term named is the first to enter: the one group that alone explains the most (the partial
+    # shares of collinear groups, friction forms against inertia, are each small).
+    term = names[selected[0]] if selected else None
+    alone = max(0.0, (base - sse([selected[0]])[0]) / total) if selected else 0.0
+    return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term, alone, [names[s] for s in selected], shares,
+                       selected_share, n_eff, int(a.size))
 
 
 def _whitened_fit(ej, nz, lib, a, alpha, gw_of=None, cov_p=None):
