@@ -216,7 +216,8 @@ class PhysicsTest:
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
                 "share": self.share, "term": self.term, "term_share": self.term_share,
-                "selected": list(self.selected), "shares": dict(self.shares), "selected_share": self.selected_share, "n_eff": self.n_eff,
+                "selected": list(self.selected), "shares": dict(self.shares),
+                "selected_share": self.selected_share, "n_eff": self.n_eff,
                 "ar_order": self.ar_order}
 
 
