@@ -19,7 +19,7 @@ PRED = np.array([[11.0, 2.0], [19.0, 1.0], [31.0, 2.0], [39.0, 1.0]])
 
 SECTIONS = {"provenance", "per_joint", "pooled", "aggregates", "residuals", "autocorrelation",
             "ljung_box", "cross_correlation", "information_criteria", "warnings_text",
-            "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics", "physics",
+            "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics", "physics", "periodic",
             "predictive"}
 
 

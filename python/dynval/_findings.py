@@ -40,6 +40,8 @@ KINDS = {
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
     "delay": "the measured torque lags (or leads) the prediction: realigning removes a practical share of the error",
+    "periodic_error": "a periodic trajectory: what every period of the residual shares exceeds the noise the "
+                      "period-to-period variation measures (no whiteness assumed)",
     "predictive_failure": "the validation error exceeds what the estimation run's noise and parameter "
                           "uncertainty allow (Chow-type test)",
     "repeat_trajectory": "the validation trajectory repeats the estimation trajectory",
@@ -77,6 +79,9 @@ class Thresholds:
         Share of a joint's mean square that realigning measured and predicted torque removes (0.05).
     predictive_ratio : float
         Validation mean square over what the estimation run's noise and Cov(π̂) allow (2.0).
+    periodic_error : float
+        Share of the residual's variance common to every period of a periodic trajectory, beyond the
+        noise and the parameters' expected error (0.05).
     joint_motion : float
         A joint whose validation motion (RMS about its mean) is below this fraction of its
         estimation motion is not validated (0.1).
@@ -98,6 +103,7 @@ class Thresholds:
     missing_physics: float = 0.05
     delay: float = 0.05
     predictive_ratio: float = 2.0
+    periodic_error: float = 0.05
     joint_motion: float = 0.1
     detectable_share: float = 0.25
     repeat_distance: float = 0.1
@@ -224,6 +230,7 @@ class Evidence:
     # the motion: physics library (with q), predictive test (with the estimation run)
     physics: dict | None = None
     predictive: dict | None = None
+    periodic: dict | None = None
     sample_rate: float | None = None
     # validation design
     repeat: dict | None = None
@@ -289,6 +296,8 @@ def _tests(ev: Evidence):
             blocks.append(("delay", np.asarray(ev.physics["delay"]["pvalue"], dtype=float)))
     if ev.predictive is not None:
         blocks.append(("predictive", np.asarray(ev.predictive["pvalue"], dtype=float)))
+    if ev.periodic is not None:
+        blocks.append(("periodic", np.asarray(ev.periodic["pvalue"], dtype=float)))
     return blocks
 
 
@@ -519,6 +528,8 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
         for j in range(m):
             raw_reject = bool(raw[j] <= alpha)
             if dec is not None and raw_reject and not (padj[j] <= alpha):
+                if j in deficient_joints:
+                    continue  # the structure is shown above: its colour is not the sensor's
                 band = ev.information_band
                 out.append(Finding(
                     kind="sampling_colour", severity="note", joints=(j,), pvalue=float(dec[j]),
@@ -599,7 +610,43 @@ def _motion_findings(ev: Evidence, fam, th: Thresholds, alpha: float) -> tuple[l
         found, bad = _predictive_findings(ev, fam["predictive"], th, alpha)
         out += found
         joints |= bad
+    if "periodic" in fam:
+        found, bad = _periodic_findings(ev, fam["periodic"], th, alpha)
+        out += found
+        joints |= bad
     return out, joints
+
+
+def _periodic_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
+    p, padj = pvalues
+    per = ev.periodic
+    effect = np.asarray(per["effect_net"], dtype=float)
+    seconds = per["period"]["seconds"]
+    length = f"{seconds:.4g} s" if seconds else f"{per['period']['samples']:.4g} samples"
+    out: list[Finding] = []
+    bad: set[int] = set()
+    for j in range(effect.size):
+        if not (padj[j] <= alpha):
+            continue
+        big = bool(effect[j] >= th.periodic_error)
+        if big:
+            bad.add(j)
+        out.append(Finding(
+            kind="periodic_error", severity="deficiency" if big else "note", joints=(j,),
+            statistic=float(per["statistic"][j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
+            effect=float(effect[j]), effect_unit="share of the residual's variance common to every period",
+            threshold=th.periodic_error,
+            action=("the model misses something the trajectory repeats: see the physics and correlation "
+                    "findings for which term" if big else "none: the periodic part is real but small"),
+            details={"n_periods": int(per["n_periods"]), "period": per["period"],
+                     "noise_variance": float(per["noise_variance"][j]),
+                     "parameter_share": float(per["parameter_share"][j])},
+            message=(f"{_name(ev.joint_names, j)}: {100 * effect[j]:.0f} % of the residual's variance repeats in "
+                     f"every one of the {per['n_periods']} periods ({length}) beyond what the period-to-period "
+                     f"variation allows (noise measured from the periods themselves, no whiteness assumed; "
+                     f"Holm-adjusted p {_p_text(padj[j])})"
+                     + (": model error." if big else ": significant but negligible."))))
+    return out, bad
 
 
 def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:

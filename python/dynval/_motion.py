@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
-from . import _physics
+from . import _periodic, _physics
 
-__all__ = ["physics", "delay", "predictive", "joint_excitation", "detectable_share"]
+__all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
 
 
 def delay(meas, pred, sample_rate) -> dict[str, Any]:
@@ -98,3 +98,39 @@ def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> n
     c = (scipy.stats.norm.isf(alpha / 2.0) + scipy.stats.norm.ppf(power)) ** 2
     n_eff = np.asarray(n_eff, dtype=float)
     return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)
+
+
+def periodic(e, q, sample_rate, band, est_fit=None, reg3=None) -> dict[str, Any] | None:
+    """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
+    part common to every period against the noise the period-to-period variation measures
+    (:func:`dynval._periodic.periodic_noise_test`, no whiteness assumed).
+
+    A model's estimation error Y(π − π̂) is periodic too: with the estimation run its expected share,
+    the mean over a period of ȳ_kᵀ Cov(π̂) ȳ_k (ȳ the period-averaged model columns) over the
+    residual's variance, is taken off the effect.
+    """
+    period = _periodic.detect_period(q, sample_rate=sample_rate)
+    if period is None:
+        return None
+    use_band = band if band is not None and np.isfinite(band) and band > 0 else None
+    try:
+        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate, band=use_band)
+    except ValueError:
+        if use_band is None:
+            return None
+        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+    effect = np.asarray(test.effect, dtype=float)
+    param_share = np.zeros_like(effect)
+    if est_fit is not None and reg3 is not None:
+        cols = list(est_fit.columns)
+        length = int(round(period.samples))
+        rows = reg3[test.start:test.start + test.n_periods * length, :, cols]
+        if rows.shape[0] == test.n_periods * length:
+            mean_period = rows.reshape(test.n_periods, length, *rows.shape[1:]).mean(axis=0)
+            var_param = np.einsum("tmk,kl,tml->m", mean_period, est_fit.covariance, mean_period) / length
+            with np.errstate(invalid="ignore", divide="ignore"):
+                param_share = np.nan_to_num(var_param / np.asarray(test.total_variance, dtype=float))
+    out = {"used": True, "period": period.to_dict(), **test.to_dict()}
+    out["parameter_share"] = param_share
+    out["effect_net"] = np.clip(effect - param_share, 0.0, 1.0)
+    return out

@@ -139,6 +139,9 @@ class ValidationReport:
     predictive : dict or None
         With the estimation run: the validation mean square against what the estimation run's noise
         and Cov(π̂) allow (Chow-type F test; ``ratio`` per joint).
+    periodic : dict or None
+        With ``q`` holding at least two whole periods: the period, the noise measured from the
+        period-to-period variation (any colour) and per joint the test of what every period shares.
     """
 
     provenance: dict[str, Any]
@@ -159,6 +162,7 @@ class ValidationReport:
     segment_metrics: dict[str, Any] | None = None
     physics: dict[str, Any] | None = None
     predictive: dict[str, Any] | None = None
+    periodic: dict[str, Any] | None = None
 
     @property
     def deficiencies(self) -> list[Finding]:
@@ -566,10 +570,12 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
             if missing is not None:
                 cross["missing_terms"] = {k: v for k, v in missing.items()}
     design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance, grams)
-    phys = pred_test = None
+    phys = pred_test = periodic = None
     if o.q is not None and e is not None and not omitted:
         phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level)
         phys["delay"] = _motion.delay(meas, pred, o.sample_rate)
+        periodic = _motion.periodic(e, o.q, o.sample_rate, None if white is None else white["information_band"],
+                                    est_fit, reg3)
     if est_fit is not None and n_eff is not None:
         pred_test = _motion.predictive(e, est_fit, reg3, n_eff)
     design = _motion_design(design, o, phys, m)
@@ -622,14 +628,14 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                       force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
                       xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
                       design=design, column_names=o.column_names, acf=acf, missing=missing, physics=phys,
-                      predictive=pred_test, sample_rate=o.sample_rate)
+                      predictive=pred_test, sample_rate=o.sample_rate, periodic=periodic)
     found = compute_findings(ev, o.thresholds)
     return ValidationReport(
         provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
         autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
         warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
         spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics, physics=phys,
-        predictive=pred_test)
+        predictive=pred_test, periodic=periodic)
 
 
 def _motion_design(design: dict[str, Any] | None, o: _Options, phys: dict[str, Any] | None,

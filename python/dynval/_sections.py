@@ -534,7 +534,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None) -> Evidence:
+             predictive=None, sample_rate=None, periodic=None) -> Evidence:
     """Collect what the findings' rules read."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
@@ -565,7 +565,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.joint_motion_ratio = design.get("joint_motion_ratio")
         ev.detectable_share = design.get("detectable_share")
         ev.noise_n_eff = design.get("noise_n_eff")
-    ev.physics, ev.predictive, ev.sample_rate = physics, predictive, sample_rate
+    ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]

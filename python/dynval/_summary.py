@@ -123,6 +123,21 @@ def format_summary(report: ValidationReport) -> str:
         lines.append(f"Whiteness at the information rate: decimated by {white['decimation']} (band "
                      f"{_num(white['information_band'])} {prov['units']['frequency']}), Ljung–Box up to lag "
                      f"{white['lag_decimated']}.")
+    if white is not None and white.get("information_band") is not None:
+        lines.append(f"Information band (from the prediction, the noise-free side): "
+                     f"{_num(white['information_band'])} {prov['units']['frequency']}.")
+    phys = getattr(report, "physics", None)
+    if phys is not None:
+        lines.append(f"Physical terms tested against each joint's residual (q given; derivatives: "
+                     f"{phys['derivatives']}; the model's own columns: {phys['model_columns']}).")
+    per = getattr(report, "periodic", None)
+    if per is not None:
+        sec = per["period"]["seconds"]
+        noise = ", ".join(_num(math.sqrt(max(v, 0.0))) for v in per["noise_variance"])
+        lines.append(f"Periodic trajectory: {per['n_periods']} whole periods of "
+                     + (f"{sec:.4g} s" if sec else f"{per['period']['samples']:.4g} samples")
+                     + f"; noise measured from the period-to-period variation (no whiteness assumed): "
+                     f"standard deviation {noise} per joint.")
     if report.bias is None and prov.get("streaming"):
         lines.append("Residual mean: zero-mean test only (the coloured-noise bias test needs the whole series), "
                      "so the findings do not use it.")
