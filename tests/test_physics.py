@@ -244,6 +244,9 @@ def test_an_unmoved_joint_and_a_run_that_cannot_decide_are_design_findings():
     kinds = {(f.kind, f.severity, f.joints) for f in found}
     assert kinds == {("excitation", "design", (0,)), ("low_information", "design", (1,))}
     assert compute_findings(ev, Thresholds(joint_motion=0.01, detectable_share=0.7)) == []
+    # where a deficiency was found the run did decide: no low-information finding on that joint
+    ev.physics = _phys_ev([1e-9, 1e-9], [0.0, 0.5])
+    assert not any(f.kind == "low_information" for f in compute_findings(ev))
 
 
 def test_detectable_share_formula():

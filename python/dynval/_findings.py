@@ -587,7 +587,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 message=(f"The validation regressor is ill-conditioned (column-scaled condition number "
                          f"{x['condition_scaled']:.3g} > {th.condition_number:g}): it cannot separate the "
                          "effects of the parameters.")))
-    out.extend(_design_findings(ev, th))
+    out.extend(_design_findings(ev, th, deficient_joints))
     out.extend(ev.extra_notes)
     order = {s: i for i, s in enumerate(SEVERITIES)}
     out.sort(key=lambda f: order[f.severity])
@@ -751,8 +751,9 @@ def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) ->
     return out, bad
 
 
-def _design_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
-    """Runs that cannot decide: a joint that hardly moves, too few effective samples."""
+def _design_findings(ev: Evidence, th: Thresholds, decided: set[int] = frozenset()) -> list[Finding]:
+    """Runs that cannot decide: a joint that hardly moves, too few effective samples (on a joint
+    where no deficiency was found: where one was, the run did decide)."""
     out: list[Finding] = []
     names = ev.joint_names
     if ev.joint_motion_ratio is not None:
@@ -767,7 +768,7 @@ def _design_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
                          "validation cannot test the terms of this joint.")))
     if ev.detectable_share is not None:
         mde = np.asarray(ev.detectable_share, dtype=float)
-        low = [int(j) for j in np.flatnonzero(mde > th.detectable_share)]
+        low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in decided]
         if low:
             n_eff = np.asarray(ev.noise_n_eff, dtype=float)
             each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {100 * mde[j]:.0f} %" for j in low)
