@@ -335,3 +335,33 @@ def test_a_periodic_run_finds_model_error_common_to_every_period():
 def test_no_period_no_periodic_section():
     r = dynval.validate(**_periodic_case(12, periodic=False))
     assert r.periodic is None
+
+
+def test_a_weakly_excited_column_is_a_design_finding():
+    # The validation run's Fv2 column (elbow velocity) scaled to 3 % of itself while the estimation
+    # run keeps it: the validation cannot test it. Catches: the ratio's direction, columns that
+    # neither run excites reported.
+    kw = _case(13)
+    reg = kw["regressor"].copy()
+    c = kw["column_names"].index("Fv2")
+    reg[:, :, c] *= 0.03
+    r = dynval.validate(**{**kw, "regressor": reg})
+    ex = [f for f in r.findings if f.kind == "excitation" and f.columns]
+    assert [f.columns for f in ex] == [(c,)] and ex[0].severity == "design"
+    est_rms = np.sqrt(np.mean(kw["estimation"]["regressor"][:, :, c] ** 2))
+    before = np.sqrt(np.mean(kw["regressor"][:, :, c] ** 2)) / est_rms
+    assert r.design["excitation"]["column_motion_ratio"][c] == pytest.approx(0.03 * before, rel=1e-9)
+
+
+def test_demo_rigid_model_without_friction_columns_is_told_friction_from_q_alone():
+    # Issue's acceptance case: the demo's friction scenario, its rigid candidate, no regressor and no
+    # friction column: the report names Coulomb friction on both joints (both have it).
+    from dynval.simulate import simulate
+
+    d = simulate("friction", seed=0)
+    est, val = d.estimation, d.validation
+    fit = dynval.identify(est.regressors["rigid"], est.tau_meas)
+    r = dynval.validate(val.tau_meas, fit.predict(val.regressors["rigid"]), n_params=fit.rank, q=val.q,
+                        sample_rate=d.sample_rate, joint_names=list(d.joint_names))
+    named = {(f.joints, f.details["term"]) for f in r.deficiencies if f.kind == "missing_physics"}
+    assert named == {((0,), "coulomb"), ((1,), "coulomb")}

@@ -766,6 +766,20 @@ def _design_findings(ev: Evidence, th: Thresholds, decided: set[int] = frozenset
                 details={"joint_motion_ratio": float(ratio[j])},
                 message=(f"{_name(names, j)} moves {100 * ratio[j]:.1f} % of its estimation-run motion: the "
                          "validation cannot test the terms of this joint.")))
+    ratio_c = None if ev.excitation is None else ev.excitation.get("column_motion_ratio")
+    if ratio_c is not None:
+        skip = set(ev.excitation["unexcited"]) | set(ev.excitation["unidentifiable"])
+        weak = [int(c) for c in np.flatnonzero(np.asarray(ratio_c, dtype=float) < th.joint_motion) if c not in skip]
+        if weak:
+            listed = ", ".join(f"{_col(ev.column_names, c)} ({100 * ratio_c[c]:.1f} %)" for c in weak)
+            out.append(Finding(
+                kind="excitation", severity="design", columns=tuple(weak),
+                effect=float(np.min(np.asarray(ratio_c)[weak])),
+                effect_unit="column RMS relative to the estimation run", threshold=th.joint_motion,
+                action="excite these columns in the validation run as much as in the estimation run",
+                details={"column_motion_ratio": {int(c): float(ratio_c[c]) for c in weak}},
+                message=(f"The validation run excites {listed} far less than the estimation run did: it cannot "
+                         "test these terms.")))
     if ev.detectable_share is not None:
         mde = np.asarray(ev.detectable_share, dtype=float)
         low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in decided]

@@ -675,14 +675,21 @@ def design(reg3, q_val, estimation, meas, threshold, grams: JointGrams | None = 
         # A column the estimation run does not excite either is not identifiable at all (a base
         # reduction removes it): not a flaw of the validation design.
         never = []
-        if estimation is not None and "regressor" in estimation and unexcited:
+        ratio = None
+        if estimation is not None and "regressor" in estimation:
             est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
             if est.shape[1] == stacked.shape[1]:
                 en = np.linalg.norm(est, axis=0)
                 never = [c for c in unexcited if en[c] <= 1e-12 * max(en.max(), np.finfo(float).tiny)]
+                # each column's RMS per row on the validation run over the estimation run's
+                with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                    ratio = np.where(en > 0, (norms / math.sqrt(stacked.shape[0])) / (en / math.sqrt(est.shape[0])),
+                                     np.nan)
         with np.errstate(divide="ignore"):
             out["excitation"] = {"condition_raw": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
                                  "condition_scaled": float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf"),
                                  "unexcited": [c for c in unexcited if c not in never],
                                  "unidentifiable": never, "column_norms": norms}
+        if ratio is not None:
+            out["excitation"]["column_motion_ratio"] = ratio
     return out or None

@@ -130,6 +130,11 @@ def format_summary(report: ValidationReport) -> str:
     if phys is not None:
         lines.append(f"Physical terms tested against each joint's residual (q given; derivatives: "
                      f"{phys['derivatives']}; the model's own columns: {phys['model_columns']}).")
+    design = report.design or {}
+    if design.get("detectable_share") is not None:
+        shares = ", ".join(f"{100 * x:.0f} %" for x in design["detectable_share"])
+        lines.append(f"Smallest detectable term (90 % power, per joint): {shares} of the mean square "
+                     f"(N_eff of the noise {', '.join(f'{x:.0f}' for x in design['noise_n_eff'])}).")
     per = getattr(report, "periodic", None)
     if per is not None:
         sec = per["period"]["seconds"]
