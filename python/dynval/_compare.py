@@ -2,7 +2,8 @@
 
 The rule (docs/conventions.md §8), applied in this order and reported with its reasons:
 
-1. **redesign** when a candidate's report has a ``design`` finding (the validation run repeats the
+1. **redesign** when a candidate's report has a ``design`` finding (``low_information``: the
+   best-ranked candidate's; the validation run repeats the
    estimation run; columns excited in the estimation run but not in the validation run; an
    ill-conditioned validation regressor);
 2. **refine** the best-ranked model when it has a ``deficiency`` finding: each deficiency names
@@ -422,6 +423,10 @@ def _verdict(names: list[str], ranking: list[str], reports: dict[str, Validation
     seen = set()
     for n in ranking:
         for f in reports[n].findings:
+            # A run that cannot decide is judged on the candidate the decision is about: how few
+            # effective samples the noise leaves depends on what each candidate's residual holds.
+            if f.kind == "low_information" and n != best:
+                continue
             if f.severity == "design" and (f.kind, f.message) not in seen:
                 seen.add((f.kind, f.message))
                 reasons.append(f"{f.message} ({f.action})")
