@@ -47,7 +47,7 @@ LABELS = {
     "coulomb": "Coulomb friction",
     "viscous": "viscous friction",
     "velocity_squared": "a velocity-squared (q̇|q̇|) drag term",
-    "gravity": "a gravity term",
+    "gravity": "a position-dependent term of the link angles (gravity, or a torque that depends on the posture)",
     "position_harmonic": "a position harmonic (cogging, or gravity of an unmodelled link)",
     "inertia": "an inertial term (a payload or a wrong link inertia)",
     "offset": "a torque offset (sensor bias, or asymmetric friction)",
@@ -308,10 +308,13 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
         for s in selected:
             without, _ = sse([t for t in selected if t != s])
             shares[names[s]] = max(0.0, (without - fit_all) / total)
-    # The term named is the first to enter: the one group that alone explains the most (the partial
-    # shares of collinear groups, friction forms against inertia, are each small).
-    term = names[selected[0]] if selected else None
-    alone = max(0.0, (base - sse([selected[0]])[0]) / total) if selected else 0.0
+    # The term named is the selected group that alone removes the most of the mean square (the
+    # partial shares of collinear groups, friction forms against inertia, are each small; the first
+    # to enter is the most significant after whitening, which favours sharp terms such as Coulomb's).
+    alone_by = {s: max(0.0, (base - sse([s])[0]) / total) for s in selected}
+    best = max(alone_by, key=lambda s: alone_by[s]) if selected else None
+    term = None if best is None else names[best]
+    alone = 0.0 if best is None else alone_by[best]
     return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term, alone, [names[s] for s in selected], shares,
                        selected_share, n_eff, int(a.size))
 
