@@ -130,8 +130,8 @@ def main(argv=None) -> int:
         what = "repeats run 1's trajectory" if k == 2 else "a different trajectory"
         say(f"comparing the candidates on run {k} ({what})")
         common = dict(sample_rate=val["sample_rate"], joint_names=joints, column_names=keep_names,
-                      q=val["positions"], estimation={"q": est["positions"], "regressor": regs[1][:, :, keep],
-                                                      "tau": est["torques"]})
+                      q=val["positions"], dq=val["velocities"], ddq=val["accelerations"],
+                      estimation={"q": est["positions"], "regressor": regs[1][:, :, keep], "tau": est["torques"]})
         t0 = time.perf_counter()
         y_keep = np.ascontiguousarray(y[:, :, keep])
         cmp = dynval.compare(val["torques"], {name: (p, n_params, y_keep) for name, (p, n_params) in preds.items()},
