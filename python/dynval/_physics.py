@@ -379,7 +379,6 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
     n, m = meas.shape
     fs = 1.0 if sample_rate is None else float(sample_rate)
     big = int(max_shift if max_shift is not None else min(max(10, round(0.05 * fs)), n // 20))
-    grid = np.arange(-big, big + 0.001, 0.25)
     t = np.arange(n, dtype=float)
     inner = slice(big + 1, n - big - 1)  # rows every shift reaches
     e0 = meas - pred
@@ -391,6 +390,10 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
         shifted = np.column_stack([np.interp(t - shift, t, pred[:, j]) for j in range(m)])
         return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
 
+    # whole samples first, then quarter samples around the best
+    whole = np.arange(-big, big + 1, dtype=float)
+    best = float(whole[int(np.argmin([np.sum(sse(d) / sse0) for d in whole]))])
+    grid = np.clip(best + np.arange(-1.0, 1.001, 0.25), -big, big)
     cost = np.array([np.sum(sse(d) / sse0) for d in grid])
     i = int(np.argmin(cost))
     d = float(grid[i])
@@ -411,4 +414,4 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
         w, k, _, _ = _wald(_whiten(col[:, None], a), _whiten(e0[:, j], a))
         p[j] = float(scipy.stats.chi2.sf(w, k))
     return {"shift_samples": d, "delay_s": d / fs if sample_rate else None, "share": share, "pvalue": p,
-            "grid_limit": big, "method": "common shift of the prediction (linear interpolation, 1/4-sample grid)"}
+            "grid_limit": big, "method": "common shift of the prediction (linear interpolation; whole samples, then a 1/4-sample grid)"}

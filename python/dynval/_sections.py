@@ -146,12 +146,22 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
     yc = reg3 - reg3.mean(axis=0)
     var_e = np.einsum("nm,nm->m", ec, ec) / n
     var_y = np.einsum("nmp,nmp->mp", yc, yc) / n
-    for j, lag in {(int(j), int(lag)) for j, _, lag in cells}:
-        which = [int(c) for jj, c, ll in cells if jj == j and ll == lag]
-        cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
+    by_cell: dict[tuple[int, int], list[int]] = {}
+    for j, c, lag in cells:
+        by_cell.setdefault((int(j), int(lag)), []).append(int(c))
+    one_segment = len(starts) == 1 and int(starts[0]) == 0
+    model_cols: dict[int, np.ndarray] = {}
+    for (j, lag), which in sorted(by_cell.items()):
+        if one_segment:
+            # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
+            if j not in model_cols:
+                model_cols[j] = np.ascontiguousarray(yc[:, j, cols])
+            g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
+        else:
+            cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
+            g = (cur[:, cols].T @ prev[:, which]).T
         n_pairs = float(np.maximum(lengths - lag, 0).sum())
-        denom = n_pairs if prof.adjusted else float(n)
-        g = (cur[:, cols].T @ prev[:, which]).T / denom  # (len(which), k)
+        g = g / (n_pairs if prof.adjusted else float(n))  # (len(which), k)
         extra = _estimation.quadratic_forms(fit, g)
         with np.errstate(invalid="ignore", divide="ignore"):
             sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
