@@ -414,4 +414,5 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
         w, k, _, _ = _wald(_whiten(col[:, None], a), _whiten(e0[:, j], a))
         p[j] = float(scipy.stats.chi2.sf(w, k))
     return {"shift_samples": d, "delay_s": d / fs if sample_rate else None, "share": share, "pvalue": p,
-            "grid_limit": big, "method": "common shift of the prediction (linear interpolation; whole samples, then a 1/4-sample grid)"}
+            "grid_limit": big,
+            "method": "common shift of the prediction (linear interpolation; whole samples, then a 1/4-sample grid)"}
