@@ -23,7 +23,8 @@ def delay(meas, pred, sample_rate) -> dict[str, Any]:
     return _physics.delay_test(meas, pred, sample_rate=sample_rate)
 
 
-def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level) -> dict[str, Any]:
+def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level, est_run=None,
+            meas=None) -> dict[str, Any]:
     """Each joint's residual against the physics library (:mod:`dynval._physics`).
 
     The model's own columns: with the estimation run their estimation error widens the test
@@ -42,7 +43,13 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
         kwargs["nuisance"] = [reg3[:, j, cols] for j in range(reg3.shape[1])]
         how = "refitted on the validation run (what they represent is not missing)"
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
-    return {"method": "prewhitened least squares (AR by BIC), heteroscedasticity-robust Wald test per joint",
+    naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
+    if est_fit is not None and reg3 is not None and est_run is not None and "q" in est_run:
+        refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate)
+        naming = ("refitted on the estimation run with each group added to the model's columns on every "
+                  "flagged joint; the group whose refit removes nearly the most of the joint's validation "
+                  "mean square, fewest columns first")
+    return {"naming": naming,"method": "prewhitened least squares (AR by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
@@ -134,3 +141,53 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None) -> dict[str, Any]
     out["parameter_share"] = param_share
     out["effect_net"] = np.clip(effect - param_share, 0.0, 1.0)
     return out
+
+
+def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate) -> None:
+    """Name each flagged joint's term as an engineer would: refit the model's columns on the
+    estimation run with one library group added on every flagged joint at once (a friction or an
+    offset is usually missing on all joints alike, and the joints' terms interact through the
+    shared parameters), and name per joint the group whose refit removes the most of its validation
+    mean square (of the groups within 80 % of the best, the one with the fewest columns).
+    """
+    flagged = [t for t in tests if t.selected]
+    if not flagged:
+        return
+    cols = list(est_fit.columns)
+    q_e = est_run["q"]
+    de = _physics.derivatives(q_e, sample_rate)
+    y_e = est_run["regressor"][:, :, cols]
+    tau_e = est_run["tau"]
+    n_e, m, k = y_e.shape
+    x = y_e.reshape(n_e * m, k)
+    gram, rhs = x.T @ x, x.T @ tau_e.reshape(-1)
+    lib_e = {t.joint: _physics.library(t.joint, q_e, de.dq, de.ddq, np.zeros(n_e), sample_rate) for t in flagged}
+    lib_v = {t.joint: _physics.library(t.joint, q, d.dq, d.ddq, np.zeros(q.shape[0]), sample_rate) for t in flagged}
+    base = {t.joint: float(np.mean((meas[:, t.joint] - reg3[:, t.joint, cols] @ est_fit.coefficients) ** 2))
+            for t in flagged}
+    gains: dict[int, dict[str, float]] = {t.joint: {} for t in flagged}
+    for g in lib_e[flagged[0].joint]:
+        joints = [t.joint for t in flagged if g in lib_e[t.joint]]
+        blocks = [lib_e[j][g] for j in joints]
+        sizes = np.cumsum([0] + [b.shape[1] for b in blocks])
+        # normal equations of [model columns | the group on each flagged joint's rows]
+        cross = np.hstack([y_e[:, j, :].T @ b for j, b in zip(joints, blocks)])
+        inner = np.zeros((sizes[-1], sizes[-1]))
+        for i, b in enumerate(blocks):
+            inner[sizes[i]:sizes[i + 1], sizes[i]:sizes[i + 1]] = b.T @ b
+        a = np.block([[gram, cross], [cross.T, inner]])
+        rhs_g = np.concatenate([rhs] + [b.T @ tau_e[:, j] for j, b in zip(joints, blocks)])
+        coef = np.linalg.lstsq(a, rhs_g, rcond=None)[0]
+        for i, j in enumerate(joints):
+            resid = meas[:, j] - reg3[:, j, cols] @ coef[:k] - lib_v[j][g] @ coef[k + sizes[i]:k + sizes[i + 1]]
+            if base[j] > 0:
+                gains[j][g] = (base[j] - float(np.mean(resid**2))) / base[j]
+    for t in flagged:
+        gj = gains[t.joint]
+        if not gj or not max(gj.values()) > 0:
+            continue
+        top = max(gj.values())
+        near = [g for g, v in gj.items() if v >= 0.8 * top]
+        best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
+        t.term, t.term_share = best, max(0.0, gj[best])
+        t.refit_shares = {g: float(v) for g, v in gj.items()}

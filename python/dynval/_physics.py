@@ -59,6 +59,7 @@ LABELS = {
 # p < 0.01, measured); a higher order would take a missing term's own shape for colour.
 _MAX_AR = 2
 _OUTSIDE = 0.01
+_PARSIMONY = 0.8
 _MAX_ROWS = 40_000  # longer runs are decimated by a whole factor (anti-aliased) before the test
 
 
@@ -212,12 +213,14 @@ class PhysicsTest:
     selected_share: float = 0.0  # share the selected groups remove together
     n_eff: float = float("nan")  # effective samples of the residual left by the library (the noise's)
     ar_order: int = 0
+    refit_shares: dict[str, float] = field(default_factory=dict)  # the estimation refits, when named so
 
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
                 "share": self.share, "term": self.term, "term_share": self.term_share,
                 "selected": list(self.selected), "shares": dict(self.shares),
-                "selected_share": self.selected_share, "n_eff": self.n_eff,
+                "selected_share": self.selected_share, "refit_shares": dict(self.refit_shares),
+                "n_eff": self.n_eff,
                 "ar_order": self.ar_order}
 
 
@@ -308,13 +311,19 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
         for s in selected:
             without, _ = sse([t for t in selected if t != s])
             shares[names[s]] = max(0.0, (without - fit_all) / total)
-    # The term named is the selected group that alone removes the most of the mean square (the
-    # partial shares of collinear groups, friction forms against inertia, are each small; the first
-    # to enter is the most significant after whitening, which favours sharp terms such as Coulomb's).
-    alone_by = {s: max(0.0, (base - sse([s])[0]) / total) for s in selected}
-    best = max(alone_by, key=lambda s: alone_by[s]) if selected else None
-    term = None if best is None else names[best]
-    alone = 0.0 if best is None else alone_by[best]
+    # The term named: of the groups that alone remove nearly as much as the best one (within
+    # _PARSIMONY of it), the one with the fewest columns. A joint's own friction or offset (one to
+    # five columns) is named before the many-column inertia and posture groups, which on a
+    # few-harmonic trajectory can mimic it; the first group to enter is the most significant after
+    # whitening, which favours sharp terms such as Coulomb's, and is not used for the name.
+    alone_by = {i: max(0.0, (base - sse([i])[0]) / total) for i in range(len(raw))} if selected else {}
+    term = None
+    alone = 0.0
+    if alone_by:
+        top = max(alone_by.values())
+        near = [i for i, a in alone_by.items() if a >= _PARSIMONY * top]
+        best = min(near, key=lambda i: (raw[i].shape[1], -alone_by[i]))
+        term, alone = names[best], alone_by[best]
     return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term, alone, [names[s] for s in selected], shares,
                        selected_share, n_eff, int(a.size))
 

@@ -572,7 +572,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance, grams)
     phys = pred_test = periodic = None
     if o.q is not None and e is not None and not omitted:
-        phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level)
+        phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level,
+                               o.estimation, meas)
         phys["delay"] = _motion.delay(meas, pred, o.sample_rate)
         periodic = _motion.periodic(e, o.q, o.sample_rate, None if white is None else white["information_band"],
                                     est_fit, reg3)
