@@ -49,7 +49,8 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
-    return {"naming": naming,"method": "prewhitened least squares (AR by BIC), heteroscedasticity-robust Wald test per joint",
+    return {"naming": naming,
+            "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
