@@ -72,7 +72,8 @@ def select(names: str | None, quick: bool) -> list:
     return lib
 
 
-def run_library(scenarios, replicates: int, jobs: int, backend, first_seed: int = 0):
+def run_library(scenarios, replicates: int, jobs: int, backend, first_seed: int = 0, log=None):
+    """Run every (scenario, replicate); ``log``: a text file that gets each outcome as a JSON line."""
     tasks = [(s, first_seed + i, backend) for i in range(replicates) for s in scenarios]
     results: dict = {}
     t0 = time.time()
@@ -89,6 +90,10 @@ def run_library(scenarios, replicates: int, jobs: int, backend, first_seed: int 
         for done, records in enumerate(outcomes, 1):
             for r in records:
                 results.setdefault((r["key"], r["offered"]), []).append(r)
+                if log is not None:
+                    log.write(json.dumps(r) + "\n")
+            if log is not None:
+                log.flush()
             now = time.time()
             if now - last > 10 or done == len(tasks):
                 last = now
@@ -155,7 +160,10 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="the first scenario of each class, 10 replicates")
     parser.add_argument("--first-seed", type=int, default=0, help="number of the first replicate")
     parser.add_argument("--backend", default=None)
-    parser.add_argument("--json", default=None, help="also write every replicate's outcome to this file")
+    parser.add_argument("--json", default=None,
+                        help="also write every replicate's outcome to this file (JSON lines, as they come)")
+    parser.add_argument("--table-from", default=None, metavar="FILE",
+                        help="print the table of the outcomes a --json run wrote (complete or not), and exit")
     parser.add_argument("--list", action="store_true", help="print the scenarios and their parameters, and exit")
     legacy_group = parser.add_argument_group("the 2-DOF table of dynval.calibration (--legacy)")
     legacy_group.add_argument("--legacy", action="store_true")
@@ -173,16 +181,28 @@ def main(argv=None) -> int:
         for s in scenarios:
             print(s.describe())
         return 0
+    if args.table_from:
+        results: dict = {}
+        with open(args.table_from, encoding="utf-8") as fh:
+            for line in fh:
+                if line.strip():
+                    r = json.loads(line)
+                    results.setdefault((r["key"], r["offered"]), []).append(r)
+        for line in table(scenarios, results):
+            print(line)
+        return 0
     replicates = args.replicates or (10 if args.quick else 200)
     t0 = time.time()
-    results = run_library(scenarios, replicates, max(1, args.jobs), args.backend, args.first_seed)
+    log = open(args.json, "w", encoding="utf-8") if args.json else None  # noqa: SIM115
+    try:
+        results = run_library(scenarios, replicates, max(1, args.jobs), args.backend, args.first_seed, log)
+    finally:
+        if log is not None:
+            log.close()
     for line in table(scenarios, results):
         print(line)
     print(f"total {time.time() - t0:.0f} s ({len(scenarios)} scenarios × {replicates} replicates, "
           f"{max(1, args.jobs)} job(s))")
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump([r for rows in results.values() for r in rows], fh, indent=1)
     return 0
 
 

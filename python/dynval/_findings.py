@@ -640,7 +640,7 @@ def _periodic_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> t
                     "findings for which term" if big else "none: the periodic part is real but small"),
             details={"n_periods": int(per["n_periods"]), "period": per["period"],
                      "noise_variance": float(per["noise_variance"][j]),
-                     "parameter_share": float(per["parameter_share"][j])},
+                     "model_columns_removed": bool(per.get("model_columns_removed", False))},
             message=(f"{_name(ev.joint_names, j)}: {100 * effect[j]:.0f} % of the residual's variance repeats in "
                      f"every one of the {per['n_periods']} periods ({length}) beyond what the period-to-period "
                      f"variation allows (noise measured from the periods themselves, no whiteness assumed; "

@@ -80,12 +80,20 @@ def predictive(e, est_fit, reg3, n_eff_val) -> dict[str, Any] | None:
     mse = np.mean(e**2, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = mse / expected
-    df1 = np.clip(np.asarray(n_eff_val, dtype=float), 1.0, None)
-    df2 = np.clip(np.asarray(est_fit.n_eff, dtype=float) - k / m, 1.0, None)
+    # A variance estimate has 2N/(2 + κ) degrees of freedom when the excess kurtosis is κ (heavy
+    # tails make the ratio of two mean squares far more variable than Gaussian F says).
+    df1 = np.clip(np.asarray(n_eff_val, dtype=float) * _kurtosis_factor(e), 1.0, None)
+    df2 = np.clip((np.asarray(est_fit.n_eff, dtype=float) - k / m) * _kurtosis_factor(res), 1.0, None)
     p = scipy.stats.f.sf(ratio, df1, df2)
     return {"method": "Chow-type predictive F test (N_eff degrees of freedom)", "ratio": ratio,
             "expected_mse": expected, "validation_mse": mse, "noise_variance_estimation": s2,
             "parameter_variance": param, "df": np.column_stack([df1, df2]), "pvalue": p}
+
+
+def _kurtosis_factor(x) -> np.ndarray:
+    """2/(2 + κ) per column, κ the excess kurtosis (0 for Gaussian data; at most 1)."""
+    kappa = scipy.stats.kurtosis(np.asarray(x, dtype=float), axis=0, fisher=True, bias=False)
+    return 2.0 / (2.0 + np.clip(np.nan_to_num(kappa), 0.0, None))
 
 
 def joint_excitation(q_val, q_est) -> np.ndarray | None:
@@ -108,18 +116,28 @@ def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> n
     return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)
 
 
-def periodic(e, q, sample_rate, band, est_fit=None, reg3=None) -> dict[str, Any] | None:
+def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=None) -> dict[str, Any] | None:
     """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
     part common to every period against the noise the period-to-period variation measures
     (:func:`dynval._periodic.periodic_noise_test`, no whiteness assumed).
 
-    A model's estimation error Y(π − π̂) is periodic too: with the estimation run its expected share,
-    the mean over a period of ȳ_kᵀ Cov(π̂) ȳ_k (ȳ the period-averaged model columns) over the
-    residual's variance, is taken off the effect.
+    A model's estimation error Y(π − π̂) repeats with the trajectory too: with a regressor, each
+    joint's residual is first cleared of what the model's own columns represent (least squares on
+    the validation run), so what is tested is periodic error the model cannot represent.
     """
     period = _periodic.detect_period(q, sample_rate=sample_rate)
     if period is None:
         return None
+    projected = False
+    if reg3 is not None:
+        cols = (list(est_fit.columns) if est_fit is not None
+                else list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
+        e = e.copy()
+        for j in range(e.shape[1]):
+            y = reg3[:, j, cols]
+            if np.any(y):
+                e[:, j] -= y @ np.linalg.lstsq(y, e[:, j], rcond=None)[0]
+        projected = True
     use_band = band if band is not None and np.isfinite(band) and band > 0 else None
     try:
         test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate, band=use_band)
@@ -127,22 +145,10 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None) -> dict[str, Any]
         if use_band is None:
             return None
         test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
-    effect = np.asarray(test.effect, dtype=float)
-    param_share = np.zeros_like(effect)
-    if est_fit is not None and reg3 is not None:
-        cols = list(est_fit.columns)
-        length = int(round(period.samples))
-        rows = reg3[test.start:test.start + test.n_periods * length, :, cols]
-        if rows.shape[0] == test.n_periods * length:
-            mean_period = rows.reshape(test.n_periods, length, *rows.shape[1:]).mean(axis=0)
-            var_param = np.einsum("tmk,kl,tml->m", mean_period, est_fit.covariance, mean_period) / length
-            with np.errstate(invalid="ignore", divide="ignore"):
-                param_share = np.nan_to_num(var_param / np.asarray(test.total_variance, dtype=float))
     out = {"used": True, "period": period.to_dict(), **test.to_dict()}
-    out["parameter_share"] = param_share
-    out["effect_net"] = np.clip(effect - param_share, 0.0, 1.0)
+    out["model_columns_removed"] = projected
+    out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
     return out
-
 
 def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate) -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the

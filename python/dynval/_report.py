@@ -576,7 +576,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                                o.estimation, meas)
         phys["delay"] = _motion.delay(meas, pred, o.sample_rate)
         periodic = _motion.periodic(e, o.q, o.sample_rate, None if white is None else white["information_band"],
-                                    est_fit, reg3)
+                                    est_fit, reg3, o.model_columns)
     if est_fit is not None and n_eff is not None:
         pred_test = _motion.predictive(e, est_fit, reg3, n_eff)
     design = _motion_design(design, o, phys, m)

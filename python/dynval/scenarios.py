@@ -1,0 +1,867 @@
+"""Calibration scenarios built from the physics: serial arms in pinocchio, independent of dynval.simulate.
+
+The findings of :func:`dynval.validate` are statistical detectors; their size (false deficiencies
+on a right model, at most 5 %) and power (the right cause named in at least 90 % of deficient
+replicates) must hold on robots other than the package's own 2-DOF simulator, or the thresholds are
+tuned to one simulator. This module is a library of such scenarios (docs/conventions.md §5):
+
+* **Arms** (:data:`ARMS`) built with ``pinocchio.Model`` (revolute joints, one body per joint):
+  ``planar2`` (a 2-joint vertical planar arm, axes y, y), ``anthro3`` (3 joints, axes z, y, y:
+  gravity acts on joints 2 and 3) and ``arm4`` (4 joints, axes z, y, y, x: a wrist roll whose link
+  has its centre of mass off the roll axis). Links of 1–4.5 kg, 0.3–0.45 m. Torques come from
+  ``pinocchio.rnea`` plus viscous and Coulomb friction on every joint; the regressor from
+  ``pinocchio.computeJointTorqueRegressor`` (10 columns per body, pinocchio's order
+  ``m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz``, named ``L2:mx``) reduced to its base columns (the
+  independent subset, proximal links first: :func:`base_structure`), then per joint ``Fc<j>``
+  (sign q̇_j) and ``Fv<j>`` (q̇_j), non-zero on joint j only. The unreduced regressor is rank
+  deficient: the report's excitation check would call every validation run ill-conditioned.
+* **Trajectories**: a finite Fourier series per joint (5 harmonics of a fundamental of 0.05–0.2 Hz,
+  random amplitudes and phases per replicate, analytic q, q̇, q̈); the estimation and the
+  validation runs are drawn independently.
+* **Noise** on the measured torque, of standard deviation σ_j = a stated fraction of joint j's
+  torque RMS on a reference trajectory: ``white``, ``t3`` (Student t, 3 dof), ``ar0.9``,
+  ``ar0.99``, ``ar0.999`` (AR(1), marginal sd σ), ``lowpass`` (white noise through a 2nd-order
+  Butterworth low-pass at 30 Hz, run at 1 kHz and sampled at the run's rate), ``heteroscedastic``
+  (sd ∝ 0.3 + |q̇_j|/max|q̇_j|, RMS σ) and ``jitter`` (white noise, and the torque taken at
+  t_k + U(−0.3, 0.3)/f_s while the run is analysed as uniformly sampled).
+* **Scenarios** (:func:`library`): a right model under every noise (size), and deficient models
+  (power): ``no_coulomb``, ``no_viscous``, ``no_gravity``, ``coupled_gravity``, ``offset``,
+  ``payload``, ``mode``, ``delay``, ``unexcited_joint``, ``low_information``, each with its
+  :class:`Expected` cause. Rate (100 Hz, 500 Hz, 1 kHz), length (20–40 s), arm and noise level
+  differ between scenarios.
+* **Offered or not**: every replicate is validated twice. ``offered=True``: the regressor handed
+  to ``validate`` holds every column of the robot's structure and a constant ``off<j>`` per joint
+  (zero in the robot unless the scenario is ``offset``), ``model_columns=`` the model's.
+  ``offered=False``: the regressor is the model's own columns and ``model_columns=None``: a missing
+  term must then be found from the motion itself.
+
+``benchmarks/calibrate_findings.py`` runs the library and prints the table; :func:`run_replicate`
+is one replicate of one scenario.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import time
+import zlib
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from ._blas import one_blas_thread
+from ._typing import FloatArray
+
+__all__ = [
+    "PARAM_NAMES", "GRAVITY", "Link", "ArmDesign", "ARMS", "Arm", "arm", "base_structure",
+    "Trajectory", "random_trajectory", "NOISES", "noise", "mode_signal",
+    "Expected", "Scenario", "CLASSES", "library", "Run", "Replicate", "simulate", "fit",
+    "validate_replicate", "named_right", "run_replicate",
+]
+
+PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+"""pinocchio's order of the ten dynamic parameters of a body."""
+
+GRAVITY = 9.81
+N_HARMONICS = 5
+REFERENCE_SEED = 20261127
+"""Seed of the reference trajectory on which σ and the effects' sizes are set."""
+
+
+# --------------------------------------------------------------------------- arms
+
+
+@dataclass(frozen=True)
+class Link:
+    """One revolute joint and the body it moves (SI units, the joint's frame).
+
+    ``origin``: the joint frame's origin in the parent joint's frame; ``com``: the centre of mass
+    and ``inertia`` the principal moments about it (axes of the joint frame); ``viscous``,
+    ``coulomb``: the joint's friction; ``amplitude``, ``centre``: the trajectory's excursion bound
+    and centre (rad).
+    """
+
+    axis: str
+    origin: tuple[float, float, float]
+    mass: float
+    com: tuple[float, float, float]
+    inertia: tuple[float, float, float]
+    viscous: float
+    coulomb: float
+    amplitude: float
+    centre: float
+
+
+@dataclass(frozen=True)
+class ArmDesign:
+    """A serial arm: its links from the base, the tool point in the last joint's frame."""
+
+    name: str
+    links: tuple[Link, ...]
+    tool: tuple[float, float, float]
+    joint_names: tuple[str, ...]
+    description: str
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.links)
+
+
+ARMS: dict[str, ArmDesign] = {
+    "planar2": ArmDesign(
+        "planar2",
+        (Link("y", (0.0, 0.0, 0.0), 3.0, (0.22, 0.0, 0.0), (0.005, 0.05, 0.05), 0.8, 1.2, 1.2, -0.3),
+         Link("y", (0.45, 0.0, 0.0), 2.0, (0.18, 0.0, 0.0), (0.003, 0.027, 0.027), 0.5, 0.8, 1.5, 0.6)),
+        (0.4, 0.0, 0.0), ("shoulder", "elbow"),
+        "2-joint vertical planar arm (axes y, y; links 0.45 and 0.40 m, 3.0 and 2.0 kg)"),
+    "anthro3": ArmDesign(
+        "anthro3",
+        (Link("z", (0.0, 0.0, 0.0), 4.0, (0.0, 0.0, 0.15), (0.03, 0.03, 0.01), 1.0, 1.5, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.3), 3.0, (0.2, 0.0, 0.0), (0.005, 0.04, 0.04), 0.8, 1.2, 1.0, -0.3),
+         Link("y", (0.4, 0.0, 0.0), 2.0, (0.17, 0.0, 0.0), (0.003, 0.02, 0.02), 0.5, 0.8, 1.2, 0.8)),
+        (0.35, 0.0, 0.0), ("base", "shoulder", "elbow"),
+        "3-joint anthropomorphic arm (axes z, y, y; column 0.30 m, links 0.40 and 0.35 m; 4, 3, 2 kg)"),
+    "arm4": ArmDesign(
+        "arm4",
+        (Link("z", (0.0, 0.0, 0.0), 4.5, (0.0, 0.0, 0.16), (0.035, 0.035, 0.012), 1.2, 1.8, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.32), 3.5, (0.22, 0.0, 0.01), (0.006, 0.05, 0.05), 1.0, 1.4, 0.8, -0.4),
+         Link("y", (0.45, 0.0, 0.0), 2.5, (0.15, 0.0, 0.0), (0.004, 0.03, 0.03), 0.6, 1.0, 1.2, 0.9),
+         Link("x", (0.35, 0.0, 0.0), 1.2, (0.05, 0.0, 0.03), (0.002, 0.002, 0.002), 0.2, 0.3, 2.0, 0.0)),
+        (0.12, 0.0, 0.0), ("base", "shoulder", "elbow", "wrist"),
+        "4-joint arm (axes z, y, y, x; column 0.32 m, links 0.45, 0.35, 0.12 m; 4.5, 3.5, 2.5, 1.2 kg; "
+        "the wrist's centre of mass 3 cm off the roll axis)"),
+}
+"""The arm designs, by name."""
+
+
+def _pin() -> Any:
+    import pinocchio
+
+    return pinocchio
+
+
+class Arm:
+    """A pinocchio model of an :class:`ArmDesign`, possibly changed (centres of mass, a payload).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    com : mapping of link index to (3,), optional
+        Centres of mass replacing the design's (the inertia about the centre is kept).
+    payload : float
+        Mass (kg) of a point-like payload (a 5 cm sphere) at the tool point.
+    """
+
+    def __init__(self, design: ArmDesign, *, com: dict[int, tuple[float, float, float]] | None = None,
+                 payload: float = 0.0) -> None:
+        pin = _pin()
+        axes = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
+        self.design = design
+        model = pin.Model()
+        model.gravity.linear = np.array([0.0, 0.0, -GRAVITY])
+        parent = 0
+        for i, link in enumerate(design.links):
+            c = (com or {}).get(i, link.com)
+            jid = model.addJoint(parent, axes[link.axis](), pin.SE3(np.eye(3), np.array(link.origin, dtype=float)),
+                                 design.joint_names[i])
+            model.appendBodyToJoint(jid, pin.Inertia(link.mass, np.array(c, dtype=float), np.diag(link.inertia)),
+                                    pin.SE3.Identity())
+            parent = jid
+        if payload > 0.0:
+            i_ball = 0.4 * payload * 0.05**2
+            model.appendBodyToJoint(parent, pin.Inertia(payload, np.array(design.tool, dtype=float),
+                                                        np.eye(3) * i_ball), pin.SE3.Identity())
+        self.model = model
+        self.data = model.createData()
+        self.n = int(model.nv)
+        self.viscous = np.array([link.viscous for link in design.links])
+        self.coulomb = np.array([link.coulomb for link in design.links])
+
+    def inertial_parameters(self) -> FloatArray:
+        """The bodies' dynamic parameters ``(10 n,)`` (pinocchio's order; a payload is in the last)."""
+        return np.concatenate([np.asarray(self.model.inertias[j].toDynamicParameters(), dtype=float)
+                               for j in range(1, self.model.njoints)])
+
+    def inertial_regressor(self, q: FloatArray, dq: FloatArray, ddq: FloatArray) -> FloatArray:
+        """``computeJointTorqueRegressor`` per sample: ``(N, n, 10 n)``, ``rnea = Y π``."""
+        pin = _pin()
+        out = np.empty((q.shape[0], self.n, 10 * self.n))
+        for k in range(q.shape[0]):
+            out[k] = pin.computeJointTorqueRegressor(self.model, self.data, q[k], dq[k], ddq[k])
+        return out
+
+    def rnea(self, q: FloatArray, dq: FloatArray, ddq: FloatArray) -> FloatArray:
+        """Rigid-body joint torques ``(N, n)`` from pinocchio's recursive Newton–Euler algorithm."""
+        pin = _pin()
+        out = np.empty((q.shape[0], self.n))
+        for k in range(q.shape[0]):
+            out[k] = pin.rnea(self.model, self.data, q[k], dq[k], ddq[k])
+        return out
+
+
+@functools.lru_cache(maxsize=64)
+def arm(name: str, com: tuple[tuple[int, tuple[float, float, float]], ...] = (), payload: float = 0.0) -> Arm:
+    """The :class:`Arm` of design ``name`` (cached per process; ``com`` as ``((link, (x, y, z)), ...)``)."""
+    return Arm(ARMS[name], com=dict(com), payload=payload)
+
+
+@functools.lru_cache(maxsize=8)
+def base_structure(name: str) -> tuple[tuple[int, ...], FloatArray]:
+    """The base columns of design ``name``'s inertial regressor and the regrouping matrix.
+
+    Returns ``(keep, B)``: ``keep`` the independent columns (greedy in the order L1:m ... Ln:Izz, so
+    distal parameters regroup into proximal ones), ``B`` (len(keep), 10 n) with ``Y = Y[:, keep] B``
+    for every motion; the base parameters are ``B π``. Found on 60 random states; the relations are
+    kinematic (independent of the masses), and ``Y[:, keep] B`` reproduces ``Y`` to 1e-12.
+    """
+    a = arm(name)
+    rng = np.random.default_rng(0)
+    n = a.n
+    samples = 60
+    q = rng.uniform(-math.pi, math.pi, (samples, n))
+    y = a.inertial_regressor(q, rng.normal(size=(samples, n)), rng.normal(size=(samples, n))).reshape(-1, 10 * n)
+    norms = np.linalg.norm(y, axis=0)
+    keep: list[int] = []
+    basis = np.zeros((y.shape[0], 0))
+    for c in range(y.shape[1]):
+        if norms[c] <= 1e-10 * norms.max():
+            continue
+        v = y[:, c] / norms[c]
+        r = v - basis @ (basis.T @ v)
+        if np.linalg.norm(r) > 1e-8:
+            keep.append(c)
+            basis = np.column_stack([basis, r / np.linalg.norm(r)])
+    b = np.asarray(np.linalg.lstsq(y[:, keep], y, rcond=None)[0], dtype=np.float64)
+    b[np.abs(b) < 1e-10] = 0.0
+    if np.max(np.abs(y[:, keep] @ b - y)) > 1e-9 * norms.max():
+        raise RuntimeError(f"base_structure({name!r}): the regrouping does not reproduce the regressor")
+    return tuple(keep), b
+
+
+# --------------------------------------------------------------------------- trajectories
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """``q_j(t) = c_j + Σ_k a_jk sin(2π f₀ k t + φ_jk)``, k = 1..H, with analytic derivatives."""
+
+    centres: FloatArray
+    amplitudes: FloatArray
+    phases: FloatArray
+    base_frequency: float
+
+    def __call__(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        tt = np.asarray(t, dtype=float)[:, None, None]
+        w = 2.0 * math.pi * self.base_frequency * np.arange(1, self.amplitudes.shape[1] + 1)
+        arg = w * tt + self.phases
+        s, c = np.sin(arg), np.cos(arg)
+        q = self.centres + np.sum(self.amplitudes * s, axis=2)
+        dq = np.sum(self.amplitudes * w * c, axis=2)
+        ddq = -np.sum(self.amplitudes * w**2 * s, axis=2)
+        return q, dq, ddq
+
+
+def random_trajectory(rng: np.random.Generator, design: ArmDesign, base_frequency: float,
+                      scale: Sequence[float] | None = None) -> Trajectory:
+    """Random amplitudes (∝ u/k, u ~ U(0.5, 1), summing to the link's amplitude bound, times
+    ``scale[j]``), phases U(0, 2π) and centres (the link's centre ± 0.2 rad)."""
+    n = design.n_joints
+    k = np.arange(1, N_HARMONICS + 1)
+    u = rng.uniform(0.5, 1.0, (n, N_HARMONICS)) / k
+    bound = np.array([link.amplitude for link in design.links])
+    if scale is not None:
+        bound = bound * np.asarray(scale, dtype=float)
+    amplitudes = u / u.sum(axis=1, keepdims=True) * bound[:, None]
+    phases = rng.uniform(0.0, 2.0 * math.pi, (n, N_HARMONICS))
+    centres = np.array([link.centre for link in design.links]) + rng.uniform(-0.2, 0.2, n)
+    return Trajectory(centres, amplitudes, phases, base_frequency)
+
+
+# --------------------------------------------------------------------------- noise
+
+NOISES = ("white", "t3", "ar0.9", "ar0.99", "ar0.999", "lowpass", "heteroscedastic", "jitter")
+"""Noise kinds of the measured torque (``jitter`` is white noise plus jittered sampling)."""
+
+LOWPASS_RATE = 1000.0
+LOWPASS_CUTOFF = 30.0
+
+
+def _filtered(b: Any, a: Any, rng: np.random.Generator, n: int, m: int) -> FloatArray:
+    """Unit-variance stationary output of the filter b/a driven by white noise (burn-in from the
+    impulse response's length; scaled by the impulse response's energy)."""
+    import scipy.signal
+
+    impulse = np.zeros(20000)
+    impulse[0] = 1.0
+    h = scipy.signal.lfilter(b, a, impulse)
+    energy = np.cumsum(h**2)
+    burn = int(np.searchsorted(energy, (1.0 - 1e-9) * energy[-1])) + 1
+    w = rng.normal(size=(n + burn, m))
+    x = scipy.signal.lfilter(b, a, w, axis=0)[burn:]
+    return np.asarray(x / math.sqrt(energy[-1]))
+
+
+def noise(kind: str, rng: np.random.Generator, n: int, sigma: FloatArray, sample_rate: float,
+          dq: FloatArray | None = None) -> FloatArray:
+    """Noise ``(n, m)`` of kind ``kind`` with marginal standard deviation ``sigma`` (m,) per joint.
+
+    ``heteroscedastic`` needs ``dq`` (its sd is ∝ 0.3 + |q̇_j|/max|q̇_j|, scaled to RMS σ_j on
+    the run); ``lowpass`` is generated at 1 kHz and taken every 1000/f_s-th sample.
+    """
+    import scipy.signal
+
+    sigma = np.asarray(sigma, dtype=float)
+    m = sigma.size
+    if kind in ("white", "jitter"):
+        return rng.normal(size=(n, m)) * sigma
+    if kind == "t3":
+        return rng.standard_t(3, size=(n, m)) / math.sqrt(3.0) * sigma
+    if kind.startswith("ar"):
+        rho = float(kind[2:])
+        w = rng.normal(size=(n, m)) * math.sqrt(1.0 - rho * rho)
+        w[0] = rng.normal(size=m)  # the stationary start: x_0 ~ N(0, 1)
+        return np.asarray(scipy.signal.lfilter([1.0], [1.0, -rho], w, axis=0)) * sigma
+    if kind == "lowpass":
+        step = LOWPASS_RATE / sample_rate
+        if abs(step - round(step)) > 1e-9 or step < 1:
+            raise ValueError(f"lowpass noise needs a rate dividing {LOWPASS_RATE:g} Hz, got {sample_rate:g}")
+        b, a = scipy.signal.butter(2, LOWPASS_CUTOFF, fs=LOWPASS_RATE)
+        x = _filtered(b, a, rng, n * int(round(step)), m)[::int(round(step))]
+        return x * sigma
+    if kind == "heteroscedastic":
+        if dq is None:
+            raise ValueError("heteroscedastic noise needs dq")
+        s = 0.3 + np.abs(dq) / np.max(np.abs(dq), axis=0)
+        s = s / np.sqrt(np.mean(s**2, axis=0))
+        return np.asarray(rng.normal(size=(n, m)) * s * sigma, dtype=np.float64)
+    raise ValueError(f"unknown noise {kind!r}; expected one of {NOISES}")
+
+
+def mode_signal(rng: np.random.Generator, n: int, frequency: float, sample_rate: float, sd: float,
+                damping: float = 0.02) -> FloatArray:
+    """A lightly damped mode (AR(2) with poles r·e^{±iω₀}, r = e^{−ζω₀}) of stationary sd ``sd``."""
+    w0 = 2.0 * math.pi * frequency / sample_rate
+    r = math.exp(-damping * w0)
+    return _filtered([1.0], [1.0, -2.0 * r * math.cos(w0), r * r], rng, n, 1)[:, 0] * sd
+
+
+# --------------------------------------------------------------------------- scenarios
+
+
+@dataclass(frozen=True)
+class Expected:
+    """The cause a deficient scenario's findings should name.
+
+    A finding names it when its severity is ``severity``, its kind one of ``kinds``, it names
+    ``joint`` (when given) and: for ``missing_physics``, ``details["term"]`` in ``term`` (when
+    given); for ``regressor_correlation`` and ``bias``, the name of ``columns[0]`` starts with
+    ``column_prefix`` (only when the column was offered; a bias names an ``offset`` by itself);
+    for ``oscillation``, ``details["frequency"]`` within 10 % of ``frequency``; for ``delay``,
+    ``details["delay_s"]`` (when present) within a factor 2 of ``delay_s``.
+    """
+
+    kinds: tuple[str, ...]
+    joint: int | None = None
+    term: tuple[str, ...] | None = None
+    column_prefix: str | None = None
+    frequency: float | None = None
+    delay_s: float | None = None
+    severity: str = "deficiency"
+
+
+CLASSES = ("right", "no_coulomb", "no_viscous", "no_gravity", "coupled_gravity", "offset", "payload", "mode",
+           "delay", "unexcited_joint", "low_information")
+"""Scenario classes: ``right`` (size) and the deficient ones (power)."""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One row of the calibration: a class on an arm, at a rate and noise.
+
+    ``sigma``: the noise sd as a fraction of each joint's torque RMS on the reference trajectory;
+    ``size``: the effect's RMS in units of σ on the joint(s) it acts on (friction, gravity, offset,
+    mode; the missing columns of ``low_information``); ``joint``: the joint it acts on;
+    ``column``: the inertial column a gravity model lacks; ``missing``: the columns a
+    ``low_information`` model lacks; ``delay``: samples; ``payload``: kg; ``mode_frequency``: Hz;
+    ``unexcited_scale``: the validation amplitude of ``joint`` relative to the estimation one.
+    """
+
+    name: str
+    noise: str
+    arm: str
+    sample_rate: float
+    duration: float
+    base_frequency: float
+    sigma: float
+    expected: Expected | None = None
+    size: float = 1.5
+    joint: int | None = None
+    column: str | None = None
+    missing: tuple[str, ...] = ()
+    delay: int = 0
+    payload: float = 0.0
+    mode_frequency: float | None = None
+    unexcited_scale: float = 0.02
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:{self.noise}:{self.arm}@{self.sample_rate:g}"
+
+    @property
+    def n_samples(self) -> int:
+        return int(round(self.duration * self.sample_rate))
+
+    @property
+    def max_lag(self) -> int:
+        """Half a second of lags, at most 200."""
+        return min(200, int(round(0.5 * self.sample_rate)))
+
+    def describe(self) -> str:
+        s = _setup(self)
+        extra = {"no_coulomb": lambda: f"Fc = {self.size}σ per joint",
+                 "no_viscous": lambda: f"Fv: RMS {self.size}σ per joint",
+                 "no_gravity": lambda: f"{self.column}, RMS {self.size}σ on {_joint(self)}",
+                 "coupled_gravity": lambda: f"{self.column}, RMS {self.size}σ (largest joint)",
+                 "offset": lambda: f"{self.size}σ on {_joint(self)}",
+                 "payload": lambda: f"{self.payload:g} kg at the tool",
+                 "mode": lambda: f"{self.mode_frequency} Hz, ζ 0.02, sd {self.size}σ on {_joint(self)}",
+                 "delay": lambda: f"{self.delay} sample(s) = {1e3 * self.delay / self.sample_rate:g} ms",
+                 "unexcited_joint": lambda: f"{_joint(self)} at {100 * self.unexcited_scale:g} % amplitude",
+                 "low_information": lambda: f"missing {', '.join(self.missing)} ({self.size}σ each)",
+                 }.get(self.name, lambda: "")()
+        return (f"{self.key:40} {self.arm} {self.sample_rate:g} Hz × {self.duration:g} s (N {self.n_samples}), "
+                f"f0 {self.base_frequency:g} Hz, σ {100 * self.sigma:g} % of RMS = "
+                f"[{', '.join(f'{x:.3g}' for x in s.sigma)}] N·m, max_lag {self.max_lag}"
+                + (f"; {extra}" if extra else ""))
+
+
+def _joint(s: Scenario) -> str:
+    return ARMS[s.arm].joint_names[s.joint] if s.joint is not None else "—"
+
+
+_MISSING_PHYSICS = ("missing_physics", "regressor_correlation", "bias")
+_GRAVITY_TERMS = ("gravity", "position_harmonic")
+
+
+def library() -> tuple[Scenario, ...]:
+    """The scenario library: right models under every noise, then the deficient classes.
+
+    Arms, rates (100 Hz, 500 Hz, 1 kHz), lengths (20–40 s), fundamentals and noise levels
+    (1–5 % of each joint's torque RMS) are spread over the rows so that no single setting decides.
+    """
+    r = Scenario
+    p2, a3, a4 = "planar2", "anthro3", "arm4"
+    rows = [
+        r("right", "white", p2, 100.0, 40.0, 0.1, 0.02),
+        r("right", "white", a3, 500.0, 30.0, 0.1, 0.01),
+        r("right", "white", a4, 1000.0, 20.0, 0.2, 0.03),
+        r("right", "t3", a4, 100.0, 40.0, 0.05, 0.02),
+        r("right", "ar0.9", a3, 100.0, 40.0, 0.1, 0.03),
+        r("right", "ar0.99", p2, 1000.0, 20.0, 0.15, 0.02),
+        r("right", "ar0.999", a4, 500.0, 30.0, 0.1, 0.02),
+        r("right", "lowpass", a3, 1000.0, 20.0, 0.2, 0.01),
+        r("right", "heteroscedastic", p2, 500.0, 30.0, 0.1, 0.05),
+        r("right", "jitter", a4, 500.0, 30.0, 0.1, 0.01),
+    ]
+    coulomb = Expected(_MISSING_PHYSICS, term=("coulomb",), column_prefix="Fc")
+    viscous = Expected(_MISSING_PHYSICS, term=("viscous",), column_prefix="Fv")
+    rows += [
+        r("no_coulomb", "white", a3, 500.0, 30.0, 0.1, 0.02, coulomb),
+        r("no_coulomb", "ar0.9", p2, 100.0, 40.0, 0.1, 0.02, coulomb),
+        r("no_viscous", "white", a4, 100.0, 40.0, 0.05, 0.02, viscous),
+        r("no_viscous", "t3", p2, 500.0, 30.0, 0.15, 0.03, viscous),
+        r("no_gravity", "white", p2, 100.0, 40.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, joint=0, term=_GRAVITY_TERMS, column_prefix="L1:mz"),
+          size=2.0, joint=0, column="L1:mz"),
+        r("no_gravity", "lowpass", a3, 1000.0, 20.0, 0.15, 0.02,
+          Expected(_MISSING_PHYSICS, joint=1, term=_GRAVITY_TERMS, column_prefix="L2:mz"),
+          size=2.0, joint=1, column="L2:mz"),
+        r("coupled_gravity", "white", a3, 500.0, 30.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, term=_GRAVITY_TERMS, column_prefix="L3:mz"), size=2.0, column="L3:mz"),
+        r("coupled_gravity", "heteroscedastic", a4, 500.0, 30.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, term=_GRAVITY_TERMS, column_prefix="L4:mz"), size=2.0, column="L4:mz"),
+        # On a joint that carries gravity an offset is nearly a combination of the gravity columns
+        # (cos q, sin q over a swing of ±1 rad: 95 % of it is absorbed by the fit): the offsets sit
+        # on the base joint (no gravity) and on the wrist roll (swings of ±2 rad).
+        r("offset", "white", a4, 100.0, 40.0, 0.05, 0.02,
+          Expected(("missing_physics", "bias", "regressor_correlation"), joint=3, term=("offset",),
+                   column_prefix="off4"), joint=3),
+        r("offset", "ar0.9", a3, 500.0, 30.0, 0.1, 0.02,
+          Expected(("missing_physics", "bias", "regressor_correlation"), joint=0, term=("offset",),
+                   column_prefix="off1"), joint=0),
+        r("payload", "white", a3, 100.0, 40.0, 0.1, 0.02,
+          Expected(("missing_physics", "predictive_failure"), term=("gravity", "inertia")), payload=1.0),
+        r("payload", "jitter", a4, 500.0, 30.0, 0.1, 0.01,
+          Expected(("missing_physics", "predictive_failure"), term=("gravity", "inertia")), payload=1.0),
+        r("mode", "white", p2, 100.0, 40.0, 0.1, 0.02, Expected(("oscillation",), joint=1, frequency=7.0),
+          size=1.0, joint=1, mode_frequency=7.0),
+        r("mode", "white", a4, 1000.0, 20.0, 0.2, 0.02, Expected(("oscillation",), joint=3, frequency=25.0),
+          size=1.0, joint=3, mode_frequency=25.0),
+        r("mode", "lowpass", a3, 1000.0, 20.0, 0.15, 0.02, Expected(("oscillation",), joint=2, frequency=25.0),
+          size=1.0, joint=2, mode_frequency=25.0),
+        r("delay", "white", p2, 100.0, 40.0, 0.1, 0.02,
+          Expected(("delay", "missing_physics"), term=("delay",), delay_s=0.01), delay=1),
+        r("delay", "white", a4, 1000.0, 20.0, 0.2, 0.02,
+          Expected(("delay", "missing_physics"), term=("delay",), delay_s=0.003), delay=3),
+        r("unexcited_joint", "white", a3, 500.0, 30.0, 0.1, 0.02,
+          Expected(("excitation",), joint=2, severity="design"), joint=2),
+        r("unexcited_joint", "ar0.9", a4, 100.0, 40.0, 0.05, 0.02,
+          Expected(("excitation",), joint=3, severity="design"), joint=3),
+        # A slowly excited run (one to one and a half periods of the fundamental) under AR(1) 0.999:
+        # N_eff ≈ 10 for the mean, and few for a motion-dependent term too (prewhitening recovers
+        # about T·π·f²/f_c effective samples for a term at frequency f, f_c the noise's corner;
+        # with f₀ = 0.15 Hz the detectors do name the three missing terms: that run can decide).
+        r("low_information", "ar0.999", p2, 1000.0, 20.0, 0.05, 0.02,
+          Expected(("low_information",), severity="design"), size=1.0, missing=("Fv1", "Fv2", "L2:mz")),
+        r("low_information", "ar0.999", a4, 500.0, 30.0, 0.05, 0.02,
+          Expected(("low_information",), severity="design"), size=1.0, missing=("Fv1", "Fv2", "Fv3")),
+    ]
+    return tuple(rows)
+
+
+# --------------------------------------------------------------------------- setup of a scenario
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """What a scenario's replicates share: the robot, σ, the columns, the model."""
+
+    arm: Arm
+    payload_arm: Arm | None
+    sigma: FloatArray
+    viscous: FloatArray
+    coulomb: FloatArray
+    offset: FloatArray
+    keep: tuple[int, ...]
+    regroup: FloatArray
+    names: tuple[str, ...]   # offered columns: base inertial, Fc, Fv, off
+    truth: FloatArray        # the robot's parameters in those columns
+    model: tuple[int, ...]   # the model's columns (indices into names)
+
+
+def _structure_names(design: ArmDesign, keep: Sequence[int]) -> list[str]:
+    n = design.n_joints
+    inertial = [f"L{j + 1}:{p}" for j in range(n) for p in PARAM_NAMES]
+    return ([inertial[c] for c in keep] + [f"Fc{j + 1}" for j in range(n)] + [f"Fv{j + 1}" for j in range(n)]
+            + [f"off{j + 1}" for j in range(n)])
+
+
+@functools.lru_cache(maxsize=256)
+def _setup(s: Scenario) -> _Setup:
+    design = ARMS[s.arm]
+    n = design.n_joints
+    base = arm(s.arm)
+    keep, regroup = base_structure(s.arm)
+    names = _structure_names(design, keep)
+    # The reference trajectory (a fixed draw at the scenario's rate, length and fundamental): σ and
+    # the effects are sized on it, so every replicate of a scenario has the same robot and noise level.
+    t = np.arange(s.n_samples) / s.sample_rate
+    step = max(1, s.n_samples // 4000)
+    t = t[::step]
+    q, dq, ddq = random_trajectory(np.random.default_rng(REFERENCE_SEED), design, s.base_frequency)(t)
+    tau = base.rnea(q, dq, ddq) + base.viscous * dq + base.coulomb * np.sign(dq)
+    sigma = s.sigma * np.sqrt(np.mean(tau**2, axis=0))
+    viscous, coulomb, offset = base.viscous.copy(), base.coulomb.copy(), np.zeros(n)
+    robot, dropped = base, [f"off{j + 1}" for j in range(n)]
+    if s.name == "no_coulomb":
+        coulomb = s.size * sigma
+        dropped += [f"Fc{j + 1}" for j in range(n)]
+    elif s.name == "no_viscous":
+        viscous = s.size * sigma / np.sqrt(np.mean(dq**2, axis=0))
+        dropped += [f"Fv{j + 1}" for j in range(n)]
+    elif s.name in ("no_gravity", "coupled_gravity"):
+        column = str(s.column)
+        robot = _sized_column_arm(s, t, q, dq, ddq, sigma, [column])
+        dropped.append(column)
+    elif s.name == "low_information":
+        inertial = [c for c in s.missing if c.startswith("L")]
+        if inertial:
+            robot = _sized_column_arm(s, t, q, dq, ddq, sigma, inertial)
+        for c in s.missing:
+            if c.startswith("Fv"):
+                j = int(c[2:]) - 1
+                viscous[j] = s.size * sigma[j] / math.sqrt(float(np.mean(dq[:, j] ** 2)))
+        dropped += list(s.missing)
+    elif s.name == "offset":
+        offset[s.joint] = s.size * sigma[s.joint]  # in the robot (a sensor offset), not in the model
+    payload_arm = arm(s.arm, payload=s.payload) if s.payload > 0 else None
+    truth = np.concatenate([regroup @ robot.inertial_parameters(), coulomb, viscous, offset])
+    model = tuple(i for i, nm in enumerate(names) if nm not in dropped)
+    return _Setup(robot, payload_arm, sigma, viscous, coulomb, offset, keep, regroup, tuple(names), truth, model)
+
+
+def _sized_column_arm(s: Scenario, t: FloatArray, q: FloatArray, dq: FloatArray, ddq: FloatArray,
+                      sigma: FloatArray, columns: Sequence[str]) -> Arm:
+    """The arm with each first-moment column of ``columns`` set so that its part of the torque has
+    an RMS of ``s.size`` σ on the joint where it is largest (on the reference trajectory).
+
+    The column must be a base column that nothing regroups into (true of ``L<j>:my``/``mz`` of
+    these designs); its base parameter is then m·c of the link, linear in the centre of mass.
+    """
+    design = ARMS[s.arm]
+    keep, regroup = base_structure(s.arm)
+    inertial = [f"L{j + 1}:{p}" for j in range(design.n_joints) for p in PARAM_NAMES]
+    y = arm(s.arm).inertial_regressor(q, dq, ddq)
+    com = {i: link.com for i, link in enumerate(design.links)}
+    for column in columns:
+        c = inertial.index(column)
+        row = keep.index(c)
+        if np.count_nonzero(regroup[row]) != 1:
+            raise ValueError(f"{column} is regrouped with other parameters: choose a pure base column")
+        link, axis = int(column[1:column.index(":")]) - 1, "xyz".index(column[-1])
+        rms = np.sqrt(np.mean(y[:, :, c] ** 2, axis=0)) / sigma  # per unit of m·c, in σ
+        value = s.size / float(rms.max())
+        new = list(com[link])
+        new[axis] = value / design.links[link].mass
+        com[link] = (new[0], new[1], new[2])
+    return arm(s.arm, com=tuple(sorted(com.items())))
+
+
+# --------------------------------------------------------------------------- replicates
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run: motion (N, m), measured torque (N, m), the offered regressor (N, m, P) and the
+    measured torque without the sensor noise (``tau_true``: the physics, with any payload, delay,
+    jitter, offset or mode)."""
+
+    q: FloatArray
+    dq: FloatArray
+    ddq: FloatArray
+    tau: FloatArray
+    regressor: FloatArray
+    tau_true: FloatArray
+
+
+@dataclass(frozen=True)
+class Replicate:
+    """An estimation and a validation run of a scenario, with what the model lacks.
+
+    ``effect``: the part of the validation run's measured torque the model's structure cannot
+    hold (missing terms, the payload, the mode, the delay's error), noise-free, (N, m);
+    ``column_names``: the offered regressor's; ``model_columns``: the model's (indices into them).
+    """
+
+    scenario: Scenario
+    estimation: Run
+    validation: Run
+    column_names: tuple[str, ...]
+    model_columns: tuple[int, ...]
+    truth: FloatArray
+    sigma: FloatArray
+    effect: FloatArray
+    seconds: float
+
+
+def _seed(s: Scenario, replicate: int) -> np.random.SeedSequence:
+    return np.random.SeedSequence([zlib.crc32(s.key.encode()), int(replicate)])
+
+
+def _regressor(st: _Setup, q: FloatArray, dq: FloatArray, ddq: FloatArray) -> FloatArray:
+    """The offered regressor (N, m, P): base inertial columns, Fc, Fv, off."""
+    n_s, n = q.shape
+    inertial = st.arm.inertial_regressor(q, dq, ddq)
+    eye = np.eye(n)
+    return np.concatenate([inertial[:, :, list(st.keep)], np.sign(dq)[:, :, None] * eye,
+                           dq[:, :, None] * eye, np.broadcast_to(eye, (n_s, n, n))], axis=2)
+
+
+def _physical_torque(st: _Setup, robot: Arm, q: FloatArray, dq: FloatArray, ddq: FloatArray) -> FloatArray:
+    return robot.rnea(q, dq, ddq) + st.viscous * dq + st.coulomb * np.sign(dq) + st.offset
+
+
+def simulate(s: Scenario, replicate: int) -> Replicate:
+    """Replicate number ``replicate`` of scenario ``s`` (deterministic in both)."""
+    t0 = time.perf_counter()
+    st = _setup(s)
+    design = ARMS[s.arm]
+    m = design.n_joints
+    rng = np.random.default_rng(_seed(s, replicate))
+    n = s.n_samples
+    t = np.arange(n) / s.sample_rate
+    est_traj = random_trajectory(rng, design, s.base_frequency)
+    val_traj = random_trajectory(rng, design, s.base_frequency)
+    if s.name == "unexcited_joint":
+        # the validation run moves `joint` by a fraction of the estimation run's amplitudes
+        amplitudes = val_traj.amplitudes.copy()
+        amplitudes[s.joint] = est_traj.amplitudes[s.joint] * s.unexcited_scale
+        val_traj = replace(val_traj, amplitudes=amplitudes)
+    outside = [i for i in range(len(st.names)) if i not in st.model]
+    runs = []
+    effect = np.zeros((n, m))
+    for which, traj in (("estimation", est_traj), ("validation", val_traj)):
+        q, dq, ddq = traj(t)
+        reg = _regressor(st, q, dq, ddq)
+        robot = st.payload_arm if (which == "validation" and st.payload_arm is not None) else st.arm
+        if s.noise == "jitter":
+            tj = t + rng.uniform(-0.3, 0.3, n) / s.sample_rate
+            tau_true = _physical_torque(st, robot, *traj(tj))
+        elif s.delay:
+            tau_true = _physical_torque(st, robot, *traj(t - s.delay / s.sample_rate))
+        else:
+            tau_true = _physical_torque(st, robot, q, dq, ddq)
+        extra = np.zeros((n, m))
+        if s.name == "mode" and s.joint is not None and s.mode_frequency is not None:
+            extra[:, s.joint] = mode_signal(rng, n, s.mode_frequency, s.sample_rate,
+                                            s.size * float(st.sigma[s.joint]))
+        tau_true = tau_true + extra
+        tau = tau_true + noise(s.noise, rng, n, st.sigma, s.sample_rate, dq)
+        if which == "validation":
+            effect = reg[:, :, outside] @ st.truth[outside] + extra
+            if s.payload > 0:
+                effect += _physical_torque(st, robot, q, dq, ddq) - _physical_torque(st, st.arm, q, dq, ddq)
+            if s.delay:
+                effect += tau_true - extra - _physical_torque(st, robot, q, dq, ddq)
+        runs.append(Run(q, dq, ddq, tau, reg, tau_true))
+    return Replicate(s, runs[0], runs[1], st.names, st.model, st.truth, st.sigma, effect,
+                     time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- identification and validation
+
+
+@one_blas_thread
+def fit(rep: Replicate) -> tuple[FloatArray, int]:
+    """Least squares of the model's columns on the estimation run (stacked rows): (π̂, rank)."""
+    cols = list(rep.model_columns)
+    x = rep.estimation.regressor[:, :, cols].reshape(-1, len(cols))
+    pi, _, rank, _ = np.linalg.lstsq(x, rep.estimation.tau.reshape(-1), rcond=None)
+    return np.asarray(pi, dtype=np.float64), int(rank)
+
+
+@functools.lru_cache(maxsize=1)
+def _validate_keywords() -> frozenset[str]:
+    import dynval
+
+    return frozenset(inspect.signature(dynval.validate).parameters)
+
+
+@functools.lru_cache(maxsize=1)
+def _estimation_keys() -> tuple[str, ...]:
+    """The keys ``validate(estimation=...)`` accepts beyond q, regressor, tau (dq, ddq when it has them)."""
+    import dynval
+
+    x = np.linspace(0.0, 1.0, 40)[:, None]
+    accepted = []
+    for key in ("dq", "ddq"):
+        try:
+            dynval.validate(np.sin(7 * x), np.zeros_like(x), n_params=1, max_lag=2, estimation={key: x})
+        except dynval.InputError:
+            continue
+        accepted.append(key)
+    return tuple(accepted)
+
+
+def validate_replicate(rep: Replicate, offered: bool, *, prediction: tuple[FloatArray, int] | None = None,
+                       backend: Literal["python", "cpp"] | None = None, **keywords: Any) -> Any:
+    """``dynval.validate`` of the replicate's validation run, with the estimation run.
+
+    ``offered=True``: the regressor holds every offered column (the robot's structure and the
+    offsets) and ``model_columns`` the model's; ``offered=False``: only the model's columns and
+    ``model_columns=None``. ``prediction``: (π̂, rank) from :func:`fit` (computed when omitted).
+    ``dq``/``ddq`` are passed when ``validate`` has them; extra ``keywords`` go to ``validate``.
+    """
+    import dynval
+
+    s = rep.scenario
+    pi, rank = prediction if prediction is not None else fit(rep)
+    cols = list(rep.model_columns)
+    est, val = rep.estimation, rep.validation
+    pred = val.regressor[:, :, cols] @ pi
+    if offered:
+        reg_val, reg_est, names, model = val.regressor, est.regressor, list(rep.column_names), cols
+    else:
+        reg_val, reg_est = val.regressor[:, :, cols], est.regressor[:, :, cols]
+        names, model = [rep.column_names[c] for c in cols], None
+    estimation: dict[str, Any] = {"q": est.q, "regressor": reg_est, "tau": est.tau}
+    for key in _estimation_keys():
+        estimation[key] = getattr(est, key)
+    accepted = _validate_keywords()
+    kw: dict[str, Any] = {}
+    for key in ("dq", "ddq"):
+        if key in accepted:
+            kw[key] = getattr(val, key)
+    kw.update(keywords)
+    return dynval.validate(val.tau, pred, n_params=rank, regressor=reg_val, column_names=names, model_columns=model,
+                           sample_rate=s.sample_rate, max_lag=s.max_lag, q=val.q, estimation=estimation,
+                           joint_names=list(ARMS[s.arm].joint_names), backend=backend, **kw)
+
+
+def _column_joint(name: str) -> int | None:
+    """The joint a column belongs to: ``Fc2``/``Fv2``/``off2`` to joint 1, ``L2:*`` (the link joint 1 moves) too."""
+    for prefix in ("Fc", "Fv", "off"):
+        if name.startswith(prefix) and name[len(prefix):].isdigit():
+            return int(name[len(prefix):]) - 1
+    if name.startswith("L") and ":" in name and name[1:name.index(":")].isdigit():
+        return int(name[1:name.index(":")]) - 1
+    return None
+
+
+def _names_joint(f: Any, joint: int, names: Sequence[str]) -> bool:
+    if joint in tuple(f.joints):
+        return True
+    if f.joints or not f.columns:
+        return False
+    return all(_column_joint(names[c]) == joint for c in f.columns)
+
+
+def named_right(report: Any, expected: Expected | None, offered: bool) -> bool:
+    """True when a finding of the expected severity and kind names the expected cause (:class:`Expected`)."""
+    if expected is None:
+        return False
+    names = report.provenance["column_names"] or ()
+    for f in report.findings:
+        if f.severity != expected.severity or f.kind not in expected.kinds:
+            continue
+        if expected.joint is not None and not _names_joint(f, expected.joint, names):
+            continue
+        details = f.details or {}
+        if f.kind == "missing_physics":
+            if expected.term is not None and details.get("term") not in expected.term:
+                continue
+        elif f.kind in ("regressor_correlation", "bias"):
+            offset_bias = f.kind == "bias" and expected.term is not None and "offset" in expected.term
+            names_column = (offered and expected.column_prefix is not None and bool(f.columns)
+                            and str(names[f.columns[0]]).startswith(expected.column_prefix))
+            if not (offset_bias or names_column):
+                continue
+        elif f.kind == "oscillation":
+            if expected.frequency is not None and not (
+                    abs(float(details.get("frequency", math.inf)) - expected.frequency) <= 0.1 * expected.frequency):
+                continue
+        elif f.kind == "delay":
+            d = details.get("delay_s")
+            if expected.delay_s is not None and d is not None and not (
+                    0.5 * expected.delay_s <= float(d) <= 2.0 * expected.delay_s):
+                continue
+        return True
+    return False
+
+
+def run_replicate(s: Scenario, replicate: int, *, offered: Sequence[bool] = (True, False),
+                  backend: Literal["python", "cpp"] | None = None) -> list[dict[str, Any]]:
+    """Simulate, identify and validate one replicate once per ``offered``; one outcome record each.
+
+    A record: ``key``, ``offered``, ``replicate``, ``any_deficiency``, ``named_right`` (None for a
+    right model), ``kinds`` (the deficiency kinds, and ``kind/design`` for design findings),
+    ``seconds_simulate`` (simulation and identification) and ``seconds_validate``.
+    """
+    t0 = time.perf_counter()
+    rep = simulate(s, replicate)
+    prediction = fit(rep)
+    t_sim = time.perf_counter() - t0
+    out = []
+    for flag in offered:
+        t1 = time.perf_counter()
+        report = validate_replicate(rep, flag, prediction=prediction, backend=backend)
+        kinds = sorted({f.kind for f in report.findings if f.severity == "deficiency"}
+                       | {f"{f.kind}/design" for f in report.findings if f.severity == "design"})
+        out.append({"key": s.key, "offered": bool(flag), "replicate": int(replicate),
+                    "any_deficiency": bool(report.deficiencies),
+                    "named_right": None if s.expected is None else named_right(report, s.expected, flag),
+                    "kinds": kinds, "seconds_simulate": t_sim, "seconds_validate": time.perf_counter() - t1})
+    return out
