@@ -751,7 +751,7 @@ def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) ->
     return out, bad
 
 
-def _design_findings(ev: Evidence, th: Thresholds, decided: set[int] = frozenset()) -> list[Finding]:
+def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset()) -> list[Finding]:
     """Runs that cannot decide: a joint that hardly moves, too few effective samples (on a joint
     where no deficiency was found: where one was, the run did decide)."""
     out: list[Finding] = []
