@@ -595,25 +595,16 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
 
 
 def _motion_findings(ev: Evidence, fam, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    """The rules that read the motion: missing physics, delay, predictive failure."""
+    """The rules that read the motion: missing physics, delay, predictive failure, periodic error."""
+    rules = (("physics", _physics_findings), ("delay", _delay_findings), ("predictive", _predictive_findings),
+             ("periodic", _periodic_findings))
     out: list[Finding] = []
     joints: set[int] = set()
-    if "physics" in fam:
-        found, bad = _physics_findings(ev, fam["physics"], th, alpha)
-        out += found
-        joints |= bad
-    if "delay" in fam:
-        found, bad = _delay_findings(ev, fam["delay"], th, alpha)
-        out += found
-        joints |= bad
-    if "predictive" in fam:
-        found, bad = _predictive_findings(ev, fam["predictive"], th, alpha)
-        out += found
-        joints |= bad
-    if "periodic" in fam:
-        found, bad = _periodic_findings(ev, fam["periodic"], th, alpha)
-        out += found
-        joints |= bad
+    for family, rule in rules:
+        if family in fam:
+            found, bad = rule(ev, fam[family], th, alpha)
+            out += found
+            joints |= bad
     return out, joints
 
 
