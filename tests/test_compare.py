@@ -241,10 +241,10 @@ def test_redesign_is_decided_by_the_design_finding_said_once():
     repeat = next(f for f in cmp.reports[cmp.ranking[0]].findings if f.kind == "repeat_trajectory")
     if v.decided_by[0].kind == "repeat_trajectory":
         assert v.first_step == repeat.action
-    # each candidate's reasons say it, with the distance and its threshold
+    # each candidate's reasons say it, with the share near the estimation trajectory and its threshold
     for n in cmp.names:
         said = [r for r in cmp.reasons[n] if "repeats the estimation run" in r]
-        assert len(said) == 1 and said[0].startswith("design: ") and "< 0.1" in said[0]
+        assert len(said) == 1 and said[0].startswith("design: ") and "100 % of it" in said[0] and "> 50 %" in said[0]
     text = cmp.summary()
     assert "decided by:" in text.split("Verdict: REDESIGN", 1)[1]
     assert [d["kind"] for d in _strict(cmp)["verdict"]["decided_by"]] == [d.kind for d in v.decided_by]
@@ -262,3 +262,34 @@ def test_reasons_with_infinite_criteria_stay_strict_json():
     assert all(cmp.reasons[n] for n in cmp.names)
     d = _strict(cmp)
     assert set(d["reasons"]) == {"exact", "linear"} and d["verdict"]["decision"] == cmp.verdict.decision
+
+
+def test_low_information_decides_only_for_the_best_candidate():
+    """How few effective samples the noise leaves depends on each candidate's residual: a run that
+    cannot decide is judged on the candidate the decision is about, never on a worse-ranked one."""
+    from types import SimpleNamespace
+
+    from dynval._compare import _verdict
+    from dynval._findings import Finding
+
+    def report(*findings):
+        defs = [f for f in findings if f.severity == "deficiency"]
+        return SimpleNamespace(findings=list(findings), deficiencies=defs, whiteness=None,
+                               provenance={"joint_names": ["j1"], "column_names": None,
+                                           "conventions": {"level": 0.95}})
+
+    low = Finding(kind="low_information", severity="design", joints=(0,), action="validate on a longer run",
+                  message="This run cannot decide.")
+    repeat = Finding(kind="repeat_trajectory", severity="design", action="validate on a different trajectory",
+                     message="The validation run repeats the estimation run.")
+    crit = {"a": 0.0, "b": 1.0}
+    # the worse candidate's low_information does not decide: accept the best
+    _, v = _verdict(["a", "b"], ["a", "b"], {"a": report(), "b": report(low)}, "aic", crit)
+    assert v.decision == "accept" and v.model == "a"
+    # the best candidate's does
+    _, v = _verdict(["a", "b"], ["a", "b"], {"a": report(low), "b": report()}, "aic", crit)
+    assert v.decision == "redesign" and [d.kind for d in v.decided_by] == ["low_information"]
+    assert v.decided_by[0].model == "a"
+    # any other design finding decides from any candidate
+    _, v = _verdict(["a", "b"], ["a", "b"], {"a": report(), "b": report(repeat)}, "aic", crit)
+    assert v.decision == "redesign" and v.decided_by[0].model == "b"

@@ -16,7 +16,7 @@ def _blocks():
 
 def test_readme_examples_run(capsys):
     blocks = _blocks()
-    assert len(blocks) == 3
+    assert len(blocks) == 4
     namespace: dict = {}
     for code in blocks:
         exec(compile(code, str(README), "exec"), namespace)
@@ -26,6 +26,12 @@ def test_readme_examples_run(capsys):
     assert (cmp.ranking, cmp.verdict.decision) == (["friction", "rigid"], "accept")
     assert "Verdict: ACCEPT" in capsys.readouterr().out
     assert abs(namespace["streamed"].pooled["r2"] - namespace["report"].pooled["r2"]) < 1e-14
+    real = namespace["real"]
+    assert real.timing["sample_rate"] == 200.0 and real.timing["irregular_steps"] > 0
+    assert real.provenance["conventions"]["max_lag_source"].startswith("motion")
+    assert {j for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"
+            for j in f.joints} >= {0, 1, 2, 3}
+    assert any(f.kind == "time_stamps" for f in real.findings)
 
 
 @pytest.mark.parametrize("scenario, decision", [("friction", "accept"), ("repeat", "redesign")])

@@ -11,7 +11,7 @@ import pytest
 import scipy.stats
 
 import dynval
-from dynval._summary import _pvalue
+from dynval._text import pvalue_text
 
 # The hand-checkable example of docs/conventions.md §3.2.
 MEAS = np.array([[10.0, 1.0], [20.0, 2.0], [30.0, 1.0], [40.0, 2.0]])
@@ -20,7 +20,7 @@ PRED = np.array([[11.0, 2.0], [19.0, 1.0], [31.0, 2.0], [39.0, 1.0]])
 SECTIONS = {"provenance", "per_joint", "pooled", "aggregates", "residuals", "autocorrelation",
             "ljung_box", "cross_correlation", "information_criteria", "warnings_text",
             "findings", "bias", "whiteness", "spectrum", "design", "segment_metrics", "physics", "periodic",
-            "predictive"}
+            "predictive", "timing"}
 
 
 def _signals(n=400, seed=0, scales=(20.0, 2.0, 0.5)):
@@ -328,9 +328,11 @@ def test_unknown_backend_is_invalid_parameter():
 
 
 def test_pvalue_text_uses_the_logarithm_below_1e_300():
-    assert _pvalue(0.0, -2000.0 * math.log(10.0) + math.log(3.0)) == "3.0e-2000"
-    assert _pvalue(0.25, math.log(0.25)) == "0.250"
-    assert _pvalue(float("nan"), float("nan")) == "nan"
+    # contract §4: below 1e-300 (an underflowed 0 included) a p reads "< 1e-300"; tests/test_text.py
+    assert pvalue_text(0.0, -2000.0 * math.log(10.0) + math.log(3.0)) == "< 1e-300"
+    assert pvalue_text(0.0, -600.0) == "2.65e-261"  # written from the log
+    assert pvalue_text(0.25, math.log(0.25)) == "0.25"
+    assert pvalue_text(float("nan"), float("nan")) == "n/a"
 
 
 @pytest.mark.parametrize("profile", ["lesson", "matlab"])

@@ -1,12 +1,12 @@
 """KUKA LWR4+ measurements (FloBaRoID): identify on one run, validate and compare on the others.
 
-    python3 examples/kuka_lwr4/run.py [--data DIR] [--out DIR]
+    python3 examples/kuka_lwr4/run.py [--out DIR] [--no-figures] [--readme] [--data DIR]
 
-The data are the three logged runs of the FloBaRoID project (LGPL-3.0; see the data
-directory's README.md and LICENSE.md). They are read from ``../shared/data/robots/
-kuka_lwr4_flobaroid`` beside the repository (or ``--data``, or ``DYNVAL_KUKA_DATA``) and never
-copied. Without the data, or without pinocchio (``pip install pin``), the script says so and
-exits with status 0.
+The data are the three logged runs of the FloBaRoID project (LGPL-3.0), shipped inside dynval and
+loaded with ``dynval.datasets.load_kuka_lwr4`` (its ``DESCR`` says where they come from). ``--data
+DIR`` (or ``$DYNVAL_KUKA_DATA``) reads another directory in FloBaRoID's layout instead
+(``data/measurements_{1,2,3}.npz``, ``model/kuka_lwr4.urdf``, ``model/kuka_lwr4_identified.urdf``).
+Without pinocchio (``pip install pin``, the ``robots`` extra) the script says so and exits.
 
 Candidates, each predicting the validation runs' torques:
 
@@ -22,57 +22,154 @@ Candidates, each predicting the validation runs' torques:
 Velocities and accelerations are the logged ones (FloBaRoID filtered them without time shift).
 Run 2 repeats run 1's trajectory, run 3 is a different one: run 2 shows what validating on the
 estimation trajectory looks like, run 3 is the real test.
+
+``--readme`` writes the verdicts and decision tables of this run into the block of README.md
+between ``<!-- verdicts:begin -->`` and ``<!-- verdicts:end -->``, and the numbers it was made from
+into ``verdicts.json`` beside it (tests/test_datasets.py checks that the two agree).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-DEFAULT_DATA = HERE.parents[2] / "shared" / "data" / "robots" / "kuka_lwr4_flobaroid"
+README = HERE / "README.md"
+RECORD = HERE / "verdicts.json"
+BEGIN, END = "<!-- verdicts:begin -->", "<!-- verdicts:end -->"
+COMMAND = "python3 examples/kuka_lwr4/run.py --readme"
+RUN_TEXT = {2: "repeats run 1's trajectory", 3: "a different trajectory"}
 
 
-def find_data(arg=None):
-    for candidate in (arg, os.environ.get("DYNVAL_KUKA_DATA"), DEFAULT_DATA):
-        if candidate and (Path(candidate) / "data" / "measurements_1.npz").is_file():
-            return Path(candidate)
-    return None
+# ---------------------------------------------------------------------------- data
+
+def load_runs(data_dir: Path | None = None):
+    """Runs 1-3 (objects with q, dq, ddq, tau, sample_rate), the two URDF paths and the source's text."""
+    if data_dir is None:
+        from dynval.datasets import load_kuka_lwr4
+
+        runs = {k: load_kuka_lwr4(k) for k in (1, 2, 3)}
+        return runs, runs[1].urdf, runs[1].urdf_identified, "dynval.datasets.load_kuka_lwr4"
+    runs = {}
+    for k in (1, 2, 3):
+        with np.load(data_dir / "data" / f"measurements_{k}.npz") as f:
+            t = np.asarray(f["times"], dtype=float)
+            runs[k] = SimpleNamespace(run=k, time=t - t[0], q=np.asarray(f["positions"], dtype=float),
+                                      dq=np.asarray(f["velocities"], dtype=float),
+                                      ddq=np.asarray(f["accelerations"], dtype=float),
+                                      tau=np.asarray(f["torques"], dtype=float),
+                                      sample_rate=1.0 / float(np.mean(np.diff(t))))
+    model = data_dir / "model"
+    return runs, model / "kuka_lwr4.urdf", model / "kuka_lwr4_identified.urdf", str(data_dir)
 
 
-def load_run(data_dir: Path, k: int) -> dict:
-    with np.load(data_dir / "data" / f"measurements_{k}.npz") as f:
-        run = {key: np.asarray(f[key], dtype=float) for key in ("times", "positions", "velocities",
-                                                                 "accelerations", "torques")}
-    run["name"] = f"run {k}"
-    dt = np.diff(run["times"])
-    run["sample_rate"] = 1.0 / float(np.mean(dt))
-    return run
+def data_override(arg: str | None) -> Path | None:
+    """The directory given by --data or $DYNVAL_KUKA_DATA, checked; None for the packaged data."""
+    given = arg or os.environ.get("DYNVAL_KUKA_DATA") or None
+    if given is None:
+        return None
+    path = Path(given)
+    missing = [p for p in ["data/measurements_1.npz", "data/measurements_2.npz", "data/measurements_3.npz",
+                           "model/kuka_lwr4.urdf", "model/kuka_lwr4_identified.urdf"] if not (path / p).is_file()]
+    if missing:
+        source = "--data" if arg else "$DYNVAL_KUKA_DATA"
+        raise SystemExit(f"kuka_lwr4: {source} {path} is not a FloBaRoID KUKA directory: no {', '.join(missing)}")
+    return path
 
+
+# ---------------------------------------------------------------------------- the README block
+
+def record(k: int, cmp) -> dict:
+    """What the README block shows of one comparison: decision table, per-joint R², verdict."""
+    rows = []
+    for name in cmp.ranking:
+        row = cmp.table["pooled"][name]
+        rows.append({"model": name, "p": int(row["n_params"]), "rmse": float(row["rmse"]), "vaf": float(row["vaf"]),
+                     "r2": float(row["r2"]), "delta_aic": float(row[f"delta_{cmp.criterion}"]),
+                     "deficiencies": int(row["n_deficiencies"]),
+                     "r2_per_joint": [float(x) for x in cmp.table["per_joint"][name]["r2"]]})
+    v = cmp.verdict
+    return {"run": k, "what": RUN_TEXT[k], "criterion": cmp.criterion,
+            "joint_names": list(cmp.reports[cmp.names[0]].provenance["joint_names"]), "rows": rows,
+            "verdict": {"decision": v.decision, "model": v.model, "first_step": v.first_step,
+                        "decided_by": [{"kind": d.kind, "severity": d.severity, "model": d.model,
+                                        "joints": list(d.joints), "columns": list(d.columns)} for d in v.decided_by]}}
+
+
+def _decided_by(items: list) -> str:
+    """The decisive findings grouped by kind: "`missing_physics` (deficiency of M) on a, b, c"."""
+    groups: dict = {}
+    for d in items:
+        groups.setdefault((d["kind"], d["severity"], d["model"]), []).extend(d["joints"] + d["columns"])
+    parts = []
+    for (kind, severity, model), where in groups.items():
+        owner = f"{severity} of {model}" if model else f"{severity} of the comparison"
+        parts.append(f"`{kind}` ({owner})" + (" on " + ", ".join(where) if where else ""))
+    return "; ".join(parts) if parts else "no finding (nothing stands against the model)"
+
+
+def render_block(records: list) -> str:
+    """The README block (without its markers) for the records of :func:`record`."""
+    out = [f"<!-- Written by `{COMMAND}` from verdicts.json; rerun it instead of editing. -->"]
+    for r in records:
+        v = r["verdict"]
+        short = [j.replace("_joint", "") for j in r["joint_names"]]
+        out += ["", f"**Run {r['run']}** ({r['what']}): verdict **{v['decision']}** `{v['model']}`, decided by "
+                f"{_decided_by(v['decided_by'])}." + (f" First step: {v['first_step']}." if v["first_step"] else ""),
+                "", f"| rank | model | p | RMSE (N·m) | VAF % | R² pooled | Δ{r['criterion'].upper()} | deficiencies | "
+                + " | ".join(f"R² {j}" for j in short) + " |",
+                "|---:|---|---:|---:|---:|---:|---:|---:|" + "---:|" * len(short)]
+        for i, row in enumerate(r["rows"]):
+            out.append(f"| {i + 1} | {row['model']} | {row['p']} | {row['rmse']:.3f} | {row['vaf']:.2f} | "
+                       f"{row['r2']:.4f} | {row['delta_aic']:.0f} | {row['deficiencies']} | "
+                       + " | ".join(f"{x:.2f}" for x in row["r2_per_joint"]) + " |")
+    return "\n".join(out)
+
+
+def rewrite_block(text: str, block: str) -> str:
+    """``text`` with the lines between its one BEGIN and one END marker replaced by ``block``."""
+    if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(END) < text.index(BEGIN):
+        raise ValueError(f"the text must hold one {BEGIN} line followed by one {END} line")
+    head, rest = text.split(BEGIN)
+    _, tail = rest.split(END)
+    return head + BEGIN + "\n" + block.strip("\n") + "\n" + END + tail
+
+
+def read_block(text: str) -> str:
+    """The block between the markers, as :func:`rewrite_block` writes it."""
+    return text.split(BEGIN)[1].split(END)[0].strip("\n")
+
+
+# ---------------------------------------------------------------------------- the run
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--data", default=None, help="FloBaRoID KUKA data directory")
     parser.add_argument("--out", default="kuka_lwr4_out", help="output directory (default ./kuka_lwr4_out)")
     parser.add_argument("--no-figures", action="store_true", help="tables only")
+    parser.add_argument("--readme", action="store_true",
+                        help=f"write the verdicts into {README.relative_to(HERE.parents[1])} and {RECORD.name}")
+    parser.add_argument("--data", default=None,
+                        help="a FloBaRoID KUKA directory to read instead of the packaged data "
+                             "(default: $DYNVAL_KUKA_DATA, else dynval.datasets)")
     args = parser.parse_args(argv)
 
-    data_dir = find_data(args.data)
-    if data_dir is None:
-        print(f"kuka_lwr4: data not found (looked in --data, $DYNVAL_KUKA_DATA and {DEFAULT_DATA}); skipping.")
-        return 0
+    data_dir = data_override(args.data)
+    if args.readme and data_dir is not None:
+        parser.error("--readme describes the packaged data: leave out --data and $DYNVAL_KUKA_DATA")
     try:
         import pinocchio  # noqa: F401
 
         from dynval.robots import URDFModel
     except ImportError:
-        print("kuka_lwr4: pinocchio is not installed (pip install pin); skipping.")
-        return 0
+        print("kuka_lwr4: pinocchio is not installed (pip install pin, or pip install \".[robots]\"); skipping.")
+        return 1 if args.readme else 0
     import dynval
 
     out = Path(args.out)
@@ -80,18 +177,18 @@ def main(argv=None) -> int:
     say = lambda msg: print(f"[kuka_lwr4] {msg}", file=sys.stderr, flush=True)  # noqa: E731
 
     start = time.perf_counter()
-    cad = URDFModel(data_dir / "model" / "kuka_lwr4.urdf")
-    identified_urdf = URDFModel(data_dir / "model" / "kuka_lwr4_identified.urdf")
+    runs, urdf, urdf_identified, source = load_runs(data_dir)
+    cad = URDFModel(urdf)
+    identified_urdf = URDFModel(urdf_identified)
     joints = list(cad.joint_names)
     columns = list(cad.column_names())
-    runs = {k: load_run(data_dir, k) for k in (1, 2, 3)}
     est = runs[1]
     say(f"{len(joints)} joints, {len(columns)} regressor columns; runs of "
-        + ", ".join(f"{r['positions'].shape[0]} samples" for r in runs.values())
-        + f" at {est['sample_rate']:.1f} Hz")
+        + ", ".join(f"{r.q.shape[0]} samples" for r in runs.values())
+        + f" at {est.sample_rate:.1f} Hz, from {source}")
 
     def motion(run):
-        return run["positions"], run["velocities"], run["accelerations"]
+        return run.q, run.dq, run.ddq
 
     say("building the regressors (pinocchio computeJointTorqueRegressor)")
     regs = {k: cad.regressor(*motion(r)) for k, r in runs.items()}
@@ -108,7 +205,7 @@ def main(argv=None) -> int:
     lines = ["KUKA LWR4+ (FloBaRoID measurements): identification on run 1",
              f"  {'candidate':<24}{'columns':>8}{'rank':>6}{'cond':>10}{'σ (N·m)':>10}  largest %σ"]
     for name, cols in structures.items():
-        res = identify(regs[1][:, :, cols], est["torques"], column_names=[columns[c] for c in cols])
+        res = identify(regs[1][:, :, cols], est.tau, column_names=[columns[c] for c in cols])
         fits[name] = (res, cols)
         worst = int(np.argmax(res.rel_std_percent))
         lines.append(f"  {name:<24}{len(cols):>8}{res.rank:>6}{res.condition_number:>10.3g}"
@@ -120,26 +217,28 @@ def main(argv=None) -> int:
     # only turns about its axis), so no trajectory could excite them and they test nothing.
     keep = list(fits["rigid+friction+offset"][0].base_columns)
     keep_names = [columns[c] for c in keep]
-    texts = []
+    texts, records = [], []
     for k in (2, 3):
         val = runs[k]
         y = regs[k]
         preds = {name: (res.predict(y[:, :, cols]), res.rank) for name, (res, cols) in fits.items()}
         preds["CAD URDF"] = (cad.predict(*motion(val)), 0)
         preds["identified URDF"] = (identified_urdf.predict(*motion(val)), n_inertial + 2 * n)
-        what = "repeats run 1's trajectory" if k == 2 else "a different trajectory"
+        what = RUN_TEXT[k]
         say(f"comparing the candidates on run {k} ({what})")
-        common = dict(sample_rate=val["sample_rate"], joint_names=joints, column_names=keep_names,
-                      q=val["positions"], dq=val["velocities"], ddq=val["accelerations"],
-                      estimation={"q": est["positions"], "regressor": regs[1][:, :, keep], "tau": est["torques"]})
+        # the logged stamps set the grid (200.004 Hz nominal; a note counts their irregular steps)
+        common = dict(time=val.time, joint_names=joints, column_names=keep_names,
+                      q=val.q, dq=val.dq, ddq=val.ddq,
+                      estimation={"q": est.q, "regressor": regs[1][:, :, keep], "tau": est.tau})
         t0 = time.perf_counter()
         y_keep = np.ascontiguousarray(y[:, :, keep])
-        cmp = dynval.compare(val["torques"], {name: (p, n_params, y_keep) for name, (p, n_params) in preds.items()},
+        cmp = dynval.compare(val.tau, {name: (p, n_params, y_keep) for name, (p, n_params) in preds.items()},
                              **common)
         say(f"compared in {time.perf_counter() - t0:.1f} s")
         text = f"\n{'=' * 100}\nValidation on run {k} ({what})\n{'=' * 100}\n{cmp.summary()}"
         print(text)
         texts.append(text)
+        records.append(record(k, cmp))
         if not args.no_figures:
             from dynval import html, plot
 
@@ -149,7 +248,7 @@ def main(argv=None) -> int:
             window = (0.0, 10.0)
             files = [
                 plot.save(plot.metrics(cmp, title=f"Per-joint fit on run {k} ({what})"), f"{prefix}_metrics.png"),
-                plot.save(plot.prediction(val["torques"], preds[chosen][0], report=rep, model_name=chosen,
+                plot.save(plot.prediction(val.tau, preds[chosen][0], report=rep, model_name=chosen,
                                           window=window), f"{prefix}_prediction.png"),
                 plot.save(plot.autocorrelation(rep, title=f"Residual autocorrelation — {chosen}, run {k}"),
                           f"{prefix}_autocorrelation.png"),
@@ -162,13 +261,18 @@ def main(argv=None) -> int:
                                        f"{prefix}_spectrum.png"))
             t0 = time.perf_counter()
             files.append(html.write_report(
-                cmp, f"{prefix}_report.html", tau_meas=val["torques"],
+                cmp, f"{prefix}_report.html", tau_meas=val.tau,
                 tau_pred={name: p for name, (p, _) in preds.items()},
                 title=f"KUKA LWR4+: candidates validated on run {k}",
                 intro=f"Identified on run 1, validated on run {k} ({what}). Data: FloBaRoID (LGPL-3.0), "
-                      f"read from {data_dir}."))
+                      f"read from {source}."))
             say("wrote " + ", ".join(Path(f).name for f in files) + f" (report {time.perf_counter() - t0:.1f} s)")
     (out / "summary.txt").write_text("\n".join(lines) + "\n" + "\n".join(texts) + "\n", encoding="utf-8")
+    if args.readme:
+        RECORD.write_text(json.dumps({"command": COMMAND, "runs": records}, indent=1, ensure_ascii=False) + "\n",
+                          encoding="utf-8")
+        README.write_text(rewrite_block(README.read_text(encoding="utf-8"), render_block(records)), encoding="utf-8")
+        say(f"wrote the verdicts into {README} and {RECORD.name}")
     say(f"done in {time.perf_counter() - start:.1f} s; outputs in {out}")
     return 0
 

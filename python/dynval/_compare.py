@@ -29,6 +29,7 @@ import numpy as np
 from . import _validation as v
 from ._findings import Finding
 from ._report import ValidationReport, to_jsonable, validate
+from ._text import number_text, versus
 from ._typing import ArrayLike, FloatArray, Integer
 
 __all__ = ["compare", "ComparisonReport", "Verdict", "Decisive", "CRITERIA", "DECISIONS"]
@@ -324,15 +325,16 @@ def _decisive(model: str, report: ValidationReport, f: Finding) -> Decisive:
 
 def _g(x: float | None, fmt: str = ".3g") -> str:
     """A number of a finding (None or non-finite as a word)."""
-    if x is None:
-        return "n/a"
-    x = float(x)
-    return format(x, fmt) if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
+    return number_text(x, fmt)
 
 
-def _pct(x: float | None) -> str:
-    """A share as a percentage: 0.846 → "84.6 %", 0.01 → "1 %"."""
-    return "n/a" if x is None else f"{_g(100.0 * float(x))} %"
+def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, str]:
+    """A finding's effect and its threshold, with the digits that keep them in the order the rule
+    found (:func:`dynval._text.versus`): 0.2496 against 0.25 → "24.96 %", "25 %" with ``percent``."""
+    e, t = versus(f.effect, f.threshold, fmt, scale=100.0 if percent else 1.0)
+    if percent:
+        e, t = (s if s in ("n/a", "nan") else f"{s} %" for s in (e, t))
+    return e, t
 
 
 def _finding_reason(f: Finding, report: ValidationReport) -> str:
@@ -340,56 +342,67 @@ def _finding_reason(f: Finding, report: ValidationReport) -> str:
     joints = ", ".join(_joint_name(report, j) for j in f.joints)
     cols = [_column_name(report, c) for c in f.columns]
     th = f.threshold
+    e, t = _vs(f, percent="share" in (f.effect_unit or "") or f.kind in ("bias", "low_information")
+               or (f.kind == "excitation" and "motion" in (f.effect_unit or "")))
     if f.kind == "regressor_correlation" and "share" in f.effect_unit:
-        text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {_pct(f.effect)} of the residual's "
-                f"mean square ≥ {_pct(th)})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
+        text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {e} of the residual's "
+                f"mean square ≥ {t})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
     elif f.kind == "regressor_correlation":
+        e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
-                f"{_g(f.effect, '.2f')} ≥ {_g(th, 'g')}): a missing or mis-weighted term")
+                f"{e} ≥ {t}): a missing or mis-weighted term")
     elif f.kind == "bias":
-        text = (f"residual bias (|mean| = {_pct(f.effect)} of the RMSE ≥ {_pct(th)})"
+        text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
                 + (f", which the missing term {cols[0]} accounts for" if cols else ""))
     elif f.kind == "oscillation":
         text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
-                f"({_pct(f.effect)} of the residual variance ≥ {_pct(th)})")
+                f"({e} of the residual variance ≥ {t})")
     elif f.kind == "whiteness":
         rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
         text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
                 "findings above on this joint")
     elif f.kind == "worse_than_constant":
-        text = f"worse than a constant (R² = {_g(f.statistic, '.3f')} < {_g(th, 'g')})"
+        e, t = versus(f.statistic, 0.0, ".3f")
+        text = f"worse than a constant (R² = {e} < {t})"
     elif f.kind == "missing_physics":
         label = f.details.get("label") or f.details.get("term") or "a physical term"
-        text = f"missing {label} (the physical terms would remove {_pct(f.effect)} of the mean square ≥ {_pct(th)})"
+        text = f"missing {label} (the physical terms would remove {e} of the mean square ≥ {t})"
     elif f.kind == "delay":
         d_s = f.details.get("delay_s")
         lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
                else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
-        text = (f"torque delayed by {lag} against the encoders (realigning removes {_pct(f.effect)} of the mean "
-                f"square ≥ {_pct(th)})")
+        text = (f"torque delayed by {lag} against the encoders (realigning removes {e} of the mean "
+                f"square ≥ {t})")
     elif f.kind == "predictive_failure":
-        text = (f"predictive failure (validation mean square {_g(f.effect)}× what the estimation run allows "
-                f"≥ {_g(th, 'g')}×)")
+        text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
     elif f.kind == "low_information":
-        text = (f"too few effective samples (the smallest detectable term removes {_pct(f.effect)} of the mean "
-                f"square > {_pct(th)})")
+        text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
+    elif f.kind == "repeat_trajectory" and f.details.get("share") is not None:
+        text = (f"the validation run repeats the estimation run ({e} of it lies near the estimation trajectory "
+                f"at some time > {t})")
     elif f.kind == "repeat_trajectory":
         measure = f.details.get("measure", "")
         text = (f"the validation run repeats the estimation run (relative {measure + ' ' if measure else ''}"
-                f"distance {_g(f.effect)} < {_g(th, 'g')})")
+                f"distance {e} < {t})")
+    elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):
+        e, t = _vs(f, ".1f", percent=True)
+        text = f"the validation run excites {', '.join(cols)} far less than the estimation run ({e} < {t})"
     elif f.kind == "excitation" and cols:
-        text = f"the validation run never excites {', '.join(cols)}"
+        zero = set(f.details.get("unexcited") or ())
+        never = [_column_name(report, c) for c in f.columns if c in zero]
+        apart = [_column_name(report, c) for c in f.columns if c not in zero]
+        text = "the validation run " + " and ".join(
+            ([f"never excites {', '.join(never)}"] if never else [])
+            + ([f"cannot separate {', '.join(apart)} from the other columns"] if apart else []))
     elif f.kind == "excitation" and "condition" in f.effect_unit:
-        text = (f"ill-conditioned validation regressor (column-scaled condition number {_g(f.effect)} > "
-                f"{_g(th, 'g')})")
+        text = f"ill-conditioned validation regressor (column-scaled condition number {e} > {t})"
     elif f.kind == "excitation" and "motion" in f.effect_unit:
-        text = f"hardly moves ({_pct(f.effect)} of its estimation-run motion < {_pct(th)})"
+        text = f"hardly moves ({e} of its estimation-run motion < {t})"
     else:  # a kind this wording does not know yet: its name, effect and threshold
         text = f.kind.replace("_", " ")
         if f.effect is not None:
-            share = "share" in f.effect_unit
-            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{_pct(f.effect) if share else _g(f.effect)}"
-                     + (f", threshold {_pct(th) if share else _g(th, 'g')}" if th is not None else "") + ")")
+            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
+                     + (f", threshold {t}" if th is not None else "") + ")")
     prefix = "design: " if f.severity == "design" else ""
     return prefix + (f"{joints}: " if joints else "") + text
 

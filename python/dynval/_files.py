@@ -131,6 +131,75 @@ def file_path(spec: str) -> str:
     return _split_key(spec)[0]
 
 
+# --------------------------------------------------------------------------- one column
+
+
+def split_column(spec: str) -> tuple[str, str | None]:
+    """``FILE[:COLUMN]`` → (the spec :func:`read_table` reads, the column or None).
+
+    A key that :func:`read_table` takes itself (``file.npz:key``, ``file.parquet:t``,
+    ``file.h5:/t``) stays in the spec; what follows the last ``:`` of a spec naming no existing
+    file is a column (``log.csv:t``, ``log.csv:0``, ``arrays.npz:log:2``)."""
+    if ":" not in spec or os.path.exists(_split_key(spec)[0]):
+        return spec, None
+    base, _, column = spec.rpartition(":")
+    return base, column
+
+
+def csv_header(path: str) -> list[str] | None:
+    """The names of a CSV file's header line (None without a header: §7's rule, a first line
+    without any number)."""
+    handle, _ = _open_regular(path)
+    with handle:
+        for number, line in _lines(handle, path):
+            stripped = line.strip()
+            if not stripped or stripped.startswith("#"):
+                continue
+            cells = _cells(stripped, _delimiter(stripped), path, number)
+            return None if any(_is_number(c) for c in cells) else cells
+    return None
+
+
+def column_index(spec: str, column: str | None, shape: tuple[int, ...]) -> int | None:
+    """The column ``column`` (a header name, or an index counted from 0) of an array of ``shape``
+    read from ``spec``; None for an array that is one column already. FileInputError naming the
+    file and the column otherwise."""
+    path = file_path(spec)
+    if len(shape) > 2:
+        raise FileInputError(f"{spec}: holds an array of shape {tuple(shape)}; one column is needed")
+    width = 1 if len(shape) == 1 else shape[1]
+    if column is None:
+        if width == 1:
+            return None
+        raise FileInputError(f"{spec}: holds {width} columns (shape {tuple(shape)}); name one as {spec}:COLUMN "
+                             "(a header name, or an index counted from 0)")
+    text = column.strip()
+    if text.lstrip("+-").isdigit():
+        index = int(text)
+        if not 0 <= index < width:
+            raise FileInputError(f"{spec}: no column {index}; it holds {width} column{'s' if width > 1 else ''} "
+                                 f"(indices count from 0: 0 to {width - 1})")
+        return None if len(shape) == 1 else index
+    names = csv_header(path) if path.lower().endswith((".csv", ".tsv", ".txt")) else None
+    if names is None:
+        raise FileInputError(f"{spec}: no column named {text!r}: its columns have no names (a CSV header "
+                             f"line names them); give an index from 0 to {width - 1}")
+    if text not in names:
+        raise FileInputError(f"{spec}: no column named {text!r}; the file holds "
+                             + ", ".join(repr(n) for n in names))
+    return None if len(shape) == 1 else names.index(text)
+
+
+def read_column(spec: str) -> tuple[Table, int]:
+    """One column of a file, ``FILE[:COLUMN]`` (:func:`split_column`, :func:`column_index`): the
+    (N,) array with the file line of each row (CSV only), and the column's index in the file."""
+    base, column = split_column(spec)
+    table = read_table(base)
+    index = column_index(base, column, tuple(table.data.shape))
+    data = table.data if index is None else table.data[:, index]
+    return Table(np.ascontiguousarray(data.reshape(-1)), table.lines), index or 0
+
+
 # --------------------------------------------------------------------------- opening
 
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ._stats import correlation_pvalue, holm
+from ._text import p_clause, versus
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -51,6 +52,10 @@ KINDS = {
     "pooling": "the pooled value hides a joint that does much worse",
     "constant_target": "a joint's measured torque is constant",
     "omitted_rows": "rows with non-finite values were omitted",
+    "time_stamps": "the time stamps are not a uniform grid: duplicated stamps, repeated rows, gaps or "
+                   "irregular steps (the grid the analyses used is stated)",
+    "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
+                       "(``bandwidth``): the processing, not the model",
 }
 """The documented vocabulary of ``Finding.kind``."""
 
@@ -89,11 +94,19 @@ class Thresholds:
         A run whose smallest detectable term (90 % power, per joint) must remove more than this
         share of the mean square cannot decide (0.25).
     repeat_distance : float
-        Relative distance ‖Y_val − Y_est‖/‖Y_est‖ (or of q, or of τ) below which the validation
-        run counts as a repeat of the estimation run (0.1).
+        Time-aligned relative distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖ below which the validation
+        run counts as a repeat when neither ``q`` nor the regressor is given for both runs (0.1);
+        otherwise the share below decides.
+    repeat_share : float
+        Share of the validation run whose state lies near the estimation trajectory at any time
+        (within ``repeat_tolerance``) above which the validation run counts as a repeat (0.5).
+    repeat_tolerance : float
+        Distance to the estimation trajectory within which a validation state is near: an RMS over
+        the state's coordinates, each in units of the estimation run's standard deviation (0.1).
     condition_number : float
-        Column-scaled condition number of the validation regressor above which the validation
-        data cannot separate the parameters' effects (1e3).
+        Column-scaled condition number of the validation regressor (over the identifiable
+        combinations it excites) above which the validation data cannot separate the parameters'
+        effects (1e3).
     """
 
     bias: float = 0.25
@@ -107,6 +120,8 @@ class Thresholds:
     joint_motion: float = 0.1
     detectable_share: float = 0.25
     repeat_distance: float = 0.1
+    repeat_share: float = 0.5
+    repeat_tolerance: float = 0.1
     condition_number: float = 1e3
 
 
@@ -206,6 +221,9 @@ class Evidence:
     whiteness_pvalue_decimated: np.ndarray | None = None
     decimation: int = 1
     information_band: float | None = None
+    whiteness_above_bandwidth: bool = False  # the test still sees frequencies above ``bandwidth``
+    bandwidth: float | None = None  # Hz: the inputs are trustworthy below it only
+    timing: dict | None = None  # what the time stamps say (dynval._timing.Timing.to_dict)
     max_abs_acf: np.ndarray | None = None
     # spectrum of the residual (after projecting out the regressor when one is given)
     spectrum_frequency: np.ndarray | None = None
@@ -249,11 +267,10 @@ def _col(names, c):
     return names[c] if names and c < len(names) else f"column {c + 1}"
 
 
-def _p_text(p) -> str:
-    """``= 0.012`` or ``< 1e-300``: the relation and the value, for "p {…}" in a message."""
-    if p is None or not np.isfinite(p):
-        return "= n/a"
-    return f"= {p:.3g}" if p >= 1e-300 else "< 1e-300"
+def _p_text(p, log_p=None) -> str:
+    """``= 0.0123`` or ``< 1e-300``: the relation and the value, for "p {…}" in a message
+    (:func:`dynval._text.p_clause`, the one p-value wording of every text, contract §4)."""
+    return p_clause(p, log_p)
 
 
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
@@ -327,6 +344,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
     out: list[Finding] = []
     deficient_joints: set[int] = set()
 
+    out.extend(_timing_findings(ev))
     if ev.omitted_rows:
         out.append(Finding(kind="omitted_rows", severity="note", effect=float(ev.omitted_rows),
                            effect_unit="rows", action="check the logger for dropped or invalid samples",
@@ -352,7 +370,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             kind="worse_than_constant", severity="deficiency", joints=(j,), statistic=float(r2[j]),
             effect=float(-r2[j]), effect_unit="1 − R² beyond 1 (fraction of TSS)", threshold=0.0,
             action=f"check {_name(names, j)}'s terms, signs and units: predicting its mean torque does better",
-            message=(f"{_name(names, j)} does worse than a constant: R² = {r2[j]:.3f}"
+            message=(f"{_name(names, j)} does worse than a constant: R² = {versus(r2[j], 0.0, '.3f')[0]}"
                      + (f", yet the pooled R² is {ev.pooled_r2:.3f} (pooling flattens all joints with one "
                         "mean, so the high-torque joints dominate it; read the per-joint values)." if hidden
                         else "."))))
@@ -385,6 +403,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                           f"offset ({100 * share_c:.1f} % of the mean square is its part outside the model)")
             else:
                 action = f"add a torque offset (sensor bias), a friction or a gravity term on {_name(names, j)}"
+            bias_pct = versus(effect[j], th.bias, ".0f", scale=100.0)
             out.append(Finding(
                 kind="bias", severity="deficiency" if big else "note", joints=(j,),
                 columns=() if culprit is None else (culprit[0],),
@@ -393,11 +412,11 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 action=action if big else "none: the bias is real but too small to matter",
                 details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])},
                 message=(f"{_name(names, j)}: residual mean {mean[j]:+.4g} "
-                         f"({100 * effect[j]:.0f} % of the RMSE; coloured-noise t-test N_eff = {ev.n_eff[j]:.0f} "
+                         f"({bias_pct[0]} % of the RMSE; coloured-noise t-test N_eff = {ev.n_eff[j]:.0f} "
                          f"of {ev.n_samples}, Holm-adjusted p {_p_text(padj[j])})"
                          + ((": a systematic bias, e.g. a missing offset, friction or gravity term"
                              + (f"; the missing term {_col(cols, culprit[0])} accounts for it." if culprit else "."))
-                            if big else f": significant but negligible (below {100 * th.bias:.0f} % of the RMSE)."))))
+                            if big else f": significant but negligible (below {bias_pct[1]} % of the RMSE)."))))
 
     # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
     missing_joints: set[int] = set()
@@ -460,7 +479,10 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 sig = np.flatnonzero(padj[j, c] <= alpha)
                 if sig.size == 0:
                     continue
-                lag = int(sig[np.argmax(np.abs(rho[j, c, sig]))])
+                # the smallest lag that sees nearly the strongest correlation: lags within the
+                # motion's time scale see one phenomenon, and the earliest is the one to name
+                size = np.abs(rho[j, c, sig])
+                lag = int(sig[np.flatnonzero(size >= 0.9 * size.max())[0]])
                 hits.append((abs(rho[j, c, lag]), c, lag))
             if not hits:
                 continue
@@ -471,7 +493,10 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             big = bool(strong)
             if big:
                 deficient_joints.add(j)
-            listed = "; ".join(f"{_col(cols, cc)} (lag {ll}, ρ = {rho[j, cc, ll]:+.3f})" for _, cc, ll in chosen[:3])
+            th_rho = th.regressor_correlation
+            listed = "; ".join(f"{_col(cols, cc)} ({_lag_text(ll, ev.sample_rate)}, "
+                               f"ρ = {versus(rho[j, cc, ll], th_rho, '+.3f', absolute=True)[0]})"
+                               for _, cc, ll in chosen[:3])
             out.append(Finding(
                 kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
                 columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
@@ -485,7 +510,7 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          f"both series explains (Holm-adjusted p {_p_text(padj[j, c, lag])})"
                          + (": the model does not use the information in this column (a missing or "
                             "mis-weighted term)." if big
-                            else f": significant but negligible (|ρ| below {th.regressor_correlation:g})."))))
+                            else f": significant but negligible (|ρ| below {versus(best, th_rho)[1]})."))))
 
     # ---- oscillation: a spectral peak standing above the smooth background
     if "spectrum" in fam:
@@ -498,11 +523,15 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
             if sig.size == 0:
                 continue
             b = int(sig[np.argmax(share[sig, j])])
+            f = freq[b]
+            unit = ev.frequency_unit
+            if ev.bandwidth is not None and f > ev.bandwidth:
+                out.append(_processing_note(ev, j, "oscillation", float(f), float(p[b, j]), float(padj[b, j]),
+                                            float(share[b, j])))
+                continue
             big = bool(share[b, j] >= th.oscillation)
             if big:
                 deficient_joints.add(j)
-            f = freq[b]
-            unit = ev.frequency_unit
             out.append(Finding(
                 kind="oscillation", severity="deficiency" if big else "note", joints=(j,),
                 statistic=float(ev.spectrum_ratio[b, j]), pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]),
@@ -543,6 +572,10 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 continue
             if not (padj[j] <= alpha):
                 continue
+            if ev.whiteness_above_bandwidth and j not in deficient_joints:
+                out.append(_processing_note(ev, j, "whiteness", None, float(dec[j] if dec is not None else raw[j]),
+                                            float(padj[j]), None))
+                continue
             backed = j in deficient_joints
             rate = "at the information rate" if dec is not None else "at the logged rate"
             out.append(Finding(
@@ -559,39 +592,74 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                                  "oversampling and estimation error colour residuals too)."))))
 
     # ---- validation design
-    if ev.repeat is not None and ev.repeat.get("is_repeat"):
-        d = ev.repeat
-        out.append(Finding(
-            kind="repeat_trajectory", severity="design", effect=float(d["distance"]),
-            effect_unit=f"relative distance ({d['measure']})", threshold=th.repeat_distance,
-            action="validate on a different trajectory: a repeat rewards over-fitting",
-            details=dict(d),
-            message=(f"The validation run repeats the estimation run: relative {d['measure']} distance "
-                     f"{d['distance']:.3g} < {th.repeat_distance:g}. Metrics on it measure the fit, not the "
-                     "prediction of new motion.")))
-    if ev.excitation is not None:
-        x = ev.excitation
-        if x["unexcited"]:
-            names_c = ", ".join(_col(cols, c) for c in x["unexcited"])
-            out.append(Finding(
-                kind="excitation", severity="design", columns=tuple(x["unexcited"]),
-                effect=float(len(x["unexcited"])), effect_unit="columns",
-                action="add motion that excites these columns to the validation trajectory",
-                details=dict(x),
-                message=f"The validation regressor never excites {names_c}: the validation cannot test these terms."))
-        elif x["condition_scaled"] > th.condition_number:
-            out.append(Finding(
-                kind="excitation", severity="design", effect=float(x["condition_scaled"]),
-                effect_unit="column-scaled condition number", threshold=th.condition_number,
-                action="use a richer validation trajectory", details=dict(x),
-                message=(f"The validation regressor is ill-conditioned (column-scaled condition number "
-                         f"{x['condition_scaled']:.3g} > {th.condition_number:g}): it cannot separate the "
-                         "effects of the parameters.")))
+    out.extend(_repeat_findings(ev, th))
+    out.extend(_excitation_findings(ev, th))
     out.extend(_design_findings(ev, th, deficient_joints))
     out.extend(ev.extra_notes)
     order = {s: i for i, s in enumerate(SEVERITIES)}
     out.sort(key=lambda f: order[f.severity])
     return out
+
+
+def _lag_text(lag: int, sample_rate: float | None) -> str:
+    """``lag 36`` or, with a rate, ``lag 36 (36 ms)``."""
+    if sample_rate is None or lag == 0:
+        return f"lag {lag}"
+    seconds = lag / sample_rate
+    return f"lag {lag} ({seconds:.3g} s)" if seconds >= 1 else f"lag {lag} ({1e3 * seconds:.3g} ms)"
+
+
+def _timing_findings(ev: Evidence) -> list[Finding]:
+    """A note on time stamps that are not a uniform grid, with the counts and the grid used."""
+    t = ev.timing
+    if t is None or t["regular"]:
+        return []
+    step = t["nominal_step"]
+
+    def count(k: int, what: str) -> str:
+        return f"{k} {what}" + ("" if k == 1 else "s")
+
+    parts = []
+    if t["duplicated_stamps"]:
+        parts.append(count(t["duplicated_stamps"], "duplicated stamp"))
+    if t["repeated_rows"]:
+        parts.append(f"{count(t['repeated_rows'], 'row')} repeating the previous row's torques exactly "
+                     f"({100 * t['repeated_rows'] / max(t['n_steps'], 1):.2g} %)")
+    if t["gaps"]:
+        parts.append(f"{count(t['gaps'], 'gap')} (largest {1e3 * t['largest_gap']:.4g} ms at "
+                     f"t = {t['largest_gap_time']:.4g} s)")
+    if t["irregular_steps"]:
+        parts.append(f"{count(t['irregular_steps'], 'step')} more than 10 % off the nominal one (jitter RMS "
+                     f"{1e3 * t['jitter_rms']:.3g} ms, largest deviation {1e3 * t['largest_step_deviation']:.3g} ms)")
+    return [Finding(
+        kind="time_stamps", severity="note", effect=float(t["gaps"] + t["duplicated_stamps"] + t["irregular_steps"]),
+        effect_unit="irregular steps", details=dict(t),
+        action="check the logger's clock and buffering; lags and frequencies assume the stated grid",
+        message=(f"Time stamps on a {1e3 * step:.4g} ms nominal step: " + "; ".join(parts)
+                 + f". The lag and spectral analyses use {t['grid']}."))]
+
+
+def _processing_note(ev: Evidence, j: int, what: str, frequency: float | None, p: float, padj: float,
+                     share: float | None) -> Finding:
+    """Evidence above ``bandwidth`` Hz: the inputs' processing (a differentiating or sensor filter).
+
+    ``frequency``: the spectral peak's (Hz); None for whiteness tested at a rate that still sees
+    above the bandwidth."""
+    assert ev.bandwidth is not None
+    if frequency is not None:
+        f_text, bw_text = versus(frequency, ev.bandwidth)
+        evidence = f"a spectral peak near {f_text} Hz lies above the inputs' {bw_text} Hz bandwidth"
+    else:
+        evidence = (f"the residual's colour, tested at a rate whose band reaches above the inputs' "
+                    f"{ev.bandwidth:.3g} Hz bandwidth,")
+    return Finding(
+        kind="processing_band", severity="note", joints=(j,), pvalue=p, pvalue_adjusted=padj,
+        effect=share, effect_unit="share of residual variance" if share is not None else None,
+        threshold=ev.bandwidth,
+        action="none for the model: the inputs are not trustworthy there",
+        details={"evidence": what, "bandwidth": ev.bandwidth, "frequency": frequency},
+        message=(f"{_name(ev.joint_names, j)}: {evidence} (Holm-adjusted p {_p_text(padj)}): what the "
+                 "differentiating or sensor filter makes there is processing, not the model."))
 
 
 def _motion_findings(ev: Evidence, fam, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
@@ -742,6 +810,100 @@ def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) ->
     return out, bad
 
 
+def _repeat_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
+    """``repeat_trajectory``: a share of the validation run near the estimation trajectory at any
+    time above ``repeat_share`` (conventions §5.6); without a state in both runs, a time-aligned
+    distance below ``repeat_distance``."""
+    d = ev.repeat
+    if d is None:
+        return []
+    action = "validate on a different trajectory: a repeat rewards over-fitting"
+    share = d.get("share")
+    if share is not None:
+        if not share > th.repeat_share:
+            return []
+        sh, sh_th = versus(share, th.repeat_share, ".0f", scale=100.0)
+        state = "q, q̇, q̈" if d.get("state") == "q" else "the regressor's leading principal components"
+        return [Finding(
+            kind="repeat_trajectory", severity="design", effect=float(share),
+            effect_unit=f"share of the validation run near the estimation trajectory ({d.get('state')})",
+            threshold=th.repeat_share, action=action, details=dict(d),
+            message=(f"The validation run repeats the estimation run: {sh} % of its states (> {sh_th} %) lie within "
+                     f"{d.get('tolerance', th.repeat_tolerance):g} of the estimation trajectory at some time "
+                     f"(state: {state}, each coordinate in estimation-run standard deviations, the distance an "
+                     "RMS over them). Metrics on it measure the fit, not the prediction of new motion."))]
+    if d.get("distance") is None or not d.get("is_repeat", d["distance"] < th.repeat_distance):
+        return []
+    dist, dist_th = versus(d["distance"], th.repeat_distance)
+    return [Finding(
+        kind="repeat_trajectory", severity="design", effect=float(d["distance"]),
+        effect_unit=f"relative distance ({d['measure']})", threshold=th.repeat_distance, action=action,
+        details=dict(d),
+        message=(f"The validation run repeats the estimation run: relative {d['measure']} distance "
+                 f"{dist} < {dist_th} (time-aligned; give q or the regressor of both runs to compare states at "
+                 "any time). Metrics on it measure the fit, not the prediction of new motion."))]
+
+
+def _listed(cols, columns, most: int = 6) -> str:
+    names = [_col(cols, c) for c in columns]
+    return ", ".join(names[:most]) + (f", … ({len(names)} in all)" if len(names) > most else "")
+
+
+def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
+    """The validation regressor: structural columns reduced (a note), combinations the estimation
+    run excites and the validation run does not, an ill-conditioned validation regressor."""
+    x = ev.excitation
+    if x is None:
+        return []
+    cols = ev.column_names
+    out: list[Finding] = []
+    structural = list(x.get("structural") or [])
+    p = len(x["column_norms"]) if x.get("column_norms") is not None else None
+    rank = x.get("identifiable_rank")
+    if structural:
+        out.append(Finding(
+            kind="excitation", severity="note", columns=tuple(structural), effect=float(len(structural)),
+            effect_unit="structural columns", action="none: no trajectory of this structure can excite them apart",
+            details={"structural": structural, "identifiable_rank": rank,
+                     "identifiable_columns": list(x.get("identifiable_columns") or [])},
+            message=(f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the "
+                     f"others in both runs ({_listed(cols, structural)}): no trajectory of this structure excites "
+                     f"them apart, so they were reduced to {rank} identifiable combinations (the base "
+                     "parameters), on which the excitation checks ran.")))
+    zero = [int(c) for c in x["unexcited"]]
+    dependent = [int(c) for c in x.get("inseparable") or []]
+    if zero or dependent:
+        parts = []
+        if zero:
+            parts.append(f"never excites {_listed(cols, zero)}")
+        if dependent:
+            parts.append(f"cannot separate {_listed(cols, dependent)} from the other columns (in this run they are "
+                         "combinations of them)")
+        if x.get("structural") is not None:
+            tail = ": the estimation run excites them apart, so the validation cannot test these terms."
+        else:
+            tail = (": the validation cannot test these terms. Without the estimation run's regressor "
+                    "(estimation={'regressor': ...}) it is not known whether they are structural (zero or "
+                    "combinations of other columns for every trajectory of this structure, as some parameters "
+                    "of a fixed-base arm's first links are) or a flaw of this trajectory; reduce the regressor to "
+                    "its base columns, or give the estimation run's regressor.")
+        out.append(Finding(
+            kind="excitation", severity="design", columns=tuple(zero + dependent),
+            effect=float(len(zero) + len(dependent)), effect_unit="columns",
+            action="add motion that excites these columns to the validation trajectory",
+            details=dict(x), message="The validation regressor " + " and ".join(parts) + tail))
+    elif x["condition_scaled"] > th.condition_number:
+        cond, cond_th = versus(x["condition_scaled"], th.condition_number)
+        over = (f" over its {x.get('validation_rank')} identifiable combinations" if structural else "")
+        out.append(Finding(
+            kind="excitation", severity="design", effect=float(x["condition_scaled"]),
+            effect_unit="column-scaled condition number", threshold=th.condition_number,
+            action="use a richer validation trajectory", details=dict(x),
+            message=(f"The validation regressor is ill-conditioned (column-scaled condition number{over} "
+                     f"{cond} > {cond_th}): it cannot separate the effects of the parameters.")))
+    return out
+
+
 def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset()) -> list[Finding]:
     """Runs that cannot decide: a joint that hardly moves, too few effective samples (on a joint
     where no deficiency was found: where one was, the run did decide)."""
@@ -755,14 +917,18 @@ def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set
                 effect_unit="joint motion (RMS) relative to the estimation run", threshold=th.joint_motion,
                 action=f"move {_name(names, j)} in the validation run as much as in the estimation run",
                 details={"joint_motion_ratio": float(ratio[j])},
-                message=(f"{_name(names, j)} moves {100 * ratio[j]:.1f} % of its estimation-run motion: the "
+                message=(f"{_name(names, j)} moves {versus(ratio[j], th.joint_motion, '.1f', scale=100.0)[0]} % "
+                         "of its estimation-run motion: the "
                          "validation cannot test the terms of this joint.")))
     ratio_c = None if ev.excitation is None else ev.excitation.get("column_motion_ratio")
     if ratio_c is not None:
-        skip = set(ev.excitation["unexcited"]) | set(ev.excitation["unidentifiable"])
+        x = ev.excitation
+        skip = (set(x["unexcited"]) | set(x["unidentifiable"]) | set(x.get("inseparable") or [])
+                | set(x.get("structural") or []))
         weak = [int(c) for c in np.flatnonzero(np.asarray(ratio_c, dtype=float) < th.joint_motion) if c not in skip]
         if weak:
-            listed = ", ".join(f"{_col(ev.column_names, c)} ({100 * ratio_c[c]:.1f} %)" for c in weak)
+            listed = ", ".join(f"{_col(ev.column_names, c)} "
+                               f"({versus(ratio_c[c], th.joint_motion, '.1f', scale=100.0)[0]} %)" for c in weak)
             out.append(Finding(
                 kind="excitation", severity="design", columns=tuple(weak),
                 effect=float(np.min(np.asarray(ratio_c)[weak])),
@@ -776,7 +942,8 @@ def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set
         low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in decided]
         if low:
             n_eff = np.asarray(ev.noise_n_eff, dtype=float)
-            each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {100 * mde[j]:.0f} %" for j in low)
+            mde_pct = {j: versus(mde[j], th.detectable_share, ".0f", scale=100.0) for j in low}
+            each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {mde_pct[j][0]} %" for j in low)
             out.append(Finding(
                 kind="low_information", severity="design", joints=tuple(low), effect=float(mde[low].max()),
                 effect_unit="smallest detectable share of the mean square (90 % power)",
@@ -784,6 +951,6 @@ def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set
                 action="validate on a longer or faster-varying run (more effective samples)",
                 details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff]},
                 message=(f"This run cannot decide: its noise leaves so few effective samples that a missing term "
-                         f"must remove more than {100 * th.detectable_share:.0f} % of the mean square to be found "
+                         f"must remove more than {mde_pct[low[0]][1]} % of the mean square to be found "
                          f"({each}).")))
     return out

@@ -191,10 +191,30 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate) -> None:
                 gains[j][g] = (base[j] - float(np.mean(resid**2))) / base[j]
     for t in flagged:
         gj = gains[t.joint]
+        how = "estimation"
         if not gj or not max(gj.values()) > 0:
-            continue
+            # No group helps once refitted on the estimation run: its parameter error (other joints'
+            # noise through the shared parameters) outweighs the term. Name the group that best
+            # explains, on the validation run, what the model's own columns cannot represent there.
+            gj = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
+            how = "validation"
+            if not gj or not max(gj.values()) > 0:
+                continue
         top = max(gj.values())
         near = [g for g, v in gj.items() if v >= 0.8 * top]
         best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
         t.term, t.term_share = best, max(0.0, gj[best])
         t.refit_shares = {g: float(v) for g, v in gj.items()}
+        t.refit_run = how
+
+
+def _validation_refit_gains(tau_j, y_j, groups) -> dict[str, float]:
+    """Per group, the share of the residual left by the model's columns refitted on this run that
+    the group removes when added to them."""
+    def sse(x):
+        return float(np.sum((tau_j - x @ np.linalg.lstsq(x, tau_j, rcond=None)[0]) ** 2))
+
+    base = sse(y_j)
+    if not base > 0:
+        return {}
+    return {g: (base - sse(np.hstack([y_j, b]))) / base for g, b in groups.items()}

@@ -213,13 +213,15 @@ class PhysicsTest:
     selected_share: float = 0.0  # share the selected groups remove together
     n_eff: float = float("nan")  # effective samples of the residual left by the library (the noise's)
     ar_order: int = 0
-    refit_shares: dict[str, float] = field(default_factory=dict)  # the estimation refits, when named so
+    refit_shares: dict[str, float] = field(default_factory=dict)  # the refits' shares, when named so
+    refit_run: str | None = None  # "estimation" or "validation": the run the naming refits used
 
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
                 "share": self.share, "term": self.term, "term_share": self.term_share,
                 "selected": list(self.selected), "shares": dict(self.shares),
                 "selected_share": self.selected_share, "refit_shares": dict(self.refit_shares),
+                "refit_run": self.refit_run,
                 "n_eff": self.n_eff,
                 "ar_order": self.ar_order}
 

@@ -36,8 +36,10 @@ from ._files import (
     _read_exact,
     _read_npy_header,
     _split_key,
+    column_index,
     csv_layout,
     read_table,
+    split_column,
 )
 
 # Rows per block of the command line's streamed validation (about 8 MB per array at m = 7).
@@ -133,6 +135,22 @@ def open_rows(spec: str) -> RowSource:
         return RowSource(path=spec, shape=table.shape, streamed=True, _blocks=table.blocks)
     data = read_table(spec).data  # compressed .npz members (and refusals): whole, then in blocks
     return RowSource(path=spec, shape=tuple(data.shape), streamed=False, _data=data)
+
+
+def open_column(spec: str) -> RowSource:
+    """The :class:`RowSource` of one column, ``FILE[:COLUMN]`` (a header name or an index counted
+    from 0; :func:`dynval._files.read_column` has the rules): blocks of shape (rows,)."""
+    base, column = split_column(spec)
+    source = open_rows(base)
+    index = column_index(base, column, source.shape)
+    if index is None and len(source.shape) == 1:
+        return source
+
+    def blocks(rows: int) -> Iterator[np.ndarray]:
+        for block in source.chunks(rows):
+            yield np.ascontiguousarray(block.reshape(-1) if index is None else block[:, index])
+
+    return RowSource(path=source.path, shape=(source.n_rows,), streamed=source.streamed, _blocks=blocks)
 
 
 def _checked_header(handle: BinaryIO, where: str, available: int) -> tuple[tuple[int, ...], bool, np.dtype, int]:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _estimation, _motion
+from . import _estimation, _motion, _timing
 from . import _sections as sec
 from . import _validation as v
 from ._blas import one_blas_thread
@@ -142,6 +142,9 @@ class ValidationReport:
     periodic : dict or None
         With ``q`` holding at least two whole periods: the period, the noise measured from the
         period-to-period variation (any colour) and per joint the test of what every period shares.
+    timing : dict or None
+        With ``time``: the nominal step and rate, duplicated stamps, repeated rows, gaps (count,
+        largest, when), irregular steps, jitter, and the grid the lag and spectral analyses use.
     """
 
     provenance: dict[str, Any]
@@ -163,6 +166,7 @@ class ValidationReport:
     physics: dict[str, Any] | None = None
     predictive: dict[str, Any] | None = None
     periodic: dict[str, Any] | None = None
+    timing: dict[str, Any] | None = None
 
     @property
     def deficiencies(self) -> list[Finding]:
@@ -261,7 +265,8 @@ def _backend_kernel(backend: object) -> tuple[Kernels, BackendName]:
 def _prepare(
     tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, n_joints: object, segments: object,
     nan_policy: object, allow_wide: object = False,
-) -> tuple[FloatArray, FloatArray, FloatArray | None, int | None, IntArray | None, int, FloatArray | None]:
+) -> tuple[FloatArray, FloatArray, FloatArray | None, int | None, IntArray | None, int, FloatArray | None,
+           IntArray | None]:
     """Type, shape, size and finiteness checks (the data half of the contract's order)."""
     meas0 = v.to_float_array(tau_meas, "tau_meas")
     pred0 = v.to_float_array(tau_pred, "tau_pred")
@@ -280,13 +285,16 @@ def _prepare(
 
     reg2 = None if reg0 is None or p is None else v.regressor_to_2d(reg0, n, m, p)
     omitted = 0
+    kept_rows = None
     if isinstance(nan_policy, str) and nan_policy == "omit":
         # Omission needs the caller's segments to refine them; a bad value is reported now.
         starts = parse_segments(segments, n)
-        arrays = [meas, pred] + ([reg2] if reg2 is not None else [])
+        # the row numbers ride along, so that time stamps can follow the kept rows
+        arrays = [meas, pred, np.arange(n, dtype=np.float64)[:, None]] + ([reg2] if reg2 is not None else [])
         kept, starts, omitted = omit_nonfinite(arrays, starts)
         meas, pred = kept[0], kept[1]
-        reg2 = kept[2] if reg2 is not None else None
+        kept_rows = kept[2][:, 0].astype(np.int64) if omitted else None
+        reg2 = kept[3] if reg2 is not None else None
         n = meas.shape[0]
         v.check_min_samples("validate", n)
     elif isinstance(nan_policy, str) and nan_policy == "raise" and reg2 is None:
@@ -296,7 +304,7 @@ def _prepare(
     else:
         check_data_finite(meas, pred, reg2, p)
         starts = None
-    return meas, pred, reg2, p, starts, omitted, reg0
+    return meas, pred, reg2, p, starts, omitted, reg0, kept_rows
 
 
 def check_data_finite(meas: FloatArray, pred: FloatArray, reg2: FloatArray | None = None,
@@ -322,6 +330,9 @@ class _Options:
     backend_name: BackendName
     noise_model: str
     sample_rate: float | None
+    timing: _timing.Timing | None
+    bandwidth: float | None
+    max_lag_given: bool
     decimate: str | int | None
     joint_names: list[str]
     column_names: list[str] | None
@@ -335,7 +346,8 @@ class _Options:
 
 
 def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int, p_cols: int | None,
-                      starts: IntArray | None, meas_shape: tuple[int, ...]) -> _Options:
+                      starts: IntArray | None, meas_shape: tuple[int, ...], kept_rows: IntArray | None = None,
+                      meas: FloatArray | None = None) -> _Options:
     """validate's parameters in the documented order (contract §4)."""
     n_params = v.check_n_params(a["n_params"])
     if reg0 is not None:
@@ -352,6 +364,17 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
     kernel, backend_name = _backend_kernel(a["backend"])
     noise_model = prof.noise_model if a["noise_model"] is None else v.check_noise_model(a["noise_model"])
     sample_rate = v.check_sample_rate(a["sample_rate"])
+    timing = None
+    if a["time"] is not None:
+        stamps = _timing.check_time(a["time"], meas_shape[0])
+        # rows omitted for non-finite data leave gaps in the stamps, as they should
+        timing = _timing.analyse(stamps if kept_rows is None else stamps[kept_rows], sample_rate, meas)
+        sample_rate = timing.sample_rate
+        starts = _timing.split_at_gaps(starts, timing.gap_rows)
+        longest = longest_segment(starts, n)
+        if a["max_lag"] is None:
+            max_lag = prof.default_max_lag(n, longest)
+    bandwidth = v.check_bandwidth(a["bandwidth"], sample_rate)
     decimate = v.check_decimate(a["decimate"])
     joint_names = v.check_names("joint_names", a["joint_names"], m, "joint") or [f"joint {j + 1}" for j in range(m)]
     if a["column_names"] is not None and p_cols is None:
@@ -377,7 +400,8 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
     model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
     v.check_allow_wide(a["allow_wide"])
     return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
-                    sample_rate, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds, detail,
+                    sample_rate, timing, bandwidth, a["max_lag"] is not None, decimate, joint_names, column_names,
+                    q, dq, ddq, estimation, thresholds, detail,
                     model_columns)
 
 
@@ -386,7 +410,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
              n_joints: Integer | None = None, max_lag: Integer | None = None, level: float | None = None,
              profile: ProfileName = "lesson", segments: NamedSegmentsLike = None, nan_policy: NanPolicy = "raise",
              backend: BackendName | None = None, noise_model: NoiseModel | None = None,
-             sample_rate: float | None = None, decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
+             sample_rate: float | None = None, time: ArrayLike | None = None, bandwidth: float | None = None,
+             decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
              column_names: Sequence[str] | None = None, q: ArrayLike | None = None,
              dq: ArrayLike | None = None, ddq: ArrayLike | None = None,
              estimation: dict[str, ArrayLike] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
@@ -407,8 +432,11 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     n_joints : int, optional
         Number of joints m, for a stacked 2-D regressor.
     max_lag : int, optional
-        Largest lag of the autocorrelation and cross-correlation; the profile's default
-        otherwise. ``0`` skips the lag analysis (and with it whiteness, bias and spectrum evidence).
+        Largest lag of the autocorrelation and cross-correlation. By default the profile's count
+        of samples; with a sample rate, the motion's time scale instead: one period of the
+        information band's edge, 1/f_I s (at most four times the profile's count; the report
+        states it in seconds). ``0`` skips the lag analysis (and with it whiteness, bias and
+        spectrum evidence).
     level : float, optional
         Confidence level of the bands and of the findings (α = 1 − level over the whole report,
         Holm-corrected); the profile's otherwise.
@@ -425,7 +453,17 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     noise_model : {"pooled", "per_joint", "full"}, optional
         Noise model of the information criteria; the profile's otherwise.
     sample_rate : float, optional
-        Samples per second; frequencies are then in Hz (else cycles per sample).
+        Samples per second; frequencies are then in Hz (else cycles per sample). Inferred from
+        ``time`` when not given.
+    time : array_like, shape (N,), optional
+        Time stamps of the samples, in seconds (any origin). Duplicated stamps, gaps and irregular
+        steps are reported (section ``timing``, a ``time_stamps`` note); the lag and spectral
+        analyses use the nominal step (median step, or ``sample_rate``) and are split into segments
+        at every gap (a step longer than 1.5 nominal steps).
+    bandwidth : float, optional
+        The band, in Hz, in which the inputs are trustworthy (the differentiation or sensor filter,
+        e.g. what :func:`dynval.robots.differentiate` returns). Spectral and whiteness evidence above
+        it is a note naming the processing, never a deficiency. Needs a sample rate.
     decimate : "auto", None or int
         Whiteness is also tested at the rate that carries information: "auto" decimates so the
         Nyquist frequency is twice the band holding 99 % of the measured torque's power
@@ -463,7 +501,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     InvalidType, InvalidShape, ShapeMismatch, TooFewSamples, NonFiniteInput, InvalidParameter
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
-        sample_rate, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds,
+        sample_rate, time, bandwidth, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds,
         cross_correlation_detail, model_columns, allow_wide.
 
     Notes
@@ -497,22 +535,29 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     array([1., 1.])
     """
     seg_names, segments = v.named_segments(segments)
-    meas, pred, reg2, p_cols, starts, omitted, reg0 = _prepare(
+    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = _prepare(
         tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allow_wide)
     n, m = meas.shape
     args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                decimate=decimate, joint_names=joint_names, column_names=column_names, q=q, dq=dq, ddq=ddq,
+                time=time, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names,
+                q=q, dq=dq, ddq=ddq,
                 estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
                 model_columns=model_columns, allow_wide=allow_wide)
     try:
         o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
-            v.to_float_array(tau_meas, "tau_meas"), "tau_meas")))
+            v.to_float_array(tau_meas, "tau_meas"), "tau_meas")), kept_rows, meas)
     except InputError:
         # A non-finite value still wins over a bad parameter (contract §2.1).
         check_data_finite(meas, pred, reg2, p_cols)
         raise
     prof, kernel, starts = o.prof, o.kernel, o.starts
+    band = _motion_band(pred, starts, o)
+    lag_source = "given" if o.max_lag_given else f"profile {prof.name!r}"
+    white_lag = None  # the decimated whiteness test keeps the profile's count of lags
+    if not o.max_lag_given and o.max_lag > 0 and band is not None:
+        white_lag = (prof.ljung_box_lags(n, o.max_lag, o.longest) or [None])[0]
+        o.max_lag, lag_source = _motion_max_lag(band, o, n), "motion: one period of the information band's edge"
 
     km = kernel.compute_metrics(meas, pred, o.n_params, prof.ddof, o.noise_model)
     per_joint, pooled, aggregates = sec.point_metrics(km, prof)
@@ -552,7 +597,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         acf = sec.autocorrelation(kernel, e, o.max_lag, prof, o.level, starts, n)
         if lb_lags:
             lb = sec.ljung_box(kernel, e, lb_lags, starts)
-            white = sec.whiteness(kernel, e, pred, starts, lb, o.decimate, o.sample_rate)
+            white = sec.whiteness(kernel, e, pred, starts, lb, o.decimate, o.sample_rate, band=band,
+                                  bandwidth=o.bandwidth, lag=white_lag)
         spec = sec.spectrum(e, starts, reg3, o.sample_rate, grams)
 
     cross = xrho = xsd = missing = None
@@ -569,7 +615,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                 missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
             if missing is not None:
                 cross["missing_terms"] = {k: v for k, v in missing.items()}
-    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds.repeat_distance, grams)
+    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds, grams, sample_rate=o.sample_rate)
     phys = pred_test = periodic = None
     if o.q is not None and e is not None and not omitted:
         phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level,
@@ -592,6 +638,10 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
             **prof.conventions(),
             "noise_model": o.noise_model,
             "max_lag": int(o.max_lag),
+            "max_lag_seconds": None if o.sample_rate is None else float(o.max_lag / o.sample_rate),
+            "max_lag_source": lag_source,
+            "time_grid": None if o.timing is None else o.timing.grid,
+            "bandwidth": o.bandwidth,
             "level": o.level,
             "ljung_box_lags": list(lb_lags),
             "model_df": 0,
@@ -629,14 +679,40 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                       force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
                       xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
                       design=design, column_names=o.column_names, acf=acf, missing=missing, physics=phys,
-                      predictive=pred_test, sample_rate=o.sample_rate, periodic=periodic)
+                      predictive=pred_test, sample_rate=o.sample_rate, periodic=periodic,
+                      timing=None if o.timing is None else o.timing.to_dict(), bandwidth=o.bandwidth)
     found = compute_findings(ev, o.thresholds)
     return ValidationReport(
         provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
         autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
         warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
         spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics, physics=phys,
-        predictive=pred_test, periodic=periodic)
+        predictive=pred_test, periodic=periodic, timing=None if o.timing is None else o.timing.to_dict())
+
+
+def _motion_band(pred: FloatArray, starts: IntArray, o: _Options) -> float | None:
+    """The information band f_I of the motion (99 % of the prediction's power, at most
+    ``bandwidth``), in Hz; None without a sample rate, or when the prediction carries no power."""
+    if o.sample_rate is None:
+        return None
+    from ._stats import information_bandwidth
+
+    band = information_bandwidth(pred, starts, sample_rate=o.sample_rate)
+    if not (np.isfinite(band) and band > 0):
+        return None
+    # a prediction made of filtered inputs carries the filter's leakage above its bandwidth: the
+    # motion cannot be trusted there either
+    return band if o.bandwidth is None else min(band, o.bandwidth)
+
+
+def _motion_max_lag(band: float, o: _Options, n: int) -> int:
+    """The default largest lag with a sample rate: the motion's time scale, one period 1/f_I of the
+    information band's edge (lags within it see one phenomenon), at most four times the profile's
+    count and below the longest segment."""
+    assert o.sample_rate is not None
+    lags = int(math.ceil(o.sample_rate / band))
+    cap = 4 * max(o.prof.default_max_lag(n, n + 1), 1)
+    return int(max(1, min(lags, cap, o.longest - 1)))
 
 
 def _motion_design(design: dict[str, Any] | None, o: _Options, phys: dict[str, Any] | None,

@@ -224,26 +224,35 @@ def ljung_box(kernel, e, lags, starts) -> dict:
             "df": np.asarray(lb["df"], dtype=np.int64)}
 
 
-def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate) -> dict:
+def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None, bandwidth=None,
+              lag=None) -> dict:
     """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
 
     ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
     noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
     noise would fill the band on light joints and hide the motion's);
     the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
-    used as given; None or 1 tests at the logged rate only.
+    used as given; None or 1 tests at the logged rate only. ``band``: f_I when already known.
+    ``bandwidth`` (Hz): the inputs are trustworthy below it only, so "auto" decimates at least
+    until the Nyquist frequency is at most the bandwidth, and ``above_bandwidth`` says when the
+    test still sees frequencies above it. ``lag``: the decimated test's largest lag (samples of
+    the decimated rate; the logged test's otherwise).
     """
     raw_p = np.asarray(lb["pvalue"][0], dtype=float)
-    lag = int(lb["lags"][0])
+    lag = int(lb["lags"][0]) if lag is None else int(lag)
     fs = 1.0 if sample_rate is None else float(sample_rate)
-    band = None
     q = 1
     if decimate == "auto":
-        band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
+        if band is None:
+            band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
         if np.isfinite(band) and band > 0:
             q = int(math.floor(fs / (4.0 * band)))
-    elif decimate is not None:
-        q = int(decimate)
+        if bandwidth is not None and fs / 2.0 > bandwidth:
+            q = max(q, int(math.ceil(fs / (2.0 * bandwidth))))
+    else:
+        band = None
+        if decimate is not None:
+            q = int(decimate)
     out = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
            "log_pvalue_raw": np.asarray(lb["log_pvalue"][0], dtype=float), "decimation": 1,
            "information_band": band, "information_band_source": "prediction" if band is not None else None,
@@ -259,6 +268,9 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate) -> dict:
                                          "ljung_box")
                 out.update(decimation=q, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
                            lag_decimated=int(h), n_decimated=int(d.shape[0]))
+    tested_nyquist = fs / (2.0 * int(out["decimation"]))
+    out["bandwidth"] = bandwidth
+    out["above_bandwidth"] = bool(bandwidth is not None and tested_nyquist > bandwidth * (1 + 1e-9))
     return out
 
 
@@ -544,7 +556,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None, periodic=None) -> Evidence:
+             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
     """Collect what the findings' rules read."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
@@ -561,6 +573,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
             ev.whiteness_lag = white["lag_decimated"]
         ev.decimation = white["decimation"]
         ev.information_band = white["information_band"]
+        ev.whiteness_above_bandwidth = bool(white.get("above_bandwidth", False))
     if acf is not None:
         ev.max_abs_acf = np.fmax.reduce(np.abs(acf["rho"][1:]), axis=0) if acf["rho"].shape[0] > 1 else None
     if spec is not None:
@@ -576,6 +589,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.detectable_share = design.get("detectable_share")
         ev.noise_n_eff = design.get("noise_n_eff")
     ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
+    ev.timing, ev.bandwidth = timing, bandwidth
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
@@ -635,18 +649,131 @@ def _singular_values(x, live, norms, gram=None):
     return np.linalg.svd(r, compute_uv=False), np.linalg.svd(r / d, compute_uv=False)
 
 
-def design(reg3, q_val, estimation, meas, threshold, grams: JointGrams | None = None) -> dict[str, Any] | None:
-    """How far the validation run is from the estimation run, and how well it excites the model.
+_RANK_TOL = 1e-9
+"""Zero and dependent columns of the design section (conventions §5.6): a column whose norm is at
+most 1e-9 of the largest, or whose pivot |R_kk| of the column-scaled pivoted QR is at most 1e-9 of
+|R_00|. Roundoff of a structural zero or dependency stands near 1e-15 (KUKA LWR4+: at most 3e-15,
+while its weakest identifiable combination stands at 1e-2); a real column this weak would mean a
+condition number of 1e9."""
 
-    Distances are time-aligned on the rows both runs have: the relative regressor distance
-    ‖Y_val − Y_est‖/‖Y_est‖, the joint-space distance ‖q_val − q_est‖/‖q_est − q̄_est‖ (and its
-    RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖. The first
-    available of regressor, q, torque decides ``is_repeat`` (distance < threshold).
-    Excitation: the stacked validation regressor's condition number, raw and with unit-norm
-    columns (over the excited columns), and the columns whose norm is at most 1e-12 of the largest
-    (never excited); those the estimation regressor does not excite either are listed apart as
-    ``unidentifiable`` (no experiment on this structure can test them).
+
+def _gram_singular_values(gram, norms):
+    """Raw and column-scaled singular values from the Gram matrix when it decides them (every
+    column nonzero, both condition numbers below _NORMAL_EQUATIONS_COND²/100 = 1e6), else None."""
+    if gram is None or not np.all(np.isfinite(gram)) or not np.all((norms > 1e-140) & (norms < 1e140)):
+        return None
+    raw = np.sqrt(np.clip(np.linalg.eigvalsh(gram)[::-1], 0.0, None))
+    scaled = np.sqrt(np.clip(np.linalg.eigvalsh(gram / np.outer(norms, norms))[::-1], 0.0, None))
+    limit = _NORMAL_EQUATIONS_COND**2 / 100
+    if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
+        return raw, scaled
+    return None
+
+
+def _column_norms(x):
+    """Column norms, each column scaled by the power of two of its largest |x| (exact), so that the
+    squares of 1e-170 or 1e150 data neither underflow nor overflow."""
+    k = _pow2_exponents(x)
+    return np.ldexp(np.sqrt(sum(np.linalg.norm(_scale_pow2(x[i:i + _ROW_BLOCK], k), axis=0) ** 2
+                                for i in range(0, x.shape[0], _ROW_BLOCK))), k)
+
+
+def _scaled_r(x, columns, k):
+    """R of x[:, columns]·2^-k (an exact column scaling) from blocks of rows, p × p at most."""
+    r = np.zeros((0, columns.size))
+    every = columns.size == x.shape[1]
+    for i in range(0, x.shape[0], _ROW_BLOCK):
+        rows = x[i:i + _ROW_BLOCK] if every else x[i:i + _ROW_BLOCK, columns]
+        r = np.asarray(np.linalg.qr(np.vstack([r, _scale_pow2(rows, k)]), mode="r"))
+    return r
+
+
+def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
+    """The excitation section (contract §4): the columns that are structural (zero or exact
+    combinations of others in both runs: reduced to the identifiable combinations), those the
+    validation run leaves unexcited or inseparable while the estimation run excites them, and the
+    condition number over the combinations the validation run excites."""
+    from .identify import base_set
+
+    p = stacked.shape[1]
+    tiny = np.finfo(float).tiny
+    with_est = est is not None and est.shape[1] == p
+    est_norms = _column_norms(est) if with_est else None
+    fast = _gram_singular_values(gram, norms) if gram is not None else None
+    if fast is not None:  # full column rank in the validation run: nothing is structural or unexcited
+        sv, sv_s = fast
+        everything = list(range(p))
+        out: dict[str, Any] = {"unexcited": [], "inseparable": [], "unidentifiable": [],
+                               "structural": [] if with_est else None, "identifiable_rank": p if with_est else None,
+                               "identifiable_columns": everything if with_est else None, "validation_rank": p}
+    else:
+        zero_v = norms <= _RANK_TOL * max(float(norms.max(initial=0.0)), tiny)
+        both = np.hypot(norms, est_norms) if with_est else norms
+        k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
+        every = np.arange(p)
+        r_v = _scaled_r(stacked, every, k)
+        structural: list[int] | None = None
+        unidentifiable: list[int] = []
+        if with_est:
+            zero_s = both <= _RANK_TOL * max(float(both.max(initial=0.0)), tiny)
+            nz = np.flatnonzero(~zero_s)
+            base = np.zeros(0, dtype=np.intp)
+            if nz.size:
+                r_s = np.asarray(np.linalg.qr(np.vstack([_scaled_r(est, nz, k[nz]), r_v[:, nz]]), mode="r"))
+                s = base_set(r_s, _RANK_TOL)
+                base = nz[s["base"]]
+            unidentifiable = [int(c) for c in np.flatnonzero(zero_s)]
+            structural = [int(c) for c in np.setdiff1d(every, base)]
+        else:
+            base = every
+        candidates = base[~zero_v[base]]
+        live = np.zeros(0, dtype=np.intp)
+        if candidates.size:
+            v = base_set(r_v[:, candidates], _RANK_TOL)
+            live = candidates[v["base"]]
+        out = {"unexcited": [int(c) for c in base[zero_v[base]]],
+               "inseparable": [int(c) for c in np.setdiff1d(candidates, live)],
+               "unidentifiable": unidentifiable, "structural": structural,
+               "identifiable_rank": int(base.size) if with_est else None,
+               "identifiable_columns": [int(c) for c in base] if with_est else None,
+               "validation_rank": int(live.size)}
+        if live.size:
+            r_live = r_v[:, live]
+            sv = np.linalg.svd(np.ldexp(r_live, k[live]), compute_uv=False)
+            sv_s = np.linalg.svd(r_live / np.ldexp(norms[live], -k[live]), compute_uv=False)
+        else:
+            sv = sv_s = np.zeros(1)
+    with np.errstate(divide="ignore"):
+        out["condition_raw"] = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        out["condition_scaled"] = float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf")
+    out["rank_tolerance"] = _RANK_TOL
+    out["column_norms"] = norms
+    if with_est:
+        # each column's RMS per row on the validation run over the estimation run's
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            out["column_motion_ratio"] = np.where(
+                est_norms > 0, (norms / math.sqrt(stacked.shape[0])) / (est_norms / math.sqrt(est.shape[0])), np.nan)
+    return out
+
+
+def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | None = None,
+           sample_rate=None) -> dict[str, Any] | None:
+    """Whether the validation run repeats the estimation run, and how well it excites the model.
+
+    Repeat (conventions §5.6): the share of the validation run whose state (q, q̇, q̈ from ``q``,
+    else the regressor's leading principal components) lies within ``repeat_tolerance`` of the
+    estimation trajectory at any time (``dynval._repeat``); ``is_repeat`` when the share exceeds
+    ``repeat_share``. Without a state in both runs, the time-aligned torque distance decides
+    (below ``repeat_distance``). The time-aligned distances are kept beside it: the relative
+    regressor distance ‖Y_val − Y_est‖/‖Y_est‖, the joint-space distance ‖q_val − q_est‖/‖q_est −
+    q̄_est‖ (and its RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖
+    on the rows both runs have; ``measure`` and ``distance`` are the first of them available.
+    Excitation: :func:`_excitation`.
     """
+    from . import _repeat
+    from ._findings import Thresholds
+
+    th = thresholds if thresholds is not None else Thresholds()
     out: dict[str, Any] = {}
     if estimation is not None:
         rep: dict[str, Any] = {}
@@ -664,42 +791,25 @@ def design(reg3, q_val, estimation, meas, threshold, grams: JointGrams | None = 
             if measure in rep:
                 rep["measure"] = measure
                 rep["distance"] = rep[measure]
-                rep["threshold"] = threshold
-                rep["is_repeat"] = bool(rep[measure] < threshold)
                 break
+        near = _repeat.repeat_share(q_val, estimation.get("q"), reg3,
+                                    estimation.get("regressor") if reg3 is not None else None, sample_rate,
+                                    th.repeat_tolerance)
+        if near is not None:
+            rep.update(near)
+            rep["threshold"] = th.repeat_share
+            rep["is_repeat"] = bool(near["share"] > th.repeat_share)
+        elif "distance" in rep:
+            rep["share"] = None
+            rep["threshold"] = th.repeat_distance
+            rep["is_repeat"] = bool(rep["distance"] < th.repeat_distance)
         out["repeat"] = rep or None
     if reg3 is not None:
         stacked = reg3.reshape(-1, reg3.shape[2])
         gram = grams.stacked() if grams is not None and grams.usable else None
-        if gram is not None:
-            norms = np.sqrt(np.diag(gram).copy())
-        else:
-            # each column scaled by the power of two of its largest |x| (exact), so that the
-            # squares of 1e-170 or 1e150 data neither underflow nor overflow
-            k = _pow2_exponents(stacked)
-            norms = np.ldexp(np.sqrt(sum(np.linalg.norm(_scale_pow2(stacked[i:i + _ROW_BLOCK], k), axis=0) ** 2
-                                         for i in range(0, stacked.shape[0], _ROW_BLOCK))), k)
-        unexcited = [int(c) for c in np.flatnonzero(norms <= 1e-12 * max(norms.max(), np.finfo(float).tiny))]
-        live = np.setdiff1d(np.arange(stacked.shape[1]), unexcited)
-        sv, sv_s = _singular_values(stacked, live, norms, gram) if live.size else (np.zeros(1), np.zeros(1))
-        # A column the estimation run does not excite either is not identifiable at all (a base
-        # reduction removes it): not a flaw of the validation design.
-        never = []
-        ratio = None
+        norms = np.sqrt(np.diag(gram).copy()) if gram is not None else _column_norms(stacked)
+        est = None
         if estimation is not None and "regressor" in estimation:
             est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
-            if est.shape[1] == stacked.shape[1]:
-                en = np.linalg.norm(est, axis=0)
-                never = [c for c in unexcited if en[c] <= 1e-12 * max(en.max(), np.finfo(float).tiny)]
-                # each column's RMS per row on the validation run over the estimation run's
-                with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                    ratio = np.where(en > 0, (norms / math.sqrt(stacked.shape[0])) / (en / math.sqrt(est.shape[0])),
-                                     np.nan)
-        with np.errstate(divide="ignore"):
-            out["excitation"] = {"condition_raw": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
-                                 "condition_scaled": float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf"),
-                                 "unexcited": [c for c in unexcited if c not in never],
-                                 "unidentifiable": never, "column_norms": norms}
-        if ratio is not None:
-            out["excitation"]["column_motion_ratio"] = ratio
+        out["excitation"] = _excitation(stacked, norms, gram, est)
     return out or None

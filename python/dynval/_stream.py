@@ -23,12 +23,14 @@ stream of many small chunks is as accurate as one pass.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.fft
 
+from . import _timing
 from ._reference.correlation import DIRECT_MAX_LAGS, row_lagged_products
 from ._reference.norms import joint_major
 
@@ -470,3 +472,181 @@ class _Snapshot:
         for name, value in sums.items():
             setattr(self, name, _Sum(value) if name in self._COMPENSATED else value)
         self.gram = None if sums["gram"] is None else _Sum(sums["gram"])
+
+
+
+# --------------------------------------------------------------------------- time stamps
+
+
+class Stamps:
+    """Streaming summary of the time stamps of the kept rows (contract §4.1): what
+    :func:`dynval._timing.analyse` reports of the whole array, from sums whose size does not grow
+    with N (plus the row after each gap: one integer per segment, as the state keeps).
+
+    Steps are classified as they arrive (duplicate, gap, irregular) against ``nominal``: the given
+    sample rate's step, or the one ``_timing`` finds in the stream's first steps. A step after k
+    duplicated stamps spans k + 1 rows (``_timing``'s rule), across chunks too. The rate is counted
+    in steps of ``median`` (rint(step/median) ≥ 1) as ``_timing`` counts them in the whole run's
+    median; the jitter and the largest deviation are measured against the final nominal step by
+    :meth:`timing`, from sums centred on ``nominal``.
+    """
+
+    def __init__(self, nominal: float, median: float) -> None:
+        self.nominal = float(nominal)
+        self.median = float(median)
+        self.rows = 0  # kept stamps so far
+        self.first: float | None = None  # first and last kept stamps
+        self.last: float | None = None
+        self.first_row: np.ndarray | None = None  # first and last kept torque rows (repeats across junctions)
+        self.last_row: np.ndarray | None = None
+        self.zeros = 0  # zero steps right before the next step
+        self.advanced = False  # a positive step seen
+        self.n_steps = self.duplicated = self.repeated = self.gaps = self.irregular = 0
+        self.largest = -np.inf  # the largest step, and the stamp of the row after it (the first such)
+        self.largest_at: float | None = None
+        self.gap_rows: list[int] = []
+        # counted steps (c = rint(s/median) ≥ 1): how many, Σc, Σs, and [Σe², Σc·e, Σc²], e = s − c·median
+        self.n_counted = 0
+        self.counts = 0
+        self.span = Compensated(0.0)
+        self.rate_sums = Compensated(np.zeros(3))
+        # regular steps (positive, not a gap) spanning k rows: [Σd², Σk·d, Σk²], d = s − k·nominal,
+        # and the extremes of d for each k (the largest deviation against another nominal step)
+        self.n_regular = 0
+        self.dev_sums = Compensated(np.zeros(3))
+        self.dev_range: dict[int, tuple[float, float]] = {}
+
+    def add(self, t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """The next kept stamps ``t`` (c,), never below the last one, and their torque rows (c, m);
+        returns the rows of ``t`` that follow a gap (0: the step from the stamp before ``t``)."""
+        c = t.shape[0]
+        if c == 0:
+            return np.zeros(0, dtype=np.int64)
+        flat = rows.reshape(c, -1)
+        if self.last is None or self.last_row is None:
+            self.first, self.first_row = float(t[0]), flat[0].copy()
+            stamps, data, before = t, flat, 0
+        else:
+            stamps, data, before = np.concatenate(([self.last], t)), np.concatenate((self.last_row[None], flat)), 1
+        assert self.first is not None
+        self.repeated += int(np.count_nonzero(np.all(data[1:] == data[:-1], axis=1)))
+        gap_at = self._add_steps(np.diff(stamps - self.first), stamps)  # relative to the first stamp, as _timing
+        # step j ends at row j + 1 of ``stamps``: row j + 1 − before of ``t``
+        at = (gap_at + 1 - before).astype(np.int64)
+        self.gap_rows.extend(int(self.rows + i) for i in at)
+        self.last, self.last_row = float(t[-1]), flat[-1].copy()
+        self.rows += c
+        return at
+
+    def _add_steps(self, steps: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+        k = steps.shape[0]
+        if k == 0:
+            return np.zeros(0, dtype=np.int64)
+        idx = np.arange(k)
+        last_positive = np.maximum.accumulate(np.where(steps != 0, idx, -1))
+        previous = np.concatenate(([-1], last_positive[:-1]))
+        spans = (idx - previous + np.where(previous < 0, self.zeros, 0)).astype(np.float64)
+        self.zeros = int(k - 1 - last_positive[-1]) if last_positive[-1] >= 0 else self.zeros + k
+        positive = steps > 0
+        self.advanced |= bool(positive.any())
+        nominal = self.nominal
+        is_gap = steps > (_timing.GAP_FACTOR + spans - 1) * nominal
+        gap_at = np.flatnonzero(is_gap)
+        self.n_steps += k
+        self.duplicated += int(k - np.count_nonzero(positive))
+        self.gaps += int(gap_at.size)
+        j = int(np.argmax(steps))
+        if steps[j] > self.largest:
+            self.largest, self.largest_at = float(steps[j]), float(stamps[j + 1])
+        counts = np.rint(steps / self.median)
+        counted = counts >= 1
+        if counted.any():
+            cs, ss = counts[counted], steps[counted]
+            e = ss - cs * self.median
+            self.n_counted += int(cs.size)
+            self.counts += int(cs.sum())
+            self.span.add(float(ss.sum()))
+            self.rate_sums.add(np.array([e @ e, cs @ e, cs @ cs]))
+        regular = positive & ~is_gap
+        if regular.any():
+            kr = spans[regular]
+            d = steps[regular] - kr * nominal
+            self.n_regular += int(d.size)
+            self.irregular += int(np.count_nonzero(np.abs(d) > _timing.IRREGULAR_TOLERANCE * nominal))
+            self.dev_sums.add(np.array([d @ d, kr @ d, kr @ kr]))
+            for span in np.unique(kr):
+                ds = d[kr == span]
+                lo, hi = self.dev_range.get(int(span), (math.inf, -math.inf))
+                self.dev_range[int(span)] = (min(lo, float(ds.min())), max(hi, float(ds.max())))
+        return gap_at
+
+    def join(self, later: Stamps) -> bool:
+        """Add the summary of the stamps that come right after these (``later.first`` ≥ ``self.last``);
+        returns whether the step across the junction is a gap. The junction step is classified
+        here; ``later``'s own steps keep the classification they had (against its nominal step)."""
+        if later.rows == 0 or later.first_row is None:
+            return False
+        base = self.rows  # later's row 0
+        # the step across the junction (none when this summary is empty: later's first stamp starts it)
+        gap = bool(self.add(np.array([later.first]), later.first_row[None]).size)
+        later = copy.deepcopy(later)
+        later._recentre(self.nominal, self.median)
+        self.n_steps += later.n_steps
+        self.duplicated += later.duplicated
+        self.repeated += later.repeated
+        self.gaps += later.gaps
+        self.irregular += later.irregular
+        if later.largest > self.largest:
+            self.largest, self.largest_at = later.largest, later.largest_at
+        self.gap_rows.extend(base + r for r in later.gap_rows)
+        self.n_counted += later.n_counted
+        self.counts += later.counts
+        self.span.add_sum(later.span)
+        self.rate_sums.add_sum(later.rate_sums)
+        self.n_regular += later.n_regular
+        self.dev_sums.add_sum(later.dev_sums)
+        for span, (lo, hi) in later.dev_range.items():
+            mine = self.dev_range.get(span, (math.inf, -math.inf))
+            self.dev_range[span] = (min(mine[0], lo), max(mine[1], hi))
+        self.zeros = later.zeros if later.advanced else self.zeros + later.zeros
+        self.advanced |= later.advanced
+        self.last, self.last_row, self.rows = later.last, later.last_row, base + later.rows
+        return gap
+
+    def _recentre(self, nominal: float, median: float) -> None:
+        """Move the centred sums to another nominal step and median (the counts stay)."""
+        dm, dn = self.median - median, self.nominal - nominal  # e' = e + c·dm, d' = d + k·dn
+        e2, ce, c2 = self.rate_sums.value()
+        self.rate_sums = Compensated(np.array([e2 + 2 * dm * ce + dm * dm * c2, ce + dm * c2, c2]))
+        d2, kd, k2 = self.dev_sums.value()
+        self.dev_sums = Compensated(np.array([d2 + 2 * dn * kd + dn * dn * k2, kd + dn * k2, k2]))
+        self.dev_range = {k: (lo + k * dn, hi + k * dn) for k, (lo, hi) in self.dev_range.items()}
+        self.nominal, self.median = float(nominal), float(median)
+
+    def timing(self, sample_rate: float | None) -> _timing.Timing:
+        """The :class:`dynval._timing.Timing` of the stamps so far (at least one positive step);
+        ``sample_rate`` given: checked against them as ``_timing.analyse`` does."""
+        assert self.advanced and self.first is not None and self.last is not None
+        span = float(self.span.value())
+        rate = self.counts / span
+        e2, ce, c2 = self.rate_sums.value()
+        dm = 1.0 / rate - self.median
+        jitter = math.sqrt(max(e2 - 2 * dm * ce + dm * dm * c2, 0.0) / self.n_counted)
+        uncertainty = 2.0 * float(np.spacing(max(abs(self.first), abs(self.last)))) + 3.0 * jitter
+        nominal, source = _timing.rounded_step(rate, span, uncertainty), _timing.INFERRED
+        if sample_rate is not None:
+            nominal, source = _timing.given_step(sample_rate, nominal), "given"
+        dn = nominal - self.nominal  # d' = d − k·dn
+        d2, kd, k2 = self.dev_sums.value()
+        jitter_rms = math.sqrt(max(d2 - 2 * dn * kd + dn * dn * k2, 0.0) / self.n_regular) if self.n_regular else 0.0
+        largest_dev = max((max(abs(lo - k * dn), abs(hi - k * dn)) for k, (lo, hi) in self.dev_range.items()),
+                          default=0.0)
+        gaps = self.gaps
+        return _timing.Timing(
+            nominal_step=nominal, sample_rate=1.0 / nominal, sample_rate_source=source, n_steps=self.n_steps,
+            duplicated_stamps=self.duplicated, repeated_rows=self.repeated, gaps=gaps,
+            largest_gap=self.largest if gaps else 0.0,
+            largest_gap_time=float(self.largest_at - self.first) if gaps and self.largest_at is not None else None,
+            irregular_steps=self.irregular, jitter_rms=jitter_rms, largest_step_deviation=largest_dev,
+            duration=float(self.last - self.first), gap_rows=tuple(self.gap_rows),
+            grid=_timing.grid_text(nominal, source, len(self.gap_rows)))

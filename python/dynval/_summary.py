@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from ._text import pvalue_text
+
 if TYPE_CHECKING:
     from ._report import ValidationReport
 
@@ -21,22 +23,6 @@ def _num(x, fmt=".4g") -> str:
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return format(x, fmt)
-
-
-def _pvalue(p, log_p) -> str:
-    """A p-value, written from its logarithm when it underflows."""
-    p, log_p = float(p), float(log_p)
-    if math.isnan(p):
-        return "nan"
-    if p >= 1e-4:
-        return f"{p:.3f}" if p >= 0.001 else f"{p:.1e}"
-    if p > 1e-300:
-        return f"{p:.1e}"
-    if not math.isfinite(log_p):
-        return "0"  # an exact zero, e.g. a constant non-zero residual
-    exponent = log_p / math.log(10.0)  # p < 1e-300: only the log is representable
-    whole = math.floor(exponent)
-    return f"{10.0 ** (exponent - whole):.1f}e{whole}"
 
 
 def format_summary(report: ValidationReport) -> str:
@@ -67,7 +53,7 @@ def format_summary(report: ValidationReport) -> str:
     lines.append(header)
     vfmt = ".2f" if percent else ".4f"
     for j in range(m):
-        lbp = _pvalue(lb["pvalue"][0][j], lb["log_pvalue"][0][j]) if lb is not None else "—"
+        lbp = pvalue_text(lb["pvalue"][0][j], lb["log_pvalue"][0][j]) if lb is not None else "—"
         lines.append(
             f"  {names[j]:>{width}} {_num(pj['rmse'][j]):>11} {_num(pj['max_abs_error'][j]):>11} "
             f"{_num(pj['vaf'][j], vfmt):>9} {_num(pj['fit_percent'][j], vfmt):>9} "
@@ -106,8 +92,11 @@ def format_summary(report: ValidationReport) -> str:
         lines.append("Residual whiteness: not analysed (max_lag = 0).")
     else:
         frac = ", ".join(f"{names[j]}: {_num(100 * f, '.0f')} %" for j, f in enumerate(acf["fraction_outside"]))
+        conv = prov["conventions"]
+        span = (f" ({_num(conv['max_lag_seconds'], '.3g')} s, {conv['max_lag_source']})"
+                if conv.get("max_lag_seconds") is not None else "")
         lines.append(
-            f"Residual whiteness: lags 1..{acf['max_lag']}, {'adjusted' if acf['adjusted'] else 'biased'} "
+            f"Residual whiteness: lags 1..{acf['max_lag']}{span}, {'adjusted' if acf['adjusted'] else 'biased'} "
             f"autocorrelation, {acf['band_type']} band at {100 * acf['level']:g} % per lag (uncorrected; the "
             f"findings correct over the whole report); lags outside: {frac}")
     if report.cross_correlation is not None:

@@ -445,6 +445,17 @@ def check_sample_rate(value):
     return float(value)
 
 
+def check_bandwidth(value, sample_rate):
+    """``bandwidth``: None, or a finite number > 0 (Hz), which needs a sample rate (or time stamps)."""
+    if value is None:
+        return None
+    if not is_real_number(value) or not math.isfinite(value) or value <= 0:
+        raise parameter_error("bandwidth", "None or a finite number > 0 (Hz)", value)
+    if sample_rate is None:
+        raise parameter_error("bandwidth", "None without sample_rate or time (it is in Hz)", value)
+    return float(value)
+
+
 def check_decimate(value):
     """``decimate``: 'auto', None, or an integer >= 1."""
     if value is None or (isinstance(value, str) and value == "auto"):

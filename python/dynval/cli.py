@@ -23,9 +23,9 @@ import sys
 from collections.abc import Sequence
 
 from ._errors import InputError
-from ._files import FileInputError, _physical_memory, file_path, load_array, read_table
+from ._files import FileInputError, _physical_memory, file_path, load_array, read_column, read_table, split_column
 from ._profiles import PROFILE_NAMES
-from ._readers import DEFAULT_CHUNK_ROWS, open_rows
+from ._readers import DEFAULT_CHUNK_ROWS, open_column, open_rows
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
@@ -39,6 +39,10 @@ EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: what the shell sees of a program the cl
 
 # The help shows the accepted forms literally; tests parse its examples.
 SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or starts beginning at 0 (e.g. 0,500)"
+TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column of a table named as FILE:COLUMN "
+             "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
+             "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
+             "splits the lag analysis, and duplicated, missing and irregular stamps are reported")
 
 
 def _segments_arg(text: str):
@@ -176,6 +180,11 @@ def _add_report_options(sub) -> None:
     sub.add_argument("--noise-model", choices=("pooled", "per_joint", "full"),
                      help="noise model of the information criteria (default: the profile's)")
     sub.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second (frequencies in Hz)")
+    sub.add_argument("--time", metavar="FILE[:COLUMN]", help=TIME_HELP)
+    sub.add_argument("--bandwidth", type=float, metavar="HZ",
+                     help="band in which the inputs are trustworthy (the differentiation or sensor filter): "
+                          "spectral and whiteness evidence above it is a note, never a deficiency; needs "
+                          "--sample-rate or --time")
     sub.add_argument("--decimate", type=_decimate_arg, default="auto", metavar="Q",
                      help="whiteness at the information rate: auto (default), none, or a factor")
     sub.add_argument("--joint-names", type=_names_arg, metavar="A,B,..", help="joint names, comma-separated")
@@ -206,6 +215,8 @@ def _check_combinations(args) -> None:
     """Option combinations argparse cannot express: usage errors (exit 2)."""
     if args.n_joints is not None and args.regressor is None:
         args.subparser.error("--n-joints needs --regressor: it gives the joints m of a stacked (N*m, p) regressor")
+    if args.bandwidth is not None and args.sample_rate is None and args.time is None:
+        args.subparser.error("--bandwidth needs --sample-rate or --time: it is in Hz")
 
 
 def _load(path: str, name: str, sources: dict):
@@ -216,6 +227,7 @@ def _load(path: str, name: str, sources: dict):
 
 
 _AT_ROW = re.compile(r"^(\w+) has .* at row (\d+), column (\d+)")
+_TIME_AT_ROW = re.compile(r"^time must .*? at row (\d+)")
 
 
 def _file_position(message: str, sources: dict) -> str:
@@ -223,6 +235,9 @@ def _file_position(message: str, sources: dict) -> str:
 
     API errors count rows and columns from 0, files from 1 and by physical line (contract §2.3).
     """
+    unprefixed = re.sub(r"^chunk \d+: ", "", message)  # a streamed chunk's error
+    if unprefixed.startswith("time ") and "time" in sources:
+        return _time_position(unprefixed, sources["time"])
     match = _AT_ROW.match(message)
     if not match or match.group(1) not in sources:
         return ""
@@ -231,6 +246,22 @@ def _file_position(message: str, sources: dict) -> str:
     if lines is None or row >= len(lines):
         return ""
     return f" ({path} line {int(lines[row])}, column {column + 1})"
+
+
+def _time_position(message: str, source: tuple) -> str:
+    """`` (log.csv line 12, column 1)`` for an error at a row of the time stamps, else the file they came from."""
+    spec, lines, column = source
+    match = _TIME_AT_ROW.match(message)
+    if match and lines is not None and int(match.group(1)) < len(lines):
+        return f" ({file_path(split_column(spec)[0])} line {int(lines[int(match.group(1))])}, column {column + 1})"
+    return f" (time from {spec})"
+
+
+def _load_time(spec: str, sources: dict):
+    """``--time FILE[:COLUMN]``: the stamps as an (N,) array; remembers where they came from."""
+    table, column = read_column(spec)
+    sources["time"] = (spec, table.lines, column)
+    return table.data
 
 
 def _contract_error(command: str, exc: InputError, sources: dict) -> int:
@@ -247,7 +278,8 @@ def _report_options(args, sources: dict) -> dict:
     return dict(regressor=load_array(args.regressor) if args.regressor else None, n_joints=args.n_joints,
                 max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
                 nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
-                sample_rate=args.sample_rate, decimate=args.decimate, joint_names=args.joint_names,
+                sample_rate=args.sample_rate, time=_load_time(args.time, sources) if args.time else None,
+                bandwidth=args.bandwidth, decimate=args.decimate, joint_names=args.joint_names,
                 column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
                 estimation=est, allow_wide=args.allow_wide)
 
@@ -271,12 +303,21 @@ def _write_html(command: str, args, obj, **data) -> int:
     try:
         from .html import write_report
 
-        write_report(obj, args.html, sample_rate=args.sample_rate, **data)
+        write_report(obj, args.html, sample_rate=_sample_rate(args, obj), **data)
     except ImportError as exc:
         return _error(command, f"--html needs matplotlib (pip install 'dynval[plot]'): {exc}")
     except OSError as exc:
         return _error(command, f"{args.html}: cannot be written ({exc.strerror or exc})")
     return EXIT_OK
+
+
+def _sample_rate(args, obj) -> float | None:
+    """--sample-rate, else the rate the report inferred from --time."""
+    if args.sample_rate is not None:
+        return float(args.sample_rate)
+    report = obj if hasattr(obj, "provenance") else next(iter(obj.reports.values()))
+    rate = report.provenance.get("sample_rate")
+    return None if rate is None else float(rate)
 
 
 def _run_validate(args) -> int:
@@ -305,7 +346,7 @@ def _too_large_for_memory(args) -> bool:
     if memory is None:
         return False
     total = 0
-    for spec in (args.meas, args.pred, args.regressor):
+    for spec in (args.meas, args.pred, args.regressor, args.time and split_column(args.time)[0]):
         if spec:
             try:
                 total += os.stat(file_path(spec)).st_size
@@ -330,12 +371,16 @@ def _run_validate_streamed(args) -> int:
     try:
         meas, pred = open_rows(args.meas), open_rows(args.pred)
         reg = open_rows(args.regressor) if args.regressor else None
+        stamps = open_column(args.time) if args.time else None
     except FileInputError as exc:
         return _error("validate", str(exc))
     if meas.shape != pred.shape:
         return _error("validate", f"ShapeMismatch: tau_meas and tau_pred must have the same shape, got "
                                   f"{meas.shape} and {pred.shape}")
     n = meas.n_rows
+    if stamps is not None and stamps.n_rows != n:
+        return _error("validate", f"ShapeMismatch: time must have one stamp per sample, shape ({n},), got "
+                                  f"({stamps.n_rows},) (time from {args.time})")
     # a stacked (N·m, p) regressor gives m rows per sample
     per_sample = 1 if reg is None or reg.n_rows == n else max(reg.n_rows // max(n, 1), 1)
     if reg is not None and reg.n_rows != n * per_sample:
@@ -345,23 +390,24 @@ def _run_validate_streamed(args) -> int:
         acc = ValidationAccumulator(
             n_params=args.n_params, max_lag=args.max_lag, n_joints=args.n_joints, profile=args.profile,
             level=args.level, noise_model=args.noise_model, nan_policy=args.nan_policy, backend=args.backend,
-            sample_rate=args.sample_rate, joint_names=args.joint_names, column_names=args.column_names,
-            allow_wide=args.allow_wide)
+            sample_rate=args.sample_rate, bandwidth=args.bandwidth, joint_names=args.joint_names,
+            column_names=args.column_names, allow_wide=args.allow_wide)
         show = sys.stderr.isatty() if args.progress is None else args.progress
         from tqdm import tqdm  # type: ignore[import-untyped]
 
         blocks = zip(meas.chunks(rows), pred.chunks(rows),
-                     reg.chunks(rows * per_sample) if reg is not None else iter(lambda: None, 0))
+                     reg.chunks(rows * per_sample) if reg is not None else iter(lambda: None, 0),
+                     stamps.chunks(rows) if stamps is not None else iter(lambda: None, 0))
         with tqdm(total=n, unit=" rows", unit_scale=True, disable=not show, file=sys.stderr,
                   delay=0.0 if args.progress else 2.0, desc="dynval validate") as bar:
-            for m_block, p_block, y_block in blocks:
-                acc.update(m_block, p_block, y_block)
+            for m_block, p_block, y_block, t_block in blocks:
+                acc.update(m_block, p_block, y_block, time=t_block)
                 bar.update(m_block.shape[0])
         report = acc.result()
     except FileInputError as exc:
         return _error("validate", str(exc))
     except InputError as exc:
-        return _contract_error("validate", exc, {})
+        return _contract_error("validate", exc, {} if args.time is None else {"time": (args.time, None, 0)})
     if args.html:
         return _error("validate", "--html needs the whole series; it is not available with a streamed validation")
     text = report.to_json() if args.json else report.summary()

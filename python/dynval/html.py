@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._text import pvalue_text
+
 __all__ = ["write_report", "render_report"]
 
 _CSS = """
@@ -141,15 +143,25 @@ def _per_joint_table(report) -> str:
     keys = [("rmse", "RMSE"), ("max_abs_error", "max |e|"), ("vaf", "VAF" + pct("vaf")),
             ("fit_percent", "fit" + pct("fit_percent")), ("r2", "R²"), ("nrmse", "NRMSE")]
     keys = [(k, label) for k, label in keys if k in report.per_joint]
+    lb = getattr(report, "ljung_box", None)
+    lb_p = None
+    if lb is not None and "pvalue" in lb:
+        lb_p = (np.atleast_2d(np.asarray(lb["pvalue"], dtype=float)),
+                np.atleast_2d(np.asarray(lb.get("log_pvalue", np.full(np.shape(lb["pvalue"]), np.nan)), dtype=float)))
     rows = []
     for j, name in enumerate(_joint_names(report)):
-        rows.append([_e(name)] + [_num(np.atleast_1d(report.per_joint[k])[j]) for k, _ in keys])
+        rows.append([_e(name)] + [_num(np.atleast_1d(report.per_joint[k])[j]) for k, _ in keys]
+                    + ([_e(pvalue_text(lb_p[0][0][j], lb_p[1][0][j]))] if lb_p is not None else []))
     pooled = report.pooled
     pooled_map = {"rmse": "rmse_per_element", "max_abs_error": "max_abs_error", "vaf": "vaf",
                   "fit_percent": "fit_percent", "r2": "r2"}
     rows.append(["<b>pooled</b>"] + [_num(pooled.get(pooled_map.get(k, ""), None)) if k in pooled_map else "—"
-                                     for k, _ in keys])
-    return _table(["joint"] + [label for _, label in keys], rows)
+                                     for k, _ in keys] + (["—"] if lb_p is not None else []))
+    lb_head = []
+    if lb_p is not None:
+        lags = lb.get("lags")
+        lb_head = [f"Ljung–Box p (h = {int(np.atleast_1d(lags)[0])})" if lags is not None else "Ljung–Box p"]
+    return _table(["joint"] + [label for _, label in keys] + lb_head, rows)
 
 
 def _findings_html(report) -> str:

@@ -48,7 +48,7 @@ import scipy.linalg
 
 from ._blas import one_blas_thread
 from ._errors import InvalidShape, ShapeMismatch
-from ._typing import ArrayLike, FloatArray, Integer
+from ._typing import ArrayLike, FloatArray, IntArray, Integer
 from ._validation import (
     check_finite,
     check_min_samples,
@@ -274,9 +274,14 @@ def _accurate_residuals(a: FloatArray, x: FloatArray, b: FloatArray,
     return f, g
 
 
-def _solve(a: FloatArray, b: FloatArray, rcond: float) -> dict[str, Any] | None:
-    """Column-scaled pivoted QR solve with iterative refinement; the pieces the result needs."""
-    _rows, p = a.shape
+def _pivoted_qr(a: FloatArray, rcond: float, with_q: bool = True) -> dict[str, Any] | None:
+    """The column-scaled pivoted QR of the base-parameter reduction (module notes).
+
+    ``a`` may also be any matrix with the same R factor (e.g. the R of a blockwise QR): the column
+    norms and the pivoting are the same. Returns ``scale`` (column norms), ``nonzero`` (the columns
+    kept), ``q`` (None unless ``with_q``), ``r``, ``rank``, ``base`` and ``dep`` (column indices of
+    ``a``, in pivot order), or None when no column is kept or the rank is 0.
+    """
     scale = np.sqrt(np.einsum("ij,ij->j", a, a))
     # A column whose norm is within rcond of the largest is roundoff of a structurally zero
     # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
@@ -285,17 +290,65 @@ def _solve(a: FloatArray, b: FloatArray, rcond: float) -> dict[str, Any] | None:
     if nonzero.size == 0:
         return None
     a_s = a[:, nonzero] / scale[nonzero]
-    q, r, piv = scipy.linalg.qr(a_s, mode="economic", pivoting=True, check_finite=False)
+    if with_q:
+        q, r, piv = scipy.linalg.qr(a_s, mode="economic", pivoting=True, check_finite=False)
+    else:
+        q = None
+        r, piv = scipy.linalg.qr(a_s, mode="r", pivoting=True, check_finite=False)
+        r = r[:min(a_s.shape)]
     diag = np.abs(np.diag(r))
     rank = int(np.sum(diag > rcond * diag[0])) if diag[0] > 0 else 0
     if rank == 0:
         return None
+    return {"scale": scale, "nonzero": nonzero, "q": q, "r": r, "rank": rank, "base": nonzero[piv[:rank]],
+            "dep": nonzero[piv[rank:]]}
+
+
+def _combination(r: FloatArray, rank: int, base: IntArray, dep: IntArray, scale: FloatArray,
+                 p: int) -> tuple[FloatArray, IntArray]:
+    """Each base parameter as a combination of the columns (rows in ascending base order), and
+    that order: the dependent columns are Y_d = Y_b β (module notes)."""
+    beta_s = scipy.linalg.solve_triangular(r[:rank, :rank], r[:rank, rank:], check_finite=False)
+    order = np.argsort(base)
+    sb = scale[base]
+    beta = beta_s * scale[dep][None, :] / sb[:, None] if dep.size else np.zeros((rank, 0))
+    combination = np.zeros((rank, p))
+    combination[np.arange(rank), base] = 1.0
+    if dep.size:
+        combination[:, dep] = beta
+    return combination[order], order
+
+
+def base_set(a: FloatArray, rcond: float) -> dict[str, Any]:
+    """The base columns of ``a`` (rows × p, or any matrix with its R factor, such as that R).
+
+    The reduction :func:`identify` makes, without solving: ``rank``, ``base`` (ascending),
+    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (columns
+    whose norm is at most ``rcond`` times the largest), ``combination`` (rank × p: each base
+    parameter as a combination of the columns) and ``pivots`` (|R_kk| relative to |R_00|).
+    """
+    p = a.shape[1]
+    f = _pivoted_qr(a, rcond, with_q=False)
+    if f is None:
+        return {"rank": 0, "base": np.zeros(0, dtype=np.intp), "dependent": np.zeros(0, dtype=np.intp),
+                "zero": np.arange(p), "combination": np.zeros((0, p)), "pivots": np.zeros(0)}
+    rank, base, dep = f["rank"], f["base"], f["dep"]
+    combination, _order = _combination(f["r"], rank, base, dep, f["scale"], p)
+    diag = np.abs(np.diag(f["r"]))
+    return {"rank": rank, "base": np.sort(base), "dependent": np.sort(dep),
+            "zero": np.setdiff1d(np.arange(p), f["nonzero"]), "combination": combination,
+            "pivots": diag / diag[0]}
+
+
+def _solve(a: FloatArray, b: FloatArray, rcond: float) -> dict[str, Any] | None:
+    """Column-scaled pivoted QR solve with iterative refinement; the pieces the result needs."""
+    _rows, p = a.shape
+    fac = _pivoted_qr(a, rcond)
+    if fac is None:
+        return None
+    q, r, rank, base, dep, scale = fac["q"], fac["r"], fac["rank"], fac["base"], fac["dep"], fac["scale"]
     r11 = r[:rank, :rank]
     q1 = q[:, :rank]
-    base_local = piv[:rank]
-    dep_local = piv[rank:]
-    base = nonzero[base_local]
-    dep = nonzero[dep_local]
     sb = scale[base]
     a_b = a[:, base]
 
@@ -322,21 +375,14 @@ def _solve(a: FloatArray, b: FloatArray, rcond: float) -> dict[str, Any] | None:
 
     r11_inv = tri(np.eye(rank))
     # Dependent columns in terms of the base ones: Y_d = Y_b β (scaled units first).
-    beta_s = tri(r[:rank, rank:])
-    order = np.argsort(base)
-    base_sorted = base[order]
-    beta = beta_s * scale[dep][None, :] / sb[:, None] if dep.size else np.zeros((rank, 0))
+    combination, order = _combination(r, rank, base, dep, scale, p)
     cinv = (r11_inv @ r11_inv.T) / np.outer(sb, sb)
-    combination = np.zeros((rank, p))
-    combination[np.arange(rank), base] = 1.0
-    if dep.size:
-        combination[:, dep] = beta
     return {
         "rank": rank,
-        "base": base_sorted,
+        "base": base[order],
         "estimate": x[order],
         "cinv": cinv[np.ix_(order, order)],
-        "combination": combination[order],
+        "combination": combination,
         "residual": res,
     }
 

@@ -170,8 +170,9 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
         note = f"{int(outside.sum())} of {lmax} lags outside the band"
         if lb is not None:
             try:
+                p = float(np.asarray(lb["pvalue"])[0][j])
                 logp = float(np.asarray(lb["log_pvalue"])[0][j])
-                note += f"; Ljung–Box up to lag {np.asarray(lb['lags'])[0]}: {_p_text(logp)}"
+                note += f"; Ljung–Box up to lag {np.asarray(lb['lags'])[0]}: {_p_text(p, logp)}"
             except (KeyError, IndexError, TypeError):
                 pass
         ax.text(0.99, 0.96, note, transform=ax.transAxes, ha="right", va="top", fontsize="small",
@@ -190,16 +191,11 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
     return fig
 
 
-def _p_text(log_p):
-    """A p-value from its natural log, readable even when it underflows."""
-    if not math.isfinite(log_p):
-        return "p = 0" if log_p < 0 else "p = 1"
-    log10 = log_p / math.log(10.0)
-    if log10 < -300:
-        return "p < 1e-300"
-    if log10 < -4:
-        return f"p ≈ 1e{log10:.0f}"
-    return f"p = {math.exp(log_p):.3g}"
+def _p_text(p, log_p):
+    """``p = 0.0123`` or ``p < 1e-300``: the wording of every table and message (contract §4)."""
+    from ._text import p_clause
+
+    return "p " + p_clause(p, log_p)
 
 
 def autocorrelation_by_model(reports, *, joint: int = 0, names=None, chosen=None, title=None):

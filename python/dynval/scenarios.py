@@ -22,8 +22,9 @@ tuned to one simulator. This module is a library of such scenarios (docs/convent
   torque RMS on a reference trajectory: ``white``, ``t3`` (Student t, 3 dof), ``ar0.9``,
   ``ar0.99``, ``ar0.999`` (AR(1), marginal sd σ), ``lowpass`` (white noise through a 2nd-order
   Butterworth low-pass at 30 Hz, run at 1 kHz and sampled at the run's rate), ``heteroscedastic``
-  (sd ∝ 0.3 + |q̇_j|/max|q̇_j|, RMS σ) and ``jitter`` (white noise, and the torque taken at
-  t_k + U(−0.3, 0.3)/f_s while the run is analysed as uniformly sampled).
+  (sd ∝ 0.3 + |q̇_j|/max|q̇_j|, RMS σ) and ``jitter`` (white noise, and every row — positions
+  and torques alike — taken at t_k + U(−0.3, 0.3)/f_s while the run is analysed as uniformly
+  sampled: a logger whose rows are consistent but whose stamps are irregular).
 * **Scenarios** (:func:`library`): a right model under every noise (size), and deficient models
   (power): ``no_coulomb``, ``no_viscous``, ``no_gravity``, ``coupled_gravity``, ``offset``,
   ``payload``, ``mode``, ``delay``, ``unexcited_joint``, ``low_information``, each with its
@@ -414,11 +415,6 @@ class Scenario:
     def n_samples(self) -> int:
         return int(round(self.duration * self.sample_rate))
 
-    @property
-    def max_lag(self) -> int:
-        """Half a second of lags, at most 200."""
-        return min(200, int(round(0.5 * self.sample_rate)))
-
     def describe(self) -> str:
         s = _setup(self)
         extra = {"no_coulomb": lambda: f"Fc = {self.size}σ per joint",
@@ -434,7 +430,7 @@ class Scenario:
                  }.get(self.name, lambda: "")()
         return (f"{self.key:40} {self.arm} {self.sample_rate:g} Hz × {self.duration:g} s (N {self.n_samples}), "
                 f"f0 {self.base_frequency:g} Hz, σ {100 * self.sigma:g} % of RMS = "
-                f"[{', '.join(f'{x:.3g}' for x in s.sigma)}] N·m, max_lag {self.max_lag}"
+                f"[{', '.join(f'{x:.3g}' for x in s.sigma)}] N·m"
                 + (f"; {extra}" if extra else ""))
 
 
@@ -635,6 +631,7 @@ class Run:
     tau: FloatArray
     regressor: FloatArray
     tau_true: FloatArray
+    time: FloatArray | None = None  # the instants the rows were taken at (irregular under ``jitter``)
 
 
 @dataclass(frozen=True)
@@ -694,13 +691,13 @@ def simulate(s: Scenario, replicate: int) -> Replicate:
     runs = []
     effect = np.zeros((n, m))
     for which, traj in (("estimation", est_traj), ("validation", val_traj)):
-        q, dq, ddq = traj(t)
+        # jitter: every row (encoders and torques alike) is taken at t_k + δ_k, the rows stay
+        # consistent, and the run is analysed as if sampled on the uniform grid
+        stamps = t + rng.uniform(-0.3, 0.3, n) / s.sample_rate if s.noise == "jitter" else t
+        q, dq, ddq = traj(stamps)
         reg = _regressor(st, q, dq, ddq)
         robot = st.payload_arm if (which == "validation" and st.payload_arm is not None) else st.arm
-        if s.noise == "jitter":
-            tj = t + rng.uniform(-0.3, 0.3, n) / s.sample_rate
-            tau_true = _physical_torque(st, robot, *traj(tj))
-        elif s.delay:
+        if s.delay:
             tau_true = _physical_torque(st, robot, *traj(t - s.delay / s.sample_rate))
         else:
             tau_true = _physical_torque(st, robot, q, dq, ddq)
@@ -716,7 +713,7 @@ def simulate(s: Scenario, replicate: int) -> Replicate:
                 effect += _physical_torque(st, robot, q, dq, ddq) - _physical_torque(st, st.arm, q, dq, ddq)
             if s.delay:
                 effect += tau_true - extra - _physical_torque(st, robot, q, dq, ddq)
-        runs.append(Run(q, dq, ddq, tau, reg, tau_true))
+        runs.append(Run(q, dq, ddq, tau, reg, tau_true, stamps))
     return Replicate(s, runs[0], runs[1], st.names, st.model, st.truth, st.sigma, effect,
                      time.perf_counter() - t0)
 
@@ -785,9 +782,14 @@ def validate_replicate(rep: Replicate, offered: bool, *, prediction: tuple[Float
     for key in ("dq", "ddq"):
         if key in accepted:
             kw[key] = getattr(val, key)
+    if s.noise == "jitter" and "time" in accepted:
+        kw["time"] = val.time  # a logger with irregular stamps hands them over
+    else:
+        kw["sample_rate"] = s.sample_rate
     kw.update(keywords)
+    # the largest lag is validate's default: the motion's time scale
     return dynval.validate(val.tau, pred, n_params=rank, regressor=reg_val, column_names=names, model_columns=model,
-                           sample_rate=s.sample_rate, max_lag=s.max_lag, q=val.q, estimation=estimation,
+                           q=val.q, estimation=estimation,
                            joint_names=list(ARMS[s.arm].joint_names), backend=backend, **kw)
 
 

@@ -9,7 +9,9 @@ of each quantity's natural size), to ``validate`` on the concatenated data with 
 * residual mean, variance (the profile's ddof) and the zero-mean test, both halves;
 * autocorrelation with its band and Ljung–Box, across chunk boundaries, honouring segments;
 * the cross-correlation ρ with the regressor columns at lags 0..max_lag;
-* the information criteria of the noise model (not their N_eff-based variants).
+* the information criteria of the noise model (not their N_eff-based variants);
+* with time stamps (``update(..., time=...)``), the ``timing`` section and the ``time_stamps`` note,
+  a gap in the stamps ending the segment as :meth:`~ValidationAccumulator.break_segment` does.
 
 Sections that need the whole series are None or partial (``bias``, ``spectrum``, ``design`` and
 ``segment_metrics`` None; ``whiteness`` at the logged rate only; the cross-correlation without its
@@ -49,10 +51,11 @@ import numpy as np
 import scipy.stats
 
 from . import _sections as sec
+from . import _timing
 from . import _validation as v
 from ._api import newey_west_bandwidth
 from ._backend import resolve as resolve_backend
-from ._errors import InputError, InvalidParameter, ShapeMismatch
+from ._errors import InputError, InvalidParameter, NonFiniteInput, ShapeMismatch
 from ._findings import Thresholds, compute_findings, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
@@ -61,7 +64,7 @@ from ._reference.portmanteau import chi2_logsf
 from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
-from ._stream import CoreState, Layout, State, _Snapshot
+from ._stream import CoreState, Layout, Stamps, State, _Snapshot
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from ._version import CONTRACT_VERSION, __version__
 
@@ -90,6 +93,10 @@ _MIN_BLOCK_ROWS = 256
 # Largest block, in values of m·(p + 2) columns: bounds the FFT temporaries of the lagged sums.
 _MAX_BLOCK_VALUES = 1 << 22
 _MAX_BLOCK_ROWS = 1 << 16
+# The time stamps of the first rows, at least this many steps (the whole first chunk when it holds
+# more), give the nominal step that classifies every later step (without a sample rate) and the
+# median step that counts the steps of the inferred rate; until then the rows wait, unsummed.
+SETTLE_STEPS = 100
 
 
 @dataclass(frozen=True)
@@ -104,6 +111,7 @@ class _Settings:
     level: float
     noise_model: str
     sample_rate: float | None
+    bandwidth: float | None
     joint_names: tuple[str, ...] | None
     column_names: tuple[str, ...] | None
     thresholds: Thresholds
@@ -129,6 +137,9 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
+    bandwidth : float, optional
+        As for :func:`dynval.validate`: whiteness evidence above it (Hz) is a ``processing_band``
+        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``).
     backend : None, "python" or "cpp"
         Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
         reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
@@ -151,10 +162,11 @@ class ValidationAccumulator:
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
                  nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
-                 sample_rate: float | None = None, joint_names: Sequence[str] | None = None,
-                 column_names: Sequence[str] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
-                 allow_wide: bool = False, segments: None = None, decimate: None = None, q: None = None,
-                 estimation: None = None, cross_correlation_detail: None = None, model_columns: None = None) -> None:
+                 sample_rate: float | None = None, bandwidth: float | None = None,
+                 joint_names: Sequence[str] | None = None, column_names: Sequence[str] | None = None,
+                 thresholds: Thresholds | dict[str, float] | None = None, allow_wide: bool = False,
+                 segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
+                 cross_correlation_detail: None = None, model_columns: None = None) -> None:
         # validate's parameter order (contract §2.1), the unsupported keywords in their places.
         n_params = v.check_n_params(n_params)
         if n_joints is not None and (not v.is_integer(n_joints) or n_joints <= 0):
@@ -167,6 +179,8 @@ class ValidationAccumulator:
         backend_name, _ = resolve_backend(backend)
         checked_noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
         sample_rate = v.check_sample_rate(sample_rate)
+        # the rate may also come with the chunks' time stamps: checked at the first chunk
+        bandwidth = v.check_bandwidth(bandwidth, 1.0 if sample_rate is None else sample_rate)
         _refuse("decimate", decimate)
         if n_joints is not None:
             v.check_names("joint_names", joint_names, int(n_joints), "joint")
@@ -179,8 +193,8 @@ class ValidationAccumulator:
         self._settings = _Settings(
             n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
             nan_policy=nan_policy, level=level, noise_model=checked_noise_model, sample_rate=sample_rate,
-            joint_names=_names(joint_names), column_names=_names(column_names), thresholds=checked_thresholds,
-            allow_wide=allow_wide, backend=backend_name)
+            bandwidth=bandwidth, joint_names=_names(joint_names), column_names=_names(column_names),
+            thresholds=checked_thresholds, allow_wide=allow_wide, backend=backend_name)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
         # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
@@ -190,16 +204,25 @@ class ValidationAccumulator:
         self._chunks = 0
         self._rows_seen = 0
         self._omitted = 0
+        # time stamps: given with every chunk (True) or none (False), decided by the first update
+        self._timed: bool | None = None
+        self._stamps: Stamps | None = None  # their summary, once the nominal step is known
+        # without a sample rate, the updates (and breaks) that come before the nominal step is known:
+        # ("rows", meas, pred, reg, time, breaks, kept stamps) or ("break",)
+        self._waiting: list[tuple[Any, ...]] | None = None
+        self._waiting_rows = 0  # kept rows in it
+        self._first_seen: float | None = None  # the first and the last stamp of any row (omitted too)
+        self._last_seen: float | None = None
 
     # ----------------------------------------------------------------------- public
 
     @property
     def n_samples(self) -> int:
         """Rows accumulated so far (after ``nan_policy="omit"``)."""
-        return (0 if self._state is None else self._state.n) + self._pending_rows
+        return (0 if self._state is None else self._state.n) + self._pending_rows + self._waiting_rows
 
     def update(self, tau_meas_chunk: ArrayLike, tau_pred_chunk: ArrayLike,
-               regressor_chunk: ArrayLike | None = None) -> None:
+               regressor_chunk: ArrayLike | None = None, *, time: ArrayLike | None = None) -> None:
         """Add the next rows.
 
         Every chunk must have the same m (and p, and a regressor either always or never); errors
@@ -207,12 +230,21 @@ class ValidationAccumulator:
         of any length (1 row, fewer rows than max_lag, 0) are fine: lags join across chunk
         boundaries.
 
+        With ``time``, the report gets ``validate``'s ``timing`` section and ``time_stamps`` note,
+        and a gap in the stamps (a step longer than 1.5 nominal steps) ends the segment as
+        :meth:`break_segment` does. Steps are classified against the nominal step of
+        ``sample_rate``, else of the stamps of the first chunk (at least 100 steps: a shorter
+        first chunk waits, unsummed, for the next ones); contract §4.1.
+
         Parameters
         ----------
         tau_meas_chunk, tau_pred_chunk : array_like, (c,) or (c, m)
             The next c rows of measured and predicted torque.
         regressor_chunk : array_like, (c, m, p) or (c·m, p) with ``n_joints``, optional
             The regressor's rows, for the cross-correlation section.
+        time : array_like, (c,), optional
+            The rows' time stamps in seconds, never decreasing (across chunks too). Given with
+            the first update, needed with every update; not given, refused with every later one.
 
         Returns
         -------
@@ -235,17 +267,41 @@ class ValidationAccumulator:
         >>> acc.n_samples
         3
         """
-        self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, ())
+        self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, (), time)
 
     def _update(self, tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
-                breaks: Sequence[int]) -> None:
+                breaks: Sequence[int], time: ArrayLike | None = None) -> None:
         """:meth:`update` with segment breaks before the chunk's rows ``breaks`` (sorted; 0 is a
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
+        stamps = self._checked_time(time, meas.shape[0])
         if self._layout is None:
             self._layout = self._new_layout(meas.shape[1], 0 if reg is None else reg.shape[2])
         self._chunks += 1
         self._rows_seen += meas.shape[0]
+        if self._timed is None:
+            self._timed = stamps is not None
+        if stamps is None:
+            self._feed_chunk(meas, pred, reg, breaks)
+            return
+        if stamps.size:
+            self._first_seen = float(stamps[0]) if self._first_seen is None else self._first_seen
+            self._last_seen = float(stamps[-1])
+        if self._stamps is None and self._waiting is None:
+            self._waiting = []
+        if self._waiting is None:
+            self._feed_timed(meas, pred, reg, stamps, breaks)
+            return
+        # Rows kept for later are copied: the caller may refill its buffer for the next chunk.
+        keep = self._kept(meas, pred, reg)
+        kept = stamps.copy() if keep is None else stamps[keep]
+        self._waiting.append(("rows", meas.copy(), pred.copy(), None if reg is None else reg.copy(), stamps.copy(),
+                              tuple(breaks), kept))
+        self._waiting_rows += kept.size
+        self._settle_when_known()
+
+    def _feed_chunk(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, breaks: Sequence[int]) -> None:
+        """Sum a checked chunk, with segment breaks before its rows ``breaks``."""
         feed = self._feed_omitting if self._settings.nan_policy == "omit" else self._feed
         start = 0
         for stop in breaks:
@@ -253,6 +309,97 @@ class ValidationAccumulator:
             self.break_segment()
             start = stop
         feed(meas[start:], pred[start:], None if reg is None else reg[start:])
+
+    def _feed_timed(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, stamps: FloatArray,
+                    breaks: Sequence[int]) -> None:
+        """A chunk with its stamps, once the nominal step is known: a gap breaks the segment."""
+        assert self._stamps is not None
+        keep = self._kept(meas, pred, reg)
+        if keep is None:
+            gaps = self._stamps.add(stamps, meas)
+        else:  # omitted rows' stamps leave the run (a gap, when rows are missing in time)
+            gaps = np.flatnonzero(keep)[self._stamps.add(stamps[keep], meas[keep])]
+        if gaps.size:
+            breaks = sorted(set(breaks).union(int(i) for i in gaps))
+        self._feed_chunk(meas, pred, reg, breaks)
+
+    def _kept(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> BoolArray | None:
+        """The rows ``nan_policy="omit"`` keeps (None: every row is kept)."""
+        if self._settings.nan_policy != "omit":
+            return None
+        keep = cast(BoolArray, v.in_range(meas).all(axis=1) & v.in_range(pred).all(axis=1))  # (c,)
+        if reg is not None:
+            keep &= v.in_range(reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2])).all(axis=1)
+        return keep
+
+    def _settle_when_known(self) -> None:
+        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive."""
+        if self._waiting is None or self._waiting_rows <= SETTLE_STEPS:
+            return
+        stamps = self._first_stamps()
+        if stamps is not None:
+            self._settle(stamps)
+
+    def _first_stamps(self) -> Stamps | None:
+        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
+        ``_timing`` finds in the waiting stamps, and their median step (which counts the steps of
+        the inferred rate); None without a positive step."""
+        assert self._waiting is not None
+        parts = [event[6] for event in self._waiting if event[0] == "rows"]
+        t = np.concatenate(parts) if parts else np.zeros(0)
+        steps = np.diff(t - t[0]) if t.size else t
+        positive = steps[steps > 0]
+        if not positive.size:
+            return None
+        rate = self._settings.sample_rate
+        return Stamps(_timing._nominal_step(t, steps) if rate is None else 1.0 / rate, float(np.median(positive)))
+
+    def _settle(self, stamps: Stamps) -> None:
+        """Classify and sum the waiting updates with the summary ``stamps`` (its nominal step)."""
+        assert self._waiting is not None
+        events, self._waiting, self._waiting_rows = self._waiting, None, 0
+        self._stamps = stamps
+        for event in events:
+            if event[0] == "break":
+                self.break_segment()
+            else:
+                self._feed_timed(*event[1:6])
+
+    def _checked_time(self, time: ArrayLike | None, c: int) -> FloatArray | None:
+        """A chunk's time stamps: given like the chunks before, shape (c,), finite, never
+        decreasing (across chunks too); the errors name the chunk and the row in the stream."""
+        index, cfg = self._chunks, self._settings
+        try:
+            if self._timed is not None and self._timed != (time is not None):
+                had = "time stamps" if self._timed else "none"
+                raise InvalidParameter(f"time must be given with every chunk or with none; the chunks before it "
+                                       f"had {had}")
+            if time is None:
+                if self._timed is None and cfg.bandwidth is not None and cfg.sample_rate is None:
+                    v.check_bandwidth(cfg.bandwidth, None)
+                return None
+            t = v.to_float_array(time, "time")
+            if t.ndim == 2 and 1 in t.shape:
+                t = t.reshape(-1)
+            if t.ndim != 1 or t.shape[0] != c:
+                raise ShapeMismatch(f"time must have one stamp per sample, shape ({c},), got {v.format_shape(t.shape)}")
+            bad = np.flatnonzero(~np.isfinite(t))
+            if bad.size:
+                r = int(bad[0])
+                raise NonFiniteInput(f"time must be finite seconds, got {float(t[r])!r} at row {r} "
+                                     f"(row {self._rows_seen + r} of the stream)")
+            if t.size and self._last_seen is not None and t[0] < self._last_seen:
+                raise InvalidParameter(f"time must never decrease, got {float(t[0])!r} at row 0 after "
+                                       f"{self._last_seen!r}, the last stamp before this chunk (row "
+                                       f"{self._rows_seen} of the stream)")
+            back = np.flatnonzero(np.diff(t) < 0)
+            if back.size:
+                k = int(back[0])
+                raise InvalidParameter(f"time must never decrease, got {float(t[k + 1])!r} at row {k + 1} after "
+                                       f"{float(t[k])!r} at row {k} (row {self._rows_seen + k + 1} of the stream)")
+        except InputError as exc:
+            raise type(exc)(f"chunk {index}: {exc}") from None
+        return t
 
     def break_segment(self) -> None:
         """End the current segment: no lagged product joins the rows before and after this call
@@ -276,6 +423,9 @@ class ValidationAccumulator:
         >>> acc.result().provenance["segments"]
         [3, 2, 2]
         """
+        if self._waiting is not None:
+            self._waiting.append(("break",))
+            return
         self._flush()
         if self._state is None:
             self._break_first = True
@@ -289,6 +439,11 @@ class ValidationAccumulator:
         started, with :meth:`break_segment`. ``other`` is not modified. Both need equal settings
         and the same m (and p). ``(a.merge(b)).merge(c)`` and ``a.merge(b.copy().merge(c))`` give
         the same report.
+
+        With time stamps, both have them or neither, and ``other``'s continue after this one's (its
+        first stamp not before this one's last): the step across the junction counts as one between
+        two chunks (a gap there breaks the segment); each operand's own steps keep the classification
+        of its nominal step (contract §4.1).
 
         Parameters
         ----------
@@ -320,10 +475,23 @@ class ValidationAccumulator:
             raise v.parameter_error("other", "a ValidationAccumulator", type(other).__name__)
         self._check_same_settings(other)
         self._check_same_layout(other)
+        self._check_same_timing(other)
         later = other.copy()
+        self._layout = self._layout or later._layout
+        if self._timed is None and later._timed is not None:  # nothing given here yet: the other's way
+            self._timed = later._timed
+            if later._waiting is not None:
+                self._waiting = []
+        if later._timed and not self._merge_waiting(later):
+            later._flush()
+            self._flush()
+            assert later._stamps is not None
+            if self._stamps is None:
+                self._stamps = later._stamps
+            elif self._stamps.join(later._stamps):
+                self.break_segment()  # a gap at the junction: no lag joins it
         later._flush()
         self._flush()
-        self._layout = self._layout or later._layout
         if later._state is None:
             if later._break_first:
                 self.break_segment()
@@ -336,6 +504,38 @@ class ValidationAccumulator:
         self._rows_seen += other._rows_seen
         self._omitted += other._omitted
         return self
+
+    def _merge_waiting(self, later: ValidationAccumulator) -> bool:
+        """The time stamps of a merge: True when both still wait for their nominal step (``later``'s
+        updates then simply queue after this one's); else both are settled, one on the other's
+        nominal step when it waits."""
+        if self._last_seen is not None and later._first_seen is not None and later._first_seen < self._last_seen:
+            raise InvalidParameter(f"other's time stamps must continue after this one's, got its first stamp "
+                                   f"{later._first_seen!r} before this one's last stamp {self._last_seen!r}")
+        self._first_seen = later._first_seen if self._first_seen is None else self._first_seen
+        self._last_seen = later._last_seen if later._last_seen is not None else self._last_seen
+        if self._waiting is not None and later._waiting is not None:
+            if later._break_first:
+                self._waiting.append(("break",))
+                later._break_first = False
+            self._waiting.extend(later._waiting)
+            self._waiting_rows += later._waiting_rows
+            self._settle_when_known()
+            return True
+        if self._waiting is not None:
+            assert later._stamps is not None
+            self._settle(Stamps(later._stamps.nominal, later._stamps.median))
+        elif later._waiting is not None:
+            assert self._stamps is not None
+            later._settle(Stamps(self._stamps.nominal, self._stamps.median))
+        return False
+
+    def _check_same_timing(self, other: ValidationAccumulator) -> None:
+        if self._timed is not None and other._timed is not None and self._timed != other._timed:
+            def said(timed: bool) -> str:
+                return "with time stamps" if timed else "without time stamps"
+            raise InvalidParameter(f"other must be updated {said(self._timed)} like this one, got other updated "
+                                   f"{said(other._timed)}")
 
     def copy(self) -> ValidationAccumulator:
         """An independent copy (merge trees that reuse a partial result need one)."""
@@ -366,13 +566,32 @@ class ValidationAccumulator:
             ...
         dynval._errors.TooFewSamples: ValidationAccumulator.result needs at least 2 samples, got N=0
         """
-        self._flush()
-        n = 0 if self._state is None else self._state.n
+        n = self.n_samples
         v.check_min_samples("ValidationAccumulator.result", n, 2)
-        st, cfg = self._state, self._settings
-        assert st is not None  # check_min_samples refused an empty stream
-        v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, st.layout.m), cfg.allow_wide)
-        return _report(st.snapshot(), cfg, self._omitted)
+        assert self._layout is not None  # check_min_samples refused an empty stream
+        cfg = self._settings
+        v.check_orientation("ValidationAccumulator.result", "tau_meas", (n, self._layout.m), cfg.allow_wide)
+        acc = self
+        if self._timed:
+            first, last = self._first_seen, self._last_seen
+            if not (first is not None and last is not None and last > first):
+                raise InvalidParameter(f"time must advance, got every stamp equal to {self._first_seen!r}")
+            if self._waiting is not None:  # fewer stamps than SETTLE_STEPS: settle a copy on those there are
+                acc = self.copy()
+                stamps = acc._first_stamps()
+                if stamps is None:
+                    raise InvalidParameter("time must advance, got every stamp of the rows kept (nan_policy="
+                                           "'omit') equal")
+                acc._settle(stamps)
+        acc._flush()
+        st = acc._state
+        assert st is not None
+        timing = None
+        if acc._stamps is not None:
+            timing = acc._stamps.timing(cfg.sample_rate)
+        elif cfg.bandwidth is not None and cfg.sample_rate is None:
+            v.check_bandwidth(cfg.bandwidth, None)
+        return _report(st.snapshot(), cfg, acc._omitted, timing)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -446,9 +665,8 @@ class ValidationAccumulator:
 
     def _feed_omitting(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         """``nan_policy="omit"``: delete bad rows; a break where rows were deleted (contract §1.2)."""
-        keep = cast(BoolArray, v.in_range(meas).all(axis=1) & v.in_range(pred).all(axis=1))  # (c,)
-        if reg is not None:
-            keep &= v.in_range(reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2])).all(axis=1)
+        keep = self._kept(meas, pred, reg)
+        assert keep is not None  # nan_policy="omit"
         self._omitted += int(keep.size - keep.sum())
         edges = np.flatnonzero(np.diff(np.concatenate(([0], keep.astype(np.int8), [0]))))
         for a, b in zip(edges[0::2], edges[1::2]):  # runs of kept rows [a, b)
@@ -753,8 +971,10 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
-def _report(st: State | _Snapshot, cfg: _Settings, omitted: int) -> ValidationReport:
+def _report(st: State | _Snapshot, cfg: _Settings, omitted: int,
+            timing: _timing.Timing | None = None) -> ValidationReport:
     prof = cfg.profile
+    sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
     longest = max(st.lengths)
     max_lag = prof.default_max_lag(n, longest) if cfg.max_lag is None else v.check_max_lag(cfg.max_lag, longest)
@@ -776,26 +996,29 @@ def _report(st: State | _Snapshot, cfg: _Settings, omitted: int) -> ValidationRe
         acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
         if lb_lags:
             lb = sec.ljung_box(kernel, None, lb_lags, starts)
-            white = sec.whiteness(kernel, None, None, starts, lb, None, cfg.sample_rate)
+            white = sec.whiteness(kernel, None, None, starts, lb, None, sample_rate, bandwidth=cfg.bandwidth)
     cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
     joint_names = list(cfg.joint_names) if cfg.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
     column_names = list(cfg.column_names) if cfg.column_names is not None else None
-    provenance = _provenance(cfg, n, m, p, max_lag, lb_lags, st.lengths, omitted, joint_names, column_names)
+    provenance = _provenance(cfg, n, m, p, max_lag, lb_lags, st.lengths, omitted, joint_names, column_names,
+                             sample_rate, timing)
+    timing_dict = None if timing is None else timing.to_dict()
     ev = sec.evidence(n=n, m=m, level=cfg.level, names=joint_names, per_joint=per_joint, pooled=pooled,
                       constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
                       force=prof.constant_target == "force_finite", bias=None, white=white, spec=None,
                       xcorr_rho=None, xcorr_sd=None, xcorr_mask=None, design=None, column_names=column_names,
-                      acf=acf)
+                      acf=acf, sample_rate=sample_rate, timing=timing_dict, bandwidth=cfg.bandwidth)
     found = compute_findings(ev, cfg.thresholds)
     return ValidationReport(
         provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
         autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
         warnings_text=[f.message for f in found], findings=found, bias=None, whiteness=white, spectrum=None,
-        design=None, segment_metrics=None)
+        design=None, segment_metrics=None, timing=timing_dict)
 
 
 def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: Sequence[int], lengths: Sequence[int],
-                omitted: int, joint_names: list[str], column_names: list[str] | None) -> dict[str, Any]:
+                omitted: int, joint_names: list[str], column_names: list[str] | None, sample_rate: float | None = None,
+                timing: _timing.Timing | None = None) -> dict[str, Any]:
     """``validate``'s provenance (contract §4), with ``streaming`` set and what it leaves out marked."""
     prof = cfg.profile
     return {
@@ -804,6 +1027,10 @@ def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: S
             **prof.conventions(),
             "noise_model": cfg.noise_model,
             "max_lag": int(max_lag),
+            "max_lag_seconds": None if sample_rate is None else float(max_lag / sample_rate),
+            "max_lag_source": "given" if cfg.max_lag is not None else f"profile {prof.name!r}",
+            "time_grid": None if timing is None else timing.grid,
+            "bandwidth": cfg.bandwidth,
             "level": cfg.level,
             "ljung_box_lags": list(lb_lags),
             "model_df": 0,
@@ -818,7 +1045,7 @@ def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: S
             "decimate": None,
         },
         "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
-                  "torque": "as given", "frequency": "Hz" if cfg.sample_rate else "cycles/sample"},
+                  "torque": "as given", "frequency": "Hz" if sample_rate else "cycles/sample"},
         "n_samples": int(n),
         "n_joints": int(m),
         "n_params": int(cfg.n_params),
@@ -829,7 +1056,7 @@ def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: S
         "joint_names": joint_names,
         "column_names": column_names,
         "model_columns": None,
-        "sample_rate": cfg.sample_rate,
+        "sample_rate": sample_rate,
         "thresholds": dict(vars(cfg.thresholds)) if hasattr(cfg.thresholds, "__dict__") else None,
         "backend": cfg.backend,
         "streaming": True,
