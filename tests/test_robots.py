@@ -237,3 +237,16 @@ def test_kuka_urdfs_load_and_predict_the_logged_torques():
     assert not any(n.startswith("lwr_1_link:") and not n.startswith("lwr_1_link:Izz") for n in
                    (res.column_names[c] for c in res.base_columns))
     assert 40 <= res.rank <= 50
+
+
+def test_input_bandwidth_is_the_narrowest_band_of_q_dq_ddq():
+    """``validate(bandwidth=)`` takes the band where all three inputs are trustworthy."""
+    from dynval.robots import differentiate
+
+    t = np.arange(2000) / 200.0
+    for kw in ({}, {"window": 0.505}, {"method": "butterworth", "cutoff": 20.0}):
+        d = differentiate(np.sin(t)[:, None], 200.0, **kw)
+        bands = (d.bandwidth_hz, *d.derivative_bandwidth_hz)
+        assert d.input_bandwidth_hz == min(bands) < max(bands)
+    d = differentiate(np.sin(t)[:, None], 200.0, window=0.505)
+    assert d.input_bandwidth_hz == pytest.approx(2.47, abs=0.01)   # the 101-sample window of a real log

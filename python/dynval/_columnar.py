@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ._files import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _open_regular
+from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _open_regular
 
 __all__ = ["Columnar", "HDF5_SUFFIXES", "PARQUET_SUFFIXES", "hdf5_dataset", "parquet_table"]
 

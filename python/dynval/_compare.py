@@ -28,7 +28,8 @@ import numpy as np
 
 from . import _validation as v
 from ._findings import Finding
-from ._report import ValidationReport, to_jsonable, validate
+from ._json import to_jsonable
+from ._report import ValidationReport, validate
 from ._text import number_text, versus
 from ._typing import ArrayLike, FloatArray, Integer
 

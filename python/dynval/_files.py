@@ -14,7 +14,6 @@ import array
 import csv
 import math
 import os
-import stat
 import struct
 import zipfile
 import zlib
@@ -22,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import InputError
+from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _open_regular
 
 __all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
 
@@ -38,19 +37,7 @@ _SHOWN_CHARS = 40
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")  # an archive with members, an empty archive
 _DELIMITERS = ("\t", ";", ",")
-# Parquet and HDF5 (dynval._columnar), optional extras
-PARQUET_SUFFIXES = (".parquet", ".pq")
-HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 _COLUMNAR_SUFFIXES = PARQUET_SUFFIXES + HDF5_SUFFIXES
-
-
-class FileInputError(InputError):
-    """A data file cannot be read as a numeric array (the command line exits with code 1).
-
-    Not one of the contract's language-neutral kinds: only this reader raises it.
-    """
-
-    kind = "InvalidFile"
 
 
 @dataclass(frozen=True)
@@ -201,54 +188,6 @@ def read_column(spec: str) -> tuple[Table, int]:
 
 
 # --------------------------------------------------------------------------- opening
-
-
-def _describe_mode(mode: int) -> str:
-    if stat.S_ISDIR(mode):
-        return "a directory"
-    if stat.S_ISFIFO(mode):
-        return "a FIFO (named pipe)"
-    if stat.S_ISCHR(mode):
-        return "a character device"
-    if stat.S_ISBLK(mode):
-        return "a block device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
-
-
-def _not_regular(path: str, mode: int) -> FileInputError:
-    return FileInputError(f"{path}: is not a regular file ({_describe_mode(mode)}); "
-                          "dynval reads only regular files")
-
-
-def _open_regular(path: str):
-    """Open ``path`` for binary reading if it is a regular file; returns (file, size).
-
-    ``stat`` first, so that a FIFO or a device is refused without opening it; then open without
-    blocking (opening a FIFO waits for a writer) and check the opened file again, in case the
-    path changed in between.
-    """
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise FileInputError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    if not stat.S_ISREG(mode):
-        raise _not_regular(path, mode)
-    nonblock = getattr(os, "O_NONBLOCK", 0)
-    try:
-        fd = os.open(path, os.O_RDONLY | nonblock | getattr(os, "O_BINARY", 0))
-    except OSError as exc:
-        raise FileInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        os.close(fd)
-        raise _not_regular(path, info.st_mode)
-    if nonblock:
-        os.set_blocking(fd, True)
-    return os.fdopen(fd, "rb"), info.st_size
 
 
 def _content_hint(head: bytes) -> str:

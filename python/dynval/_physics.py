@@ -75,7 +75,7 @@ def derivatives(q, sample_rate, dq=None, ddq=None) -> Derivatives:
     """q̇ and q̈ as given, or by zero-phase Savitzky–Golay differentiation of q (0.1 s window)."""
     if dq is not None and ddq is not None:
         return Derivatives(np.asarray(dq, float), np.asarray(ddq, float), "given", None)
-    from .robots import differentiate
+    from ._derivatives import differentiate
 
     fs = 1.0 if sample_rate is None else float(sample_rate)
     n = q.shape[0]

@@ -25,14 +25,13 @@ from typing import BinaryIO
 
 import numpy as np
 
+from ._fileopen import PARQUET_SUFFIXES, _open_regular
 from ._files import (
     _COLUMNAR_SUFFIXES,
     _NPY_MAGIC,
-    PARQUET_SUFFIXES,
     FileInputError,
     _content_hint,
     _csv_blocks,
-    _open_regular,
     _read_exact,
     _read_npy_header,
     _split_key,

@@ -23,6 +23,7 @@ from . import _validation as v
 from ._blas import one_blas_thread
 from ._errors import InputError, ShapeMismatch
 from ._findings import Finding, Thresholds, compute_findings, resolve_thresholds
+from ._json import to_jsonable
 from ._profiles import Profile, get_profile
 from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
 from ._summary import format_summary
@@ -45,40 +46,6 @@ from ._version import CONTRACT_VERSION, __version__
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
 REPORT_SCHEMA_VERSION = 1
-
-
-# --------------------------------------------------------------------------- JSON
-
-
-def to_jsonable(value: Any) -> Any:
-    """Convert a report value to plain JSON types.
-
-    Arrays become nested lists, numpy scalars Python scalars, tuples lists, and non-finite
-    floats the strings ``"NaN"``, ``"Infinity"`` and ``"-Infinity"`` (contract §4).
-
-    Examples
-    --------
-    >>> to_jsonable({"a": np.array([1.0, np.nan, -np.inf]), "b": (np.int64(2), True)})
-    {'a': [1.0, 'NaN', '-Infinity'], 'b': [2, True]}
-    """
-    if isinstance(value, dict):
-        return {str(k): to_jsonable(x) for k, x in value.items()}
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(x) for x in value]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        x = float(value)
-        if math.isnan(x):
-            return "NaN"
-        if math.isinf(x):
-            return "Infinity" if x > 0 else "-Infinity"
-        return x
-    return value
 
 
 # --------------------------------------------------------------------------- the report

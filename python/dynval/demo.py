@@ -98,7 +98,7 @@ class DemoResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary: the scenario, every identification and report, the comparison."""
-        from ._report import to_jsonable
+        from ._json import to_jsonable
 
         d = self.data
         out = {

@@ -209,7 +209,7 @@ def _provenance_html(report) -> str:
 
 def _jsonable(x):
     try:
-        from ._report import to_jsonable
+        from ._json import to_jsonable
 
         return to_jsonable(x)
     except ImportError:  # pragma: no cover

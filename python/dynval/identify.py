@@ -155,7 +155,7 @@ class IdentificationResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
-        from ._report import to_jsonable
+        from ._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable({
             "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|",

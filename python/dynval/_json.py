@@ -1,0 +1,41 @@
+"""Report values as plain JSON types (contract §4): the one converter every writer uses."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+__all__ = ["to_jsonable"]
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert a report value to plain JSON types.
+
+    Arrays become nested lists, numpy scalars Python scalars, tuples lists, and non-finite
+    floats the strings ``"NaN"``, ``"Infinity"`` and ``"-Infinity"`` (contract §4).
+
+    Examples
+    --------
+    >>> to_jsonable({"a": np.array([1.0, np.nan, -np.inf]), "b": (np.int64(2), True)})
+    {'a': [1.0, 'NaN', '-Infinity'], 'b': [2, True]}
+    """
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(x) for k, x in value.items()}
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(x) for x in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        if math.isnan(x):
+            return "NaN"
+        if math.isinf(x):
+            return "Infinity" if x > 0 else "-Infinity"
+        return x
+    return value
