@@ -335,15 +335,34 @@ def holm_family(ev: Evidence) -> dict[str, Any]:
 
 def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list[Finding]:
     """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first."""
-    th = thresholds or Thresholds()
-    alpha = 1.0 - ev.level
-    fam = holm_family(ev)
-    names = ev.joint_names
-    cols = ev.column_names
-    m = len(ev.r2)
+    r = _Rules(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev))
     out: list[Finding] = []
-    deficient_joints: set[int] = set()
+    for rule in _RULES:
+        out.extend(rule(r))
+    order = {s: i for i, s in enumerate(SEVERITIES)}
+    out.sort(key=lambda f: order[f.severity])
+    return out
 
+
+@dataclass
+class _Rules:
+    """What every rule reads, and what earlier rules found: rules run in the order of ``_RULES``
+    (a joint's whiteness is a deficiency only when an earlier rule found that joint deficient, and
+    the correlations of a joint whose missing term was named are not repeated)."""
+
+    ev: Evidence
+    th: Thresholds
+    alpha: float
+    fam: dict[str, Any]
+    deficient: set[int] = field(default_factory=set)
+    missing: set[int] = field(default_factory=set)
+
+
+def _data_notes(r: _Rules) -> list[Finding]:
+    """Notes on the data themselves: time stamps, omitted rows, constant joints."""
+    ev = r.ev
+    names = r.ev.joint_names
+    out: list[Finding] = []
     out.extend(_timing_findings(ev))
     if ev.omitted_rows:
         out.append(Finding(kind="omitted_rows", severity="note", effect=float(ev.omitted_rows),
@@ -358,7 +377,18 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                            action="validate this joint on a trajectory that moves it",
                            message=f"{_name(names, j)}: the measured torque is constant, so R², fit and VAF "
                                    f"compare against nothing (reported as {how})."))
+    return out
 
+
+def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
+    """A joint predicted worse than its mean torque (no test: the effect is the decision), and the
+    joints the pooled R² hides."""
+    ev = r.ev
+    names = r.ev.joint_names
+    m = len(r.ev.r2)
+    deficient_joints = r.deficient
+    constant = np.asarray(r.ev.constant_target, dtype=bool)
+    out: list[Finding] = []
     # ---- worse than a constant: no test needed, the effect is the decision
     r2 = np.asarray(ev.r2, dtype=float)
     for j in range(m):
@@ -382,7 +412,20 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                                    threshold=0.05, action="read the per-joint values",
                                    message=f"{_name(names, j)}: R² = {r2[j]:.3f}, well below the pooled "
                                            f"{ev.pooled_r2:.3f}, which the larger torques of other joints dominate."))
+    return out
 
+
+def _bias_rule(r: _Rules) -> list[Finding]:
+    """A residual mean beyond its coloured-noise standard error, and the missing term it comes from."""
+    ev = r.ev
+    th = r.th
+    alpha = r.alpha
+    fam = r.fam
+    names = r.ev.joint_names
+    cols = r.ev.column_names
+    m = len(r.ev.r2)
+    deficient_joints = r.deficient
+    out: list[Finding] = []
     # ---- bias
     if "bias" in fam:
         p, padj = fam["bias"]
@@ -417,9 +460,21 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          + ((": a systematic bias, e.g. a missing offset, friction or gravity term"
                              + (f"; the missing term {_col(cols, culprit[0])} accounts for it." if culprit else "."))
                             if big else f": significant but negligible (below {bias_pct[1]} % of the RMSE)."))))
+    return out
 
+
+def _missing_term_rule(r: _Rules) -> list[Finding]:
+    """A column the model lacks: the residual against the part of it the model cannot represent."""
+    ev = r.ev
+    th = r.th
+    alpha = r.alpha
+    fam = r.fam
+    names = r.ev.joint_names
+    cols = r.ev.column_names
+    deficient_joints = r.deficient
+    out: list[Finding] = []
     # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
-    missing_joints: set[int] = set()
+    missing_joints = r.missing
     if "missing" in fam:
         p, padj = fam["missing"]
         stat = np.asarray(ev.missing_statistic, dtype=float)
@@ -464,7 +519,20 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                 message=(f"{_name(names, j)}: a term the model lacks explains part of the residual: {listed}; "
                          f"{how} (Holm-adjusted p {_p_text(at(padj, j, k))})"
                          + (": a missing term." if big else ": significant but negligible."))))
+    return out
 
+
+def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
+    """The residual correlating with a regressor column beyond both series' colour."""
+    ev = r.ev
+    th = r.th
+    alpha = r.alpha
+    fam = r.fam
+    names = r.ev.joint_names
+    cols = r.ev.column_names
+    deficient_joints = r.deficient
+    missing_joints = r.missing
+    out: list[Finding] = []
     # ---- regressor correlation
     if "xcorr" in fam:
         p, padj = fam["xcorr"]
@@ -511,7 +579,18 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          + (": the model does not use the information in this column (a missing or "
                             "mis-weighted term)." if big
                             else f": significant but negligible (|ρ| below {versus(best, th_rho)[1]})."))))
+    return out
 
+
+def _oscillation_rule(r: _Rules) -> list[Finding]:
+    """A spectral peak standing above the smooth background (a mode), or above the inputs' bandwidth."""
+    ev = r.ev
+    th = r.th
+    alpha = r.alpha
+    fam = r.fam
+    names = r.ev.joint_names
+    deficient_joints = r.deficient
+    out: list[Finding] = []
     # ---- oscillation: a spectral peak standing above the smooth background
     if "spectrum" in fam:
         p, padj = fam["spectrum"]
@@ -544,11 +623,25 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          f"Holm-adjusted p {_p_text(padj[b, j])})"
                          + (": unmodelled dynamics, e.g. joint flexibility (the lesson's Problem 5)." if big
                             else ": significant but negligible."))))
+    return out
 
-    motion, motion_joints = _motion_findings(ev, fam, th, alpha)
-    out.extend(motion)
-    deficient_joints |= motion_joints
 
+def _motion_rule(r: _Rules) -> list[Finding]:
+    """The rules that read the motion: missing physics, delay, predictive failure, periodic error."""
+    found, joints = _motion_findings(r.ev, r.fam, r.th, r.alpha)
+    r.deficient |= joints
+    return found
+
+
+def _whiteness_rule(r: _Rules) -> list[Finding]:
+    """Whiteness at the information rate: a deficiency only on a joint an earlier rule found deficient."""
+    ev = r.ev
+    alpha = r.alpha
+    fam = r.fam
+    names = r.ev.joint_names
+    m = len(r.ev.r2)
+    deficient_joints = r.deficient
+    out: list[Finding] = []
     # ---- whiteness and sampling colour
     if "whiteness" in fam:
         _, padj = fam["whiteness"]
@@ -590,15 +683,18 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list
                          + (", and the findings above show the structure is the model's." if backed
                             else "; colour alone is not evidence against the model (sensor filtering, "
                                  "oversampling and estimation error colour residuals too)."))))
-
-    # ---- validation design
-    out.extend(_repeat_findings(ev, th))
-    out.extend(_excitation_findings(ev, th))
-    out.extend(_design_findings(ev, th, deficient_joints))
-    out.extend(ev.extra_notes)
-    order = {s: i for i, s in enumerate(SEVERITIES)}
-    out.sort(key=lambda f: order[f.severity])
     return out
+
+
+def _validation_design_rule(r: _Rules) -> list[Finding]:
+    """The validation run's design: repeat, excitation, information."""
+    return [*_repeat_findings(r.ev, r.th), *_excitation_findings(r.ev, r.th),
+            *_design_findings(r.ev, r.th, r.deficient), *r.ev.extra_notes]
+
+
+_RULES = (_data_notes, _worse_than_constant_rule, _bias_rule, _missing_term_rule, _regressor_correlation_rule,
+          _oscillation_rule, _motion_rule, _whiteness_rule, _validation_design_rule)
+"""The rules, in the order they run."""
 
 
 def _lag_text(lag: int, sample_rate: float | None) -> str:
