@@ -310,6 +310,10 @@ class _Options:
     thresholds: Thresholds
     detail: str
     model_columns: list[int] | None
+    # chosen after the checks, from the prediction
+    band: float | None = None
+    lag_source: str = ""
+    white_lag: int | None = None
 
 
 def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int, p_cols: int | None,
@@ -502,115 +506,193 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     array([1., 1.])
     """
     seg_names, segments = v.named_segments(segments)
-    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = _prepare(
-        tau_meas, tau_pred, regressor, n_joints, segments, nan_policy, allow_wide)
-    n, m = meas.shape
     args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
                 time=time, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names,
                 q=q, dq=dq, ddq=ddq,
                 estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
                 model_columns=model_columns, allow_wide=allow_wide)
+    d, o = _checked(tau_meas, tau_pred, regressor, args)
+    b = _Build()
+    _residual_sections(d, o, b)
+    _lag_sections(d, o, b)
+    _regressor_sections(d, o, b)
+    _motion_sections(d, o, b)
+    if seg_names is not None:
+        b.segment_metrics = sec.segment_metrics(
+            o.kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
+            v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"), seg_names, segments, o.n_params,
+            o.prof)
+    return _assemble(d, o, b, seg_names, nan_policy)
+
+
+@dataclass
+class _Data:
+    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D)."""
+
+    meas: FloatArray
+    pred: FloatArray
+    e: FloatArray | None
+    reg2: FloatArray | None
+    reg3: FloatArray | None
+    p_cols: int | None
+    omitted: int
+
+    @property
+    def n(self) -> int:
+        return int(self.meas.shape[0])
+
+    @property
+    def m(self) -> int:
+        return int(self.meas.shape[1])
+
+
+@dataclass
+class _Build:
+    """The report's sections as they are computed, phase by phase."""
+
+    km: dict[str, Any] = field(default_factory=dict)
+    per_joint: dict[str, Any] = field(default_factory=dict)
+    pooled: dict[str, Any] = field(default_factory=dict)
+    aggregates: dict[str, Any] = field(default_factory=dict)
+    residuals: dict[str, Any] = field(default_factory=dict)
+    est_fit: Any = None
+    bias: dict[str, Any] | None = None
+    n_eff: Any = None
+    ic: dict[str, Any] = field(default_factory=dict)
+    grams: Any = None
+    acf: dict[str, Any] | None = None
+    lb: dict[str, Any] | None = None
+    lb_lags: list[int] = field(default_factory=list)
+    white: dict[str, Any] | None = None
+    spec: dict[str, Any] | None = None
+    cross: dict[str, Any] | None = None
+    xrho: Any = None
+    xsd: Any = None
+    missing: dict[str, Any] | None = None
+    design: dict[str, Any] | None = None
+    physics: dict[str, Any] | None = None
+    predictive: dict[str, Any] | None = None
+    periodic: dict[str, Any] | None = None
+    segment_metrics: dict[str, Any] | None = None
+
+
+def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
+             args: dict[str, Any]) -> tuple[_Data, _Options]:
+    """The data checks, then the parameters in the contract's order (a non-finite value still wins
+    over a bad parameter), then the largest lag: with a rate, the motion's time scale."""
+    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = _prepare(
+        tau_meas, tau_pred, regressor, args["n_joints"], args["segments"], args["nan_policy"], args["allow_wide"])
+    n, m = meas.shape
     try:
         o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
             v.to_float_array(tau_meas, "tau_meas"), "tau_meas")), kept_rows, meas)
     except InputError:
-        # A non-finite value still wins over a bad parameter (contract §2.1).
         check_data_finite(meas, pred, reg2, p_cols)
         raise
-    prof, kernel, starts = o.prof, o.kernel, o.starts
-    band = _motion_band(pred, starts, o)
-    lag_source = "given" if o.max_lag_given else f"profile {prof.name!r}"
-    white_lag = None  # the decimated whiteness test keeps the profile's count of lags
-    if not o.max_lag_given and o.max_lag > 0 and band is not None:
-        white_lag = (prof.ljung_box_lags(n, o.max_lag, o.longest) or [None])[0]
-        o.max_lag, lag_source = _motion_max_lag(band, o, n), "motion: one period of the information band's edge"
-
-    km = kernel.compute_metrics(meas, pred, o.n_params, prof.ddof, o.noise_model)
-    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
-    lagged = o.max_lag > 0
-    e = np.ascontiguousarray(meas - pred) if lagged or reg2 is not None else None
+    o.band = _motion_band(pred, o.starts, o)
+    o.lag_source = "given" if o.max_lag_given else f"profile {o.prof.name!r}"
+    if not o.max_lag_given and o.max_lag > 0 and o.band is not None:
+        # the decimated whiteness test keeps the profile's count of lags
+        o.white_lag = (o.prof.ljung_box_lags(n, o.max_lag, o.longest) or [None])[0]
+        o.max_lag, o.lag_source = _motion_max_lag(o.band, o, n), "motion: one period of the information band's edge"
+    e = np.ascontiguousarray(meas - pred) if o.max_lag > 0 or reg2 is not None else None
     reg3 = None if reg2 is None or p_cols is None else reg2.reshape(n, m, p_cols)
+    return _Data(meas, pred, e, reg2, reg3, p_cols, omitted), o
 
-    # ---- residual statistics, and the bias evidence (coloured-noise standard error)
+
+def _residual_sections(d: _Data, o: _Options, b: _Build) -> None:
+    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
     from . import zero_mean_test
 
-    zmt = (_as_dict(zero_mean_test(e, segments=starts, backend=o.backend_name)) if lagged and e is not None
-           else sec.iid_zero_mean_test(km, n, prof.ddof))
-    residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
-                 "variance": np.asarray(km["residual_variance"], dtype=np.float64),
-                 "ddof": prof.ddof, "zero_mean_test": zmt}
+    prof = o.prof
+    b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
+    b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
+    lagged = o.max_lag > 0
+    zmt = (_as_dict(zero_mean_test(d.e, segments=o.starts, backend=o.backend_name)) if lagged and d.e is not None
+           else sec.iid_zero_mean_test(b.km, d.n, prof.ddof))
+    b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
+                   "variance": np.asarray(b.km["residual_variance"], dtype=np.float64),
+                   "ddof": prof.ddof, "zero_mean_test": zmt}
     # The estimation run, when given with its torques: the parameters' coloured-noise covariance
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
-    est_fit = None
     est = o.estimation or {}
-    if reg3 is not None and p_cols is not None and e is not None and "regressor" in est and "tau" in est:
-        est_fit = _estimation.fit_columns(est["regressor"], est["tau"],
-                                          o.model_columns if o.model_columns is not None else range(p_cols))
+    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
+        b.est_fit = _estimation.fit_columns(est["regressor"], est["tau"],
+                                            o.model_columns if o.model_columns is not None else range(d.p_cols))
     param_var = None
-    if est_fit is not None and reg3 is not None:
-        param_var = _estimation.quadratic_forms(est_fit, reg3[:, :, list(est_fit.columns)].mean(axis=0))
-    bias = sec.bias_test(e, starts, per_joint["rmse"], param_var) if lagged else None
-    n_eff = None if bias is None else bias["n_eff"]
-    ic = sec.information_criteria(km, prof, o.noise_model, n, m, o.n_params, n_eff)
-
+    if b.est_fit is not None and d.reg3 is not None:
+        param_var = _estimation.quadratic_forms(b.est_fit, d.reg3[:, :, list(b.est_fit.columns)].mean(axis=0))
+    b.bias = sec.bias_test(d.e, o.starts, b.per_joint["rmse"], param_var) if lagged else None
+    b.n_eff = None if b.bias is None else b.bias["n_eff"]
+    b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
-    grams = sec.JointGrams(reg3) if reg3 is not None else None
+    b.grams = sec.JointGrams(d.reg3) if d.reg3 is not None else None
 
-    # ---- lag analysis: ACF, Ljung–Box, whiteness at the information rate, spectrum
-    acf = lb = white = spec = None
-    lb_lags = prof.ljung_box_lags(n, o.max_lag, o.longest)
-    if lagged:
-        acf = sec.autocorrelation(kernel, e, o.max_lag, prof, o.level, starts, n)
-        if lb_lags:
-            lb = sec.ljung_box(kernel, e, lb_lags, starts)
-            white = sec.whiteness(kernel, e, pred, starts, lb, o.decimate, o.sample_rate, band=band,
-                                  bandwidth=o.bandwidth, lag=white_lag)
-        spec = sec.spectrum(e, starts, reg3, o.sample_rate, grams)
 
-    cross = xrho = xsd = missing = None
-    if reg2 is not None:
-        cross, xrho, xsd = sec.cross_correlation(kernel, e, reg2, p_cols, o.max_lag, prof, o.level, starts, n, m,
-                                                 n_eff, o.detail)
-        if est_fit is not None:
-            xsd = sec.parameter_error_sd(xrho, xsd, e, reg3, est_fit, starts, prof, o.level)
-            cross["parameter_error"] = True
-        if o.model_columns is not None and e is not None:
-            if est_fit is not None:
-                missing = _estimation.missing_terms(est["regressor"], est["tau"], reg3, meas, o.model_columns)
-            else:
-                missing = sec.added_variable(e, reg3, o.model_columns, starts, n_eff)
-            if missing is not None:
-                cross["missing_terms"] = {k: v for k, v in missing.items()}
-    design = sec.design(reg3, o.q, o.estimation, meas, o.thresholds, grams, sample_rate=o.sample_rate)
-    phys = pred_test = periodic = None
-    if o.q is not None and e is not None and not omitted:
-        phys = _motion.physics(e, pred, o.q, o.dq, o.ddq, o.sample_rate, reg3, o.model_columns, est_fit, o.level,
-                               o.estimation, meas)
-        phys["delay"] = _motion.delay(meas, pred, o.sample_rate)
-        periodic = _motion.periodic(e, o.q, o.sample_rate, None if white is None else white["information_band"],
-                                    est_fit, reg3, o.model_columns)
-    if est_fit is not None and n_eff is not None:
-        pred_test = _motion.predictive(e, est_fit, reg3, n_eff)
-    design = _motion_design(design, o, phys, m)
-    seg_metrics = (sec.segment_metrics(kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
-                                       v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"),
-                                       seg_names, segments, o.n_params, prof)
-                   if seg_names is not None else None)
+def _lag_sections(d: _Data, o: _Options, b: _Build) -> None:
+    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
+    b.lb_lags = o.prof.ljung_box_lags(d.n, o.max_lag, o.longest)
+    if o.max_lag <= 0:
+        return
+    b.acf = sec.autocorrelation(o.kernel, d.e, o.max_lag, o.prof, o.level, o.starts, d.n)
+    if b.lb_lags:
+        b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, o.starts)
+        b.white = sec.whiteness(o.kernel, d.e, d.pred, o.starts, b.lb, o.decimate, o.sample_rate, band=o.band,
+                                bandwidth=o.bandwidth, lag=o.white_lag)
+    b.spec = sec.spectrum(d.e, o.starts, d.reg3, o.sample_rate, b.grams)
 
-    lengths = segment_lengths(starts, n)
-    provenance = {
+
+def _regressor_sections(d: _Data, o: _Options, b: _Build) -> None:
+    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
+    if d.reg2 is None:
+        return
+    b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, o.max_lag, o.prof, o.level,
+                                                   o.starts, d.n, d.m, b.n_eff, o.detail)
+    if b.est_fit is not None:
+        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, o.starts, o.prof, o.level)
+        b.cross["parameter_error"] = True
+    if o.model_columns is not None and d.e is not None:
+        est = o.estimation or {}
+        if b.est_fit is not None:
+            b.missing = _estimation.missing_terms(est["regressor"], est["tau"], d.reg3, d.meas, o.model_columns)
+        else:
+            b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, o.starts, b.n_eff)
+        if b.missing is not None:
+            b.cross["missing_terms"] = dict(b.missing)
+
+
+def _motion_sections(d: _Data, o: _Options, b: _Build) -> None:
+    """The validation design, and what the motion says: physics library, delay, periodic noise,
+    predictive test, each joint's motion and the smallest detectable effect."""
+    b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate)
+    if o.q is not None and d.e is not None and not d.omitted:
+        b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
+                                    b.est_fit, o.level, o.estimation, d.meas)
+        b.physics["delay"] = _motion.delay(d.meas, d.pred, o.sample_rate)
+        band = None if b.white is None else b.white["information_band"]
+        b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
+    if b.est_fit is not None and b.n_eff is not None:
+        b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff)
+    b.design = _motion_design(b.design, o, b.physics, d.m)
+
+
+def _provenance(d: _Data, o: _Options, b: _Build, seg_names: list[str] | None, nan_policy: str) -> dict[str, Any]:
+    """What the report was computed from and with: every convention, unit, size and version."""
+    prof = o.prof
+    crossed = b.cross is not None
+    return {
         "profile": prof.name,
         "conventions": {
             **prof.conventions(),
             "noise_model": o.noise_model,
             "max_lag": int(o.max_lag),
             "max_lag_seconds": None if o.sample_rate is None else float(o.max_lag / o.sample_rate),
-            "max_lag_source": lag_source,
+            "max_lag_source": o.lag_source,
             "time_grid": None if o.timing is None else o.timing.grid,
             "bandwidth": o.bandwidth,
             "level": o.level,
-            "ljung_box_lags": list(lb_lags),
+            "ljung_box_lags": list(b.lb_lags),
             "model_df": 0,
             "nan_policy": nan_policy,
             "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
@@ -618,19 +700,19 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
             "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
             "bias_test": "Student t with N_eff from the Andrews-Monahan prewhitened Bartlett long-run variance",
             "multiple_testing": "Holm over every test of the report",
-            "cross_correlation_band": "white" if cross is not None else None,
-            "cross_correlation_findings": "Bartlett variance for two coloured series" if cross is not None else None,
+            "cross_correlation_band": "white" if crossed else None,
+            "cross_correlation_findings": "Bartlett variance for two coloured series" if crossed else None,
             "decimate": o.decimate,
         },
         "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
                   "torque": "as given", "frequency": "Hz" if o.sample_rate else "cycles/sample"},
-        "n_samples": int(n),
-        "n_joints": int(m),
+        "n_samples": d.n,
+        "n_joints": d.m,
         "n_params": int(o.n_params),
-        "n_regressor_columns": None if p_cols is None else int(p_cols),
-        "segments": [int(x) for x in lengths],
+        "n_regressor_columns": None if d.p_cols is None else int(d.p_cols),
+        "segments": [int(x) for x in segment_lengths(o.starts, d.n)],
         "segment_names": seg_names,
-        "omitted_rows": int(omitted),
+        "omitted_rows": int(d.omitted),
         "joint_names": o.joint_names,
         "column_names": o.column_names,
         "model_columns": o.model_columns,
@@ -641,20 +723,27 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         "contract_version": CONTRACT_VERSION,
         "report_schema_version": REPORT_SCHEMA_VERSION,
     }
-    ev = sec.evidence(n=n, m=m, level=o.level, names=o.joint_names, per_joint=per_joint, pooled=pooled,
-                      constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
-                      force=prof.constant_target == "force_finite", bias=bias, white=white, spec=spec,
-                      xcorr_rho=xrho, xcorr_sd=xsd, xcorr_mask=None if cross is None else cross["constant_mask"],
-                      design=design, column_names=o.column_names, acf=acf, missing=missing, physics=phys,
-                      predictive=pred_test, sample_rate=o.sample_rate, periodic=periodic,
-                      timing=None if o.timing is None else o.timing.to_dict(), bandwidth=o.bandwidth)
+
+
+def _assemble(d: _Data, o: _Options, b: _Build, seg_names: list[str] | None, nan_policy: str) -> ValidationReport:
+    """The evidence of every section, the findings, and the report."""
+    timing = None if o.timing is None else o.timing.to_dict()
+    ev = sec.evidence(n=d.n, m=d.m, level=o.level, names=o.joint_names, per_joint=b.per_joint, pooled=b.pooled,
+                      constant=np.asarray(b.km["constant_target"], dtype=bool), omitted=d.omitted,
+                      force=o.prof.constant_target == "force_finite", bias=b.bias, white=b.white, spec=b.spec,
+                      xcorr_rho=b.xrho, xcorr_sd=b.xsd,
+                      xcorr_mask=None if b.cross is None else b.cross["constant_mask"],
+                      design=b.design, column_names=o.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
+                      predictive=b.predictive, sample_rate=o.sample_rate, periodic=b.periodic, timing=timing,
+                      bandwidth=o.bandwidth)
     found = compute_findings(ev, o.thresholds)
     return ValidationReport(
-        provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
-        autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
-        warnings_text=[f.message for f in found], findings=found, bias=bias, whiteness=white,
-        spectrum=sec.strip_private(spec), design=design, segment_metrics=seg_metrics, physics=phys,
-        predictive=pred_test, periodic=periodic, timing=None if o.timing is None else o.timing.to_dict())
+        provenance=_provenance(d, o, b, seg_names, nan_policy), per_joint=b.per_joint, pooled=b.pooled,
+        aggregates=b.aggregates, residuals=b.residuals, autocorrelation=b.acf, ljung_box=b.lb,
+        cross_correlation=b.cross, information_criteria=b.ic, warnings_text=[f.message for f in found],
+        findings=found, bias=b.bias, whiteness=b.white, spectrum=sec.strip_private(b.spec), design=b.design,
+        segment_metrics=b.segment_metrics, physics=b.physics, predictive=b.predictive, periodic=b.periodic,
+        timing=timing)
 
 
 def _motion_band(pred: FloatArray, starts: IntArray, o: _Options) -> float | None:
