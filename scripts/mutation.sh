@@ -10,7 +10,8 @@
 # work directory laid out as mutmut expects (src/dynval, tests/, pyproject.toml with a [tool.mutmut]
 # section appended), the compiled dynval._core of the installed package is copied beside it, and
 # mutmut runs there under `python -S` with the interpreter's site-packages on PYTHONPATH, so that the
-# editable install's import hook cannot send `import dynval` back to the working tree. At the end it
+# editable install's import hook cannot send `import dynval` back to the working tree (`exit`, which
+# mutmut calls on its error paths and only `site` defines, is put back). At the end it
 # prints the count per status, the kill rate (killed / (killed + survived + timeout + suspicious)),
 # every surviving mutant with its diff, and the work directory, where `mutmut show NAME`, `mutmut
 # results` and `mutmut browse` still work (run them there with the same PYTHONPATH and `python -S`;
@@ -26,6 +27,11 @@
 #   MUTATION_JOBS        parallel mutant workers (default 2, the cores of the project's machines).
 #   MUTATION_WORK        work directory (default: a new one under ${TMPDIR:-/tmp}); kept afterwards.
 #   MUTATION_DIFFS       0 to list the survivors without their diffs (default 1).
+#   MUTATION_MUTANTS     mutant names or globs to (re-)test only those, e.g.
+#                        'dynval._compare.x__verdict__mutmut_*' (the verdict's mutants). mutmut tests
+#                        the mutants with the fastest tests first, so a time limit leaves those of the
+#                        functions with the slowest tests (compare, _verdict: the simulations of
+#                        tests/test_compare.py) for last; name them to reach them.
 #   PYTHON               interpreter with dynval's dependencies and pytest (default python3).
 #   MUTATION_VENV        where mutmut is installed when the interpreter lacks it (default
 #                        ~/.cache/dynval/mutmut-venv; a venv of the same interpreter, so the
@@ -91,21 +97,27 @@ read -r -a selection <<< "$TESTS"
 } > "$WORK/pyproject.toml"
 
 MUTMUT=(env PYTHONPATH="$PYPATH" PYTHONDONTWRITEBYTECODE=1 "$PY" -S -c
-        'import sys; from mutmut.__main__ import cli; sys.argv[0] = "mutmut"; sys.exit(cli())')
+        'import builtins, sys; builtins.exit = sys.exit; from mutmut.__main__ import cli; sys.argv[0] = "mutmut"; sys.exit(cli())')
 cd "$WORK"
 # The copy, not the working tree, must be what the tests import.
 got=$(PYTHONPATH="$WORK/src:$PYPATH" "$PY" -S -c 'import dynval; print(dynval.__file__)')
 [ "$got" = "$WORK/src/dynval/__init__.py" ] || { echo "mutation.sh: dynval imports from $got, not the copy" >&2; exit 1; }
 
 echo "== mutmut run (${MODULES[*]}; tests: $TESTS; $JOBS workers${MUTATION_TIME_LIMIT:+; at most ${MUTATION_TIME_LIMIT} s})"
-status=0
-if [ -n "${MUTATION_TIME_LIMIT:-}" ]; then
-  timeout --signal=INT --kill-after=120 "$MUTATION_TIME_LIMIT" "${MUTMUT[@]}" run --max-children "$JOBS" || status=$?
-else
-  "${MUTMUT[@]}" run --max-children "$JOBS" || status=$?
-fi
+read -r -a names <<< "${MUTATION_MUTANTS:-}"
+limit=()
+[ -z "${MUTATION_TIME_LIMIT:-}" ] || limit=(timeout --signal=INT --kill-after=120 "$MUTATION_TIME_LIMIT")
+# mutmut redraws one progress line (carriage returns): keep one line in 50 of it, and the last.
+set +e
+"${limit[@]}" "${MUTMUT[@]}" run --max-children "$JOBS" "${names[@]}" 2>&1 | tr '\r' '\n' | awk '
+  $2 ~ /^[0-9]+\/[0-9]+$/ { last = $0; if (++n % 50 == 0) print; next }
+  { if (last != "") { print last; last = "" } print }
+  END { if (last != "") print last }'
+status=${PIPESTATUS[0]}
+set -e
 # 124: the time limit interrupted the run (the results so far are kept); anything else is a failure
-# of mutmut itself (a failing clean run, an import error) and its output above says which.
+# of mutmut itself and its output above says which: most often "Failed to run clean test", a test of
+# the selection that fails on the unmutated copy (mutation testing needs a green selection).
 if [ "$status" -ne 0 ] && [ "$status" -ne 124 ]; then
   echo "mutation.sh: mutmut run exited with $status" >&2
   exit "$status"
@@ -154,4 +166,4 @@ for name, path in sorted(survivors, key=lambda s: s[0]):
 EOF
 echo
 echo "work directory: $WORK"
-echo "inspect there: cd $WORK && PYTHONPATH=$PYPATH $PY -S -c 'import sys; from mutmut.__main__ import cli; sys.argv[0] = \"mutmut\"; sys.exit(cli())' show NAME"
+echo "inspect there: cd $WORK && PYTHONPATH=$PYPATH $PY -S -c 'import builtins, sys; builtins.exit = sys.exit; from mutmut.__main__ import cli; sys.argv[0] = \"mutmut\"; sys.exit(cli())' show NAME"

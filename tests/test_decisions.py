@@ -227,7 +227,28 @@ def test_ranking_puts_candidates_without_a_deficiency_first():
     assert pooled["biased"]["aic"] < pooled["quiet"]["aic"] < pooled["loud"]["aic"]
     assert cmp.ranking == ["quiet", "loud", "biased"]
     assert (cmp.verdict.decision, cmp.verdict.model) == ("accept", "quiet")
+    assert "the lowest aic among such candidates" in cmp.verdict.reasons[0]
     assert list(cmp.reasons) == cmp.ranking
+    # the table's states say why
+    assert [(pooled[n]["bias"], pooled[n]["whiteness"]) for n in cmp.ranking] == [
+        ("none", "white"), ("none", "white"), ("biased", "white")]
+
+
+def test_a_candidate_without_a_criterion_ranks_last_and_weighs_nothing():
+    """Rule (conventions §6): a criterion that cannot be computed (AICc with p ≥ N − 1: NaN) ranks
+    its candidate after every one that has a value, and its Akaike weight is 0.
+
+    Kills: NaN criteria left in the sort key (its order then depends on the order given), and NaN
+    candidates given a weight."""
+    rng = np.random.default_rng(4)
+    tau = rng.normal(size=12)
+    big = tau + rng.normal(0.0, 0.1, 12)
+    small = tau + rng.normal(0.0, 0.2, 12)
+    cmp = dynval.compare(tau, {"big": (big, 11), "small": (small, 2)}, criterion="aicc", max_lag=2)
+    pooled = cmp.table["pooled"]
+    assert math.isnan(pooled["big"]["aicc"]) and math.isfinite(pooled["small"]["aicc"])
+    assert cmp.ranking == ["small", "big"]
+    assert (pooled["small"]["akaike_weight"], pooled["big"]["akaike_weight"]) == (1.0, 0.0)
 
 
 def test_ranking_ties_go_by_name():
@@ -245,7 +266,7 @@ def _weights(cmp, names):
     return np.array([cmp.table["pooled"][n]["akaike_weight"] for n in names])
 
 
-@pytest.mark.parametrize("criterion", ["aic", "bic"])
+@pytest.mark.parametrize("criterion", ["aic", "bic", "aic_neff"])
 def test_akaike_weights_are_exp_minus_half_delta_normalised(criterion):
     """Rule (conventions §6): the Akaike weight of a candidate is exp(−Δ/2)/Σ exp(−Δ_k/2), Δ its
     criterion less the smallest (the criterion chosen with ``criterion=``); the weights sum to 1.
@@ -265,16 +286,18 @@ def test_akaike_weights_are_exp_minus_half_delta_normalised(criterion):
         np.testing.assert_allclose(delta, [0.0, 2.0, 4.0], atol=1e-9)
         np.testing.assert_allclose(_weights(cmp, names), np.exp([0.0, -1.0, -2.0]) / np.exp([0.0, -1.0, -2.0]).sum(),
                                    rtol=1e-12)
-    else:  # Δ = ln(N·m)·Δp with the lesson's N·m observations
+    elif criterion == "bic":  # Δ = ln(N·m)·Δp with the lesson's N·m observations
         assert delta[1] == pytest.approx(math.log(2000), rel=1e-9)
+    else:  # an N_eff criterion has its own column and Δ in the table
+        values = np.array([pooled[n][criterion] for n in names])
+        np.testing.assert_allclose(delta, values - values.min(), rtol=1e-12, atol=1e-12)
+        assert delta[1] > 0
     expected = np.exp(-delta / 2) / np.exp(-delta / 2).sum()
     np.testing.assert_allclose(_weights(cmp, names), expected, rtol=1e-12)
     assert _weights(cmp, names).sum() == pytest.approx(1.0, rel=1e-12)
     assert cmp.ranking == names
 
 
-@pytest.mark.xfail(strict=True, reason="compare gives an exact candidate (criterion −inf, ranked first) Δ = nan and "
-                                       "Akaike weight 0, and the finite runner-up weight 1")
 def test_an_exact_candidate_takes_the_whole_akaike_weight():
     """Rule (conventions §6; ``compare``'s docstring): a candidate that reproduces the measurement
     exactly has AIC −inf and ranks first, every other is +inf behind it. Its Δ is then 0 and its
@@ -330,14 +353,26 @@ def test_a_design_finding_decides_before_a_deficiency():
     # the only candidate: deficient, and its run repeats the estimation run
     _, v = _decide({"a": _report(BIASED, REPEAT)})
     assert v.decision == "redesign" and [d.kind for d in v.decided_by] == ["repeat_trajectory"]
-    assert v.first_step == REPEAT.action
+    assert v.first_step == REPEAT.action and v.reasons == (f"{REPEAT.message} ({REPEAT.action})",)
     # the best-ranked candidate is deficient; only a worse-ranked candidate's report holds the design finding
     _, v = _decide({"a": _report(BIASED), "b": _report(BIASED, REPEAT)}, {"a": 0.0, "b": 1.0})
     assert v.decision == "redesign" and v.model == "a"
     assert [(d.model, d.kind, d.severity) for d in v.decided_by] == [("b", "repeat_trajectory", "design")]
+    # a worse-ranked candidate's low_information is passed over, not the design findings after it
+    low = Finding(kind="low_information", severity="design", joints=(0,), action="validate on a longer run",
+                  message="This run cannot decide.")
+    _, v = _decide({"a": _report(BIASED), "b": _report(BIASED, low, REPEAT)}, {"a": 0.0, "b": 1.0})
+    assert v.decision == "redesign" and [(d.model, d.kind) for d in v.decided_by] == [("b", "repeat_trajectory")]
+    # the best-ranked candidate's low_information decides, named with its joints; a design finding that
+    # several reports hold is said once
+    _, v = _decide({"a": _report(BIASED, low, REPEAT), "b": _report(BIASED, REPEAT)}, {"a": 0.0, "b": 1.0})
+    assert [(d.model, d.kind, d.joints) for d in v.decided_by] == [("a", "low_information", ("j1",)),
+                                                                   ("a", "repeat_trajectory", ())]
+    assert len(v.reasons) == 2 and v.first_step == low.action
     # without the design finding, the same deficiency refines the candidate
     _, v = _decide({"a": _report(BIASED)})
-    assert (v.decision, v.model) == ("refine", "a") and [d.kind for d in v.decided_by] == ["bias"]
+    assert (v.decision, v.model) == ("refine", "a")
+    assert [(d.model, d.kind, d.joints, d.columns) for d in v.decided_by] == [("a", "bias", ("j1",), ("MY1",))]
 
 
 def test_refine_is_decided_before_whiteness_cannot_discriminate():
@@ -375,14 +410,24 @@ def test_whiteness_cannot_discriminate_needs_two_analysed_candidates():
     assert (v.decision, v.model) == ("redesign", "a")
     assert [(f.kind, f.severity) for f in findings] == [("whiteness", "design")]
     assert [(d.model, d.kind, d.severity) for d in v.decided_by] == [("", "whiteness", "design")]
-    assert "whiteness cannot discriminate" in v.reasons[0]
+    (own,) = findings
+    assert own.message.startswith("Whiteness cannot discriminate these models on this data: every candidate's "
+                                  "residual is coloured at the information rate") and own.message.endswith("better.")
+    assert own.action.startswith("log less-filtered torques") and own.action.endswith("the other findings")
+    assert v.decided_by[0].message == own.message and v.first_step == own.action
+    assert v.reasons[0].startswith("whiteness cannot discriminate") and v.reasons[0].endswith("(best on aic: a)")
 
 
 def test_accept_states_the_level_it_was_decided_at():
     """Rule (conventions §6, step 4): accept the best-ranked candidate otherwise, with α = 1 − level
     and the others' Δ.
 
-    Kills: the accept reason stating a fixed α."""
+    Kills: the accept reason stating a fixed α, or losing the others' deficiency counts."""
     _, v = _decide({"a": _report(level=0.99), "b": _report(level=0.99)}, {"a": 10.0, "b": 12.5})
     assert (v.decision, v.model, v.decided_by) == ("accept", "a", ())
     assert "α = 0.01 " in v.reasons[0] and v.reasons[1] == "b: Δaic = +2.50"
+    assert v.first_step == "nothing to change: use a"
+    # the others' reasons count their deficiencies (they rank after every candidate without one)
+    _, v = _decide({"a": _report(), "b": _report(BIASED), "c": _report(BIASED, BACKED)},
+                   {"a": 10.0, "b": 9.0, "c": 8.0})
+    assert v.reasons[1:] == ("c: Δaic = -2.00, 2 deficiency findings", "b: Δaic = -1.00, 1 deficiency finding")

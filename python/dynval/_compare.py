@@ -1,6 +1,6 @@
 """``dynval.compare``: candidate models side by side, a ranking and the lesson's decision.
 
-The rule (docs/conventions.md §8), applied in this order and reported with its reasons:
+The rule (docs/conventions.md §6), applied in this order and reported with its reasons:
 
 1. **redesign** when a candidate's report has a ``design`` finding (``low_information``: the
    best-ranked candidate's; the validation run repeats the
@@ -275,11 +275,8 @@ def compare(
         return (deficient[n] > 0, math.inf if math.isnan(c) else c, n)
 
     ranking = sorted(names, key=key)
-    finite = [crit[n] for n in names if np.isfinite(crit[n])]
-    best_c = min(finite) if finite else math.nan
-    with np.errstate(over="ignore", invalid="ignore"):
-        weights_raw = {n: math.exp(-0.5 * (crit[n] - best_c)) if np.isfinite(crit[n]) and finite else 0.0
-                       for n in names}
+    delta = _deltas(crit)
+    weights_raw = {n: 0.0 if math.isnan(d) else math.exp(-0.5 * d) for n, d in delta.items()}
     total = sum(weights_raw.values())
     pooled: dict[str, dict[str, Any]] = {}
     per_joint: dict[str, dict[str, FloatArray]] = {}
@@ -290,11 +287,10 @@ def compare(
                "fit_percent": r.pooled["fit_percent"], "r2": r.pooled["r2"]}
         for c in ("aic", "bic", "aicc"):
             row[c] = ic[c]
-            best = min((reports[k].information_criteria[c] for k in names), default=math.nan)
-            row[f"delta_{c}"] = ic[c] - best
+            row[f"delta_{c}"] = _deltas({k: reports[k].information_criteria[c] for k in names})[n]
         if criterion not in ("aic", "bic", "aicc"):
             row[criterion] = crit[n]
-            row[f"delta_{criterion}"] = crit[n] - best_c
+            row[f"delta_{criterion}"] = delta[n]
         row["akaike_weight"] = weights_raw[n] / total if total > 0 else math.nan
         row["whiteness"] = ("not analysed" if r.whiteness is None
                             else "not white" if _rejects_whiteness(r) else "white")
@@ -316,6 +312,16 @@ def _joint_name(report: ValidationReport, j: int) -> str:
 def _column_name(report: ValidationReport, c: int) -> str:
     names = report.provenance.get("column_names")
     return str(names[c]) if names and 0 <= c < len(names) else f"column {c + 1}"
+
+
+def _deltas(values: dict[str, float]) -> dict[str, float]:
+    """Each criterion minus the smallest that is not NaN; the smallest itself 0, also when it is
+    −inf (an exact prediction), so that it takes the whole Akaike weight. NaN stays NaN."""
+    known = [x for x in values.values() if not math.isnan(x)]
+    if not known:
+        return {n: math.nan for n in values}
+    lo = min(known)
+    return {n: 0.0 if x == lo else x - lo for n, x in values.items()}
 
 
 def _decisive(model: str, report: ValidationReport, f: Finding) -> Decisive:

@@ -1,4 +1,4 @@
-"""Findings: the report's statistical detectors, as records (docs/conventions.md §7).
+"""Findings: the report's statistical detectors, as records (docs/conventions.md §5).
 
 A finding is a decision rule applied to evidence the report computed. Every rule that calls the
 model deficient needs two things: statistical evidence, with the family-wise error rate held at

@@ -88,7 +88,7 @@ class ValidationReport:
         The findings' messages, in plain words.
     findings : list of Finding
         The findings as records (kind, severity, joints, columns, statistic, p-values, effect,
-        threshold, action, message); deficiencies first (docs/conventions.md §7).
+        threshold, action, message); deficiencies first (docs/conventions.md §5).
     bias : dict or None
         The residual mean tested against its coloured-noise standard error (automatic N_eff).
     whiteness : dict or None
@@ -479,7 +479,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     -----
     The point metrics, residual mean and variance and the information criteria come from one
     fused kernel call. Findings are statistical detectors with a measured size and power
-    (``benchmarks/calibrate_findings.py``, docs/conventions.md §7).
+    (``benchmarks/calibrate_findings.py``, docs/conventions.md §5.5).
 
     Examples
     --------

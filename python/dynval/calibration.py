@@ -1,4 +1,4 @@
-"""Size and power of the report's findings, measured by simulation (docs/conventions.md §7.4).
+"""Size and power of the report's findings, measured by simulation (docs/conventions.md §5.5).
 
 A finding is a statistical detector: this module measures how often it fires when the model is
 right (size: the share of replicates with any ``deficiency`` finding, to be at most 1 − level)
