@@ -44,6 +44,11 @@ _MIN_MEAN_DIP = 1.0
 # Candidate valleys refined before giving up (each refinement costs a few dozen passes over q).
 _MAX_CANDIDATES = 25
 
+# Rounding level of a sum of squares relative to its size (64 ulps, squared), and the smallest
+# normal number, which keeps a zero sum from dividing by zero.
+_EPS2 = (64.0 * np.finfo(np.float64).eps) ** 2
+_TINY = np.finfo(np.float64).tiny
+
 
 def _to_list(value: Any) -> Any:
     if isinstance(value, np.ndarray):
@@ -535,7 +540,50 @@ def periodic_noise_test(
     """
     x = _as_2d(e, "e")
     rate = _positive_rate(sample_rate)
-    n, m = x.shape
+    t_samples, start, p_count = _whole_periods(x.shape[0], period)
+    fs = 1.0 if rate is None else rate
+    n_harm = _harmonics_tested(t_samples, fs, band)
+    # Each joint scaled by a power of two near its largest |e| (exact, contract §1.3): squared DFT
+    # sums overflow near 1e140 and underflow near 1e-160. Scaled back at the end.
+    largest = np.max(np.abs(x), axis=0)
+    exps = np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+    x = np.ldexp(x, -exps)
+    blocks, length, resampled = _period_blocks(x, t_samples, start, p_count)
+    # The residual's variance within the periods (period means removed), averaged over periods.
+    total_variance = blocks.var(axis=1).mean(axis=0)
+    phi = _ar1_between_periods(blocks)
+    mean_power, noise_all = _mean_and_spread_over_periods(_prewhitened_spectra(x, phi, t_samples, start, p_count))
+    tests = _harmonic_tests(mean_power, noise_all, blocks, p_count, n_harm)
+    tests["noise_variance"] = _noise_variance(noise_all, length)
+    effect, still = _effect_and_still(tests["error_power"], total_variance, blocks)
+    tests = _without_still_joints(tests, still)
+    dt = t_samples / (length * fs)  # the sampling interval of the (resampled) periods
+    in_units = _to_data_units(exps, total_variance=total_variance, noise_variance=tests["noise_variance"],
+                              noise_spectrum=2.0 * tests["noise_k"] * dt / length, error_power=tests["error_power"])
+    return PeriodicTest(
+        pvalue=tests["pvalue"],
+        statistic=np.asarray(tests["statistic"], dtype=np.float64),
+        dof=2 * n_harm,
+        phi=np.asarray(phi, dtype=np.float64),
+        effect=np.asarray(effect, dtype=np.float64),
+        error_power=np.asarray(in_units["error_power"], dtype=np.float64),
+        noise_variance=np.asarray(in_units["noise_variance"], dtype=np.float64),
+        total_variance=np.asarray(in_units["total_variance"], dtype=np.float64),
+        noise_spectrum=np.asarray(in_units["noise_spectrum"], dtype=np.float64),
+        harmonic_statistic=np.asarray(tests["harmonic_statistic"], dtype=np.float64),
+        harmonic_pvalue=np.asarray(tests["harmonic_pvalue"], dtype=np.float64),
+        frequency=np.arange(1, n_harm + 1, dtype=np.float64) * fs / t_samples,
+        n_periods=p_count,
+        samples_per_period=length,
+        n_harmonics=n_harm,
+        period_samples=t_samples,
+        start=start,
+        method=_method_text(p_count, t_samples, length, resampled, n_harm),
+    )
+
+
+def _whole_periods(n: int, period: Period | float) -> tuple[float, int, int]:
+    """T in samples, the first sample and the number P ≥ 2 of the whole periods to test."""
     if isinstance(period, Period):
         t_samples, start = float(period.samples), int(period.start)
     else:
@@ -553,126 +601,137 @@ def periodic_noise_test(
         raise TooFewSamples(
             f"the residual holds {n_periods} whole period(s) of {t_samples:g} samples from sample {start}; "
             "the periodic noise model needs at least 2")
+    return t_samples, start, n_periods
+
+
+def _harmonics_tested(t_samples: float, fs: float, band: float | None) -> int:
+    """K: every harmonic below L/2, or those up to ``band``."""
     length = int(round(t_samples))
     if length < 3:
         raise TooFewSamples(f"a period of {t_samples:g} samples has no harmonic below the Nyquist frequency")
     k_max = (length - 1) // 2  # harmonics strictly below L/2
-    fs = 1.0 if rate is None else rate
     if band is None:
-        n_harm = k_max
-    else:
-        band_f = float(band)
-        if not (math.isfinite(band_f) and band_f > 0):
-            raise InvalidParameter(f"band must be a positive finite frequency, got {band!r}")
-        n_harm = min(k_max, int(math.floor(band_f * t_samples / fs + 1e-9)))
-        if n_harm < 1:
-            raise InvalidParameter(
-                f"band {band_f:g} is below the fundamental frequency {fs / t_samples:g}: no harmonic to test")
+        return k_max
+    band_f = float(band)
+    if not (math.isfinite(band_f) and band_f > 0):
+        raise InvalidParameter(f"band must be a positive finite frequency, got {band!r}")
+    n_harm = min(k_max, int(math.floor(band_f * t_samples / fs + 1e-9)))
+    if n_harm < 1:
+        raise InvalidParameter(
+            f"band {band_f:g} is below the fundamental frequency {fs / t_samples:g}: no harmonic to test")
+    return n_harm
 
-    # Each joint scaled by a power of two near its largest |e| (exact, contract §1.3): squared DFT
-    # sums overflow near 1e140 and underflow near 1e-160. Scaled back at the end.
-    largest = np.max(np.abs(x), axis=0)
-    exps = np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
-    x = np.ldexp(x, -exps)
-    blocks, length, resampled = _period_blocks(x, t_samples, start, n_periods)
-    p_count = n_periods
-    tiny = np.finfo(np.float64).tiny
-    eps2 = (64.0 * np.finfo(np.float64).eps) ** 2
-    # The residual's variance within the periods (period means removed), averaged over periods.
-    total_variance = blocks.var(axis=1).mean(axis=0)
-    # AR(1) prewhitening with φ̂ fitted to the deviations from the mean period (noise only: the
-    # periodic error is common to all periods and cancels there). Filtering the whole record by
-    # 1 − φ̂z⁻¹ multiplies harmonic k of every period by the same gain g_k = 1 − φ̂e^{−2πik/T}, which
-    # cancels in F_k; what it changes is the leakage of slow noise (power below the fundamental)
-    # into every bin, which otherwise ties the bins together and makes Fisher's sum liberal.
+
+def _ar1_between_periods(blocks: FloatArray) -> FloatArray:
+    """φ̂ per joint: the AR(1) coefficient of the deviations from the mean period, within ±0.999.
+
+    The deviations are noise only: the periodic error is common to all periods and cancels there.
+    Filtering the whole record by 1 − φ̂z⁻¹ multiplies harmonic k of every period by the same gain
+    g_k = 1 − φ̂e^{−2πik/T}, which cancels in F_k; what it changes is the leakage of slow noise
+    (power below the fundamental) into every bin, which otherwise ties the bins together and makes
+    Fisher's sum liberal.
+    """
     dev = blocks - blocks.mean(axis=0)
     num = (dev[:, 1:] * dev[:, :-1]).sum(axis=(0, 1))
     den = (dev[:, :-1] ** 2).sum(axis=(0, 1))
     # Deviations at rounding level (a constant or exactly periodic residual): no noise, no filter.
-    noisy = den > eps2 * np.maximum((blocks[:, :-1] ** 2).sum(axis=(0, 1)), tiny)
-    phi = np.clip(np.where(noisy, num / np.maximum(den, tiny), 0.0), -0.999, 0.999)
+    noisy = den > _EPS2 * np.maximum((blocks[:, :-1] ** 2).sum(axis=(0, 1)), _TINY)
+    return np.asarray(np.clip(np.where(noisy, num / np.maximum(den, _TINY), 0.0), -0.999, 0.999), dtype=np.float64)
+
+
+def _prewhitened_spectra(x: FloatArray, phi: FloatArray, period: float, start: int, n_periods: int) -> Any:
+    """The DFT of each period of x filtered by 1 − φ̂z⁻¹, divided by the filter's gain.
+
+    (P, L//2 + 1, m) complex: the bins in the data's units, without the leakage of slow noise.
+    """
     u = np.empty_like(x)
     u[1:] = x[1:] - phi * x[:-1]
     u[0] = np.sqrt(1.0 - phi**2) * x[0]  # Prais–Winsten: the first sample has no predecessor
-    u_blocks, _, _ = _period_blocks(u, t_samples, start, n_periods)
+    u_blocks, length, _ = _period_blocks(u, period, start, n_periods)
     freq_bins = np.arange(length // 2 + 1, dtype=np.float64)
-    gain = 1.0 - phi[None, :] * np.exp(-2j * np.pi * freq_bins[:, None] / t_samples)  # (L//2 + 1, m)
-    spec = scipy.fft.rfft(u_blocks, axis=1) / gain  # (P, L//2 + 1, m): the bins in the data's units
+    gain = 1.0 - phi[None, :] * np.exp(-2j * np.pi * freq_bins[:, None] / period)  # (L//2 + 1, m)
+    return scipy.fft.rfft(u_blocks, axis=1) / gain
+
+
+def _mean_and_spread_over_periods(spec: Any) -> tuple[FloatArray, FloatArray]:
+    """|Ē_k|² and σ̂²_k = Σ_p |E_pk − Ē_k|²/(P − 1) at every bin k = 0..L//2, per joint."""
     mean = spec.mean(axis=0)
-    mean_power = mean.real**2 + mean.imag**2
     dev_k = spec - mean
-    noise_all = (dev_k.real**2 + dev_k.imag**2).sum(axis=0) / (p_count - 1)  # σ̂²_k, k = 0..L//2
-    # Noise variance at k ≥ 1 (Parseval; mirrored bins twice, the Nyquist bin of an even L once).
+    return mean.real**2 + mean.imag**2, (dev_k.real**2 + dev_k.imag**2).sum(axis=0) / (spec.shape[0] - 1)
+
+
+def _noise_variance(noise_all: FloatArray, length: int) -> FloatArray:
+    """The noise variance at the harmonics k ≥ 1, from σ̂²_k of every bin (Parseval)."""
+    # Mirrored bins count twice, the Nyquist bin of an even L once.
     weights = np.full(noise_all.shape[0], 2.0)
     weights[0] = 0.0
     if length % 2 == 0:
         weights[-1] = 1.0
-    noise_variance = weights @ noise_all / length**2
+    return np.asarray(weights @ noise_all / length**2, dtype=np.float64)
 
+
+def _harmonic_tests(mean_power: FloatArray, noise_all: FloatArray, blocks: FloatArray, p_count: int,
+                    n_harm: int) -> dict[str, Any]:
+    """The F test of each tested harmonic, Fisher's combination of them and the error power, per joint."""
+    length = blocks.shape[1]
     noise_k = noise_all[1 : n_harm + 1]
     mean_power = mean_power[1 : n_harm + 1]
     # Bins where both the common part and the spread are at rounding level (a constant residual):
     # nothing to test, F = 0, p = 1. A spread at rounding level under a real common part is an
     # exactly periodic residual: F = inf, p = 0.
-    floor = eps2 * length * np.maximum((blocks**2).sum(axis=1).mean(axis=0), tiny)
+    floor = _EPS2 * length * np.maximum((blocks**2).sum(axis=1).mean(axis=0), _TINY)
     quiet = (noise_k <= floor) & (mean_power <= floor)
     with np.errstate(divide="ignore", invalid="ignore"):
         f_stat = np.where(quiet, 0.0, p_count * mean_power / np.where(noise_k > floor, noise_k, 0.0))
-    df2 = 2.0 * (p_count - 1)
     infinite = np.isinf(f_stat)
-    log_p = np.where(infinite, -np.inf, scipy.stats.f.logsf(np.where(infinite, 0.0, f_stat), 2.0, df2))
-    harmonic_pvalue = np.exp(log_p)
+    log_p = np.where(infinite, -np.inf,
+                     scipy.stats.f.logsf(np.where(infinite, 0.0, f_stat), 2.0, 2.0 * (p_count - 1)))
     statistic = -2.0 * log_p.sum(axis=0)
-    dof = 2 * n_harm
-    pvalue = np.asarray(scipy.stats.chi2.sf(statistic, dof), dtype=np.float64)
+    return {
+        "pvalue": np.asarray(scipy.stats.chi2.sf(statistic, 2 * n_harm), dtype=np.float64),
+        "statistic": statistic,
+        "harmonic_statistic": f_stat,
+        "harmonic_pvalue": np.exp(log_p),
+        # Unbiased per harmonic (E|Ē_k|² = |μ_k|² + σ²_k/P), so it may be negative; only the sum is clipped.
+        "error_power": np.where(quiet, 0.0, 2.0 * (mean_power - noise_k / p_count) / length**2),
+        "noise_k": noise_k,
+    }
 
-    # Unbiased per harmonic (E|Ē_k|² = |μ_k|² + σ²_k/P), so it may be negative; only the sum is clipped.
-    error_power = np.where(quiet, 0.0, 2.0 * (mean_power - noise_k / p_count) / length**2)
-    # A joint without variation within the periods (a constant residual): p = 1, effect 0.
-    still = total_variance <= eps2 * (blocks**2).mean(axis=(0, 1))
+
+def _effect_and_still(error_power: FloatArray, total_variance: FloatArray,
+                      blocks: FloatArray) -> tuple[FloatArray, Any]:
+    """The share of the variance within the periods that is periodic model error, per joint, and
+    which joints have no variation within the periods (a constant residual: effect 0)."""
+    still = total_variance <= _EPS2 * (blocks**2).mean(axis=(0, 1))
     with np.errstate(divide="ignore", invalid="ignore"):
         effect = np.where(still, 0.0, np.clip(error_power.sum(axis=0) / total_variance, 0.0, 1.0))
-    pvalue = np.where(still, 1.0, pvalue)
-    statistic = np.where(still, 0.0, statistic)
-    f_stat = np.where(still[None, :], 0.0, f_stat)
-    harmonic_pvalue = np.where(still[None, :], 1.0, harmonic_pvalue)
-    error_power = np.where(still[None, :], 0.0, error_power)
-    noise_k = np.where(still[None, :], 0.0, noise_k)
-    noise_variance = np.where(still, 0.0, noise_variance)
+    return effect, still
 
-    dt = t_samples / (length * fs)  # the sampling interval of the (resampled) periods
-    noise_spectrum = 2.0 * noise_k * dt / length
-    # Back to the data's units (IEEE where it leaves float64).
+
+# What a joint without variation within the periods reads: nothing to test, p = 1.
+_STILL_VALUES = {"pvalue": 1.0, "statistic": 0.0, "harmonic_statistic": 0.0, "harmonic_pvalue": 1.0,
+                 "error_power": 0.0, "noise_k": 0.0, "noise_variance": 0.0}
+
+
+def _without_still_joints(tests: dict[str, Any], still: Any) -> dict[str, Any]:
+    """``tests`` with the joints in ``still`` set to their values of "no variation"."""
+    return {key: np.where(still if np.ndim(value) == 1 else still[None, :], _STILL_VALUES[key], value)
+            for key, value in tests.items()}
+
+
+def _to_data_units(exps: Any, **scaled: FloatArray) -> dict[str, FloatArray]:
+    """Variances and spectra of the scaled residual times 2^(2·exps): back in the data's units²."""
+    # IEEE where it leaves float64.
     with np.errstate(over="ignore"):
-        scale2 = np.ldexp(np.ones(m), 2 * exps)
-        total_variance = total_variance * scale2
-        noise_variance = noise_variance * scale2
-        noise_spectrum = noise_spectrum * scale2
-        error_power = error_power * scale2
-    frequency = np.arange(1, n_harm + 1, dtype=np.float64) * fs / t_samples
-    how = (f"Pintelon-Schoukens nonparametric noise model: {p_count} periods of T = {t_samples:g} samples"
-           + (f" resampled onto L = {length} points each by Fourier interpolation" if resampled
-              else f" (L = {length} samples each)")
-           + "; AR(1) prewhitening fitted to the deviations between periods; DFT per period; "
-           + f"harmonics k = 1..{n_harm}: F_k = P|mean|^2/var ~ F(2, {int(df2)}) per joint; "
-           + f"Fisher's combination -2 sum log p_k ~ chi2({dof})")
-    return PeriodicTest(
-        pvalue=pvalue,
-        statistic=np.asarray(statistic, dtype=np.float64),
-        dof=dof,
-        phi=np.asarray(phi, dtype=np.float64),
-        effect=np.asarray(effect, dtype=np.float64),
-        error_power=np.asarray(error_power, dtype=np.float64),
-        noise_variance=np.asarray(noise_variance, dtype=np.float64),
-        total_variance=np.asarray(total_variance, dtype=np.float64),
-        noise_spectrum=np.asarray(noise_spectrum, dtype=np.float64),
-        harmonic_statistic=np.asarray(f_stat, dtype=np.float64),
-        harmonic_pvalue=np.asarray(harmonic_pvalue, dtype=np.float64),
-        frequency=frequency,
-        n_periods=p_count,
-        samples_per_period=length,
-        n_harmonics=n_harm,
-        period_samples=t_samples,
-        start=start,
-        method=how,
-    )
+        scale2 = np.ldexp(np.ones(exps.shape[0]), 2 * exps)
+        return {key: value * scale2 for key, value in scaled.items()}
+
+
+def _method_text(p_count: int, t_samples: float, length: int, resampled: bool, n_harm: int) -> str:
+    """What was computed, for ``PeriodicTest.method``."""
+    return (f"Pintelon-Schoukens nonparametric noise model: {p_count} periods of T = {t_samples:g} samples"
+            + (f" resampled onto L = {length} points each by Fourier interpolation" if resampled
+               else f" (L = {length} samples each)")
+            + "; AR(1) prewhitening fitted to the deviations between periods; DFT per period; "
+            + f"harmonics k = 1..{n_harm}: F_k = P|mean|^2/var ~ F(2, {int(2.0 * (p_count - 1))}) per joint; "
+            + f"Fisher's combination -2 sum log p_k ~ chi2({2 * n_harm})")

@@ -28,37 +28,68 @@ def _num(x, fmt=".4g") -> str:
 def format_summary(report: ValidationReport) -> str:
     """The text of :meth:`ValidationReport.summary`."""
     prov = report.provenance
-    conv = prov["conventions"]
-    m = prov["n_joints"]
-    percent = conv["units"] == "percent"
-    unit = " %" if percent else ""
-    pj, pooled, agg = report.per_joint, report.pooled, report.aggregates
-    zmt = report.residuals["zero_mean_test"]
-    lb = report.ljung_box
+    names = _joint_names(prov)
+    alpha = 1.0 - float(prov["conventions"]["level"])
+    lines = _heading_lines(prov)
+    lines += _per_joint_lines(report, names)
+    lines += _pooled_lines(report)
+    lines += _criteria_lines(report.information_criteria)
+    lines += [""] + _analysis_lines(report, names)
+    lines += ["", f"Findings (family-wise error rate α = {alpha:g} over every test of the report, Holm):"]
+    lines += format_findings(report.findings)
+    return "\n".join(lines)
+
+
+def _joint_names(prov) -> list:
+    """The joints' names as given, else "joint 1", "joint 2", ..."""
+    return prov.get("joint_names") or [f"joint {j + 1}" for j in range(prov["n_joints"])]
+
+
+def _fraction_style(prov) -> tuple[str, str]:
+    """The unit suffix and the number format of VAF and fit: per cent or a fraction of 1."""
+    percent = prov["conventions"]["units"] == "percent"
+    return (" %" if percent else ""), (".2f" if percent else ".4f")
+
+
+def _heading_lines(prov) -> list:
+    """The title and the run's size: samples, joints, parameters, segments, omitted rows, backend."""
     seg = prov["segments"]
-    lines = [
+    return [
         f"dynval validation report — profile '{prov['profile']}'",
-        f"N = {prov['n_samples']} samples, m = {m} joints, p = {prov['n_params']} parameters, "
+        f"N = {prov['n_samples']} samples, m = {prov['n_joints']} joints, p = {prov['n_params']} parameters, "
         f"{len(seg)} segment{'s' if len(seg) != 1 else ''}"
         + (f", {prov['omitted_rows']} rows omitted" if prov["omitted_rows"] else "")
         + f"; backend {prov['backend']}, dynval {prov['dynval_version']}",
         "",
-        "Per joint:",
     ]
+
+
+def _per_joint_lines(report: ValidationReport, names: list) -> list:
+    """The per-joint table: error sizes, VAF, fit, R², mean residual and the Ljung–Box p-value."""
+    unit, vfmt = _fraction_style(report.provenance)
+    pj = report.per_joint
+    zmt = report.residuals["zero_mean_test"]
+    lb = report.ljung_box
     lb_head = f"LB p(h={int(lb['lags'][0])})" if lb is not None else "LB p"
-    names = prov.get("joint_names") or [f"joint {j + 1}" for j in range(m)]
     width = max(5, max(len(x) for x in names))
-    header = (f"  {'joint':>{width}} {'RMSE':>11} {'max|e|':>11} {'VAF' + unit:>9} {'fit' + unit:>9} "
-              f"{'R²':>9} {'mean e':>11} {lb_head:>12}")
-    lines.append(header)
-    vfmt = ".2f" if percent else ".4f"
-    for j in range(m):
+    lines = ["Per joint:",
+             f"  {'joint':>{width}} {'RMSE':>11} {'max|e|':>11} {'VAF' + unit:>9} {'fit' + unit:>9} "
+             f"{'R²':>9} {'mean e':>11} {lb_head:>12}"]
+    for j in range(report.provenance["n_joints"]):
         lbp = pvalue_text(lb["pvalue"][0][j], lb["log_pvalue"][0][j]) if lb is not None else "—"
         lines.append(
             f"  {names[j]:>{width}} {_num(pj['rmse'][j]):>11} {_num(pj['max_abs_error'][j]):>11} "
             f"{_num(pj['vaf'][j], vfmt):>9} {_num(pj['fit_percent'][j], vfmt):>9} "
             f"{_num(pj['r2'][j], '.4f'):>9} {_num(zmt['mean'][j], '+.4g'):>11} {lbp:>12}")
-    lines += [
+    return lines
+
+
+def _pooled_lines(report: ValidationReport) -> list:
+    """The pooled metrics, then the uniform and the variance-weighted averages over joints."""
+    unit, vfmt = _fraction_style(report.provenance)
+    pooled, agg = report.pooled, report.aggregates
+    uniform, weighted = agg["uniform_average"], agg["variance_weighted"]
+    return [
         "",
         "Pooled (all joints flattened, one mean — the lesson's form):",
         f"  RMSE per element {_num(pooled['rmse_per_element'])} (√(SSE/(N·m))), per sample "
@@ -66,16 +97,18 @@ def format_summary(report: ValidationReport) -> str:
         f"  VAF {_num(pooled['vaf'], vfmt)}{unit}, fit {_num(pooled['fit_percent'], vfmt)}{unit}, "
         f"R² {_num(pooled['r2'], '.4f')}",
         "Averages over joints:",
-        f"  uniform: VAF {_num(agg['uniform_average']['vaf'], vfmt)}{unit}, fit "
-        f"{_num(agg['uniform_average']['fit_percent'], vfmt)}{unit}, R² {_num(agg['uniform_average']['r2'], '.4f')}, "
+        f"  uniform: VAF {_num(uniform['vaf'], vfmt)}{unit}, fit "
+        f"{_num(uniform['fit_percent'], vfmt)}{unit}, R² {_num(uniform['r2'], '.4f')}, "
         f"RMSE {_num(agg['rmse_uniform_average'])}",
-        f"  variance-weighted: VAF {_num(agg['variance_weighted']['vaf'], vfmt)}{unit}, fit "
-        f"{_num(agg['variance_weighted']['fit_percent'], vfmt)}{unit}, R² "
-        f"{_num(agg['variance_weighted']['r2'], '.4f')}",
-        f"  headline aggregation of this profile: {conv['multioutput']}",
+        f"  variance-weighted: VAF {_num(weighted['vaf'], vfmt)}{unit}, fit "
+        f"{_num(weighted['fit_percent'], vfmt)}{unit}, R² {_num(weighted['r2'], '.4f')}",
+        f"  headline aggregation of this profile: {report.provenance['conventions']['multioutput']}",
     ]
-    ic = report.information_criteria
-    lines += [
+
+
+def _criteria_lines(ic) -> list:
+    """AIC, BIC, AICc, FPE and nAIC, and their N_eff-based variants when the report has them."""
+    lines = [
         "",
         f"Information criteria ({ic['noise_model']} noise model, Gaussian constant {ic['constant']}, "
         f"n = {ic['n_obs']}, p = {ic['n_params']}):",
@@ -86,62 +119,100 @@ def format_summary(report: ValidationReport) -> str:
         lines.append(f"  N_eff-based (coloured residuals, N_eff = {ic['n_eff']:.0f} of {ic['n_obs']}): "
                      f"AIC {_num(ic['aic_neff'], '.2f')}   BIC {_num(ic['bic_neff'], '.2f')}   "
                      f"AICc {_num(ic['aicc_neff'], '.2f')}")
+    return lines
+
+
+def _analysis_lines(report: ValidationReport, names: list) -> list:
+    """One line per analysis beyond the metrics, for those the report holds."""
+    return (_whiteness_lines(report, names) + _cross_correlation_lines(report) + _information_rate_lines(report)
+            + _physics_lines(report) + _design_lines(report) + _periodic_lines(report) + _bias_lines(report))
+
+
+def _whiteness_lines(report: ValidationReport, names: list) -> list:
+    """The autocorrelation's lags, band and the share of lags outside it per joint."""
     acf = report.autocorrelation
-    lines.append("")
     if acf is None:
-        lines.append("Residual whiteness: not analysed (max_lag = 0).")
-    else:
-        frac = ", ".join(f"{names[j]}: {_num(100 * f, '.0f')} %" for j, f in enumerate(acf["fraction_outside"]))
-        conv = prov["conventions"]
-        span = (f" ({_num(conv['max_lag_seconds'], '.3g')} s, {conv['max_lag_source']})"
-                if conv.get("max_lag_seconds") is not None else "")
-        lines.append(
-            f"Residual whiteness: lags 1..{acf['max_lag']}{span}, {'adjusted' if acf['adjusted'] else 'biased'} "
+        return ["Residual whiteness: not analysed (max_lag = 0)."]
+    conv = report.provenance["conventions"]
+    frac = ", ".join(f"{names[j]}: {_num(100 * f, '.0f')} %" for j, f in enumerate(acf["fraction_outside"]))
+    span = (f" ({_num(conv['max_lag_seconds'], '.3g')} s, {conv['max_lag_source']})"
+            if conv.get("max_lag_seconds") is not None else "")
+    return [f"Residual whiteness: lags 1..{acf['max_lag']}{span}, {'adjusted' if acf['adjusted'] else 'biased'} "
             f"autocorrelation, {acf['band_type']} band at {100 * acf['level']:g} % per lag (uncorrected; the "
-            f"findings correct over the whole report); lags outside: {frac}")
-    if report.cross_correlation is not None:
-        xc = report.cross_correlation
-        # A streamed report has no colour-aware band (it needs the whole series, contract §4.1).
-        colour = (f"the findings use a colour-aware band over {xc['colour_lags']} lags." if "colour_lags" in xc
-                  else "no colour-aware band (streamed), so the findings do not use it.")
-        lines.append(f"Cross-correlation with {prov['n_regressor_columns']} regressor columns, lags "
-                     f"0..{xc['max_lag']}: {xc['n_outside_white_band']} cells outside the white band "
-                     f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); {colour}")
+            f"findings correct over the whole report); lags outside: {frac}"]
+
+
+def _cross_correlation_lines(report: ValidationReport) -> list:
+    """The cells of the residual × regressor cross-correlation outside the white band."""
+    xc = report.cross_correlation
+    if xc is None:
+        return []
+    # A streamed report has no colour-aware band (it needs the whole series, contract §4.1).
+    colour = (f"the findings use a colour-aware band over {xc['colour_lags']} lags." if "colour_lags" in xc
+              else "no colour-aware band (streamed), so the findings do not use it.")
+    return [f"Cross-correlation with {report.provenance['n_regressor_columns']} regressor columns, lags "
+            f"0..{xc['max_lag']}: {xc['n_outside_white_band']} cells outside the white band "
+            f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); {colour}"]
+
+
+def _information_rate_lines(report: ValidationReport) -> list:
+    """The decimation to the information rate and the information band, when there are any."""
     white = report.whiteness
-    if white is not None and white["decimation"] > 1:
+    if white is None:
+        return []
+    units = report.provenance["units"]
+    lines = []
+    if white["decimation"] > 1:
         lines.append(f"Whiteness at the information rate: decimated by {white['decimation']} (band "
-                     f"{_num(white['information_band'])} {prov['units']['frequency']}), Ljung–Box up to lag "
+                     f"{_num(white['information_band'])} {units['frequency']}), Ljung–Box up to lag "
                      f"{white['lag_decimated']}.")
-    if white is not None and white.get("information_band") is not None:
+    if white.get("information_band") is not None:
         lines.append(f"Information band (from the prediction, the noise-free side): "
-                     f"{_num(white['information_band'])} {prov['units']['frequency']}.")
+                     f"{_num(white['information_band'])} {units['frequency']}.")
+    return lines
+
+
+def _physics_lines(report: ValidationReport) -> list:
+    """How the physical terms were tested, when q was given."""
     phys = getattr(report, "physics", None)
-    if phys is not None:
-        lines.append(f"Physical terms tested against each joint's residual (q given; derivatives: "
-                     f"{phys['derivatives']}; the model's own columns: {phys['model_columns']}).")
+    if phys is None:
+        return []
+    return [f"Physical terms tested against each joint's residual (q given; derivatives: "
+            f"{phys['derivatives']}; the model's own columns: {phys['model_columns']})."]
+
+
+def _design_lines(report: ValidationReport) -> list:
+    """The smallest term the data could detect, per joint."""
     design = report.design or {}
-    if design.get("detectable_share") is not None:
-        shares = ", ".join(f"{100 * x:.0f} %" for x in design["detectable_share"])
-        lines.append(f"Smallest detectable term (90 % power, per joint): {shares} of the mean square "
-                     f"(N_eff of the noise {', '.join(f'{x:.0f}' for x in design['noise_n_eff'])}).")
+    if design.get("detectable_share") is None:
+        return []
+    shares = ", ".join(f"{100 * x:.0f} %" for x in design["detectable_share"])
+    return [f"Smallest detectable term (90 % power, per joint): {shares} of the mean square "
+            f"(N_eff of the noise {', '.join(f'{x:.0f}' for x in design['noise_n_eff'])})."]
+
+
+def _periodic_lines(report: ValidationReport) -> list:
+    """The whole periods of a periodic trajectory and the noise they measure."""
     per = getattr(report, "periodic", None)
-    if per is not None:
-        sec = per["period"]["seconds"]
-        noise = ", ".join(_num(math.sqrt(max(v, 0.0))) for v in per["noise_variance"])
-        lines.append(f"Periodic trajectory: {per['n_periods']} whole periods of "
-                     + (f"{sec:.4g} s" if sec else f"{per['period']['samples']:.4g} samples")
-                     + f"; noise measured from the period-to-period variation (no whiteness assumed): "
-                     f"standard deviation {noise} per joint.")
-    if report.bias is None and prov.get("streaming"):
-        lines.append("Residual mean: zero-mean test only (the coloured-noise bias test needs the whole series), "
-                     "so the findings do not use it.")
-    elif report.bias is None:
-        lines.append("Residual mean: i.i.d. t-test only (max_lag = 0), not corrected for autocorrelation, "
-                     "so the findings do not use it.")
-    alpha = 1.0 - float(conv["level"])
-    lines += ["", f"Findings (family-wise error rate α = {alpha:g} over every test of the report, Holm):"]
-    lines += format_findings(report.findings)
-    return "\n".join(lines)
+    if per is None:
+        return []
+    sec = per["period"]["seconds"]
+    noise = ", ".join(_num(math.sqrt(max(v, 0.0))) for v in per["noise_variance"])
+    return [f"Periodic trajectory: {per['n_periods']} whole periods of "
+            + (f"{sec:.4g} s" if sec else f"{per['period']['samples']:.4g} samples")
+            + f"; noise measured from the period-to-period variation (no whiteness assumed): "
+            f"standard deviation {noise} per joint."]
+
+
+def _bias_lines(report: ValidationReport) -> list:
+    """Why the findings do not use the residual mean, when the coloured-noise bias test is missing."""
+    if report.bias is not None:
+        return []
+    if report.provenance.get("streaming"):
+        return ["Residual mean: zero-mean test only (the coloured-noise bias test needs the whole series), "
+                "so the findings do not use it."]
+    return ["Residual mean: i.i.d. t-test only (max_lag = 0), not corrected for autocorrelation, "
+            "so the findings do not use it."]
 
 
 _SEVERITY_LABEL = {"deficiency": "DEFICIENCY", "design": "DESIGN", "note": "note"}

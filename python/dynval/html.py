@@ -18,7 +18,9 @@ import html as _html
 import io
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -297,108 +299,161 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
     """The HTML text of :func:`write_report` (same arguments, without the path)."""
     from . import __version__
 
-    parts = []
-    plot_note = ""
-    try:
-        import matplotlib  # noqa: F401
-        have_plot = True
-    except ImportError:
-        have_plot = False
-        plot_note = '<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>'
+    have_plot = _have_matplotlib()
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-
+    signature = f"dynval {_e(__version__)} · {stamp}"
+    plots = _FigureData(have_plot, tau_meas, tau_pred, sample_rate, reference_frequency, reference_label)
     if _is_comparison(obj):
-        cmp = obj
-        names = list(getattr(cmp, "names", None) or list(cmp.reports))
-        verdict = cmp.verdict
-        chosen = getattr(verdict, "model", None) or (list(getattr(cmp, "ranking", names)) or names)[0]
-        head = title or "dynval model comparison"
-        parts.append(f"<h1>{_e(head)}</h1>")
-        parts.append(f'<p class="sub">{len(names)} candidate models validated on the same data · dynval '
-                     f"{_e(__version__)} · {stamp}</p>")
-        if intro:
-            parts.append(f"<p>{_e(intro)}</p>")
-        decision = str(getattr(verdict, "decision", ""))
-        reasons = getattr(verdict, "reasons", []) or []
-        parts.append(f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
-                     f"<p>Model: <b>{_e(chosen)}</b></p>" + _decided_html(verdict, chosen, cmp)
-                     + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
-                     + "</div>")
-        parts.append("<h2>Decision table</h2>")
-        pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
-        ranking = list(getattr(cmp, "ranking", names))
-        cols = [c for c in ("rmse", "vaf", "fit_percent", "r2", "aic", "bic", "delta_aic", "delta_bic",
-                            "akaike_weight", "whiteness", "bias") if any(c in pooled.get(n, {}) for n in names)]
-        rows, classes = [], []
-        for n in ranking:
-            params = cmp.reports[n].provenance.get("n_params") if hasattr(cmp.reports[n], "provenance") else None
-            rows.append([_e(n), str(ranking.index(n) + 1), _num(params)] +
-                        [_num(pooled.get(n, {}).get(c)) for c in cols])
-            classes.append("chosen" if n == chosen else "")
-        labels = {"rmse": "RMSE", "vaf": "VAF", "fit_percent": "fit", "r2": "R²", "aic": "AIC", "bic": "BIC",
-                  "delta_aic": "ΔAIC", "delta_bic": "ΔBIC", "akaike_weight": "Akaike weight"}
-        parts.append(_table(["model", "rank", "parameters"] + [labels.get(c, c) for c in cols], rows,
-                            row_classes=classes, text_cols=(0,) + tuple(i + 3 for i, c in enumerate(cols)
-                                                                        if c in ("whiteness", "bias"))))
-        parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
-                     "(best first); the chosen model is highlighted.</p>")
-        parts.append(_candidate_reasons_html(cmp, ranking, chosen))
-        if have_plot:
-            from . import plot
-
-            parts.append(_figure_html(plot.metrics(cmp), "Per-joint VAF, fit and R² of every candidate "
-                                                         "(the chosen model outlined)."))
-        for n in [chosen] + [x for x in ranking if x != chosen]:
-            rep = cmp.reports[n]
-            parts.append(f"<h2>Model '{_e(n)}'{' — chosen' if n == chosen else ''}</h2>")
-            parts.append("<h3>Per joint</h3>" + _per_joint_table(rep))
-            parts.append("<h3>Findings</h3>" + _findings_html(rep))
-            parts.append("<h3>Information criteria</h3>" + _criteria_html(rep))
-            if n == chosen and have_plot:
-                pred = tau_pred.get(n) if isinstance(tau_pred, dict) else None
-                for fig, cap in _report_figures(rep, tau_meas, pred, sample_rate, n, reference_frequency,
-                                                reference_label):
-                    parts.append(_figure_html(fig, cap))
-        first = cmp.reports[names[0]]
+        parts, first = _comparison_parts(obj, title, intro, signature, plots)
     else:
-        rep = obj
-        head = title or "dynval validation report"
-        parts.append(f"<h1>{_e(head)}</h1>")
-        prov = getattr(rep, "provenance", None) or {}
-        parts.append(f'<p class="sub">{_e(prov.get("n_samples", "?"))} samples × {_e(prov.get("n_joints", "?"))} '
-                     f"joints · {_e(prov.get('n_params', '?'))} parameters · dynval {_e(__version__)} · {stamp}</p>")
-        if intro:
-            parts.append(f"<p>{_e(intro)}</p>")
-        defic = [f for f in getattr(rep, "findings", []) or [] if getattr(f, "severity", "") == "deficiency"]
-        if getattr(rep, "findings", None) is not None:
-            state = "refine" if defic else "accept"
-            parts.append(f'<div class="verdict {state}"><div class="decision">'
-                         f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
-        parts.append("<h2>Per joint</h2>" + _per_joint_table(rep))
-        parts.append("<h2>Findings</h2>" + _findings_html(rep))
-        parts.append("<h2>Information criteria</h2>" + _criteria_html(rep))
-        if have_plot:
-            parts.append("<h2>Figures</h2>")
-            for fig, cap in _report_figures(rep, tau_meas, tau_pred, sample_rate, "model", reference_frequency,
-                                            reference_label):
-                parts.append(_figure_html(fig, cap))
-        first = rep
-    for fig, cap in figures or ():
-        parts.append(_figure_html(fig, cap))
-    parts.append(plot_note)
+        parts, first = _validation_parts(obj, title, intro, signature, plots), obj
+    parts += [_figure_html(fig, cap) for fig, cap in figures or ()]
+    if not have_plot:
+        parts.append('<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>')
     parts.append("<h2>Provenance</h2>" + _provenance_html(first))
-    try:
-        full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
-        parts.append(f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>")
-    except Exception as exc:
-        parts.append(f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>')
-
+    parts.append(_json_html(obj))
     body = "\n".join(p for p in parts if p)
+    head = title or ("dynval model comparison" if _is_comparison(obj) else "dynval validation report")
     return ("<!DOCTYPE html>\n"
             '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
             '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
-            f"<title>{_e(title or ('dynval model comparison' if _is_comparison(obj) else 'dynval validation report'))}"
-            f"</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+            f"<title>{_e(head)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+
+
+def _have_matplotlib() -> bool:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class _FigureData:
+    """The caller's data for the figures of one page; ``enabled`` is false without matplotlib."""
+
+    enabled: bool
+    tau_meas: Any
+    tau_pred: Any
+    sample_rate: Any
+    reference_frequency: Any
+    reference_label: str
+
+    def html(self, report, tau_pred, model_name) -> list:
+        """The report's figures as ``<figure>`` elements (none without matplotlib)."""
+        if not self.enabled:
+            return []
+        return [_figure_html(fig, cap) for fig, cap in _report_figures(
+            report, self.tau_meas, tau_pred, self.sample_rate, model_name, self.reference_frequency,
+            self.reference_label)]
+
+
+def _validation_parts(rep, title, intro, signature, plots: _FigureData) -> list:
+    """The sections of one validation's page, down to its figures."""
+    prov = getattr(rep, "provenance", None) or {}
+    parts = [f"<h1>{_e(title or 'dynval validation report')}</h1>",
+             f'<p class="sub">{_e(prov.get("n_samples", "?"))} samples × {_e(prov.get("n_joints", "?"))} '
+             f"joints · {_e(prov.get('n_params', '?'))} parameters · {signature}</p>"]
+    if intro:
+        parts.append(f"<p>{_e(intro)}</p>")
+    parts.append(_deficiency_count_html(rep))
+    parts.append("<h2>Per joint</h2>" + _per_joint_table(rep))
+    parts.append("<h2>Findings</h2>" + _findings_html(rep))
+    parts.append("<h2>Information criteria</h2>" + _criteria_html(rep))
+    if plots.enabled:
+        parts.append("<h2>Figures</h2>")
+        parts += plots.html(rep, plots.tau_pred, "model")
+    return parts
+
+
+def _deficiency_count_html(rep) -> str:
+    """A verdict-coloured box with the number of deficiencies ("" for an object without findings)."""
+    findings = getattr(rep, "findings", None)
+    if findings is None:
+        return ""
+    defic = [f for f in findings or [] if getattr(f, "severity", "") == "deficiency"]
+    state = "refine" if defic else "accept"
+    return (f'<div class="verdict {state}"><div class="decision">'
+            f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
+
+
+def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, Any]:
+    """The sections of a comparison's page, and the report whose provenance the page shows."""
+    names = list(getattr(cmp, "names", None) or list(cmp.reports))
+    verdict = cmp.verdict
+    chosen = getattr(verdict, "model", None) or (list(getattr(cmp, "ranking", names)) or names)[0]
+    ranking = list(getattr(cmp, "ranking", names))
+    parts = [f"<h1>{_e(title or 'dynval model comparison')}</h1>",
+             f'<p class="sub">{len(names)} candidate models validated on the same data · {signature}</p>']
+    if intro:
+        parts.append(f"<p>{_e(intro)}</p>")
+    parts.append(_verdict_html(verdict, chosen, cmp))
+    parts.append("<h2>Decision table</h2>")
+    parts.append(_decision_table_html(cmp, names, ranking, chosen))
+    parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
+                 "(best first); the chosen model is highlighted.</p>")
+    parts.append(_candidate_reasons_html(cmp, ranking, chosen))
+    if plots.enabled:
+        from . import plot
+
+        parts.append(_figure_html(plot.metrics(cmp), "Per-joint VAF, fit and R² of every candidate "
+                                                     "(the chosen model outlined)."))
+    for n in [chosen] + [x for x in ranking if x != chosen]:
+        parts += _candidate_parts(cmp.reports[n], n, n == chosen, plots)
+    return parts, cmp.reports[names[0]]
+
+
+def _verdict_html(verdict, chosen, cmp) -> str:
+    """The verdict box: the decision, the chosen model, what decided it and the reasons."""
+    decision = str(getattr(verdict, "decision", ""))
+    reasons = getattr(verdict, "reasons", []) or []
+    return (f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
+            f"<p>Model: <b>{_e(chosen)}</b></p>" + _decided_html(verdict, chosen, cmp)
+            + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
+            + "</div>")
+
+
+_DECISION_COLUMNS = ("rmse", "vaf", "fit_percent", "r2", "aic", "bic", "delta_aic", "delta_bic", "akaike_weight",
+                     "whiteness", "bias")
+_DECISION_LABELS = {"rmse": "RMSE", "vaf": "VAF", "fit_percent": "fit", "r2": "R²", "aic": "AIC", "bic": "BIC",
+                    "delta_aic": "ΔAIC", "delta_bic": "ΔBIC", "akaike_weight": "Akaike weight"}
+
+
+def _decision_table_html(cmp, names, ranking, chosen) -> str:
+    """One row per candidate in ranking order: its pooled metrics and criteria, the chosen one highlighted."""
+    pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
+    # Only the columns some candidate has: a comparison object may carry fewer.
+    cols = [c for c in _DECISION_COLUMNS if any(c in pooled.get(n, {}) for n in names)]
+    rows, classes = [], []
+    for n in ranking:
+        params = cmp.reports[n].provenance.get("n_params") if hasattr(cmp.reports[n], "provenance") else None
+        rows.append([_e(n), str(ranking.index(n) + 1), _num(params)] +
+                    [_num(pooled.get(n, {}).get(c)) for c in cols])
+        classes.append("chosen" if n == chosen else "")
+    return _table(["model", "rank", "parameters"] + [_DECISION_LABELS.get(c, c) for c in cols], rows,
+                  row_classes=classes, text_cols=(0,) + tuple(i + 3 for i, c in enumerate(cols)
+                                                              if c in ("whiteness", "bias")))
+
+
+def _candidate_parts(rep, name, chosen, plots: _FigureData) -> list:
+    """One candidate's section: its tables, and the figures for the chosen one."""
+    parts = [f"<h2>Model '{_e(name)}'{' — chosen' if chosen else ''}</h2>",
+             "<h3>Per joint</h3>" + _per_joint_table(rep),
+             "<h3>Findings</h3>" + _findings_html(rep),
+             "<h3>Information criteria</h3>" + _criteria_html(rep)]
+    if chosen and plots.enabled:
+        pred = plots.tau_pred.get(name) if isinstance(plots.tau_pred, dict) else None
+        parts += plots.html(rep, pred, name)
+    return parts
+
+
+def _json_html(obj) -> str:
+    """The whole report as JSON in a collapsed block, or why it could not be included."""
+    try:
+        full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
+    except Exception as exc:
+        return f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>'
+    return f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>"
 
 
 def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),

@@ -206,161 +206,238 @@ def run(
     -------
     RunResult
     """
-    from ..golden import FAMILIES, OPTIONAL_FAMILIES
+    from ..golden import FAMILIES
 
     timeout, startup_timeout = resolve_timeouts(timeout, startup_timeout)
     selected = list(families) if families else list(FAMILIES)
     started = time.monotonic()
     result = RunResult(command=list(command), corpus=str(corpus or ""), families=selected)
     cases = list(iter_cases(corpus, selected))
-    port: PortProcess | None = PortProcess(command, startup_timeout)
-    dead_reason = ""
+    port, dead_reason = _start_port(command, startup_timeout, result)
+    capabilities = port.capabilities if port is not None else []
+    if (not families if skip_unclaimed is None else skip_unclaimed) and capabilities:
+        cases = _without_unclaimed(cases, capabilities, result)
+    feeder = _Feeder(command, timeout, startup_timeout, max_restarts, capabilities, result, progress, len(cases))
+    feeder.feed(cases, jobs, port, dead_reason)
+    result.seconds = time.monotonic() - started
+    return result
+
+
+def _start_port(command: Sequence[str], startup_timeout: float,
+                result: RunResult) -> tuple[PortProcess | None, str]:
+    """Start the port and note its handshake in ``result``: ``(port, "")``, or ``(None, why)``."""
+    port = PortProcess(command, startup_timeout)
     try:
         port.start()
     except PortFailure as exc:
         result.startup_error = _with_stderr(str(exc), port)
-        port = None
-        dead_reason = result.startup_error
-    else:
-        result.port_name = port.name
-        result.protocol_version = port.version
-        result.capabilities = [protocol.format_capability(c) for c in port.capabilities]
-        result.encoding = port.encoding
-    capabilities = port.capabilities if port is not None else []
-    if (not families if skip_unclaimed is None else skip_unclaimed) and capabilities:
-        declared = {c.operation for c in capabilities}
-        for family in OPTIONAL_FAMILIES:
-            operations = {c.operation for c in cases if c.family == family}
-            if family in selected and not operations & declared:
-                result.unclaimed.append(family)
-        if result.unclaimed:
-            result.families = [f for f in selected if f not in result.unclaimed]
-            cases = [c for c in cases if c.family not in result.unclaimed]
+        return None, result.startup_error
+    result.port_name = port.name
+    result.protocol_version = port.version
+    result.capabilities = [protocol.format_capability(c) for c in port.capabilities]
+    result.encoding = port.encoding
+    return port, ""
 
-    lock = threading.Lock()
-    indexed: list[tuple[int, CaseOutcome]] = []
-    done = [0]
 
-    def record(index: int, outcome: CaseOutcome) -> None:
-        with lock:
-            indexed.append((index, outcome))
-            result.outcomes.append(outcome)
-            done[0] += 1
-            _report_progress(progress, done[0], len(cases), result)
+def _without_unclaimed(cases: list[Case], capabilities: Sequence[protocol.Capability],
+                       result: RunResult) -> list[Case]:
+    """The cases less those of the optional families in which the port declares no operation
+    (listed in ``result.unclaimed`` and taken out of ``result.families``)."""
+    from ..golden import OPTIONAL_FAMILIES
 
-    def exchange(shard: list[tuple[int, Case]], port: PortProcess | None, dead_reason: str) -> int:
-        """Send the shard's cases to ``port`` (restarted when it breaks); returns the restarts."""
-        restarts = 0
-        try:
-            for index, case in shard:
-                outcome = CaseOutcome(
-                    id=case.id, family=case.family, tc_id=case.tc_id, operation=case.operation,
-                    conventions=_conventions_text(case.conventions), status="failed",
-                    flags=case.flags, comment=case.comment,
-                )
-                if dead_reason and not capabilities:
-                    outcome.reason, outcome.detail = "handshake", dead_reason
-                    record(index, outcome)
-                    continue
-                covered = protocol.covered_outputs(capabilities, case.operation, case.conventions)
-                if covered is False:
-                    outcome.status, outcome.reason = "skipped", "not-covered"
-                    outcome.detail = "no capability of the port covers this operation and these conventions"
-                    record(index, outcome)
-                    continue
-                values = [k for k in case.expected if k != "error"]
-                if covered is not None and case.result == "valid" and not any(k in covered for k in values):
-                    outcome.status, outcome.reason = "skipped", "not-covered"
-                    outcome.detail = "the port computes none of this case's outputs"
-                    outcome.skipped_outputs = tuple(values)
-                    record(index, outcome)
-                    continue
-                try:
-                    lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions,
-                                                 case.inputs)
-                except (TypeError, ValueError) as exc:
-                    outcome.status, outcome.reason = "skipped", "not-expressible"
-                    outcome.detail = f"protocol {protocol.PROTOCOL_VERSION} cannot carry this case: {exc}"
-                    record(index, outcome)
-                    continue
-                outcome.expected = {k: (v if k == "error" else _jsonable(v)) for k, v in case.expected.items()}
+    declared = {c.operation for c in capabilities}
+    for family in OPTIONAL_FAMILIES:
+        operations = {c.operation for c in cases if c.family == family}
+        if family in result.families and not operations & declared:
+            result.unclaimed.append(family)
+    if not result.unclaimed:
+        return cases
+    result.families = [f for f in result.families if f not in result.unclaimed]
+    return [c for c in cases if c.family not in result.unclaimed]
 
-                if port is None and not dead_reason:
-                    if restarts >= max_restarts:
-                        dead_reason = f"not run: the port needed more than {max_restarts} restarts"
-                    else:
-                        restarts += 1
-                        port = PortProcess(command, startup_timeout)
-                        try:
-                            port.start()
-                        except PortFailure as exc:
-                            dead_reason = "not run: the port could not be restarted: " + _with_stderr(str(exc), port)
-                            port = None
-                if port is None:
-                    outcome.reason, outcome.detail = "not-run", dead_reason
-                    record(index, outcome)
-                    continue
 
-                if port.encoding != "decimal":
-                    lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions,
-                                                 case.inputs, encoding=port.encoding)
-                t0 = time.monotonic()
-                try:
-                    reply = port.exchange(lines, timeout, _answer_budget(case))
-                except PortFailure as exc:
-                    outcome.seconds = time.monotonic() - t0
-                    message = str(exc)
-                    if exc.reason == "timeout":
-                        message = f"timed out after {timeout:g} s: {message}"
-                    port.kill()
-                    outcome.reason, outcome.detail = exc.reason, _with_stderr(message, port)
-                    port = None
-                    record(index, outcome)
-                    continue
-                outcome.seconds = time.monotonic() - t0
-                outcome.status, outcome.reason, outcome.detail, outcome.skipped_outputs = judge(case, reply, covered)
-                if reply.error_kind is not None:
-                    outcome.got = {"error": reply.error_kind}
-                else:
-                    outcome.got = {k: _jsonable(v) for k, v in reply.outputs.items()}
-                if outcome.status != "failed":
-                    outcome.expected, outcome.got = {}, {}  # keep the report small
-                record(index, outcome)
-        finally:
-            if port is not None:
-                port.close()
-        return restarts
+class _Feeder:
+    """Feeds the cases of one run to its port processes and collects the outcomes.
 
-    # Several port processes, each on an interleaved share of the cases (a slow port's run
-    # divided among cores); every process but the first is started here, like a restart.
-    numbered = list(enumerate(cases))
-    shards = [numbered[k::jobs] for k in range(max(1, min(jobs, len(numbered))))]
-    if len(shards) == 1:
-        result.restarts = exchange(shards[0], port, dead_reason)
-    else:
+    The outcomes arrive from one thread per port process with ``jobs > 1``: they are recorded
+    under a lock, in the order they arrive, and put back in corpus order at the end.
+    """
+
+    def __init__(self, command: Sequence[str], timeout: float, startup_timeout: float, max_restarts: int,
+                 capabilities: list[protocol.Capability], result: RunResult,
+                 progress: Callable[[int, int, RunResult], None] | None, total: int) -> None:
+        self.command = command
+        self.timeout = timeout
+        self.startup_timeout = startup_timeout
+        self.max_restarts = max_restarts
+        self.capabilities = capabilities
+        self.result = result
+        self.progress = progress
+        self.total = total
+        self._lock = threading.Lock()
+        self._indexed: list[tuple[int, CaseOutcome]] = []
+        self._done = 0
+
+    def feed(self, cases: list[Case], jobs: int, port: PortProcess | None, dead_reason: str) -> None:
+        """Run every case, on ``jobs`` port processes, each on an interleaved share of the cases."""
+        # A slow port's run divided among cores; every process but the first is started here, like
+        # a restart.
+        numbered = list(enumerate(cases))
+        shards = [numbered[k::jobs] for k in range(max(1, min(jobs, len(numbered))))]
+        if len(shards) == 1:
+            self.result.restarts = self._exchange(shards[0], port, dead_reason)
+        else:
+            self.result.restarts = self._exchange_in_parallel(shards, port, dead_reason)
+        self.result.outcomes = [outcome for _, outcome in sorted(self._indexed, key=lambda pair: pair[0])]
+
+    def _exchange_in_parallel(self, shards: list[list[tuple[int, Case]]], port: PortProcess | None,
+                              dead_reason: str) -> int:
+        """One thread and one port process per shard (the first on ``port``); returns the restarts."""
         restarts = [0] * len(shards)
 
         def shard_worker(k: int) -> None:
-            own = port if k == 0 else None
-            reason = dead_reason
-            if k > 0 and not dead_reason:
-                own = PortProcess(command, startup_timeout)
-                try:
-                    own.start()
-                except PortFailure as exc:
-                    reason = "not run: another port process could not be started: " + _with_stderr(str(exc), own)
-                    own = None
-            restarts[k] = exchange(shards[k], own, reason)
+            own, reason = (port, dead_reason) if k == 0 else self._another_port(dead_reason)
+            restarts[k] = self._exchange(shards[k], own, reason)
 
         threads = [threading.Thread(target=shard_worker, args=(k,), daemon=True) for k in range(len(shards))]
         for thread in threads:
             thread.start()
         for thread in threads:
             thread.join()
-        result.restarts = sum(restarts)
-    result.outcomes = [outcome for _, outcome in sorted(indexed, key=lambda pair: pair[0])]
-    result.seconds = time.monotonic() - started
-    return result
+        return sum(restarts)
+
+    def _another_port(self, dead_reason: str) -> tuple[PortProcess | None, str]:
+        """A further port process: ``(port, "")``, or ``(None, why)``."""
+        if dead_reason:
+            return None, dead_reason
+        own = PortProcess(self.command, self.startup_timeout)
+        try:
+            own.start()
+        except PortFailure as exc:
+            return None, "not run: another port process could not be started: " + _with_stderr(str(exc), own)
+        return own, dead_reason
+
+    def _exchange(self, shard: list[tuple[int, Case]], port: PortProcess | None, dead_reason: str) -> int:
+        """Send the shard's cases to ``port`` (restarted when it breaks); returns the restarts."""
+        worker = _PortWorker(self, port, dead_reason)
+        try:
+            for index, case in shard:
+                self._record(index, worker.outcome(case))
+        finally:
+            if worker.port is not None:
+                worker.port.close()
+        return worker.restarts
+
+    def _record(self, index: int, outcome: CaseOutcome) -> None:
+        with self._lock:
+            self._indexed.append((index, outcome))
+            self.result.outcomes.append(outcome)
+            self._done += 1
+            _report_progress(self.progress, self._done, self.total, self.result)
+
+
+class _PortWorker:
+    """One port process and its restarts: ``port`` is None once it broke, and ``dead_reason``
+    says why no further case can be sent to it."""
+
+    def __init__(self, feeder: _Feeder, port: PortProcess | None, dead_reason: str) -> None:
+        self.feeder = feeder
+        self.port = port
+        self.dead_reason = dead_reason
+        self.restarts = 0
+
+    def outcome(self, case: Case) -> CaseOutcome:
+        """Send one case, when the port can take it, and judge the answer."""
+        capabilities = self.feeder.capabilities
+        outcome = CaseOutcome(
+            id=case.id, family=case.family, tc_id=case.tc_id, operation=case.operation,
+            conventions=_conventions_text(case.conventions), status="failed",
+            flags=case.flags, comment=case.comment,
+        )
+        if self.dead_reason and not capabilities:
+            outcome.reason, outcome.detail = "handshake", self.dead_reason
+            return outcome
+        covered = protocol.covered_outputs(capabilities, case.operation, case.conventions)
+        lines = _encode_or_skip(case, covered, outcome)
+        if lines is None:
+            return outcome
+        outcome.expected = {k: (v if k == "error" else _jsonable(v)) for k, v in case.expected.items()}
+        port = self._live_port()
+        if port is None:
+            outcome.reason, outcome.detail = "not-run", self.dead_reason
+            return outcome
+        self._send(port, case, lines, covered, outcome)
+        return outcome
+
+    def _live_port(self) -> PortProcess | None:
+        """The port, restarted if it broke and the budget allows; None with ``dead_reason`` otherwise."""
+        max_restarts = self.feeder.max_restarts
+        if self.port is None and not self.dead_reason:
+            if self.restarts >= max_restarts:
+                self.dead_reason = f"not run: the port needed more than {max_restarts} restarts"
+            else:
+                self.restarts += 1
+                self.port = PortProcess(self.feeder.command, self.feeder.startup_timeout)
+                try:
+                    self.port.start()
+                except PortFailure as exc:
+                    self.dead_reason = "not run: the port could not be restarted: " + _with_stderr(str(exc), self.port)
+                    self.port = None
+        return self.port
+
+    def _send(self, port: PortProcess, case: Case, lines: list[str], covered: frozenset[str] | None,
+              outcome: CaseOutcome) -> None:
+        """Exchange the case with ``port`` and judge the reply into ``outcome``; a port that fails is
+        killed and dropped."""
+        timeout = self.feeder.timeout
+        if port.encoding != "decimal":
+            lines = protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions,
+                                         case.inputs, encoding=port.encoding)
+        t0 = time.monotonic()
+        try:
+            reply = port.exchange(lines, timeout, _answer_budget(case))
+        except PortFailure as exc:
+            outcome.seconds = time.monotonic() - t0
+            message = str(exc)
+            if exc.reason == "timeout":
+                message = f"timed out after {timeout:g} s: {message}"
+            port.kill()
+            outcome.reason, outcome.detail = exc.reason, _with_stderr(message, port)
+            self.port = None
+            return
+        outcome.seconds = time.monotonic() - t0
+        _judge_into(outcome, case, reply, covered)
+
+
+def _encode_or_skip(case: Case, covered: frozenset[str] | bool | None, outcome: CaseOutcome) -> list[str] | None:
+    """The case's lines (decimal), or None with ``outcome`` skipped when the port cannot take the case."""
+    if covered is False:
+        outcome.status, outcome.reason = "skipped", "not-covered"
+        outcome.detail = "no capability of the port covers this operation and these conventions"
+        return None
+    values = [k for k in case.expected if k != "error"]
+    if covered is not None and case.result == "valid" and not any(k in covered for k in values):
+        outcome.status, outcome.reason = "skipped", "not-covered"
+        outcome.detail = "the port computes none of this case's outputs"
+        outcome.skipped_outputs = tuple(values)
+        return None
+    try:
+        return protocol.encode_case(case.family, case.tc_id, case.operation, case.conventions, case.inputs)
+    except (TypeError, ValueError) as exc:
+        outcome.status, outcome.reason = "skipped", "not-expressible"
+        outcome.detail = f"protocol {protocol.PROTOCOL_VERSION} cannot carry this case: {exc}"
+        return None
+
+
+def _judge_into(outcome: CaseOutcome, case: Case, reply: protocol.Reply, covered: frozenset[str] | None) -> None:
+    """The verdict on ``reply`` and what the port answered, into ``outcome``."""
+    outcome.status, outcome.reason, outcome.detail, outcome.skipped_outputs = judge(case, reply, covered)
+    if reply.error_kind is not None:
+        outcome.got = {"error": reply.error_kind}
+    else:
+        outcome.got = {k: _jsonable(v) for k, v in reply.outputs.items()}
+    if outcome.status != "failed":
+        outcome.expected, outcome.got = {}, {}  # keep the report small
 
 
 def resolve_timeouts(timeout: float | None, startup_timeout: float | None) -> tuple[float, float]:
