@@ -603,7 +603,7 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
 
 def _residual_sections(d: _Data, o: _Options, b: _Build) -> None:
     """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
-    from . import zero_mean_test
+    from ._api import zero_mean_test
 
     prof = o.prof
     b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)

@@ -7,12 +7,9 @@ change independently.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from ._text import pvalue_text
-
-if TYPE_CHECKING:
-    from ._report import ValidationReport
+from ._typing import ReportSections
 
 
 def _num(x, fmt=".4g") -> str:
@@ -25,7 +22,7 @@ def _num(x, fmt=".4g") -> str:
     return format(x, fmt)
 
 
-def format_summary(report: ValidationReport) -> str:
+def format_summary(report: ReportSections) -> str:
     """The text of :meth:`ValidationReport.summary`."""
     prov = report.provenance
     names = _joint_names(prov)
@@ -64,7 +61,7 @@ def _heading_lines(prov) -> list:
     ]
 
 
-def _per_joint_lines(report: ValidationReport, names: list) -> list:
+def _per_joint_lines(report: ReportSections, names: list) -> list:
     """The per-joint table: error sizes, VAF, fit, R², mean residual and the Ljung–Box p-value."""
     unit, vfmt = _fraction_style(report.provenance)
     pj = report.per_joint
@@ -84,7 +81,7 @@ def _per_joint_lines(report: ValidationReport, names: list) -> list:
     return lines
 
 
-def _pooled_lines(report: ValidationReport) -> list:
+def _pooled_lines(report: ReportSections) -> list:
     """The pooled metrics, then the uniform and the variance-weighted averages over joints."""
     unit, vfmt = _fraction_style(report.provenance)
     pooled, agg = report.pooled, report.aggregates
@@ -122,13 +119,13 @@ def _criteria_lines(ic) -> list:
     return lines
 
 
-def _analysis_lines(report: ValidationReport, names: list) -> list:
+def _analysis_lines(report: ReportSections, names: list) -> list:
     """One line per analysis beyond the metrics, for those the report holds."""
     return (_whiteness_lines(report, names) + _cross_correlation_lines(report) + _information_rate_lines(report)
             + _physics_lines(report) + _design_lines(report) + _periodic_lines(report) + _bias_lines(report))
 
 
-def _whiteness_lines(report: ValidationReport, names: list) -> list:
+def _whiteness_lines(report: ReportSections, names: list) -> list:
     """The autocorrelation's lags, band and the share of lags outside it per joint."""
     acf = report.autocorrelation
     if acf is None:
@@ -142,7 +139,7 @@ def _whiteness_lines(report: ValidationReport, names: list) -> list:
             f"findings correct over the whole report); lags outside: {frac}"]
 
 
-def _cross_correlation_lines(report: ValidationReport) -> list:
+def _cross_correlation_lines(report: ReportSections) -> list:
     """The cells of the residual × regressor cross-correlation outside the white band."""
     xc = report.cross_correlation
     if xc is None:
@@ -155,7 +152,7 @@ def _cross_correlation_lines(report: ValidationReport) -> list:
             f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); {colour}"]
 
 
-def _information_rate_lines(report: ValidationReport) -> list:
+def _information_rate_lines(report: ReportSections) -> list:
     """The decimation to the information rate and the information band, when there are any."""
     white = report.whiteness
     if white is None:
@@ -172,7 +169,7 @@ def _information_rate_lines(report: ValidationReport) -> list:
     return lines
 
 
-def _physics_lines(report: ValidationReport) -> list:
+def _physics_lines(report: ReportSections) -> list:
     """How the physical terms were tested, when q was given."""
     phys = getattr(report, "physics", None)
     if phys is None:
@@ -181,7 +178,7 @@ def _physics_lines(report: ValidationReport) -> list:
             f"{phys['derivatives']}; the model's own columns: {phys['model_columns']})."]
 
 
-def _design_lines(report: ValidationReport) -> list:
+def _design_lines(report: ReportSections) -> list:
     """The smallest term the data could detect, per joint."""
     design = report.design or {}
     if design.get("detectable_share") is None:
@@ -191,7 +188,7 @@ def _design_lines(report: ValidationReport) -> list:
             f"(N_eff of the noise {', '.join(f'{x:.0f}' for x in design['noise_n_eff'])})."]
 
 
-def _periodic_lines(report: ValidationReport) -> list:
+def _periodic_lines(report: ReportSections) -> list:
     """The whole periods of a periodic trajectory and the noise they measure."""
     per = getattr(report, "periodic", None)
     if per is None:
@@ -204,7 +201,7 @@ def _periodic_lines(report: ValidationReport) -> list:
             f"standard deviation {noise} per joint."]
 
 
-def _bias_lines(report: ValidationReport) -> list:
+def _bias_lines(report: ReportSections) -> list:
     """Why the findings do not use the residual mean, when the coloured-noise bias test is missing."""
     if report.bias is not None:
         return []

@@ -107,3 +107,22 @@ class Kernels(Protocol):
         self, rss: float | np.floating[Any] | np.integer[Any], n_obs: Integer, n_params: Integer
     ) -> dict[str, Any]: ...
     def criteria(self, meas: ArrayLike, pred: ArrayLike, n_params: Integer, noise_model: str) -> dict[str, Any]: ...
+
+
+class ReportSections(Protocol):
+    """What the plain-language summary reads of a validation report (``ValidationReport`` has it;
+    a protocol, so that the wording layer needs no import of the report module)."""
+
+    provenance: dict[str, Any]
+    per_joint: dict[str, Any]
+    pooled: dict[str, Any]
+    aggregates: dict[str, Any]
+    residuals: dict[str, Any]
+    autocorrelation: dict[str, Any] | None
+    ljung_box: dict[str, Any] | None
+    cross_correlation: dict[str, Any] | None
+    information_criteria: dict[str, Any]
+    bias: dict[str, Any] | None
+    whiteness: dict[str, Any] | None
+    design: dict[str, Any] | None
+    findings: Any

@@ -63,7 +63,7 @@ _EXIT_CODES = ("Exit codes: 0 success, 1 input error (message on stderr), 2 usag
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``dynval`` argument parser (subcommands validate, compare, demo, conform)."""
-    from . import __version__
+    from ._version import __version__
 
     parser = argparse.ArgumentParser(
         prog="dynval",

@@ -156,8 +156,7 @@ def run_demo(scenario: str = "friction", out=None, progress=_stderr, *, seed: in
     >>> result.names
     ['rigid', 'friction', 'friction+offset']
     """
-    import dynval
-
+    from ._compare import compare
     from .identify import identify
 
     say = progress or (lambda msg: None)
@@ -176,25 +175,15 @@ def run_demo(scenario: str = "friction", out=None, progress=_stderr, *, seed: in
         identified[name] = res
         predictions[name] = res.predict(val.regressors[name])
 
-    comparison = None
-    compare = getattr(dynval, "compare", None)
-    if compare is not None:
-        say("validating and comparing the candidates on the validation trajectory")
-        kwargs = dict(common)
-        for key, value in (("profile", profile), ("backend", backend)):
-            if _accepts(compare, key):
-                kwargs[key] = value
-        comparison = compare(val.tau_meas, {name: (predictions[name], identified[name].rank, val.full_regressor)
-                                            for name in d.candidates}, **kwargs)
-        reports = dict(comparison.reports)
-        chosen = comparison.verdict.model or comparison.ranking[0]
-    else:
-        for name in d.candidates:
-            say(f"validating '{name}' on the validation trajectory")
-            reports[name] = dynval.validate(val.tau_meas, predictions[name], n_params=identified[name].rank,
-                                            regressor=val.full_regressor, profile=profile, backend=backend,
-                                            **common)
-        chosen = min(d.candidates, key=lambda n: reports[n].information_criteria["bic"])
+    say("validating and comparing the candidates on the validation trajectory")
+    kwargs = dict(common)
+    for key, value in (("profile", profile), ("backend", backend)):
+        if _accepts(compare, key):
+            kwargs[key] = value
+    comparison = compare(val.tau_meas, {name: (predictions[name], identified[name].rank, val.full_regressor)
+                                        for name in d.candidates}, **kwargs)
+    reports = dict(comparison.reports)
+    chosen = comparison.verdict.model or comparison.ranking[0]
 
     result = DemoResult(scenario=scenario, data=d, identified=identified, predictions=predictions,
                         reports=reports, comparison=comparison, chosen=chosen)

@@ -297,7 +297,7 @@ def _is_comparison(obj) -> bool:
 def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
                   reference_frequency=None, reference_label="expected mode", intro=None) -> str:
     """The HTML text of :func:`write_report` (same arguments, without the path)."""
-    from . import __version__
+    from ._version import __version__
 
     have_plot = _have_matplotlib()
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -52,7 +52,7 @@ def answer(case: protocol.CaseMessage, backend: str | None = None, encoding: str
 
     contract_error: type[Exception]
     try:
-        from . import InputError as contract_error
+        from ._errors import InputError as contract_error
     except ImportError:  # pragma: no cover - the facade is always there in a release
         contract_error = ValueError
 
@@ -75,11 +75,9 @@ def serve(backend: str | None, stdin: TextIO, stdout: TextIO, encoding: str = "d
     With ``encoding="hex"`` the port asks for hexadecimal floats in the
     handshake and answers in them too.
     """
-    import dynval
-
+    from ._version import __version__ as version
     from .golden import OPERATIONS
 
-    version = getattr(dynval, "__version__", "?")
     stdout.write(f"{protocol.GREETING} {protocol.PROTOCOL_VERSION} dynval {version} ({backend or 'default'} backend)\n")
     if encoding != "decimal":
         stdout.write(f"encoding {encoding}\n")
@@ -115,10 +113,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--encoding", choices=protocol.ENCODINGS, default="decimal",
                         help="number encoding to negotiate: decimal (default) or hex (C99 hexadecimal floats)")
     args = parser.parse_args(argv)
-    import dynval
+    from ._backend import backends
 
     if args.backend is not None:
-        available = dynval.backends()
+        available = backends()
         if not available.get(args.backend, {}).get("available", False):
             detail = available.get(args.backend, {}).get("detail", "")
             sys.stderr.write(f"dynval.port: backend {args.backend!r} is not available: {detail}\n")

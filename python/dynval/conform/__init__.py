@@ -189,7 +189,7 @@ def _report_dict(result: RunResult, exit_code: int) -> dict:
     import dynval.golden as golden
 
     try:
-        from .. import __version__ as version
+        from .._version import __version__ as version
     except ImportError:  # the package facade is optional for the runner
         version = None
     return {

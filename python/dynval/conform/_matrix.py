@@ -59,9 +59,9 @@ class MatrixRow:
 def builtin_port(name: str, root: pathlib.Path) -> PortSpec:
     """The command of a built-in port, or the reason it cannot run here."""
     if name in ("python", "cpp"):
-        import dynval
+        from .._backend import backends
 
-        info = dynval.backends().get(name, {})
+        info = backends().get(name, {})
         command = [sys.executable, "-m", "dynval.port", "--backend", name]
         # A verbose editable install prints its rebuild notice on standard output at import.
         env = {"SKBUILD_EDITABLE_VERBOSE": "0"}
