@@ -9,10 +9,9 @@ The profile (``_profiles.py``) fills every default.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -20,13 +19,13 @@ import numpy as np
 from . import _estimation, _motion, _timing
 from . import _sections as sec
 from . import _validation as v
+from ._assembly import REPORT_SCHEMA_VERSION, Sections, Setting, ValidationReport, assemble_report, provenance
 from ._blas import one_blas_thread
 from ._errors import InputError, ShapeMismatch
-from ._findings import Finding, Thresholds, compute_findings, resolve_thresholds
+from ._findings import Thresholds, resolve_thresholds
 from ._json import to_jsonable
 from ._profiles import Profile, get_profile
 from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
-from ._summary import format_summary
 from ._typing import (
     ArrayLike,
     BackendName,
@@ -41,181 +40,9 @@ from ._typing import (
     NoiseModel,
     ProfileName,
 )
-from ._version import CONTRACT_VERSION, __version__
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
-REPORT_SCHEMA_VERSION = 1
-
-
-# --------------------------------------------------------------------------- the report
-
-
-@dataclass
-class ValidationReport:
-    """Result of :func:`dynval.validate`.
-
-    Every section is a dictionary of floats, integers, strings and numpy arrays; the keys are
-    the contract's names (contract §4). Per-joint arrays have shape ``(m,)``; joint, column
-    and lag indices are 0-based (the text of :meth:`summary` numbers joints and columns from 1).
-
-    Attributes
-    ----------
-    provenance : dict
-        Profile, every convention used, units, N, m, p, segments, omitted rows, backend,
-        versions.
-    per_joint : dict
-        ``sse``, ``rmse``, ``max_abs_error``, ``vaf``, ``fit_percent``, ``r2``, ``nrmse``.
-    pooled : dict
-        All N·m values flattened with one mean (the lesson's form): ``sse``,
-        ``rmse_per_element``, ``rmse_per_sample``, ``max_abs_error``, ``vaf``,
-        ``fit_percent``, ``r2``.
-    aggregates : dict
-        ``uniform_average`` and ``variance_weighted`` of ``vaf``, ``fit_percent``, ``r2``, and
-        ``rmse_uniform_average``.
-    residuals : dict
-        ``mean``, ``variance``, ``ddof``, ``zero_mean_test``.
-    autocorrelation : dict or None
-        ``None`` when ``max_lag = 0``.
-    ljung_box : dict or None
-        ``None`` when ``max_lag = 0`` (a portmanteau statistic needs at least one lag).
-    cross_correlation : dict or None
-        ``None`` without a regressor.
-    information_criteria : dict
-        ``noise_model``, ``constant``, ``n_obs``, ``n_params``, ``aic``, ``bic``, ``aicc``,
-        ``fpe``, ``naic``.
-    warnings_text : list of str
-        The findings' messages, in plain words.
-    findings : list of Finding
-        The findings as records (kind, severity, joints, columns, statistic, p-values, effect,
-        threshold, action, message); deficiencies first (docs/conventions.md §5).
-    bias : dict or None
-        The residual mean tested against its coloured-noise standard error (automatic N_eff).
-    whiteness : dict or None
-        Ljung–Box at the logged rate and at the information rate (decimated), when lags are analysed.
-    spectrum : dict or None
-        Welch spectrum of the residual less what the regressor explains, and its peaks.
-    design : dict or None
-        Distance to the estimation run (``estimation=``) and excitation of the regressor.
-    segment_metrics : dict or None
-        Per-joint metrics of each named segment (``segments={"name": length, ...}``).
-    physics : dict or None
-        With ``q``: each joint's residual tested against the library of physical terms (per joint
-        ``tests``: statistic, p-value, the share of the mean square the library removes, the term
-        named and its share, a delay in seconds, the noise's N_eff).
-    predictive : dict or None
-        With the estimation run: the validation mean square against what the estimation run's noise
-        and Cov(π̂) allow (Chow-type F test; ``ratio`` per joint).
-    periodic : dict or None
-        With ``q`` holding at least two whole periods: the period, the noise measured from the
-        period-to-period variation (any colour) and per joint the test of what every period shares.
-    timing : dict or None
-        With ``time``: the nominal step and rate, duplicated stamps, repeated rows, gaps (count,
-        largest, when), irregular steps, jitter, and the grid the lag and spectral analyses use.
-    """
-
-    provenance: dict[str, Any]
-    per_joint: dict[str, Any]
-    pooled: dict[str, Any]
-    aggregates: dict[str, Any]
-    residuals: dict[str, Any]
-    autocorrelation: dict[str, Any] | None
-    ljung_box: dict[str, Any] | None
-    cross_correlation: dict[str, Any] | None
-    information_criteria: dict[str, Any]
-    warnings_text: list[str] = field(default_factory=list)
-    findings: list[Finding] = field(default_factory=list)
-    bias: dict[str, Any] | None = None
-    whiteness: dict[str, Any] | None = None
-    spectrum: dict[str, Any] | None = None
-    design: dict[str, Any] | None = None
-    segment_metrics: dict[str, Any] | None = None
-    physics: dict[str, Any] | None = None
-    predictive: dict[str, Any] | None = None
-    periodic: dict[str, Any] | None = None
-    timing: dict[str, Any] | None = None
-
-    @property
-    def deficiencies(self) -> list[Finding]:
-        """The findings that say the model should change."""
-        return [f for f in self.findings if f.severity == "deficiency"]
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary: nested lists, non-finite numbers as strings.
-
-        Returns
-        -------
-        dict
-            One key per section (contract §4); arrays become nested lists and nan, inf, -inf
-            the strings ``"NaN"``, ``"Infinity"``, ``"-Infinity"``.
-
-        Examples
-        --------
-        >>> import json, dynval
-        >>> r = dynval.validate([1.0, 2.0, 3.0, 4.0], [1.1, 1.9, 3.2, 3.9], n_params=1)
-        >>> sorted(r.to_dict())[:3]
-        ['aggregates', 'autocorrelation', 'bias']
-        >>> _ = json.dumps(r.to_dict(), allow_nan=False)
-
-        A constant target predicted exactly: R² is nan and the AIC -inf, written as strings:
-
-        >>> d = dynval.validate([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], n_params=1).to_dict()
-        >>> d["pooled"]["r2"], d["information_criteria"]["aic"]
-        ('NaN', '-Infinity')
-        """
-        out = {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name != "findings"}
-        out["findings"] = [f.to_dict() for f in self.findings]
-        return out
-
-    def to_json(self, *, indent: int | None = 2) -> str:
-        """The report as strict JSON (no bare NaN/Infinity tokens).
-
-        Parameters
-        ----------
-        indent : int or None
-            Indentation of :func:`json.dumps`; ``None`` writes one line.
-
-        Returns
-        -------
-        str
-            :meth:`to_dict` serialised with ``allow_nan=False``.
-
-        Examples
-        --------
-        >>> import json, dynval
-        >>> r = dynval.validate([2.0, 2.0, 2.0], [1.0, 2.0, 3.0], n_params=1)   # constant target
-        >>> json.loads(r.to_json(indent=None))["per_joint"]["r2"]
-        ['-Infinity']
-        """
-        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
-
-    def summary(self) -> str:
-        """Readable text: per-joint table first, then pooled values, criteria and findings.
-
-        Returns
-        -------
-        str
-            Joints and regressor columns counted from 1 unless named (contract §2.3).
-
-        Examples
-        --------
-        >>> import dynval
-        >>> r = dynval.validate([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], n_params=1)   # constant target
-        >>> print(r.summary())
-        dynval validation report — profile 'lesson'
-        ...
-          - [note] joint 1: the measured torque is constant, so R², fit and VAF compare against nothing ...
-        """
-        return format_summary(self)
-
-    def __str__(self) -> str:
-        return self.summary()
-
-    def __repr__(self) -> str:
-        p = self.provenance
-        return (f"ValidationReport(profile={p['profile']!r}, n_samples={p['n_samples']}, "
-                f"n_joints={p['n_joints']}, n_params={p['n_params']}, "
-                f"findings={len(self.findings)}, deficiencies={len(self.deficiencies)})")
 
 
 # --------------------------------------------------------------------------- validate
@@ -513,7 +340,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                 estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
                 model_columns=model_columns, allow_wide=allow_wide)
     d, o = _checked(tau_meas, tau_pred, regressor, args)
-    b = _Build()
+    b = Sections()
     _residual_sections(d, o, b)
     _lag_sections(d, o, b)
     _regressor_sections(d, o, b)
@@ -547,36 +374,6 @@ class _Data:
         return int(self.meas.shape[1])
 
 
-@dataclass
-class _Build:
-    """The report's sections as they are computed, phase by phase."""
-
-    km: dict[str, Any] = field(default_factory=dict)
-    per_joint: dict[str, Any] = field(default_factory=dict)
-    pooled: dict[str, Any] = field(default_factory=dict)
-    aggregates: dict[str, Any] = field(default_factory=dict)
-    residuals: dict[str, Any] = field(default_factory=dict)
-    est_fit: Any = None
-    bias: dict[str, Any] | None = None
-    n_eff: Any = None
-    ic: dict[str, Any] = field(default_factory=dict)
-    grams: Any = None
-    acf: dict[str, Any] | None = None
-    lb: dict[str, Any] | None = None
-    lb_lags: list[int] = field(default_factory=list)
-    white: dict[str, Any] | None = None
-    spec: dict[str, Any] | None = None
-    cross: dict[str, Any] | None = None
-    xrho: Any = None
-    xsd: Any = None
-    missing: dict[str, Any] | None = None
-    design: dict[str, Any] | None = None
-    physics: dict[str, Any] | None = None
-    predictive: dict[str, Any] | None = None
-    periodic: dict[str, Any] | None = None
-    segment_metrics: dict[str, Any] | None = None
-
-
 def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
              args: dict[str, Any]) -> tuple[_Data, _Options]:
     """The data checks, then the parameters in the contract's order (a non-finite value still wins
@@ -601,7 +398,7 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
     return _Data(meas, pred, e, reg2, reg3, p_cols, omitted), o
 
 
-def _residual_sections(d: _Data, o: _Options, b: _Build) -> None:
+def _residual_sections(d: _Data, o: _Options, b: Sections) -> None:
     """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
     from ._api import zero_mean_test
 
@@ -630,7 +427,7 @@ def _residual_sections(d: _Data, o: _Options, b: _Build) -> None:
     b.grams = sec.JointGrams(d.reg3) if d.reg3 is not None else None
 
 
-def _lag_sections(d: _Data, o: _Options, b: _Build) -> None:
+def _lag_sections(d: _Data, o: _Options, b: Sections) -> None:
     """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
     b.lb_lags = o.prof.ljung_box_lags(d.n, o.max_lag, o.longest)
     if o.max_lag <= 0:
@@ -643,7 +440,7 @@ def _lag_sections(d: _Data, o: _Options, b: _Build) -> None:
     b.spec = sec.spectrum(d.e, o.starts, d.reg3, o.sample_rate, b.grams)
 
 
-def _regressor_sections(d: _Data, o: _Options, b: _Build) -> None:
+def _regressor_sections(d: _Data, o: _Options, b: Sections) -> None:
     """Cross-correlation with the regressor's columns, and the columns the model lacks."""
     if d.reg2 is None:
         return
@@ -662,7 +459,7 @@ def _regressor_sections(d: _Data, o: _Options, b: _Build) -> None:
             b.cross["missing_terms"] = dict(b.missing)
 
 
-def _motion_sections(d: _Data, o: _Options, b: _Build) -> None:
+def _motion_sections(d: _Data, o: _Options, b: Sections) -> None:
     """The validation design, and what the motion says: physics library, delay, periodic noise,
     predictive test, each joint's motion and the smallest detectable effect."""
     b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate)
@@ -677,73 +474,19 @@ def _motion_sections(d: _Data, o: _Options, b: _Build) -> None:
     b.design = _motion_design(b.design, o, b.physics, d.m)
 
 
-def _provenance(d: _Data, o: _Options, b: _Build, seg_names: list[str] | None, nan_policy: str) -> dict[str, Any]:
-    """What the report was computed from and with: every convention, unit, size and version."""
-    prof = o.prof
-    crossed = b.cross is not None
-    return {
-        "profile": prof.name,
-        "conventions": {
-            **prof.conventions(),
-            "noise_model": o.noise_model,
-            "max_lag": int(o.max_lag),
-            "max_lag_seconds": None if o.sample_rate is None else float(o.max_lag / o.sample_rate),
-            "max_lag_source": o.lag_source,
-            "time_grid": None if o.timing is None else o.timing.grid,
-            "bandwidth": o.bandwidth,
-            "level": o.level,
-            "ljung_box_lags": list(b.lb_lags),
-            "model_df": 0,
-            "nan_policy": nan_policy,
-            "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
-            "r2": "centred, 1 - SSE/TSS",
-            "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
-            "bias_test": "Student t with N_eff from the Andrews-Monahan prewhitened Bartlett long-run variance",
-            "multiple_testing": "Holm over every test of the report",
-            "cross_correlation_band": "white" if crossed else None,
-            "cross_correlation_findings": "Bartlett variance for two coloured series" if crossed else None,
-            "decimate": o.decimate,
-        },
-        "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
-                  "torque": "as given", "frequency": "Hz" if o.sample_rate else "cycles/sample"},
-        "n_samples": d.n,
-        "n_joints": d.m,
-        "n_params": int(o.n_params),
-        "n_regressor_columns": None if d.p_cols is None else int(d.p_cols),
-        "segments": [int(x) for x in segment_lengths(o.starts, d.n)],
-        "segment_names": seg_names,
-        "omitted_rows": int(d.omitted),
-        "joint_names": o.joint_names,
-        "column_names": o.column_names,
-        "model_columns": o.model_columns,
-        "sample_rate": o.sample_rate,
-        "thresholds": dict(vars(o.thresholds)) if hasattr(o.thresholds, "__dict__") else None,
-        "backend": o.backend_name,
-        "dynval_version": __version__,
-        "contract_version": CONTRACT_VERSION,
-        "report_schema_version": REPORT_SCHEMA_VERSION,
-    }
+def _setting(o: _Options, nan_policy: str) -> Setting:
+    return Setting(prof=o.prof, noise_model=o.noise_model, level=o.level, max_lag=o.max_lag, lag_source=o.lag_source,
+                   sample_rate=o.sample_rate, timing=o.timing, bandwidth=o.bandwidth, nan_policy=nan_policy,
+                   n_params=o.n_params, joint_names=o.joint_names, column_names=o.column_names,
+                   model_columns=o.model_columns, thresholds=o.thresholds, backend=o.backend_name,
+                   decimate=o.decimate)
 
 
-def _assemble(d: _Data, o: _Options, b: _Build, seg_names: list[str] | None, nan_policy: str) -> ValidationReport:
-    """The evidence of every section, the findings, and the report."""
-    timing = None if o.timing is None else o.timing.to_dict()
-    ev = sec.evidence(n=d.n, m=d.m, level=o.level, names=o.joint_names, per_joint=b.per_joint, pooled=b.pooled,
-                      constant=np.asarray(b.km["constant_target"], dtype=bool), omitted=d.omitted,
-                      force=o.prof.constant_target == "force_finite", bias=b.bias, white=b.white, spec=b.spec,
-                      xcorr_rho=b.xrho, xcorr_sd=b.xsd,
-                      xcorr_mask=None if b.cross is None else b.cross["constant_mask"],
-                      design=b.design, column_names=o.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
-                      predictive=b.predictive, sample_rate=o.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=o.bandwidth)
-    found = compute_findings(ev, o.thresholds)
-    return ValidationReport(
-        provenance=_provenance(d, o, b, seg_names, nan_policy), per_joint=b.per_joint, pooled=b.pooled,
-        aggregates=b.aggregates, residuals=b.residuals, autocorrelation=b.acf, ljung_box=b.lb,
-        cross_correlation=b.cross, information_criteria=b.ic, warnings_text=[f.message for f in found],
-        findings=found, bias=b.bias, whiteness=b.white, spectrum=sec.strip_private(b.spec), design=b.design,
-        segment_metrics=b.segment_metrics, physics=b.physics, predictive=b.predictive, periodic=b.periodic,
-        timing=timing)
+def _assemble(d: _Data, o: _Options, b: Sections, seg_names: list[str] | None, nan_policy: str) -> ValidationReport:
+    s = _setting(o, nan_policy)
+    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(o.starts, d.n),
+                      seg_names=seg_names, omitted=d.omitted)
+    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
 
 
 def _motion_band(pred: FloatArray, starts: IntArray, o: _Options) -> float | None:

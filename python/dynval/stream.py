@@ -54,19 +54,18 @@ from . import _sections as sec
 from . import _timing
 from . import _validation as v
 from ._api import newey_west_bandwidth
+from ._assembly import Sections, Setting, ValidationReport, assemble_report, provenance
 from ._backend import resolve as resolve_backend
 from ._errors import InputError, InvalidParameter, NonFiniteInput, ShapeMismatch
-from ._findings import Thresholds, compute_findings, resolve_thresholds
+from ._findings import Thresholds, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from ._reference.information import _exp, _n_log, assemble
 from ._reference.portmanteau import chi2_logsf
-from ._report import REPORT_SCHEMA_VERSION, ValidationReport
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, z_two_sided
 from ._stream import CoreState, Layout, Stamps, State, _Snapshot
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
-from ._version import CONTRACT_VERSION, __version__
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -973,6 +972,8 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
 
 def _report(st: State | _Snapshot, cfg: _Settings, omitted: int,
             timing: _timing.Timing | None = None) -> ValidationReport:
+    """The sections mergeable sums allow (no spectrum, bias test, design or motion: they need the
+    whole series, contract §4.1), then the assembler every report goes through."""
     prof = cfg.profile
     sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
@@ -980,87 +981,35 @@ def _report(st: State | _Snapshot, cfg: _Settings, omitted: int,
     max_lag = prof.default_max_lag(n, longest) if cfg.max_lag is None else v.check_max_lag(cfg.max_lag, longest)
     mo = _moments(st)
     kernel = _Kernel(mo)
-    km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
-    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
+    b = Sections()
+    b.km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
+    b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
     lagged = max_lag > 0
     zmt = (_zero_mean_test(mo, kernel, longest, st.layout.acf_lags) if lagged
-           else sec.iid_zero_mean_test(km, n, prof.ddof))
-    residuals = {"mean": np.asarray(km["residual_mean"], dtype=np.float64),
-                 "variance": np.asarray(km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
-                 "zero_mean_test": zmt}
-    ic = sec.information_criteria(km, prof, cfg.noise_model, n, m, cfg.n_params, None)
+           else sec.iid_zero_mean_test(b.km, n, prof.ddof))
+    b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
+                   "variance": np.asarray(b.km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
+                   "zero_mean_test": zmt}
+    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, None)
     starts = np.concatenate(([0], np.cumsum(st.lengths[:-1]))).astype(np.int64)
-    acf = lb = white = None
-    lb_lags = prof.ljung_box_lags(n, max_lag, longest)
+    b.lb_lags = prof.ljung_box_lags(n, max_lag, longest)
     if lagged:
-        acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
-        if lb_lags:
-            lb = sec.ljung_box(kernel, None, lb_lags, starts)
-            white = sec.whiteness(kernel, None, None, starts, lb, None, sample_rate, bandwidth=cfg.bandwidth)
-    cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
+        b.acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
+        if b.lb_lags:
+            b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
+            b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
+    b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
+    s = _setting(cfg, m, max_lag, sample_rate, timing)
+    prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
+    return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)
+
+
+def _setting(cfg: _Settings, m: int, max_lag: int, sample_rate: float | None,
+             timing: _timing.Timing | None) -> Setting:
     joint_names = list(cfg.joint_names) if cfg.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
-    column_names = list(cfg.column_names) if cfg.column_names is not None else None
-    provenance = _provenance(cfg, n, m, p, max_lag, lb_lags, st.lengths, omitted, joint_names, column_names,
-                             sample_rate, timing)
-    timing_dict = None if timing is None else timing.to_dict()
-    ev = sec.evidence(n=n, m=m, level=cfg.level, names=joint_names, per_joint=per_joint, pooled=pooled,
-                      constant=np.asarray(km["constant_target"], dtype=bool), omitted=omitted,
-                      force=prof.constant_target == "force_finite", bias=None, white=white, spec=None,
-                      xcorr_rho=None, xcorr_sd=None, xcorr_mask=None, design=None, column_names=column_names,
-                      acf=acf, sample_rate=sample_rate, timing=timing_dict, bandwidth=cfg.bandwidth)
-    found = compute_findings(ev, cfg.thresholds)
-    return ValidationReport(
-        provenance=provenance, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals,
-        autocorrelation=acf, ljung_box=lb, cross_correlation=cross, information_criteria=ic,
-        warnings_text=[f.message for f in found], findings=found, bias=None, whiteness=white, spectrum=None,
-        design=None, segment_metrics=None, timing=timing_dict)
-
-
-def _provenance(cfg: _Settings, n: int, m: int, p: int, max_lag: int, lb_lags: Sequence[int], lengths: Sequence[int],
-                omitted: int, joint_names: list[str], column_names: list[str] | None, sample_rate: float | None = None,
-                timing: _timing.Timing | None = None) -> dict[str, Any]:
-    """``validate``'s provenance (contract §4), with ``streaming`` set and what it leaves out marked."""
-    prof = cfg.profile
-    return {
-        "profile": prof.name,
-        "conventions": {
-            **prof.conventions(),
-            "noise_model": cfg.noise_model,
-            "max_lag": int(max_lag),
-            "max_lag_seconds": None if sample_rate is None else float(max_lag / sample_rate),
-            "max_lag_source": "given" if cfg.max_lag is not None else f"profile {prof.name!r}",
-            "time_grid": None if timing is None else timing.grid,
-            "bandwidth": cfg.bandwidth,
-            "level": cfg.level,
-            "ljung_box_lags": list(lb_lags),
-            "model_df": 0,
-            "nan_policy": cfg.nan_policy,
-            "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
-            "r2": "centred, 1 - SSE/TSS",
-            "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
-            "bias_test": None,
-            "multiple_testing": "Holm over every test of the report",
-            "cross_correlation_band": "white" if p else None,
-            "cross_correlation_findings": None,
-            "decimate": None,
-        },
-        "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
-                  "torque": "as given", "frequency": "Hz" if sample_rate else "cycles/sample"},
-        "n_samples": int(n),
-        "n_joints": int(m),
-        "n_params": int(cfg.n_params),
-        "n_regressor_columns": int(p) if p else None,
-        "segments": [int(x) for x in lengths],
-        "segment_names": None,
-        "omitted_rows": int(omitted),
-        "joint_names": joint_names,
-        "column_names": column_names,
-        "model_columns": None,
-        "sample_rate": sample_rate,
-        "thresholds": dict(vars(cfg.thresholds)) if hasattr(cfg.thresholds, "__dict__") else None,
-        "backend": cfg.backend,
-        "streaming": True,
-        "dynval_version": __version__,
-        "contract_version": CONTRACT_VERSION,
-        "report_schema_version": REPORT_SCHEMA_VERSION,
-    }
+    return Setting(prof=cfg.profile, noise_model=cfg.noise_model, level=cfg.level, max_lag=max_lag,
+                   lag_source="given" if cfg.max_lag is not None else f"profile {cfg.profile.name!r}",
+                   sample_rate=sample_rate, timing=timing, bandwidth=cfg.bandwidth, nan_policy=cfg.nan_policy,
+                   n_params=cfg.n_params, joint_names=joint_names,
+                   column_names=list(cfg.column_names) if cfg.column_names is not None else None,
+                   model_columns=None, thresholds=cfg.thresholds, backend=cfg.backend, decimate=None, streaming=True)
