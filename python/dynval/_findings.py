@@ -357,11 +357,14 @@ class _Rules:
     deficient: set[int] = field(default_factory=set)
     missing: set[int] = field(default_factory=set)
 
+    def common(self) -> tuple[Evidence, Thresholds, float, dict[str, Any], list[str], list[str] | None]:
+        """What most rules read: evidence, thresholds, α, the Holm family, joint and column names."""
+        return self.ev, self.th, self.alpha, self.fam, self.ev.joint_names, self.ev.column_names
+
 
 def _data_notes(r: _Rules) -> list[Finding]:
     """Notes on the data themselves: time stamps, omitted rows, constant joints."""
-    ev = r.ev
-    names = r.ev.joint_names
+    ev, names = r.ev, r.ev.joint_names
     out: list[Finding] = []
     out.extend(_timing_findings(ev))
     if ev.omitted_rows:
@@ -383,8 +386,7 @@ def _data_notes(r: _Rules) -> list[Finding]:
 def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
     """A joint predicted worse than its mean torque (no test: the effect is the decision), and the
     joints the pooled R² hides."""
-    ev = r.ev
-    names = r.ev.joint_names
+    ev, names = r.ev, r.ev.joint_names
     m = len(r.ev.r2)
     deficient_joints = r.deficient
     constant = np.asarray(r.ev.constant_target, dtype=bool)
@@ -417,12 +419,7 @@ def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
 
 def _bias_rule(r: _Rules) -> list[Finding]:
     """A residual mean beyond its coloured-noise standard error, and the missing term it comes from."""
-    ev = r.ev
-    th = r.th
-    alpha = r.alpha
-    fam = r.fam
-    names = r.ev.joint_names
-    cols = r.ev.column_names
+    ev, th, alpha, fam, names, cols = r.common()
     m = len(r.ev.r2)
     deficient_joints = r.deficient
     out: list[Finding] = []
@@ -465,12 +462,7 @@ def _bias_rule(r: _Rules) -> list[Finding]:
 
 def _missing_term_rule(r: _Rules) -> list[Finding]:
     """A column the model lacks: the residual against the part of it the model cannot represent."""
-    ev = r.ev
-    th = r.th
-    alpha = r.alpha
-    fam = r.fam
-    names = r.ev.joint_names
-    cols = r.ev.column_names
+    ev, th, alpha, fam, names, cols = r.common()
     deficient_joints = r.deficient
     out: list[Finding] = []
     # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
@@ -524,12 +516,7 @@ def _missing_term_rule(r: _Rules) -> list[Finding]:
 
 def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
     """The residual correlating with a regressor column beyond both series' colour."""
-    ev = r.ev
-    th = r.th
-    alpha = r.alpha
-    fam = r.fam
-    names = r.ev.joint_names
-    cols = r.ev.column_names
+    ev, th, alpha, fam, names, cols = r.common()
     deficient_joints = r.deficient
     missing_joints = r.missing
     out: list[Finding] = []
@@ -584,11 +571,7 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
 
 def _oscillation_rule(r: _Rules) -> list[Finding]:
     """A spectral peak standing above the smooth background (a mode), or above the inputs' bandwidth."""
-    ev = r.ev
-    th = r.th
-    alpha = r.alpha
-    fam = r.fam
-    names = r.ev.joint_names
+    ev, th, alpha, fam, names, _cols = r.common()
     deficient_joints = r.deficient
     out: list[Finding] = []
     # ---- oscillation: a spectral peak standing above the smooth background
@@ -635,10 +618,7 @@ def _motion_rule(r: _Rules) -> list[Finding]:
 
 def _whiteness_rule(r: _Rules) -> list[Finding]:
     """Whiteness at the information rate: a deficiency only on a joint an earlier rule found deficient."""
-    ev = r.ev
-    alpha = r.alpha
-    fam = r.fam
-    names = r.ev.joint_names
+    ev, _th, alpha, fam, names, _cols = r.common()
     m = len(r.ev.r2)
     deficient_joints = r.deficient
     out: list[Finding] = []
