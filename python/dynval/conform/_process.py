@@ -97,7 +97,8 @@ class PortProcess:
         else:
             self._spawn_plain()
         threading.Thread(target=self._pump_stdout, args=(self._proc.stdout,), daemon=True).start()
-        threading.Thread(target=self._pump_stderr, args=(self._proc.stderr,), daemon=True).start()
+        self._stderr_reader = threading.Thread(target=self._pump_stderr, args=(self._proc.stderr,), daemon=True)
+        self._stderr_reader.start()
         self._handshake(deadline)
 
     def _popen(self, command: list[str], **kwargs) -> subprocess.Popen:
@@ -240,6 +241,11 @@ class PortProcess:
             proc.wait(timeout=5)
         except subprocess.TimeoutExpired:  # pragma: no cover - unkillable process
             pass
+        # What the port wrote on stderr before it died is the report's evidence: let the reader
+        # reach the end of the pipe before it is closed (a loaded machine schedules it late).
+        reader = getattr(self, "_stderr_reader", None)
+        if reader is not None:
+            reader.join(timeout=1.0)
         for stream in (proc.stdin, proc.stdout, proc.stderr):
             try:
                 if stream is not None:
