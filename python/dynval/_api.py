@@ -20,7 +20,7 @@ from . import _backend
 from ._errors import InvalidParameter
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 from ._segments import longest_segment, omit_nonfinite, parse_segments
-from ._stats import iid_t_test, z_two_sided
+from ._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from ._typing import (
     ArrayLike,
     BackendName,
@@ -552,11 +552,6 @@ def residual_variance(e: ArrayLike, *, ddof: Integer = 1, nan_policy: NanPolicy 
     return _vec(call.kernel.residual_variance(call.data[0], ddof))
 
 
-def newey_west_bandwidth(n: int) -> int:
-    """K = ⌊4(N/100)^(2/9)⌋, at most N − 1 (contract §3.3)."""
-    return int(min(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)), n - 1))
-
-
 # Below this largest |e| of a joint, its squares leave float64's normal range (2^-400 squared is
 # 2^-800, the kernels' threshold for rescaling a sum of squares).
 _TINY_MAGNITUDE = 2.0**-400
@@ -620,11 +615,7 @@ def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: N
     # Lags past the longest segment have no products: their ρ̂ is 0 and adds nothing.
     k_used = min(k, call.limit - 1)
     rho = np.asarray(call.kernel.autocorrelation(e2, k_used, False, call.starts), dtype=np.float64)
-    weights = 1.0 - np.arange(1, k_used + 1) / (k + 1.0)
-    total = weights @ rho[1:] if k_used > 0 else np.zeros(e2.shape[1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
-        n_eff = np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
+    n_eff = newey_west_n_eff(rho, k, n)
     t_iid, p_iid = iid_t_test(mean, std, n)
     t_eff, p_eff = iid_t_test(mean, std, n_eff)
     return ZeroMeanTest(

@@ -57,6 +57,23 @@ def iid_t_test(mean: ArrayLike, std: ArrayLike, n: ArrayLike) -> tuple[FloatArra
     return t, 2.0 * scipy.stats.t.sf(np.abs(t), n - 1.0)
 
 
+def newey_west_bandwidth(n: int) -> int:
+    """K = ⌊4(N/100)^(2/9)⌋, at most N − 1 (contract §3.3)."""
+    return int(min(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)), n - 1))
+
+
+def newey_west_n_eff(rho: np.ndarray, bandwidth: int, n: int) -> np.ndarray:
+    """The zero-mean test's effective sample size from ρ̂ at lags 0..K_used (rows) per joint:
+    N/(1 + 2 Σ_ℓ (1 − ℓ/(K+1)) ρ̂_ℓ), clipped to [2, N]; N where the sum is ≤ 0 or not a number
+    (contract §3.3). Lags past the longest segment are absent: their ρ̂ is 0 and adds nothing."""
+    k_used = rho.shape[0] - 1
+    weights = 1.0 - np.arange(1, k_used + 1) / (bandwidth + 1.0)
+    total = weights @ rho[1:] if k_used > 0 else np.zeros(rho.shape[1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
+        return np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
+
+
 def holm(pvalues) -> np.ndarray:
     """Holm's step-down adjusted p-values (Holm 1979), same shape as the input.
 

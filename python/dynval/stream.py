@@ -53,7 +53,6 @@ import scipy.stats
 from . import _sections as sec
 from . import _timing
 from . import _validation as v
-from ._api import newey_west_bandwidth
 from ._assembly import Sections, Setting, ValidationReport, assemble_report, provenance
 from ._backend import resolve as resolve_backend
 from ._errors import InputError, InvalidParameter, NonFiniteInput, ShapeMismatch
@@ -63,7 +62,7 @@ from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, 
 from ._reference.information import _exp, _n_log, assemble
 from ._reference.portmanteau import chi2_logsf
 from ._results import ZeroMeanTest
-from ._stats import iid_t_test, z_two_sided
+from ._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from ._stream import CoreState, Layout, Stamps, State, _Snapshot
 from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 
@@ -936,12 +935,7 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     k_used = min(k, longest - 1)
     eff: dict[str, Any] = {"statistic_eff": None, "pvalue_eff": None, "df_eff": None, "n_eff": None, "bandwidth": None}
     if k_used <= lags_held:
-        rho = kernel.autocorrelation(None, k_used, False, None)
-        weights = 1.0 - np.arange(1, k_used + 1) / (k + 1.0)
-        total = weights @ rho[1:] if k_used > 0 else np.zeros(mo.m)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            n_eff = np.clip(n / (1.0 + 2.0 * total), 2.0, float(n))
-            n_eff = np.where(np.isnan(total) | (total <= 0), float(n), n_eff)
+        n_eff = newey_west_n_eff(np.asarray(kernel.autocorrelation(None, k_used, False, None)), k, n)
         t_eff, p_eff = iid_t_test(mean, std, n_eff)
         eff = {"statistic_eff": t_eff, "pvalue_eff": p_eff, "df_eff": n_eff - 1.0, "n_eff": n_eff, "bandwidth": k}
     zmt = ZeroMeanTest(mean=mean, std=std, n_samples=n, statistic_iid=t_iid, pvalue_iid=p_iid, df_iid=n - 1, **eff)
