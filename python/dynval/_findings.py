@@ -391,7 +391,6 @@ def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
     deficient_joints = r.deficient
     constant = np.asarray(r.ev.constant_target, dtype=bool)
     out: list[Finding] = []
-    # ---- worse than a constant: no test needed, the effect is the decision
     r2 = np.asarray(ev.r2, dtype=float)
     for j in range(m):
         if constant[j] or not np.isfinite(r2[j]) or r2[j] >= 0:
@@ -423,7 +422,6 @@ def _bias_rule(r: _Rules) -> list[Finding]:
     m = len(r.ev.r2)
     deficient_joints = r.deficient
     out: list[Finding] = []
-    # ---- bias
     if "bias" in fam:
         p, padj = fam["bias"]
         mean = np.asarray(ev.mean, dtype=float)
@@ -465,7 +463,6 @@ def _missing_term_rule(r: _Rules) -> list[Finding]:
     ev, th, alpha, fam, names, cols = r.common()
     deficient_joints = r.deficient
     out: list[Finding] = []
-    # ---- a column the model lacks: the residual correlates with the part of it the model cannot represent
     missing_joints = r.missing
     if "missing" in fam:
         p, padj = fam["missing"]
@@ -520,7 +517,6 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
     deficient_joints = r.deficient
     missing_joints = r.missing
     out: list[Finding] = []
-    # ---- regressor correlation
     if "xcorr" in fam:
         p, padj = fam["xcorr"]
         rho = np.asarray(ev.xcorr_rho, dtype=float)
@@ -574,7 +570,6 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
     ev, th, alpha, fam, names, _cols = r.common()
     deficient_joints = r.deficient
     out: list[Finding] = []
-    # ---- oscillation: a spectral peak standing above the smooth background
     if "spectrum" in fam:
         p, padj = fam["spectrum"]
         freq = np.asarray(ev.spectrum_frequency, dtype=float)
@@ -622,7 +617,6 @@ def _whiteness_rule(r: _Rules) -> list[Finding]:
     m = len(r.ev.r2)
     deficient_joints = r.deficient
     out: list[Finding] = []
-    # ---- whiteness and sampling colour
     if "whiteness" in fam:
         _, padj = fam["whiteness"]
         raw = np.asarray(ev.whiteness_pvalue_raw, dtype=float)

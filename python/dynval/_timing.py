@@ -68,21 +68,34 @@ class Timing:
                 "gap_rows": list(self.gap_rows), "grid": self.grid, "regular": self.regular}
 
 
-def check_time(value: Any, n: int) -> np.ndarray:
-    """``time``: finite seconds, shape (N,), never decreasing (InvalidParameter naming the first bad row)."""
+def stamps(value: Any, n: int, first_row: int | None = None) -> np.ndarray:
+    """``time`` as finite seconds of shape (N,), rows in order (InvalidType, ShapeMismatch,
+    NonFiniteInput, InvalidParameter naming the first bad row; ``first_row``: the row of a chunk's
+    first stamp in its stream, added to the message)."""
     t = v.to_float_array(value, "time")
     if t.ndim == 2 and 1 in t.shape:
         t = t.reshape(-1)
     if t.ndim != 1 or t.shape[0] != n:
         raise ShapeMismatch(f"time must have one stamp per sample, shape ({n},), got {v.format_shape(t.shape)}")
+
+    def in_stream(row: int) -> str:
+        return "" if first_row is None else f" (row {first_row + row} of the stream)"
+
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        raise NonFiniteInput(f"time must be finite seconds, got {float(t[bad[0]])!r} at row {int(bad[0])}")
+        r = int(bad[0])
+        raise NonFiniteInput(f"time must be finite seconds, got {float(t[r])!r} at row {r}{in_stream(r)}")
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         k = int(back[0])
         raise InvalidParameter(f"time must never decrease, got {float(t[k + 1])!r} at row {k + 1} after "
-                               f"{float(t[k])!r} at row {k}")
+                               f"{float(t[k])!r} at row {k}{in_stream(k + 1)}")
+    return t
+
+
+def check_time(value: Any, n: int) -> np.ndarray:
+    """``time``: finite seconds, shape (N,), never decreasing, advancing over the run."""
+    t = stamps(value, n)
     if n >= 2 and not t[-1] > t[0]:
         raise InvalidParameter(f"time must advance, got every stamp equal to {float(t[0])!r}")
     return t

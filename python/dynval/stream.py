@@ -55,7 +55,7 @@ from . import _timing
 from . import _validation as v
 from ._assembly import Sections, Setting, ValidationReport, assemble_report, provenance
 from ._backend import resolve as resolve_backend
-from ._errors import InputError, InvalidParameter, NonFiniteInput, ShapeMismatch
+from ._errors import InputError, InvalidParameter, ShapeMismatch
 from ._findings import Thresholds, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
@@ -376,25 +376,11 @@ class ValidationAccumulator:
                 if self._timed is None and cfg.bandwidth is not None and cfg.sample_rate is None:
                     v.check_bandwidth(cfg.bandwidth, None)
                 return None
-            t = v.to_float_array(time, "time")
-            if t.ndim == 2 and 1 in t.shape:
-                t = t.reshape(-1)
-            if t.ndim != 1 or t.shape[0] != c:
-                raise ShapeMismatch(f"time must have one stamp per sample, shape ({c},), got {v.format_shape(t.shape)}")
-            bad = np.flatnonzero(~np.isfinite(t))
-            if bad.size:
-                r = int(bad[0])
-                raise NonFiniteInput(f"time must be finite seconds, got {float(t[r])!r} at row {r} "
-                                     f"(row {self._rows_seen + r} of the stream)")
+            t = _timing.stamps(time, c, self._rows_seen)
             if t.size and self._last_seen is not None and t[0] < self._last_seen:
                 raise InvalidParameter(f"time must never decrease, got {float(t[0])!r} at row 0 after "
                                        f"{self._last_seen!r}, the last stamp before this chunk (row "
                                        f"{self._rows_seen} of the stream)")
-            back = np.flatnonzero(np.diff(t) < 0)
-            if back.size:
-                k = int(back[0])
-                raise InvalidParameter(f"time must never decrease, got {float(t[k + 1])!r} at row {k + 1} after "
-                                       f"{float(t[k])!r} at row {k} (row {self._rows_seen + k + 1} of the stream)")
         except InputError as exc:
             raise type(exc)(f"chunk {index}: {exc}") from None
         return t
