@@ -366,3 +366,25 @@ def test_demo_rigid_model_without_friction_columns_is_told_friction_from_q_alone
                         sample_rate=d.sample_rate, joint_names=list(d.joint_names))
     named = {f.joints: f.details["term"] for f in r.deficiencies if f.kind == "missing_physics"}
     assert set(named) == {(0,), (1,)} and set(named.values()) <= {"coulomb", "viscous"}
+
+
+def test_a_term_no_estimation_refit_helps_is_named_from_the_validation_run():
+    """When every library group makes the estimation refit worse on the validation run (another
+    joint's noise moves the shared parameters more than the term does), the term is named from the
+    validation run with the model's columns refitted there: the wrist offset of the calibration's
+    arm4 scenario, named a position harmonic before (replicate 14)."""
+    pytest.importorskip("pinocchio")
+    from dynval import _motion
+    from dynval import scenarios as S
+
+    y = np.random.default_rng(0).standard_normal((500, 3))
+    tau = y @ [1.0, -2.0, 0.5] + 0.3
+    groups = {"offset": np.ones((500, 1)), "noise": np.random.default_rng(1).standard_normal((500, 2))}
+    gains = _motion._validation_refit_gains(tau, y, groups)
+    assert gains["offset"] == pytest.approx(1.0) and abs(gains["noise"]) < 0.05
+
+    sc = next(s for s in S.library() if s.key == "offset:white:arm4@100")
+    report = S.validate_replicate(S.simulate(sc, 14), False)
+    wrist = report.physics["tests"][3]
+    assert wrist["term"] == "offset" and wrist["refit_run"] == "validation"
+    assert max(wrist["refit_shares"], key=wrist["refit_shares"].get) in ("offset", "gravity")

@@ -240,3 +240,13 @@ def test_kuka_stamps_uniform_jittered_duplicated_and_gapped():
     assert tm["irregular_steps"] > 1000 and tm["sample_rate"] == pytest.approx(200.0, rel=1e-4)
     assert len(r.provenance["segments"]) == 3
     assert [f.kind for f in r.findings].count("time_stamps") == 1
+
+
+def test_a_given_lag_longer_than_the_stretches_between_gaps_is_refused_by_name():
+    t = np.cumsum(np.where(np.arange(600) % 20 == 0, 0.05, 0.01))   # a 50 ms gap every 20 samples
+    _, meas, pred = _run(100.0, 6.0)
+    with pytest.raises(InvalidParameter, match=r"max_lag must be below 20, the longest run of samples between "
+                                               r"the 29 gaps of the time stamps, got 50"):
+        dynval.validate(meas, pred, n_params=2, time=t, max_lag=50)
+    r = dynval.validate(meas, pred, n_params=2, time=t, max_lag=19)
+    assert len(r.provenance["segments"]) == 30 and r.provenance["conventions"]["max_lag"] == 19

@@ -21,7 +21,7 @@ from . import _sections as sec
 from . import _validation as v
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, Setting, ValidationReport, assemble_report, provenance
 from ._blas import one_blas_thread
-from ._errors import InputError, ShapeMismatch
+from ._errors import InputError, InvalidParameter, ShapeMismatch
 from ._findings import Thresholds, resolve_thresholds
 from ._json import to_jsonable
 from ._profiles import Profile, get_profile
@@ -172,6 +172,9 @@ def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int
         longest = longest_segment(starts, n)
         if a["max_lag"] is None:
             max_lag = prof.default_max_lag(n, longest)
+        elif max_lag >= longest:
+            raise InvalidParameter(f"max_lag must be below {longest}, the longest run of samples between the "
+                                   f"{timing.gaps} gaps of the time stamps, got {max_lag}")
     bandwidth = v.check_bandwidth(a["bandwidth"], sample_rate)
     decimate = v.check_decimate(a["decimate"])
     joint_names = v.check_names("joint_names", a["joint_names"], m, "joint") or [f"joint {j + 1}" for j in range(m)]
