@@ -51,13 +51,13 @@ from ._validation import (
     check_nan_policy,
     check_noise_model,
     check_rss,
-    check_same_shape,
     first_nonfinite,
     nonfinite_error,
     promote_signal,
     regressor_shape,
     regressor_to_2d,
     to_float_array,
+    torque_pair,
 )
 
 __all__ = [
@@ -91,13 +91,9 @@ _T = TypeVar("_T")
 
 def signal_pair(function: str, tau_meas: ArrayLike, tau_pred: ArrayLike) -> tuple[FloatArray, FloatArray, bool]:
     """Type, shape and size checks of ``(tau_meas, tau_pred)``; returns the 2-D pair and 1-D flag."""
-    a = to_float_array(tau_meas, "tau_meas")
-    b = to_float_array(tau_pred, "tau_pred")
-    a2 = promote_signal(a, "tau_meas")
-    b2 = promote_signal(b, "tau_pred")
-    check_same_shape("tau_meas", a.shape, a2, "tau_pred", b.shape, b2)
-    check_min_samples(function, a2.shape[0])
-    return a2, b2, a.ndim == 1 and b.ndim == 1
+    t = torque_pair(tau_meas, tau_pred)
+    check_min_samples(function, t.meas.shape[0])
+    return t.meas, t.pred, t.one_d
 
 
 def residual_signal(function: str, e: ArrayLike) -> tuple[FloatArray, bool]:

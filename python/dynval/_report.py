@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -56,26 +56,37 @@ def _backend_kernel(backend: object) -> tuple[Kernels, BackendName]:
     return kernel, name
 
 
+class _Prepared(NamedTuple):
+    """The data after the checks of :func:`_prepare`: torques and regressor (rows with a non-finite
+    value deleted under ``nan_policy="omit"``), the segment starts and what was omitted, and the
+    torques as given (promoted to (N, m), before omission)."""
+
+    meas: FloatArray
+    pred: FloatArray
+    reg2: FloatArray | None
+    p: int | None
+    starts: IntArray | None
+    omitted: int
+    reg0: FloatArray | None
+    kept_rows: IntArray | None
+    given_meas: FloatArray
+    given_pred: FloatArray
+
+
 def _prepare(
     tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, n_joints: object, segments: object,
     nan_policy: object, allow_wide: object = False,
-) -> tuple[FloatArray, FloatArray, FloatArray | None, int | None, IntArray | None, int, FloatArray | None,
-           IntArray | None]:
+) -> _Prepared:
     """Type, shape, size and finiteness checks (the data half of the contract's order)."""
-    meas0 = v.to_float_array(tau_meas, "tau_meas")
-    pred0 = v.to_float_array(tau_pred, "tau_pred")
-    reg0 = None if regressor is None else v.to_float_array(regressor, "regressor")
-
-    meas = v.promote_signal(meas0, "tau_meas")
-    pred = v.promote_signal(pred0, "tau_pred")
-    v.check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+    meas, pred, reg0, shape, _ = v.torque_pair(tau_meas, tau_pred, regressor)
+    given_meas, given_pred = meas, pred
     n, m = meas.shape
     p = None
     if reg0 is not None:
         p = v.regressor_shape(reg0, "tau_meas", n, m, n_joints)
 
     v.check_min_samples("validate", n)
-    v.check_orientation("validate", "tau_meas", meas0.shape, allow_wide)
+    v.check_orientation("validate", "tau_meas", shape, allow_wide)
 
     reg2 = None if reg0 is None or p is None else v.regressor_to_2d(reg0, n, m, p)
     omitted = 0
@@ -98,7 +109,7 @@ def _prepare(
     else:
         check_data_finite(meas, pred, reg2, p)
         starts = None
-    return meas, pred, reg2, p, starts, omitted, reg0, kept_rows
+    return _Prepared(meas, pred, reg2, p, starts, omitted, reg0, kept_rows, given_meas, given_pred)
 
 
 def check_data_finite(meas: FloatArray, pred: FloatArray, reg2: FloatArray | None = None,
@@ -349,10 +360,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     _regressor_sections(d, o, b)
     _motion_sections(d, o, b)
     if seg_names is not None:
-        b.segment_metrics = sec.segment_metrics(
-            o.kernel, v.promote_signal(v.to_float_array(tau_meas, "tau_meas"), "tau_meas"),
-            v.promote_signal(v.to_float_array(tau_pred, "tau_pred"), "tau_pred"), seg_names, segments, o.n_params,
-            o.prof)
+        b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
+                                                o.n_params, o.prof)
     return _assemble(d, o, b, seg_names, nan_policy)
 
 
@@ -367,6 +376,8 @@ class _Data:
     reg3: FloatArray | None
     p_cols: int | None
     omitted: int
+    given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
+    given_pred: FloatArray
 
     @property
     def n(self) -> int:
@@ -381,12 +392,12 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
              args: dict[str, Any]) -> tuple[_Data, _Options]:
     """The data checks, then the parameters in the contract's order (a non-finite value still wins
     over a bad parameter), then the largest lag: with a rate, the motion's time scale."""
-    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = _prepare(
+    pr = _prepare(
         tau_meas, tau_pred, regressor, args["n_joints"], args["segments"], args["nan_policy"], args["allow_wide"])
+    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = pr[:8]
     n, m = meas.shape
     try:
-        o = _check_parameters(args, reg0, n, m, p_cols, starts, np.shape(v.promote_signal(
-            v.to_float_array(tau_meas, "tau_meas"), "tau_meas")), kept_rows, meas)
+        o = _check_parameters(args, reg0, n, m, p_cols, starts, pr.given_meas.shape, kept_rows, meas)
     except InputError:
         check_data_finite(meas, pred, reg2, p_cols)
         raise
@@ -398,7 +409,7 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
         o.max_lag, o.lag_source = _motion_max_lag(o.band, o, n), "motion: one period of the information band's edge"
     e = np.ascontiguousarray(meas - pred) if o.max_lag > 0 or reg2 is not None else None
     reg3 = None if reg2 is None or p_cols is None else reg2.reshape(n, m, p_cols)
-    return _Data(meas, pred, e, reg2, reg3, p_cols, omitted), o
+    return _Data(meas, pred, e, reg2, reg3, p_cols, omitted, pr.given_meas, pr.given_pred), o
 
 
 def _residual_sections(d: _Data, o: _Options, b: Sections) -> None:

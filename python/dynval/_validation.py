@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -142,6 +143,33 @@ def check_same_shape(name_a: str, shape_a, a2: np.ndarray, name_b: str, shape_b,
             f"{name_a} and {name_b} must have the same shape, got "
             f"{format_shape(shape_a)} and {format_shape(shape_b)}"
         )
+
+
+class Torques(NamedTuple):
+    """What :func:`torque_pair` returns."""
+
+    meas: Any  # (N, m)
+    pred: Any  # (N, m)
+    reg0: Any  # the regressor converted, its shape not yet checked; or None
+    shape: tuple[int, ...]  # the caller's shape of tau_meas (for messages)
+    one_d: bool  # both torques were given 1-D
+
+
+def torque_pair(tau_meas, tau_pred, regressor=None, convert=to_float_array) -> Torques:
+    """The type checks of the torques and the regressor, then the torques' shape checks, in the
+    contract's order; shared by every entry point (the metrics, ``validate``, the accumulator's
+    chunks, dask). Both torques come back promoted to (N, m); the regressor's shape needs N, m
+    and ``n_joints`` and is checked by the caller (:func:`regressor_shape`).
+
+    ``convert``: the type step (:func:`to_float_array`; dask passes its lazy equivalent).
+    """
+    meas0 = convert(tau_meas, "tau_meas")
+    pred0 = convert(tau_pred, "tau_pred")
+    reg0 = None if regressor is None else convert(regressor, "regressor")
+    meas = promote_signal(meas0, "tau_meas")
+    pred = promote_signal(pred0, "tau_pred")
+    check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+    return Torques(meas, pred, reg0, tuple(meas0.shape), meas0.ndim == 1 and pred0.ndim == 1)
 
 
 def regressor_shape(y: np.ndarray, name_e: str, n: int, m: int, n_joints) -> int:

@@ -145,12 +145,7 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
 def _aligned(tau_meas, tau_pred, regressor, n_joints):
     """The contract's type and shape checks on the arrays (without reading them), then one column
     chunk each and the regressor as (N, m, p) with the torques' time blocks."""
-    meas0 = _as_dask(tau_meas, "tau_meas")
-    pred0 = _as_dask(tau_pred, "tau_pred")
-    reg0 = None if regressor is None else _as_dask(regressor, "regressor")
-    meas = v.promote_signal(meas0, "tau_meas")
-    pred = v.promote_signal(pred0, "tau_pred")
-    v.check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+    meas, pred, reg0, _, _ = v.torque_pair(tau_meas, tau_pred, regressor, convert=_as_dask)
     n, m = meas.shape
     meas = meas.rechunk({1: -1})
     pred = pred.rechunk(meas.chunks)

@@ -584,14 +584,9 @@ class ValidationAccumulator:
         """The contract's data checks on one chunk, then its agreement with the chunks before it."""
         index = self._chunks
         try:
-            meas0 = v.to_float_array(tau_meas, "tau_meas")
-            pred0 = v.to_float_array(tau_pred, "tau_pred")
-            reg0 = None if regressor is None else v.to_float_array(regressor, "regressor")
-            meas = v.promote_signal(meas0, "tau_meas")
-            pred = v.promote_signal(pred0, "tau_pred")
-            v.check_same_shape("tau_meas", meas0.shape, meas, "tau_pred", pred0.shape, pred)
+            meas, pred, reg0, shape, _ = v.torque_pair(tau_meas, tau_pred, regressor)
             c, m = meas.shape
-            self._check_continues(meas0.shape, m, reg0)
+            self._check_continues(shape, m, reg0)
             reg = None
             if reg0 is not None:
                 p = v.regressor_shape(reg0, "tau_meas", c, m, self._settings.n_joints)
