@@ -11,8 +11,8 @@ import pytest
 
 import dynval
 from dynval import _text
-from dynval._compare import _finding_reason
 from dynval._findings import Finding
+from dynval._reasons import finding_reason
 from dynval._text import P_FLOOR, p_clause, pvalue_text, versus
 
 TINY = 5e-310  # subnormal: below the smallest normal double (2.2e-308)
@@ -186,13 +186,13 @@ def test_comparison_reason_reads_on_the_rule_side():
     rep = dynval.validate(np.arange(10.0), np.arange(10.0) + 0.1, n_params=1, max_lag=0)
     f = Finding(kind="excitation", severity="design", joints=(0,), effect=0.09996,
                 effect_unit="joint motion (RMS) relative to the estimation run", threshold=0.1)
-    assert "hardly moves (9.996 % of its estimation-run motion < 10 %)" in _finding_reason(f, rep)
+    assert "hardly moves (9.996 % of its estimation-run motion < 10 %)" in finding_reason(f, rep)
     f = Finding(kind="bias", severity="deficiency", joints=(0,), effect=0.25004, effect_unit="|mean| / RMSE",
                 threshold=0.25)
-    assert "|mean| = 25.004 % of the RMSE ≥ 25 %" in _finding_reason(f, rep)
+    assert "|mean| = 25.004 % of the RMSE ≥ 25 %" in finding_reason(f, rep)
     f = Finding(kind="worse_than_constant", severity="deficiency", joints=(0,), statistic=-0.0002,
                 effect=0.0002, threshold=0.0)
-    assert "R² = -0.0002 < 0" in _finding_reason(f, rep)
+    assert "R² = -0.0002 < 0" in finding_reason(f, rep)
 
 
 # ---- one p, one text: summary, HTML and finding ----------------------------------------------
