@@ -59,7 +59,7 @@ from ._errors import InputError, InvalidParameter, ShapeMismatch
 from ._findings import Thresholds, resolve_thresholds
 from ._profiles import Profile, get_profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from ._reference.information import _exp, _n_log, assemble
+from ._reference.information import assemble, fit_term_from_sums
 from ._reference.portmanteau import chi2_logsf
 from ._results import ZeroMeanTest
 from ._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
@@ -849,31 +849,10 @@ def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
     }
-    f, n_ic, n_vec, size = _fit_term(noise_model, n, m, sse, mo.sigma)
+    # the sums as scaled sums with exponent 0: the reference's formula, to the bit
+    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse, np.zeros(m, dtype=np.int64)), mo.sigma)
     out.update(assemble(f, n_ic, n_vec, size, n_params))
     return out
-
-
-def _fit_term(noise_model: str, n: int, m: int, sse: FloatArray,
-              sigma: FloatArray | None) -> tuple[float, int, int, float]:
-    """(F, n, N_vec, S) of contract §3.7, as the reference's ``fit_term`` computes them."""
-    if noise_model == "pooled":
-        variance = float(np.sum(sse)) / (n * m)
-        return _n_log(n * m, variance), n * m, n * m, variance
-    if noise_model == "per_joint":
-        variances = sse / n
-        if np.any(variances == 0):
-            return -math.inf, n, n, 0.0
-        log_size = float(np.sum(np.log(variances)))
-        return n * log_size, n, n, _exp(log_size)
-    assert sigma is not None  # the full noise model keeps EᵀE/N
-    eigenvalues = np.linalg.eigvalsh(sigma)
-    largest = float(eigenvalues[-1])
-    # numpy's matrix_rank tolerance decides singularity, as in the reference.
-    if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
-        return -math.inf, n, n, 0.0
-    logdet = math.fsum(np.log(eigenvalues))
-    return n * logdet, n, n, _exp(logdet)
 
 
 class _Kernel:

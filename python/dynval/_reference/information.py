@@ -58,35 +58,47 @@ def fit_term(e: np.ndarray, noise_model: str, sse=None):
     for data whose squares underflow.
     """
     n_samples, m = e.shape
-    if noise_model == "pooled":
-        n = n_samples * m
-        if sse is not None:
-            total, k = _pooled_sum(*sse)
-        else:
-            s, ks = sumsq_scaled(pooled(e))
-            total, k = float(s[0]), int(ks[0])
-        if total == 0:
-            return -math.inf, n, n, 0.0
-        log_variance = math.log(total / n) + 2 * k * _LN2
-        return n * log_variance, n, n, float(np.ldexp(total / n, 2 * k))
-    if noise_model == "per_joint":
-        s, k = sse if sse is not None else sumsq_scaled(joint_major(e))
-        if np.any(s == 0):
-            return -math.inf, n_samples, n_samples, 0.0
-        log_size = float(np.sum(np.log(s / n_samples) + 2 * k * _LN2))
-        return n_samples * log_size, n_samples, n_samples, _exp(log_size)
+    if noise_model == "pooled" and sse is None:
+        s, ks = sumsq_scaled(pooled(e))
+        return fit_term_from_sums(noise_model, n_samples, m, (s, ks))
+    if noise_model == "per_joint" and sse is None:
+        return fit_term_from_sums(noise_model, n_samples, m, sumsq_scaled(joint_major(e)))
+    if noise_model != "full":
+        return fit_term_from_sums(noise_model, n_samples, m, sse)
     # One power of two for every joint (Σ̂ of e·2^-k is Σ̂·4^-k), so eigenvalue ratios stay.
     k = int(sumsq_scaled(pooled(e))[1][0])
     if k:
         e = np.ldexp(e, -k)
     sigma = (e.T @ e) / n_samples  # not demeaned (MATLAB's multi-output convention)
+    return fit_term_from_sums(noise_model, n_samples, m, None, sigma, k)
+
+
+def fit_term_from_sums(noise_model: str, n_samples: int, m: int, sse, sigma=None, k_sigma: int = 0):
+    """(F, n, N_vec, S) of contract §3.7 from sums: ``sse`` the per-joint Σe² as scaled sums
+    (s, k) (value s·4^k; pooled: one entry is enough) for the pooled and per-joint models;
+    ``sigma`` = EᵀE/N scaled by 4^-``k_sigma`` for the full one. :func:`fit_term` and the
+    stream accumulator both come here.
+    """
+    if noise_model == "pooled":
+        n = n_samples * m
+        total, k = _pooled_sum(*sse)
+        if total == 0:
+            return -math.inf, n, n, 0.0
+        log_variance = math.log(total / n) + 2 * k * _LN2
+        return n * log_variance, n, n, float(np.ldexp(total / n, 2 * k))
+    if noise_model == "per_joint":
+        s, k = sse
+        if np.any(s == 0):
+            return -math.inf, n_samples, n_samples, 0.0
+        log_size = float(np.sum(np.log(s / n_samples) + 2 * k * _LN2))
+        return n_samples * log_size, n_samples, n_samples, _exp(log_size)
     # Eigenvalues with numpy's matrix_rank tolerance decide singularity, so that both backends call
     # the same near-singular covariance singular (an LU or LDLT pivot test rounds differently).
     eigenvalues = np.linalg.eigvalsh(sigma)
     largest = float(eigenvalues[-1])
     if largest <= 0.0 or float(eigenvalues[0]) <= m * np.finfo(float).eps * largest:
         return -math.inf, n_samples, n_samples, 0.0
-    logdet = math.fsum(np.log(eigenvalues)) + 2 * k * m * _LN2
+    logdet = math.fsum(np.log(eigenvalues)) + 2 * k_sigma * m * _LN2
     return n_samples * logdet, n_samples, n_samples, _exp(logdet)
 
 
