@@ -293,3 +293,44 @@ def test_low_information_decides_only_for_the_best_candidate():
     # any other design finding decides from any candidate
     _, v = _verdict(["a", "b"], ["a", "b"], {"a": report(), "b": report(repeat)}, "aic", crit)
     assert v.decision == "redesign" and v.decided_by[0].model == "b"
+
+
+def test_low_information_on_unresolved_joints_waits_for_a_resolved_deficiency():
+    """A run that finds joint 0 deficient with a term below what it can detect (``unresolved``) cannot
+    say which term: that decides (redesign) unless the candidate has a deficiency the run did
+    resolve on another joint, which is fixed first (refine), the low_information given with it."""
+    from types import SimpleNamespace
+
+    from dynval._compare import _verdict
+    from dynval._findings import Finding
+
+    def report(*findings):
+        defs = [f for f in findings if f.severity == "deficiency"]
+        return SimpleNamespace(findings=list(findings), deficiencies=defs, whiteness=None,
+                               provenance={"joint_names": ["j1", "j2", "j3"], "column_names": None,
+                                           "conventions": {"level": 0.95}})
+
+    def low(joints, unresolved):
+        return Finding(kind="low_information", severity="design", joints=joints, action="validate on a longer run",
+                       details={"unresolved": list(unresolved)}, message="This run cannot decide.")
+
+    def deficiency(kind, joint):
+        return Finding(kind=kind, severity="deficiency", joints=(joint,), action=f"fix j{joint + 1}",
+                       message=f"{kind} on j{joint + 1}.")
+
+    crit = {"a": 0.0}
+    physics0, white1 = deficiency("missing_physics", 0), deficiency("whiteness", 1)
+    # only the unresolved joint is deficient: the run cannot tell what to add, redesign
+    _, v = _verdict(["a"], ["a"], {"a": report(physics0, low((0,), (0,)))}, "aic", crit)
+    assert v.decision == "redesign"
+    # a whiteness deficiency elsewhere follows from another finding: it resolves nothing
+    _, v = _verdict(["a"], ["a"], {"a": report(physics0, white1, low((0,), (0,)))}, "aic", crit)
+    assert v.decision == "redesign"
+    # a resolved deficiency on joint 1: refine first, the low_information among the reasons
+    physics1 = deficiency("missing_physics", 1)
+    _, v = _verdict(["a"], ["a"], {"a": report(physics0, physics1, low((0,), (0,)))}, "aic", crit)
+    assert v.decision == "refine" and [d.joints for d in v.decided_by] == [("j1",), ("j2",)]
+    assert any("This run cannot decide." in r for r in v.reasons)
+    # a low_information on a joint where nothing was found (j3) still decides: that joint is untested
+    _, v = _verdict(["a"], ["a"], {"a": report(physics0, physics1, low((0, 2), (0,)))}, "aic", crit)
+    assert v.decision == "redesign" and v.decided_by[0].joints == ("j1", "j3")

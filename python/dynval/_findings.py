@@ -336,7 +336,7 @@ def holm_family(ev: Evidence) -> dict[str, Any]:
 def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list[Finding]:
     """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first."""
     r = _Rules(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev))
-    out: list[Finding] = []
+    out = r.found
     for rule in _RULES:
         out.extend(rule(r))
     order = {s: i for i, s in enumerate(SEVERITIES)}
@@ -356,6 +356,7 @@ class _Rules:
     fam: dict[str, Any]
     deficient: set[int] = field(default_factory=set)
     missing: set[int] = field(default_factory=set)
+    found: list[Finding] = field(default_factory=list)  # the findings of the rules that ran
 
     def common(self) -> tuple[Evidence, Thresholds, float, dict[str, Any], list[str], list[str] | None]:
         """What most rules read: evidence, thresholds, α, the Holm family, joint and column names."""
@@ -611,6 +612,34 @@ def _motion_rule(r: _Rules) -> list[Finding]:
     return found
 
 
+def _named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
+    """The term a deficiency names and the share of the mean square it removes (a missing physical
+    term, a missing column refitted in), or None for a deficiency that is not a named term."""
+    d = f.details or {}
+    if f.kind == "missing_physics":
+        return str(d.get("label") or d.get("term")), float(d.get("term_share", math.nan))
+    if f.kind == "regressor_correlation" and "share" in (f.effect_unit or "") and f.effect is not None:
+        return _col(ev.column_names, f.columns[0]) if f.columns else "a column", float(f.effect)
+    return None
+
+
+def _unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[tuple[str, float]]]:
+    """Of the deficient ``joints``, those whose every deficiency (whiteness, which follows from the
+    others, aside) names a term that removes less than the run's smallest detectable share, with
+    those terms: the structure is certain (its test is significant), which term it is the run
+    cannot resolve."""
+    if ev.detectable_share is None:
+        return {}
+    mde = np.asarray(ev.detectable_share, dtype=float)
+    out = {}
+    for j in sorted(joints):
+        named = [_named_term(ev, f) for f in found
+                 if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
+        if named and all(t is not None and t[1] < mde[j] for t in named):
+            out[j] = [t for t in named if t is not None]
+    return out
+
+
 def _whiteness_rule(r: _Rules) -> list[Finding]:
     """Whiteness at the information rate: a deficiency only on a joint an earlier rule found deficient."""
     ev, _th, alpha, fam, names, _cols = r.common()
@@ -663,7 +692,7 @@ def _whiteness_rule(r: _Rules) -> list[Finding]:
 def _validation_design_rule(r: _Rules) -> list[Finding]:
     """The validation run's design: repeat, excitation, information."""
     return [*_repeat_findings(r.ev, r.th), *_excitation_findings(r.ev, r.th),
-            *_design_findings(r.ev, r.th, r.deficient), *r.ev.extra_notes]
+            *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
 
 
 _RULES = (_data_notes, _worse_than_constant_rule, _bias_rule, _missing_term_rule, _regressor_correlation_rule,
@@ -974,9 +1003,18 @@ def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
     return out
 
 
-def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset()) -> list[Finding]:
+def _unresolved_text(terms: list[tuple[str, float]]) -> str:
+    named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
+    return (f" — found deficient, but what is named there removes less: {named}, so which term is missing "
+            "this run cannot tell")
+
+
+def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset(),
+                     unresolved: dict[int, list[tuple[str, float]]] | None = None) -> list[Finding]:
     """Runs that cannot decide: a joint that hardly moves, too few effective samples (on a joint
-    where no deficiency was found: where one was, the run did decide)."""
+    where no deficiency was found, or where the term named removes less than the run can detect,
+    ``unresolved``, with the terms named: where a term above that was found, the run did decide)."""
+    unresolved = unresolved or {}
     out: list[Finding] = []
     names = ev.joint_names
     if ev.joint_motion_ratio is not None:
@@ -1009,17 +1047,20 @@ def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set
                          "test these terms.")))
     if ev.detectable_share is not None:
         mde = np.asarray(ev.detectable_share, dtype=float)
-        low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in decided]
+        low = [int(j) for j in np.flatnonzero(mde > th.detectable_share)
+               if int(j) not in decided or int(j) in unresolved]
         if low:
             n_eff = np.asarray(ev.noise_n_eff, dtype=float)
             mde_pct = {j: versus(mde[j], th.detectable_share, ".0f", scale=100.0) for j in low}
-            each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {mde_pct[j][0]} %" for j in low)
+            each = "; ".join(f"{_name(names, j)}: N_eff = {n_eff[j]:.0f}, {mde_pct[j][0]} %"
+                             + (_unresolved_text(unresolved[j]) if j in unresolved else "") for j in low)
             out.append(Finding(
                 kind="low_information", severity="design", joints=tuple(low), effect=float(mde[low].max()),
                 effect_unit="smallest detectable share of the mean square (90 % power)",
                 threshold=th.detectable_share,
                 action="validate on a longer or faster-varying run (more effective samples)",
-                details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff]},
+                details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff],
+                         "unresolved": sorted(int(j) for j in unresolved if j in low)},
                 message=(f"This run cannot decide: its noise leaves so few effective samples that a missing term "
                          f"must remove more than {mde_pct[low[0]][1]} % of the mean square to be found "
                          f"({each}).")))

@@ -150,12 +150,15 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=Non
     out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
     return out
 
-def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate) -> None:
+def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05) -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
     estimation run with one library group added on every flagged joint at once (a friction or an
     offset is usually missing on all joints alike, and the joints' terms interact through the
     shared parameters), and name per joint the group whose refit removes the most of its validation
     mean square (of the groups within 80 % of the best, the one with the fewest columns).
+
+    ``practical``: when no group so refitted removes that share of the joint's validation mean
+    square, the term is named from the validation run instead (:func:`_validation_refit_gains`).
     """
     flagged = [t for t in tests if t.selected]
     if not flagged:
@@ -192,12 +195,15 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate) -> None:
     for t in flagged:
         gj = gains[t.joint]
         how = "estimation"
-        if not gj or not max(gj.values()) > 0:
-            # No group helps once refitted on the estimation run: its parameter error (other joints'
-            # noise through the shared parameters) outweighs the term. Name the group that best
-            # explains, on the validation run, what the model's own columns cannot represent there.
-            gj = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
-            how = "validation"
+        if not gj or not max(gj.values()) >= practical:
+            # No group helps by a practical share once refitted on the estimation run: the model's
+            # columns absorbed the term there (an offset into the gravity columns of a joint that
+            # hardly changes posture), or its parameter error (other joints' noise through the
+            # shared parameters) outweighs the term. Name the group that best explains, on the
+            # validation run, what the model's own columns cannot represent there.
+            gv = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
+            if gv and max(gv.values()) > max(list(gj.values()) + [0.0]):
+                gj, how = gv, "validation"
             if not gj or not max(gj.values()) > 0:
                 continue
         top = max(gj.values())
