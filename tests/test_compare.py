@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 
 import numpy as np
 import pytest
@@ -334,3 +335,78 @@ def test_low_information_on_unresolved_joints_waits_for_a_resolved_deficiency():
     # a low_information on a joint where nothing was found (j3) still decides: that joint is untested
     _, v = _verdict(["a"], ["a"], {"a": report(physics0, physics1, low((0, 2), (0,)))}, "aic", crit)
     assert v.decision == "redesign" and v.decided_by[0].joints == ("j1", "j3")
+
+
+_SPEC = ("(prediction, n_params[, regressor]) or a mapping with 'prediction', 'n_params' and optionally "
+         "'regressor', 'model_columns'")
+
+
+@pytest.mark.parametrize("candidates, message", [
+    ({}, "candidates must be a non-empty mapping of names to (prediction, n_params[, regressor]), got {}"),
+    ({"": ([1.0, 2.0, 3.5], 1)},
+     "candidates must be a mapping whose keys are non-empty strings, got {'': ([1.0, 2.0, 3.5], 1)}"),
+    ({1: ([1.0, 2.0, 3.5], 1)},
+     "candidates must be a mapping whose keys are non-empty strings, got {1: ([1.0, 2.0, 3.5], 1)}"),
+    ({"x": {"prediction": [1.0, 2.0, 3.5], "n_params": 1, "regresor": None}},
+     f"candidates['x'] must be {_SPEC}, got {{'prediction': [1.0, 2.0, 3.5], 'n_params': 1, 'regresor': None}}"),
+    ({"x": {"prediction": [1.0, 2.0, 3.5]}}, f"candidates['x'] must be {_SPEC}, got {{'prediction': [1.0, 2.0, 3.5]}}"),
+    ({"x": {"n_params": 1}}, f"candidates['x'] must be {_SPEC}, got {{'n_params': 1}}"),
+    ({"x": ([1.0, 2.0, 3.5], 1, None, None)}, f"candidates['x'] must be {_SPEC}, got ([1.0, 2.0, 3.5], 1, None, None)"),
+    ({"x": ([1.0, 2.0, 3.5], 1.5)}, f"candidates['x'] must be {_SPEC}, got ([1.0, 2.0, 3.5], 1.5)"),
+])
+def test_bad_candidates_are_refused_by_name_with_the_value(candidates, message):
+    """The contract's InvalidParameter: the parameter, what it must be and the value given."""
+    with pytest.raises(dynval.InvalidParameter) as info:
+        dynval.compare([1.0, 2.0, 3.0], candidates)
+    assert str(info.value) == message
+
+
+def test_compare_refuses_a_shared_n_params_and_a_criterion_it_cannot_compute():
+    with pytest.raises(dynval.InvalidParameter) as info:
+        dynval.compare([1.0, 2.0, 3.0], {"x": ([1.0, 2.0, 3.5], 1)}, n_params=2)
+    assert str(info.value) == "n_params must be given per candidate, not to compare, got 2"
+    tau = np.random.default_rng(0).normal(size=200)
+    with pytest.raises(dynval.InvalidParameter) as info:
+        dynval.compare(tau, {"x": (0.9 * tau, 1)}, criterion="aic_neff", max_lag=0)
+    assert str(info.value) == "criterion must be one of 'aic', 'bic', 'aicc' when max_lag=0 (no N_eff), got 'aic_neff'"
+
+
+def test_a_candidate_brings_its_own_regressor_before_the_shared_one():
+    """The third element of a candidate (or its mapping's 'regressor') is the regressor its report
+    tests; the shared ``regressor=`` serves only the candidates without one."""
+    rng = np.random.default_rng(1)
+    y = rng.normal(size=(500, 1, 2))
+    tau = y[:, 0, :] @ [1.0, 0.5] + rng.normal(0, 0.1, 500)
+    pred = y[:, 0, :1] @ [1.0]
+    own = {"tuple": (pred, 1, y), "mapping": {"prediction": pred, "n_params": 1, "regressor": y}}
+    for name, spec in own.items():
+        r = dynval.compare(tau, {name: spec}).reports[name]
+        assert r.cross_correlation is not None and r.provenance["n_regressor_columns"] == 2, name
+    shared = y[:, :, :1]
+    r = dynval.compare(tau, {"tuple": (pred, 1, y)}, regressor=shared).reports["tuple"]
+    assert r.provenance["n_regressor_columns"] == 2
+    r = dynval.compare(tau, {"two": (pred, 1)}, regressor=shared).reports["two"]
+    assert r.provenance["n_regressor_columns"] == 1
+
+
+def test_the_table_says_what_was_not_analysed_and_a_negligible_bias():
+    rng = np.random.default_rng(2)
+    tau = rng.normal(size=(3000, 1))
+    row = dynval.compare(tau, {"a": (tau + rng.normal(0, 0.1, tau.shape), 1)}, max_lag=0).table["pooled"]["a"]
+    assert (row["whiteness"], row["bias"]) == ("not analysed", "not analysed")
+    assert set(row) >= {"n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic", "aicc", "akaike_weight"}
+    # a bias that is significant but small (0.05 of the RMSE < 0.25) is a note: "negligible"
+    e = rng.normal(0, 1.0, tau.shape) + 0.05
+    cmp = dynval.compare(tau, {"a": (tau - e, 1)})
+    assert [f.severity for f in cmp.reports["a"].findings if f.kind == "bias"] == ["note"]
+    assert cmp.table["pooled"]["a"]["bias"] == "negligible"
+    # white residuals without a bias: "white", "none"
+    cmp = dynval.compare(tau, {"a": (tau - rng.normal(0, 1.0, tau.shape), 1)})
+    assert (cmp.table["pooled"]["a"]["whiteness"], cmp.table["pooled"]["a"]["bias"]) == ("white", "none")
+
+
+def test_akaike_weights_are_nan_when_no_candidate_has_a_criterion():
+    """AICc is undefined (nan) when p ≥ n − 1: no weight can be given, rather than a division by zero."""
+    tau = np.random.default_rng(3).normal(size=20)
+    cmp = dynval.compare(tau, {"a": (0.5 * tau, 19), "b": (0.4 * tau, 25)}, criterion="aicc", max_lag=0)
+    assert all(math.isnan(cmp.table["pooled"][n]["akaike_weight"]) for n in ("a", "b"))
