@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import pathlib
 import shutil
 import subprocess
 import sys
@@ -13,10 +15,22 @@ import numpy as np
 import pytest
 
 from dynval.golden import FAMILIES, OPERATIONS, Case, check_case, corpus_dir, iter_cases, load_family
-from dynval.golden._lint import _structure_problems, lint, load_generator
+from dynval.golden._lint import (
+    SOURCE_ENV,
+    GeneratorNotFoundError,
+    _structure_problems,
+    generator_dir,
+    lint,
+    load_generator,
+)
 
 jsonschema = pytest.importorskip("jsonschema")
 pytest.importorskip("mpmath")
+
+#: The source tree these tests belong to: the generator (golden/generate.py, golden/corpus_generator/)
+#: is not installed with dynval, so the tests take it from here, whichever dynval is imported
+#: (an editable install, or a regular `pip install .` with pytest run from the repository root).
+REPO = pathlib.Path(__file__).resolve().parents[1]
 
 ERROR_KINDS = ("InvalidType", "InvalidShape", "ShapeMismatch", "TooFewSamples", "NonFiniteInput",
                "InvalidParameter")
@@ -24,7 +38,7 @@ ERROR_KINDS = ("InvalidType", "InvalidShape", "ShapeMismatch", "TooFewSamples", 
 
 @pytest.fixture(scope="module")
 def generator():
-    return load_generator()
+    return load_generator(REPO)
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +58,7 @@ def test_regenerates_byte_for_byte(family, fresh):
 
 
 def test_generator_does_not_import_dynval(generator):
-    golden = corpus_dir().parent
+    golden = pathlib.Path(generator.__file__).parent
     files = [golden / "generate.py", *sorted((golden / "corpus_generator").glob("*.py"))]
     assert len(files) > 10  # the script and the package: one builder per family
     for path in files:
@@ -53,13 +67,14 @@ def test_generator_does_not_import_dynval(generator):
 
 
 def test_one_builder_module_per_family(generator):
-    package = corpus_dir().parent / "corpus_generator"
+    package = pathlib.Path(generator.__file__).parent / "corpus_generator"
     assert {p.stem for p in package.glob("*.py") if not p.stem.startswith("_")} == set(FAMILIES)
     for family in FAMILIES:
         assert generator.BUILDERS[family].__module__.endswith(f".{family}")
 
 
-def test_lint_reports_a_changed_value(tmp_path):
+def test_lint_reports_a_changed_value(tmp_path, monkeypatch):
+    monkeypatch.setenv(SOURCE_ENV, str(REPO))  # the generator of this source tree, whatever the cwd
     corpus = tmp_path / "vectors"
     shutil.copytree(corpus_dir(), corpus)  # the copy alone: dynval's own schema and generator check it
     doc = json.loads((corpus / "information_criteria.json").read_text(encoding="utf-8"))
@@ -70,6 +85,63 @@ def test_lint_reports_a_changed_value(tmp_path):
     problems = lint(corpus, families=["information_criteria"], reproduce=True)
     assert any(f"information_criteria-{test['tcId']}: differs" in p and "expected" in p for p in problems)
     assert any("note 'Unused' is never used" in p for p in problems)
+
+
+# ---- where the generator comes from: the source tree, never the installed package -----------------
+
+
+def test_generator_is_found_in_the_source_tree(tmp_path):
+    golden = (REPO / "golden").resolve()
+    # an editable install (or PYTHONPATH=python): the tree the running dynval is imported from
+    assert generator_dir(environ={}, package_root=REPO, cwd=tmp_path) == golden
+    # a regular install: the current directory or a directory above it (pytest from the repository root)
+    site = tmp_path / "site-packages"
+    assert generator_dir(environ={}, package_root=site, cwd=REPO) == golden
+    assert generator_dir(environ={}, package_root=site, cwd=REPO / "tests") == golden
+    # named explicitly: the checkout or its golden/ directory
+    assert generator_dir(environ={SOURCE_ENV: str(REPO)}, package_root=site, cwd=tmp_path) == golden
+    assert generator_dir(REPO / "golden", environ={}, package_root=site, cwd=tmp_path) == golden
+
+
+def test_missing_generator_says_where_it_looked(tmp_path):
+    site, elsewhere = tmp_path / "site-packages", tmp_path / "work"
+    elsewhere.mkdir()
+    # a generate.py beside a corpus is not dynval's source tree (no pyproject.toml naming dynval)
+    (elsewhere / "golden" / "corpus_generator").mkdir(parents=True)
+    (elsewhere / "golden" / "generate.py").write_text("raise SystemExit('must not run')\n", encoding="utf-8")
+    (elsewhere / "golden" / "corpus_generator" / "__init__.py").write_text("", encoding="utf-8")
+    with pytest.raises(GeneratorNotFoundError) as info:
+        generator_dir(environ={}, package_root=site, cwd=elsewhere)
+    message = str(info.value)
+    for says in ("not installed with the package", SOURCE_ENV, str(site / "golden"), str(elsewhere.resolve()),
+                 "git clone", "sdist"):
+        assert says in message, message
+    with pytest.raises(GeneratorNotFoundError, match=r"DYNVAL_GOLDEN_SOURCE is .*empty"):
+        generator_dir(environ={SOURCE_ENV: str(tmp_path / "empty")}, package_root=REPO, cwd=REPO)
+
+
+def test_generate_cli_without_the_source_tree(tmp_path):
+    env = dict(os.environ, **{SOURCE_ENV: str(tmp_path)})
+    for command in (["generate", "--check"], ["lint", "--families", "errors", "--reproduce"]):
+        done = subprocess.run([sys.executable, "-m", "dynval.golden", *command], capture_output=True, text=True,
+                              check=False, cwd=tmp_path, env=env, timeout=120)
+        assert done.returncode == 2, done.stdout + done.stderr
+        assert "Traceback" not in done.stderr and str(tmp_path) in done.stderr, done.stderr
+        assert "source" in done.stderr and "git clone" in done.stderr, done.stderr
+
+
+def test_generate_cli_from_the_source_tree(tmp_path):
+    # run from the repository root with the source tree's generator: the committed file is current
+    env = {k: v for k, v in os.environ.items() if k != SOURCE_ENV}
+    done = subprocess.run([sys.executable, "-m", "dynval.golden", "generate", "--check", "--families", "errors"],
+                          capture_output=True, text=True, check=False, cwd=REPO, env=env, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    # --out writes elsewhere, byte for byte the committed file
+    done = subprocess.run([sys.executable, "-m", "dynval.golden", "generate", "--out", str(tmp_path),
+                           "--families", "errors"], capture_output=True, text=True, check=False, cwd=REPO, env=env,
+                          timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (tmp_path / "errors.json").read_bytes() == (corpus_dir() / "errors.json").read_bytes()
 
 
 def test_structure_checks_catch_bad_files():

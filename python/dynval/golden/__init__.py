@@ -4,7 +4,9 @@ The corpus is language-neutral JSON (``golden/vectors/<family>.json``, schema
 ``golden/schema/corpus_v1.schema.json``); this package reads it, runs a vector
 through the public API and compares results with the vector's tolerance. Only
 numpy and the standard library are needed here; linting and regenerating also
-need ``jsonschema`` and ``mpmath`` (``pip install dynval[golden]``).
+need ``jsonschema`` and ``mpmath`` (``pip install dynval[golden]``), and regenerating
+(``generate``, ``lint --reproduce``) needs dynval's source tree: the generator
+``golden/generate.py`` is not installed with the package (``_lint.generator_dir``).
 
 Examples
 --------

@@ -5,7 +5,9 @@ strict JSON, nested too deeply, a number float64 cannot hold, a schema violation
 a malformed entry) becomes one listed problem naming the file and the place, and
 nothing found beside them is used. The schema is dynval's own unless ``--schema``
 names another; reproducing the values (``--reproduce``) runs dynval's own
-generator, never a ``generate.py`` next to the corpus.
+generator, never a ``generate.py`` next to the corpus. The generator is not installed with
+the package: it is taken from dynval's source tree (:func:`generator_dir` says where it is
+looked for).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import os
 import pathlib
 import re
 import sys
@@ -20,7 +23,7 @@ from collections.abc import Iterator, Sequence
 from types import ModuleType
 from typing import Any
 
-from ._loader import FAMILIES, golden_root, schema_path
+from ._loader import FAMILIES, schema_path
 from ._loader import corpus_dir as default_corpus_dir
 
 #: Deepest nesting of arrays and objects accepted. The corpus needs 9 and the schema 20;
@@ -30,13 +33,96 @@ MAX_DEPTH = 64
 # A JSON string (skipped: brackets inside it do not nest) or one bracket.
 _BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
 
+#: Environment variable naming the dynval source checkout (or its ``golden/`` directory) whose
+#: generator ``load_generator`` uses; unset, the checkout is looked for (see :func:`generator_dir`).
+SOURCE_ENV = "DYNVAL_GOLDEN_SOURCE"
 
-def load_generator() -> ModuleType:
-    """Import dynval's own ``generate.py`` (in the package, or in the source tree) as a module."""
-    path = golden_root() / "generate.py"
-    if not path.is_file():
-        msg = f"dynval's corpus generator is not installed (no {path})"
-        raise FileNotFoundError(msg)
+_PROJECT_NAME = re.compile(r'^name\s*=\s*"dynval"\s*$', re.MULTILINE)
+
+SOURCE_EXPLANATION = ("To regenerate or reproduce the corpus, get dynval's source (a git clone of the "
+                      "repository, or its sdist unpacked), install its extra (pip install '.[golden]'), and run "
+                      f"the command from inside that tree, or set {SOURCE_ENV} to its directory.")
+
+
+class GeneratorNotFoundError(FileNotFoundError):
+    """dynval's corpus generator was not found: it is part of the source tree, not of the package."""
+
+
+def _holds_generator(golden: pathlib.Path) -> bool:
+    return (golden / "generate.py").is_file() and (golden / "corpus_generator" / "__init__.py").is_file()
+
+
+def _is_checkout(root: pathlib.Path) -> bool:
+    """``root`` is a dynval source tree: its pyproject.toml names the project dynval, golden/ holds the generator."""
+    try:
+        pyproject = (root / "pyproject.toml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return _PROJECT_NAME.search(pyproject) is not None and _holds_generator(root / "golden")
+
+
+def generator_dir(source: pathlib.Path | str | None = None, *, environ: Any = None,
+                  cwd: pathlib.Path | None = None, package_root: pathlib.Path | None = None) -> pathlib.Path:
+    """The ``golden/`` directory of the dynval source tree whose generator to run.
+
+    The generator (``golden/generate.py`` and ``golden/corpus_generator/``) is not installed
+    with the package; it is found, in this order, in
+
+    1. ``source`` or else ``$DYNVAL_GOLDEN_SOURCE``: a source checkout or its ``golden/``
+       directory (nothing else is tried when one is given);
+    2. the source tree the running dynval is imported from (an editable install, or
+       ``PYTHONPATH=python``);
+    3. the current directory or the nearest directory above it that is a dynval source tree
+       (its ``pyproject.toml`` names the project ``dynval``), e.g. the repository root.
+
+    A directory a corpus is read from is never one of these: the linter runs only the
+    project's own generator. ``environ``, ``cwd`` and ``package_root`` replace
+    ``os.environ``, the current directory and the tree of the running package (for tests).
+
+    Raises
+    ------
+    GeneratorNotFoundError
+        Nowhere; the message names every place looked in and how to get the generator.
+    """
+    environ = os.environ if environ is None else environ
+    origin = "the directory given"
+    if source is None and environ.get(SOURCE_ENV):
+        source, origin = environ[SOURCE_ENV], f"${SOURCE_ENV}"
+    if source is not None:
+        given = pathlib.Path(source).expanduser().resolve()
+        for golden in (given / "golden", given):
+            if _holds_generator(golden):
+                return golden
+        msg = (f"dynval's corpus generator not found: {origin} is {given}, which holds neither "
+               "golden/generate.py with golden/corpus_generator/ nor generate.py with corpus_generator/. "
+               f"{SOURCE_EXPLANATION}")
+        raise GeneratorNotFoundError(msg)
+    looked = [f"${SOURCE_ENV}: not set"]
+    # python/dynval/golden/_lint.py -> the repository root in a source tree.
+    package_root = pathlib.Path(__file__).resolve().parents[3] if package_root is None else package_root
+    if _is_checkout(package_root):
+        return package_root / "golden"
+    looked.append(f"{package_root / 'golden'}, where the source tree of the imported dynval "
+                  f"({pathlib.Path(__file__).resolve().parents[1]}) would hold it: not a dynval source tree")
+    cwd = pathlib.Path.cwd() if cwd is None else pathlib.Path(cwd)
+    cwd = cwd.resolve()
+    for root in (cwd, *cwd.parents):
+        if _is_checkout(root):
+            return root / "golden"
+    looked.append(f"golden/ in {cwd} and in every directory above it (none is a dynval source tree)")
+    msg = ("dynval's corpus generator (golden/generate.py and golden/corpus_generator/) is not installed with "
+           "the package: it is part of dynval's source tree. Looked in:\n  - " + "\n  - ".join(looked)
+           + f"\n{SOURCE_EXPLANATION}")
+    raise GeneratorNotFoundError(msg)
+
+
+def load_generator(source: pathlib.Path | str | None = None) -> ModuleType:
+    """Import dynval's own ``golden/generate.py`` from the source tree as a module.
+
+    ``source`` (default: found by :func:`generator_dir`) is a source checkout or its
+    ``golden/`` directory. The generator is not part of the installed package.
+    """
+    path = generator_dir(source) / "generate.py"
     spec = importlib.util.spec_from_file_location("dynval_golden_generate", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules.setdefault("dynval_golden_generate", module)
@@ -246,8 +332,9 @@ def lint(corpus: pathlib.Path | str | None = None, families: Sequence[str] | Non
     draft 2020-12; ``schema`` names another file instead), ``family`` field, unique
     ``tcId``, ``numberOfTests``, every flag explained in ``notes`` and every note
     used, and (``reproduce=True``) that a fresh in-memory run of dynval's own
-    generator reproduces every file byte for byte. Needs ``jsonschema`` (and
-    ``mpmath`` to reproduce). Nothing found beside ``corpus`` is used.
+    generator reproduces every file byte for byte. Needs ``jsonschema`` (and, to
+    reproduce, ``mpmath`` and dynval's source tree: :func:`generator_dir`; without it
+    :class:`GeneratorNotFoundError` is raised). Nothing found beside ``corpus`` is used.
     """
     directory = pathlib.Path(corpus) if corpus is not None else default_corpus_dir()
     selected = tuple(families) if families else FAMILIES
@@ -302,7 +389,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="JSON Schema to check against (default: dynval's own; a schema beside the corpus "
                              "is never used)")
     parser.add_argument("--reproduce", action="store_true",
-                        help="also regenerate every value with dynval's own generator and compare byte for byte")
+                        help="also regenerate every value with dynval's own generator (from a source checkout: the "
+                             f"current directory or above, or ${SOURCE_ENV}) and compare byte for byte")
     parser.add_argument("--no-reproduce", action="store_true",
                         help="schema and structure only (the default; kept for old scripts)")
     args = parser.parse_args(argv)
@@ -312,6 +400,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         schema=args.schema)
     except ImportError as exc:
         print(f"linting needs the golden extra (pip install 'dynval[golden]'): {exc}", file=sys.stderr)
+        return 2
+    except GeneratorNotFoundError as exc:
+        print(f"--reproduce runs dynval's corpus generator: {exc}", file=sys.stderr)
         return 2
     directory = args.corpus or default_corpus_dir()
     if problems:

@@ -35,11 +35,13 @@ _NONFINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 
 
 def golden_root() -> pathlib.Path:
-    """Directory holding ``vectors/``, ``schema/`` and ``generate.py``.
+    """Directory holding ``vectors/``, ``schema/``, ``data/``, ``operations.json`` and ``PROTOCOL.md``.
 
     The wheel merges the source tree's ``golden/`` into this package
-    (``dynval/golden/vectors``, ...: scikit-build-core ``wheel.packages``); in a
-    development checkout the source tree's ``golden/`` is used instead.
+    (``dynval/golden/vectors``, ...: scikit-build-core ``wheel.packages``), without the
+    corpus generator (``generate.py``, ``corpus_generator/``: ``wheel.exclude``, see
+    ``_lint.generator_dir``); in a development checkout the source tree's ``golden/`` is
+    used instead.
     """
     here = pathlib.Path(__file__).resolve().parent
     if (here / "vectors").is_dir():
