@@ -410,3 +410,37 @@ def test_akaike_weights_are_nan_when_no_candidate_has_a_criterion():
     tau = np.random.default_rng(3).normal(size=20)
     cmp = dynval.compare(tau, {"a": (0.5 * tau, 19), "b": (0.4 * tau, 25)}, criterion="aicc", max_lag=0)
     assert all(math.isnan(cmp.table["pooled"][n]["akaike_weight"]) for n in ("a", "b"))
+
+
+def test_decisive_labels_name_the_place_and_the_owner():
+    from dynval._compare import Decisive
+
+    assert Decisive("friction", "oscillation", "deficiency", joints=("shoulder",)).label() == (
+        "oscillation on shoulder (deficiency of friction)")
+    assert Decisive("rigid", "excitation", "design", joints=("elbow",), columns=("Fv1", "Fc1")).label() == (
+        "excitation on elbow, Fv1, Fc1 (design of rigid)")
+    assert Decisive("", "whiteness", "design").label() == "whiteness (design of the comparison)"
+
+
+def test_comparison_serialises_every_part_under_its_documented_key():
+    rng = np.random.default_rng(4)
+    tau = rng.normal(size=400)
+    cmp = dynval.compare(tau, {"a": (0.9 * tau, 1), "b": (0.8 * tau, 2)}, sample_rate=100.0)
+    d = cmp.to_dict()
+    assert set(d) == {"names", "ranking", "criterion", "table", "verdict", "findings", "reasons", "reports"}
+    assert (d["names"], d["ranking"], d["criterion"]) == (["a", "b"], cmp.ranking, "aic")
+    assert set(d["table"]) == {"pooled", "per_joint"} and set(d["reports"]) == {"a", "b"}
+    assert d["reports"]["a"] == json.loads(json.dumps(cmp.reports["a"].to_dict()))
+    assert d["findings"] == [f.to_dict() for f in cmp.findings]
+    assert set(d["verdict"]) == {"decision", "model", "reasons", "decided_by", "first_step"}
+    assert (d["verdict"]["model"], d["verdict"]["reasons"]) == (cmp.verdict.model, list(cmp.verdict.reasons))
+    assert "reports" not in cmp.to_dict(reports=False)
+    # two-space indentation by default, one line on request; strict JSON throughout
+    text = cmp.to_json()
+    assert text.startswith('{\n  "names": [\n    "a",') and json.loads(text) == json.loads(cmp.to_json(indent=None))
+    assert "\n" not in cmp.to_json(indent=None)
+    def bare(token):
+        raise AssertionError(f"bare {token} in the JSON")
+
+    json.loads(text, parse_constant=bare)  # non-finite numbers are written as strings, never bare
+
