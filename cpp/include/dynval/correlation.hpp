@@ -12,8 +12,8 @@
 // join two segments.
 //
 // Streaming (logs larger than memory, partial results merged across processes) is
-// lag_accumulator.hpp: lag sums about a fixed shift plus the head/tail rows of each range,
-// centred on the overall mean at the end.
+// lag_accumulator.hpp, a layer over stream_state.hpp: centred lag sums plus the head/tail rows of
+// each range, centred on the overall mean at the end.
 #pragma once
 
 #include "accumulator.hpp"

@@ -17,8 +17,8 @@
 // `merge` moves both operands to their combined mean (Chan's pairwise update, extended to lagged
 // products), adds the sums and adds the products that cross the junction (current element among
 // the later operand's first rows, lagged element among the earlier one's last rows). Running
-// sums are Neumaier-compensated. Unlike `lag_accumulator`, whose sums stay about a fixed shift
-// (the first row), every sum here stays centred, so a first row far in the tails costs nothing.
+// sums are Neumaier-compensated. Every sum stays centred, so a first row far in the tails costs
+// nothing. The C++ `lag_accumulator` (lag_accumulator.hpp) is a thin layer over this state.
 //
 // The state does not check finiteness (the Python facade checks each chunk first) and does not
 // rescale (§1.3): data whose squares leave float64's normal range lose digits, as in Python.
