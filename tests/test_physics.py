@@ -424,17 +424,18 @@ def test_a_missing_column_below_what_the_run_detects_leaves_the_joint_unresolved
                    column_names=["Fv1", "Fv2"])
     unit = "share of the residual's mean square the term would remove"
 
-    def missing(j, share):
+    def missing(j, share):  # as the missing-term rule writes it: an added-variable test of a column
         return Finding(kind="regressor_correlation", severity="deficiency", joints=(j,), columns=(0,), effect=share,
-                       effect_unit=unit, threshold=0.01)
+                       effect_unit=unit, threshold=0.01, details={"lag": 0, "added_variable": True})
 
     assert _unresolved(ev, [missing(0, 0.3), missing(1, 0.5)], {0, 1}) == {0: [("Fv1", 0.3)]}
     # whiteness follows from the other findings: it does not resolve the joint
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9, effect_unit="max |ρ̂(ℓ)|")
     assert _unresolved(ev, [missing(0, 0.3), white], {0}) == {0: [("Fv1", 0.3)]}
-    # a correlation without a share (|ρ|), a bias, or a term at the detectable share resolve it
+    # a correlation of the residual with a column (|ρ|, no share), a bias, or a term at the detectable
+    # share resolve it
     rho = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.4,
-                  effect_unit="|ρ|", threshold=0.15)
+                  effect_unit="|ρ|", threshold=0.15, details={"lag": 3, "rho": 0.4})
     bias = Finding(kind="bias", severity="deficiency", joints=(0,), effect=0.4, effect_unit="|mean|/RMSE")
     for other in (rho, bias, missing(0, 0.5)):
         assert _unresolved(ev, [missing(0, 0.3), other], {0}) == {}, other.kind

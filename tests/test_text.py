@@ -94,7 +94,7 @@ def test_plot_annotation_uses_the_same_wording():
 
 
 def test_findings_p_text_is_the_shared_one():
-    from dynval._findings import _p_text
+    from dynval._finding_words import p_text as _p_text
 
     for p in (0.0123, 4.56e-7, 1e-301, 0.0, math.nan, None):
         assert _p_text(p) == p_clause(p)
