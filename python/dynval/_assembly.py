@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _records as rec
 from . import _sections as sec
 from ._findings import Finding, Thresholds, compute_findings
 from ._json import to_jsonable
@@ -30,8 +31,9 @@ REPORT_SCHEMA_VERSION = 1
 class ValidationReport:
     """Result of :func:`dynval.validate`.
 
-    Every section is a dictionary of floats, integers, strings and numpy arrays; the keys are
-    the contract's names (contract §4). Per-joint arrays have shape ``(m,)``; joint, column
+    Every section is a typed, read-only record (:mod:`dynval._records`) of floats, integers,
+    strings and numpy arrays, read as attributes (``report.per_joint.r2``) or as a mapping of the
+    contract's names (``report.per_joint["r2"]``, contract §4). Per-joint arrays have shape ``(m,)``; joint, column
     and lag indices are 0-based (the text of :meth:`summary` numbers joints and columns from 1).
 
     Attributes
@@ -89,26 +91,26 @@ class ValidationReport:
         largest, when), irregular steps, jitter, and the grid the lag and spectral analyses use.
     """
 
-    provenance: dict[str, Any]
-    per_joint: dict[str, Any]
-    pooled: dict[str, Any]
-    aggregates: dict[str, Any]
-    residuals: dict[str, Any]
-    autocorrelation: dict[str, Any] | None
-    ljung_box: dict[str, Any] | None
-    cross_correlation: dict[str, Any] | None
-    information_criteria: dict[str, Any]
+    provenance: rec.Provenance
+    per_joint: rec.PerJoint
+    pooled: rec.Pooled
+    aggregates: rec.Aggregates
+    residuals: rec.Residuals
+    autocorrelation: rec.Autocorrelation | None
+    ljung_box: rec.LjungBox | None
+    cross_correlation: rec.CrossCorrelation | None
+    information_criteria: rec.InformationCriteria
     warnings_text: list[str] = field(default_factory=list)
     findings: list[Finding] = field(default_factory=list)
-    bias: dict[str, Any] | None = None
-    whiteness: dict[str, Any] | None = None
-    spectrum: dict[str, Any] | None = None
-    design: dict[str, Any] | None = None
-    segment_metrics: dict[str, Any] | None = None
-    physics: dict[str, Any] | None = None
-    predictive: dict[str, Any] | None = None
-    periodic: dict[str, Any] | None = None
-    timing: dict[str, Any] | None = None
+    bias: rec.Bias | None = None
+    whiteness: rec.Whiteness | None = None
+    spectrum: rec.Spectrum | None = None
+    design: rec.Design | None = None
+    segment_metrics: dict[str, rec.Segment] | None = None
+    physics: rec.Physics | None = None
+    predictive: rec.Predictive | None = None
+    periodic: rec.Periodic | None = None
+    timing: rec.Timing | None = None
 
     @property
     def deficiencies(self) -> list[Finding]:
@@ -212,6 +214,7 @@ class Sections:
     lb_lags: list[int] = field(default_factory=list)
     white: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
+    spec_tests: Any = None  # every bin's peak test (dynval._stats.residual_spectrum), for the findings
     cross: dict[str, Any] | None = None
     xrho: Any = None
     xsd: Any = None
@@ -309,6 +312,7 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
     ev = sec.evidence(n=n, m=m, level=s.level, names=s.joint_names, per_joint=b.per_joint, pooled=b.pooled,
                       constant=np.asarray(b.km["constant_target"], dtype=bool), omitted=omitted,
                       force=s.prof.constant_target == "force_finite", bias=b.bias, white=b.white, spec=b.spec,
+                      spec_tests=b.spec_tests,
                       xcorr_rho=b.xrho, xcorr_sd=b.xsd,
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
@@ -316,8 +320,15 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       bandwidth=s.bandwidth)
     found = compute_findings(ev, s.thresholds)
     return ValidationReport(
-        provenance=prov, per_joint=b.per_joint, pooled=b.pooled, aggregates=b.aggregates, residuals=b.residuals,
-        autocorrelation=b.acf, ljung_box=b.lb, cross_correlation=b.cross, information_criteria=b.ic,
-        warnings_text=[f.message for f in found], findings=found, bias=b.bias, whiteness=b.white,
-        spectrum=sec.strip_private(b.spec), design=b.design, segment_metrics=b.segment_metrics, physics=b.physics,
-        predictive=b.predictive, periodic=b.periodic, timing=timing)
+        provenance=rec.Provenance.of(prov), per_joint=rec.PerJoint.of(b.per_joint), pooled=rec.Pooled.of(b.pooled),
+        aggregates=rec.Aggregates.of(b.aggregates), residuals=rec.Residuals.of(b.residuals),
+        autocorrelation=rec.record_or_none(rec.Autocorrelation, b.acf),
+        ljung_box=rec.record_or_none(rec.LjungBox, b.lb),
+        cross_correlation=rec.record_or_none(rec.CrossCorrelation, b.cross),
+        information_criteria=rec.InformationCriteria.of(b.ic), warnings_text=[f.message for f in found],
+        findings=found, bias=rec.record_or_none(rec.Bias, b.bias), whiteness=rec.record_or_none(rec.Whiteness, b.white),
+        spectrum=rec.record_or_none(rec.Spectrum, b.spec), design=rec.record_or_none(rec.Design, b.design),
+        segment_metrics=None if b.segment_metrics is None else {
+            name: rec.Segment.of(seg) for name, seg in b.segment_metrics.items()},
+        physics=rec.record_or_none(rec.Physics, b.physics), predictive=rec.record_or_none(rec.Predictive, b.predictive),
+        periodic=rec.record_or_none(rec.Periodic, b.periodic), timing=rec.record_or_none(rec.Timing, timing))

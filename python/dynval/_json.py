@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ def to_jsonable(value: Any) -> Any:
     >>> to_jsonable({"a": np.array([1.0, np.nan, -np.inf]), "b": (np.int64(2), True)})
     {'a': [1.0, 'NaN', '-Infinity'], 'b': [2, True]}
     """
-    if isinstance(value, dict):
+    if isinstance(value, Mapping):  # a dict, or a report section (a record)
         return {str(k): to_jsonable(x) for k, x in value.items()}
     if isinstance(value, np.ndarray):
         return to_jsonable(value.tolist())

@@ -451,7 +451,7 @@ def _lag_sections(d: _Data, o: _Options, b: Sections) -> None:
         b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, o.starts)
         b.white = sec.whiteness(o.kernel, d.e, d.pred, o.starts, b.lb, o.decimate, o.sample_rate, band=o.band,
                                 bandwidth=o.bandwidth, lag=o.white_lag)
-    b.spec = sec.spectrum(d.e, o.starts, d.reg3, o.sample_rate, b.grams)
+    b.spec, b.spec_tests = sec.spectrum(d.e, o.starts, d.reg3, o.sample_rate, b.grams)
 
 
 def _regressor_sections(d: _Data, o: _Options, b: Sections) -> None:

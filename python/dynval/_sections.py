@@ -393,15 +393,16 @@ def _pow2_columns(x):
     return _scale_pow2(x, k), k
 
 
-def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> dict:
-    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests."""
+def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> tuple[dict, Any]:
+    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
+    the report's section, and the tests of every bin (:func:`dynval._stats.residual_spectrum`),
+    which the findings read."""
     x = _project_out(e, reg3, grams) if reg3 is not None else e
     spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
     return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
             "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": reg3 is not None,
-            "peaks": top, "_pvalue": spec.pvalue, "_ratio": spec.ratio, "_share": spec.share,
-            "_is_peak": spec.is_peak}
+            "peaks": top}, spec
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
@@ -554,7 +555,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
     return out
 
 
-def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec,
+def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
              predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
     """Collect what the findings' rules read."""
@@ -578,8 +579,8 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.max_abs_acf = np.fmax.reduce(np.abs(acf["rho"][1:]), axis=0) if acf["rho"].shape[0] > 1 else None
     if spec is not None:
         ev.spectrum_frequency = spec["frequency"]
-        ev.spectrum_pvalue, ev.spectrum_ratio = spec["_pvalue"], spec["_ratio"]
-        ev.spectrum_share, ev.spectrum_is_peak = spec["_share"], spec["_is_peak"]
+        ev.spectrum_pvalue, ev.spectrum_ratio = spec_tests.pvalue, spec_tests.ratio
+        ev.spectrum_share, ev.spectrum_is_peak = spec_tests.share, spec_tests.is_peak
         ev.frequency_unit = spec["frequency_unit"]
     if xcorr_rho is not None:
         ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
@@ -595,13 +596,6 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
         ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
     return ev
-
-
-def strip_private(section):
-    """A section without its ``_``-prefixed working arrays (they feed the findings only)."""
-    if section is None:
-        return None
-    return {k: v for k, v in section.items() if not k.startswith("_")}
 
 
 def _relative_distance(a, b, centre: bool) -> float:

@@ -113,16 +113,41 @@ class ReportSections(Protocol):
     """What the plain-language summary reads of a validation report (``ValidationReport`` has it;
     a protocol, so that the wording layer needs no import of the report module)."""
 
-    provenance: dict[str, Any]
-    per_joint: dict[str, Any]
-    pooled: dict[str, Any]
-    aggregates: dict[str, Any]
-    residuals: dict[str, Any]
-    autocorrelation: dict[str, Any] | None
-    ljung_box: dict[str, Any] | None
-    cross_correlation: dict[str, Any] | None
-    information_criteria: dict[str, Any]
-    bias: dict[str, Any] | None
-    whiteness: dict[str, Any] | None
-    design: dict[str, Any] | None
+    # read-only: a report's sections are records, which are read-only mappings
+    @property
+    def provenance(self) -> Mapping[str, Any]: ...
+
+    @property
+    def per_joint(self) -> Mapping[str, Any]: ...
+
+    @property
+    def pooled(self) -> Mapping[str, Any]: ...
+
+    @property
+    def aggregates(self) -> Mapping[str, Any]: ...
+
+    @property
+    def residuals(self) -> Mapping[str, Any]: ...
+
+    @property
+    def autocorrelation(self) -> Mapping[str, Any] | None: ...
+
+    @property
+    def ljung_box(self) -> Mapping[str, Any] | None: ...
+
+    @property
+    def cross_correlation(self) -> Mapping[str, Any] | None: ...
+
+    @property
+    def information_criteria(self) -> Mapping[str, Any]: ...
+
+    @property
+    def bias(self) -> Mapping[str, Any] | None: ...
+
+    @property
+    def whiteness(self) -> Mapping[str, Any] | None: ...
+
+    @property
+    def design(self) -> Mapping[str, Any] | None: ...
+
     findings: Any

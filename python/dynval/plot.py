@@ -22,6 +22,7 @@ falls back to the names and sample rate recorded in a report's provenance.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -141,13 +142,13 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
     Lags are in samples on the bottom axis, and in seconds on the top axis when the sample
     rate is known (argument, or the report's provenance). Lags outside the band are drawn red.
     """
-    ac = report.autocorrelation if not isinstance(report, dict) else report
+    ac = report.autocorrelation if not isinstance(report, Mapping) else report
     if ac is None:
         raise ValueError("the report has no autocorrelation section (max_lag=0)")
     rho = np.asarray(ac["rho"], dtype=float)
     band = np.asarray(ac["band"], dtype=float)
     lmax, m = rho.shape[0] - 1, rho.shape[1]
-    source = None if isinstance(report, dict) else report
+    source = None if isinstance(report, Mapping) else report
     names = _joint_names(joint_names, m, source)
     fs = sample_rate if sample_rate is not None else _provenance(source, "sample_rate")
     lb = getattr(source, "ljung_box", None)
@@ -322,7 +323,7 @@ def cross_correlation(report, *, joint_names=None, column_names=None, title=None
     the report's findings name are outlined; grey cells are columns that are constant on
     that joint (no correlation defined).
     """
-    xc = report.cross_correlation if not isinstance(report, dict) else report
+    xc = report.cross_correlation if not isinstance(report, Mapping) else report
     if xc is None:
         raise ValueError("the report has no cross-correlation section (no regressor was given)")
     band = float(xc["band"])
@@ -334,7 +335,7 @@ def cross_correlation(report, *, joint_names=None, column_names=None, title=None
     mask = np.asarray(xc.get("constant_mask", np.zeros_like(mx, dtype=bool)), dtype=bool)
     ratio = np.where(mask, np.nan, mx / band)
     m, p = ratio.shape
-    source = None if isinstance(report, dict) else report
+    source = None if isinstance(report, Mapping) else report
     jnames = _joint_names(joint_names, m, source)
     cnames = _column_names(column_names, p, source)
     named = set()

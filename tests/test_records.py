@@ -1,0 +1,122 @@
+"""The report's sections are typed, read-only records (contract §4, ``dynval._records``).
+
+Each is read as attributes and as a mapping of the contract's names, holds only what the route
+computed, cannot be changed, survives pickling (dask moves reports between processes) and writes
+the same JSON as the mapping it was built from.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import pickle
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dynval
+from dynval import _records as rec
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SECTIONS = {
+    "provenance": rec.Provenance, "per_joint": rec.PerJoint, "pooled": rec.Pooled, "aggregates": rec.Aggregates,
+    "residuals": rec.Residuals, "autocorrelation": rec.Autocorrelation, "ljung_box": rec.LjungBox,
+    "cross_correlation": rec.CrossCorrelation, "information_criteria": rec.InformationCriteria, "bias": rec.Bias,
+    "whiteness": rec.Whiteness, "spectrum": rec.Spectrum, "design": rec.Design, "physics": rec.Physics,
+    "predictive": rec.Predictive, "periodic": rec.Periodic, "timing": rec.Timing,
+}
+
+
+@pytest.fixture(scope="module")
+def full_report():
+    """A report with every section: regressor, q, time stamps, the estimation run, named segments."""
+    rng = np.random.default_rng(7)
+    n, m, p = 1200, 2, 3
+    t = np.arange(n) / 100.0
+    q = np.column_stack([np.sin(2 * np.pi * 0.5 * t), np.cos(2 * np.pi * 0.5 * t)])
+    reg = rng.standard_normal((n, m, p))
+    tau = reg @ np.array([1.0, 0.5, -0.3]) + 0.05 * rng.standard_normal((n, m))
+    pred = tau + 0.02 * rng.standard_normal((n, m)) + 0.3 * np.sign(np.gradient(q, axis=0))
+    est = {"q": q, "regressor": reg, "tau": tau}
+    return dynval.validate(tau, pred, n_params=p, regressor=reg, q=q, time=t, estimation=est,
+                           segments={"first": 600, "second": 600}, model_columns=[0, 1])
+
+
+def test_every_section_is_its_record_read_as_attributes_and_as_a_mapping(full_report):
+    for name, cls in SECTIONS.items():
+        section = getattr(full_report, name)
+        assert type(section) is cls, name
+        assert len(section) == len(list(section)) > 0, name
+        for key in section:
+            assert section[key] is getattr(section, key), (name, key)
+        assert dict(section).keys() == full_report.to_dict()[name].keys(), name
+        assert section.to_dict() == full_report.to_dict()[name], name
+    for seg in full_report.segment_metrics.values():
+        assert type(seg) is rec.Segment and {"n_samples", "start", "per_joint", "mean", "pooled"} <= set(seg)
+
+
+def test_a_quantity_not_computed_is_absent_not_none():
+    r = dynval.validate([1.0, 2.0, 3.0, 4.0, 5.0], [1.1, 1.9, 3.2, 3.9, 5.1], n_params=1, max_lag=0)
+    ic = r.information_criteria
+    assert "n_eff" not in ic and "aic" in ic
+    assert ic.n_eff is rec.ABSENT and repr(rec.ABSENT) == "ABSENT"
+    with pytest.raises(KeyError):
+        ic["n_eff"]
+    assert ic.get("n_eff") is None and "n_eff" not in ic.to_dict()
+    assert r.autocorrelation is None and r.ljung_box is None  # a section not computed is None
+    lagged = dynval.validate([1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [1.1, 1.9, 3.2, 3.9, 5.1, 6.2], n_params=1)
+    assert isinstance(lagged.information_criteria["n_eff"], float)
+
+
+def test_records_cannot_be_changed(full_report):
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        full_report.per_joint.r2 = np.zeros(2)
+    with pytest.raises(TypeError):
+        full_report.per_joint["r2"] = np.zeros(2)
+
+
+def test_a_section_builder_that_disagrees_with_its_record_fails_loudly():
+    with pytest.raises(TypeError, match="Pooled has no field 'rsme'"):
+        rec.Pooled.of({"sse": 1.0, "rsme": 2.0})
+
+
+def test_records_survive_pickling_with_their_keys_and_absent_values(full_report):
+    back = pickle.loads(pickle.dumps(full_report))
+    assert back.to_json() == full_report.to_json()
+    for name in SECTIONS:
+        assert list(getattr(back, name)) == list(getattr(full_report, name))
+    small = pickle.loads(pickle.dumps(dynval.validate([1.0, 2.0, 3.0, 4.0], [1.1, 2.1, 2.9, 4.2], n_params=1,
+                                                      max_lag=0)))
+    assert small.information_criteria.n_eff is rec.ABSENT
+
+
+def test_the_spectrum_section_carries_no_working_arrays_and_its_tests_still_decide(full_report):
+    assert not [k for k in full_report.spectrum if k.startswith("_")]
+    t = np.arange(4000) / 200.0
+    rng = np.random.default_rng(3)
+    tau = np.sin(2 * np.pi * 0.3 * t)[:, None] * 10.0
+    pred = tau + 0.05 * rng.standard_normal((4000, 1)) + 0.4 * np.sin(2 * np.pi * 17.0 * t)[:, None]
+    r = dynval.validate(tau, pred, n_params=1, sample_rate=200.0)
+    peak = [f for f in r.findings if f.kind == "oscillation"]
+    assert peak and abs(peak[0].details["frequency"] - 17.0) < 0.5
+
+
+def test_strict_json_of_non_finite_values():
+    r = dynval.validate([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], n_params=1)  # R² nan, AIC -inf
+    text = r.to_json(indent=None)
+    assert not re.search(r"\bNaN\b(?!\")|(?<!\")-?Infinity\b(?!\")", text.replace('"NaN"', "").replace(
+        '"Infinity"', "").replace('"-Infinity"', ""))
+    d = json.loads(text)
+    assert d["pooled"]["r2"] == "NaN" and d["information_criteria"]["aic"] == "-Infinity"
+
+
+@pytest.mark.parametrize("cls", [*SECTIONS.values(), rec.Segment], ids=lambda c: c.__name__)
+def test_every_field_is_named_in_the_contract(cls):
+    """One documented attribute per quantity: contract §4 names every field of every record."""
+    text = (ROOT / "docs" / "contract.md").read_text(encoding="utf-8")
+    section4 = text[text.index("## 4. `validate` and the report"):text.index("## 5. Backends")]
+    missing = [f.name for f in dataclasses.fields(cls) if f.name != "_order" and f"`{f.name}`" not in section4]
+    assert not missing, f"{cls.__name__}: {missing} not in contract §4"
