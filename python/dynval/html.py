@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ._json import to_jsonable
 from ._text import pvalue_text
 
 __all__ = ["write_report", "render_report"]
@@ -202,20 +203,11 @@ def _provenance_html(report) -> str:
     rows = []
     for k, v in prov.items():
         if isinstance(v, dict):
-            v = json.dumps(_jsonable(v), ensure_ascii=False)
+            v = json.dumps(to_jsonable(v), ensure_ascii=False, allow_nan=False)
         elif isinstance(v, (list, tuple)):
             v = ", ".join(str(x) for x in v)
         rows.append([_e(k), _e(v)])
     return _table(["field", "value"], rows, text_cols=(0, 1))
-
-
-def _jsonable(x):
-    try:
-        from ._json import to_jsonable
-
-        return to_jsonable(x)
-    except ImportError:  # pragma: no cover
-        return x
 
 
 def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label) -> list:
