@@ -109,7 +109,7 @@ def ref_welch(x, starts, fs, nperseg):
     periodogram (scipy.signal.periodogram), and the plain mean over all windows — which is the
     documented average of the segments' Welch spectra weighted by their window counts."""
     x = np.asarray(x, dtype=np.float64)
-    step = max(nperseg // 2, 1)
+    step = nperseg - nperseg // 2  # noverlap = nperseg // 2 (rounded down), as scipy.signal.welch
     pers, freq = [], None
     for a, b in _segments(starts, x.shape[0]):
         for w0 in range(a, b - nperseg + 1, step):
@@ -698,6 +698,16 @@ def test_correlation_pvalue_zero_sd_silent():
 # ---------------------------------------------------------------------------------------------
 # Welch spectrum, peaks, information band
 # ---------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n, nperseg", [(29, 15), (30, 15), (100, 17), (64, 16), (47, 1), (40, 2)])
+def test_welch_window_count_is_scipys(n, nperseg):
+    """The windows a segment holds, and so its weight and the dof, are those scipy.signal.welch
+    averages (an odd nperseg overlaps by nperseg // 2, a step of nperseg - nperseg // 2)."""
+    x = np.random.default_rng(n).standard_normal((n, 1))
+    _, _, k = _stats._welch(x, np.array([0]), 1.0, nperseg)
+    _, _, zxx = scipy.signal.stft(x[:, 0], nperseg=nperseg, noverlap=nperseg // 2, boundary=None, padded=False)
+    assert k == zxx.shape[-1]
+
 
 def test_welch_dof_formula():
     """ν = 2K/(1 + 2(1 − 1/K)c²), c = 0.1667; 2 for one window (or none)."""

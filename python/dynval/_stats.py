@@ -394,7 +394,8 @@ def _welch(x, starts, fs, nperseg):
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b - a < nperseg:
             continue
-        k = 1 + (b - a - nperseg) // max(nperseg // 2, 1)
+        # scipy's windows: noverlap = nperseg // 2, so a step of nperseg - nperseg // 2 (8 for 15)
+        k = 1 + (b - a - nperseg) // (nperseg - nperseg // 2)
         freq, pxx = scipy.signal.welch(x[a:b], fs=fs, window="hann", nperseg=nperseg,
                                        noverlap=nperseg // 2, detrend="constant", axis=0)
         total = pxx * k if total is None else total + pxx * k
