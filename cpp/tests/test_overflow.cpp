@@ -78,6 +78,17 @@ TEST(Overflow, LagAccumulatorBufferSize) {
     EXPECT_THROW(dynval::lag_accumulator(1, big), std::length_error);
 }
 
+// The same for every buffer of the streaming state: m·p, (xcorr_lags + 1)·m·p and m·m (the Gram)
+// that wrap are refused, not allocated short.
+TEST(Overflow, StreamStateBufferSizes) {
+    using dynval::stream_layout;
+    EXPECT_THROW(dynval::stream_state(stream_layout{4, (1LL << 62) + 1, 1, 1, false}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{2, 1LL << 61, 3, 3, false}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{(1LL << 32) + 1, 0, 0, 0, true}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{1, 0, big, 0, false}), std::length_error);
+    EXPECT_NO_THROW(dynval::stream_state(stream_layout{3, 4, 5, 2, true}));
+}
+
 // Found by tests/test_fuzz.py: first_nonfinite of an (N, 0) array took the maxCoeff of an empty
 // block (undefined; a segfault through _core.first_nonfinite).
 TEST(EmptyInput, FirstNonfiniteOfNoColumns) {

@@ -141,16 +141,12 @@ public:
     }
 
 private:
-    /// The state's layout, after the checks of the contract (§5.2): m >= 1, max_lag >= 0, and
-    /// (max_lag + 1)·m cells that fit in memory (a count that wraps would allocate a short buffer).
+    /// The state's layout, after the checks of the contract (§5.2): m >= 1 and max_lag >= 0;
+    /// `stream_state` refuses (max_lag + 1)·m cells that do not fit in memory.
     static stream_layout checked_layout(Index n_joints, Index max_lag) {
         if (n_joints < 1) throw invalid_shape("e must have at least one column, got " + std::to_string(n_joints));
         if (max_lag < 0)
             detail::throw_parameter("max_lag", "an integer with max_lag >= 0", value_text(static_cast<long long>(max_lag)));
-        const auto lags = detail::checked_add(max_lag, 1);
-        const auto cells = lags ? detail::checked_mul(*lags, n_joints) : std::nullopt;
-        if (!cells || *cells > static_cast<long long>(std::vector<double>().max_size()))
-            throw std::length_error("lag_accumulator: (max_lag + 1) * n_joints cells do not fit in memory");
         return stream_layout{n_joints, 0, max_lag, 0, false};
     }
 

@@ -25,6 +25,7 @@
 #pragma once
 
 #include "accumulator.hpp"  // DYNVAL_VECTOR_CLONES, DYNVAL_RESTRICT
+#include "checked.hpp"
 #include "errors.hpp"
 #include "parallel.hpp"
 
@@ -34,6 +35,8 @@
 #include <cstddef>
 #include <initializer_list>
 #include <limits>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -197,6 +200,24 @@ struct compensated_array {
 /// this file. Arrays are flat and row-major: lag-major `(L+1, m)` for the residual sums,
 /// `(Lx+1, m, p)` for the regressor sums, `(m, p)` per column, `(m, m)` for the products.
 class stream_state {
+    /// Every buffer's cell count, (acf_lags + 1)·m, m·p, (xcorr_lags + 1)·m·p and m·m, formed with
+    /// overflow checks: a count that wraps would allocate a short buffer that the loops overrun.
+    static void check_fits(const stream_layout& layout) {
+        const long long limit = static_cast<long long>(std::vector<double>().max_size());
+        const auto mp = detail::checked_mul(layout.m, layout.p);
+        const auto le = detail::checked_add(layout.acf_lags, 1);
+        const auto lx = detail::checked_add(layout.xcorr_lags, 1);
+        const auto cells_e = le ? detail::checked_mul(*le, layout.m) : std::nullopt;
+        const auto cells_y = (lx && mp) ? detail::checked_mul(*lx, *mp) : std::nullopt;
+        const auto cells_g = layout.gram ? detail::checked_mul(layout.m, layout.m) : std::optional<long long>(0);
+        for (const auto& cells : {cells_e, cells_y, cells_g})
+            if (!cells || *cells > limit)
+                throw std::length_error("stream_state: the layout's buffers (m=" + std::to_string(layout.m) +
+                                        ", p=" + std::to_string(layout.p) + ", acf_lags=" +
+                                        std::to_string(layout.acf_lags) + ", xcorr_lags=" +
+                                        std::to_string(layout.xcorr_lags) + ") do not fit in memory");
+    }
+
 public:
     static constexpr double inf = std::numeric_limits<double>::infinity();
 
@@ -207,6 +228,7 @@ public:
             throw invalid_parameter("stream_state needs p >= 0 and 0 <= xcorr_lags <= acf_lags, got p=" +
                                     std::to_string(layout.p) + ", acf_lags=" + std::to_string(layout.acf_lags) +
                                     ", xcorr_lags=" + std::to_string(layout.xcorr_lags));
+        check_fits(layout);
         const auto m = static_cast<std::size_t>(layout.m);
         const auto mp = m * static_cast<std::size_t>(layout.p);
         const auto le = static_cast<std::size_t>(layout.acf_lags) + 1;
