@@ -19,7 +19,8 @@
 #
 # Environment:
 #   MUTATION_TESTS       pytest arguments of the test selection (default: the fast tests that pin the
-#                        decisions: tests/test_decisions.py tests/test_findings.py tests/test_compare.py
+#                        decisions: tests/test_decisions.py tests/test_finding_records.py tests/test_findings.py
+#                        tests/test_compare.py
 #                        tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py).
 #                        mutmut runs, for each mutant,
 #                        only the tests of the selection that call the mutated function.
@@ -48,7 +49,7 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 PY=${PYTHON:-python3}
 JOBS=${MUTATION_JOBS:-2}
-TESTS=${MUTATION_TESTS:-tests/test_decisions.py tests/test_findings.py tests/test_compare.py tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py}
+TESTS=${MUTATION_TESTS:-tests/test_decisions.py tests/test_finding_records.py tests/test_findings.py tests/test_compare.py tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py}
 MODULES=("$@")
 [ ${#MODULES[@]} -gt 0 ] || MODULES=(_findings.py _compare.py _stats.py)
 for mod in "${MODULES[@]}"; do
