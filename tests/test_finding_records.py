@@ -635,3 +635,14 @@ def test_a_named_term_is_a_physical_term_or_a_refitted_column():
     two = [col, dataclasses.replace(phys, details={"label": "drift", "term_share": 0.05})]
     assert _unresolved(ev, two, {0}) == {0: [("b", 0.2), ("drift", 0.05)]}
     assert _unresolved(_ev(1), [col], {0}) == {}  # no detectable share: nothing to compare with
+
+
+def test_time_stamps_note_counts_the_irregular_steps():
+    t = {"regular": False, "nominal_step": 0.001, "n_steps": 999, "duplicated_stamps": 2, "repeated_rows": 1,
+         "gaps": 3, "largest_gap": 0.01, "largest_gap_time": 0.5, "irregular_steps": 5, "jitter_rms": 1e-5,
+         "largest_step_deviation": 2e-4, "grid": "the nominal step between gaps"}
+    (f,) = _of(compute_findings(_ev(1, timing=t)), "time_stamps")
+    assert _record(f) == _blank(kind="time_stamps", severity="note", effect=10.0, effect_unit="irregular steps",
+                                details=t)
+    _worded(f, w.time_stamps(t))
+    assert not _of(compute_findings(_ev(1, timing={**t, "regular": True})), "time_stamps")
