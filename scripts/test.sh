@@ -74,16 +74,22 @@ step "C++ example against the installed CMake package"
 bash cpp/examples/run_example.sh
 
 step "pure-Python build (-Cwheel.cmake=false)"
-venv=$(mktemp -d)/venv
-"$PY" -m venv --system-site-packages "$venv"
-"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -Cwheel.cmake=false "$src"
-(cd "$venv" && "$venv/bin/python" -c "
+# Installed into a throwaway directory and imported with site processing off (python -S) and the
+# active environment's own site-packages on the path: the check sees this interpreter's packages
+# (a venv's, a conda environment's or the system's), and neither the installed dynval nor an
+# editable install's import hook can stand in for the pure-Python one.
+pure=$(mktemp -d)
+"$PY" -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -Cwheel.cmake=false \
+  --target "$pure" "$src"
+site=$("$PY" -c 'import sysconfig; p = sysconfig.get_paths(); print(p["purelib"] + ":" + p["platlib"])')
+(cd "$pure" && PYTHONPATH="$pure:$site" "$PY" -S -c "
 import dynval
+assert dynval.__file__.startswith('$pure'), dynval.__file__
 b = dynval.backends()
 assert b['python']['available'] and not b['cpp']['available'], b
 print('pure-Python build imports with backends', b)
 ")
-rm -rf "$(dirname "$venv")"
+rm -rf "$pure"
 
 step "pytest"
 # The Wolfram port's whole corpus (about 8 minutes under Mathics3 with two port processes) is run once,
