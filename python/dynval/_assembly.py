@@ -18,7 +18,7 @@ import numpy as np
 from . import _records as rec
 from . import _sections as sec
 from ._findings import Finding, Thresholds, compute_findings
-from ._json import to_jsonable
+from ._json import to_frame, to_jsonable
 from ._profiles import Profile
 from ._summary import format_summary
 from ._timing import Timing
@@ -165,6 +165,34 @@ class ValidationReport:
         ['-Infinity']
         """
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def to_frame(self) -> Any:
+        """The per-joint table as a pandas DataFrame (pandas is optional).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per joint (index ``joint``: the joint names, or ``joint 1``, ...), the columns of
+            ``per_joint`` and the residual's ``mean`` and ``variance``.
+
+        Examples
+        --------
+        >>> import dynval
+        >>> r = dynval.validate([[1.0, 2.0], [2.0, 1.0], [3.0, 5.0], [4.0, 3.0]],
+        ...                     [[1.1, 2.2], [1.9, 1.1], [3.2, 4.7], [3.9, 3.1]], n_params=1,
+        ...                     joint_names=["shoulder", "elbow"])
+        >>> r.to_frame().loc["elbow", ["rmse", "r2"]].round(3).tolist()   # √(0.15/4), 1 − 0.15/8.75
+        [0.194, 0.983]
+        """
+        names = self.provenance.get("joint_names") or [f"joint {j + 1}" for j in range(self.provenance["n_joints"])]
+        columns = {**dict(self.per_joint), "mean": self.residuals["mean"], "variance": self.residuals["variance"]}
+        return to_frame(columns, list(names), "joint", "ValidationReport.to_frame")
+
+    def _repr_html_(self) -> str:
+        """The report as a notebook shows it: the HTML page's tables and findings (dynval.html)."""
+        from .html import render_fragment
+
+        return render_fragment(self)
 
     def summary(self) -> str:
         """Readable text: per-joint table first, then pooled values, criteria and findings.

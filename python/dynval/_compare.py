@@ -29,7 +29,7 @@ import numpy as np
 
 from . import _validation as v
 from ._findings import Finding
-from ._json import to_jsonable
+from ._json import to_frame, to_jsonable
 from ._reasons import candidate_reasons, column_name, joint_name
 from ._report import ValidationReport, validate
 from ._typing import ArrayLike, FloatArray, Integer
@@ -161,6 +161,21 @@ class ComparisonReport:
 
     def to_json(self, *, indent: int | None = 2) -> str:
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def to_frame(self) -> Any:
+        """The pooled decision table as a pandas DataFrame (pandas is optional): one row per
+        candidate in ranking order (index ``model``), the columns of ``table["pooled"]``."""
+        rows = self.table["pooled"]
+        keys = list(dict.fromkeys(k for name in self.ranking for k in rows[name]))
+        columns = {k: [rows[name].get(k) for name in self.ranking] for k in keys}
+        return to_frame(columns, list(self.ranking), "model", "ComparisonReport.to_frame")
+
+    def _repr_html_(self) -> str:
+        """The comparison as a notebook shows it: verdict, decision table, reasons, each candidate's
+        tables and findings (dynval.html)."""
+        from .html import render_fragment
+
+        return render_fragment(self)
 
     def summary(self) -> str:
         from ._summary import format_comparison

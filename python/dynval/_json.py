@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-__all__ = ["to_jsonable"]
+__all__ = ["to_jsonable", "to_frame"]
 
 
 def to_jsonable(value: Any) -> Any:
@@ -40,3 +41,17 @@ def to_jsonable(value: Any) -> Any:
             return "Infinity" if x > 0 else "-Infinity"
         return x
     return value
+
+
+def to_frame(columns: dict[str, Any], index: list[str], index_name: str, what: str) -> Any:
+    """A pandas DataFrame of ``columns`` (name → values in ``index`` order); pandas is optional.
+
+    Raises ImportError naming ``what`` and the package to install when pandas is missing.
+    """
+    try:
+        pd = importlib.import_module("pandas")
+    except ImportError as exc:
+        raise ImportError(f"{what} needs pandas: pip install pandas") from exc
+    frame = pd.DataFrame({k: list(np.asarray(v).tolist()) if np.ndim(v) else [v] * len(index)
+                          for k, v in columns.items()}, index=pd.Index(index, name=index_name))
+    return frame

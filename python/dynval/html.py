@@ -27,7 +27,7 @@ import numpy as np
 from ._json import to_jsonable
 from ._text import pvalue_text
 
-__all__ = ["write_report", "render_report"]
+__all__ = ["write_report", "render_report", "render_fragment"]
 
 _CSS = """
 body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, Helvetica, Arial, sans-serif;
@@ -310,6 +310,40 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
             '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
             '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
             f"<title>{_e(head)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+
+
+def render_fragment(obj) -> str:
+    """The page's parts without the page: what a notebook shows for a report (``_repr_html_``).
+
+    The same headline, tables, findings, verdict, reasons and provenance as :func:`render_report`,
+    inside one ``<div class="dynval-report">`` whose style applies to it alone (the notebook's own
+    styles are left as they are); no figures (they need the torques, and a notebook draws them with
+    :mod:`dynval.plot`) and no JSON dump (``obj.to_dict()`` is at hand).
+    """
+    from ._version import __version__
+
+    plots = _FigureData(False, None, None, None, None, "")
+    signature = f"dynval {_e(__version__)}"
+    if _is_comparison(obj):
+        parts, first = _comparison_parts(obj, None, None, signature, plots)
+    else:
+        parts, first = _validation_parts(obj, None, None, signature, plots), obj
+    parts.append("<details><summary>Provenance</summary>" + _provenance_html(first) + "</details>")
+    body = "\n".join(p for p in parts if p)
+    return f'<div class="dynval-report">\n<style>{_scoped_css()}</style>\n{body}\n</div>'
+
+
+def _scoped_css() -> str:
+    """The page's style with every rule confined to ``.dynval-report`` (``body`` becomes the box)."""
+    rules = []
+    for rule in _CSS.strip().split("}"):
+        if "{" not in rule:
+            continue
+        selectors, declarations = rule.split("{", 1)
+        scoped = [".dynval-report" if sel.strip() == "body" else f".dynval-report {sel.strip()}"
+                  for sel in selectors.split(",")]
+        rules.append(f"{', '.join(scoped)} {{{declarations}}}")
+    return "\n".join(rules)
 
 
 def _have_matplotlib() -> bool:
