@@ -186,3 +186,34 @@ def test_opens_in_headless_chromium(scenario, tmp_path):
     # Rendered content, not a blank page: many distinct colours (tables, text, figures).
     flat = (img[:, :, :3] * 255).astype(np.uint8).reshape(-1, 3)
     assert len(np.unique(flat[::37], axis=0)) > 50
+
+
+_MEASURE = """<script>
+document.addEventListener('DOMContentLoaded', () => {
+  const wide = [...document.querySelectorAll('div.scroll')].filter(d => d.scrollWidth > d.clientWidth + 1);
+  document.body.setAttribute('data-overflowing', wide.length + ':' + wide.map(
+      d => d.querySelector('th') ? d.querySelector('tr').innerText.slice(0, 60) : '').join('|'));
+});
+</script></body>"""
+
+
+@pytest.mark.skipif(_chromium() is None, reason="no headless Chromium installed")
+def test_every_table_of_a_comparison_fits_a_1280_px_window(tmp_path):
+    """The decision table (and every other) of the demo's comparison shows whole at 1280 px: no
+    horizontal scrollbar (the criteria in fixed notation with their Δ, units in the headers; four
+    significant digits and separate Δ columns made it scroll)."""
+    from dynval.demo import run_demo
+
+    cmp = run_demo("friction", progress=None).comparison
+    page = tmp_path / "cmp.html"
+    page.write_text(render_report(cmp).replace("</body>", _MEASURE), encoding="utf-8")
+    proc = subprocess.run([_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1280,2000",
+                           "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=120)
+    found = re.search(r'data-overflowing="([^"]*)"', proc.stdout)
+    assert found, proc.stderr[-2000:]
+    assert found.group(1).startswith("0:"), f"tables wider than the window: {found.group(1)}"
+    # two AICs 60 apart read apart: fixed notation, with the Δ to the best
+    html = render_report(cmp)
+    for name in cmp.ranking:
+        row = cmp.table["pooled"][name]
+        assert f"<td>{row['aic']:.1f} ({row['delta_aic']:+.1f})</td>" in html, name

@@ -18,6 +18,7 @@ import html as _html
 import io
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -439,26 +440,56 @@ def _verdict_html(verdict, chosen, cmp) -> str:
             + "</div>")
 
 
-_DECISION_COLUMNS = ("rmse", "vaf", "fit_percent", "r2", "aic", "bic", "delta_aic", "delta_bic", "akaike_weight",
-                     "whiteness", "bias")
-_DECISION_LABELS = {"rmse": "RMSE", "vaf": "VAF", "fit_percent": "fit", "r2": "R²", "aic": "AIC", "bic": "BIC",
-                    "delta_aic": "ΔAIC", "delta_bic": "ΔBIC", "akaike_weight": "Akaike weight"}
+def _fixed(x, fmt: str) -> str:
+    """A criterion or a share in fixed notation (``-12808.2``): two AICs 4 apart must read apart,
+    which four significant digits (``-1.281e+04``) do not show."""
+    if x is None or isinstance(x, str):
+        return _num(x)
+    v = float(x)
+    return _num(v) if not math.isfinite(v) else f"{v:{fmt}}"
+
+
+def _decision_columns(cmp, names) -> list[tuple[str, Callable[[dict], str]]]:
+    """The decision table's columns: header (with its unit) and how a candidate's pooled row fills it."""
+    pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
+    first = next(iter(cmp.reports.values()), None)
+    units = (getattr(first, "provenance", None) or {}).get("units", {}) or {}
+    pct = " (%)" if units.get("vaf") == "percent" else ""
+
+    def has(key: str) -> bool:
+        return any(key in pooled.get(n, {}) for n in names)
+
+    def criterion(key: str) -> Callable[[dict], str]:
+        return lambda row: (_fixed(row.get(key), ".1f")
+                            + (f" ({_fixed(row.get('delta_' + key), '+.1f')})" if ("delta_" + key) in row else ""))
+
+    cols: list[tuple[str, Callable[[dict], str]]] = [
+        ("parameters", lambda row: _num(row.get("n_params"))),
+        ("RMSE (τ units)", lambda row: _num(row.get("rmse"))),
+        ("VAF" + pct, lambda row: _num(row.get("vaf"))),
+        ("fit" + pct, lambda row: _num(row.get("fit_percent"))),
+        ("R²", lambda row: _fixed(row.get("r2"), ".4f")),
+        ("AIC (Δ)", criterion("aic")),
+        ("BIC (Δ)", criterion("bic")),
+        ("Akaike weight", lambda row: _num(row.get("akaike_weight"), 3)),
+        ("whiteness", lambda row: _num(row.get("whiteness"))),
+        ("bias", lambda row: _num(row.get("bias"))),
+        ("deficiencies", lambda row: _num(row.get("n_deficiencies"))),
+    ]
+    keys = ("n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic", "akaike_weight", "whiteness", "bias",
+            "n_deficiencies")
+    return [col for col, key in zip(cols, keys) if has(key)]
 
 
 def _decision_table_html(cmp, names, ranking, chosen) -> str:
-    """One row per candidate in ranking order: its pooled metrics and criteria, the chosen one highlighted."""
+    """One row per candidate in ranking order: its pooled metrics and criteria (with units, and the
+    criteria in fixed notation with their Δ to the best), the chosen one highlighted."""
     pooled = (getattr(cmp, "table", None) or {}).get("pooled", {})
-    # Only the columns some candidate has: a comparison object may carry fewer.
-    cols = [c for c in _DECISION_COLUMNS if any(c in pooled.get(n, {}) for n in names)]
-    rows, classes = [], []
-    for n in ranking:
-        params = cmp.reports[n].provenance.get("n_params") if hasattr(cmp.reports[n], "provenance") else None
-        rows.append([_e(n), str(ranking.index(n) + 1), _num(params)] +
-                    [_num(pooled.get(n, {}).get(c)) for c in cols])
-        classes.append("chosen" if n == chosen else "")
-    return _table(["model", "rank", "parameters"] + [_DECISION_LABELS.get(c, c) for c in cols], rows,
-                  row_classes=classes, text_cols=(0,) + tuple(i + 3 for i, c in enumerate(cols)
-                                                              if c in ("whiteness", "bias")))
+    cols = _decision_columns(cmp, names)
+    rows = [[_e(n), str(ranking.index(n) + 1)] + [fill(pooled.get(n, {})) for _, fill in cols] for n in ranking]
+    classes = ["chosen" if n == chosen else "" for n in ranking]
+    text = (0,) + tuple(i + 2 for i, (h, _) in enumerate(cols) if h in ("whiteness", "bias"))
+    return _table(["model", "rank"] + [h for h, _ in cols], rows, row_classes=classes, text_cols=text)
 
 
 def _candidate_parts(rep, name, chosen, plots: _FigureData) -> list:
