@@ -48,13 +48,18 @@ class CheckedCall:
     scan : callable, optional
         The search for the first non-finite value of an array (``(row, col, value)`` or None):
         :func:`dynval._validation.first_nonfinite`, or a backend's own.
+    first_row : int, optional
+        The data's first row in the stream they are a chunk of: NonFiniteInput then also names
+        the row in the stream.
     """
 
     def __init__(self, function: str, arrays: list[Array],
-                 scan: Callable[[FloatArray], tuple[int, int, float] | None] = first_nonfinite) -> None:
+                 scan: Callable[[FloatArray], tuple[int, int, float] | None] = first_nonfinite,
+                 first_row: int | None = None) -> None:
         self.function = function
         self.arrays = arrays
         self._scan = scan
+        self._first_row = first_row
         self.omitting = False  # rows with a non-finite value are deleted (the data are then finite)
         self.omitted = 0
         self.kept_rows: IntArray | None = None  # the rows kept by the omission, when asked for
@@ -96,7 +101,10 @@ class CheckedCall:
         for name, a, n_columns in self.arrays:
             found = self._scan(a)
             if found is not None:
-                return nonfinite_error(name, *found, n_columns=n_columns)
+                error = nonfinite_error(name, *found, n_columns=n_columns)
+                if self._first_row is None:
+                    return error
+                return type(error)(f"{error} (row {self._first_row + found[0]} of the stream)")
         return None
 
     def require_finite(self) -> None:

@@ -19,6 +19,7 @@ the motion's information band) are chosen once the data are known, by :func:`pla
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -255,11 +256,11 @@ def check_joint_names(value: Any, m: int) -> list[str] | None:
     return names
 
 
-def check_column_names(value: Any, p: int | None, shown: Any = None) -> tuple[str, ...] | None:
-    """``column_names``: None, or (with a regressor of p columns) p distinct strings. ``shown``: the
-    value the message shows, if not ``value``."""
+def check_column_names(value: Any, p: int | None, show: Callable[[Any], Any] = lambda x: x) -> tuple[str, ...] | None:
+    """``column_names``: None, or (with a regressor of p columns) p distinct strings. ``show``: how
+    the message shows the value without a regressor."""
     if value is not None and p is None:
-        raise v.parameter_error("column_names", "None without a regressor", value if shown is None else shown)
+        raise v.parameter_error("column_names", "None without a regressor", show(value))
     names: tuple[str, ...] | None = _names(v.check_names("column_names", value, p or 0, "regressor column"))
     return names
 
