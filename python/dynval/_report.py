@@ -1,7 +1,10 @@
 """``dynval.validate`` and the :class:`ValidationReport` it returns (contract §4).
 
 ``validate`` checks its inputs once (contract order: type → shape → size → finiteness →
-parameters), makes ONE fused kernel call (``compute_metrics``) for every point metric, residual
+parameters): the data here (``_prepare``, into a ``_checks.CheckedCall``), the settings into one
+frozen ``_options.Options`` (``check_options``, shared with the accumulator, deferred through the
+checked call so that a non-finite value still wins), the lags into ``_options.Lags``. It makes ONE
+fused kernel call (``compute_metrics``) for every point metric, residual
 statistic and information criterion, then the lag analysis: autocorrelation with bands,
 Ljung–Box, and the cross-correlation with the regressor columns when a regressor is given.
 The profile (``_profiles.py``) fills every default.
@@ -228,10 +231,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     if seg_names is not None:
         b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
                                                 o.n_params, o.profile)
-    s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
-    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
-                      seg_names=seg_names, omitted=d.omitted)
-    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
+    return _assemble(d, o, b, seg_names)
 
 
 @dataclass(frozen=True)
@@ -277,6 +277,13 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
     e = np.ascontiguousarray(meas - pred) if lags.max_lag > 0 or reg2 is not None else None
     reg3 = None if reg2 is None or pr.p is None else reg2.reshape(n, m, pr.p)
     return _Data(meas, pred, e, reg2, reg3, pr.p, call.omitted, pr.given_meas, pr.given_pred, lags), o
+
+
+def _assemble(d: _Data, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
+    s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
+    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
+                      seg_names=seg_names, omitted=d.omitted)
+    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
 
 
 def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
