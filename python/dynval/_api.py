@@ -2,8 +2,9 @@
 
 Every function checks in the contract's order (§2.1): type -> shape -> size -> finiteness ->
 parameters. Type, shape and size are checked here. Finiteness is checked by the kernel in its
-pass over the data; parameters are checked here *deferred*: when one is bad, the data are
-first searched for a non-finite value, so NonFiniteInput still wins. Within the parameter
+pass over the data; parameters are checked here *deferred* (``_checks.CheckedCall``, shared with
+``validate``): when one is bad, the data are first searched for a non-finite value, so
+NonFiniteInput still wins. Within the parameter
 step the order is ``nan_policy``, ``backend``, ``segments`` (they decide which data the other
 parameters are checked against), then the remaining keywords in signature order.
 """
@@ -11,15 +12,13 @@ parameters are checked against), then the remaining keywords in signature order.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, Literal, TypeVar
+from typing import Literal
 
 import numpy as np
 
 from . import _backend
-from ._errors import InvalidParameter
+from ._checks import CheckedCall
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
-from ._segments import longest_segment, omit_nonfinite, parse_segments
 from ._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from ._typing import (
     ArrayLike,
@@ -48,11 +47,8 @@ from ._validation import (
     check_n_joints,
     check_n_obs,
     check_n_params,
-    check_nan_policy,
     check_noise_model,
     check_rss,
-    first_nonfinite,
-    nonfinite_error,
     promote_signal,
     regressor_shape,
     regressor_to_2d,
@@ -83,7 +79,6 @@ __all__ = [
 ]
 
 _NO_SEGMENTS = object()
-_T = TypeVar("_T")
 
 
 # --------------------------------------------------------------------------- plumbing
@@ -104,75 +99,32 @@ def residual_signal(function: str, e: ArrayLike) -> tuple[FloatArray, bool]:
     return a2, a.ndim == 1
 
 
-class Call:
-    """The parameter step of one call, with the deferred check and nan_policy="omit".
-
-    Parameters
-    ----------
-    function : str
-        Public function name (for TooFewSamples after omission).
-    arrays : list of (name, 2-D array, n_columns)
-        The data in argument order; ``n_columns`` is p for a regressor viewed ``(N, m*p)``.
-    nan_policy, backend : the caller's values.
-    segments : the caller's value, or absent for functions without lags.
-    """
-
-    def __init__(self, function: str, arrays: list[tuple[str, FloatArray, int | None]], nan_policy: object,
-                 backend: object, segments: object = _NO_SEGMENTS) -> None:
-        self.function = function
-        self._arrays = arrays
-        self.nan_policy = "raise"  # until the caller's value is known to be valid
-        self.nan_policy = self.check(check_nan_policy, nan_policy)
-        self.backend, self.kernel = self.check(_backend.resolve, backend)
-        n = arrays[0][1].shape[0]
-        if segments is _NO_SEGMENTS:
-            self.starts = np.zeros(1, dtype=np.int64)
-        else:
-            self.starts = self.check(parse_segments, segments, n)
-        self.omitted = 0
-        self.data = [a for _, a, _ in arrays]
-        if self.nan_policy == "omit":
-            self.data, self.starts, self.omitted = omit_nonfinite(self.data, self.starts)
-            check_min_samples(function, self.data[0].shape[0])
-
-    @property
-    def n(self) -> int:
-        return int(self.data[0].shape[0])
-
-    @property
-    def pair(self) -> tuple[FloatArray, FloatArray]:
-        """``(tau_meas, tau_pred)`` of a two-signal call, after omission."""
-        return self.data[0], self.data[1]
-
-    @property
-    def limit(self) -> int:
-        """Longest segment: the bound on lags."""
-        return longest_segment(self.starts, self.n)
-
-    def check(self, check: Callable[..., _T], *args: Any) -> _T:
-        """Run a parameter check; on failure, a non-finite value in the data wins."""
-        try:
-            return check(*args)
-        except InvalidParameter:
-            if self.nan_policy != "omit":
-                for name, a, n_columns in self._arrays:
-                    found = first_nonfinite(a)
-                    if found is not None:
-                        raise nonfinite_error(name, *found, n_columns=n_columns) from None
-            raise
+def _call(function: str, arrays: list[tuple[str, FloatArray, int | None]], nan_policy: object, backend: object,
+          segments: object = _NO_SEGMENTS) -> CheckedCall:
+    """The parameter step's head, in the contract's order: ``nan_policy``, ``backend``, ``segments``
+    (absent for functions without lags), each deferred; then the omission under "omit". The
+    function's own parameters follow through ``call.check``."""
+    call = CheckedCall(function, arrays)
+    call.nan_policy(nan_policy)
+    call.resolve_backend(backend)
+    if segments is not _NO_SEGMENTS:
+        call.segments(segments)
+    if call.omitting:
+        call.omit()
+    return call
 
 
 def _pair_call(function: str, tau_meas: ArrayLike, tau_pred: ArrayLike, nan_policy: object,
-               backend: object) -> tuple[Call, bool]:
+               backend: object) -> tuple[CheckedCall, bool]:
     meas, pred, one_d = signal_pair(function, tau_meas, tau_pred)
-    call = Call(function, [("tau_meas", meas, None), ("tau_pred", pred, None)], nan_policy, backend)
+    call = _call(function, [("tau_meas", meas, None), ("tau_pred", pred, None)], nan_policy, backend)
     return call, one_d
 
 
 def _residual_call(function: str, e: ArrayLike, nan_policy: object, backend: object,
-                   segments: object = _NO_SEGMENTS) -> tuple[Call, bool]:
+                   segments: object = _NO_SEGMENTS) -> tuple[CheckedCall, bool]:
     e2, one_d = residual_signal(function, e)
-    return Call(function, [("e", e2, None)], nan_policy, backend, segments), one_d
+    return _call(function, [("e", e2, None)], nan_policy, backend, segments), one_d
 
 
 def _out(value: float | FloatArray) -> float | FloatArray:
@@ -225,7 +177,7 @@ def residuals(tau_meas: ArrayLike, tau_pred: ArrayLike, *, nan_policy: NanPolicy
 
 
 def _point(function: str, allowed: tuple[str, ...], tau_meas: ArrayLike, tau_pred: ArrayLike, multioutput: object,
-           nan_policy: object, backend: object) -> tuple[Call, str]:
+           nan_policy: object, backend: object) -> tuple[CheckedCall, str]:
     call, _ = _pair_call(function, tau_meas, tau_pred, nan_policy, backend)
     multioutput = call.check(check_multioutput, multioutput, allowed, function)
     return call, multioutput
@@ -847,7 +799,7 @@ def cross_correlation(
     p = regressor_shape(y_arr, "e", n, m, n_joints)
     check_min_samples("cross_correlation", n)
     y2 = regressor_to_2d(y_arr, n, m, p)
-    call = Call("cross_correlation", [("e", e2, None), ("regressor", y2, p)], nan_policy, backend, segments)
+    call = _call("cross_correlation", [("e", e2, None), ("regressor", y2, p)], nan_policy, backend, segments)
     max_lag = call.check(check_max_lag, max_lag, call.limit)
     call.check(check_n_joints, n_joints, y_arr.shape[0], m, y_arr.ndim == 3)
     adjusted = call.check(check_adjusted, adjusted)

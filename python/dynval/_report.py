@@ -1,7 +1,10 @@
 """``dynval.validate`` and the :class:`ValidationReport` it returns (contract §4).
 
 ``validate`` checks its inputs once (contract order: type → shape → size → finiteness →
-parameters), makes ONE fused kernel call (``compute_metrics``) for every point metric, residual
+parameters): the data here (``_prepare``, into a ``_checks.CheckedCall``), the settings into one
+frozen ``_options.Options`` (``check_options``, shared with the accumulator, deferred through the
+checked call so that a non-finite value still wins), the lags into ``_options.Lags``. It makes ONE
+fused kernel call (``compute_metrics``) for every point metric, residual
 statistic and information criterion, then the lag analysis: autocorrelation with bands,
 Ljung–Box, and the cross-correlation with the regressor columns when a regressor is given.
 The profile (``_profiles.py``) fills every default.
@@ -9,32 +12,29 @@ The profile (``_profiles.py``) fills every default.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import _estimation, _motion, _timing
+from . import _estimation, _motion
 from . import _sections as sec
 from . import _validation as v
-from ._assembly import REPORT_SCHEMA_VERSION, Sections, Setting, ValidationReport, assemble_report, provenance
+from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._blas import one_blas_thread
-from ._errors import InputError, InvalidParameter, ShapeMismatch
-from ._findings import Thresholds, resolve_thresholds
+from ._checks import Array, CheckedCall
+from ._findings import Thresholds
 from ._json import to_jsonable
-from ._profiles import Profile, get_profile
-from ._segments import longest_segment, omit_nonfinite, parse_segments, segment_lengths
+from ._options import Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
+from ._segments import parse_segments, segment_lengths
 from ._typing import (
     ArrayLike,
     BackendName,
     Decimate,
     Detail,
     FloatArray,
-    IntArray,
     Integer,
-    Kernels,
     NamedSegmentsLike,
     NanPolicy,
     NoiseModel,
@@ -48,173 +48,42 @@ __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable
 # --------------------------------------------------------------------------- validate
 
 
-def _backend_kernel(backend: object) -> tuple[Kernels, BackendName]:
-    """Return ``(kernel_module, backend_name)``; unavailable names raise InvalidParameter."""
-    from ._backend import resolve
-
-    name, kernel = resolve(backend)
-    return kernel, name
-
-
 class _Prepared(NamedTuple):
-    """The data after the checks of :func:`_prepare`: torques and regressor (rows with a non-finite
-    value deleted under ``nan_policy="omit"``), the segment starts and what was omitted, and the
-    torques as given (promoted to (N, m), before omission)."""
+    """The data after the checks of :func:`_prepare`: the checked call holding the torques and the
+    regressor viewed (N, m*p) (rows with a non-finite value deleted under ``nan_policy="omit"``),
+    the regressor's columns and shape as given, and the torques as given (promoted to (N, m))."""
 
-    meas: FloatArray
-    pred: FloatArray
-    reg2: FloatArray | None
+    call: CheckedCall
     p: int | None
-    starts: IntArray | None
-    omitted: int
-    reg0: FloatArray | None
-    kept_rows: IntArray | None
+    reg_shape: tuple[int, ...] | None
     given_meas: FloatArray
     given_pred: FloatArray
 
 
-def _prepare(
-    tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, n_joints: object, segments: object,
-    nan_policy: object, allow_wide: object = False,
-) -> _Prepared:
+def _prepare(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, k: Keywords) -> _Prepared:
     """Type, shape, size and finiteness checks (the data half of the contract's order)."""
     meas, pred, reg0, shape, _ = v.torque_pair(tau_meas, tau_pred, regressor)
-    given_meas, given_pred = meas, pred
     n, m = meas.shape
     p = None
     if reg0 is not None:
-        p = v.regressor_shape(reg0, "tau_meas", n, m, n_joints)
+        p = v.regressor_shape(reg0, "tau_meas", n, m, k.n_joints)
 
     v.check_min_samples("validate", n)
-    v.check_orientation("validate", "tau_meas", shape, allow_wide)
+    v.check_orientation("validate", "tau_meas", shape, k.allow_wide)
 
-    reg2 = None if reg0 is None or p is None else v.regressor_to_2d(reg0, n, m, p)
-    omitted = 0
-    kept_rows = None
-    if isinstance(nan_policy, str) and nan_policy == "omit":
-        # Omission needs the caller's segments to refine them; a bad value is reported now.
-        starts = parse_segments(segments, n)
-        # the row numbers ride along, so that time stamps can follow the kept rows
-        arrays = [meas, pred, np.arange(n, dtype=np.float64)[:, None]] + ([reg2] if reg2 is not None else [])
-        kept, starts, omitted = omit_nonfinite(arrays, starts)
-        meas, pred = kept[0], kept[1]
-        kept_rows = kept[2][:, 0].astype(np.int64) if omitted else None
-        reg2 = kept[3] if reg2 is not None else None
-        n = meas.shape[0]
-        v.check_min_samples("validate", n)
-    elif isinstance(nan_policy, str) and nan_policy == "raise" and reg2 is None:
-        # The fused kernel finds the first non-finite value of tau_meas, then tau_pred, inside
-        # its single pass (same message); a separate sweep here would read the data twice.
-        starts = None
-    else:
-        check_data_finite(meas, pred, reg2, p)
-        starts = None
-    return _Prepared(meas, pred, reg2, p, starts, omitted, reg0, kept_rows, given_meas, given_pred)
-
-
-def check_data_finite(meas: FloatArray, pred: FloatArray, reg2: FloatArray | None = None,
-                      p: int | None = None) -> None:
-    """The finiteness step of the contract's order, in argument order."""
-    v.check_finite(meas, "tau_meas")
-    v.check_finite(pred, "tau_pred")
-    if reg2 is not None:
-        v.check_finite(reg2, "regressor", n_columns=p)
-
-
-@dataclass
-class _Options:
-    """validate's parameters, checked and normalised."""
-
-    n_params: int
-    max_lag: int
-    level: float
-    prof: Profile
-    starts: IntArray
-    longest: int
-    kernel: Kernels
-    backend_name: BackendName
-    noise_model: str
-    sample_rate: float | None
-    timing: _timing.Timing | None
-    bandwidth: float | None
-    max_lag_given: bool
-    decimate: str | int | None
-    joint_names: list[str]
-    column_names: list[str] | None
-    q: FloatArray | None
-    dq: FloatArray | None
-    ddq: FloatArray | None
-    estimation: dict[str, FloatArray] | None
-    thresholds: Thresholds
-    detail: str
-    model_columns: list[int] | None
-    # chosen after the checks, from the prediction
-    band: float | None = None
-    lag_source: str = ""
-    white_lag: int | None = None
-
-
-def _check_parameters(a: dict[str, Any], reg0: FloatArray | None, n: int, m: int, p_cols: int | None,
-                      starts: IntArray | None, meas_shape: tuple[int, ...], kept_rows: IntArray | None = None,
-                      meas: FloatArray | None = None) -> _Options:
-    """validate's parameters in the documented order (contract §4)."""
-    n_params = v.check_n_params(a["n_params"])
-    if reg0 is not None:
-        v.check_n_joints(a["n_joints"], reg0.shape[0], m, reg0.ndim == 3)
-    elif a["n_joints"] is not None:
-        v.check_n_joints(a["n_joints"], n * m, m, False)
-    prof: Profile = get_profile(a["profile"])
-    v.check_nan_policy(a["nan_policy"])
-    if starts is None:
-        starts = parse_segments(a["segments"], n)
-    longest = longest_segment(starts, n)
-    max_lag = prof.default_max_lag(n, longest) if a["max_lag"] is None else v.check_max_lag(a["max_lag"], longest)
-    level = prof.level if a["level"] is None else v.check_level(a["level"])
-    kernel, backend_name = _backend_kernel(a["backend"])
-    noise_model = prof.noise_model if a["noise_model"] is None else v.check_noise_model(a["noise_model"])
-    sample_rate = v.check_sample_rate(a["sample_rate"])
-    timing = None
-    if a["time"] is not None:
-        stamps = _timing.check_time(a["time"], meas_shape[0])
-        # rows omitted for non-finite data leave gaps in the stamps, as they should
-        timing = _timing.analyse(stamps if kept_rows is None else stamps[kept_rows], sample_rate, meas)
-        sample_rate = timing.sample_rate
-        starts = _timing.split_at_gaps(starts, timing.gap_rows)
-        longest = longest_segment(starts, n)
-        if a["max_lag"] is None:
-            max_lag = prof.default_max_lag(n, longest)
-        elif max_lag >= longest:
-            raise InvalidParameter(f"max_lag must be below {longest}, the longest run of samples between the "
-                                   f"{timing.gaps} gaps of the time stamps, got {max_lag}")
-    bandwidth = v.check_bandwidth(a["bandwidth"], sample_rate)
-    decimate = v.check_decimate(a["decimate"])
-    joint_names = v.check_names("joint_names", a["joint_names"], m, "joint") or [f"joint {j + 1}" for j in range(m)]
-    if a["column_names"] is not None and p_cols is None:
-        raise v.parameter_error("column_names", "None without a regressor", a["column_names"])
-    column_names = v.check_names("column_names", a["column_names"], p_cols or 0, "regressor column")
-    q = None if a["q"] is None else v.check_signal_like(a["q"], "q", meas_shape[0], m)
-    dq = None if a["dq"] is None else v.check_signal_like(a["dq"], "dq", meas_shape[0], m)
-    ddq = None if a["ddq"] is None else v.check_signal_like(a["ddq"], "ddq", meas_shape[0], m)
-    if q is None and (dq is not None or ddq is not None):
-        raise v.parameter_error("dq" if dq is not None else "ddq", "None without q", a["dq"] if dq is not None
-                                else a["ddq"])
-    estimation = v.check_estimation(a["estimation"], m)
-    if estimation is not None and "regressor" in estimation and p_cols is not None \
-            and estimation["regressor"].shape[2] != p_cols:
-        raise ShapeMismatch(f"estimation['regressor'] must have the p={p_cols} columns of regressor, got shape "
-                              f"{v.format_shape(np.shape(a['estimation']['regressor']))}")
-    if estimation is not None and "regressor" in estimation and "tau" in estimation \
-            and estimation["regressor"].shape[0] != estimation["tau"].shape[0]:
-        raise ShapeMismatch(f"estimation['regressor'] and estimation['tau'] must have the same N, got "
-                              f"{estimation['regressor'].shape[0]} and {estimation['tau'].shape[0]} samples")
-    thresholds = resolve_thresholds(a["thresholds"])
-    detail = v.check_detail(a["cross_correlation_detail"])
-    model_columns = v.check_model_columns(a["model_columns"], p_cols, column_names)
-    v.check_allow_wide(a["allow_wide"])
-    return _Options(n_params, max_lag, level, prof, starts, longest, kernel, backend_name, noise_model,
-                    sample_rate, timing, bandwidth, a["max_lag"] is not None, decimate, joint_names, column_names,
-                    q, dq, ddq, estimation, thresholds, detail,
-                    model_columns)
+    arrays: list[Array] = [("tau_meas", meas, None), ("tau_pred", pred, None)]
+    if reg0 is not None and p is not None:
+        arrays.append(("regressor", v.regressor_to_2d(reg0, n, m, p), p))
+    call = CheckedCall("validate", arrays)
+    if isinstance(k.nan_policy, str) and k.nan_policy == "omit":
+        # Omission needs the caller's segments to refine them; a bad value is reported now. The
+        # row numbers ride along, so that time stamps can follow the kept rows.
+        call.omit(parse_segments(k.segments, n), rows=True)
+    elif not (isinstance(k.nan_policy, str) and k.nan_policy == "raise" and reg0 is None):
+        call.require_finite()
+    # else the fused kernel finds the first non-finite value of tau_meas, then tau_pred, inside
+    # its single pass (same message); a separate sweep here would read the data twice.
+    return _Prepared(call, p, None if reg0 is None else tuple(reg0.shape), meas, pred)
 
 
 @one_blas_thread
@@ -347,13 +216,13 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     array([1., 1.])
     """
     seg_names, segments = v.named_segments(segments)
-    args = dict(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
-                max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                time=time, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names,
-                q=q, dq=dq, ddq=ddq,
-                estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
-                model_columns=model_columns, allow_wide=allow_wide)
-    d, o = _checked(tau_meas, tau_pred, regressor, args)
+    k = Keywords(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
+                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
+                 time=time, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
+                 column_names=column_names, q=q, dq=dq, ddq=ddq, estimation=estimation, thresholds=thresholds,
+                 cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
+                 allow_wide=allow_wide)
+    d, o = _checked(tau_meas, tau_pred, regressor, k)
     b = Sections()
     _residual_sections(d, o, b)
     _lag_sections(d, o, b)
@@ -361,13 +230,14 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     _motion_sections(d, o, b)
     if seg_names is not None:
         b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
-                                                o.n_params, o.prof)
-    return _assemble(d, o, b, seg_names, nan_policy)
+                                                o.n_params, o.profile)
+    return _assemble(d, o, b, seg_names)
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Data:
-    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D)."""
+    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D), and
+    the frame of their lag analysis."""
 
     meas: FloatArray
     pred: FloatArray
@@ -378,6 +248,7 @@ class _Data:
     omitted: int
     given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
     given_pred: FloatArray
+    lags: Lags
 
     @property
     def n(self) -> int:
@@ -389,38 +260,41 @@ class _Data:
 
 
 def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
-             args: dict[str, Any]) -> tuple[_Data, _Options]:
-    """The data checks, then the parameters in the contract's order (a non-finite value still wins
-    over a bad parameter), then the largest lag: with a rate, the motion's time scale."""
-    pr = _prepare(
-        tau_meas, tau_pred, regressor, args["n_joints"], args["segments"], args["nan_policy"], args["allow_wide"])
-    meas, pred, reg2, p_cols, starts, omitted, reg0, kept_rows = pr[:8]
+             k: Keywords) -> tuple[_Data, Options]:
+    """The data checks, then the settings in the contract's order, deferred (a non-finite value
+    still wins over a bad setting), then the lags: with a rate, the motion's time scale."""
+    pr = _prepare(tau_meas, tau_pred, regressor, k)
+    call = pr.call
+    meas, pred = call.pair
     n, m = meas.shape
-    try:
-        o = _check_parameters(args, reg0, n, m, p_cols, starts, pr.given_meas.shape, kept_rows, meas)
-    except InputError:
-        check_data_finite(meas, pred, reg2, p_cols)
-        raise
-    o.band = _motion_band(pred, o.starts, o)
-    o.lag_source = "given" if o.max_lag_given else f"profile {o.prof.name!r}"
-    if not o.max_lag_given and o.max_lag > 0 and o.band is not None:
-        # the decimated whiteness test keeps the profile's count of lags
-        o.white_lag = (o.prof.ljung_box_lags(n, o.max_lag, o.longest) or [None])[0]
-        o.max_lag, o.lag_source = _motion_max_lag(o.band, o, n), "motion: one period of the information band's edge"
-    e = np.ascontiguousarray(meas - pred) if o.max_lag > 0 or reg2 is not None else None
-    reg3 = None if reg2 is None or p_cols is None else reg2.reshape(n, m, p_cols)
-    return _Data(meas, pred, e, reg2, reg3, p_cols, omitted, pr.given_meas, pr.given_pred), o
+    facts = Data(n=n, m=m, p=pr.p, reg_shape=pr.reg_shape, starts=call.starts if call.omitting else None,
+                 given_n=pr.given_meas.shape[0], kept_rows=call.kept_rows, meas=meas)
+    with call.deferred():
+        o = check_options(k, facts)
+    assert o.starts is not None  # validate's segments
+    lags = plan_lags(o, n, o.starts, pred)
+    reg2 = call.arrays[2][1] if pr.p is not None else None
+    e = np.ascontiguousarray(meas - pred) if lags.max_lag > 0 or reg2 is not None else None
+    reg3 = None if reg2 is None or pr.p is None else reg2.reshape(n, m, pr.p)
+    return _Data(meas, pred, e, reg2, reg3, pr.p, call.omitted, pr.given_meas, pr.given_pred, lags), o
 
 
-def _residual_sections(d: _Data, o: _Options, b: Sections) -> None:
+def _assemble(d: _Data, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
+    s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
+    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
+                      seg_names=seg_names, omitted=d.omitted)
+    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
+
+
+def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
     """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
     from ._api import zero_mean_test
 
-    prof = o.prof
+    prof = o.profile
     b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
     b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
-    lagged = o.max_lag > 0
-    zmt = (_as_dict(zero_mean_test(d.e, segments=o.starts, backend=o.backend_name)) if lagged and d.e is not None
+    lagged = d.lags.max_lag > 0
+    zmt = (_as_dict(zero_mean_test(d.e, segments=d.lags.starts, backend=o.backend)) if lagged and d.e is not None
            else sec.iid_zero_mean_test(b.km, d.n, prof.ddof))
     b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
                    "variance": np.asarray(b.km["residual_variance"], dtype=np.float64),
@@ -434,46 +308,47 @@ def _residual_sections(d: _Data, o: _Options, b: Sections) -> None:
     param_var = None
     if b.est_fit is not None and d.reg3 is not None:
         param_var = _estimation.quadratic_forms(b.est_fit, d.reg3[:, :, list(b.est_fit.columns)].mean(axis=0))
-    b.bias = sec.bias_test(d.e, o.starts, b.per_joint["rmse"], param_var) if lagged else None
+    b.bias = sec.bias_test(d.e, d.lags.starts, b.per_joint["rmse"], param_var) if lagged else None
     b.n_eff = None if b.bias is None else b.bias["n_eff"]
     b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
     b.grams = sec.JointGrams(d.reg3) if d.reg3 is not None else None
 
 
-def _lag_sections(d: _Data, o: _Options, b: Sections) -> None:
+def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
     """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
-    b.lb_lags = o.prof.ljung_box_lags(d.n, o.max_lag, o.longest)
-    if o.max_lag <= 0:
+    lags = d.lags
+    b.lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
+    if lags.max_lag <= 0:
         return
-    b.acf = sec.autocorrelation(o.kernel, d.e, o.max_lag, o.prof, o.level, o.starts, d.n)
+    b.acf = sec.autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
     if b.lb_lags:
-        b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, o.starts)
-        b.white = sec.whiteness(o.kernel, d.e, d.pred, o.starts, b.lb, o.decimate, o.sample_rate, band=o.band,
-                                bandwidth=o.bandwidth, lag=o.white_lag)
-    b.spec, b.spec_tests = sec.spectrum(d.e, o.starts, d.reg3, o.sample_rate, b.grams)
+        b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, lags.starts)
+        b.white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, b.lb, o.decimate, o.sample_rate, band=lags.band,
+                                bandwidth=o.bandwidth, lag=lags.white_lag)
+    b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams)
 
 
-def _regressor_sections(d: _Data, o: _Options, b: Sections) -> None:
+def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
     """Cross-correlation with the regressor's columns, and the columns the model lacks."""
     if d.reg2 is None:
         return
-    b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, o.max_lag, o.prof, o.level,
-                                                   o.starts, d.n, d.m, b.n_eff, o.detail)
+    b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile,
+                                                   o.level, d.lags.starts, d.n, d.m, b.n_eff, o.detail)
     if b.est_fit is not None:
-        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, o.starts, o.prof, o.level)
+        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, d.lags.starts, o.profile, o.level)
         b.cross["parameter_error"] = True
     if o.model_columns is not None and d.e is not None:
         est = o.estimation or {}
         if b.est_fit is not None:
             b.missing = _estimation.missing_terms(est["regressor"], est["tau"], d.reg3, d.meas, o.model_columns)
         else:
-            b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, o.starts, b.n_eff)
+            b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, b.n_eff)
         if b.missing is not None:
             b.cross["missing_terms"] = dict(b.missing)
 
 
-def _motion_sections(d: _Data, o: _Options, b: Sections) -> None:
+def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
     """The validation design, and what the motion says: physics library, delay, periodic noise,
     predictive test, each joint's motion and the smallest detectable effect."""
     b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate)
@@ -488,47 +363,7 @@ def _motion_sections(d: _Data, o: _Options, b: Sections) -> None:
     b.design = _motion_design(b.design, o, b.physics, d.m)
 
 
-def _setting(o: _Options, nan_policy: str) -> Setting:
-    return Setting(prof=o.prof, noise_model=o.noise_model, level=o.level, max_lag=o.max_lag, lag_source=o.lag_source,
-                   sample_rate=o.sample_rate, timing=o.timing, bandwidth=o.bandwidth, nan_policy=nan_policy,
-                   n_params=o.n_params, joint_names=o.joint_names, column_names=o.column_names,
-                   model_columns=o.model_columns, thresholds=o.thresholds, backend=o.backend_name,
-                   decimate=o.decimate)
-
-
-def _assemble(d: _Data, o: _Options, b: Sections, seg_names: list[str] | None, nan_policy: str) -> ValidationReport:
-    s = _setting(o, nan_policy)
-    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(o.starts, d.n),
-                      seg_names=seg_names, omitted=d.omitted)
-    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
-
-
-def _motion_band(pred: FloatArray, starts: IntArray, o: _Options) -> float | None:
-    """The information band f_I of the motion (99 % of the prediction's power, at most
-    ``bandwidth``), in Hz; None without a sample rate, or when the prediction carries no power."""
-    if o.sample_rate is None:
-        return None
-    from ._stats import information_bandwidth
-
-    band = information_bandwidth(pred, starts, sample_rate=o.sample_rate)
-    if not (np.isfinite(band) and band > 0):
-        return None
-    # a prediction made of filtered inputs carries the filter's leakage above its bandwidth: the
-    # motion cannot be trusted there either
-    return band if o.bandwidth is None else min(band, o.bandwidth)
-
-
-def _motion_max_lag(band: float, o: _Options, n: int) -> int:
-    """The default largest lag with a sample rate: the motion's time scale, one period 1/f_I of the
-    information band's edge (lags within it see one phenomenon), at most four times the profile's
-    count and below the longest segment."""
-    assert o.sample_rate is not None
-    lags = int(math.ceil(o.sample_rate / band))
-    cap = 4 * max(o.prof.default_max_lag(n, n + 1), 1)
-    return int(max(1, min(lags, cap, o.longest - 1)))
-
-
-def _motion_design(design: dict[str, Any] | None, o: _Options, phys: dict[str, Any] | None,
+def _motion_design(design: dict[str, Any] | None, o: Options, phys: dict[str, Any] | None,
                    m: int) -> dict[str, Any] | None:
     """The design section completed with what the motion says: each joint's motion against the
     estimation run's, and the smallest effect this run can detect per joint."""

@@ -44,7 +44,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -53,11 +53,21 @@ import scipy.stats
 from . import _sections as sec
 from . import _timing
 from . import _validation as v
-from ._assembly import Sections, Setting, ValidationReport, assemble_report, provenance
-from ._backend import resolve as resolve_backend
+from ._assembly import Sections, ValidationReport, assemble_report, provenance
+from ._checks import Array, CheckedCall
 from ._errors import InputError, InvalidParameter, ShapeMismatch
-from ._findings import Thresholds, resolve_thresholds
-from ._profiles import Profile, get_profile
+from ._findings import Thresholds
+from ._options import (
+    UNSUPPORTED,
+    Keywords,
+    Options,
+    check_column_names,
+    check_joint_names,
+    check_options,
+    plan_lags,
+    to_setting,
+)
+from ._profiles import Profile
 from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from ._reference.information import assemble, fit_term_from_sums
 from ._reference.portmanteau import chi2_logsf
@@ -75,16 +85,6 @@ Its Newey–West bandwidth K = ⌊4(N/100)^(2/9)⌋ grows with N, which a stream
 advance; the accumulator keeps K(1e9) = 143 lags of the residual's autocorrelation (a few
 kilobytes). Beyond that N the corrected half is None, as with ``max_lag=0``."""
 
-UNSUPPORTED = {
-    "segments": "call break_segment() between records instead",
-    "decimate": "whiteness at the information rate needs the whole series",
-    "q": "the repeat check compares whole trajectories",
-    "estimation": "the estimation run's refit and repeat check need whole series",
-    "cross_correlation_detail": "the colour-aware cross-correlation needs the whole series; rho is always given",
-    "model_columns": "the added-variable test projects whole columns",
-}
-"""Keywords of ``validate`` the accumulator refuses unless None, with the reason."""
-
 # Rows gathered before they are summed: small chunks are pooled into one block, so that the
 # per-block work (centring, lagged sums, the products across the junction) is shared.
 _MIN_BLOCK_ROWS = 256
@@ -96,25 +96,9 @@ _MAX_BLOCK_ROWS = 1 << 16
 # median step that counts the steps of the inferred rate; until then the rows wait, unsummed.
 SETTLE_STEPS = 100
 
-
-@dataclass(frozen=True)
-class _Settings:
-    """The accumulator's checked keywords; two accumulators merge only with equal settings."""
-
-    n_params: int
-    max_lag: int | None
-    n_joints: int | None
-    profile: Profile
-    nan_policy: str
-    level: float
-    noise_model: str
-    sample_rate: float | None
-    bandwidth: float | None
-    joint_names: tuple[str, ...] | None
-    column_names: tuple[str, ...] | None
-    thresholds: Thresholds
-    allow_wide: bool
-    backend: str
+# The settings two accumulators must share to merge, in the order their difference is reported.
+_MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
+                    "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
 
 
 class ValidationAccumulator:
@@ -165,34 +149,13 @@ class ValidationAccumulator:
                  thresholds: Thresholds | dict[str, float] | None = None, allow_wide: bool = False,
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
                  cross_correlation_detail: None = None, model_columns: None = None) -> None:
-        # validate's parameter order (contract §2.1), the unsupported keywords in their places.
-        n_params = v.check_n_params(n_params)
-        if n_joints is not None and (not v.is_integer(n_joints) or n_joints <= 0):
-            raise v.parameter_error("n_joints", "None or a positive integer", n_joints)
-        prof = get_profile(profile)
-        v.check_nan_policy(nan_policy)
-        _refuse("segments", segments)
-        max_lag = _check_max_lag(max_lag, prof)
-        level = prof.level if level is None else v.check_level(level)
-        backend_name, _ = resolve_backend(backend)
-        checked_noise_model = prof.noise_model if noise_model is None else v.check_noise_model(noise_model)
-        sample_rate = v.check_sample_rate(sample_rate)
-        # the rate may also come with the chunks' time stamps: checked at the first chunk
-        bandwidth = v.check_bandwidth(bandwidth, 1.0 if sample_rate is None else sample_rate)
-        _refuse("decimate", decimate)
-        if n_joints is not None:
-            v.check_names("joint_names", joint_names, int(n_joints), "joint")
-        for name, value in (("q", q), ("estimation", estimation)):
-            _refuse(name, value)
-        checked_thresholds = resolve_thresholds(thresholds)
-        for name, value in (("cross_correlation_detail", cross_correlation_detail), ("model_columns", model_columns)):
-            _refuse(name, value)
-        allow_wide = v.check_allow_wide(allow_wide)
-        self._settings = _Settings(
-            n_params=n_params, max_lag=max_lag, n_joints=None if n_joints is None else int(n_joints), profile=prof,
-            nan_policy=nan_policy, level=level, noise_model=checked_noise_model, sample_rate=sample_rate,
-            bandwidth=bandwidth, joint_names=_names(joint_names), column_names=_names(column_names),
-            thresholds=checked_thresholds, allow_wide=allow_wide, backend=backend_name)
+        # validate's checks, in its order (contract §2.1), the unsupported keywords refused in their places
+        self._settings = check_options(Keywords(
+            n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
+            max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
+            bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+            estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
+            model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
         # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
@@ -595,7 +558,12 @@ class ValidationAccumulator:
             if self._layout is None:
                 self._check_names(m, None if reg is None else reg.shape[2])
             if self._settings.nan_policy == "raise":
-                self._check_finite(meas, pred, reg)
+                # the backend's scan: the C++ core's is one compiled pass over the chunk
+                arrays: list[Array] = [("tau_meas", meas, None), ("tau_pred", pred, None)]
+                if reg is not None:
+                    arrays.append(("regressor", reg.reshape(c, m * reg.shape[2]), reg.shape[2]))
+                CheckedCall("ValidationAccumulator.update", arrays, scan=self._settings.kernel.first_nonfinite,
+                            first_row=self._rows_seen).require_finite()
         except InputError as exc:
             raise type(exc)(f"chunk {index}: {exc}") from None
         return meas, pred, reg
@@ -622,25 +590,10 @@ class ValidationAccumulator:
                                 f"{v.format_shape(shape)}")
 
     def _check_names(self, m: int, p: int | None) -> None:
+        """The names, once the first chunk tells m and p (validate's checks)."""
         cfg = self._settings
-        v.check_names("joint_names", cfg.joint_names, m, "joint")
-        if cfg.column_names is not None and p is None:
-            raise v.parameter_error("column_names", "None without a regressor", list(cfg.column_names))
-        v.check_names("column_names", cfg.column_names, p or 0, "regressor column")
-
-    def _check_finite(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
-        """NonFiniteInput at the chunk's first bad value, with its row in the whole stream too."""
-        arrays: list[tuple[FloatArray, str, int | None]] = [(meas, "tau_meas", None), (pred, "tau_pred", None)]
-        if reg is not None:
-            arrays.append((reg.reshape(reg.shape[0], reg.shape[1] * reg.shape[2]), "regressor", reg.shape[2]))
-        # The backend's scan: the C++ core's is one compiled pass over the chunk.
-        first_nonfinite = resolve_backend(self._settings.backend)[1].first_nonfinite
-        for a, name, n_columns in arrays:
-            found = first_nonfinite(a)
-            if found is not None:
-                row, col, value = found
-                exc = v.nonfinite_error(name, row, col, value, n_columns=n_columns)
-                raise type(exc)(f"{exc} (row {self._rows_seen + row} of the stream)")
+        check_joint_names(cfg.joint_names, m)
+        check_column_names(cfg.column_names, p, show=list)
 
     def _feed_omitting(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None) -> None:
         """``nan_policy="omit"``: delete bad rows; a break where rows were deleted (contract §1.2)."""
@@ -702,12 +655,12 @@ class ValidationAccumulator:
     # ----------------------------------------------------------------------- merge checks
 
     def _check_same_settings(self, other: ValidationAccumulator) -> None:
-        for f in fields(_Settings):
-            mine, theirs = getattr(self._settings, f.name), getattr(other._settings, f.name)
+        for name in _MERGED_SETTINGS:
+            mine, theirs = getattr(self._settings, name), getattr(other._settings, name)
             if mine != theirs:
-                shown: Callable[[Any], Any] = (lambda x: x.name) if f.name == "profile" else (lambda x: x)
-                raise InvalidParameter(f"other must be a ValidationAccumulator with the same settings, got {f.name}="
-                                       f"{v.format_value(shown(theirs))} where this one has {f.name}="
+                shown: Callable[[Any], Any] = (lambda x: x.name) if name == "profile" else (lambda x: x)
+                raise InvalidParameter(f"other must be a ValidationAccumulator with the same settings, got {name}="
+                                       f"{v.format_value(shown(theirs))} where this one has {name}="
                                        f"{v.format_value(shown(mine))}")
 
     def _check_same_layout(self, other: ValidationAccumulator) -> None:
@@ -715,29 +668,6 @@ class ValidationAccumulator:
         if mine is not None and theirs is not None and (mine.m, mine.p) != (theirs.m, theirs.p):
             raise ShapeMismatch(f"other must hold data of the same shape, got m={theirs.m} joints and "
                                 f"p={theirs.p} regressor columns where this one has m={mine.m} and p={mine.p}")
-
-
-def _refuse(name: str, value: object) -> None:
-    if value is not None:
-        raise v.parameter_error(name, f"None for ValidationAccumulator ({UNSUPPORTED[name]})", value)
-
-
-def _check_max_lag(value: Any, prof: Profile) -> int | None:
-    if value is None:
-        if prof.max_lag_cap is None:
-            raise v.parameter_error("max_lag", f"an integer with max_lag >= 0 for the {prof.name} profile (its "
-                                    "default depends on N, which a stream does not know)", value)
-        return None
-    if not v.is_integer(value) or value < 0 or value >= 2**63:
-        raise v.parameter_error("max_lag", "an integer with max_lag >= 0", value)
-    return int(value)
-
-
-def _names(value: Any) -> Any:
-    """Names as a tuple (settings are compared and hashed); checked when m and p are known."""
-    if value is None or isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        return value
-    return tuple(value)
 
 
 def _buffer_rows(layout: Layout) -> int:
@@ -924,46 +854,35 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
-def _report(st: State | _Snapshot, cfg: _Settings, omitted: int,
+def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None) -> ValidationReport:
     """The sections mergeable sums allow (no spectrum, bias test, design or motion: they need the
     whole series, contract §4.1), then the assembler every report goes through."""
     prof = cfg.profile
     sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
-    longest = max(st.lengths)
-    max_lag = prof.default_max_lag(n, longest) if cfg.max_lag is None else v.check_max_lag(cfg.max_lag, longest)
+    starts = np.concatenate(([0], np.cumsum(st.lengths[:-1]))).astype(np.int64)
+    lags = plan_lags(cfg, n, starts)
+    max_lag = lags.max_lag
     mo = _moments(st)
     kernel = _Kernel(mo)
     b = Sections()
     b.km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
     b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
     lagged = max_lag > 0
-    zmt = (_zero_mean_test(mo, kernel, longest, st.layout.acf_lags) if lagged
+    zmt = (_zero_mean_test(mo, kernel, lags.longest, st.layout.acf_lags) if lagged
            else sec.iid_zero_mean_test(b.km, n, prof.ddof))
     b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
                    "variance": np.asarray(b.km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
                    "zero_mean_test": zmt}
     b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, None)
-    starts = np.concatenate(([0], np.cumsum(st.lengths[:-1]))).astype(np.int64)
-    b.lb_lags = prof.ljung_box_lags(n, max_lag, longest)
+    b.lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
     if lagged:
         b.acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
         if b.lb_lags:
             b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
             b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
     b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
-    s = _setting(cfg, m, max_lag, sample_rate, timing)
+    s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True)
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)
-
-
-def _setting(cfg: _Settings, m: int, max_lag: int, sample_rate: float | None,
-             timing: _timing.Timing | None) -> Setting:
-    joint_names = list(cfg.joint_names) if cfg.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
-    return Setting(prof=cfg.profile, noise_model=cfg.noise_model, level=cfg.level, max_lag=max_lag,
-                   lag_source="given" if cfg.max_lag is not None else f"profile {cfg.profile.name!r}",
-                   sample_rate=sample_rate, timing=timing, bandwidth=cfg.bandwidth, nan_policy=cfg.nan_policy,
-                   n_params=cfg.n_params, joint_names=joint_names,
-                   column_names=list(cfg.column_names) if cfg.column_names is not None else None,
-                   model_columns=None, thresholds=cfg.thresholds, backend=cfg.backend, decimate=None, streaming=True)

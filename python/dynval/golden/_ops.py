@@ -156,32 +156,45 @@ def _merged(accumulators: list, merge: str):
     return level[0]
 
 
+def _checked_data(inputs: Mapping[str, Any], nan_policy: object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The data checks of the in-memory operations, so that the errors are those of the other
+    families: the torques as ``criteria`` checks them (the checked call: ``nan_policy`` deferred,
+    then finiteness), then the regressor as ``cross_correlation`` checks it against ``e``."""
+    from .._checks import CheckedCall
+    from .._validation import check_min_samples, regressor_shape, regressor_to_2d, to_float_array, torque_pair
+
+    t = torque_pair(inputs["tau_meas"], inputs["tau_pred"])
+    n, m = t.meas.shape
+    check_min_samples("criteria", n)
+    call = CheckedCall("criteria", [("tau_meas", t.meas, None), ("tau_pred", t.pred, None)])
+    call.nan_policy(nan_policy)
+    call.resolve_backend(None)
+    call.require_finite()
+    if inputs.get("regressor") is None:
+        return t.meas, t.pred, None
+    y = to_float_array(inputs["regressor"], "regressor")
+    p = regressor_shape(y, "e", n, m, None)
+    e = t.meas - t.pred  # in range only up to 1e144, as every datum
+    CheckedCall("cross_correlation", [("e", e, None), ("regressor", regressor_to_2d(y, n, m, p), p)]).require_finite()
+    return t.meas, t.pred, y
+
+
 def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
                 backend: str | None) -> dict[str, np.ndarray]:
     """``accumulate``: feed the rows in the blocks of ``chunks`` to accumulators and merge them (contract §4.1).
 
-    The data are checked as ``criteria`` checks them first (type, shape, size, finiteness), then the
-    driver's own parameters (``chunks``, ``merge``, ``segments``, ``max_lag``), so the check order is
-    the contract's.
+    The data are checked as ``criteria`` checks them first (type, shape, size, finiteness), the
+    regressor then as ``cross_correlation`` checks it, then the driver's own parameters (``chunks``,
+    ``merge``, ``segments``, ``max_lag``), so the check order is the contract's.
     """
-    import dynval
-
     from .._segments import longest_segment, parse_segments
     from .._validation import check_choice, check_max_lag, check_n_params
     from ..stream import ValidationAccumulator
 
-    meas, pred, reg = inputs["tau_meas"], inputs["tau_pred"], inputs.get("regressor")
     nan_policy = conventions.get("nan_policy", "raise")
-    # The in-memory operation's data checks, so that errors are those of the other families.
     # operations.json lists only "raise" for accumulate: "omit" is refused after the data, as the
     # other ports refuse it, so that a refused policy does not hide a non-finite value.
-    data_policy = "raise" if nan_policy == "omit" else nan_policy
-    dynval.criteria(meas, pred, n_params=0, nan_policy=data_policy)
-    meas2 = np.asarray(meas, dtype=float).reshape(len(meas), -1)
-    pred2 = np.asarray(pred, dtype=float).reshape(len(pred), -1)
-    if reg is not None:
-        dynval.cross_correlation(meas2 - pred2, reg, 0, nan_policy=data_policy)
-        reg = np.asarray(reg, dtype=float)
+    meas2, pred2, reg = _checked_data(inputs, "raise" if nan_policy == "omit" else nan_policy)
     check_choice("nan_policy", nan_policy, ("raise",))
     n = meas2.shape[0]
     blocks = _blocks(n, conventions.get("chunks"))
