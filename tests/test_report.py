@@ -367,3 +367,22 @@ def test_validate_reports_the_first_non_finite_value_before_any_bad_parameter(ba
     meas[12, 0] = 1.0
     with pytest.raises(dynval.NonFiniteInput, match=r"^tau_pred has a non-finite value \(-inf\) at row 7, column 1$"):
         dynval.validate(meas, pred, n_params=2, backend=backend, **bad)
+
+
+def test_a_given_decimation_without_a_rate_is_worded_without_a_band():
+    """decimate=3 with no sample rate: no information band to name; the sampling-colour note and the
+    summary say the factor was given instead of failing on the missing band."""
+    n, m = 600, 2
+    rng = np.random.default_rng(4)
+    tau = rng.standard_normal((n, m))
+    found_note = False
+    for seed in range(4):  # each value held for 3 samples: coloured at the logged rate, white decimated by 3
+        e2 = np.repeat(0.05 * np.random.default_rng(seed).standard_normal((n // 3, m)), 3, axis=0)
+        r = dynval.validate(tau, tau + e2, n_params=1, decimate=3)
+        text = r.summary()
+        assert "decimated by 3 (the factor given, no information band)" in text
+        for f in r.findings:
+            if f.kind == "sampling_colour":
+                found_note = True
+                assert "decimated by 3 (the factor given)" in f.message and "None" not in f.message
+    assert found_note

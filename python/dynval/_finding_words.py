@@ -175,10 +175,12 @@ def oscillation(name: str, frequency: float, unit: str, share: float, ratio: flo
             "trajectories away from it" if big else "none: the peak is real but small")
 
 
-def sampling_colour(name: str, band: float, unit: str, decimation: int) -> Words:
-    return (f"{name}: the residual is coloured at the logged rate but white once reduced to the band the motion "
-            f"occupies (below {band:.3g} {unit}, decimated by {decimation}): the colour is what the sensor, its "
-            "filters and the sampling make, not the model.",
+def sampling_colour(name: str, band: float | None, unit: str, decimation: int) -> Words:
+    """``band``: the information band the decimation came from; None for a factor given as is."""
+    reduced = (f"reduced to the band the motion occupies (below {band:.3g} {unit}, decimated by {decimation})"
+               if band is not None else f"decimated by {decimation} (the factor given)")
+    return (f"{name}: the residual is coloured at the logged rate but white once {reduced}: the colour is what the "
+            "sensor, its filters and the sampling make, not the model.",
             "none for the model; validate at the information rate (decimate=) or log less filtered data")
 
 

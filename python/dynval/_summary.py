@@ -160,9 +160,11 @@ def _information_rate_lines(report: ReportSections) -> list:
     units = report.provenance["units"]
     lines = []
     if white["decimation"] > 1:
-        lines.append(f"Whiteness at the information rate: decimated by {white['decimation']} (band "
-                     f"{_num(white['information_band'])} {units['frequency']}), Ljung–Box up to lag "
-                     f"{white['lag_decimated']}.")
+        band = white.get("information_band")
+        source = (f"band {_num(band)} {units['frequency']}" if band is not None
+                  else "the factor given, no information band")
+        lines.append(f"Whiteness at the information rate: decimated by {white['decimation']} ({source}), "
+                     f"Ljung–Box up to lag {white['lag_decimated']}.")
     if white.get("information_band") is not None:
         lines.append(f"Information band (from the prediction, the noise-free side): "
                      f"{_num(white['information_band'])} {units['frequency']}.")
