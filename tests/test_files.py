@@ -146,6 +146,12 @@ def test_a_directory_is_refused(tmp_path, pred, capsys):
     refused(capsys, folder, pred, "is not a regular file (a directory)")
 
 
+def test_a_directory_without_a_data_suffix_is_called_a_directory_not_a_file_type(tmp_path, pred, capsys):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    refused(capsys, folder, pred, f"{folder}: is not a regular file (a directory)")
+
+
 # --------------------------------------------------------------------------- CSV bounds
 
 

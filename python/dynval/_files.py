@@ -14,6 +14,7 @@ import array
 import csv
 import math
 import os
+import stat
 import struct
 import zipfile
 import zlib
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _open_regular
+from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _not_regular, _open_regular
 
 __all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
 
@@ -89,6 +90,9 @@ def read_table(spec: str) -> Table:
     if not lower.endswith((".npy", ".npz", ".csv", ".txt", ".tsv")):
         if not os.path.exists(path):
             raise FileInputError(f"{path}: no such file")
+        mode = os.stat(path).st_mode
+        if not stat.S_ISREG(mode):  # a directory is not a file of the wrong type
+            raise _not_regular(path, mode)
         raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key), .csv, "
                              ".parquet (file.parquet:a,b,c) or .h5 (file.h5:/dataset)")
     handle, size = _open_regular(path)
