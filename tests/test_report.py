@@ -386,3 +386,15 @@ def test_a_given_decimation_without_a_rate_is_worded_without_a_band():
                 found_note = True
                 assert "decimated by 3 (the factor given)" in f.message and "None" not in f.message
     assert found_note
+
+
+def test_undefined_aicc_and_fpe_are_explained_in_the_summary():
+    """p ≥ n − 1 (here p = N·m): AICc and FPE are nan by definition; the summary says why."""
+    rng = np.random.default_rng(2)
+    tau = rng.standard_normal((30, 2))
+    pred = tau + 0.1 * rng.standard_normal((30, 2))
+    text = dynval.validate(tau, pred, n_params=60, max_lag=0).summary()
+    assert "AICc nan" in text
+    assert "AICc and FPE are undefined (nan): they need p < n − 1, and p = 60 with n = 60" in text
+    assert "undefined" not in dynval.validate(tau, pred, n_params=58, max_lag=0).summary()
+    assert "AICc and FPE are undefined" in dynval.validate(tau, pred, n_params=59, max_lag=0).summary()

@@ -112,6 +112,9 @@ def _criteria_lines(ic) -> list:
         f"  AIC {_num(ic['aic'], '.2f')}   BIC {_num(ic['bic'], '.2f')}   AICc {_num(ic['aicc'], '.2f')}   "
         f"FPE {_num(ic['fpe'], '.5g')}   nAIC {_num(ic['naic'], '.6f')}",
     ]
+    if ic["n_params"] >= ic["n_obs"] - 1:
+        lines.append(f"  AICc and FPE are undefined (nan): they need p < n − 1, and p = {ic['n_params']} with "
+                     f"n = {ic['n_obs']} observations; the model has as many parameters as the data have values.")
     if "aic_neff" in ic:
         lines.append(f"  N_eff-based (coloured residuals, N_eff = {ic['n_eff']:.0f} of {ic['n_obs']}): "
                      f"AIC {_num(ic['aic_neff'], '.2f')}   BIC {_num(ic['bic_neff'], '.2f')}   "
