@@ -71,9 +71,28 @@ def test_validate_csv_with_header_and_sniffed_delimiters(files, capsys):
                        "--regressor", paths["reg_csv"], "--n-joints", "2", "--json", "--max-lag", "4")
     assert code == 0
     got = json.loads(out)
-    # meas.csv was written with %.18e (exact); pred.csv with 17 significant digits (exact).
-    ref = dynval.validate(meas, pred, n_params=3, regressor=Y.reshape(400, 3), n_joints=2, max_lag=4)
+    # meas.csv was written with %.18e (exact); pred.csv with 17 significant digits (exact); its
+    # header names the joints
+    ref = dynval.validate(meas, pred, n_params=3, regressor=Y.reshape(400, 3), n_joints=2, max_lag=4,
+                          joint_names=["joint1", "joint2"])
     assert got == json.loads(ref.to_json())
+
+
+def test_the_measured_csv_header_names_the_joints_unless_told_otherwise(files, capsys, tmp_path):
+    paths, meas, _, _ = files
+    code, out, _ = run(capsys, "validate", paths["meas_csv"], paths["pred_npy"], "--n-params", "3", "--json")
+    assert code == 0 and json.loads(out)["provenance"]["joint_names"] == ["joint1", "joint2"]
+    code, out, _ = run(capsys, "validate", paths["meas_csv"], paths["pred_npy"], "--n-params", "3", "--json",
+                       "--joint-names", "shoulder,elbow")
+    assert json.loads(out)["provenance"]["joint_names"] == ["shoulder", "elbow"]
+    code, out, _ = run(capsys, "compare", paths["meas_csv"], "--model", f"a={paths['pred_npy']}:3", "--json")
+    assert code == 0 and json.loads(out)["reports"]["a"]["provenance"]["joint_names"] == ["joint1", "joint2"]
+    # a header that does not name every column once is not taken for names
+    for header in ("a;a", "t;a;b", ""):
+        bad = tmp_path / "bad.csv"
+        np.savetxt(bad, meas, delimiter=";", header=header, comments="")
+        code, out, _ = run(capsys, "validate", str(bad), paths["pred_npy"], "--n-params", "3", "--json")
+        assert code == 0 and json.loads(out)["provenance"]["joint_names"] == ["joint 1", "joint 2"], header
 
 
 def test_npz_first_array_and_key(files, capsys):

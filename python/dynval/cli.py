@@ -23,7 +23,16 @@ import sys
 from collections.abc import Sequence
 
 from ._errors import InputError
-from ._files import FileInputError, _physical_memory, file_path, load_array, read_column, read_table, split_column
+from ._files import (
+    FileInputError,
+    _physical_memory,
+    csv_header,
+    file_path,
+    load_array,
+    read_column,
+    read_table,
+    split_column,
+)
 from ._profiles import PROFILE_NAMES
 from ._readers import DEFAULT_CHUNK_ROWS, open_column, open_rows
 
@@ -270,7 +279,7 @@ def _contract_error(command: str, exc: InputError, sources: dict) -> int:
     return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}")
 
 
-def _report_options(args, sources: dict) -> dict:
+def _report_options(args, sources: dict, meas) -> dict:
     """Load the shared files and collect the shared keywords (FileInputError on a bad file)."""
     est = None
     if args.estimation:
@@ -279,9 +288,24 @@ def _report_options(args, sources: dict) -> dict:
                 max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
                 nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
                 sample_rate=args.sample_rate, time=_load_time(args.time, sources) if args.time else None,
-                bandwidth=args.bandwidth, decimate=args.decimate, joint_names=args.joint_names,
+                bandwidth=args.bandwidth, decimate=args.decimate, joint_names=_joint_names(args, meas),
                 column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
                 estimation=est, allow_wide=args.allow_wide)
+
+
+def _joint_names(args, meas) -> list[str] | None:
+    """--joint-names, else the measured torque's CSV header when it names every column (distinct
+    names, one per joint): a logged file's own names beat "joint 1", "joint 2"."""
+    if args.joint_names is not None:
+        return list(args.joint_names)
+    path = file_path(args.meas)
+    if not path.lower().endswith((".csv", ".tsv", ".txt")) or split_column(args.meas)[1]:
+        return None
+    names = csv_header(path)
+    width = meas.shape[1] if getattr(meas, "ndim", 0) == 2 else 1
+    if not names or len(set(names)) != len(names) or len(names) != width or not all(n.strip() for n in names):
+        return None
+    return [n.strip() for n in names]
 
 
 def _emit(command: str, args, text: str) -> int:
@@ -329,7 +353,7 @@ def _run_validate(args) -> int:
     try:
         meas = _load(args.meas, "tau_meas", sources)
         pred = _load(args.pred, "tau_pred", sources)
-        options = _report_options(args, sources)
+        options = _report_options(args, sources, meas)
     except FileInputError as exc:
         return _error("validate", str(exc))
     try:
@@ -429,7 +453,7 @@ def _run_compare(args) -> int:
         meas = _load(args.meas, "tau_meas", sources)
         # Each candidate's prediction is tau_pred in turn: its errors are not located in a file.
         candidates = {name: (load_array(path), p) for name, path, p in args.model}
-        options = _report_options(args, sources)
+        options = _report_options(args, sources, meas)
     except FileInputError as exc:
         return _error("compare", str(exc))
     regressor = options.pop("regressor")
