@@ -1,0 +1,377 @@
+"""Physical consistency (issue 23): the check of a robot's parameters, the distance of identified base
+parameters to the consistent set, and identification under the constraints.
+
+Bodies are built here from what a body is — a mass, a centre of mass, principal moments about it in
+some orientation — by the parallel-axis theorem, never from the module's own pseudo-inertia; every
+condition is tested just inside and just outside its boundary. The SDP answers are checked by the
+eigenvalues of pinocchio's own pseudo-inertia (or the textbook definition without pinocchio), and
+their optimality against feasible points the test constructs.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import dynval
+from dynval.identify import identify
+from dynval.robots import have_pinocchio, physical_consistency
+
+needs_pin = pytest.mark.skipif(not have_pinocchio(), reason="pinocchio (PyPI pin) is not installed")
+# Looked up, not imported: importing cvxpy imports SCS, whose bundled single-thread OpenBLAS would then
+# sit in the process of every later test (tests/test_memory.py counts the BLAS libraries' threads).
+HAVE_CVXPY = importlib.util.find_spec("cvxpy") is not None
+needs_cvxpy = pytest.mark.skipif(not HAVE_CVXPY, reason="cvxpy (the physical extra) is not installed")
+
+PARAMS = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+EPS = 1e-6
+
+
+def body(m, c=(0.0, 0.0, 0.0), moments=(1.0, 1.0, 1.0), angles=(0.0, 0.0, 0.0)):
+    """Ten parameters (pinocchio's order, inertia about the frame origin) of a body with mass m, centre
+    of mass c and principal moments about it along axes turned by ``angles`` (parallel-axis theorem)."""
+    rot = Rotation.from_euler("xyz", angles).as_matrix()
+    ic = rot @ np.diag(moments) @ rot.T
+    c = np.asarray(c, dtype=float)
+    io = ic + m * (c @ c * np.eye(3) - np.outer(c, c))
+    return np.array([m, *(m * c), io[0, 0], io[0, 1], io[1, 1], io[0, 2], io[1, 2], io[2, 2]])
+
+
+def names(link="b", joint="j", friction=True):
+    return [f"{link}:{p}" for p in PARAMS] + ([f"Fv_{joint}", f"Fc_{joint}"] if friction else [])
+
+
+def pseudo_inertia(p):
+    """J = ∫[x; 1][x; 1]ᵀ ρ dV from the parameters: pinocchio's, else the textbook Σ = ½tr(I)·1 − I."""
+    if have_pinocchio():
+        import pinocchio as pin
+
+        return pin.PseudoInertia.FromDynamicParameters(np.asarray(p, dtype=float)).toMatrix()
+    m, h, (xx, xy, yy, xz, yz, zz) = p[0], p[1:4], p[4:10]
+    inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return np.block([[0.5 * np.trace(inertia) * np.eye(3) - inertia, h[:, None]], [h[None, :], [[m]]]])
+
+
+def psd(p, rtol=1e-9):
+    lam = np.linalg.eigvalsh(pseudo_inertia(p))
+    return lam[0] >= -rtol * max(lam[-1], 1.0)
+
+
+# --------------------------------------------------------------------------- each condition, both sides
+
+
+def test_a_physical_body_anywhere_in_any_orientation_has_no_finding():
+    for k in range(20):
+        rng = np.random.default_rng(k)
+        moments = rng.uniform(0.01, 1.0, 2)
+        moments = [*moments, rng.uniform(abs(moments[0] - moments[1]), moments.sum())]   # a triangle
+        p = body(rng.uniform(0.1, 10), rng.normal(0, 0.3, 3), moments, rng.uniform(-3, 3, 3))
+        assert physical_consistency(p) == [], k
+
+
+@pytest.mark.parametrize("mass", [-1e-3, 0.0, 1e-3])
+def test_mass_must_be_positive(mass):
+    p = body(1.0, moments=(0.1, 0.1, 0.1))
+    p[0] = mass                                   # the first moment is zero: only the mass changes
+    found = physical_consistency(p)
+    if mass > 0:
+        assert found == []
+        return
+    (f,) = found
+    assert (f.kind, f.severity, f.joints, f.columns) == ("physical_consistency", "deficiency", (0,), tuple(range(10)))
+    assert f.details["condition"] == "mass > 0" and f.effect == -mass and f.effect_unit == "kg"
+    assert "link1" in f.message and "mass" in f.message
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+@pytest.mark.parametrize("angles", [(0.0, 0.0, 0.0), (0.4, -1.1, 2.0)])
+def test_triangle_inequality_about_the_centre_of_mass(side, angles):
+    # principal moments 0.3, 0.5 and 0.8 ± ε: on the far side of 0.3 + 0.5 no body exists
+    p = body(2.0, (0.2, -0.1, 0.4), (0.3, 0.5, 0.8 + side * EPS), angles)
+    found = physical_consistency(p)
+    assert psd(p) == (side < 0)
+    if side < 0:
+        assert found == []
+        return
+    (f,) = found
+    assert f.details["condition"] == "pseudo-inertia positive semidefinite"
+    assert f.effect == pytest.approx(EPS, rel=1e-4) and f.effect_unit == "kg·m²"
+    np.testing.assert_allclose(f.details["principal_moments"], [0.3, 0.5, 0.8 + EPS], rtol=1e-9)
+    np.testing.assert_allclose(f.details["centre_of_mass"], [0.2, -0.1, 0.4], rtol=1e-12)
+    assert f.details["pseudo_inertia_min_eigenvalue"] < 0
+
+
+def test_a_negative_principal_moment_breaks_the_triangle():
+    (f,) = physical_consistency(body(1.0, (0.1, 0, 0), (-0.1, 1.0, 1.0)))
+    assert f.effect == pytest.approx(0.1)       # 1 − (−0.1) − 1
+
+
+def test_the_condition_is_about_the_centre_of_mass_not_the_joint_frame():
+    # 0.01, 0.01, 0.03 about the centre of mass is no body; 1 m away the joint-frame inertia obeys every
+    # triangle inequality, which a check at the frame origin would accept
+    p = body(1.0, (0.0, 0.0, 1.0), (0.01, 0.01, 0.03))
+    frame = np.linalg.eigvalsh(np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]]))
+    assert frame[0] + frame[1] >= frame[2]
+    (f,) = physical_consistency(p)
+    assert f.effect == pytest.approx(0.01)
+
+
+@needs_pin
+def test_findings_agree_with_pinocchios_pseudo_inertia():
+    import pinocchio as pin
+
+    for k in range(40):
+        rng = np.random.default_rng(100 + k)
+        p = body(rng.uniform(0.1, 5), rng.normal(0, 0.5, 3), rng.uniform(-0.2, 1.0, 3), rng.uniform(-3, 3, 3))
+        negative = np.linalg.eigvalsh(pin.PseudoInertia.FromDynamicParameters(p).toMatrix())[0] < -1e-12
+        assert bool(physical_consistency(p)) == negative, k
+    np.testing.assert_allclose(dynval._consistency.pseudo_inertia(p), pin.PseudoInertia.FromDynamicParameters(p)
+                               .toMatrix(), rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize(("axis", "bound", "delta"), [(0, "upper", EPS), (0, "upper", -EPS), (2, "lower", EPS),
+                                                      (2, "lower", -EPS)])
+def test_centre_of_mass_box(axis, bound, delta):
+    lower, upper = np.array([-0.1, -0.2, -0.3]), np.array([0.1, 0.2, 0.3])
+    c = np.zeros(3)
+    c[axis] = upper[axis] + delta if bound == "upper" else lower[axis] - delta
+    p = body(3.0, c, (0.1, 0.1, 0.1))
+    assert physical_consistency(p) == []                     # no box, no condition
+    found = physical_consistency(p, com_bounds=(lower, upper))
+    assert physical_consistency(p, com_bounds={"link1": (lower, upper)}) == found
+    if delta < 0:
+        assert found == []
+        return
+    (f,) = found
+    assert f.details["condition"] == "centre of mass inside its box"
+    assert f.effect == pytest.approx(EPS, rel=1e-6) and f.effect_unit == "m"
+
+
+@pytest.mark.parametrize("kind", ["Fv", "Fc"])
+@pytest.mark.parametrize("value", [-1e-3, 0.0, 1e-3])
+def test_friction_must_resist(kind, value):
+    p = np.concatenate([body(1.0), [0.5, 0.5]])
+    column = 10 if kind == "Fv" else 11
+    p[column] = value
+    found = physical_consistency(p, column_names=names(joint="elbow"), joint_names=["shoulder", "elbow"])
+    if value >= 0:
+        assert found == []
+        return
+    (f,) = found
+    assert (f.joints, f.columns, f.effect) == ((1,), (column,), -value)
+    assert f.effect_unit == ("N·m·s/rad" if kind == "Fv" else "N·m")
+    assert f.message.startswith(f"elbow: {'viscous' if kind == 'Fv' else 'Coulomb'} friction {kind}")
+
+
+def test_every_violation_is_reported_with_its_link_and_joint():
+    p = np.concatenate([body(-1.0), body(1.0, moments=(0.1, 0.1, 0.3)), [1.0, -0.1, -0.2, 0.3]])
+    cols = names("a", friction=False) + names("b", friction=False) + ["Fv_j1", "Fv_j2", "Fc_j1", "Fc_j2"]
+    found = physical_consistency(p, column_names=cols)
+    assert [(f.joints, f.columns[:1], f.details["condition"]) for f in found] == [
+        ((0,), (0,), "mass > 0"), ((1,), (10,), "pseudo-inertia positive semidefinite"),
+        ((1,), (21,), "viscous friction >= 0"), ((0,), (22,), "Coulomb friction >= 0")]
+    assert all(f.kind in dynval.FINDING_KINDS for f in found)
+
+
+def test_bad_arguments():
+    with pytest.raises(dynval.InvalidParameter, match="column_names"):
+        physical_consistency(np.ones(12))
+    with pytest.raises(dynval.InvalidParameter, match="column_names"):
+        physical_consistency(np.ones(12), column_names=names()[:11])
+    with pytest.raises(dynval.InvalidParameter, match="com_bounds"):
+        physical_consistency(body(1.0), com_bounds=([0.1, 0, 0], [0.0, 1, 1]))
+    with pytest.raises(dynval.InvalidParameter, match="com_bounds"):
+        physical_consistency(body(1.0), com_bounds={"nolink": ([0, 0, 0], [1, 1, 1])})
+    with pytest.raises(dynval.NonFiniteInput):
+        physical_consistency([np.nan] * 10)
+
+
+# --------------------------------------------------------------------------- the KUKA URDFs
+
+
+@needs_pin
+def test_kuka_identified_urdf_has_negative_friction_and_infeasible_links_the_cad_urdf_none():
+    import pinocchio as pin
+
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    run = load_kuka_lwr4(1)
+    assert physical_consistency(URDFModel(run.urdf)) == []
+    model = URDFModel(run.urdf_identified)
+    found = physical_consistency(model)
+    friction = {j.get("name"): float(d.get("friction")) for j in ET.parse(run.urdf_identified).iter("joint")
+                for d in j.findall("dynamics")}
+    coulomb = {f.details["joint"]: f.effect for f in found if f.details["condition"] == "Coulomb friction >= 0"}
+    assert coulomb == {name: -value for name, value in friction.items() if value < 0}
+    assert sorted(coulomb) == ["lwr_3_joint", "lwr_4_joint", "lwr_5_joint", "lwr_6_joint"]
+    infeasible = {model.link_names[j - 1] for j in range(1, model.model.njoints)
+                  if np.linalg.eigvalsh(pin.PseudoInertia.FromInertia(model.model.inertias[j]).toMatrix())[0] < 0}
+    links = {f.details["link"]: f for f in found if f.details["condition"].startswith("pseudo-inertia")}
+    assert set(links) == infeasible and infeasible
+    for f in links.values():
+        assert f.effect > 0 and f.severity == "deficiency" and str(f.details["link"]) in f.message
+
+
+# --------------------------------------------------------------------------- identification under the constraints
+
+
+def test_without_cvxpy_physical_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "cvxpy", None)
+    x = np.random.default_rng(0).normal(size=(50, 12))
+    with pytest.raises(ImportError, match=r"dynval\[physical\]"):
+        identify(x, x @ np.ones(12), column_names=names(), physical=True)
+
+
+def _one_link_problem(truth, seed=0, noise=1e-3, n=400):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, 12))
+    return a, a @ truth + rng.normal(0.0, noise, n)
+
+
+@needs_cvxpy
+def test_sdp_answer_is_a_robot_and_no_feasible_point_fits_better():
+    # data from an impossible link (0.1 + 0.1 < 0.3) with negative Coulomb friction
+    truth = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)), [0.5, -0.4]])
+    a, b = _one_link_problem(truth)
+    ls = identify(a, b, column_names=names())
+    fit = identify(a, b, column_names=names(), physical=True, prior_weight=0.0)
+    full = fit.full_parameters
+    assert not psd(truth[:10]) and psd(full[:10]) and full[10] >= 0 and full[11] >= 0
+    assert physical_consistency(fit) == []
+    np.testing.assert_allclose(fit.estimate, fit.combination @ full, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(fit.predict(a), (a @ full)[:, None], rtol=1e-9, atol=1e-9)
+    sse = float(np.sum((b - a @ full) ** 2))
+    assert sse == pytest.approx(fit.residual_sse, rel=1e-9) and sse > ls.residual_sse
+    # optimality: no consistent link the test can think of fits better
+    rng = np.random.default_rng(1)
+    for k in range(30):
+        m = rng.uniform(0.5, 4)
+        moments = sorted(rng.uniform(0.0, 0.3, 3))
+        moments[2] = min(moments[2], moments[0] + moments[1])
+        cand = np.concatenate([body(m, rng.normal(0, 0.3, 3), moments, rng.uniform(-3, 3, 3)), rng.uniform(0, 1, 2)])
+        assert float(np.sum((b - a @ cand) ** 2)) >= sse * (1 - 1e-7), k
+    assert fit.physical["distance2"] == pytest.approx((sse - ls.residual_sse) / ls.sigma2, rel=1e-9)
+    assert fit.to_dict()["full_parameters"] == pytest.approx(full.tolist())
+
+
+@needs_cvxpy
+def test_sdp_keeps_the_centre_of_mass_in_its_box_and_pulls_towards_the_prior():
+    truth = np.concatenate([body(2.0, (0.3, 0.0, 0.0), (0.1, 0.2, 0.25)), [0.5, 0.4]])
+    a, b = _one_link_problem(truth)
+    box = ([-0.1, -0.1, -0.1], [0.1, 0.1, 0.1])
+    fit = identify(a, b, column_names=names(), physical=True, com_bounds=box)
+    c = fit.full_parameters[1:4] / fit.full_parameters[0]
+    assert np.all(c <= 0.1 + 1e-9) and c[0] == pytest.approx(0.1, abs=1e-6)      # the box binds on x
+    assert physical_consistency(fit, com_bounds=box) == []
+    # a column the data never see stays at the prior (to the solver's tolerance)
+    a[:, 11] = 0.0
+    prior = truth + 0.05
+    for weight in (1e-6, 1e-3):                       # the default weight and a stronger pull
+        fit = identify(a, b, column_names=names(), physical=True, prior=prior, prior_weight=weight)
+        assert fit.full_parameters[11] == pytest.approx(prior[11], abs=1e-6)
+
+
+@needs_cvxpy
+def test_physical_identification_rejects_bad_arguments():
+    a, b = _one_link_problem(np.concatenate([body(1.0), [0.1, 0.1]]), n=50)
+    with pytest.raises(dynval.InvalidParameter, match="physical must be True or False"):
+        identify(a, b, column_names=names(), physical="yes")
+    with pytest.raises(dynval.InvalidParameter, match="column_names"):
+        identify(a, b, physical=True)
+    with pytest.raises(dynval.InvalidParameter, match="prior must be"):
+        identify(a, b, column_names=names(), physical=True, prior=np.zeros(3))
+    with pytest.raises(dynval.InvalidParameter, match="prior_weight"):
+        identify(a, b, column_names=names(), physical=True, prior_weight=-1.0)
+
+
+@pytest.fixture(scope="module")
+def demo_arm():
+    from dynval.robots import URDFModel, planar_arm_urdf
+    from dynval.simulate import ArmParameters, simulate
+
+    # viscous friction of the elbow at its bound: noise alone can make its estimate negative
+    arm = ArmParameters(fv2=0.0)
+    data = simulate("friction", seed=3, arm=arm, noise=0.5)
+    return URDFModel(planar_arm_urdf(arm)), data
+
+
+@needs_pin
+@needs_cvxpy
+def test_demo_arm_identified_under_constraints_recovers_its_parameters(demo_arm):
+    model, data = demo_arm
+    est = data.estimation
+    motion = (est.q, est.dq, est.ddq)
+    truth = model.parameters(offset=False)
+    assert physical_consistency(model) == []
+    ls = model.identify(*motion, est.tau_meas, offset=False)
+    fit = model.identify(*motion, est.tau_meas, offset=False, physical=True, prior_weight=0.0)
+    assert physical_consistency(fit) == [] and fit.rank == ls.rank
+    full = fit.full_parameters
+    assert all(psd(full[10 * k:10 * k + 10]) for k in range(2)) and np.all(full[20:] >= 0)
+    # every identifiable combination within four standard deviations of the truth
+    z = (fit.estimate - fit.combination @ truth) / fit.std
+    assert np.all(np.abs(z) < 4), z
+    # projecting onto a convex set that holds the truth never moves away from it: the constrained
+    # prediction of the noise-free torques is at least as close as the unconstrained one
+    y = model.regressor(*motion, offset=False)
+    clean = y @ truth
+    err_ls = np.linalg.norm(ls.predict(y) - clean)
+    err_fit = np.linalg.norm(y @ full - clean)
+    assert err_fit <= err_ls * (1 + 1e-6)
+    # the two routes to the distance of the base estimate agree: the fit's and the metric of Cov(β̂)
+    bc = dynval.robots.base_consistency(ls)
+    assert bc.distance2 == pytest.approx(fit.physical["distance2"], rel=1e-3, abs=1e-4)
+
+
+@needs_pin
+@needs_cvxpy
+def test_base_parameters_of_no_robot_are_a_deficiency_that_names_the_bound(demo_arm):
+    from dynval.robots import URDFModel, planar_arm_urdf
+    from dynval.simulate import ArmParameters, simulate
+
+    model, data = demo_arm
+    est = data.estimation
+    found = physical_consistency(model.identify(est.q, est.dq, est.ddq, est.tau_meas, offset=False))
+    assert all(f.severity == "note" for f in found)            # a consistent truth: at most a note
+    # a Coulomb friction that pushes (−1 N·m on the elbow), measured with little noise
+    arm = ArmParameters(fc2=-1.0)
+    bad = simulate("friction", seed=3, arm=arm, noise=0.05).estimation
+    bad_model = URDFModel(planar_arm_urdf(arm))
+    ls = bad_model.identify(bad.q, bad.dq, bad.ddq, bad.tau_meas, offset=False)
+    (f,) = physical_consistency(ls)
+    assert (f.kind, f.severity) == ("physical_consistency", "deficiency")
+    assert f.pvalue < 1e-10 and f.effect >= 0.01 and "elbow Fc" in f.details["binding"]
+    assert f.joints == (1,) and bad_model.column_names(offset=False).index("Fc_elbow") in f.columns
+
+
+@pytest.mark.slow
+@needs_pin
+@needs_cvxpy
+def test_kuka_identified_under_constraints_is_a_robot_and_predicts_run_3_as_well():
+    import pinocchio as pin
+
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    start = time.perf_counter()
+    est, val = load_kuka_lwr4(1), load_kuka_lwr4(3)
+    cad = URDFModel(est.urdf)
+    ls = cad.identify(est.q, est.dq, est.ddq, est.tau, offset=False)
+    fit = cad.identify(est.q, est.dq, est.ddq, est.tau, offset=False, physical=True)
+    full = fit.full_parameters
+    for k in range(7):
+        j = pin.PseudoInertia.FromDynamicParameters(full[10 * k:10 * k + 10]).toMatrix()
+        lam = np.linalg.eigvalsh(j)
+        assert lam[0] >= -1e-9 * lam[-1], (k, lam)
+    assert np.all(full[70:] >= 0) and physical_consistency(fit) == []
+    y = cad.regressor(val.q, val.dq, val.ddq, offset=False)
+    rmse = [float(np.sqrt(np.mean((val.tau - r.predict(y)) ** 2))) for r in (ls, fit)]
+    assert rmse[1] <= 1.05 * rmse[0], rmse
+    assert time.perf_counter() - start < 60
