@@ -375,3 +375,110 @@ def test_kuka_identified_under_constraints_is_a_robot_and_predicts_run_3_as_well
     rmse = [float(np.sqrt(np.mean((val.tau - r.predict(y)) ** 2))) for r in (ls, fit)]
     assert rmse[1] <= 1.05 * rmse[0], rmse
     assert time.perf_counter() - start < 60
+
+
+# --------------------------------------------------------------------------- in validate and compare
+
+
+def _one_joint_run(n=2000, seed=0):
+    rng = np.random.default_rng(seed)
+    x = np.sin(2 * np.pi * 0.3 * np.arange(n) / 100.0)
+    return 3.0 * x + rng.normal(0.0, 0.1, n), 3.0 * x
+
+
+def test_validate_appends_the_parameters_findings_as_deficiencies():
+    tau, pred = _one_joint_run()
+    plain = dynval.validate(tau, pred, n_params=1, sample_rate=100.0)
+    sound = dynval.validate(tau, pred, n_params=1, sample_rate=100.0, parameters=body(2.0, (0.1, 0, 0)))
+    assert [f.message for f in sound.findings] == [f.message for f in plain.findings]
+    assert not any(f.kind == "physical_consistency" for f in plain.findings)
+    # ten per link, no names: columns () (no regressor column is named so), the parameters named
+    bad_mass = body(2.0)
+    bad_mass[0] = -0.5
+    report = dynval.validate(tau, pred, n_params=1, sample_rate=100.0, parameters=bad_mass)
+    (f,) = [f for f in report.findings if f.kind == "physical_consistency"]
+    assert (f.severity, f.joints, f.columns, f.effect) == ("deficiency", (0,), (), 0.5)
+    assert f.details["condition"] == "mass > 0" and f.details["parameters"] == [f"link1:{p}" for p in PARAMS]
+    assert f.details["parameter_columns"] == list(range(10))
+    assert f in report.deficiencies
+    assert report.warnings_text == [g.message for g in report.findings]
+    severities = [g.severity for g in report.findings]
+    assert severities == sorted(severities, key=("deficiency", "design", "note").index)
+    assert "physical_consistency" in report.to_json()
+
+
+def test_validate_reads_a_vector_with_the_regressors_column_names_and_points_at_its_columns():
+    tau, pred = _one_joint_run()
+    bad = np.concatenate([body(2.0, (0.1, 0, 0), (0.1, 0.1, 0.3)), [0.5, -0.2]])
+    regressor = np.random.default_rng(1).normal(size=(tau.size, 1, 12))
+    # the regressor's columns in another order: a finding points at the columns of the same names
+    order = [11, 10, *range(10)]
+    report = dynval.validate(tau, pred, n_params=1, regressor=regressor, column_names=[names()[c] for c in order],
+                             parameters=bad[order], joint_names=["j"], max_lag=0)
+    found = [f for f in report.findings if f.kind == "physical_consistency"]
+    assert [f.details["condition"] for f in found] == ["pseudo-inertia positive semidefinite", "Coulomb friction >= 0"]
+    assert all(f.severity == "deficiency" and f.joints == (0,) for f in found)
+    assert found[0].effect == pytest.approx(0.1) and found[1].effect == pytest.approx(0.2)
+    assert found[0].columns == tuple(range(2, 12)) and found[1].columns == (0,)
+    assert found[1].details["parameters"] == ["Fc_j"] and found[1].details["parameter_columns"] == [0]
+
+
+def test_validate_refuses_parameters_of_more_joints_than_the_data():
+    tau, pred = _one_joint_run(200)
+    two_links = np.concatenate([body(1.0), body(1.0)])
+    with pytest.raises(dynval.InvalidParameter) as info:
+        dynval.validate(tau, pred, n_params=1, parameters=two_links, max_lag=0)
+    assert str(info.value) == ("parameters must be the parameters of a robot with at most m=1 joints (link k "
+                               "moved by joint k, the data's column k), got '2 links and friction on 0 joints'")
+    with pytest.raises(dynval.InvalidParameter, match="column_names must be given"):
+        dynval.validate(tau, pred, n_params=1, parameters=np.ones(12), max_lag=0)
+
+
+def test_compare_ranks_a_candidate_that_is_no_robot_after_a_sound_one():
+    tau, pred = _one_joint_run()
+    no_robot = body(2.0, (0.1, 0, 0), (0.1, 0.1, 0.3))
+    candidates = {"a": {"prediction": pred, "n_params": 1, "parameters": no_robot},
+                  "b": {"prediction": pred, "n_params": 1, "parameters": body(2.0)}}
+    cmp = dynval.compare(tau, candidates, sample_rate=100.0)
+    assert cmp.ranking == ["b", "a"] and cmp.verdict.decision == "accept" and cmp.verdict.model == "b"
+    assert cmp.table["pooled"]["a"]["n_deficiencies"] == 1
+    (reason,) = cmp.reasons["a"]
+    assert reason == "joint 1: not a robot: link1 breaks pseudo-inertia positive semidefinite by 0.1 kg·m²"
+    # without the parameters the two tie and the name decides
+    plain = dynval.compare(tau, {n: {"prediction": pred, "n_params": 1} for n in "ab"}, sample_rate=100.0)
+    assert plain.ranking == ["a", "b"]
+    # alone, it is refined for what it is
+    alone = dynval.compare(tau, {"a": candidates["a"]}, sample_rate=100.0)
+    assert alone.verdict.decision == "refine"
+    assert [d.kind for d in alone.verdict.decided_by] == ["physical_consistency"]
+    with pytest.raises(dynval.InvalidParameter) as info:
+        dynval.compare(tau, {"a": (pred, 1)}, parameters=no_robot)
+    assert str(info.value).startswith("parameters must be given per candidate, not to compare, got [2.0, 0.2, ")
+
+
+def test_physical_consistency_checks_level_and_tolerance():
+    with pytest.raises(dynval.InvalidParameter, match=r"^level must be a number with 0 < level < 1, got 1.5$"):
+        physical_consistency(body(1.0), level=1.5)
+    with pytest.raises(dynval.InvalidParameter, match=r"^tolerance must be a finite number >= 0, got -1.0$"):
+        physical_consistency(body(1.0), tolerance=-1.0)
+
+
+@needs_pin
+def test_kuka_identified_urdf_findings_have_their_sizes_and_reach_validate():
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    run = load_kuka_lwr4(3)
+    model = URDFModel(run.urdf_identified)
+    found = physical_consistency(model)
+    coulomb = {f.joints[0]: round(f.effect, 2) for f in found if f.details["condition"] == "Coulomb friction >= 0"}
+    assert coulomb == {3: 0.39, 4: 0.47, 5: 1.2, 6: 0.26}                     # N·m, joints lwr_3 … lwr_6
+    deficits = [f.effect for f in found if f.details["condition"].startswith("pseudo-inertia")]
+    assert len(deficits) == 7 and min(deficits) > 0.014 and max(deficits) < 0.07  # kg·m²
+    pred = model.predict(run.q, run.dq, run.ddq)
+    report = dynval.validate(run.tau, pred, n_params=84, max_lag=0, parameters=model,
+                             joint_names=list(run.joint_names))
+    assert [f.message for f in report.findings if f.kind == "physical_consistency"] == [f.message for f in found]
+    cad = dynval.validate(run.tau, URDFModel(run.urdf).predict(run.q, run.dq, run.ddq), n_params=0, max_lag=0,
+                          parameters=URDFModel(run.urdf))
+    assert not any(f.kind == "physical_consistency" for f in cad.findings)

@@ -24,7 +24,7 @@ A model can predict a run well and still be no robot at all. Three questions, on
   over consistent π is a convex problem (a semidefinite program). When the true parameters are
   consistent, d² is at most the Mahalanobis distance of β̂ from the truth, so ``P(χ²_r > d²)`` is an
   upper bound of its p-value whatever the shape of the consistent set. ``d²/(rows − r)`` is the
-  share of the estimation run's mean square that a consistent robot costs (the practical effect).
+  share of the estimation run's residual mean square that a consistent robot costs (the practical effect).
 * **Identification under the constraints** (:func:`constrained_fit`, ``identify(physical=True)``).
   The same program with the data's own metric: ``min ‖W(Aπ − b)‖²/σ̂² + λ‖π − π₀‖²`` over consistent
   π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²). The
@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -52,8 +52,9 @@ import scipy.linalg
 import scipy.stats
 
 from ._findings import Finding
+from ._text import p_clause
 from ._typing import FloatArray, IntArray
-from ._validation import is_real_number, parameter_error, to_float_array
+from ._validation import check_finite, is_real_number, parameter_error, to_float_array
 
 __all__ = [
     "PARAM_NAMES",
@@ -66,6 +67,9 @@ __all__ = [
     "base_consistency",
     "base_findings",
     "constrained_fit",
+    "resolve",
+    "findings",
+    "report_findings",
     "INSTALL_HINT",
 ]
 
@@ -81,7 +85,7 @@ solver's answer), not a finding."""
 
 SHARE_THRESHOLD = 0.01
 """The practical effect of base parameters outside the consistent set: the share of the estimation
-run's mean square that the nearest consistent robot adds (0.01, conventions §5.3's missing_term)."""
+run's residual mean square that the nearest consistent robot adds (0.01, conventions §5.3's missing_term)."""
 
 _FRICTION = {"Fv": ("viscous", "N·m·s/rad"), "Fc": ("Coulomb", "N·m")}
 _ACTION_LINK = ("identify under physical constraints (URDFModel.identify(..., physical=True)) or correct "
@@ -405,7 +409,7 @@ class BaseConsistency:
     pvalue : float
         ``P(χ²_r > d²)``: an upper bound of the p-value of "the true parameters are consistent".
     share : float
-        ``d²/(rows − r)``: the share of the estimation run's (weighted) mean square that the
+        ``d²/(rows − r)``: the share of the estimation run's (weighted) residual mean square that the
         nearest consistent robot adds, when the covariance is the fit's own.
     nearest_base, nearest_full : ndarray
         ``Kπ*`` and π*, the nearest consistent parameters (π* is one of possibly many).
@@ -484,8 +488,6 @@ def base_findings(bc: BaseConsistency, *, level: float = 0.95, threshold: float 
     alpha = 1.0 - level
     significant = bc.pvalue <= alpha
     big = significant and bc.share >= threshold
-    from ._text import p_clause
-
     verdict = ("no physically consistent robot fits the estimation run as well: the base parameters absorb "
                "something the rigid-body model lacks, or the noise" if big else
                ("significant but negligible" if significant else "within the estimate's uncertainty"))
@@ -494,8 +496,8 @@ def base_findings(bc: BaseConsistency, *, level: float = 0.95, threshold: float 
     held = ("; held away by " + ", ".join(label for label, _, _ in bc.binding)) if bc.binding else ""
     return [Finding(
         kind="physical_consistency", severity="deficiency" if big else "note", statistic=bc.distance2,
-        joints=joints, columns=columns,
-        pvalue=bc.pvalue, effect=bc.share, effect_unit="share of the estimation mean square", threshold=threshold,
+        joints=joints, columns=columns, pvalue=bc.pvalue, effect=bc.share,
+        effect_unit="share of the estimation residual mean square", threshold=threshold,
         action=("identify under physical constraints (physical=True) and validate both on another run"
                 if big else "none: a consistent robot fits about as well"),
         details={"condition": "base parameters of a physically consistent robot", "distance2": bc.distance2,
@@ -504,7 +506,7 @@ def base_findings(bc: BaseConsistency, *, level: float = 0.95, threshold: float 
         message=(f"The identified base parameters are at Mahalanobis distance {np.sqrt(bc.distance2):.3g} "
                  f"(d² = {bc.distance2:.4g}, χ² bound with {bc.dof} df, p {p_clause(bc.pvalue)}) from the "
                  f"nearest physically consistent robot, which adds {100 * bc.share:.3g} % to the estimation "
-                 f"run's mean square{held}: {verdict}."))]
+                 f"run's residual mean square{held}: {verdict}."))]
 
 
 # --------------------------------------------------------------------------- identification
@@ -545,3 +547,95 @@ def constrained_fit(a: FloatArray, b: FloatArray, sigma2: float, column_names: S
     solved = _solve(lay, g_mat, g_vec, com_bounds=com_bounds, prior=prior_values, weight=weight,
                     what="identify(physical=True)")
     return {**solved, "prior_weight": rel_weight, "weight": weight}
+
+
+# --------------------------------------------------------------------------- what a caller hands in
+
+
+def _is_urdf_model(source: object) -> bool:
+    """A :class:`dynval.robots.URDFModel` (recognised by what is used of it, so that the report
+    layer need not import the robotics layer)."""
+    return all(callable(getattr(source, a, None)) for a in ("parameters", "column_names", "regressor")) and \
+        hasattr(source, "joint_names")
+
+
+def resolve(source: Any, column_names: Sequence[str] | None = None,
+            joint_names: Sequence[str] | None = None) -> tuple[FloatArray, Layout]:
+    """A full parameter vector and its :class:`Layout` from a URDF model, an identification result
+    with ``full_parameters``, or a vector (with ``column_names``, or ten per link)."""
+    if _is_urdf_model(source):
+        names = source.column_names(friction=True, offset=False)
+        return (np.asarray(source.parameters(friction=True, offset=False), dtype=float),
+                layout(names, source.joint_names if joint_names is None else joint_names))
+    if getattr(source, "full_parameters", None) is not None:
+        return np.asarray(source.full_parameters, dtype=float), layout(source.column_names, joint_names)
+    values = to_float_array(source, "parameters")
+    if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
+        values = values.reshape(-1)
+    if values.ndim != 1:
+        raise parameter_error("parameters", "a 1-D vector (or (n_links, 10) without column_names)",
+                              f"shape {values.shape}")
+    check_finite(values.reshape(1, -1), "parameters")
+    if column_names is None:
+        if values.size % 10:
+            raise parameter_error("column_names", "given when the parameters are not ten per link "
+                                  "(names as URDFModel.column_names gives them)", None)
+        column_names = [f"link{k + 1}:{p}" for k in range(values.size // 10) for p in PARAM_NAMES]
+    names = tuple(column_names)
+    if len(names) != values.size or not all(isinstance(x, str) for x in names):
+        raise parameter_error("column_names", f"a sequence of {values.size} strings (one per parameter)",
+                              column_names)
+    return values, layout(names, joint_names)
+
+
+def findings(source: Any, *, column_names: Sequence[str] | None = None, joint_names: Sequence[str] | None = None,
+             com_bounds: object = None, covariance: Any = None, level: float = 0.95,
+             tolerance: float = TOLERANCE) -> list[Finding]:
+    """:func:`dynval.robots.physical_consistency` (its documentation): the check of full
+    parameters, or the distance of an unconstrained identification's base parameters."""
+    if not is_real_number(level) or not 0 < float(level) < 1:
+        raise parameter_error("level", "a number with 0 < level < 1", level)
+    if not is_real_number(tolerance) or not 0 <= float(tolerance) < np.inf:
+        raise parameter_error("tolerance", "a finite number >= 0", tolerance)
+    if getattr(source, "full_parameters", 0) is None:
+        cov = None if covariance is None else to_float_array(covariance, "covariance")
+        bc = base_consistency(source, covariance=cov, com_bounds=com_bounds, joint_names=joint_names)
+        return base_findings(bc, level=float(level))
+    values, lay = resolve(source, column_names, joint_names)
+    return check_parameters(values, lay, com_bounds=com_bounds, tolerance=float(tolerance))
+
+
+def report_findings(parameters: Any, *, m: int, level: float, column_names: Sequence[str] | None) -> list[Finding]:
+    """The ``physical_consistency`` findings of ``validate(..., parameters=...)`` (contract §8).
+
+    ``parameters`` is anything :func:`findings` takes; a vector with as many values as the
+    regressor has ``column_names`` is read with those names. Link k and friction joint k must be
+    among the m joints of the data (InvalidParameter otherwise). ``columns`` of a finding become the
+    regressor columns of the same names (the parameter vector's own indices and names are in
+    ``details["parameter_columns"]`` and ``details["parameters"]``).
+    """
+    names = None
+    if _is_urdf_model(parameters):
+        source_names = tuple(parameters.column_names(friction=True, offset=False))
+    elif hasattr(parameters, "full_parameters"):                    # an IdentificationResult
+        source_names = tuple(parameters.column_names)
+    else:
+        values = to_float_array(parameters, "parameters")
+        if column_names is not None and values.ndim == 1 and values.size == len(column_names):
+            names = column_names
+        source_names = resolve(values, names)[1].column_names
+    lay = layout(source_names)
+    n_joints = max(len(lay.links), len(lay.joint_names))
+    if n_joints > m:
+        raise parameter_error("parameters", f"the parameters of a robot with at most m={m} joints (link k moved "
+                              f"by joint k, the data's column k)", f"{len(lay.links)} links and friction on "
+                              f"{len(lay.joint_names)} joints")
+    found = findings(parameters, column_names=names, level=level)
+    where = {name: c for c, name in enumerate(column_names or ())}
+    out = []
+    for f in found:
+        params = [source_names[c] for c in f.columns]
+        cols = tuple(where[n] for n in params if n in where)
+        out.append(replace(f, columns=cols, details={**f.details, "parameter_columns": list(f.columns),
+                                                     "parameters": params}))
+    return out

@@ -231,35 +231,6 @@ class URDFModel:
 # --------------------------------------------------------------------------- physical consistency
 
 
-def _parameters_and_layout(source: Any, column_names: Sequence[str] | None,
-                           joint_names: Sequence[str] | None) -> tuple[np.ndarray, _consistency.Layout]:
-    """A full parameter vector and where its links and friction sit, from any accepted source."""
-    if isinstance(source, URDFModel):
-        names = source.column_names(friction=True, offset=False)
-        return (source.parameters(friction=True, offset=False),
-                _consistency.layout(names, source.joint_names if joint_names is None else joint_names))
-    if getattr(source, "full_parameters", None) is not None:
-        return (np.asarray(source.full_parameters, dtype=float),
-                _consistency.layout(source.column_names, joint_names))
-    values = to_float_array(source, "parameters")
-    if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
-        values = values.reshape(-1)
-    if values.ndim != 1:
-        raise parameter_error("parameters", "a 1-D vector (or (n_links, 10) without column_names)",
-                              f"shape {values.shape}")
-    check_finite(values.reshape(1, -1), "parameters")
-    if column_names is None:
-        if values.size % 10:
-            raise parameter_error("column_names", "given when the parameters are not ten per link "
-                                  "(names as URDFModel.column_names gives them)", None)
-        column_names = [f"link{k + 1}:{p}" for k in range(values.size // 10) for p in PARAM_NAMES]
-    names = tuple(column_names)
-    if len(names) != values.size or not all(isinstance(x, str) for x in names):
-        raise parameter_error("column_names", f"a sequence of {values.size} strings (one per parameter)",
-                              column_names)
-    return values, _consistency.layout(names, joint_names)
-
-
 def physical_consistency(model_or_parameters: Any, *, column_names: Sequence[str] | None = None,
                          joint_names: Sequence[str] | None = None, com_bounds: Any = None,
                          covariance: Any = None, level: float = 0.95,
@@ -328,12 +299,8 @@ def physical_consistency(model_or_parameters: Any, *, column_names: Sequence[str
     >>> [(f.details["condition"], round(f.effect, 6), f.effect_unit) for f in found]
     [('pseudo-inertia positive semidefinite', 0.1, 'kg·m²'), ('Coulomb friction >= 0', 0.2, 'N·m')]
     """
-    if getattr(model_or_parameters, "full_parameters", 0) is None:
-        bc = base_consistency(model_or_parameters, covariance=covariance, com_bounds=com_bounds,
-                              joint_names=joint_names)
-        return _consistency.base_findings(bc, level=level)
-    values, lay = _parameters_and_layout(model_or_parameters, column_names, joint_names)
-    return _consistency.check_parameters(values, lay, com_bounds=com_bounds, tolerance=tolerance)
+    return _consistency.findings(model_or_parameters, column_names=column_names, joint_names=joint_names,
+                                 com_bounds=com_bounds, covariance=covariance, level=level, tolerance=tolerance)
 
 
 # --------------------------------------------------------------------------- a small URDF
