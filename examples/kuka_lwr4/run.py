@@ -23,8 +23,10 @@ Before the comparison, the physical consistency of the models (``dynval.robots.p
 the two URDFs' links and friction, the distance of each identified base set from every robot that can
 exist, and, with cvxpy installed (the ``physical`` extra), the structures with friction identified
 again under the constraints (``URDFModel.identify(..., physical=True)``) and their prediction of run 3
-against the unconstrained fit's. This section is printed and written to ``summary.txt``; the
-comparison and the README's verdicts block do not use it.
+against the unconstrained fit's, then ``dynval.compare`` of the least-squares and the constrained fits
+on run 3, each candidate bringing its parameters (``"parameters": fit``) so that its realizability
+findings are in its report and its ranking. This section is printed and written to ``summary.txt``;
+the comparisons below and the README's verdicts block do not use it.
 
 Velocities and accelerations are the logged ones (FloBaRoID filtered them without time shift).
 Run 2 repeats run 1's trajectory, run 3 is a different one: run 2 shows what validating on the
@@ -158,6 +160,7 @@ def read_block(text: str) -> str:
 
 def physical_section(cad, identified_urdf, fits, regs, runs) -> list:
     """Lines on the physical consistency of the URDFs and of the fits, and the constrained fits' run 3."""
+    import dynval
     from dynval.robots import physical_consistency
 
     lines = ["", "Physical consistency (dynval.robots.physical_consistency)"]
@@ -176,6 +179,7 @@ def physical_section(cad, identified_urdf, fits, regs, runs) -> list:
         return float(np.sqrt(np.mean((run.tau - prediction) ** 2)))
 
     est, val = runs[1], runs[3]
+    candidates = {}
     for name in ("rigid+friction", "rigid+friction+offset"):
         res, cols = fits[name]
         found = physical_consistency(res)
@@ -191,6 +195,17 @@ def physical_section(cad, identified_urdf, fits, regs, runs) -> list:
                      f"squares {fitted[1]:.3f}); on run 3 {constrained:.3f} N·m against {unconstrained:.3f}, ratio "
                      f"{constrained / unconstrained:.3f}; identify took {took:.1f} s, the SDP "
                      f"{fit.physical['solve_time']:.2f} s ({fit.physical['solver']})")
+        for label, r in (("least squares", res), ("physical", fit)):
+            candidates[f"{name}, {label}"] = {"prediction": r.predict(y_val), "n_params": r.rank, "parameters": r}
+    # Each candidate brings its parameters: their physical consistency is among its findings, and a
+    # candidate that is no robot is deficient, so it ranks after the sound ones.
+    candidates["identified URDF"] = {"prediction": identified_urdf.predict(val.q, val.dq, val.ddq),
+                                     "n_params": 10 * len(cad.joint_names) + 2 * len(cad.joint_names),
+                                     "parameters": identified_urdf}
+    cmp = dynval.compare(val.tau, candidates, time=val.time, joint_names=list(cad.joint_names))
+    lines += ["", "Unconstrained against physically consistent identification (run 1), validated on run 3, "
+              "each candidate with its parameters (compare(..., {name: {..., 'parameters': fit}})):"]
+    lines += ["  " + line for line in cmp.summary().split("\n")]
     return lines
 
 
