@@ -107,6 +107,22 @@ def test_triangle_inequality_about_the_centre_of_mass(side, angles):
     assert f.details["pseudo_inertia_min_eigenvalue"] < 0
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_point_masses_and_rods_off_the_origin_are_on_the_boundary_not_beyond_it(seed):
+    # J has rank 1 (a point mass) or 2 (a thin rod): exactly on the boundary; I_C = I − m(|c|²·1 − ccᵀ)
+    # is zero (or singular) only up to the rounding of the parallel-axis subtraction
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        m, c, rod = rng.uniform(0.1, 10.0), rng.normal(0.0, 0.5, 3), rng.uniform(0.0, 0.3)
+        p = body(m, c, (0.0, rod, rod), rng.uniform(-3, 3, 3))
+        assert physical_consistency(p) == [], (m, c, rod)
+        # and just beyond: the moment along the rod's axis below zero by 1e-6 of the largest moment
+        # about the origin (1000 times the tolerance)
+        beyond = body(m, c, (-1e-6 * (rod + m * c @ c), rod, rod), rng.uniform(-3, 3, 3))
+        (f,) = physical_consistency(beyond)
+        assert f.details["condition"] == "pseudo-inertia positive semidefinite"
+
+
 def test_a_negative_principal_moment_breaks_the_triangle():
     (f,) = physical_consistency(body(1.0, (0.1, 0, 0), (-0.1, 1.0, 1.0)))
     assert f.effect == pytest.approx(0.1)       # 1 − (−0.1) − 1

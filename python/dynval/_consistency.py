@@ -80,8 +80,9 @@ INSTALL_HINT = "pip install 'dynval[physical]' (cvxpy, with its default solver C
 
 TOLERANCE = 1e-9
 """A triangle-inequality deficit or a centre-of-mass excursion smaller than this share of the
-link's largest principal moment (or of the box's size) is rounding (a URDF printed to 16 digits, a
-solver's answer), not a finding."""
+link's largest principal moment, about its centre of mass or about the joint frame's origin
+(or of the box's size), is rounding (a URDF printed to 16 digits, a solver's answer, the
+parallel-axis subtraction of a point mass off the origin), not a finding."""
 
 SHARE_THRESHOLD = 0.01
 """The practical effect of base parameters outside the consistent set: the share of the estimation
@@ -206,12 +207,16 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
                      columns: tuple[int, ...]) -> Finding | None:
     """The triangle inequality of the principal moments about the centre of mass (J ⪰ 0 with m > 0)."""
     m, h = float(p10[0]), p10[1:4]
-    j = pseudo_inertia(p10)
-    sigma_c = j[:3, :3] - np.outer(h, h) / m                       # Schur complement: ½tr(I_C)·1 − I_C
+    sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m                       # Schur complement: ½tr(I_C)·1 − I_C
     inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
     moments = np.linalg.eigvalsh(inertia_c)                        # principal moments about the CoM
     deficit = float(moments[2] - moments[0] - moments[1])          # = −2 λ_min(Σ_C)
-    if deficit <= tolerance * max(abs(float(moments[2])), np.finfo(float).tiny):
+    # I_C = I − m(|c|²·1 − c cᵀ) rounds at the scale of the inertia about the joint frame's origin
+    # (a point mass off the origin has I_C = 0 up to that rounding): the tolerance is relative to both
+    j = pseudo_inertia(p10)
+    scale = max(abs(float(moments[2])), float(np.max(np.abs(np.linalg.eigvalsh(np.trace(j[:3, :3]) * np.eye(3)
+                                                                                 - j[:3, :3])))))
+    if deficit <= tolerance * max(scale, np.finfo(float).tiny):
         return None
     lam = float(np.linalg.eigvalsh(j)[0])
     i1, i2, i3 = (float(x) for x in moments)

@@ -269,7 +269,8 @@ def physical_consistency(model_or_parameters: Any, *, column_names: Sequence[str
         For base parameters: the distance is significant when its p-value is at most 1 − level.
     tolerance : float
         A triangle-inequality deficit or a centre-of-mass excursion below this share of the link's
-        largest principal moment (or of the box) is rounding.
+        largest principal moment, about its centre of mass or the joint frame's origin (or of the
+        box), is rounding.
 
     Returns
     -------
