@@ -207,15 +207,15 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
                      columns: tuple[int, ...]) -> Finding | None:
     """The triangle inequality of the principal moments about the centre of mass (J ⪰ 0 with m > 0)."""
     m, h = float(p10[0]), p10[1:4]
-    sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m                       # Schur complement: ½tr(I_C)·1 − I_C
+    sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m  # Schur complement: ½tr(I_C)·1 − I_C
     inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
     moments = np.linalg.eigvalsh(inertia_c)                        # principal moments about the CoM
     deficit = float(moments[2] - moments[0] - moments[1])          # = −2 λ_min(Σ_C)
     # I_C = I − m(|c|²·1 − c cᵀ) rounds at the scale of the inertia about the joint frame's origin
     # (a point mass off the origin has I_C = 0 up to that rounding): the tolerance is relative to both
     j = pseudo_inertia(p10)
-    scale = max(abs(float(moments[2])), float(np.max(np.abs(np.linalg.eigvalsh(np.trace(j[:3, :3]) * np.eye(3)
-                                                                                 - j[:3, :3])))))
+    inertia_o = np.trace(j[:3, :3]) * np.eye(3) - j[:3, :3]      # about the joint frame's origin
+    scale = max(abs(float(moments[2])), float(np.max(np.abs(np.linalg.eigvalsh(inertia_o)))))
     if deficit <= tolerance * max(scale, np.finfo(float).tiny):
         return None
     lam = float(np.linalg.eigvalsh(j)[0])
