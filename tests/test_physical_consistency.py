@@ -295,6 +295,27 @@ def test_sdp_keeps_the_centre_of_mass_in_its_box_and_pulls_towards_the_prior():
 
 
 @needs_cvxpy
+def test_entropic_prior_keeps_every_pseudo_inertia_positive_definite_and_pulls_towards_the_prior():
+    # data from an impossible link: least squares under the constraints ends on the boundary (a
+    # singular J); the entropic prior's −log det keeps J strictly inside, the Euclidean prior does not
+    truth = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)), [0.5, 0.4]])
+    a, b = _one_link_problem(truth)
+    prior = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.15, 0.15, 0.2)), [0.5, 0.4]])
+    lam = {}
+    for metric in ("euclidean", "entropic"):
+        fit = identify(a, b, column_names=names(), physical=True, prior=prior, prior_weight=1e-3,
+                       prior_metric=metric)
+        assert physical_consistency(fit) == [] and fit.physical["prior_metric"] == metric
+        lam[metric] = np.linalg.eigvalsh(pseudo_inertia(fit.full_parameters[:10]))
+    assert lam["euclidean"][0] < 1e-6 * lam["euclidean"][-1]                     # on the boundary
+    assert lam["entropic"][0] > 1e-4 * lam["entropic"][-1]                       # inside
+    # a strong pull lands on the prior, whatever the metric (it is consistent and positive definite)
+    for metric in ("euclidean", "entropic"):
+        fit = identify(a, b, column_names=names(), physical=True, prior=prior, prior_weight=1e6, prior_metric=metric)
+        np.testing.assert_allclose(fit.full_parameters, prior, rtol=1e-3, atol=1e-4)
+
+
+@needs_cvxpy
 def test_physical_identification_rejects_bad_arguments():
     a, b = _one_link_problem(np.concatenate([body(1.0), [0.1, 0.1]]), n=50)
     with pytest.raises(dynval.InvalidParameter, match="physical must be True or False"):
@@ -305,6 +326,15 @@ def test_physical_identification_rejects_bad_arguments():
         identify(a, b, column_names=names(), physical=True, prior=np.zeros(3))
     with pytest.raises(dynval.InvalidParameter, match="prior_weight"):
         identify(a, b, column_names=names(), physical=True, prior_weight=-1.0)
+    with pytest.raises(dynval.InvalidParameter,
+                       match=r"^prior_metric must be one of 'euclidean', 'entropic', got 'kl'$"):
+        identify(a, b, column_names=names(), physical=True, prior_metric="kl")
+    with pytest.raises(dynval.InvalidParameter,
+                       match=r"^prior must be given .* with prior_metric='entropic', got None"):
+        identify(a, b, column_names=names(), physical=True, prior_metric="entropic")
+    rod = np.concatenate([[1.0, 0.5, 0, 0, 0.0, 0, 1 / 3, 0, 0, 1 / 3], [0.1, 0.1]])   # J singular: no log det
+    with pytest.raises(dynval.InvalidParameter, match=r"positive definite pseudo-inertia .*\(b: smallest eigenvalue"):
+        identify(a, b, column_names=names(), physical=True, prior=rod, prior_metric="entropic")
 
 
 @pytest.fixture(scope="module")
@@ -389,8 +419,15 @@ def test_kuka_identified_under_constraints_is_a_robot_and_predicts_run_3_as_well
     assert np.all(full[70:] >= 0) and physical_consistency(fit) == []
     y = cad.regressor(val.q, val.dq, val.ddq, offset=False)
     rmse = [float(np.sqrt(np.mean((val.tau - r.predict(y)) ** 2))) for r in (ls, fit)]
-    assert rmse[1] <= 1.05 * rmse[0], rmse
-    assert time.perf_counter() - start < 60
+    assert rmse[1] <= 1.05 * rmse[0], rmse                     # measured: 0.642 against 0.770 N·m
+    # the entropic prior: every link strictly inside the consistent set, the same prediction
+    ent = cad.identify(est.q, est.dq, est.ddq, est.tau, offset=False, physical=True, prior_metric="entropic")
+    for k in range(7):
+        lam = np.linalg.eigvalsh(pin.PseudoInertia.FromDynamicParameters(ent.full_parameters[10 * k:10 * k + 10])
+                                 .toMatrix())
+        assert lam[0] > 0, (k, lam)
+    assert float(np.sqrt(np.mean((val.tau - ent.predict(y)) ** 2))) <= 1.05 * rmse[0]
+    assert time.perf_counter() - start < 90
 
 
 # --------------------------------------------------------------------------- in validate and compare

@@ -30,7 +30,9 @@ A model can predict a run well and still be no robot at all. Three questions, on
   π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²). The
   Euclidean prior π₀ (the URDF's a-priori values, or zero) with a small weight makes the answer
   unique in the directions the data cannot see; λ is ``prior_weight`` times the mean diagonal of
-  the data term's Hessian, so ``prior_weight`` is unit-free.
+  the data term's Hessian, so ``prior_weight`` is unit-free. The entropic prior replaces each link's
+  Euclidean term by the Bregman divergence of −log det between its pseudo-inertia and the prior's
+  (Lee & Park 2018), which keeps J positive definite (:func:`_prior_term`).
 
 The decision variables of the programs are the pseudo-inertias themselves (4×4 symmetric, ⪰ 0),
 the friction coefficients (≥ 0) and the free columns; π is a linear function of them. The solver
@@ -319,6 +321,7 @@ class _Program:
     constraints: list[Any]
     lmis: list[Any] = field(default_factory=list)
     friction: Any = None
+    pseudo_inertias: list[Any] = field(default_factory=list)
 
 
 def _program(cp: Any, lay: Layout, boxes: dict[str, tuple[FloatArray, FloatArray]]) -> _Program:
@@ -359,29 +362,70 @@ def _program(cp: Any, lay: Layout, boxes: dict[str, tuple[FloatArray, FloatArray
     pi = terms[0]
     for term in terms[1:]:
         pi = pi + term
-    return _Program(pi=pi, constraints=constraints, lmis=lmis, friction=bound)
+    return _Program(pi=pi, constraints=constraints, lmis=lmis, friction=bound,
+                    pseudo_inertias=[lmi.args[0] for lmi in lmis])
+
+
+def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, weight: float,
+                metric: str) -> Any:
+    """``weight·‖π − prior‖²`` (Euclidean), or with ``metric="entropic"`` each link's Bregman divergence
+    of −log det, ``2·weight·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (near J₀ of the order
+    of ``weight·‖J − J₀‖²_F``, so that ``prior_weight`` reads alike; the constants are left out of the
+    objective), and the Euclidean term for the other columns (friction, offsets)."""
+    target = 0.0 if prior is None else prior
+    if metric != "entropic":
+        return weight * cp.sum_squares(prog.pi - target)
+    rest = np.ones(lay.n_columns, dtype=bool)
+    terms = []
+    for k, jk in enumerate(prog.pseudo_inertias):
+        j0 = pseudo_inertia(link_parameters(np.asarray(prior), lay)[k])
+        scale = 2.0 * weight * float(np.sum(j0**2))
+        terms.append(scale * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
+        rest[lay.link_columns[k][lay.link_columns[k] >= 0]] = False
+    if rest.any():
+        terms.append(weight * cp.sum_squares(prog.pi[np.flatnonzero(rest)] - np.asarray(prior)[rest]))
+    return cp.sum(cp.hstack(terms)) if len(terms) > 1 else terms[0]
+
+
+def _objective_scale(g_mat: FloatArray, weight: float, prior: FloatArray | None, lay: Layout, metric: str) -> float:
+    """With the entropic prior, the size of the objective's curvature (the data term's mean plus the
+    prior's largest), by which the objective is divided; 1 otherwise (the Euclidean programs solve
+    as they are)."""
+    if metric != "entropic" or prior is None or not weight > 0:
+        return 1.0
+    data = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
+    largest = max((float(np.sum(pseudo_inertia(p10) ** 2)) for p10 in link_parameters(prior, lay)), default=1.0)
+    return float(max(data, 1e-300) + float(weight) * largest)
 
 
 def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: object = None,
-           prior: FloatArray | None = None, weight: float = 0.0, what: str = "physical consistency") -> dict[str, Any]:
-    """``min ‖G π − g‖² + weight·‖π − prior‖²`` over consistent π; the clipped π and the solver's record."""
+           prior: FloatArray | None = None, weight: float = 0.0, metric: str = "euclidean",
+           what: str = "physical consistency") -> dict[str, Any]:
+    """``min ‖G π − g‖² + (the prior's term)`` over consistent π; the clipped π and the solver's record."""
     cp = import_cvxpy(what)
     prog = _program(cp, lay, resolve_com_bounds(com_bounds, lay.links))
     objective = cp.sum_squares(g_mat @ prog.pi - g_vec)
     if weight > 0:
-        objective = objective + weight * cp.sum_squares(prog.pi - (0.0 if prior is None else prior))
-    problem = cp.Problem(cp.Minimize(objective), prog.constraints)
+        objective = objective + _prior_term(cp, prog, lay, prior, weight, metric)
+    # one overall scale keeps the conic solver's numbers moderate when the entropic prior's weight is
+    # large (the exponential cones of log det fail to converge beyond a weight of about 100 otherwise)
+    scale = _objective_scale(g_mat, weight, prior, lay, metric)
+    problem = cp.Problem(cp.Minimize(objective / scale), prog.constraints)
     solver = "CLARABEL" if "CLARABEL" in cp.installed_solvers() else "SCS"
     start = time.perf_counter()
-    problem.solve(solver=solver)
+    try:
+        problem.solve(solver=solver)
+    except cp.error.SolverError as exc:
+        raise RuntimeError(f"{what}: the solver {solver} failed ({exc})") from None
     elapsed = time.perf_counter() - start
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"{what}: the solver {solver} ended with status {problem.status!r}")
     raw = np.asarray(prog.pi.value, dtype=float)
     return {"pi": _clip(raw, lay), "solver": solver, "status": problem.status,
             "solve_time": elapsed, "solver_time": float(problem.solver_stats.solve_time or 0.0),
-            "lmi_duals": [float(np.trace(c.dual_value)) for c in prog.lmis],
-            "friction_duals": ([] if prog.friction is None else np.asarray(prog.friction.dual_value).tolist())}
+            "lmi_duals": [scale * float(np.trace(c.dual_value)) for c in prog.lmis],
+            "friction_duals": ([] if prog.friction is None
+                               else (scale * np.asarray(prog.friction.dual_value)).tolist())}
 
 
 def _clip(values: FloatArray, lay: Layout) -> FloatArray:
@@ -517,20 +561,36 @@ def base_findings(bc: BaseConsistency, *, level: float = 0.95, threshold: float 
 # --------------------------------------------------------------------------- identification
 
 
-def _check_prior(prior: object, prior_weight: float, p: int) -> tuple[FloatArray | None, float]:
+PRIOR_METRICS = ("euclidean", "entropic")
+
+
+def _check_prior(prior: object, prior_weight: float, p: int, metric: object = "euclidean",
+                 lay: Layout | None = None) -> tuple[FloatArray | None, float]:
     if not is_real_number(prior_weight) or not 0 <= float(prior_weight) < np.inf:
         raise parameter_error("prior_weight", "a finite number >= 0", prior_weight)
+    if not isinstance(metric, str) or metric not in PRIOR_METRICS:
+        raise parameter_error("prior_metric", "one of 'euclidean', 'entropic'", metric)
     if prior is None:
+        if metric == "entropic":
+            raise parameter_error("prior", "given (one value per regressor column) with prior_metric='entropic'",
+                                  prior)
         return None, float(prior_weight)
     values = to_float_array(prior, "prior").reshape(-1)
     if values.shape != (p,) or not np.all(np.isfinite(values)):
         raise parameter_error("prior", f"None or {p} finite numbers (one per regressor column)", prior)
+    if metric == "entropic" and lay is not None:
+        for k, p10 in enumerate(link_parameters(values, lay)):
+            lam = float(np.linalg.eigvalsh(pseudo_inertia(p10))[0])
+            if not lam > 0:
+                raise parameter_error("prior", "parameters whose every link has a positive definite "
+                                      f"pseudo-inertia with prior_metric='entropic' ({lay.links[k]}: smallest "
+                                      f"eigenvalue {lam:.3g})", "...")
     return values, float(prior_weight)
 
 
 def constrained_fit(a: FloatArray, b: FloatArray, sigma2: float, column_names: Sequence[str], *,
-                    prior: object = None, prior_weight: float = 1e-6, com_bounds: object = None,
-                    joint_names: Sequence[str] | None = None) -> dict[str, Any]:
+                    prior: object = None, prior_weight: float = 1e-6, prior_metric: str = "euclidean",
+                    com_bounds: object = None, joint_names: Sequence[str] | None = None) -> dict[str, Any]:
     """Least squares ``‖Aπ − b‖²`` (rows already weighted) over physically consistent π (module notes).
 
     ``sigma2`` (the unconstrained fit's residual variance) scales the data term. Returns ``pi`` (the
@@ -543,15 +603,15 @@ def constrained_fit(a: FloatArray, b: FloatArray, sigma2: float, column_names: S
                               "URDFModel.column_names gives them) or friction ('Fv_<joint>', 'Fc_<joint>') "
                               "when physical=True", list(column_names[:3]))
     p = a.shape[1]
-    prior_values, rel_weight = _check_prior(prior, prior_weight, p)
+    prior_values, rel_weight = _check_prior(prior, prior_weight, p, prior_metric, lay)
     import_cvxpy("identify(physical=True)")
     r_aug = scipy.linalg.qr(np.column_stack([a, b]), mode="r", check_finite=False)[0][: p + 1]
     scale = np.sqrt(sigma2) if sigma2 > 0 and np.isfinite(sigma2) else 1.0
     g_mat, g_vec = r_aug[:p, :p] / scale, r_aug[:p, p] / scale
     weight = rel_weight * float(np.sum(g_mat**2)) / p
     solved = _solve(lay, g_mat, g_vec, com_bounds=com_bounds, prior=prior_values, weight=weight,
-                    what="identify(physical=True)")
-    return {**solved, "prior_weight": rel_weight, "weight": weight}
+                    metric=prior_metric, what="identify(physical=True)")
+    return {**solved, "prior_weight": rel_weight, "weight": weight, "prior_metric": prior_metric}
 
 
 # --------------------------------------------------------------------------- what a caller hands in

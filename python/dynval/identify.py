@@ -39,7 +39,8 @@ numbers gives the σ_j directly.
 Physical consistency (``physical=True``, the ``physical`` extra: cvxpy): least squares over the
 full parameters of a robot that can exist — every link's 4×4 pseudo-inertia positive semidefinite
 (which holds mass, positive inertia and the triangle inequalities), every viscous and Coulomb
-friction coefficient ≥ 0 — optionally pulled towards a prior (Euclidean, small weight), solved as a
+friction coefficient ≥ 0 — optionally pulled towards a prior (Euclidean, or entropic: each link's
+−log det divergence from the prior's pseudo-inertia; small weight), solved as a
 semidefinite program (``dynval._consistency``; Wensing, Kim & Slotine 2017; Sousa & Cortesão 2014).
 The columns must be named as :meth:`dynval.robots.URDFModel.column_names` names them. The result
 keeps the base set of the unconstrained fit: :attr:`IdentificationResult.estimate` is the base
@@ -432,7 +433,8 @@ def _fit(a: FloatArray, b: FloatArray, rcond: float, p: int) -> tuple[dict[str, 
 def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per_joint"] | ArrayLike | None = None,
              rcond: float | None = None, column_names: Sequence[str] | None = None, n_joints: Integer | None = None,
              name_tolerance: float = 1e-10, physical: bool = False, prior: ArrayLike | None = None,
-             prior_weight: float = 1e-6, com_bounds: Any = None) -> IdentificationResult:
+             prior_weight: float = 1e-6, prior_metric: Literal["euclidean", "entropic"] = "euclidean",
+             com_bounds: Any = None) -> IdentificationResult:
     """Least-squares estimate of the base parameters of ``τ = Y π + ε``.
 
     Parameters
@@ -466,6 +468,13 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     prior_weight : float
         Weight of ``‖π − prior‖²`` relative to the mean curvature of the data term (σ²-scaled):
         the default 1e-6 only picks one answer in the directions the data cannot see.
+    prior_metric : {"euclidean", "entropic"}
+        With ``physical=True``: how the prior pulls. ``"euclidean"``: ``‖π − prior‖²``.
+        ``"entropic"``: each link's Bregman divergence of −log det between its pseudo-inertia and the
+        prior's, ``tr(J₀⁻¹J) − log det(J₀⁻¹J) − 4`` (Lee & Park 2018; invariant to the frame, it keeps
+        J positive definite and penalises a thin, flat or concentrated body more than a Euclidean
+        distance does), scaled by ``2‖J₀‖²_F`` so that near the prior both read alike; friction and
+        other columns Euclidean. Needs a prior whose links have positive definite pseudo-inertias.
     com_bounds : None, pair or mapping
         With ``physical=True``: a box ``(lower, upper)`` (m, in the link's joint frame) for every
         link's centre of mass, or a mapping link → box.
@@ -542,7 +551,8 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     sigma2 = sse_w / dof if dof > 0 else float("nan")
     full = info = None
     if physical:
-        full, est, resid_w, info = _physical_fit(a_w, b_w, sigma2, names, solved, prior, prior_weight, com_bounds)
+        full, est, resid_w, info = _physical_fit(a_w, b_w, sigma2, names, solved, prior, prior_weight, com_bounds,
+                                                 prior_metric)
         sse_w = float(resid_w @ resid_w)
         sigma2 = sse_w / dof if dof > 0 else float("nan")
     cov = sigma2 * solved["cinv"]
@@ -590,14 +600,14 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
 
 
 def _physical_fit(a_w: FloatArray, b_w: FloatArray, sigma2: float, names: tuple[str, ...], solved: dict[str, Any],
-                  prior: ArrayLike | None, prior_weight: float,
-                  com_bounds: Any) -> tuple[FloatArray, FloatArray, FloatArray, dict[str, Any]]:
+                  prior: ArrayLike | None, prior_weight: float, com_bounds: Any,
+                  prior_metric: str = "euclidean") -> tuple[FloatArray, FloatArray, FloatArray, dict[str, Any]]:
     """The constrained fit of ``identify(physical=True)``: full parameters, their base combination
     (in the unconstrained fit's base order), the weighted residual and the solver's record."""
     import scipy.stats
 
     fit = _consistency.constrained_fit(a_w, b_w, sigma2, names, prior=prior, prior_weight=prior_weight,
-                                       com_bounds=com_bounds)
+                                       prior_metric=prior_metric, com_bounds=com_bounds)
     full = fit.pop("pi")
     rank = int(solved["rank"])
     dof = a_w.shape[0] - rank

@@ -215,7 +215,9 @@ class URDFModel:
         With ``physical=True`` the full parameters are identified under physical consistency
         (``.full_parameters``, in the order of :meth:`column_names`), pulled towards ``prior``
         where the data say little: ``"urdf"`` (default) is this URDF's own parameters
-        (:meth:`parameters`), None is zero, or an array of one value per column.
+        (:meth:`parameters`), None is zero, or an array of one value per column; ``prior_metric``
+        (``"euclidean"`` or ``"entropic"``), ``prior_weight`` and ``com_bounds`` go to
+        :func:`dynval.identify.identify`.
         """
         from .identify import identify
 
