@@ -338,7 +338,7 @@ def test_low_information_on_unresolved_joints_waits_for_a_resolved_deficiency():
 
 
 _SPEC = ("(prediction, n_params[, regressor]) or a mapping with 'prediction', 'n_params' and optionally "
-         "'regressor', 'model_columns'")
+         "'regressor', 'model_columns', 'parameters'")
 
 
 @pytest.mark.parametrize("candidates, message", [

@@ -135,6 +135,52 @@ def test_projection_and_excitation_are_the_same_with_the_shared_gram_pass(scale)
                                [b["condition_raw"], b["condition_scaled"]], rtol=1e-6)  # eps·cond², cond 3e4
 
 
+def _numpy_scipy_blas(info):
+    """The BLAS libraries numpy and scipy use, out of threadpoolctl's list of every loaded one.
+
+    Other packages bring their own (cvxpy's SCS loads an OpenBLAS of its own, built single-threaded,
+    when cvxpy is imported by another test); the limits are about numpy's and scipy's linear algebra.
+    A wheel keeps its library inside its package (``numpy.libs/``, ``scipy.libs/``, or the package
+    itself); a library outside every site-packages directory is a system BLAS, which numpy and scipy
+    are then linked against. Never empty: the check cannot pass by looking at nothing.
+    """
+    import os
+    import site
+
+    import scipy
+
+    roots = [os.path.realpath(d) for d in site.getsitepackages() + [site.getusersitepackages()]]
+    own = {os.path.basename(os.path.dirname(os.path.realpath(mod.__file__))) for mod in (np, scipy)}
+
+    def belongs(path):
+        path = os.path.realpath(path)
+        for root in roots:
+            if path.startswith(root + os.sep):
+                top = path[len(root) + 1:].split(os.sep)[0]
+                return top.split(".")[0] in own or top.split("-")[0] in own
+        return True
+
+    out = [lib for lib in info if lib["user_api"] == "blas" and belongs(lib["filepath"])]
+    assert out, f"no BLAS of numpy or scipy among {[lib['filepath'] for lib in info]}"
+    return out
+
+
+def test_the_blas_filter_keeps_numpy_and_scipy_and_drops_another_packages_own():
+    import os
+    import site
+
+    root = site.getsitepackages()[0]
+    info = [{"user_api": "blas", "filepath": os.path.join(root, "numpy.libs", "libopenblas.so"), "num_threads": 2},
+            {"user_api": "blas", "filepath": os.path.join(root, "scs.libs", "libopenblas.so"), "num_threads": 1},
+            {"user_api": "blas", "filepath": os.path.join(root, "scipy", "linalg", "libblas.so"), "num_threads": 2},
+            {"user_api": "openmp", "filepath": os.path.join(root, "numpy.libs", "libgomp.so"), "num_threads": 2},
+            {"user_api": "blas", "filepath": "/usr/lib/x86_64-linux-gnu/libopenblas.so.0", "num_threads": 2}]
+    kept = [os.path.relpath(lib["filepath"], root) if lib["filepath"].startswith(root) else lib["filepath"]
+            for lib in _numpy_scipy_blas(info)]
+    assert kept == [os.path.join("numpy.libs", "libopenblas.so"), os.path.join("scipy", "linalg", "libblas.so"),
+                    "/usr/lib/x86_64-linux-gnu/libopenblas.so.0"]
+
+
 def test_validate_and_identify_run_their_linear_algebra_on_one_blas_thread(monkeypatch):
     # A multi-threaded BLAS spinning at its barriers on a busy machine made one Gram matrix 100×
     # slower (benchmarks/README.md); the caller's own limit comes back afterwards.
@@ -142,7 +188,7 @@ def test_validate_and_identify_run_their_linear_algebra_on_one_blas_thread(monke
     identify_module = importlib.import_module("dynval.identify")
 
     def blas_threads():
-        return {lib["num_threads"] for lib in threadpoolctl.threadpool_info() if lib["user_api"] == "blas"}
+        return {lib["num_threads"] for lib in _numpy_scipy_blas(threadpoolctl.threadpool_info())}
 
     seen = {}
 

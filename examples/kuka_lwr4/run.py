@@ -19,6 +19,15 @@ Candidates, each predicting the validation runs' torques:
   identified upstream on these measurements, so it is counted with its 7·10 inertial and
   7·2 friction parameters.
 
+Before the comparison, the physical consistency of the models (``dynval.robots.physical_consistency``):
+the two URDFs' links and friction, the distance of each identified base set from every robot that can
+exist, and, with cvxpy installed (the ``physical`` extra), the structures with friction identified
+again under the constraints (``URDFModel.identify(..., physical=True)``) and their prediction of run 3
+against the unconstrained fit's, then ``dynval.compare`` of the least-squares and the constrained fits
+on run 3, each candidate bringing its parameters (``"parameters": fit``) so that its realizability
+findings are in its report and its ranking. This section is printed and written to ``summary.txt``;
+the comparisons below and the README's verdicts block do not use it.
+
 Velocities and accelerations are the logged ones (FloBaRoID filtered them without time shift).
 Run 2 repeats run 1's trajectory, run 3 is a different one: run 2 shows what validating on the
 estimation trajectory looks like, run 3 is the real test.
@@ -147,6 +156,59 @@ def read_block(text: str) -> str:
     return text.split(BEGIN)[1].split(END)[0].strip("\n")
 
 
+# ---------------------------------------------------------------------------- physical consistency
+
+def physical_section(cad, identified_urdf, fits, regs, runs) -> list:
+    """Lines on the physical consistency of the URDFs and of the fits, and the constrained fits' run 3."""
+    import dynval
+    from dynval.robots import physical_consistency
+
+    lines = ["", "Physical consistency (dynval.robots.physical_consistency)"]
+    for label, model in (("CAD URDF", cad), ("identified URDF", identified_urdf)):
+        found = physical_consistency(model)
+        lines.append(f"  {label}: {len(found)} finding(s)" + (":" if found else ""))
+        lines += [f"    {f.message}" for f in found]
+    try:
+        import cvxpy  # noqa: F401
+    except ImportError:
+        lines.append("  (cvxpy is not installed: pip install \".[physical]\" for the base-parameter distance and the "
+                     "constrained identification)")
+        return lines
+
+    def rmse(run, prediction):
+        return float(np.sqrt(np.mean((run.tau - prediction) ** 2)))
+
+    est, val = runs[1], runs[3]
+    candidates = {}
+    for name in ("rigid+friction", "rigid+friction+offset"):
+        res, cols = fits[name]
+        found = physical_consistency(res)
+        lines.append(f"  {name} (least squares on run 1): " + (found[0].message if found else "a consistent robot"))
+        start = time.perf_counter()
+        fit = cad.identify(est.q, est.dq, est.ddq, est.tau, offset=name.endswith("offset"), physical=True)
+        took = time.perf_counter() - start
+        assert physical_consistency(fit) == [], "the constrained fit must be a robot"
+        y_est, y_val = regs[1][:, :, cols], regs[3][:, :, cols]
+        unconstrained, constrained = rmse(val, res.predict(y_val)), rmse(val, fit.predict(y_val))
+        fitted = (rmse(est, fit.predict(y_est)), rmse(est, res.predict(y_est)))
+        lines.append(f"    under the constraints (prior: the CAD URDF): RMSE on run 1 {fitted[0]:.3f} N·m (least "
+                     f"squares {fitted[1]:.3f}); on run 3 {constrained:.3f} N·m against {unconstrained:.3f}, ratio "
+                     f"{constrained / unconstrained:.3f}; identify took {took:.1f} s, the SDP "
+                     f"{fit.physical['solve_time']:.2f} s ({fit.physical['solver']})")
+        for label, r in (("least squares", res), ("physical", fit)):
+            candidates[f"{name}, {label}"] = {"prediction": r.predict(y_val), "n_params": r.rank, "parameters": r}
+    # Each candidate brings its parameters: their physical consistency is among its findings, and a
+    # candidate that is no robot is deficient, so it ranks after the sound ones.
+    candidates["identified URDF"] = {"prediction": identified_urdf.predict(val.q, val.dq, val.ddq),
+                                     "n_params": 10 * len(cad.joint_names) + 2 * len(cad.joint_names),
+                                     "parameters": identified_urdf}
+    cmp = dynval.compare(val.tau, candidates, time=val.time, joint_names=list(cad.joint_names))
+    lines += ["", "Unconstrained against physically consistent identification (run 1), validated on run 3, "
+              "each candidate with its parameters (compare(..., {name: {..., 'parameters': fit}})):"]
+    lines += ["  " + line for line in cmp.summary().split("\n")]
+    return lines
+
+
 # ---------------------------------------------------------------------------- the run
 
 def main(argv=None) -> int:
@@ -210,6 +272,7 @@ def main(argv=None) -> int:
         worst = int(np.argmax(res.rel_std_percent))
         lines.append(f"  {name:<24}{len(cols):>8}{res.rank:>6}{res.condition_number:>10.3g}"
                      f"{np.sqrt(res.sigma2):>10.3g}  {res.rel_std_percent[worst]:.3g} % ({res.base_names[worst]})")
+    lines += physical_section(cad, identified_urdf, fits, regs, runs)
     print("\n".join(lines))
 
     # Residuals are cross-correlated with the identifiable columns only (the base set of the

@@ -52,6 +52,7 @@ from ._report import ValidationReport, validate
 from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 from ._version import CONTRACT_VERSION, __version__
 from .identify import IdentificationResult, identify
+from .robots import physical_consistency
 
 __all__ = [
     "__version__",
@@ -86,6 +87,7 @@ __all__ = [
     "FINDING_KINDS",
     "identify",
     "IdentificationResult",
+    "physical_consistency",
     "backends",
     "set_backend",
     "ZeroMeanTest",

@@ -192,18 +192,25 @@ class ComparisonReport:
 
 def _candidate(name: str, spec: object) -> tuple[Any, Any, Any, Any]:
     """``(pred, p)``, ``(pred, p, regressor)`` or a mapping with prediction, n_params[, regressor,
-    model_columns]."""
+    model_columns, parameters]."""
     if isinstance(spec, dict):
-        unknown = set(spec) - {"prediction", "n_params", "regressor", "model_columns"}
+        unknown = set(spec) - {"prediction", "n_params", "regressor", "model_columns", "parameters"}
         if unknown or "prediction" not in spec or "n_params" not in spec:
             raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
-                                    "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'",
-                                    spec)
+                                    "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns', "
+                                    "'parameters'", spec)
         return spec["prediction"], spec["n_params"], spec.get("regressor"), spec.get("model_columns")
     if isinstance(spec, (tuple, list)) and len(spec) in (2, 3) and v.is_integer(spec[1]):
         return spec[0], spec[1], spec[2] if len(spec) == 3 else None, None
     raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
-                            "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns'", spec)
+                            "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns', "
+                            "'parameters'", spec)
+
+
+def _parameters(spec: object) -> Any:
+    """A candidate's own parameters (``"parameters"`` of its mapping), checked for physical
+    consistency by its ``validate`` (contract §8); None otherwise."""
+    return spec.get("parameters") if isinstance(spec, dict) else None
 
 
 def _rejects_whiteness(report: ValidationReport) -> bool:
@@ -233,8 +240,10 @@ def compare(
         Measured torques of the validation run.
     candidates : mapping
         Name → ``(tau_pred, n_params)``, ``(tau_pred, n_params, regressor)`` or a mapping with
-        ``prediction``, ``n_params`` and optionally ``regressor`` and ``model_columns`` (the
-        columns of the regressor the candidate contains; the others are tested as missing terms).
+        ``prediction``, ``n_params`` and optionally ``regressor``, ``model_columns`` (the
+        columns of the regressor the candidate contains; the others are tested as missing terms)
+        and ``parameters`` (the candidate's own parameters, a URDF model or an identification
+        result: its physical-consistency findings join its report, contract §8).
     criterion : {"aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"}
         Criterion of the ranking and of the Akaike weights (the lesson's AIC by default).
     regressor : array_like, optional
@@ -275,11 +284,13 @@ def compare(
     v.check_choice("criterion", criterion, CRITERIA)
     if "n_params" in options:
         raise v.parameter_error("n_params", "given per candidate, not to compare", options["n_params"])
+    if "parameters" in options:
+        raise v.parameter_error("parameters", "given per candidate, not to compare", options["parameters"])
     reports: dict[str, ValidationReport] = {}
     for name, spec in candidates.items():
         pred, p, reg, cols = _candidate(name, spec)
         reports[name] = validate(tau_meas, pred, n_params=p, regressor=reg if reg is not None else regressor,
-                                 model_columns=cols, **options)
+                                 model_columns=cols, parameters=_parameters(spec), **options)
     names = list(candidates)
     if any(criterion not in reports[n].information_criteria for n in names):
         raise v.parameter_error("criterion", "one of 'aic', 'bic', 'aicc' when max_lag=0 (no N_eff)", criterion)

@@ -56,6 +56,7 @@ KINDS = {
                    "irregular steps (the grid the analyses used is stated)",
     "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
                        "(``bandwidth``): the processing, not the model",
+    "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
 """The documented vocabulary of ``Finding.kind``."""
 

@@ -103,6 +103,14 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         text = f"ill-conditioned validation regressor (column-scaled condition number {e} > {t})"
     elif f.kind == "excitation" and "motion" in f.effect_unit:
         text = f"hardly moves ({e} of its estimation-run motion < {t})"
+    elif f.kind == "physical_consistency" and f.details.get("link"):
+        text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
+                f"{f.effect_unit}")
+    elif f.kind == "physical_consistency" and f.details.get("joint"):
+        text = f"not a robot: {f.details.get('condition')} broken by {_g(f.effect)} {f.effect_unit}"
+    elif f.kind == "physical_consistency":
+        text = (f"no physically consistent robot has these base parameters (the nearest adds {e} to the "
+                f"estimation run's residual mean square ≥ {t})")
     else:  # a kind this wording does not know yet: its name, effect and threshold
         text = f.kind.replace("_", " ")
         if f.effect is not None:

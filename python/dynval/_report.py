@@ -13,18 +13,18 @@ The profile (``_profiles.py``) fills every default.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import _estimation, _motion
+from . import _consistency, _estimation, _motion
 from . import _sections as sec
 from . import _validation as v
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._blas import one_blas_thread
 from ._checks import Array, CheckedCall
-from ._findings import Thresholds
+from ._findings import SEVERITIES, Finding, Thresholds
 from ._json import to_jsonable
 from ._options import Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
 from ._segments import parse_segments, segment_lengths
@@ -97,7 +97,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
              dq: ArrayLike | None = None, ddq: ArrayLike | None = None,
              estimation: dict[str, ArrayLike] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
              cross_correlation_detail: Detail = "top", model_columns: Sequence[Integer | str] | None = None,
-             allow_wide: bool = False) -> ValidationReport:
+             allow_wide: bool = False, parameters: Any = None) -> ValidationReport:
     """Validate predicted joint torques against measured ones: every metric, findings, one report.
 
     Parameters
@@ -172,6 +172,11 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     allow_wide : bool
         Accept fewer samples than joints (N < m). Without it such data are taken for a transposed
         array (samples are rows) and refused with TooFewSamples.
+    parameters : URDFModel, IdentificationResult or array_like, optional
+        The model's own parameters, checked for physical consistency
+        (:func:`dynval.robots.physical_consistency`; a vector with as many values as
+        ``column_names`` is read with those names): its ``physical_consistency`` findings join the
+        report's (contract §8).
 
     Returns
     -------
@@ -183,7 +188,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
         sample_rate, time, bandwidth, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds,
-        cross_correlation_detail, model_columns, allow_wide.
+        cross_correlation_detail, model_columns, allow_wide, parameters.
 
     Notes
     -----
@@ -223,6 +228,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                  cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
                  allow_wide=allow_wide)
     d, o = _checked(tau_meas, tau_pred, regressor, k)
+    physical = None if parameters is None else _consistency.report_findings(
+        parameters, m=d.m, level=o.level, column_names=o.column_names)
     b = Sections()
     _residual_sections(d, o, b)
     _lag_sections(d, o, b)
@@ -231,7 +238,15 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
     if seg_names is not None:
         b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
                                                 o.n_params, o.profile)
-    return _assemble(d, o, b, seg_names)
+    report = _assemble(d, o, b, seg_names)
+    return report if not physical else _with_findings(report, physical)
+
+
+def _with_findings(report: ValidationReport, extra: list[Finding]) -> ValidationReport:
+    """The report with ``extra`` findings among its own, deficiencies still first (contract §8)."""
+    order = {s: i for i, s in enumerate(SEVERITIES)}
+    found = sorted([*report.findings, *extra], key=lambda f: order[f.severity])
+    return replace(report, findings=found, warnings_text=[f.message for f in found])
 
 
 @dataclass(frozen=True)

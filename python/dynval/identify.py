@@ -35,6 +35,18 @@ by a per-joint noise standard deviation σ_j, estimated from an ordinary least-s
 σ_j² = ‖τ_j − Y_j π̂‖² / (N − r) (Gautier's weighting); the weighted problem is then solved as
 above, and its σ² is close to 1 when the weights are right. An array of ``m`` positive
 numbers gives the σ_j directly.
+
+Physical consistency (``physical=True``, the ``physical`` extra: cvxpy): least squares over the
+full parameters of a robot that can exist — every link's 4×4 pseudo-inertia positive semidefinite
+(which holds mass, positive inertia and the triangle inequalities), every viscous and Coulomb
+friction coefficient ≥ 0 — optionally pulled towards a prior (Euclidean, or entropic: each link's
+−log det divergence from the prior's pseudo-inertia; small weight), solved as a
+semidefinite program (``dynval._consistency``; Wensing, Kim & Slotine 2017; Sousa & Cortesão 2014).
+The columns must be named as :meth:`dynval.robots.URDFModel.column_names` names them. The result
+keeps the base set of the unconstrained fit: :attr:`IdentificationResult.estimate` is the base
+combination of the constrained full parameters, and its standard deviations are the unconstrained
+fit's covariance ``σ² (Y_bᵀ Y_b)⁻¹`` with σ² of the constrained residual (constraints that bind
+only shrink the uncertainty, so they are an upper bound).
 """
 
 from __future__ import annotations
@@ -46,6 +58,7 @@ from typing import Any, Literal
 import numpy as np
 import scipy.linalg
 
+from . import _consistency
 from ._blas import one_blas_thread
 from ._errors import InvalidShape, ShapeMismatch
 from ._typing import ArrayLike, FloatArray, IntArray, Integer
@@ -104,6 +117,18 @@ class IdentificationResult:
         The per-joint noise standard deviations used as weights (None without weighting).
     residual_sse : float
         ``‖τ − Y_b π̂‖²`` of the unweighted torques.
+    full_parameters : ndarray (p,) or None
+        With ``physical=True``: the full parameter vector π̂, in the order of :attr:`column_names`
+        (each link's ten parameters, friction, offsets), every link's pseudo-inertia positive
+        semidefinite and every friction coefficient ≥ 0; :attr:`estimate` is then its base
+        combination ``combination @ full_parameters``. None for the unconstrained fit.
+    physical : dict or None
+        With ``physical=True``: how the constrained fit was solved and what it cost — ``distance2``
+        (the increase of the residual sum of squares over the unconstrained fit's, in units of its
+        σ²: the squared Mahalanobis distance of the unconstrained base estimate to the consistent
+        set), ``share`` (``distance2 / (rows − r)``: the share of the mean square it adds),
+        ``pvalue`` (``P(χ²_r > distance2)``, an upper bound), ``solver``, ``status``,
+        ``solve_time`` (s), ``prior_weight``.
     """
 
     estimate: FloatArray
@@ -123,6 +148,8 @@ class IdentificationResult:
     n_columns: int
     joint_std: FloatArray | None = None
     residual_sse: float = float("nan")
+    full_parameters: FloatArray | None = None
+    physical: dict[str, Any] | None = None
     _meta: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -158,7 +185,9 @@ class IdentificationResult:
         from ._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable({
-            "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|",
+            "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|"
+                      + ("; full parameters by least squares under physical consistency (SDP)"
+                         if self.full_parameters is not None else ""),
             "rank": self.rank,
             "rcond": self.rcond,
             "rows": self.rows,
@@ -176,6 +205,8 @@ class IdentificationResult:
             "covariance": self.covariance,
             "combination": self.combination,
             "joint_std": self.joint_std,
+            "full_parameters": self.full_parameters,
+            "physical": self.physical,
         })
         return out
 
@@ -187,6 +218,10 @@ class IdentificationResult:
             lines.append(f"  {name:<{width}}  {est:>13.6g}  {sd:>11.4g}  {rel:>8.2f}")
         lines.append(f"  rank {self.rank} of {self.n_columns} columns; condition number of the base "
                      f"regressor {self.condition_number:.4g}; σ² = {self.sigma2:.4g}")
+        if self.physical is not None:
+            lines.append(f"  physically consistent (every pseudo-inertia PSD, friction >= 0): d² = "
+                         f"{self.physical['distance2']:.4g} from the unconstrained estimate, "
+                         f"{100 * self.physical['share']:.3g} % of its mean square")
         return "\n".join(lines)
 
 
@@ -397,7 +432,9 @@ def _fit(a: FloatArray, b: FloatArray, rcond: float, p: int) -> tuple[dict[str, 
 @one_blas_thread
 def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per_joint"] | ArrayLike | None = None,
              rcond: float | None = None, column_names: Sequence[str] | None = None, n_joints: Integer | None = None,
-             name_tolerance: float = 1e-10) -> IdentificationResult:
+             name_tolerance: float = 1e-10, physical: bool = False, prior: ArrayLike | None = None,
+             prior_weight: float = 1e-6, prior_metric: Literal["euclidean", "entropic"] = "euclidean",
+             com_bounds: Any = None) -> IdentificationResult:
     """Least-squares estimate of the base parameters of ``τ = Y π + ε``.
 
     Parameters
@@ -420,6 +457,27 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     name_tolerance : float
         Coefficients of dependent columns below this magnitude are left out of
         :attr:`IdentificationResult.base_names` (never out of ``combination``).
+    physical : bool
+        Least squares over physically consistent full parameters (module notes): every link's
+        pseudo-inertia PSD and friction ≥ 0; needs ``column_names`` as
+        :meth:`dynval.robots.URDFModel.column_names` gives them and cvxpy
+        (``pip install 'dynval[physical]'``). Sets :attr:`IdentificationResult.full_parameters`.
+    prior : array_like (p,) or None
+        With ``physical=True``: the parameters to pull towards where the data say little (the URDF's
+        a-priori values, :meth:`dynval.robots.URDFModel.parameters`); None pulls towards zero.
+    prior_weight : float
+        Weight of ``‖π − prior‖²`` relative to the mean curvature of the data term (σ²-scaled):
+        the default 1e-6 only picks one answer in the directions the data cannot see.
+    prior_metric : {"euclidean", "entropic"}
+        With ``physical=True``: how the prior pulls. ``"euclidean"``: ``‖π − prior‖²``.
+        ``"entropic"``: each link's Bregman divergence of −log det between its pseudo-inertia and the
+        prior's, ``tr(J₀⁻¹J) − log det(J₀⁻¹J) − 4`` (Lee & Park 2018; invariant to the frame, it keeps
+        J positive definite and penalises a thin, flat or concentrated body more than a Euclidean
+        distance does), scaled by ``2‖J₀‖²_F`` so that near the prior both read alike; friction and
+        other columns Euclidean. Needs a prior whose links have positive definite pseudo-inertias.
+    com_bounds : None, pair or mapping
+        With ``physical=True``: a box ``(lower, upper)`` (m, in the link's joint frame) for every
+        link's centre of mass, or a mapping link → box.
 
     Returns
     -------
@@ -451,6 +509,10 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     names = _check_column_names(column_names, p)
     rows = a.shape[0]
     tol = _check_rcond(rcond, rows, p)
+    if not isinstance(physical, (bool, np.bool_)):
+        raise parameter_error("physical", "True or False", physical)
+    if physical:
+        _consistency.import_cvxpy("identify(physical=True)")
 
     joint_std = None
     if weights is not None:
@@ -487,6 +549,12 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
     sse_w = float(resid_w @ resid_w)
     dof = rows - rank
     sigma2 = sse_w / dof if dof > 0 else float("nan")
+    full = info = None
+    if physical:
+        full, est, resid_w, info = _physical_fit(a_w, b_w, sigma2, names, solved, prior, prior_weight, com_bounds,
+                                                 prior_metric)
+        sse_w = float(resid_w @ resid_w)
+        sigma2 = sse_w / dof if dof > 0 else float("nan")
     cov = sigma2 * solved["cinv"]
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -526,4 +594,26 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         n_columns=p,
         joint_std=joint_std,
         residual_sse=float(resid @ resid),
+        full_parameters=full,
+        physical=info,
     )
+
+
+def _physical_fit(a_w: FloatArray, b_w: FloatArray, sigma2: float, names: tuple[str, ...], solved: dict[str, Any],
+                  prior: ArrayLike | None, prior_weight: float, com_bounds: Any,
+                  prior_metric: str = "euclidean") -> tuple[FloatArray, FloatArray, FloatArray, dict[str, Any]]:
+    """The constrained fit of ``identify(physical=True)``: full parameters, their base combination
+    (in the unconstrained fit's base order), the weighted residual and the solver's record."""
+    import scipy.stats
+
+    fit = _consistency.constrained_fit(a_w, b_w, sigma2, names, prior=prior, prior_weight=prior_weight,
+                                       prior_metric=prior_metric, com_bounds=com_bounds)
+    full = fit.pop("pi")
+    rank = int(solved["rank"])
+    dof = a_w.shape[0] - rank
+    resid_ls, resid = solved["residual"], b_w - a_w @ full
+    # the squared Mahalanobis distance of the unconstrained base estimate to the consistent set
+    d2 = max((float(resid @ resid) - float(resid_ls @ resid_ls)) / sigma2, 0.0) if sigma2 > 0 else float("nan")
+    fit.update(distance2=d2, share=d2 / dof if dof > 0 else float("nan"),
+               pvalue=float(scipy.stats.chi2.sf(d2, rank)))
+    return full, solved["combination"] @ full, resid, fit

@@ -19,6 +19,14 @@ A URDF's ``<dynamics damping=… friction=…/>`` are read as viscous and Coulom
 before the XML reaches pinocchio, which rejects negative Coulomb values that identified models
 sometimes carry.
 
+Physical consistency
+--------------------
+:func:`physical_consistency` says whether a parameter set is a robot at all (per link mass > 0 and
+the pseudo-inertia positive semidefinite, the centre of mass in a box when one is given, friction
+≥ 0), and whether identified base parameters come from some robot; :meth:`URDFModel.identify` with
+``physical=True`` identifies under those constraints (the ``physical`` extra, cvxpy). The
+conditions, the statistics and the solver are described in ``dynval._consistency``.
+
 Differentiation
 ---------------
 Velocities and accelerations are often not logged. :func:`differentiate` returns them from
@@ -32,11 +40,16 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from . import _consistency
+from ._consistency import PARAM_NAMES, BaseConsistency, base_consistency
 from ._derivatives import Derivatives, differentiate
+from ._findings import Finding
 from ._validation import check_finite, parameter_error, promote_signal, to_float_array
 
 __all__ = [
@@ -46,10 +59,10 @@ __all__ = [
     "differentiate",
     "planar_arm_urdf",
     "have_pinocchio",
+    "physical_consistency",
+    "base_consistency",
+    "BaseConsistency",
 ]
-
-PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
-"""pinocchio's order of the ten dynamic parameters of a body."""
 
 
 def have_pinocchio() -> bool:
@@ -195,12 +208,102 @@ class URDFModel:
             tau += self.viscous * dq + self.coulomb * np.sign(dq)
         return tau
 
-    def identify(self, q, dq, ddq, tau_meas, *, friction: bool = True, offset: bool = True, **kwargs):
-        """Base-parameter estimate from motion and torques (:func:`dynval.identify.identify`)."""
+    def identify(self, q, dq, ddq, tau_meas, *, friction: bool = True, offset: bool = True,
+                 physical: bool = False, prior="urdf", **kwargs):
+        """Base-parameter estimate from motion and torques (:func:`dynval.identify.identify`).
+
+        With ``physical=True`` the full parameters are identified under physical consistency
+        (``.full_parameters``, in the order of :meth:`column_names`), pulled towards ``prior``
+        where the data say little: ``"urdf"`` (default) is this URDF's own parameters
+        (:meth:`parameters`), None is zero, or an array of one value per column; ``prior_metric``
+        (``"euclidean"`` or ``"entropic"``), ``prior_weight`` and ``com_bounds`` go to
+        :func:`dynval.identify.identify`.
+        """
         from .identify import identify
 
         y = self.regressor(q, dq, ddq, friction=friction, offset=offset)
-        return identify(y, tau_meas, column_names=self.column_names(friction=friction, offset=offset), **kwargs)
+        names = self.column_names(friction=friction, offset=offset)
+        if physical and isinstance(prior, str) and prior == "urdf":
+            prior = self.parameters(friction=friction, offset=offset)
+        if physical:
+            kwargs["prior"] = prior
+        return identify(y, tau_meas, column_names=names, physical=physical, **kwargs)
+
+
+# --------------------------------------------------------------------------- physical consistency
+
+
+def physical_consistency(model_or_parameters: Any, *, column_names: Sequence[str] | None = None,
+                         joint_names: Sequence[str] | None = None, com_bounds: Any = None,
+                         covariance: Any = None, level: float = 0.95,
+                         tolerance: float = _consistency.TOLERANCE) -> list[Finding]:
+    """Whether any physically realizable robot has these parameters: one finding per violated condition.
+
+    Per link (its ten parameters in pinocchio's order, about the joint frame): mass > 0, and the
+    4×4 pseudo-inertia ``[[½tr(I)·1 − I, m·c], [(m·c)ᵀ, m]]`` positive semidefinite, which is the
+    condition for a mass distribution to exist (it holds positive inertia and the triangle
+    inequalities; tested as the triangle inequality of the principal moments about the centre of
+    mass, whose deficit is the finding's size); the centre of mass inside its box when
+    ``com_bounds`` gives one. Per joint: viscous and Coulomb friction ≥ 0 (friction resists).
+    Identified *base* parameters (an unconstrained :class:`~dynval.identify.IdentificationResult`)
+    are tested for whether some consistent robot maps to them: the distance to the consistent set
+    in the metric of their covariance, with a χ² bound on its p-value (needs cvxpy, the ``physical``
+    extra).
+
+    Parameters
+    ----------
+    model_or_parameters : URDFModel, IdentificationResult or array_like
+        A URDF model (its inertials and ``<dynamics>`` friction); an identification result (its
+        ``full_parameters`` when identified with ``physical=True``, else its base parameters); or a
+        parameter vector in the column order of :meth:`URDFModel.column_names` (ten per link, then
+        ``Fv_*``, ``Fc_*``, offsets), or ``(n_links, 10)``.
+    column_names : sequence of str or None
+        Names of a parameter vector's entries (``<link>:<param>``, ``Fv_<joint>``, ``Fc_<joint>``;
+        other names are not checked); None for ten inertial parameters per link.
+    joint_names : sequence of str or None
+        Names of the joints (link k is moved by joint k) for the messages.
+    com_bounds : None, pair or mapping
+        A box ``(lower, upper)`` (3-vectors, m, in the link's joint frame) for every link's centre
+        of mass, or a mapping link name → box.
+    covariance : array_like (r, r) or None
+        For base parameters: the metric of the distance (default the result's ``covariance``).
+    level : float
+        For base parameters: the distance is significant when its p-value is at most 1 − level.
+    tolerance : float
+        A triangle-inequality deficit or a centre-of-mass excursion below this share of the link's
+        largest principal moment, about its centre of mass or the joint frame's origin (or of the
+        box), is rounding.
+
+    Returns
+    -------
+    list of Finding
+        Kind ``physical_consistency``, severity ``deficiency`` (base parameters: ``note`` when the
+        distance is not significant or costs less than 1 % of the mean square); ``joints`` and
+        ``columns`` are 0-based, ``effect`` the violation's size in ``effect_unit``, ``details``
+        the link or joint, the condition and the numbers.
+
+    Examples
+    --------
+    >>> from dynval.robots import physical_consistency
+
+    A thin rod (1 kg, 1 m along x from the joint) has zero inertia about its own axis: its
+    pseudo-inertia is singular, exactly on the boundary, and it is a robot:
+
+    >>> rod = [1.0, 0.5, 0, 0, 0.0, 0, 1/3, 0, 0, 1/3]
+    >>> physical_consistency(rod)
+    []
+
+    A negative Coulomb friction, and principal moments 0.1, 0.1, 0.3 kg·m² about the centre of
+    mass (no body: 0.1 + 0.1 < 0.3):
+
+    >>> box = [2.0, 0, 0, 0, 0.1, 0, 0.1, 0, 0, 0.3]
+    >>> found = physical_consistency(box + [0.5, -0.2], column_names=[f"l1:{p}" for p in
+    ...     ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")] + ["Fv_j1", "Fc_j1"])
+    >>> [(f.details["condition"], round(f.effect, 6), f.effect_unit) for f in found]
+    [('pseudo-inertia positive semidefinite', 0.1, 'kg·m²'), ('Coulomb friction >= 0', 0.2, 'N·m')]
+    """
+    return _consistency.findings(model_or_parameters, column_names=column_names, joint_names=joint_names,
+                                 com_bounds=com_bounds, covariance=covariance, level=level, tolerance=tolerance)
 
 
 # --------------------------------------------------------------------------- a small URDF
