@@ -646,3 +646,173 @@ def test_time_stamps_note_counts_the_irregular_steps():
                                 details=t)
     _worded(f, w.time_stamps(t))
     assert not _of(compute_findings(_ev(1, timing={**t, "regular": True})), "time_stamps")
+
+
+# ------------------------------------------------------------------- boundaries and joint order
+
+def _rule_evidence(rule: str, p: np.ndarray) -> dict:
+    """Evidence of one rule family with the p-values ``p`` (one per joint) and effects far above
+    the thresholds (every joint would be a deficiency if significant)."""
+    m = p.size
+    if rule == "bias":
+        return dict(mean=np.full(m, 0.9), rmse=np.ones(m), bias_statistic=np.full(m, 9.0), bias_pvalue=p,
+                    n_eff=np.full(m, 400.0))
+    if rule == "missing_term":
+        return dict(column_names=["a", "b"], missing_columns=[1], missing_statistic=np.full((m, 1), 0.3),
+                    missing_pvalue=p[:, None], missing_share=np.full((m, 1), 0.3),
+                    missing_explains_bias=np.zeros((m, 1), bool))
+    if rule == "regressor_correlation":
+        return dict(xcorr_rho=np.full((m, 1, 1), 0.5), xcorr_sd=np.full((m, 1, 1), 0.5 / 2.0))
+    if rule == "oscillation":
+        spec = _spectrum([0.3] * m, m=m)
+        spec["spectrum_pvalue"][10] = p
+        return spec
+    if rule == "whiteness":
+        return _white(p)
+    if rule == "missing_physics":
+        return dict(physics=_library(p, [0.3] * m, ["coulomb"] * m))
+    if rule == "delay":
+        lib = _library(np.full(m, np.nan), [0.01] * m, [None] * m,
+                       delay={"share": np.full(m, 0.3), "pvalue": p, "shift_samples": 2.0})
+        return dict(physics=lib)
+    if rule == "predictive_failure":
+        return dict(predictive={"ratio": np.full(m, 5.0), "pvalue": p, "expected_mse": np.ones(m),
+                                "validation_mse": np.full(m, 5.0)})
+    assert rule == "periodic_error"
+    return dict(periodic={"pvalue": p, "effect_net": np.full(m, 0.5), "statistic": np.full(m, 5.0), "n_periods": 3,
+                          "period": {"seconds": 1.0, "samples": 100}, "noise_variance": np.ones(m)})
+
+
+_KIND = {"missing_term": "regressor_correlation"}
+_RULE_NAMES = ["bias", "missing_term", "regressor_correlation", "oscillation", "whiteness", "missing_physics",
+               "delay", "predictive_failure", "periodic_error"]
+
+
+@pytest.mark.parametrize("rule", _RULE_NAMES)
+def test_a_p_value_exactly_at_alpha_is_significant(rule):
+    """p ≤ α, not p < α: one test in the report (Holm leaves it as it is) at exactly α = 1 − level."""
+    level = 0.9
+    alpha = 1.0 - level
+    if rule == "regressor_correlation":  # the test's p comes from ρ and its sd: set the level from it
+        ev = _ev(1, level=level, **_rule_evidence(rule, np.array([np.nan])))
+        alpha = float(correlation_pvalue(0.5, 0.25))
+        ev.level = 1.0 - alpha
+        alpha = 1.0 - ev.level
+        assert float(correlation_pvalue(0.5, 0.25)) <= alpha
+    else:
+        ev = _ev(1, level=level, **_rule_evidence(rule, np.array([alpha])))
+    assert _of(compute_findings(ev), _KIND.get(rule, rule)), rule
+
+
+@pytest.mark.parametrize("rule", [r for r in _RULE_NAMES if r != "regressor_correlation"])
+def test_a_joint_that_is_not_significant_does_not_stop_the_next(rule):
+    """Every joint is judged: the first not significant, the second found (``continue``, not ``break``)."""
+    ev = _ev(2, **_rule_evidence(rule, np.array([0.9, 1e-9])))
+    found = _of(compute_findings(ev), _KIND.get(rule, rule))
+    assert [f.joints for f in found] == [(1,)], rule
+    # and a deficient joint makes its whiteness a deficiency (the rule marks the joint it found)
+    if rule not in ("whiteness",):
+        ev = _ev(2, **_rule_evidence(rule, np.array([0.9, 1e-9])), **{k: v for k, v in _white([1e-6, 1e-6]).items()
+                                                                        if rule != "whiteness"})
+        severities = sorted((f.joints, f.severity) for f in _of(compute_findings(ev), "whiteness"))
+        assert severities == [((0,), "note"), ((1,), "deficiency")], rule
+
+
+def test_a_correlated_joint_after_a_clean_one_is_found_and_marked_deficient():
+    rho = np.zeros((2, 1, 1))
+    rho[1] = 0.5
+    ev = _ev(2, xcorr_rho=rho, xcorr_sd=np.full((2, 1, 1), 0.05), **_white([1e-6, 1e-6]))
+    found = compute_findings(ev)
+    assert [f.joints for f in _of(found, "regressor_correlation")] == [(1,)]
+    assert sorted((f.joints, f.severity) for f in _of(found, "whiteness")) == [((0,), "note"), ((1,), "deficiency")]
+
+
+def test_pooling_boundary_and_two_joints():
+    pooled = 0.6
+    r2 = np.array([0.9, pooled - 0.05])  # exactly at pooled − 0.05: not "well below"
+    assert not _of(compute_findings(_ev(2, r2=r2, pooled_r2=pooled)), "pooling")
+    r2 = np.array([0.9, np.nextafter(pooled - 0.05, 0.0)])
+    assert [f.joints for f in _of(compute_findings(_ev(2, r2=r2, pooled_r2=pooled)), "pooling")] == [(1,)]
+
+
+def test_correlation_ties_go_to_the_lower_column_and_lags_to_the_earliest_near_the_strongest():
+    rho = np.zeros((1, 2, 3))
+    rho[0, 0, 2] = 0.4  # column 0 at lag 2
+    rho[0, 1, 1] = 0.4  # column 1 at lag 1: the same size; the lower column comes first
+    (f,) = _of(compute_findings(_ev(1, xcorr_rho=rho, xcorr_sd=np.full(rho.shape, 0.02))), "regressor_correlation")
+    assert f.columns == (0, 1) and f.details["lag"] == 2
+    rho = np.zeros((1, 1, 4))
+    rho[0, 0, 3] = 0.4
+    rho[0, 0, 1] = 0.9 * 0.4  # the same product the rule forms
+    (f,) = _of(compute_findings(_ev(1, xcorr_rho=rho, xcorr_sd=np.full(rho.shape, 0.02))), "regressor_correlation")
+    assert f.details["lag"] == 1  # at 0.9 of the strongest counts as near it
+
+
+def test_missing_terms_sort_nan_shares_last_and_every_joint_is_judged():
+    p = np.array([[0.9, 0.9], [1e-9, 1e-9]])
+    share = np.array([[0.3, 0.3], [np.nan, 0.2]])
+    ev = _ev(2, column_names=["a", "b", "c"], missing_columns=[1, 2], missing_statistic=np.full((2, 2), 0.2),
+             missing_pvalue=p, missing_share=share, missing_explains_bias=np.zeros((2, 2), bool))
+    (f,) = _of(compute_findings(ev), "regressor_correlation")
+    assert f.joints == (1,) and f.columns == (2,) and f.effect == 0.2
+    # the refit: a column that matters on no joint is skipped there, the next joint still judged
+    ev = _ev(2, column_names=["a", "b", "c"], missing_columns=[1, 2], missing_method="estimation_refit",
+             missing_statistic=np.array([5.0, 5.0]), missing_pvalue=np.array([1e-9, 1e-9]),
+             missing_share=np.array([[0.001, 0.001], [0.2, 0.001]]), missing_explains_bias=np.zeros((2, 2), bool))
+    assert [f.joints for f in _of(compute_findings(ev), "regressor_correlation")] == [(1,)]
+
+
+def test_missing_physics_names_the_other_groups_by_share_from_one_percent():
+    lib = _library([1e-9], [0.3], ["coulomb"], others={0: {"offset": 0.01, "viscous": 0.05, "drift": 0.0099}})
+    (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
+    _worded(f, w.missing_physics("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3, 0.3,
+                                 f.pvalue_adjusted, True))
+    del lib["tests"][0]["selected_share"]  # without a selection, the term's own share is what it removes
+    lib["tests"][0]["term_share"] = 0.2
+    (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
+    assert f.details["selected_share"] == 0.2
+
+
+def test_a_delay_names_the_joint_it_removes_most_from_and_its_threshold_is_inclusive():
+    delay = {"share": np.array([0.05, 0.3]), "pvalue": np.array([1e-9, 1e-8]), "shift_samples": 2.0}
+    lib = _library([np.nan, np.nan], [0.0, 0.0], [None, None], delay=delay)
+    (f,) = _of(compute_findings(_ev(2, physics=lib)), "delay")
+    assert f.joints == (0, 1) and f.effect == 0.3 and f.pvalue == 1e-8  # the strongest joint's test
+
+
+def test_predictive_and_motion_deficiencies_reach_the_whiteness_of_their_joints():
+    pred = {"ratio": np.array([1.0, 5.0]), "pvalue": np.array([0.9, 1e-9]), "expected_mse": np.ones(2),
+            "validation_mse": np.array([1.0, 5.0])}
+    per = {"pvalue": np.array([1e-9, 0.9]), "effect_net": np.array([0.5, 0.5]), "statistic": np.array([5.0, 1.0]),
+           "n_periods": 3, "period": {"seconds": 1.0, "samples": 100}, "noise_variance": np.ones(2)}
+    ev = _ev(2, predictive=pred, periodic=per, **_white([1e-6, 1e-6]))
+    assert sorted((f.joints, f.severity) for f in _of(compute_findings(ev), "whiteness")) == [
+        ((0,), "deficiency"), ((1,), "deficiency")]
+
+
+def test_column_motion_threshold_is_strict_and_structural_columns_are_skipped():
+    x = _excitation(column_motion_ratio=[0.1, 0.05, 0.05, 0.5], unexcited=[], unidentifiable=[], inseparable=[],
+                    structural=[2])
+    found = [f for f in _of(compute_findings(_ev(1, excitation=x, column_names=["a", "b", "c", "d"])), "excitation")
+             if f.effect_unit == "column RMS relative to the estimation run"]
+    (f,) = found
+    assert f.columns == (1,)
+    _worded(f, w.column_motion([("b", 0.05)], 0.1))
+
+
+def test_thresholds_errors_name_the_bad_value():
+    with pytest.raises(InvalidParameter, match=r"got -0\.5$"):
+        resolve_thresholds({"bias": -0.5})
+    with pytest.raises(InvalidParameter, match=r"got 7$"):
+        resolve_thresholds(7)
+
+
+def test_only_whiteness_is_set_aside_when_asking_what_a_joint_names():
+    from dynval._findings import _unresolved
+
+    ev = _ev(1, detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
+    white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
+    # whiteness alone names nothing: the joint is not unresolved by it (and nothing else is named)
+    assert _unresolved(ev, [white], {0}) == {}
+    osc = Finding(kind="oscillation", severity="deficiency", joints=(0,), effect=0.3)
+    assert _unresolved(ev, [osc], {0}) == {}  # an oscillation is not a named term: resolved
