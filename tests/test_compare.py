@@ -218,10 +218,18 @@ def test_refine_is_decided_by_the_winners_deficiency():
     assert v.first_step == primary[0].action and "Fc" in v.first_step
     # the verdict's text: decided by, then what to do first, then the reasons
     text = v.summary()
-    assert text == str(v) and text in cmp.summary()
+    assert text == str(v)
     assert text.index("decided by:") < text.index(f"do first: {v.first_step}") < text.index(v.reasons[0])
     for d in v.decided_by:
         assert d.label() in text
+    # in the comparison's text the verdict does not repeat the findings printed above it: each
+    # message stands once, and the verdict counts them
+    full = cmp.summary()
+    assert text.split("\n  - ")[0] in full
+    for f in cmp.reports["rigid+viscous"].findings:
+        assert full.count(f.message) == 1, f.message
+    repeated = [r for r in v.reasons if any(r.startswith(f.message) for f in cmp.reports["rigid+viscous"].findings)]
+    assert repeated and f"(and the {len(repeated)} finding" in full
     got = _strict(cmp)["verdict"]["decided_by"]
     assert got == [{"model": d.model, "kind": d.kind, "severity": d.severity, "joints": list(d.joints),
                     "columns": list(d.columns), "message": d.message} for d in v.decided_by]

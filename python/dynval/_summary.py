@@ -7,6 +7,7 @@ change independently.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from ._text import pvalue_text
 from ._typing import ReportSections
@@ -274,7 +275,8 @@ def format_comparison(cmp) -> str:
     lines += format_findings(cmp.reports[best].findings)
     for f in cmp.findings:
         lines.append(f"  - [{_SEVERITY_LABEL[f.severity]}] {f.message}")
-    lines += [""] + format_verdict(cmp.verdict, criterion=crit)
+    shown = [f.message for f in cmp.reports[best].findings] + [f.message for f in cmp.findings]
+    lines += [""] + format_verdict(cmp.verdict, criterion=crit, shown=shown)
     return "\n".join(lines)
 
 
@@ -292,8 +294,11 @@ def _format_candidate_reasons(cmp) -> list:
     return lines
 
 
-def format_verdict(verdict, criterion=None) -> list:
-    """The verdict's lines: decision and model, what decided it, what to do first, the reasons."""
+def format_verdict(verdict, criterion=None, shown: Sequence[str] = ()) -> list:
+    """The verdict's lines: decision and model, what decided it, what to do first, the reasons.
+
+    ``shown``: finding messages the text already printed; a reason that repeats one is not
+    printed again, and a line counts them instead."""
     lines = [f"Verdict: {verdict.decision.upper()} — {verdict.model}"]
     decided = tuple(getattr(verdict, "decided_by", ()) or ())
     if decided:
@@ -309,5 +314,10 @@ def format_verdict(verdict, criterion=None) -> list:
     first = getattr(verdict, "first_step", "")
     if first:
         lines.append(f"  do first: {first}")
-    lines += [f"  - {r}" for r in verdict.reasons]
+    said = tuple(shown)
+    repeated = [r for r in verdict.reasons if any(r.startswith(text) for text in said)]
+    lines += [f"  - {r}" for r in verdict.reasons if r not in repeated]
+    if repeated:
+        lines.append(f"  (and the {len(repeated)} finding{'s' if len(repeated) > 1 else ''} of {verdict.model} "
+                     "listed above)")
     return lines
