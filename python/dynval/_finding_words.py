@@ -170,7 +170,8 @@ def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], thr
 def oscillation(name: str, frequency: float, unit: str, share: float, ratio: float, padj: float, big: bool) -> Words:
     return (f"{name}: the residual oscillates near {frequency:.3g} {unit} ({100 * share:.0f} % of its variance, "
             f"{ratio:.0f}× the background; Holm-adjusted p {p_text(padj)})"
-            + (": unmodelled dynamics, e.g. joint flexibility (the lesson's Problem 5)." if big else NEGLIGIBLE),
+            + (": dynamics the model lacks, e.g. a flexible joint or link (an unmodelled mode)." if big
+               else NEGLIGIBLE),
             f"an unmodelled mode near {frequency:.3g} {unit}: add joint or link compliance (a spring–damper) or keep "
             "trajectories away from it" if big else "none: the peak is real but small")
 
@@ -181,13 +182,15 @@ def sampling_colour(name: str, band: float | None, unit: str, decimation: int) -
                if band is not None else f"decimated by {decimation} (the factor given)")
     return (f"{name}: the residual is coloured at the logged rate but white once {reduced}: the colour is what the "
             "sensor, its filters and the sampling make, not the model.",
-            "none for the model; validate at the information rate (decimate=) or log less filtered data")
+            "none for the model; test at the rate the motion needs (decimate=) or log less filtered data")
 
 
 def whiteness(name: str, decimated: bool, lag: int | None, padj: float, backed: bool) -> Words:
     """``backed``: an earlier rule found the joint deficient."""
-    rate = "at the information rate" if decimated else "at the logged rate"
-    return (f"{name}: the residuals are not white {rate} (Ljung–Box up to lag {lag}, Holm-adjusted p {p_text(padj)})"
+    rate = ("at the rate the motion needs (the information rate)" if decimated
+            else "at the logged rate")
+    return (f"{name}: the residuals are correlated in time (not white) {rate} (Ljung–Box up to lag {lag}, "
+            f"Holm-adjusted p {p_text(padj)})"
             + (", and the findings above show the structure is the model's." if backed
                else "; colour alone is not evidence against the model (sensor filtering, oversampling and "
                     "estimation error colour residuals too)."),

@@ -111,7 +111,7 @@ def _criteria_lines(ic) -> list:
         f"Information criteria ({ic['noise_model']} noise model, Gaussian constant {ic['constant']}, "
         f"n = {ic['n_obs']}, p = {ic['n_params']}):",
         f"  AIC {_num(ic['aic'], '.2f')}   BIC {_num(ic['bic'], '.2f')}   AICc {_num(ic['aicc'], '.2f')}   "
-        f"FPE {_num(ic['fpe'], '.5g')}   nAIC {_num(ic['naic'], '.6f')}",
+        f"FPE {_num(ic['fpe'], '.5g')}   normalised AIC (nAIC) {_num(ic['naic'], '.6f')}",
     ]
     if ic["n_params"] >= ic["n_obs"] - 1:
         lines.append(f"  AICc and FPE are undefined (nan): they need p < n − 1, and p = {ic['n_params']} with "
