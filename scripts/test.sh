@@ -101,5 +101,8 @@ step "sanitizers: the fuzz suite against dynval._core built with -fsanitize=addr
 PYTHON="$PY" bash scripts/sanitize.sh 40
 
 step "conformance matrix (README.md against a fresh run of the ports it lists)"
-# Two port processes per port: Mathics3 takes about a second per case.
-"$PY" -m dynval conform --matrix --ports python,cpp,java,matlab,wolfram --jobs 2 --check-readme
+# Two port processes per port: Mathics3 takes about a second per case. A busy machine can take a
+# Mathics3 case past the default 30 s per case: 120 s here (and 300 s to start a port); the run
+# prints a progress line a minute for a long port, and every failed case with expected and got.
+"$PY" -m dynval conform --matrix --ports python,cpp,java,matlab,wolfram --jobs 2 --timeout 120 \
+  --startup-timeout 300 --check-readme

@@ -662,3 +662,32 @@ def test_jobs_must_be_positive(tmp_path):
     err = io.StringIO()
     assert main(["--jobs", "0", "--", "true"], stdout=io.StringIO(), stderr=err) == 2
     assert "--jobs must be a positive integer" in err.getvalue()
+
+
+def test_the_matrix_logs_progress_of_long_ports_and_every_failed_case():
+    """A long port says how far it is once a minute; a failed case is printed with expected and got,
+    so that reading a failure needs no rerun (at most 20, the rest counted)."""
+    from dynval.conform._matrix import failure_lines, progress_lines
+    from dynval.conform._runner import CaseOutcome, RunResult
+
+    result = RunResult(command=["port"], corpus="c", families=["point"])
+    now = [0.0]
+    lines: list[str] = []
+    progress = progress_lines("wolfram", lines.append, every=60.0, clock=lambda: now[0])
+    result.outcomes.append(CaseOutcome(id="point-1", family="point", tc_id=1, operation="rmse", conventions="{}",
+                                       status="failed", reason="mismatch", detail="value differs",
+                                       expected={"value": 1.0}, got={"value": 2.0}))
+    for done, t in ((1, 30.0), (2, 61.0), (3, 90.0), (4, 122.0), (5, 500.0)):
+        now[0] = t
+        progress(done, 5, result)
+    assert lines == ["conform --matrix: wolfram: 2/5 cases, 1 failed so far, 61 s",
+                     "conform --matrix: wolfram: 4/5 cases, 1 failed so far, 122 s"]  # none at the end
+    assert failure_lines(result) == [
+        '  FAILED point-1 (rmse; {}): mismatch: value differs; expected {"value": 1.0}, got {"value": 2.0}']
+    for k in range(2, 25):
+        result.outcomes.append(CaseOutcome(id=f"point-{k}", family="point", tc_id=k, operation="rmse",
+                                           conventions="{}", status="failed" if k % 2 else "passed",
+                                           reason="timeout"))
+    got = failure_lines(result, most=5)
+    assert len(got) == 6 and got[1] == "  FAILED point-3 (rmse; {}): timeout"
+    assert got[-1] == "  ... and 7 more failed cases (dynval conform -- COMMAND lists them all)"

@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import json
 import os
 import pathlib
 import shlex
 import shutil
 import sys
+import time
 from collections.abc import Callable, Sequence
-from typing import TextIO
+from typing import Any, TextIO
 
 from ._runner import RunResult, run
 
@@ -117,7 +119,8 @@ def run_matrix(
         try:
             result = run(spec.command, corpus=corpus, families=families, timeout=timeout,
                          startup_timeout=startup_timeout, max_restarts=max_restarts,
-                         skip_unclaimed=skip_unclaimed, jobs=jobs)
+                         skip_unclaimed=skip_unclaimed, jobs=jobs,
+                         progress=progress_lines(spec.name, log) if log else None)
         finally:
             for key, value in saved.items():
                 if value is None:
@@ -128,8 +131,54 @@ def run_matrix(
             total = result.counts()["total"]
             log(f"conform --matrix: {spec.name}: {total['passed']} passed, {total['failed']} failed, "
                 f"{total['skipped']} skipped, {total['partial']} partial in {result.seconds:.1f} s")
+            for line in failure_lines(result):
+                log(line)
         rows.append(MatrixRow(spec, result))
     return rows
+
+
+PROGRESS_SECONDS = 60.0
+"""A long port (Mathics3 takes about a second per case) says how far it is this often."""
+
+SHOWN_FAILURES = 20
+"""Failed cases listed after a port's counts; the rest are counted."""
+
+
+def progress_lines(name: str, log: Callable[[str], None], *, every: float = PROGRESS_SECONDS,
+                   clock: Callable[[], float] = time.monotonic) -> Callable[[int, int, RunResult], None]:
+    """A ``progress`` callback for :func:`run` that logs one line per ``every`` seconds: cases done
+    of all, the failures so far, the time spent."""
+    start = clock()
+    last = [start]
+
+    def progress(done: int, total: int, result: RunResult) -> None:
+        now = clock()
+        if done < total and now - last[0] >= every:
+            last[0] = now
+            failed = sum(o.status == "failed" for o in result.outcomes)
+            log(f"conform --matrix: {name}: {done}/{total} cases, {failed} failed so far, {now - start:.0f} s")
+
+    return progress
+
+
+def _short(value: Any, most: int = 160) -> str:
+    text = json.dumps(value, ensure_ascii=False, default=str)
+    return text if len(text) <= most else text[:most - 1] + "…"
+
+
+def failure_lines(result: RunResult, most: int = SHOWN_FAILURES) -> list[str]:
+    """Each failed case (up to ``most``): its id, operation, conventions, why, and expected against
+    got, so that a failure needs no rerun to be read."""
+    failed = [o for o in result.outcomes if o.status == "failed"]
+    lines = []
+    for o in failed[:most]:
+        line = f"  FAILED {o.id} ({o.operation}; {o.conventions}): {o.reason}" + (f": {o.detail}" if o.detail else "")
+        if o.expected or o.got:
+            line += f"; expected {_short(o.expected)}, got {_short(o.got)}"
+        lines.append(line)
+    if len(failed) > most:
+        lines.append(f"  ... and {len(failed) - most} more failed cases (dynval conform -- COMMAND lists them all)")
+    return lines
 
 
 def format_matrix(rows: Sequence[MatrixRow], families: Sequence[str]) -> str:
@@ -214,5 +263,5 @@ def check_readme(path: pathlib.Path, table: str, out: TextIO) -> bool:
 
 __all__ = [
     "START_MARKER", "END_MARKER", "BUILTIN_PORTS", "PortSpec", "MatrixRow", "builtin_port", "custom_port",
-    "run_matrix", "format_matrix", "matrix_ok", "write_readme", "check_readme",
+    "run_matrix", "format_matrix", "matrix_ok", "write_readme", "check_readme", "progress_lines", "failure_lines",
 ]
