@@ -194,6 +194,8 @@ def test_metrics_cut_very_negative_bars_and_print_their_value(flexible):
     assert min(heights) == -1.0
     printed = [t.get_text() for t in r2_ax.texts]
     assert f"{bad.per_joint['r2'][0]:.3g}" in printed
+    assert "cut" in r2_ax.get_title(loc="right")  # the printed values are explained
+    assert "perfect" in printed  # and so is the dotted line at the top
 
 
 def test_prediction_figure(flexible, tmp_path):

@@ -506,6 +506,7 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
         top = 100.0 if unit == "percent" else 1.0
         floor = -top
         lowest = 0.0
+        cut = False
         for i, name in enumerate(order):
             vals = np.asarray(reports[name].per_joint[metric], dtype=float)
             shown = np.maximum(vals, floor)
@@ -515,14 +516,20 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
                    edgecolor="black" if name == chosen else "none", linewidth=1.5 if name == chosen else 0)
             for xp, v in zip(pos, vals):
                 if v < floor:
+                    cut = True
                     ax.text(xp, floor, f"{v:.3g}", rotation=90, ha="center", va="bottom", fontsize="x-small",
                             color="white" if i % len(_COLOURS) in (0, 1, 3, 5) else "black")
             lowest = min(lowest, float(np.nanmin(shown)))
         ax.axhline(top, color="black", lw=0.8, ls=":")
+        ax.annotate("perfect", (1.0, top), xycoords=("axes fraction", "data"), xytext=(-3, 2),
+                    textcoords="offset points", ha="right", va="bottom", fontsize="x-small")
         ax.axhline(0.0, color="black", lw=0.6)
+        if cut:
+            ax.set_title(f"bars below {floor:g} are cut there, their value printed on them", loc="right",
+                         fontsize="x-small")
         ax.set_ylabel(f"{_METRIC_LABELS.get(metric, metric)} ({label_unit})" if label_unit else metric)
         ax.grid(True, axis="y", alpha=0.3)
-        ax.set_ylim(lowest * 1.05 if lowest < 0 else 0.0, top * 1.08)
+        ax.set_ylim(lowest * 1.05 if lowest < 0 else 0.0, top * 1.12)
     axes[-1].set_xticks(x, jnames, rotation=30 if m > 4 else 0, ha="right" if m > 4 else "center")
     axes[-1].set_xlabel("joint")
     handles, labels = axes[0].get_legend_handles_labels()
