@@ -148,8 +148,10 @@ def test_cross_correlation_heatmap(flexible, tmp_path):
     arr = img.get_array()
     assert arr.shape == (2, 12)
     xc = rep.cross_correlation
-    mx = np.asarray(xc["max_abs_rho"]) if "max_abs_rho" in xc else np.nanmax(np.abs(xc["rho"]), axis=2)
-    expected = np.where(np.asarray(xc["constant_mask"]), np.nan, mx / xc["band"])
+    # the colour-aware band of the findings: max over lags of |ρ|/sd(ℓ), over the band's z
+    from dynval._stats import z_two_sided
+
+    expected = np.where(np.asarray(xc["constant_mask"]), np.nan, np.asarray(xc["z_max"]) / z_two_sided(xc["level"]))
     np.testing.assert_allclose(np.ma.filled(arr.astype(float), np.nan), expected, equal_nan=True)
     assert [t.get_text() for t in ax.get_xticklabels()] == list(d.full_column_names)
     assert [t.get_text() for t in ax.get_yticklabels()] == list(d.joint_names)
@@ -192,6 +194,8 @@ def test_metrics_cut_very_negative_bars_and_print_their_value(flexible):
     assert min(heights) == -1.0
     printed = [t.get_text() for t in r2_ax.texts]
     assert f"{bad.per_joint['r2'][0]:.3g}" in printed
+    assert "cut" in r2_ax.get_title(loc="right")  # the printed values are explained
+    assert "perfect" in printed  # and so is the dotted line at the top
 
 
 def test_prediction_figure(flexible, tmp_path):
@@ -227,3 +231,115 @@ def test_autocorrelation_by_model(flexible, tmp_path):
         band = next(ln for ln in ax.get_lines() if ln.get_linestyle() == "--")
         np.testing.assert_allclose(band.get_ydata(), reports[name].autocorrelation["band"][1:, 1])
     _renders(fig, tmp_path, "acf_models")
+
+
+def _colour_aware_beyond(xc):
+    """The cells beyond the colour-aware band, from the report's fields alone: |ρ| above z·sd(ℓ)
+    at the strongest lag, sd(ℓ) Bartlett's for two coloured series (the findings' rule)."""
+    from dynval._stats import z_two_sided
+
+    z = z_two_sided(float(xc["level"]))
+    mask = np.asarray(xc["constant_mask"], dtype=bool)
+    with np.errstate(invalid="ignore"):
+        return ~mask & (np.asarray(xc["z_max"], dtype=float) > z)
+
+
+def _white_beyond(xc):
+    mask = np.asarray(xc["constant_mask"], dtype=bool)
+    return ~mask & (np.asarray(xc["max_abs_rho"], dtype=float) > float(xc["band"]))
+
+
+def test_spectrum_frequency_axis_is_logarithmic_without_the_zero_bin(flexible):
+    _d, _preds, reports = flexible
+    rep = reports["friction"]
+    fig = plot.spectrum(rep)
+    for ax in fig.axes:
+        assert ax.get_xscale() == "log"
+        psd = ax.get_lines()[0]
+        assert np.all(np.asarray(psd.get_xdata()) > 0)
+    assert fig.axes[-1].get_xlim()[0] > 0
+    # the report's information band is marked
+    band = rep.whiteness["information_band"]
+    assert band is not None
+    assert "information band" in _texts(fig)
+    # without a rate: cycles/sample, still logarithmic
+    rng = np.random.default_rng(1)
+    fig2 = plot.spectrum(residuals=rng.normal(size=(2000, 1)))
+    assert fig2.axes[0].get_xscale() == "log" and "cycles/sample" in fig2.axes[0].get_xlabel()
+
+
+def test_cross_correlation_beyond_cells_are_the_colour_aware_ones(flexible):
+    d, _preds, reports = flexible
+    # a residual that is coloured (a smooth error) against smooth regressor columns: the white
+    # band flags far more cells than the colour-aware one
+    val = d.validation
+    rng = np.random.default_rng(3)
+    smooth = np.cumsum(rng.normal(size=val.tau_meas.shape), axis=0) * 0.02
+    rep = dynval.validate(val.tau_meas, val.tau_meas + smooth, n_params=0, regressor=val.full_regressor,
+                          sample_rate=d.sample_rate, joint_names=list(d.joint_names),
+                          column_names=list(d.full_column_names))
+    xc = rep.cross_correlation
+    aware, white = _colour_aware_beyond(xc), _white_beyond(xc)
+    assert (aware != white).any(), "the example does not tell the two bands apart"
+    for r in (rep, reports["rigid"]):
+        x = r.cross_correlation
+        fig = plot.cross_correlation(r)
+        arr = np.ma.filled(fig.axes[0].get_images()[0].get_array().astype(float), np.nan)
+        with np.errstate(invalid="ignore"):
+            shown = np.isfinite(arr) & (arr > 1.0)
+        np.testing.assert_array_equal(shown, _colour_aware_beyond(x))
+        # the printed values are exactly on those cells
+        printed = {(round(t.get_position()[1]), round(t.get_position()[0])) for t in fig.axes[0].texts
+                   if t.get_text() != "–"}
+        assert printed == {tuple(int(i) for i in c) for c in np.argwhere(_colour_aware_beyond(x))}
+        assert "colour-aware" in _texts(fig)
+
+
+def test_cross_correlation_without_colour_fields_falls_back_to_white_and_says_so(flexible):
+    _d, _preds, reports = flexible
+    xc = dict(reports["rigid"].cross_correlation.items())
+    for key in ("z_max", "colour_factor"):
+        xc.pop(key)
+    fig = plot.cross_correlation(xc)
+    arr = np.ma.filled(fig.axes[0].get_images()[0].get_array().astype(float), np.nan)
+    expected = np.where(np.asarray(xc["constant_mask"]), np.nan, np.asarray(xc["max_abs_rho"]) / xc["band"])
+    np.testing.assert_allclose(arr, expected, equal_nan=True)
+    assert "white" in fig.legends[0].get_title().get_text()
+
+
+def test_cross_correlation_legend_explains_every_mark(flexible):
+    _d, _preds, reports = flexible
+    rep = reports["rigid"]
+    fig = plot.cross_correlation(rep)
+    assert fig.legends, "the heatmap has no legend"
+    text = "\n".join(t.get_text() for t in fig.legends[0].get_texts())
+    assert "beyond the band" in text and "grey" in text and "constant" in text and "finding" in text
+    # many columns: beyond-the-band cells are dots, and the legend says what a dot is
+    xc = dict(rep.cross_correlation.items())
+    reps = 3
+    for key in ("constant_mask", "max_abs_rho", "z_max", "colour_factor", "lag_of_max"):
+        xc[key] = np.tile(np.asarray(xc[key]), (1, reps))
+    fig2 = plot.cross_correlation(xc)
+    dots = [ln for ln in fig2.axes[0].get_lines() if ln.get_marker() == "o"]
+    assert len(dots) == int(_colour_aware_beyond(xc).sum())
+    assert "dot" in "\n".join(t.get_text() for t in fig2.legends[0].get_texts())
+
+
+def test_every_axes_with_marks_has_a_legend_or_text(flexible):
+    d, preds, reports = flexible
+    rep = reports["friction"]
+    figs = [plot.residuals(d.validation.tau_meas, preds["friction"], sample_rate=100.0, segments=[500, 1000]),
+            plot.autocorrelation(rep), plot.autocorrelation_by_model(reports, chosen="friction"),
+            plot.spectrum(rep, reference=d.mode_frequency), plot.cross_correlation(reports["rigid"]),
+            plot.metrics(reports, chosen="friction"),
+            plot.prediction(d.validation.tau_meas, preds["friction"], report=rep)]
+    for fig in figs:
+        colourbars = {id(ax) for ax in fig.axes if ax.get_label() == "<colorbar>"}
+        for ax in fig.axes:
+            if id(ax) in colourbars:
+                continue
+            marks = ax.get_lines() or ax.collections or ax.get_images() or ax.patches
+            if not marks:
+                continue
+            explained = ax.get_legend() is not None or bool(fig.legends)
+            assert explained, f"{fig.get_suptitle()!r}: an axes with marks has no legend"

@@ -238,8 +238,9 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
                      "Residual spectrum per joint; oscillations found by the report are marked."))
     if getattr(report, "cross_correlation", None) is not None:
         figs.append((plot.cross_correlation(report),
-                     "Residual × regressor-column cross-correlation, max |ρ| over lags divided by the band; "
-                     "cells above 1 are outside it, outlined cells are named by a finding."))
+                     "Residual × regressor-column cross-correlation, max |ρ| over lags divided by the band the "
+                     "findings use (colour-aware when the report has it); cells above 1 are beyond it, grey "
+                     "cells are constant columns, outlined cells are named by a finding."))
     return figs
 
 

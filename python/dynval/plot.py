@@ -9,8 +9,8 @@ a figure is made. The figures are built on ``matplotlib.figure.Figure`` directly
 :func:`residuals`           residual over time per joint, segment boundaries marked
 :func:`autocorrelation`     residual autocorrelation per joint with its band (lesson §4.2)
 :func:`autocorrelation_by_model`  one joint's residual autocorrelation for each candidate
-:func:`spectrum`            residual spectrum per joint, found oscillations marked
-:func:`cross_correlation`   joints × regressor columns heatmap of max |ρ| / band
+:func:`spectrum`            residual spectrum per joint (log–log), found oscillations marked
+:func:`cross_correlation`   joints × regressor columns heatmap of max |ρ| / colour-aware band
 :func:`metrics`             per-joint VAF / fit / R² bars for each candidate of a comparison
 :func:`prediction`          measured and predicted torque per joint
 ==========================  ==============================================================
@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 __all__ = ["residuals", "autocorrelation", "autocorrelation_by_model", "spectrum", "cross_correlation",
-           "metrics", "prediction", "save", "welch"]
+           "cross_correlation_ratio", "metrics", "prediction", "save", "welch"]
 
 _MEASURED = "#4d4d4d"
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
@@ -267,14 +267,35 @@ def _peaks(report, spec, peaks):
     return out
 
 
+def _spectrum_marks(report, funit):
+    """The report's information band and input bandwidth (frequency, label, style), when it has them."""
+    wh = getattr(report, "whiteness", None) if report is not None else None
+    marks = []
+    if wh is None:
+        return marks
+    try:
+        band = wh.get("information_band")
+        bandwidth = wh.get("bandwidth")
+    except AttributeError:
+        return marks
+    if band is not None and np.isfinite(band) and band > 0:
+        marks.append((float(band), f"information band edge ({float(band):.3g} {funit})", "#2ca02c", "--"))
+    if bandwidth is not None and np.isfinite(bandwidth) and bandwidth > 0 and funit == "Hz":
+        marks.append((float(bandwidth), f"input bandwidth ({float(bandwidth):.3g} Hz)", "#9467bd", "-."))
+    return marks
+
+
 def spectrum(report=None, *, residuals=None, sample_rate=None, joint_names=None, peaks=None,
              reference=None, reference_label: str = "expected mode", title=None, unit: str = "N·m"):
-    """Residual power spectrum per joint (log scale), found oscillations marked.
+    """Residual power spectrum per joint, both axes logarithmic, found oscillations marked.
 
     The spectrum is the report's (``report.spectrum``: frequency, power, peaks) when it has one,
     else a Welch estimate of ``residuals``. ``peaks`` overrides the report's peaks: a list of
     ``(joint, frequency, ...)`` tuples or dicts with ``joint`` and ``frequency``. ``reference``
-    draws a dotted vertical line at a known frequency (for instance a simulated mode).
+    draws a dotted vertical line at a known frequency (for instance a simulated mode). The
+    frequency axis is logarithmic (the 0 bin is left out): the low frequencies where a robot's
+    motion lives get their share of the width. The report's information band and input
+    bandwidth, when it has them, are drawn as vertical lines.
     """
     spec = getattr(report, "spectrum", None) if report is not None else None
     fs = sample_rate if sample_rate is not None else _provenance(report, "sample_rate")
@@ -290,50 +311,91 @@ def spectrum(report=None, *, residuals=None, sample_rate=None, joint_names=None,
     m = power.shape[1]
     names = _joint_names(joint_names, m, report)
     found = _peaks(report, spec, peaks)
-    fig = _figure(10, 1.0 + 2.0 * m)
+    marks = _spectrum_marks(report, funit)
+    fig = _figure(10, 1.4 + 2.0 * m)
     axes = _stack_axes(fig, m)
     punit = f"({unit})²/Hz" if funit == "Hz" else f"({unit})²·sample"
+    positive = freq > 0
+    fpos = freq[positive]
+    if not fpos.size:
+        raise ValueError("the spectrum has no positive frequency")
     for j, ax in enumerate(axes):
-        pos = power[:, j] > 0
-        ax.semilogy(freq[pos], power[pos, j], color=_COLOURS[j % len(_COLOURS)], lw=1.2, label="residual PSD")
-        marked = [f for (jj, f) in found if jj == j]
+        pos = positive & (power[:, j] > 0)
+        ax.loglog(freq[pos], power[pos, j], color=_COLOURS[j % len(_COLOURS)], lw=1.2, label="residual PSD")
+        marked = [f for (jj, f) in found if jj == j and f > 0]
         for i, f in enumerate(marked):
             k = int(np.argmin(np.abs(freq - f)))
             ax.plot([freq[k]], [power[k, j]], "v", color="#d62728", ms=9,
                     label="oscillation found" if i == 0 else None)
             ax.annotate(f"{f:.3g} {funit}", (freq[k], power[k, j]), textcoords="offset points",
                         xytext=(6, 6), color="#d62728", fontsize="small")
-        if reference is not None:
+        for f, label, colour, ls in marks:
+            if fpos[0] <= f <= fpos[-1]:
+                ax.axvline(f, color=colour, ls=ls, lw=1.3, label=label)
+        if reference is not None and reference > 0:
             ax.axvline(reference, color="black", ls=":", lw=1.2, label=f"{reference_label} ({reference:.3g} {funit})")
         lo, hi = ax.get_ylim()
         ax.set_ylim(lo, hi * 4.0)  # room for the peak labels
         ax.set_ylabel(f"{names[j]}\nPSD {punit}")
-        ax.legend(loc="upper right", fontsize="small")
+        ax.legend(loc="upper right", fontsize="small", framealpha=0.85)
         ax.grid(True, which="both", alpha=0.3)
     axes[-1].set_xlabel(f"frequency ({funit})")
-    axes[-1].set_xlim(freq[0], freq[-1])
+    axes[-1].set_xlim(fpos[0], fpos[-1])
     fig.suptitle(title or "Residual spectrum per joint (Welch)")
     return fig
+
+
+def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
+    """The heatmap's cells: ``max_ℓ |ρ(ℓ)| / band`` per joint × column, and whether the band is
+    the colour-aware one.
+
+    The colour-aware band is the one the findings use: Bartlett's variance for two coloured
+    series (``z_max``, the largest |ρ(ℓ)|/sd(ℓ) over the lags, divided by the band's z), so a
+    cell above 1 is one whose correlation exceeds z·sd at some lag. Without ``z_max`` (a
+    streamed report) the colour factor scales the white band when it is there, else the white
+    band z/√N is used, and the second value is False. Constant columns are NaN.
+    """
+    from ._stats import z_two_sided
+
+    xc = section
+    band = float(xc["band"])
+    if "max_abs_rho" in xc and xc["max_abs_rho"] is not None:
+        mx = np.asarray(xc["max_abs_rho"], dtype=float)
+    else:
+        with np.errstate(invalid="ignore"):
+            mx = np.nanmax(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
+    cm = xc.get("constant_mask") if hasattr(xc, "get") else None
+    mask = np.zeros_like(mx, dtype=bool) if cm is None else np.asarray(cm, dtype=bool)
+    z_max = xc.get("z_max") if hasattr(xc, "get") else None
+    colour = xc.get("colour_factor") if hasattr(xc, "get") else None
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if z_max is not None:
+            ratio = np.asarray(z_max, dtype=float) / z_two_sided(float(xc.get("level", 0.95)))
+            aware = True
+        elif colour is not None:
+            ratio = mx / (band * np.asarray(colour, dtype=float))
+            aware = True
+        else:
+            ratio = mx / band
+            aware = False
+    return np.where(mask, np.nan, ratio), aware
 
 
 def cross_correlation(report, *, joint_names=None, column_names=None, title=None):
     """Heatmap joints × regressor columns of ``max_ℓ |ρ(ℓ)| / band`` (lags 0..max_lag).
 
-    Cells above 1 (outside the lesson's band z/√N) carry their value; cells of columns that
-    the report's findings name are outlined; grey cells are columns that are constant on
-    that joint (no correlation defined).
+    The band is the colour-aware one the findings use (Bartlett's variance for two coloured
+    series, :func:`cross_correlation_ratio`); a report without it (streamed) falls back to the
+    white band z/√N and the legend says so. Cells above 1 (beyond the band) carry their value,
+    or a black dot when the columns are many; cells of columns that the report's findings name
+    are outlined; grey cells marked "–" are columns that are constant on that joint (no
+    correlation defined). A legend under the heatmap explains each mark.
     """
     xc = report.cross_correlation if not isinstance(report, Mapping) else report
     if xc is None:
         raise ValueError("the report has no cross-correlation section (no regressor was given)")
     band = float(xc["band"])
-    if "max_abs_rho" in xc:
-        mx = np.asarray(xc["max_abs_rho"], dtype=float)
-    else:
-        with np.errstate(invalid="ignore"):
-            mx = np.nanmax(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
-    mask = np.asarray(xc.get("constant_mask", np.zeros_like(mx, dtype=bool)), dtype=bool)
-    ratio = np.where(mask, np.nan, mx / band)
+    ratio, aware = cross_correlation_ratio(xc)
     m, p = ratio.shape
     source = None if isinstance(report, Mapping) else report
     jnames = _joint_names(joint_names, m, source)
@@ -347,12 +409,16 @@ def cross_correlation(report, *, joint_names=None, column_names=None, title=None
     small = p > 24
     cell = 0.21 if small else 0.55  # inches per column: many columns get narrow cells and small labels
     longest = max(len(c) for c in cnames)
-    fig = _figure(max(7.0, 2.6 + cell * p), 1.6 + (0.4 if small else 0.55) * m + (0.055 if small else 0.075) * longest)
+    fig = _figure(max(8.0, 2.6 + cell * p),
+                  2.5 + (0.4 if small else 0.55) * m + (0.055 if small else 0.075) * longest)
     ax = fig.subplots()
     import matplotlib.colors as mcolors
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
+    grey = "#bdbdbd"
     cmap = mcolors.LinearSegmentedColormap.from_list(
-        "dynval", ["#f7fbff", "#c6dbef", "#fdae6b", "#d62728"]).with_extremes(bad="#bdbdbd")
+        "dynval", ["#f7fbff", "#c6dbef", "#fdae6b", "#d62728"]).with_extremes(bad=grey)
     vmax = max(2.0, float(np.nanmax(ratio)) if np.isfinite(ratio).any() else 2.0)
     norm = mcolors.TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=vmax)
     im = ax.imshow(np.ma.masked_invalid(ratio), cmap=cmap, norm=norm, aspect="auto")
@@ -361,24 +427,44 @@ def cross_correlation(report, *, joint_names=None, column_names=None, title=None
     ax.set_yticks(range(m), jnames, fontsize="small" if small else None)
     ax.set_xlabel("regressor column")
     ax.set_ylabel("joint (residual)")
+    beyond = np.zeros((m, p), dtype=bool)
     for j in range(m):
         for c in range(p):
             r = ratio[j, c]
             if np.isnan(r):
                 if not small:
                     ax.text(c, j, "–", ha="center", va="center", color="#555555", fontsize="small")
-            elif r > 1.0 and not small:
-                ax.text(c, j, f"{r:.1f}", ha="center", va="center", fontsize="small",
-                        color="white" if r > 0.6 * vmax else "black", fontweight="bold")
             elif r > 1.0:
-                ax.plot(c, j, "o", color="black", ms=3)
+                beyond[j, c] = True
+                if small:
+                    ax.plot(c, j, "o", color="black", ms=3)
+                else:
+                    ax.text(c, j, f"{r:.1f}", ha="center", va="center", fontsize="small",
+                            color="white" if r > 0.6 * vmax else "black", fontweight="bold")
             if (j, c) in named:
                 ax.add_patch(_rectangle(c, j))
+    which = ("colour-aware band (Bartlett, both series' colour), the one the findings use" if aware
+             else "white-noise band z/√N (this report has no colour-aware fields, e.g. a streamed report)")
+    handles = [Patch(facecolor="#d62728", edgecolor="none",
+                     label=f"beyond the band (> 1): {int(beyond.sum())} of {int(np.isfinite(ratio).sum())} cells"
+                           + ("" if small else ", value printed")),
+               Patch(facecolor="#f7fbff", edgecolor="#999999", label="inside the band (≤ 1)")]
+    if small:
+        handles.append(Line2D([], [], ls="none", marker="o", color="black", ms=4, label="dot: beyond the band"))
+    if np.isnan(ratio).any():
+        handles.append(Patch(facecolor=grey, edgecolor="none",
+                             label="grey" + ("" if small else " “–”") + ": column constant on that joint, "
+                                   "no correlation defined"))
+    if named:
+        handles.append(Patch(facecolor="none", edgecolor="black", lw=2.0, label="outlined: column named by a finding"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize="small",
+               title=f"{100 * float(xc.get('level', 0.95)):g} % {which}", title_fontsize="small")
     cb = fig.colorbar(im, ax=ax, shrink=0.9)
-    cb.set_label("max over lags of |ρ| / band")
+    cb.set_label("max |ρ| / " + ("colour-aware band" if aware else "white band"))
     lag_text = f"lags 0..{xc.get('max_lag', '?')}"
-    fig.suptitle(title or f"Residual × regressor cross-correlation ({lag_text}; band z/√N = {band:.3g}; "
-                          f"> 1 is outside the band)")
+    band_text = ("colour-aware band" if aware else f"white band z/√N = {band:.3g}")
+    fig.suptitle(title or f"Residual × regressor cross-correlation ({lag_text}; {band_text}; "
+                          f"> 1 is beyond the band)")
     return fig
 
 
@@ -420,6 +506,7 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
         top = 100.0 if unit == "percent" else 1.0
         floor = -top
         lowest = 0.0
+        cut = False
         for i, name in enumerate(order):
             vals = np.asarray(reports[name].per_joint[metric], dtype=float)
             shown = np.maximum(vals, floor)
@@ -429,14 +516,20 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
                    edgecolor="black" if name == chosen else "none", linewidth=1.5 if name == chosen else 0)
             for xp, v in zip(pos, vals):
                 if v < floor:
+                    cut = True
                     ax.text(xp, floor, f"{v:.3g}", rotation=90, ha="center", va="bottom", fontsize="x-small",
                             color="white" if i % len(_COLOURS) in (0, 1, 3, 5) else "black")
             lowest = min(lowest, float(np.nanmin(shown)))
         ax.axhline(top, color="black", lw=0.8, ls=":")
+        ax.annotate("perfect", (1.0, top), xycoords=("axes fraction", "data"), xytext=(-3, 2),
+                    textcoords="offset points", ha="right", va="bottom", fontsize="x-small")
         ax.axhline(0.0, color="black", lw=0.6)
+        if cut:
+            ax.set_title(f"bars below {floor:g} are cut there, their value printed on them", loc="right",
+                         fontsize="x-small")
         ax.set_ylabel(f"{_METRIC_LABELS.get(metric, metric)} ({label_unit})" if label_unit else metric)
         ax.grid(True, axis="y", alpha=0.3)
-        ax.set_ylim(lowest * 1.05 if lowest < 0 else 0.0, top * 1.08)
+        ax.set_ylim(lowest * 1.05 if lowest < 0 else 0.0, top * 1.12)
     axes[-1].set_xticks(x, jnames, rotation=30 if m > 4 else 0, ha="right" if m > 4 else "center")
     axes[-1].set_xlabel("joint")
     handles, labels = axes[0].get_legend_handles_labels()
