@@ -816,3 +816,55 @@ def test_only_whiteness_is_set_aside_when_asking_what_a_joint_names():
     assert _unresolved(ev, [white], {0}) == {}
     osc = Finding(kind="oscillation", severity="deficiency", joints=(0,), effect=0.3)
     assert _unresolved(ev, [osc], {0}) == {}  # an oscillation is not a named term: resolved
+
+
+def test_the_largest_peak_is_named_wherever_it_lies_and_a_processing_note_does_not_stop_the_next_joint():
+    ev = _ev(1, **_spectrum([0.3]))
+    ev.spectrum_pvalue[16, 0], ev.spectrum_share[16, 0], ev.spectrum_is_peak[16, 0] = 1e-9, 0.6, True
+    (f,) = _of(compute_findings(ev), "oscillation")
+    assert f.details["frequency"] == 8.0 and f.effect == 0.6  # the later, larger peak
+    ev = _ev(2, bandwidth=4.0, **_spectrum([0.3, 0.3], m=2))
+    ev.spectrum_frequency = ev.spectrum_frequency.copy()
+    ev.spectrum_is_peak[10, 0] = True
+    ev.spectrum_pvalue[10, 1] = np.nan  # joint 1: its peak at 3 Hz, below the bandwidth
+    ev.spectrum_pvalue[6, 1], ev.spectrum_share[6, 1], ev.spectrum_is_peak[6, 1] = 1e-9, 0.3, True
+    found = compute_findings(ev)
+    assert [f.joints for f in _of(found, "processing_band")] == [(0,)]
+    assert [f.joints for f in _of(found, "oscillation")] == [(1,)]
+
+
+def test_a_joint_without_a_named_physical_term_does_not_stop_the_next():
+    lib = _library([1e-9, 1e-9], [0.3, 0.3], [None, "viscous"])
+    assert [f.joints for f in _of(compute_findings(_ev(2, physics=lib)), "missing_physics")] == [(1,)]
+
+
+def test_a_delay_is_tested_at_the_joint_realigning_helps_most_even_if_it_comes_first():
+    delay = {"share": np.array([0.3, 0.05]), "pvalue": np.array([1e-8, 1e-9]), "shift_samples": 2.0}
+    lib = _library([np.nan, np.nan], [0.0, 0.0], [None, None], delay=delay)
+    (f,) = _of(compute_findings(_ev(2, physics=lib)), "delay")
+    assert f.effect == 0.3 and f.pvalue == 1e-8
+
+
+def test_sampling_colour_at_alpha_exactly():
+    level = 0.9
+    alpha = 1.0 - level
+    ev = _ev(1, level=level, **_white([alpha], [0.5]))
+    assert _of(compute_findings(ev), "sampling_colour")  # raw p = α rejects; decimated does not
+
+
+def test_whiteness_does_not_resolve_a_joint_whose_named_term_is_below_what_the_run_detects():
+    from dynval._findings import _unresolved
+
+    ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
+    col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.2,
+                  details={"added_variable": True})
+    white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
+    assert _unresolved(ev, [col, white], {0}) == {0: [("b", 0.2)]}
+
+
+def test_missing_terms_below_their_share_list_a_nan_share_last():
+    p = np.array([[1e-9, 1e-9]])
+    ev = _ev(1, column_names=["a", "b", "c"], missing_columns=[1, 2], missing_statistic=np.full((1, 2), 0.1),
+             missing_pvalue=p, missing_share=np.array([[np.nan, 0.005]]), missing_explains_bias=np.zeros((1, 2), bool))
+    (f,) = _of(compute_findings(ev), "regressor_correlation")
+    assert f.severity == "note" and f.columns == (2, 1)
