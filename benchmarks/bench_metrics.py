@@ -35,7 +35,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import dynval
-from dynval import _sections
+from dynval.report import _sections
 
 
 # --------------------------------------------------------------------------- the lesson (§6)
@@ -148,7 +148,7 @@ def main(argv=None):
     has_cpp = dynval.backends()["cpp"]["available"]
 
     base = best_of(lambda: (np.sum(tau_meas), np.sum(tau_pred)), args.repeat)
-    probe = dynval._backend.get_backend("cpp")._testing if has_cpp else None
+    probe = dynval.kernels._backend.get_backend("cpp")._testing if has_cpp else None
     cbase = best_of(lambda: (probe.read_sum(tau_meas), probe.read_sum(tau_pred)), args.repeat) if probe else None
     rows = []
 
@@ -160,7 +160,7 @@ def main(argv=None):
     row("six pooled", "dynval python backend", lambda: six_pooled(tau_meas, tau_pred, args.p, "python"), 1)
     if has_cpp:
         row("six pooled", "dynval cpp backend", lambda: six_pooled(tau_meas, tau_pred, args.p, "cpp"))
-        core = dynval._backend.get_backend("cpp")
+        core = dynval.kernels._backend.get_backend("cpp")
         row("full set", "cpp validate(..., max_lag=0)",
             lambda: dynval.validate(tau_meas, tau_pred, n_params=args.p, max_lag=0, backend="cpp"))
         row("full set", "cpp compute_metrics kernel",
@@ -205,7 +205,7 @@ def main(argv=None):
 
 def cross_correlation_rows(tau_meas, tau_pred, args, probe):
     """The cross-correlation kernel on (N, m, p) regressors: × reading Y once, rate, and validate."""
-    core = dynval._backend.get_backend("cpp")
+    core = dynval.kernels._backend.get_backend("cpp")
     n, m, p, lags = min(args.xc_n, tau_meas.shape[0]), tau_meas.shape[1], args.xc_p, args.lags
     rng = np.random.default_rng(7)
     tau, pred = tau_meas[:n], tau_pred[:n]
@@ -217,7 +217,7 @@ def cross_correlation_rows(tau_meas, tau_pred, args, probe):
     kernel = best_of(lambda: core.cross_correlation(e, y2, p, lags, True, starts), args.repeat)
     full = best_of(lambda: dynval.validate(tau, pred, n_params=args.p, regressor=y, max_lag=lags, backend="cpp"), 1)
     # validate's one pass of Gram matrices, with the BLAS's own threads and with the one thread
-    # validate limits it to (dynval/_blas.py): on a busy machine the first can be 100× slower
+    # validate limits it to (dynval/kernels/_blas.py): on a busy machine the first can be 100× slower
     gram_default = best_of(lambda: _sections.JointGrams(y), 1)
     with threadpool_limits(limits=1, user_api="blas"):
         gram_one = best_of(lambda: _sections.JointGrams(y), 1)

@@ -182,7 +182,7 @@ def main(argv=None):
 
 def compiled_read_rows(tau, pred, y, args, stream_seconds):
     """The C++ accumulator against a compiled loop that reads every input element once."""
-    probe = dynval._backend.get_backend("cpp")._testing
+    probe = dynval.kernels._backend.get_backend("cpp")._testing
     arrays = [tau, pred] + ([y] if y is not None else [])
     read = min(timed(lambda: [probe.read_sum(a) for a in arrays])[0] for _ in range(max(3, args.repeat)))
     zero = min(timed(lambda: stream_report(tau, pred, y, args, "cpp", 0))[0] for _ in range(args.repeat))
@@ -249,7 +249,7 @@ def mapped_chunks(a, rows):
 
 def rss_child(args):
     """In a fresh process: compiled read of the mapped files, then the C++ accumulator over them."""
-    probe = dynval._backend.get_backend("cpp")._testing
+    probe = dynval.kernels._backend.get_backend("cpp")._testing
     paths = args.rss_child.split(",")
     n, m = np.load(paths[0], mmap_mode="r").shape
     before = peak_rss_mb()

@@ -2,9 +2,9 @@
 # Mutation testing of the decision code with mutmut (3.x): which changes to the findings' rules,
 # compare's ranking and verdict, and the statistics under them does the test selection let through?
 #
-#   bash scripts/mutation.sh                      # _findings.py, _compare.py and _stats.py
-#   bash scripts/mutation.sh _compare.py          # one module (names under python/dynval/)
-#   MUTATION_TIME_LIMIT=900 MUTATION_JOBS=1 bash scripts/mutation.sh _compare.py
+#   bash scripts/mutation.sh                      # report/_findings.py, comparison/_compare.py and statistics/_stats.py
+#   bash scripts/mutation.sh comparison/_compare.py   # one module (paths under python/dynval/)
+#   MUTATION_TIME_LIMIT=900 MUTATION_JOBS=1 bash scripts/mutation.sh comparison/_compare.py
 #
 # It never touches the working tree: python/dynval is copied (uncommitted changes included) into a
 # work directory laid out as mutmut expects (src/dynval, tests/, pyproject.toml with a [tool.mutmut]
@@ -30,7 +30,7 @@
 #   MUTATION_WORK        work directory (default: a new one under ${TMPDIR:-/tmp}); kept afterwards.
 #   MUTATION_DIFFS       0 to list the survivors without their diffs (default 1).
 #   MUTATION_MUTANTS     mutant names or globs to (re-)test only those, e.g.
-#                        'dynval._compare.x__verdict__mutmut_*' (the verdict's mutants). mutmut tests
+#                        'dynval.comparison._compare.x__verdict__mutmut_*' (the verdict's mutants). mutmut tests
 #                        the mutants with the fastest tests first, so a time limit leaves those of the
 #                        functions with the slowest tests (compare, _verdict: the simulations of
 #                        tests/test_compare.py) for last; name them to reach them.
@@ -51,7 +51,7 @@ PY=${PYTHON:-python3}
 JOBS=${MUTATION_JOBS:-2}
 TESTS=${MUTATION_TESTS:-tests/test_decisions.py tests/test_finding_records.py tests/test_findings.py tests/test_compare.py tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py}
 MODULES=("$@")
-[ ${#MODULES[@]} -gt 0 ] || MODULES=(_findings.py _compare.py _stats.py)
+[ ${#MODULES[@]} -gt 0 ] || MODULES=(report/_findings.py comparison/_compare.py statistics/_stats.py)
 for mod in "${MODULES[@]}"; do
   [ -f "$ROOT/python/dynval/$mod" ] || { echo "mutation.sh: no module python/dynval/$mod" >&2; exit 2; }
 done

@@ -378,7 +378,7 @@ def test_backends_api():
 
 
 def test_set_backend_changes_the_default(monkeypatch):
-    from dynval import _backend
+    from dynval.kernels import _backend
 
     try:
         dynval.set_backend("python")
@@ -429,7 +429,7 @@ COMPUTE_METRICS_FIELDS = {
 
 @pytest.mark.parametrize("noise_model", ["pooled", "per_joint", "full"])
 def test_compute_metrics_kernel(backend, noise_model):
-    from dynval._backend import get_backend
+    from dynval.kernels._backend import get_backend
 
     meas, pred = _random_pair(21, n=50, m=3)
     out = get_backend(backend).compute_metrics(meas, pred, 4, 0, noise_model)
@@ -480,7 +480,7 @@ def test_compute_metrics_kernel(backend, noise_model):
 
 
 def test_compute_metrics_gives_nan_for_aicc_fpe_when_p_too_large(backend):
-    from dynval._backend import get_backend
+    from dynval.kernels._backend import get_backend
 
     meas, pred = _random_pair(22, n=5, m=1)
     out = get_backend(backend).compute_metrics(meas, pred, 4, 1, "pooled")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 import dynval
-from dynval import _backend
+from dynval.kernels import _backend
 
 
 @pytest.fixture

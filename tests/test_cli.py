@@ -306,12 +306,12 @@ def test_transposed_files_are_refused_unless_allow_wide(tmp_path, capsys):
 
 
 def test_an_unexpected_error_is_reported_without_a_traceback(files, capsys, monkeypatch):
-    import dynval._report
+    import dynval.report._report
 
     def broken(*args, **kwargs):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(dynval._report, "validate", broken)
+    monkeypatch.setattr(dynval.report._report, "validate", broken)
     paths = files[0]
     argv = ["validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1"]
     monkeypatch.delenv("DYNVAL_TRACEBACK", raising=False)
@@ -324,12 +324,12 @@ def test_an_unexpected_error_is_reported_without_a_traceback(files, capsys, monk
 
 
 def test_running_out_of_memory_is_an_input_error(files, capsys, monkeypatch):
-    import dynval._report
+    import dynval.report._report
 
     def too_big(*args, **kwargs):
         raise MemoryError
 
-    monkeypatch.setattr(dynval._report, "validate", too_big)
+    monkeypatch.setattr(dynval.report._report, "validate", too_big)
     paths = files[0]
     code, _, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1")
     assert code == 1 and err == "dynval validate: error: not enough memory for this input\n"

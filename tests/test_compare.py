@@ -278,8 +278,8 @@ def test_low_information_decides_only_for_the_best_candidate():
     cannot decide is judged on the candidate the decision is about, never on a worse-ranked one."""
     from types import SimpleNamespace
 
-    from dynval._compare import _verdict
-    from dynval._findings import Finding
+    from dynval.comparison._compare import _verdict
+    from dynval.report._findings import Finding
 
     def report(*findings):
         defs = [f for f in findings if f.severity == "deficiency"]
@@ -310,8 +310,8 @@ def test_low_information_on_unresolved_joints_waits_for_a_resolved_deficiency():
     resolve on another joint, which is fixed first (refine), the low_information given with it."""
     from types import SimpleNamespace
 
-    from dynval._compare import _verdict
-    from dynval._findings import Finding
+    from dynval.comparison._compare import _verdict
+    from dynval.report._findings import Finding
 
     def report(*findings):
         defs = [f for f in findings if f.severity == "deficiency"]
@@ -421,7 +421,7 @@ def test_akaike_weights_are_nan_when_no_candidate_has_a_criterion():
 
 
 def test_decisive_labels_name_the_place_and_the_owner():
-    from dynval._compare import Decisive
+    from dynval.comparison._compare import Decisive
 
     assert Decisive("friction", "oscillation", "deficiency", joints=("shoulder",)).label() == (
         "oscillation on shoulder (deficiency of friction)")

@@ -24,7 +24,7 @@ if not dynval.backends()["cpp"]["available"]:
     pytest.skip("the compiled backend dynval._core is not available", allow_module_level=True)
 
 from dynval import _core
-from dynval import _reference as ref
+from dynval.kernels import _reference as ref
 
 
 def _signals(n=240, m=3, seed=0, offset=0.0):
@@ -252,7 +252,7 @@ def test_errors_are_facade_classes_not_new_types():
     t, p = _signals(n=10, m=1)
     with pytest.raises(dynval.InvalidParameter) as info:
         _core.r2(t, p, "nope")
-    assert type(info.value).__module__ == "dynval._errors"
+    assert type(info.value).__module__ == "dynval.checks._errors"
     assert not any(name.endswith("Error") for name in dir(_core) if not name.startswith("_"))
     # Through the facade as well, for every kind the kernels raise.
     with pytest.raises(dynval.NonFiniteInput, match=r"tau_pred has a non-finite value \(nan\) at row 2, column 0"):

@@ -22,9 +22,9 @@ import pytest
 import scipy.optimize
 
 import dynval
-from dynval._compare import _verdict
-from dynval._findings import Evidence, Finding, Thresholds, compute_findings, holm_family
-from dynval._stats import correlation_pvalue
+from dynval.comparison._compare import _verdict
+from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family
+from dynval.statistics._stats import correlation_pvalue
 
 # ------------------------------------------------------- the level reaches every rule's decision
 
@@ -132,7 +132,7 @@ def test_level_given_to_validate_and_compare_reaches_the_findings(monkeypatch):
 
     Kills: the report building its evidence at the default 0.95 (or the profile's level) instead of
     the given one, which the rule tests on hand-built evidence cannot see."""
-    import dynval._assembly as report_module  # the assembler every report goes through
+    import dynval.report._assembly as report_module  # the assembler every report goes through
 
     seen: list[float] = []
     real = report_module.compute_findings

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _repeat, _sections
 from dynval import simulate as sim
-from dynval._findings import Evidence, Thresholds, compute_findings
+from dynval.report import _sections
+from dynval.report._findings import Evidence, Thresholds, compute_findings
+from dynval.statistics import _repeat
 
 FS = 100.0
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _backend, _validation
+from dynval.checks import _validation
+from dynval.kernels import _backend
 
 NAN, INF = float("nan"), float("inf")
 GOOD = np.arange(10.0)

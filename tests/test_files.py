@@ -173,7 +173,7 @@ def test_nul_bytes_after_the_first_block_are_refused_on_their_line(tmp_path, pre
 
 
 def test_a_line_longer_than_the_limit_is_refused(tmp_path, pred, capsys):
-    from dynval._files import MAX_LINE_BYTES
+    from dynval.io._files import MAX_LINE_BYTES
 
     path = tmp_path / "wide.csv"
     path.write_text("1," * (MAX_LINE_BYTES // 2 + 10) + "1\n")

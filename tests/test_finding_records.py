@@ -2,11 +2,11 @@
 carries (statistic, p-value, Holm-adjusted p-value, effect, its unit and threshold, details).
 
 The rules are those of docs/conventions.md §5 and contract §4 (finding kinds and their details).
-Each test builds an :class:`~dynval._findings.Evidence` by hand and states the expected record from
+Each test builds an :class:`~dynval.report._findings.Evidence` by hand and states the expected record from
 the evidence: raw p-values as given, adjusted ones by statsmodels' Holm over the report's tests,
 effects and thresholds by the documented definitions, boundaries on both sides (an effect *at* its
 threshold is practical). The message and action must be the wording of exactly the facts the rule
-decided on (``dynval._finding_words``, whose own wording is tested in test_text/test_findings).
+decided on (``dynval.report._finding_words``, whose own wording is tested in test_text/test_findings).
 Fast (milliseconds each): ``scripts/mutation.sh`` runs these for every mutant of ``_findings.py``.
 """
 
@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 from statsmodels.stats.multitest import multipletests
 
-from dynval import _finding_words as w
-from dynval._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
-from dynval._physics import LABELS
-from dynval._stats import correlation_pvalue
-from dynval._validation import InvalidParameter
+from dynval.checks._validation import InvalidParameter
+from dynval.report import _finding_words as w
+from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
+from dynval.statistics._physics import LABELS
+from dynval.statistics._stats import correlation_pvalue
 
 NAMES = ["shoulder", "elbow", "wrist"]
 
@@ -613,7 +613,7 @@ def test_low_information_on_a_joint_whose_named_term_removes_less_than_the_run_d
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
-    from dynval._findings import _named_term, _unresolved
+    from dynval.report._findings import _named_term, _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.3]), noise_n_eff=np.array([20.0]))
     phys = Finding(kind="missing_physics", severity="deficiency", joints=(0,),
@@ -808,7 +808,7 @@ def test_thresholds_errors_name_the_bad_value():
 
 
 def test_only_whiteness_is_set_aside_when_asking_what_a_joint_names():
-    from dynval._findings import _unresolved
+    from dynval.report._findings import _unresolved
 
     ev = _ev(1, detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
@@ -853,7 +853,7 @@ def test_sampling_colour_at_alpha_exactly():
 
 
 def test_whiteness_does_not_resolve_a_joint_whose_named_term_is_below_what_the_run_detects():
-    from dynval._findings import _unresolved
+    from dynval.report._findings import _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.2,

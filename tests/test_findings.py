@@ -15,8 +15,8 @@ import pytest
 import scipy.stats
 
 import dynval
-from dynval import _stats
-from dynval._findings import Evidence, Thresholds, compute_findings, holm_family
+from dynval.report._findings import Evidence, Thresholds, compute_findings, holm_family
+from dynval.statistics import _stats
 
 
 def _ar1(n, rho, rng, m=1):
@@ -415,7 +415,7 @@ def test_parameter_covariance_matches_the_spread_of_estimates_under_coloured_noi
     # Least squares with AR(1) noise (ρ = 0.9) and smooth columns: the sandwich variance of π̂
     # must match the variance of the estimates over replicates within ±25 % (OLS's σ²(XᵀX)⁻¹ is
     # about (1 + ρ)/(1 − ρ) = 19 times too small here).
-    from dynval import _estimation
+    from dynval.statistics import _estimation
 
     rng = np.random.default_rng(12)
     n = 3000
@@ -432,7 +432,7 @@ def test_parameter_covariance_matches_the_spread_of_estimates_under_coloured_noi
 
 
 def test_missing_term_refit_names_the_column_and_stays_quiet_without_one():
-    from dynval import _estimation
+    from dynval.statistics import _estimation
 
     rng = np.random.default_rng(13)
     n = 2000

@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import dynval
-from dynval import _reference as ref
+from dynval.kernels import _reference as ref
 
 HAS_CPP = dynval.backends()["cpp"]["available"]
 if HAS_CPP:

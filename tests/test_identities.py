@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import dynval
-from dynval._reference import correlation
+from dynval.kernels._reference import correlation
 
 FINITE = st.floats(-100.0, 100.0, allow_nan=False, allow_infinity=False)
 

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _sections, _stats
+from dynval.report import _sections
+from dynval.statistics import _stats
 
 
 def _inputs(n, m=7, p=8):

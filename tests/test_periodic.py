@@ -1,6 +1,6 @@
-"""dynval._periodic: the period of a trajectory and Pintelon & Schoukens' periodic noise test.
+"""dynval.statistics._periodic: the period of a trajectory and Pintelon & Schoukens' periodic noise test.
 
-Each test names, in a comment, the mutation of python/dynval/_periodic.py it catches. The size and
+Each test names, in a comment, the mutation of python/dynval/statistics/_periodic.py it catches. The size and
 power tests run the seeds as columns of one residual (joints are tested independently, so one call
 tests 200 seeds at once); the whole file takes a few seconds on one core.
 """
@@ -16,8 +16,8 @@ import scipy.signal
 import scipy.stats
 
 from dynval import InputError
-from dynval._errors import InvalidParameter, NonFiniteInput, TooFewSamples
-from dynval._periodic import Period, PeriodicTest, detect_period, periodic_noise_test
+from dynval.checks._errors import InvalidParameter, NonFiniteInput, TooFewSamples
+from dynval.statistics._periodic import Period, PeriodicTest, detect_period, periodic_noise_test
 
 FS = 200.0
 SEEDS = 200

@@ -147,7 +147,7 @@ def test_findings_agree_with_pinocchios_pseudo_inertia():
         p = body(rng.uniform(0.1, 5), rng.normal(0, 0.5, 3), rng.uniform(-0.2, 1.0, 3), rng.uniform(-3, 3, 3))
         negative = np.linalg.eigvalsh(pin.PseudoInertia.FromDynamicParameters(p).toMatrix())[0] < -1e-12
         assert bool(physical_consistency(p)) == negative, k
-    np.testing.assert_allclose(dynval._consistency.pseudo_inertia(p), pin.PseudoInertia.FromDynamicParameters(p)
+    np.testing.assert_allclose(dynval.report._consistency.pseudo_inertia(p), pin.PseudoInertia.FromDynamicParameters(p)
                                .toMatrix(), rtol=1e-12, atol=1e-15)
 
 

@@ -16,9 +16,10 @@ import pytest
 import scipy.stats
 
 import dynval
-from dynval import _motion, _physics
 from dynval import simulate as sim
-from dynval._findings import Evidence, Thresholds, compute_findings
+from dynval.report import _motion
+from dynval.report._findings import Evidence, Thresholds, compute_findings
+from dynval.statistics import _physics
 
 FS = 100.0
 N = 2000
@@ -392,8 +393,8 @@ def test_a_term_no_estimation_refit_helps_is_named_from_the_validation_run():
     with the model's columns refitted there: the wrist offset of the calibration's arm4 scenario,
     named a position harmonic before (replicate 14)."""
     pytest.importorskip("pinocchio")
-    from dynval import _motion
     from dynval import scenarios as S
+    from dynval.report import _motion
 
     y = np.random.default_rng(0).standard_normal((500, 3))
     tau = y @ [1.0, -2.0, 0.5] + 0.3
@@ -418,7 +419,7 @@ def test_a_term_no_estimation_refit_helps_is_named_from_the_validation_run():
 def test_a_missing_column_below_what_the_run_detects_leaves_the_joint_unresolved():
     """The same rule for a column offered and refitted in (regressor_correlation with a share): a
     joint is unresolved when every deficiency names a term below the smallest detectable share."""
-    from dynval._findings import Finding, _unresolved
+    from dynval.report._findings import Finding, _unresolved
 
     ev = _evidence(detectable_share=np.array([0.5, 0.5]), noise_n_eff=np.array([10.0, 10.0]),
                    column_names=["Fv1", "Fv2"])

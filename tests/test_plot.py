@@ -149,7 +149,7 @@ def test_cross_correlation_heatmap(flexible, tmp_path):
     assert arr.shape == (2, 12)
     xc = rep.cross_correlation
     # the colour-aware band of the findings: max over lags of |ρ|/sd(ℓ), over the band's z
-    from dynval._stats import z_two_sided
+    from dynval.statistics._stats import z_two_sided
 
     expected = np.where(np.asarray(xc["constant_mask"]), np.nan, np.asarray(xc["z_max"]) / z_two_sided(xc["level"]))
     np.testing.assert_allclose(np.ma.filled(arr.astype(float), np.nan), expected, equal_nan=True)
@@ -236,7 +236,7 @@ def test_autocorrelation_by_model(flexible, tmp_path):
 def _colour_aware_beyond(xc):
     """The cells beyond the colour-aware band, from the report's fields alone: |ρ| above z·sd(ℓ)
     at the strongest lag, sd(ℓ) Bartlett's for two coloured series (the findings' rule)."""
-    from dynval._stats import z_two_sided
+    from dynval.statistics._stats import z_two_sided
 
     z = z_two_sided(float(xc["level"]))
     mask = np.asarray(xc["constant_mask"], dtype=bool)

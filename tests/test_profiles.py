@@ -11,7 +11,7 @@ from mpmath import log as mlog
 from mpmath import mp, mpf
 
 import dynval
-from dynval._profiles import PROFILE_NAMES, PROFILES, get_profile
+from dynval.metrics._profiles import PROFILE_NAMES, PROFILES, get_profile
 
 mp.dps = 30
 

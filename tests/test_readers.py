@@ -1,4 +1,4 @@
-"""Streaming readers (dynval._readers) and ``dynval validate --stream`` on files larger than memory."""
+"""Streaming readers (dynval.io._readers) and ``dynval validate --stream`` on files larger than memory."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from dynval import _readers, cli
-from dynval._files import FileInputError, load_array
+from dynval import cli
+from dynval.io import _readers
+from dynval.io._files import FileInputError, load_array
 
 
 @pytest.fixture

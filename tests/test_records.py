@@ -1,4 +1,4 @@
-"""The report's sections are typed, read-only records (contract §4, ``dynval._records``).
+"""The report's sections are typed, read-only records (contract §4, ``dynval.report._records``).
 
 Each is read as attributes and as a mapping of the contract's names, holds only what the route
 computed, cannot be changed, survives pickling (dask moves reports between processes) and writes
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _records as rec
+from dynval.report import _records as rec
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dynval import _reference, _sections, _stats
-from dynval._backend import get_backend
+from dynval.kernels import _reference
+from dynval.kernels._backend import get_backend
+from dynval.report import _sections
+from dynval.statistics import _stats
 
 
 @pytest.fixture

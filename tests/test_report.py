@@ -11,7 +11,7 @@ import pytest
 import scipy.stats
 
 import dynval
-from dynval._text import pvalue_text
+from dynval.report._text import pvalue_text
 
 # The hand-checkable example of docs/conventions.md §3.2.
 MEAS = np.array([[10.0, 1.0], [20.0, 2.0], [30.0, 1.0], [40.0, 2.0]])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _segments
+from dynval.checks import _segments
 
 RNG = np.random.default_rng(20)
 MEAS = RNG.standard_normal(30).cumsum()

@@ -1,4 +1,4 @@
-"""The statistics of ``dynval._stats`` pinned to their documented definitions.
+"""The statistics of ``dynval.statistics._stats`` pinned to their documented definitions.
 
 Every expected value here is computed independently of the code under test: by the library that
 defines the same quantity (scipy.signal.welch / periodogram / decimate, scipy.stats,
@@ -22,7 +22,7 @@ import pytest
 import scipy.signal
 import scipy.stats
 
-from dynval import _stats
+from dynval.statistics import _stats
 
 RTOL = 1e-12
 

@@ -1,4 +1,4 @@
-"""dynval._text: every p-value is written one way in every text, and an effect printed next to its
+"""dynval.report._text: every p-value is written one way in every text, and an effect printed next to its
 threshold reads on the side of it that the rule found (contract §4)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _text
-from dynval._findings import Finding
-from dynval._reasons import finding_reason
-from dynval._text import P_FLOOR, p_clause, pvalue_text, versus
+from dynval.comparison._reasons import finding_reason
+from dynval.report import _text
+from dynval.report._findings import Finding
+from dynval.report._text import P_FLOOR, p_clause, pvalue_text, versus
 
 TINY = 5e-310  # subnormal: below the smallest normal double (2.2e-308)
 
@@ -94,7 +94,7 @@ def test_plot_annotation_uses_the_same_wording():
 
 
 def test_findings_p_text_is_the_shared_one():
-    from dynval._finding_words import p_text as _p_text
+    from dynval.report._finding_words import p_text as _p_text
 
     for p in (0.0123, 4.56e-7, 1e-301, 0.0, math.nan, None):
         assert _p_text(p) == p_clause(p)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval import _timing
-from dynval._errors import InvalidParameter, NonFiniteInput, ShapeMismatch
+from dynval.checks import _timing
+from dynval.checks._errors import InvalidParameter, NonFiniteInput, ShapeMismatch
 
 
 def _run(fs=200.0, seconds=20.0, seed=0, m=2, f0=0.3):

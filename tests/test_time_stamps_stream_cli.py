@@ -1,5 +1,5 @@
 """Time stamps through the streaming accumulator, ``compare`` and the command line (``--time``,
-``--bandwidth``): the streamed timing summary equals ``dynval._timing.analyse`` on the whole array,
+``--bandwidth``): the streamed timing summary equals ``dynval.checks._timing.analyse`` on the whole array,
 a gap breaks the segment as ``validate`` splits it, and the report equals ``validate(..., time=t)``
 wherever the streamed report equals ``validate``'s (contract §4.1, §7).
 """
@@ -15,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import dynval
-from dynval import _timing, cli
+from dynval import cli
+from dynval.checks import _timing
 from dynval.stream import ValidationAccumulator
 from test_stream import assert_same_report, cut_points, merge_tree
 

@@ -1,5 +1,5 @@
 // dynval._core: the compiled backend. It exposes exactly the kernels of docs/contract.md §5.1,
-// with the signatures and return values of dynval._reference, so the facade can call either.
+// with the signatures and return values of dynval.kernels._reference, so the facade can call either.
 #include "bindings.hpp"
 
 PYBIND11_MODULE(_core, m) {

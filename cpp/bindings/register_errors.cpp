@@ -1,7 +1,7 @@
 // Error translation and the finiteness kernel.
 //
 // dynval::input_error reaches Python as the facade's own class for its kind
-// (dynval._errors.error_class(kind)), so callers catch dynval.InputError subclasses whichever
+// (dynval.checks._errors.error_class(kind)), so callers catch dynval.InputError subclasses whichever
 // backend ran; no new exception types are created here.
 #include "bindings.hpp"
 
@@ -15,7 +15,7 @@ void register_errors(py::module_& m) {
         } catch (const dynval::input_error& err) {
             py::object cls;
             try {
-                cls = py::module_::import("dynval._errors").attr("error_class")(dynval::kind_name(err.kind()));
+                cls = py::module_::import("dynval.checks._errors").attr("error_class")(dynval::kind_name(err.kind()));
             } catch (py::error_already_set&) {
                 // Only reachable when _core is imported without its package; keep the base type.
                 cls = py::reinterpret_borrow<py::object>(PyExc_ValueError);

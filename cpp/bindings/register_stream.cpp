@@ -52,7 +52,7 @@ void each_field(S& st, F&& f) {
 void register_stream(py::module_& m) {
     py::class_<stream_state>(m, "StreamState",
                              "Mergeable centred sums of a validation stream (contract §4.1); the C++ form of "
-                             "dynval._stream.State.")
+                             "dynval.streaming._stream.State.")
         .def(py::init([](py::object n_joints, py::object n_columns, py::object acf_lags, py::object xcorr_lags,
                          py::object gram) {
                  const auto count = [](py::handle v, const char* name, long long lo, const char* requirement) {
@@ -129,7 +129,7 @@ void register_stream(py::module_& m) {
                 d["max_y"] = to_array(st.max_y, {m, p});
                 return d;
             },
-            "The sums (compensated ones as hi + lo) as arrays named as in dynval._stream.State.")
+            "The sums (compensated ones as hi + lo) as arrays named as in dynval.streaming._stream.State.")
         .def(py::pickle(
             [](const stream_state& st) {
                 const auto& l = st.layout();

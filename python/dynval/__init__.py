@@ -12,7 +12,22 @@ Examples
 0.3333333333333333
 """
 
-from ._api import (
+from ._version import CONTRACT_VERSION, __version__
+from .checks._errors import (
+    ERROR_KINDS,
+    InputError,
+    InvalidParameter,
+    InvalidShape,
+    InvalidType,
+    NonFiniteInput,
+    ShapeMismatch,
+    TooFewSamples,
+    error_class,
+)
+from .comparison._compare import ComparisonReport, Decisive, Verdict, compare
+from .identify import IdentificationResult, identify
+from .kernels._backend import backends, set_backend
+from .metrics._api import (
     aic,
     autocorrelation,
     bic,
@@ -33,25 +48,10 @@ from ._api import (
     vaf,
     zero_mean_test,
 )
-from ._backend import backends, set_backend
-from ._compare import ComparisonReport, Decisive, Verdict, compare
-from ._errors import (
-    ERROR_KINDS,
-    InputError,
-    InvalidParameter,
-    InvalidShape,
-    InvalidType,
-    NonFiniteInput,
-    ShapeMismatch,
-    TooFewSamples,
-    error_class,
-)
-from ._findings import KINDS as FINDING_KINDS
-from ._findings import Finding, Thresholds
-from ._report import ValidationReport, validate
-from ._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
-from ._version import CONTRACT_VERSION, __version__
-from .identify import IdentificationResult, identify
+from .metrics._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
+from .report._findings import KINDS as FINDING_KINDS
+from .report._findings import Finding, Thresholds
+from .report._report import ValidationReport, validate
 from .robots import physical_consistency
 
 __all__ = [

@@ -132,7 +132,7 @@ def simulate_replicate(noise: str, model: str, seed: int, *, backend=None, n_sam
     user who identified the model has that run); without it the findings see the validation run only.
     """
     from . import simulate as sim
-    from ._report import validate
+    from .report._report import validate
 
     rng = np.random.default_rng(seed)
     arm, names, drop, cause = _setup(model)

@@ -22,8 +22,8 @@ import re
 import sys
 from collections.abc import Sequence
 
-from ._errors import InputError
-from ._files import (
+from .checks._errors import InputError
+from .io._files import (
     FileInputError,
     _physical_memory,
     csv_header,
@@ -33,8 +33,8 @@ from ._files import (
     read_table,
     split_column,
 )
-from ._profiles import PROFILE_NAMES
-from ._readers import DEFAULT_CHUNK_ROWS, open_column, open_rows
+from .io._readers import DEFAULT_CHUNK_ROWS, open_column, open_rows
+from .metrics._profiles import PROFILE_NAMES
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
@@ -345,7 +345,7 @@ def _sample_rate(args, obj) -> float | None:
 
 
 def _run_validate(args) -> int:
-    from ._report import validate
+    from .report._report import validate
 
     if args.stream or _too_large_for_memory(args):
         return _run_validate_streamed(args)
@@ -443,7 +443,7 @@ def _run_validate_streamed(args) -> int:
 
 
 def _run_compare(args) -> int:
-    from ._compare import compare
+    from .comparison._compare import compare
 
     names = [name for name, _, _ in args.model]
     if len(set(names)) != len(names):

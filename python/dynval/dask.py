@@ -37,11 +37,11 @@ from typing import Any
 import dask.array as da
 import numpy as np
 
-from . import _validation as v
-from ._errors import InvalidType
-from ._report import ValidationReport
-from ._segments import parse_segments
-from ._typing import ArrayLike, Integer, SegmentsLike
+from .checks import _validation as v
+from .checks._errors import InvalidType
+from .checks._segments import parse_segments
+from .checks._typing import ArrayLike, Integer, SegmentsLike
+from .report._report import ValidationReport
 from .stream import ValidationAccumulator
 
 __all__ = ["validate", "accumulate"]

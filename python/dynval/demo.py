@@ -49,8 +49,8 @@ from .simulate import (  # noqa: F401 - re-exported
 )
 
 if TYPE_CHECKING:
-    from ._compare import ComparisonReport
-    from ._typing import BackendName, ProfileName
+    from .checks._typing import BackendName, ProfileName
+    from .comparison._compare import ComparisonReport
 
 __all__ = [
     "ArmParameters",
@@ -98,7 +98,7 @@ class DemoResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary: the scenario, every identification and report, the comparison."""
-        from ._json import to_jsonable
+        from .report._json import to_jsonable
 
         d = self.data
         out = {
@@ -156,7 +156,7 @@ def run_demo(scenario: str = "friction", out=None, progress=_stderr, *, seed: in
     >>> result.names
     ['rigid', 'friction', 'friction+offset']
     """
-    from ._compare import compare
+    from .comparison._compare import compare
     from .identify import identify
 
     say = progress or (lambda msg: None)

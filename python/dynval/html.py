@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ._json import to_jsonable
-from ._text import pvalue_text
+from .report._json import to_jsonable
+from .report._text import pvalue_text
 
 __all__ = ["write_report", "render_report", "render_fragment"]
 

@@ -41,7 +41,7 @@ full parameters of a robot that can exist — every link's 4×4 pseudo-inertia p
 (which holds mass, positive inertia and the triangle inequalities), every viscous and Coulomb
 friction coefficient ≥ 0 — optionally pulled towards a prior (Euclidean, or entropic: each link's
 −log det divergence from the prior's pseudo-inertia; small weight), solved as a
-semidefinite program (``dynval._consistency``; Wensing, Kim & Slotine 2017; Sousa & Cortesão 2014).
+semidefinite program (``dynval.report._consistency``; Wensing, Kim & Slotine 2017; Sousa & Cortesão 2014).
 The columns must be named as :meth:`dynval.robots.URDFModel.column_names` names them. The result
 keeps the base set of the unconstrained fit: :attr:`IdentificationResult.estimate` is the base
 combination of the constrained full parameters, and its standard deviations are the unconstrained
@@ -58,11 +58,9 @@ from typing import Any, Literal
 import numpy as np
 import scipy.linalg
 
-from . import _consistency
-from ._blas import one_blas_thread
-from ._errors import InvalidShape, ShapeMismatch
-from ._typing import ArrayLike, FloatArray, IntArray, Integer
-from ._validation import (
+from .checks._errors import InvalidShape, ShapeMismatch
+from .checks._typing import ArrayLike, FloatArray, IntArray, Integer
+from .checks._validation import (
     check_finite,
     check_min_samples,
     format_shape,
@@ -72,6 +70,8 @@ from ._validation import (
     regressor_shape,
     to_float_array,
 )
+from .kernels._blas import one_blas_thread
+from .report import _consistency
 
 __all__ = ["IdentificationResult", "identify", "default_rcond"]
 
@@ -182,7 +182,7 @@ class IdentificationResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
-        from ._json import to_jsonable
+        from .report._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable({
             "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|"

@@ -194,7 +194,7 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
 
 def _p_text(p, log_p):
     """``p = 0.0123`` or ``p < 1e-300``: the wording of every table and message (contract §4)."""
-    from ._text import p_clause
+    from .report._text import p_clause
 
     return "p " + p_clause(p, log_p)
 
@@ -355,7 +355,7 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     streamed report) the colour factor scales the white band when it is there, else the white
     band z/√N is used, and the second value is False. Constant columns are NaN.
     """
-    from ._stats import z_two_sided
+    from .statistics._stats import z_two_sided
 
     xc = section
     band = float(xc["band"])

@@ -52,7 +52,7 @@ def answer(case: protocol.CaseMessage, backend: str | None = None, encoding: str
 
     contract_error: type[Exception]
     try:
-        from ._errors import InputError as contract_error
+        from .checks._errors import InputError as contract_error
     except ImportError:  # pragma: no cover - the facade is always there in a release
         contract_error = ValueError
 
@@ -113,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--encoding", choices=protocol.ENCODINGS, default="decimal",
                         help="number encoding to negotiate: decimal (default) or hex (C99 hexadecimal floats)")
     args = parser.parse_args(argv)
-    from ._backend import backends
+    from .kernels._backend import backends
 
     if args.backend is not None:
         available = backends()

@@ -25,7 +25,7 @@ Physical consistency
 the pseudo-inertia positive semidefinite, the centre of mass in a box when one is given, friction
 ≥ 0), and whether identified base parameters come from some robot; :meth:`URDFModel.identify` with
 ``physical=True`` identifies under those constraints (the ``physical`` extra, cvxpy). The
-conditions, the statistics and the solver are described in ``dynval._consistency``.
+conditions, the statistics and the solver are described in ``dynval.report._consistency``.
 
 Differentiation
 ---------------
@@ -46,11 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from . import _consistency
-from ._consistency import PARAM_NAMES, BaseConsistency, base_consistency
-from ._derivatives import Derivatives, differentiate
-from ._findings import Finding
-from ._validation import check_finite, parameter_error, promote_signal, to_float_array
+from .checks._validation import check_finite, parameter_error, promote_signal, to_float_array
+from .report import _consistency
+from .report._consistency import PARAM_NAMES, BaseConsistency, base_consistency
+from .report._findings import Finding
+from .statistics._derivatives import Derivatives, differentiate
 
 __all__ = [
     "PARAM_NAMES",
@@ -177,7 +177,7 @@ class URDFModel:
             check_finite(a, name)
             arrays.append(np.ascontiguousarray(a))
         if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
-            from ._errors import ShapeMismatch
+            from .checks._errors import ShapeMismatch
             raise ShapeMismatch(f"q, dq and ddq must have the same shape, got "
                                 f"{arrays[0].shape}, {arrays[1].shape} and {arrays[2].shape}")
         return arrays

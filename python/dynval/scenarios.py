@@ -53,8 +53,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ._blas import one_blas_thread
-from ._typing import FloatArray
+from .checks._typing import FloatArray
+from .kernels._blas import one_blas_thread
 
 __all__ = [
     "PARAM_NAMES", "GRAVITY", "Link", "ArmDesign", "ARMS", "Arm", "arm", "base_structure",

@@ -416,7 +416,7 @@ def simulate(scenario: str = "friction", *, seed: int = 0, n_samples: int = 2000
     >>> data.estimation.regressors["friction"].shape, data.column_names["rigid"][:2]
     ((300, 2, 10), ('ZZ1R', 'MX1R'))
     """
-    from ._validation import check_choice, parameter_error
+    from .checks._validation import check_choice, parameter_error
 
     check_choice("scenario", scenario, SCENARIOS)
     if not isinstance(n_samples, (int, np.integer)) or n_samples < 200:

@@ -50,14 +50,11 @@ from typing import Any, Literal, cast
 import numpy as np
 import scipy.stats
 
-from . import _sections as sec
-from . import _timing
-from . import _validation as v
-from ._assembly import Sections, ValidationReport, assemble_report, provenance
-from ._checks import Array, CheckedCall
-from ._errors import InputError, InvalidParameter, ShapeMismatch
-from ._findings import Thresholds
-from ._options import (
+from .checks import _timing
+from .checks import _validation as v
+from .checks._checks import Array, CheckedCall
+from .checks._errors import InputError, InvalidParameter, ShapeMismatch
+from .checks._options import (
     UNSUPPORTED,
     Keywords,
     Options,
@@ -67,14 +64,17 @@ from ._options import (
     plan_lags,
     to_setting,
 )
-from ._profiles import Profile
-from ._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from ._reference.information import assemble, fit_term_from_sums
-from ._reference.portmanteau import chi2_logsf
-from ._results import ZeroMeanTest
-from ._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
-from ._stream import CoreState, Layout, Stamps, State, _Snapshot
-from ._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
+from .kernels._reference.information import assemble, fit_term_from_sums
+from .kernels._reference.portmanteau import chi2_logsf
+from .metrics._profiles import Profile
+from .metrics._results import ZeroMeanTest
+from .report import _sections as sec
+from .report._assembly import Sections, ValidationReport, assemble_report, provenance
+from .report._findings import Thresholds
+from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
+from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -224,7 +224,7 @@ class ValidationAccumulator:
         >>> acc.update([[1.0, 2.0]], [[1.0, 2.0]])
         Traceback (most recent call last):
             ...
-        dynval._errors.ShapeMismatch: chunk 2: tau_meas must have m=1 columns like the chunks before it, ...
+        dynval.checks._errors.ShapeMismatch: chunk 2: tau_meas must have m=1 columns like the chunks before it, ...
         >>> acc.n_samples
         3
         """
@@ -511,7 +511,7 @@ class ValidationAccumulator:
         >>> ValidationAccumulator(n_params=1).result()
         Traceback (most recent call last):
             ...
-        dynval._errors.TooFewSamples: ValidationAccumulator.result needs at least 2 samples, got N=0
+        dynval.checks._errors.TooFewSamples: ValidationAccumulator.result needs at least 2 samples, got N=0
         """
         n = self.n_samples
         v.check_min_samples("ValidationAccumulator.result", n, 2)

@@ -1,7 +1,7 @@
 // Input errors of the dynval core: one exception type per language-neutral error kind.
 //
 // The kind names and every message text are fixed by docs/contract.md §2 and are identical to
-// the Python facade (python/dynval/_validation.py), so a C++ caller, a Python caller and a port
+// the Python facade (python/dynval/checks/_validation.py), so a C++ caller, a Python caller and a port
 // see the same words. The values inside them are written the C++ way (value_text); the Python
 // bindings replace a parameter's value with the caller's own argument (contract §2.1).
 #pragma once

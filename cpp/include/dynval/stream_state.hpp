@@ -1,6 +1,6 @@
 // The mergeable state of a validation stream (contract §4.1): everything the streamed report
 // needs, in a size independent of the number of rows. It is the C++ form of the Python
-// reference `dynval._stream.State` and follows it step by step, so the two agree to rounding:
+// reference `dynval.streaming._stream.State` and follows it step by step, so the two agree to rounding:
 //
 // * per joint, about a centre K that follows the running mean: Σ(τ − K_τ) and Σ(τ − K_τ)² of the
 //   target; for the residual e at every lag ℓ = 0..L the lagged products

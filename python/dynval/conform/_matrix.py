@@ -61,7 +61,7 @@ class MatrixRow:
 def builtin_port(name: str, root: pathlib.Path) -> PortSpec:
     """The command of a built-in port, or the reason it cannot run here."""
     if name in ("python", "cpp"):
-        from .._backend import backends
+        from ..kernels._backend import backends
 
         info = backends().get(name, {})
         command = [sys.executable, "-m", "dynval.port", "--backend", name]

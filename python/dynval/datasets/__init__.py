@@ -31,7 +31,7 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import is_integer, parameter_error
+from ..checks._validation import is_integer, parameter_error
 
 __all__ = ["KukaLWR4Run", "load_kuka_lwr4", "list_datasets"]
 
@@ -186,7 +186,7 @@ def load_kuka_lwr4(run: int = 1) -> KukaLWR4Run:
     >>> load_kuka_lwr4(4)
     Traceback (most recent call last):
         ...
-    dynval._errors.InvalidParameter: run must be one of 1, 2, 3, got 4
+    dynval.checks._errors.InvalidParameter: run must be one of 1, 2, 3, got 4
     """
     if not is_integer(run) or int(run) not in _KUKA_RUNS:
         raise parameter_error("run", "one of " + ", ".join(map(str, _KUKA_RUNS)), run)

@@ -129,7 +129,7 @@ def run_operation(
 
 def _blocks(n: int, chunks: Any) -> list[tuple[int, int]]:
     """Row ranges of the blocks of ``chunks`` (positive lengths summing to N)."""
-    from .._validation import is_integer, parameter_error
+    from ..checks._validation import is_integer, parameter_error
 
     if not isinstance(chunks, (list, tuple)) or not chunks or not all(is_integer(c) and c >= 1 for c in chunks) \
             or sum(int(c) for c in chunks) != n:
@@ -160,8 +160,8 @@ def _checked_data(inputs: Mapping[str, Any], nan_policy: object) -> tuple[np.nda
     """The data checks of the in-memory operations, so that the errors are those of the other
     families: the torques as ``criteria`` checks them (the checked call: ``nan_policy`` deferred,
     then finiteness), then the regressor as ``cross_correlation`` checks it against ``e``."""
-    from .._checks import CheckedCall
-    from .._validation import check_min_samples, regressor_shape, regressor_to_2d, to_float_array, torque_pair
+    from ..checks._checks import CheckedCall
+    from ..checks._validation import check_min_samples, regressor_shape, regressor_to_2d, to_float_array, torque_pair
 
     t = torque_pair(inputs["tau_meas"], inputs["tau_pred"])
     n, m = t.meas.shape
@@ -187,8 +187,8 @@ def _accumulate(inputs: Mapping[str, Any], conventions: Mapping[str, Any],
     regressor then as ``cross_correlation`` checks it, then the driver's own parameters (``chunks``,
     ``merge``, ``segments``, ``max_lag``), so the check order is the contract's.
     """
-    from .._segments import longest_segment, parse_segments
-    from .._validation import check_choice, check_max_lag, check_n_params
+    from ..checks._segments import longest_segment, parse_segments
+    from ..checks._validation import check_choice, check_max_lag, check_n_params
     from ..stream import ValidationAccumulator
 
     nan_policy = conventions.get("nan_policy", "raise")

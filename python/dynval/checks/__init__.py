@@ -1,0 +1,1 @@
+"""Input checks: types, shapes, segments, time stamps, settings, the checked call, errors."""

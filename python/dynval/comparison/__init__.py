@@ -1,0 +1,1 @@
+"""compare: ranking, verdict and the words of its reasons."""

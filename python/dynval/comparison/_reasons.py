@@ -1,0 +1,139 @@
+"""The words of ``dynval.compare``: each candidate's reasons, one short line per deficiency or
+design finding (where, what, the effect against its threshold), or its rank when it has none.
+
+Only wording: what decides is in ``_compare.py``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..checks._typing import ReportSections
+from ..report._findings import Finding
+from ..report._text import number_text, versus
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+__all__ = ["joint_name", "column_name", "finding_reason", "candidate_reasons"]
+
+
+def joint_name(report: ReportSections, j: int) -> str:
+    names = report.provenance.get("joint_names")
+    return str(names[j]) if names and 0 <= j < len(names) else f"joint {j + 1}"
+
+
+def column_name(report: ReportSections, c: int) -> str:
+    names = report.provenance.get("column_names")
+    return str(names[c]) if names and 0 <= c < len(names) else f"column {c + 1}"
+
+
+def _g(x: float | None, fmt: str = ".3g") -> str:
+    """A number of a finding (None or non-finite as a word)."""
+    return number_text(x, fmt)
+
+
+def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, str]:
+    """A finding's effect and its threshold, with the digits that keep them in the order the rule
+    found (:func:`dynval.report._text.versus`): 0.2496 against 0.25 → "24.96 %", "25 %" with ``percent``."""
+    e, t = versus(f.effect, f.threshold, fmt, scale=100.0 if percent else 1.0)
+    if percent:
+        e, t = (s if s in ("n/a", "nan") else f"{s} %" for s in (e, t))
+    return e, t
+
+
+def finding_reason(f: Finding, report: ReportSections) -> str:
+    """One short reason from a finding's own fields: where, what, the effect and its threshold."""
+    joints = ", ".join(joint_name(report, j) for j in f.joints)
+    cols = [column_name(report, c) for c in f.columns]
+    th = f.threshold
+    e, t = _vs(f, percent="share" in (f.effect_unit or "") or f.kind in ("bias", "low_information")
+               or (f.kind == "excitation" and "motion" in (f.effect_unit or "")))
+    if f.kind == "regressor_correlation" and "share" in f.effect_unit:
+        text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {e} of the residual's "
+                f"mean square ≥ {t})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
+    elif f.kind == "regressor_correlation":
+        e, t = _vs(f, ".2f")
+        text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
+                f"{e} ≥ {t}): a missing or mis-weighted term")
+    elif f.kind == "bias":
+        text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
+                + (f", which the missing term {cols[0]} accounts for" if cols else ""))
+    elif f.kind == "oscillation":
+        text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
+                f"({e} of the residual variance ≥ {t})")
+    elif f.kind == "whiteness":
+        rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
+        text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
+                "findings above on this joint")
+    elif f.kind == "worse_than_constant":
+        e, t = versus(f.statistic, 0.0, ".3f")
+        text = f"worse than a constant (R² = {e} < {t})"
+    elif f.kind == "missing_physics":
+        label = f.details.get("label") or f.details.get("term") or "a physical term"
+        text = f"missing {label} (the physical terms would remove {e} of the mean square ≥ {t})"
+    elif f.kind == "delay":
+        d_s = f.details.get("delay_s")
+        lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
+               else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
+        text = (f"torque delayed by {lag} against the encoders (realigning removes {e} of the mean "
+                f"square ≥ {t})")
+    elif f.kind == "predictive_failure":
+        text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
+    elif f.kind == "low_information":
+        text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
+    elif f.kind == "repeat_trajectory" and f.details.get("share") is not None:
+        text = (f"the validation run repeats the estimation run ({e} of it lies near the estimation trajectory "
+                f"at some time > {t})")
+    elif f.kind == "repeat_trajectory":
+        measure = f.details.get("measure", "")
+        text = (f"the validation run repeats the estimation run (relative {measure + ' ' if measure else ''}"
+                f"distance {e} < {t})")
+    elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):
+        e, t = _vs(f, ".1f", percent=True)
+        text = f"the validation run excites {', '.join(cols)} far less than the estimation run ({e} < {t})"
+    elif f.kind == "excitation" and cols:
+        zero = set(f.details.get("unexcited") or ())
+        never = [column_name(report, c) for c in f.columns if c in zero]
+        apart = [column_name(report, c) for c in f.columns if c not in zero]
+        text = "the validation run " + " and ".join(
+            ([f"never excites {', '.join(never)}"] if never else [])
+            + ([f"cannot separate {', '.join(apart)} from the other columns"] if apart else []))
+    elif f.kind == "excitation" and "condition" in f.effect_unit:
+        text = f"ill-conditioned validation regressor (column-scaled condition number {e} > {t})"
+    elif f.kind == "excitation" and "motion" in f.effect_unit:
+        text = f"hardly moves ({e} of its estimation-run motion < {t})"
+    elif f.kind == "physical_consistency" and f.details.get("link"):
+        text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
+                f"{f.effect_unit}")
+    elif f.kind == "physical_consistency" and f.details.get("joint"):
+        text = f"not a robot: {f.details.get('condition')} broken by {_g(f.effect)} {f.effect_unit}"
+    elif f.kind == "physical_consistency":
+        text = (f"no physically consistent robot has these base parameters (the nearest adds {e} to the "
+                f"estimation run's residual mean square ≥ {t})")
+    else:  # a kind this wording does not know yet: its name, effect and threshold
+        text = f.kind.replace("_", " ")
+        if f.effect is not None:
+            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
+                     + (f", threshold {t}" if th is not None else "") + ")")
+    prefix = "design: " if f.severity == "design" else ""
+    return prefix + (f"{joints}: " if joints else "") + text
+
+
+def candidate_reasons(ranking: list[str], reports: Mapping[str, ReportSections], criterion: str,
+                      crit: dict[str, float]) -> dict[str, tuple[str, ...]]:
+    """Every candidate's reasons, in ranking order (see :class:`ComparisonReport`)."""
+    out: dict[str, tuple[str, ...]] = {}
+    best = ranking[0]
+    for rank, n in enumerate(ranking, 1):
+        r = reports[n]
+        matter = [f for f in r.findings if f.severity in ("deficiency", "design")]
+        if matter:
+            out[n] = tuple(finding_reason(f, r) for f in matter)
+        elif rank == 1:
+            out[n] = (f"no deficiency: rank 1 of {len(ranking)}, the lowest {criterion} "
+                      f"({_g(crit[n], '.1f')}) among the candidates without a deficiency",)
+        else:
+            out[n] = (f"no deficiency: rank {rank} of {len(ranking)}, {criterion} {_g(crit[n], '.1f')} "
+                      f"(Δ{criterion} = {_g(crit[n] - crit[best], '+.1f')} to {best})",)
+    return out

@@ -1,0 +1,1 @@
+"""The backends: the numpy/scipy reference kernels, the compiled core's binding, BLAS threads."""

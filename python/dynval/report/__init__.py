@@ -1,0 +1,1 @@
+"""validate's report: sections, the assembler, typed records, findings and their words."""

@@ -1,0 +1,345 @@
+"""The words of the findings: each kind's message and action, and the units of its effect.
+
+Only wording: what decides (which joint, which column, deficiency or note) is in
+``_findings.py``, which passes the numbers it decided on. A function per kind returns
+``(message, action)``; the summary's wording is in ``_summary.py``, a comparison's in
+``_reasons.py``, and every number is written by ``_text`` (contract §4).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ._text import p_clause, versus
+
+Words = tuple[str, str]
+"""``(message, action)`` of one finding."""
+
+UNITS = {
+    "omitted_rows": "rows",
+    "worse_than_constant": "1 − R² beyond 1 (fraction of TSS)",
+    "pooling": "R² below pooled",
+    "bias": "|mean| / RMSE",
+    "missing_term": "share of the residual's mean square the term would remove",
+    "correlation": "|ρ|",
+    "oscillation": "share of residual variance",
+    "sampling_colour": "decimation factor",
+    "whiteness": "max |ρ̂(ℓ)|",
+    "time_stamps": "irregular steps",
+    "processing_band": "share of residual variance",
+    "periodic_error": "share of the residual's variance common to every period",
+    "missing_physics": "share of the joint's mean square the physical terms remove",
+    "delay": "share of the joint's mean square realigning removes",
+    "predictive_failure": "validation mean square / what the estimation run allows",
+    "structural": "structural columns",
+    "columns": "columns",
+    "condition": "column-scaled condition number",
+    "joint_motion": "joint motion (RMS) relative to the estimation run",
+    "column_motion": "column RMS relative to the estimation run",
+    "low_information": "smallest detectable share of the mean square (90 % power)",
+}
+"""``Finding.effect_unit`` by rule (the repeat finding's names its state or measure)."""
+
+NEGLIGIBLE = ": significant but negligible."
+
+
+def joint_name(names: Sequence[str] | None, j: int) -> str:
+    return names[j] if names and j < len(names) else f"joint {j + 1}"
+
+
+def column_name(names: Sequence[str] | None, c: int) -> str:
+    return names[c] if names and c < len(names) else f"column {c + 1}"
+
+
+def p_text(p: Any, log_p: Any = None) -> str:
+    """``= 0.0123`` or ``< 1e-300``: the relation and the value, for "p {…}" in a message
+    (:func:`dynval.report._text.p_clause`, the one p-value wording of every text, contract §4)."""
+    return p_clause(p, log_p)
+
+
+def lag_text(lag: int, sample_rate: float | None) -> str:
+    """``lag 36`` or, with a rate, ``lag 36 (36 ms)``."""
+    if sample_rate is None or lag == 0:
+        return f"lag {lag}"
+    seconds = lag / sample_rate
+    return f"lag {lag} ({seconds:.3g} s)" if seconds >= 1 else f"lag {lag} ({1e3 * seconds:.3g} ms)"
+
+
+def listed_columns(cols: Sequence[str] | None, columns: Sequence[int], most: int = 6) -> str:
+    names = [column_name(cols, c) for c in columns]
+    return ", ".join(names[:most]) + (f", … ({len(names)} in all)" if len(names) > most else "")
+
+
+# -- the data -----------------------------------------------------------------------------------
+
+def omitted_rows(count: int) -> Words:
+    return (f"{count} rows with non-finite values were omitted; segment breaks were inserted so no lag joins "
+            "samples that were not adjacent.", "check the logger for dropped or invalid samples")
+
+
+def constant_target(name: str, force_finite: bool) -> Words:
+    how = "0 or 1 by scikit-learn's force_finite rule" if force_finite else "-inf, or nan for an exact prediction"
+    return (f"{name}: the measured torque is constant, so R², fit and VAF compare against nothing "
+            f"(reported as {how}).", "validate this joint on a trajectory that moves it")
+
+
+def time_stamps(t: Mapping[str, Any]) -> Words:
+    """The irregular steps of a time-stamp record (``dynval.checks._timing.Timing.to_dict``)."""
+
+    def count(k: int, what: str) -> str:
+        return f"{k} {what}" + ("" if k == 1 else "s")
+
+    parts = []
+    if t["duplicated_stamps"]:
+        parts.append(count(t["duplicated_stamps"], "duplicated stamp"))
+    if t["repeated_rows"]:
+        parts.append(f"{count(t['repeated_rows'], 'row')} repeating the previous row's torques exactly "
+                     f"({100 * t['repeated_rows'] / max(t['n_steps'], 1):.2g} %)")
+    if t["gaps"]:
+        parts.append(f"{count(t['gaps'], 'gap')} (largest {1e3 * t['largest_gap']:.4g} ms at "
+                     f"t = {t['largest_gap_time']:.4g} s)")
+    if t["irregular_steps"]:
+        parts.append(f"{count(t['irregular_steps'], 'step')} more than 10 % off the nominal one (jitter RMS "
+                     f"{1e3 * t['jitter_rms']:.3g} ms, largest deviation {1e3 * t['largest_step_deviation']:.3g} ms)")
+    return (f"Time stamps on a {1e3 * t['nominal_step']:.4g} ms nominal step: " + "; ".join(parts)
+            + f". The lag and spectral analyses use {t['grid']}.",
+            "check the logger's clock and buffering; lags and frequencies assume the stated grid")
+
+
+# -- the fit ------------------------------------------------------------------------------------
+
+def worse_than_constant(name: str, r2: float, hidden_by: float | None) -> Words:
+    """``hidden_by``: the pooled R² when it looks good (> 0) over several joints."""
+    return (f"{name} does worse than a constant: R² = {versus(r2, 0.0, '.3f')[0]}"
+            + (f", yet the pooled R² is {hidden_by:.3f} (pooling flattens all joints with one mean, so the "
+               "high-torque joints dominate it; read the per-joint values)." if hidden_by is not None else "."),
+            f"check {name}'s terms, signs and units: predicting its mean torque does better")
+
+
+def pooling(name: str, r2: float, pooled: float) -> Words:
+    return (f"{name}: R² = {r2:.3f}, well below the pooled {pooled:.3f}, which the larger torques of other "
+            "joints dominate.", "read the per-joint values")
+
+
+def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, n: int, padj: float, big: bool,
+         culprit: tuple[str, float] | None) -> Words:
+    """``culprit``: the missing column that accounts for the mean, and its share."""
+    pct = versus(effect, threshold, ".0f", scale=100.0)
+    head = (f"{name}: residual mean {mean:+.4g} ({pct[0]} % of the RMSE; coloured-noise t-test N_eff = {n_eff:.0f} "
+            f"of {n}, Holm-adjusted p {p_text(padj)})")
+    if not big:
+        return (head + f": significant but negligible (below {pct[1]} % of the RMSE).",
+                "none: the bias is real but too small to matter")
+    tail = f"; the missing term {culprit[0]} accounts for it." if culprit else "."
+    if culprit is not None:
+        action = (f"add the term {culprit[0]} on {name}: without it the model leaves this offset "
+                  f"({100 * culprit[1]:.1f} % of the mean square is its part outside the model)")
+    else:
+        action = f"add a torque offset (sensor bias), a friction or a gravity term on {name}"
+    return head + ": a systematic bias, e.g. a missing offset, friction or gravity term" + tail, action
+
+
+def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bool, padj: float, big: bool) -> Words:
+    """``terms``: (column, statistic, share) of the chosen columns, strongest first."""
+    symbol = "t" if refit else "ρ"
+    listed = "; ".join(f"{c} ({symbol} = {stat:+.3g}, would remove {100 * share:.1f} % of the mean square)"
+                       for c, stat, share in terms[:3])
+    how = ("refitted on the estimation run with the term added (Wald t with the coloured-noise covariance; the "
+           "share is measured on the validation run)" if refit
+           else "after removing what the model's own columns represent")
+    return (f"{name}: a term the model lacks explains part of the residual: {listed}; {how} (Holm-adjusted p "
+            f"{p_text(padj)})" + (": a missing term." if big else NEGLIGIBLE),
+            f"add the term {terms[0][0]} to the model" if big else "none: the term would explain too little to matter")
+
+
+def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], threshold: float, best: float,
+                          padj: float, big: bool) -> Words:
+    """``hits``: (column, lag text, ρ) of the chosen columns, strongest first."""
+    listed = "; ".join(f"{c} ({lag}, ρ = {versus(rho, threshold, '+.3f', absolute=True)[0]})"
+                       for c, lag, rho in hits[:3])
+    head = (f"{name}: the residual correlates with {listed} beyond what the colour of both series explains "
+            f"(Holm-adjusted p {p_text(padj)})")
+    if big:
+        return (head + ": the model does not use the information in this column (a missing or mis-weighted term).",
+                f"add or re-weight the term of {hits[0][0]} on {name}: the model does not use the information in it")
+    return (head + f": significant but negligible (|ρ| below {versus(best, threshold)[1]}).",
+            "none: the correlation is real but too small to matter")
+
+
+def oscillation(name: str, frequency: float, unit: str, share: float, ratio: float, padj: float, big: bool) -> Words:
+    return (f"{name}: the residual oscillates near {frequency:.3g} {unit} ({100 * share:.0f} % of its variance, "
+            f"{ratio:.0f}× the background; Holm-adjusted p {p_text(padj)})"
+            + (": dynamics the model lacks, e.g. a flexible joint or link (an unmodelled mode)." if big
+               else NEGLIGIBLE),
+            f"an unmodelled mode near {frequency:.3g} {unit}: add joint or link compliance (a spring–damper) or keep "
+            "trajectories away from it" if big else "none: the peak is real but small")
+
+
+def sampling_colour(name: str, band: float | None, unit: str, decimation: int) -> Words:
+    """``band``: the information band the decimation came from; None for a factor given as is."""
+    reduced = (f"reduced to the band the motion occupies (below {band:.3g} {unit}, decimated by {decimation})"
+               if band is not None else f"decimated by {decimation} (the factor given)")
+    return (f"{name}: the residual is coloured at the logged rate but white once {reduced}: the colour is what the "
+            "sensor, its filters and the sampling make, not the model.",
+            "none for the model; test at the rate the motion needs (decimate=) or log less filtered data")
+
+
+def whiteness(name: str, decimated: bool, lag: int | None, padj: float, backed: bool) -> Words:
+    """``backed``: an earlier rule found the joint deficient."""
+    rate = ("at the rate the motion needs (the information rate)" if decimated
+            else "at the logged rate")
+    return (f"{name}: the residuals are correlated in time (not white) {rate} (Ljung–Box up to lag {lag}, "
+            f"Holm-adjusted p {p_text(padj)})"
+            + (", and the findings above show the structure is the model's." if backed
+               else "; colour alone is not evidence against the model (sensor filtering, oversampling and "
+                    "estimation error colour residuals too)."),
+            "see the findings above for the structure's source" if backed
+            else "none on this evidence: colour alone does not show the model is wrong")
+
+
+def processing_band(name: str, frequency: float | None, bandwidth: float, padj: float) -> Words:
+    """Evidence above the inputs' bandwidth: a spectral peak at ``frequency`` Hz, or (None) whiteness."""
+    if frequency is not None:
+        f_text, bw_text = versus(frequency, bandwidth)
+        evidence = f"a spectral peak near {f_text} Hz lies above the inputs' {bw_text} Hz bandwidth"
+    else:
+        evidence = (f"the residual's colour, tested at a rate whose band reaches above the inputs' "
+                    f"{bandwidth:.3g} Hz bandwidth,")
+    return (f"{name}: {evidence} (Holm-adjusted p {p_text(padj)}): what the differentiating or sensor filter makes "
+            "there is processing, not the model.", "none for the model: the inputs are not trustworthy there")
+
+
+# -- the motion ---------------------------------------------------------------------------------
+
+def periodic_error(name: str, effect: float, n_periods: Any, period: Mapping[str, Any], padj: float,
+                   big: bool) -> Words:
+    seconds = period["seconds"]
+    length = f"{seconds:.4g} s" if seconds else f"{period['samples']:.4g} samples"
+    return (f"{name}: {100 * effect:.0f} % of the residual's variance repeats in every one of the {n_periods} "
+            f"periods ({length}) beyond what the period-to-period variation allows (noise measured from the "
+            f"periods themselves, no whiteness assumed; Holm-adjusted p {p_text(padj)})"
+            + (": model error." if big else NEGLIGIBLE),
+            "the model misses something the trajectory repeats: see the physics and correlation findings for "
+            "which term" if big else "none: the periodic part is real but small")
+
+
+def missing_physics(name: str, label: str, others: Sequence[str], together: float, term_share: float,
+                    share: float, padj: float, big: bool) -> Words:
+    named = label + (f" (with {', '.join(others)})" if others else "")
+    return (f"{name}: the residual follows the motion: {named} removes {100 * together:.0f} % of its mean square "
+            f"({100 * term_share:.0f} % by {label} alone; every physical term together {100 * share:.0f} %, "
+            f"prewhitened Wald test, Holm-adjusted p {p_text(padj)})"
+            + (": a term the model lacks." if big else NEGLIGIBLE),
+            f"add {label} on {name} to the model" if big else "none: the structure is real but too small to matter")
+
+
+def delay(shift: float, sample_rate: float | None, shares: Sequence[tuple[str, float]], padj: float) -> Words:
+    """``shift`` in samples; ``shares``: (joint, share of its mean square realigning removes)."""
+    unit, value = ("ms", 1000.0 * shift / sample_rate) if sample_rate else ("samples", shift)
+    each = "; ".join(f"{name} {100 * share:.0f} %" for name, share in shares)
+    return (f"The measured torque lags the prediction by {value:+.3g} {unit} (realigning removes {each} of the mean "
+            f"square; Holm-adjusted p {p_text(padj)}): a delay between the torque sensor and the encoders, not a "
+            "missing term.",
+            f"realign the measured torque with the encoders (shift it by {value:+.3g} {unit}), or model the "
+            "sensor's filter")
+
+
+def predictive_failure(name: str, ratio: float, padj: float) -> Words:
+    return (f"{name}: the validation mean square is {ratio:.3g}× what the estimation run's noise and parameter "
+            f"uncertainty allow (Chow-type F test, Holm-adjusted p {p_text(padj)}).",
+            f"the model does not carry over to new motion on {name}: look for a term the estimation trajectory did "
+            "not need (a payload, a changed friction) or refit on richer data")
+
+
+# -- the design ---------------------------------------------------------------------------------
+
+REPEAT_ACTION = "validate on a different trajectory: a repeat rewards over-fitting"
+_REPEAT_TAIL = "Metrics on it measure the fit, not the prediction of new motion."
+
+
+def repeat_by_state(share: float, threshold: float, state: str | None, tolerance: float) -> Words:
+    sh, sh_th = versus(share, threshold, ".0f", scale=100.0)
+    states = "q, q̇, q̈" if state == "q" else "the regressor's leading principal components"
+    return (f"The validation run repeats the estimation run: {sh} % of its states (> {sh_th} %) lie within "
+            f"{tolerance:g} of the estimation trajectory at some time (state: {states}, each coordinate in "
+            f"estimation-run standard deviations, the distance an RMS over them). {_REPEAT_TAIL}", REPEAT_ACTION)
+
+
+def repeat_by_distance(distance: float, threshold: float, measure: str) -> Words:
+    dist, dist_th = versus(distance, threshold)
+    return (f"The validation run repeats the estimation run: relative {measure} distance {dist} < {dist_th} "
+            f"(time-aligned; give q or the regressor of both runs to compare states at any time). {_REPEAT_TAIL}",
+            REPEAT_ACTION)
+
+
+def structural_columns(cols: Sequence[str] | None, structural: Sequence[int], p: int | None,
+                       rank: int | None) -> Words:
+    return (f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the others in both "
+            f"runs ({listed_columns(cols, structural)}): no trajectory of this structure excites them apart, so they "
+            f"were reduced to {rank} identifiable combinations (the base parameters), on which the excitation "
+            "checks ran.", "none: no trajectory of this structure can excite them apart")
+
+
+def unexcited_columns(cols: Sequence[str] | None, zero: Sequence[int], dependent: Sequence[int],
+                      estimation_known: bool) -> Words:
+    """``estimation_known``: the estimation run's regressor was given (structural columns are known)."""
+    parts = []
+    if zero:
+        parts.append(f"never excites {listed_columns(cols, zero)}")
+    if dependent:
+        parts.append(f"cannot separate {listed_columns(cols, dependent)} from the other columns (in this run they "
+                     "are combinations of them)")
+    if estimation_known:
+        tail = ": the estimation run excites them apart, so the validation cannot test these terms."
+    else:
+        tail = (": the validation cannot test these terms. Without the estimation run's regressor "
+                "(estimation={'regressor': ...}) it is not known whether they are structural (zero or "
+                "combinations of other columns for every trajectory of this structure, as some parameters "
+                "of a fixed-base arm's first links are) or a flaw of this trajectory; reduce the regressor to "
+                "its base columns, or give the estimation run's regressor.")
+    return ("The validation regressor " + " and ".join(parts) + tail,
+            "add motion that excites these columns to the validation trajectory")
+
+
+def ill_conditioned(condition: float, threshold: float, reduced: bool, rank: int | None) -> Words:
+    """``reduced``: structural columns were reduced, and the number was computed over the validation
+    run's ``rank`` identifiable combinations."""
+    cond, cond_th = versus(condition, threshold)
+    over = f" over its {rank} identifiable combinations" if reduced else ""
+    return (f"The validation regressor is ill-conditioned (column-scaled condition number{over} {cond} > {cond_th}): "
+            "it cannot separate the effects of the parameters.", "use a richer validation trajectory")
+
+
+def joint_motion(name: str, ratio: float, threshold: float) -> Words:
+    return (f"{name} moves {versus(ratio, threshold, '.1f', scale=100.0)[0]} % of its estimation-run motion: the "
+            "validation cannot test the terms of this joint.",
+            f"move {name} in the validation run as much as in the estimation run")
+
+
+def column_motion(weak: Sequence[tuple[str, float]], threshold: float) -> Words:
+    """``weak``: (column, its RMS relative to the estimation run)."""
+    listed = ", ".join(f"{c} ({versus(ratio, threshold, '.1f', scale=100.0)[0]} %)" for c, ratio in weak)
+    return (f"The validation run excites {listed} far less than the estimation run did: it cannot test these terms.",
+            "excite these columns in the validation run as much as in the estimation run")
+
+
+def low_information(joints: Sequence[tuple[str, float, float, Sequence[tuple[str, float]] | None]],
+                    threshold: float) -> Words:
+    """``joints``: (name, N_eff, smallest detectable share, the terms found there that remove less, or None)."""
+    each = []
+    threshold_pct = ""
+    for name, n_eff, share, unresolved in joints:
+        pct, threshold_pct_j = versus(share, threshold, ".0f", scale=100.0)
+        threshold_pct = threshold_pct or threshold_pct_j
+        tail = "" if unresolved is None else _unresolved(unresolved)
+        each.append(f"{name}: N_eff = {n_eff:.0f}, {pct} %" + tail)
+    return (f"This run cannot decide: its noise leaves so few effective samples that a missing term must remove more "
+            f"than {threshold_pct} % of the mean square to be found ({'; '.join(each)}).",
+            "validate on a longer or faster-varying run (more effective samples)")
+
+
+def _unresolved(terms: Sequence[tuple[str, float]]) -> str:
+    named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
+    return (f" — found deficient, but what is named there removes less: {named}, so which term is missing this run "
+            "cannot tell")

@@ -1,0 +1,226 @@
+"""Section builders that read the motion: missing physics, predictive failure and the run's power.
+
+They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or the estimation run
+(docs/conventions.md §5.2): each takes what it needs and returns one dict, and the rules in
+``_findings.py`` read them through the evidence record.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import scipy.stats
+
+from ..statistics import _periodic, _physics
+
+__all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
+
+
+def delay(meas, pred, sample_rate) -> dict[str, Any]:
+    """The time shift between measured and predicted torque (:func:`dynval.statistics._physics.delay_test`)."""
+    return _physics.delay_test(meas, pred, sample_rate=sample_rate)
+
+
+def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level, est_run=None,
+            meas=None) -> dict[str, Any]:
+    """Each joint's residual against the physics library (:mod:`dynval.statistics._physics`).
+
+    The model's own columns: with the estimation run their estimation error widens the test
+    (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
+    represent is not missing); with neither, the prediction alone is given and nothing is refitted.
+    """
+    d = _physics.derivatives(q, sample_rate, dq, ddq)
+    kwargs: dict[str, Any] = {}
+    how = "none (no regressor: the model's own columns are unknown)"
+    if est_fit is not None and reg3 is not None:
+        kwargs["model_regressor"] = reg3[:, :, list(est_fit.columns)]
+        kwargs["parameter_covariance"] = est_fit.covariance
+        how = "their estimation error, Cov(π̂) from the estimation run, widens the test"
+    elif reg3 is not None:
+        cols = list(range(reg3.shape[2])) if model_columns is None else list(model_columns)
+        kwargs["nuisance"] = [reg3[:, j, cols] for j in range(reg3.shape[1])]
+        how = "refitted on the validation run (what they represent is not missing)"
+    tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
+    naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
+    if est_fit is not None and reg3 is not None and est_run is not None and "q" in est_run:
+        refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate)
+        naming = ("refitted on the estimation run with each group added to the model's columns on every "
+                  "flagged joint; the group whose refit removes nearly the most of the joint's validation "
+                  "mean square, fewest columns first")
+    return {"naming": naming,
+            "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
+            "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
+            "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
+            "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
+            "n_eff": np.array([t.n_eff for t in tests])}
+
+
+def predictive(e, est_fit, reg3, n_eff_val) -> dict[str, Any] | None:
+    """Does the validation error exceed what the estimation run's noise and Cov(π̂) allow?
+
+    A Chow-type predictive test per joint: the validation mean square against s²_est (the
+    estimation residual's, with its degrees of freedom) plus the mean of y_kᵀ Cov(π̂) y_k over the
+    validation rows; F with (N_eff,val, N_eff,est − k/m) degrees of freedom, so colour is allowed for.
+    The effect is the ratio of mean squares.
+    """
+    if est_fit is None or reg3 is None or e is None:
+        return None
+    cols = list(est_fit.columns)
+    n, m = e.shape
+    res = est_fit.residual
+    n_est = res.shape[0]
+    k = len(cols)
+    dof = max(n_est * m - k, 1)
+    s2 = np.sum(res**2, axis=0) / (dof / m)
+    gram = np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / n
+    param = np.einsum("mkl,kl->m", gram, est_fit.covariance)
+    expected = s2 + param
+    mse = np.mean(e**2, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = mse / expected
+    # A variance estimate has 2N/(2 + κ) degrees of freedom when the excess kurtosis is κ (heavy
+    # tails make the ratio of two mean squares far more variable than Gaussian F says).
+    df1 = np.clip(np.asarray(n_eff_val, dtype=float) * _kurtosis_factor(e), 1.0, None)
+    df2 = np.clip((np.asarray(est_fit.n_eff, dtype=float) - k / m) * _kurtosis_factor(res), 1.0, None)
+    p = scipy.stats.f.sf(ratio, df1, df2)
+    return {"method": "Chow-type predictive F test (N_eff degrees of freedom)", "ratio": ratio,
+            "expected_mse": expected, "validation_mse": mse, "noise_variance_estimation": s2,
+            "parameter_variance": param, "df": np.column_stack([df1, df2]), "pvalue": p}
+
+
+def _kurtosis_factor(x) -> np.ndarray:
+    """2/(2 + κ) per column, κ the excess kurtosis (0 for Gaussian data; at most 1)."""
+    kappa = scipy.stats.kurtosis(np.asarray(x, dtype=float), axis=0, fisher=True, bias=False)
+    return 2.0 / (2.0 + np.clip(np.nan_to_num(kappa), 0.0, None))
+
+
+def joint_excitation(q_val, q_est) -> np.ndarray | None:
+    """Each joint's motion on the validation run relative to the estimation run (RMS about the mean)."""
+    if q_val is None or q_est is None or q_val.shape[1] != q_est.shape[1]:
+        return None
+    sv = np.std(q_val, axis=0)
+    se = np.std(q_est, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(se > 0, sv / se, np.nan)
+
+
+def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> np.ndarray:
+    """The smallest share of a joint's mean square that one added term must remove to be found with
+    probability ``power`` at the Holm-corrected level: s = c/(N_eff + c), c = (z₁₋α/(2T) + z_power)²
+    (the t statistic of a term that removes s is about √(N_eff s/(1 − s)))."""
+    alpha = (1.0 - level) / max(n_tests, 1)
+    c = (scipy.stats.norm.isf(alpha / 2.0) + scipy.stats.norm.ppf(power)) ** 2
+    n_eff = np.asarray(n_eff, dtype=float)
+    return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)
+
+
+def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=None) -> dict[str, Any] | None:
+    """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
+    part common to every period against the noise the period-to-period variation measures
+    (:func:`dynval.statistics._periodic.periodic_noise_test`, no whiteness assumed).
+
+    A model's estimation error Y(π − π̂) repeats with the trajectory too: with a regressor, each
+    joint's residual is first cleared of what the model's own columns represent (least squares on
+    the validation run), so what is tested is periodic error the model cannot represent.
+    """
+    period = _periodic.detect_period(q, sample_rate=sample_rate)
+    if period is None:
+        return None
+    projected = False
+    if reg3 is not None:
+        cols = (list(est_fit.columns) if est_fit is not None
+                else list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
+        e = e.copy()
+        for j in range(e.shape[1]):
+            y = reg3[:, j, cols]
+            if np.any(y):
+                e[:, j] -= y @ np.linalg.lstsq(y, e[:, j], rcond=None)[0]
+        projected = True
+    use_band = band if band is not None and np.isfinite(band) and band > 0 else None
+    try:
+        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate, band=use_band)
+    except ValueError:
+        if use_band is None:
+            return None
+        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+    out = {"used": True, "period": period.to_dict(), **test.to_dict()}
+    out["model_columns_removed"] = projected
+    out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
+    return out
+
+def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05) -> None:
+    """Name each flagged joint's term as an engineer would: refit the model's columns on the
+    estimation run with one library group added on every flagged joint at once (a friction or an
+    offset is usually missing on all joints alike, and the joints' terms interact through the
+    shared parameters), and name per joint the group whose refit removes the most of its validation
+    mean square (of the groups within 80 % of the best, the one with the fewest columns).
+
+    ``practical``: when no group so refitted removes that share of the joint's validation mean
+    square, the term is named from the validation run instead (:func:`_validation_refit_gains`).
+    """
+    flagged = [t for t in tests if t.selected]
+    if not flagged:
+        return
+    cols = list(est_fit.columns)
+    q_e = est_run["q"]
+    de = _physics.derivatives(q_e, sample_rate)
+    y_e = est_run["regressor"][:, :, cols]
+    tau_e = est_run["tau"]
+    n_e, m, k = y_e.shape
+    x = y_e.reshape(n_e * m, k)
+    gram, rhs = x.T @ x, x.T @ tau_e.reshape(-1)
+    lib_e = {t.joint: _physics.library(t.joint, q_e, de.dq, de.ddq, np.zeros(n_e), sample_rate) for t in flagged}
+    lib_v = {t.joint: _physics.library(t.joint, q, d.dq, d.ddq, np.zeros(q.shape[0]), sample_rate) for t in flagged}
+    base = {t.joint: float(np.mean((meas[:, t.joint] - reg3[:, t.joint, cols] @ est_fit.coefficients) ** 2))
+            for t in flagged}
+    gains: dict[int, dict[str, float]] = {t.joint: {} for t in flagged}
+    for g in lib_e[flagged[0].joint]:
+        joints = [t.joint for t in flagged if g in lib_e[t.joint]]
+        blocks = [lib_e[j][g] for j in joints]
+        sizes = np.cumsum([0] + [b.shape[1] for b in blocks])
+        # normal equations of [model columns | the group on each flagged joint's rows]
+        cross = np.hstack([y_e[:, j, :].T @ b for j, b in zip(joints, blocks)])
+        inner = np.zeros((sizes[-1], sizes[-1]))
+        for i, b in enumerate(blocks):
+            inner[sizes[i]:sizes[i + 1], sizes[i]:sizes[i + 1]] = b.T @ b
+        a = np.block([[gram, cross], [cross.T, inner]])
+        rhs_g = np.concatenate([rhs] + [b.T @ tau_e[:, j] for j, b in zip(joints, blocks)])
+        coef = np.linalg.lstsq(a, rhs_g, rcond=None)[0]
+        for i, j in enumerate(joints):
+            resid = meas[:, j] - reg3[:, j, cols] @ coef[:k] - lib_v[j][g] @ coef[k + sizes[i]:k + sizes[i + 1]]
+            if base[j] > 0:
+                gains[j][g] = (base[j] - float(np.mean(resid**2))) / base[j]
+    for t in flagged:
+        gj = gains[t.joint]
+        how = "estimation"
+        if not gj or not max(gj.values()) >= practical:
+            # No group helps by a practical share once refitted on the estimation run: the model's
+            # columns absorbed the term there (an offset into the gravity columns of a joint that
+            # hardly changes posture), or its parameter error (other joints' noise through the
+            # shared parameters) outweighs the term. Name the group that best explains, on the
+            # validation run, what the model's own columns cannot represent there.
+            gv = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
+            if gv and max(gv.values()) > max(list(gj.values()) + [0.0]):
+                gj, how = gv, "validation"
+            if not gj or not max(gj.values()) > 0:
+                continue
+        top = max(gj.values())
+        near = [g for g, v in gj.items() if v >= 0.8 * top]
+        best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
+        t.term, t.term_share = best, max(0.0, gj[best])
+        t.refit_shares = {g: float(v) for g, v in gj.items()}
+        t.refit_run = how
+
+
+def _validation_refit_gains(tau_j, y_j, groups) -> dict[str, float]:
+    """Per group, the share of the residual left by the model's columns refitted on this run that
+    the group removes when added to them."""
+    def sse(x):
+        return float(np.sum((tau_j - x @ np.linalg.lstsq(x, tau_j, rcond=None)[0]) ** 2))
+
+    base = sse(y_j)
+    if not base > 0:
+        return {}
+    return {g: (base - sse(np.hstack([y_j, b]))) / base for g, b in groups.items()}

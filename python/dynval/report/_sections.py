@@ -1,0 +1,809 @@
+"""Section builders of a validation report: each takes what it needs and returns one dict.
+
+``validate`` (``_report.py``) checks the inputs once, then calls these in turn; the findings are
+computed from the evidence they collect (``_findings.py``) and worded in ``_summary.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..statistics import _estimation, _stats
+from ._findings import Evidence
+
+_LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
+# Rows per block where a pass over the stacked regressor would otherwise copy it whole.
+_ROW_BLOCK = 1 << 16
+
+
+def _force_finite(values, constant):
+    """scikit-learn's force_finite: a constant target gives 1.0 if exact (nan) else 0.0 (−inf)."""
+    values = np.array(values, dtype=np.float64, copy=True)
+    constant = np.asarray(constant, dtype=bool)
+    values[constant] = np.where(np.isnan(values[constant]), 1.0, 0.0)
+    return values
+
+
+def point_metrics(km, prof):
+    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's dictionary."""
+    scale = 1.0 if prof.units == "percent" else 0.01
+    force = prof.constant_target == "force_finite"
+    constant = np.asarray(km["constant_target"], dtype=bool)
+
+    def unit(name):
+        return scale if name != "r2" else 1.0
+
+    def per_joint_fit(name):
+        values = np.asarray(km[name], dtype=np.float64) * unit(name)
+        return _force_finite(values, constant) if force else values
+
+    def pooled_fit(name):
+        value = float(km[f"{name}_pooled"]) * unit(name)
+        if force and km["constant_target_pooled"]:
+            value = 1.0 if math.isnan(value) else 0.0
+        return value
+
+    per_joint = {
+        "sse": np.asarray(km["sse"], dtype=np.float64),
+        "rmse": np.asarray(km["rmse"], dtype=np.float64),
+        "max_abs_error": np.asarray(km["max_abs_error"], dtype=np.float64),
+        "vaf": per_joint_fit("vaf"),
+        "fit_percent": per_joint_fit("fit_percent"),
+        "r2": per_joint_fit("r2"),
+    }
+    # MATLAB goodnessOfFit's NRMSE cost √(SSE_j/TSS_j), always a fraction and IEEE.
+    with np.errstate(invalid="ignore"):
+        per_joint["nrmse"] = 1.0 - np.asarray(km["fit_percent"], dtype=np.float64) / 100.0
+    pooled = {
+        "sse": float(km["sse_total"]),
+        "rmse_per_element": float(km["rmse_per_element"]),
+        "rmse_per_sample": float(km["rmse_per_sample"]),
+        "max_abs_error": float(km["max_abs_error_pooled"]),
+        "vaf": pooled_fit("vaf"),
+        "fit_percent": pooled_fit("fit_percent"),
+        "r2": pooled_fit("r2"),
+    }
+    uniform, weighted = {}, {}
+    for name in ("vaf", "fit_percent", "r2"):
+        if force:
+            values = per_joint[name]
+            uniform[name] = float(np.mean(values))
+            # Constant joints have weight 0 in both conventions, so the kernel's value stands,
+            # except when every joint is constant: then the uniform mean of the forced values.
+            weighted[name] = (float(np.mean(values)) if constant.all()
+                              else float(km[f"{name}_variance_weighted"]) * unit(name))
+        else:
+            uniform[name] = float(km[f"{name}_uniform_average"]) * unit(name)
+            weighted[name] = float(km[f"{name}_variance_weighted"]) * unit(name)
+    aggregates = {"uniform_average": uniform, "variance_weighted": weighted,
+                  "rmse_uniform_average": float(km["rmse_uniform_average"])}
+    return per_joint, pooled, aggregates
+
+
+def iid_zero_mean_test(km, n, ddof):
+    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
+
+    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
+    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
+    """
+    mean = np.asarray(km["residual_mean"], dtype=np.float64)
+    std = np.sqrt(np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0)))
+    t_iid, p_iid = _stats.iid_t_test(mean, std, n)
+    return {"mean": mean, "std": std, "n_samples": int(n), "statistic_iid": t_iid, "pvalue_iid": p_iid,
+            "df_iid": int(n - 1), "statistic_eff": None, "pvalue_eff": None, "df_eff": None,
+            "n_eff": None, "bandwidth": None}
+
+
+def bias_test(e, starts, rmse, parameter_variance=None):
+    """The residual mean against its coloured-noise standard error (automatic long-run variance).
+
+    Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
+    of :func:`dynval.statistics._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
+    (m,), from the estimation run, is the variance the mean gets from the estimated parameters
+    (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
+    """
+    lr = _stats.long_run_variance(e, starts)
+    mean = e.mean(axis=0)
+    n = e.shape[0]
+    std = np.sqrt(lr.variance * n / max(n - 1, 1))
+    noise_var = std**2 / lr.n_eff
+    total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
+    # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
+    t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        effect = np.abs(mean) / np.asarray(rmse, dtype=float)
+    out = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
+           "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
+           "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
+           "standard_error": np.sqrt(total_var)}
+    if parameter_variance is not None:
+        out["method"] = "student_t_n_eff_with_parameter_error"
+        out["parameter_standard_error"] = np.sqrt(parameter_variance)
+    return out
+
+
+def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
+    """Widen the residual × regressor standard deviations by the estimated parameters' error.
+
+    The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
+    cross-covariance with column c at lag ℓ holds Σ_k δ_k R̂_{Y_k Y_c}(ℓ), of variance gᵀ Cov(π̂) g.
+    Only cells with a raw p-value ≤ α are recomputed: the others cannot be rejected by Holm and
+    only grow. Returns the new sd (m, p, L+1).
+    """
+    alpha = 1.0 - level
+    p_raw = _stats.correlation_pvalue(rho, sd)
+    cells = np.argwhere(p_raw <= alpha)
+    if cells.size == 0:
+        return sd
+    n = e.shape[0]
+    sd = sd.copy()
+    lengths = np.diff(np.append(starts, n))
+    cols = list(fit.columns)
+    ec = e - e.mean(axis=0)
+    yc = reg3 - reg3.mean(axis=0)
+    var_e = np.einsum("nm,nm->m", ec, ec) / n
+    var_y = np.einsum("nmp,nmp->mp", yc, yc) / n
+    by_cell: dict[tuple[int, int], list[int]] = {}
+    for j, c, lag in cells:
+        by_cell.setdefault((int(j), int(lag)), []).append(int(c))
+    one_segment = len(starts) == 1 and int(starts[0]) == 0
+    model_cols: dict[int, np.ndarray] = {}
+    for (j, lag), which in sorted(by_cell.items()):
+        if one_segment:
+            # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
+            if j not in model_cols:
+                model_cols[j] = np.ascontiguousarray(yc[:, j, cols])
+            g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
+        else:
+            cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
+            g = (cur[:, cols].T @ prev[:, which]).T
+        n_pairs = float(np.maximum(lengths - lag, 0).sum())
+        g = g / (n_pairs if prof.adjusted else float(n))  # (len(which), k)
+        extra = _estimation.quadratic_forms(fit, g)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
+    return sd
+
+
+def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
+    """The lesson's criteria of the noise model and, beside them, their N_eff-based variants."""
+    n_obs = n * m if noise_model == "pooled" else n
+    constant_term = n * m * _LN_2PI_PLUS_1 if prof.ic_constant == "included" else 0.0
+    ic = {
+        "noise_model": noise_model, "constant": prof.ic_constant, "n_obs": int(n_obs), "n_params": int(n_params),
+        "aic": float(km["aic"]) + constant_term, "bic": float(km["bic"]) + constant_term,
+        "aicc": float(km["aicc"]) + constant_term, "fpe": float(km["fpe"]), "naic": float(km["naic"]),
+    }
+    if n_eff is not None:
+        # The fit term scaled by N_eff/N: coloured samples carry less information each. A heuristic
+        # named as such; the lesson's form above stays the headline.
+        fit = float(km["aic"]) - 2.0 * n_params
+        ratio = float(np.sum(n_eff)) / (n * m)
+        n_eff_obs = n_obs * ratio
+        fit_eff = fit * ratio
+        p = n_params
+        ic["n_eff"] = float(n_eff_obs)
+        ic["aic_neff"] = fit_eff + 2.0 * p + constant_term * ratio
+        ic["bic_neff"] = fit_eff + p * math.log(n_eff_obs) + constant_term * ratio
+        ic["aicc_neff"] = (ic["aic_neff"] + 2.0 * p * (p + 1) / (n_eff_obs - p - 1)
+                           if n_eff_obs - p - 1 > 0 else float("nan"))
+    return ic
+
+
+def autocorrelation(kernel, e, max_lag, prof, level, starts, n) -> dict:
+    """The ACF with its band (white or Bartlett) and the lags outside it."""
+    rho = np.asarray(kernel.autocorrelation(e, max_lag, prof.adjusted, starts), dtype=np.float64)
+    z = _stats.z_two_sided(level)
+    band = np.full_like(rho, np.nan)
+    if prof.band == "white":
+        band[1:] = z / math.sqrt(n)
+    else:
+        # Bartlett: var(ρ̂_ℓ) = (1 + 2 Σ_{j<ℓ} ρ̂_j²)/N, lag 1 gives 1/N.
+        cum = np.cumsum(rho[1:-1] ** 2, axis=0) if max_lag > 1 else np.zeros((0, rho.shape[1]))
+        var = np.vstack([np.ones((1, rho.shape[1])), 1.0 + 2.0 * cum]) / n
+        band[1:] = z * np.sqrt(var)
+    with np.errstate(invalid="ignore"):
+        is_out = np.abs(rho[1:]) > band[1:]  # nan compares False: a constant residual has none
+    outside = [(int(j), int(lag + 1), float(rho[lag + 1, j]))
+               for j in range(rho.shape[1]) for lag in np.flatnonzero(is_out[:, j])]
+    fraction = is_out.sum(axis=0) / float(max_lag)
+    fraction = np.where(np.isnan(rho[0]), np.nan, fraction)
+    return {"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "rho": rho, "band_type": prof.band,
+            "level": float(level), "band": band, "outside": outside, "fraction_outside": fraction}
+
+
+def ljung_box(kernel, e, lags, starts) -> dict:
+    lb = kernel.portmanteau(e, np.asarray(lags, dtype=np.int64), 0, starts, "ljung_box")
+    return {"test": "ljung_box", "lags": np.asarray(lags, dtype=np.int64), "model_df": 0,
+            "statistic": np.asarray(lb["statistic"], dtype=np.float64),
+            "pvalue": np.asarray(lb["pvalue"], dtype=np.float64),
+            "log_pvalue": np.asarray(lb["log_pvalue"], dtype=np.float64),
+            "df": np.asarray(lb["df"], dtype=np.int64)}
+
+
+def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None, bandwidth=None,
+              lag=None) -> dict:
+    """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
+
+    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
+    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
+    noise would fill the band on light joints and hide the motion's);
+    the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
+    used as given; None or 1 tests at the logged rate only. ``band``: f_I when already known.
+    ``bandwidth`` (Hz): the inputs are trustworthy below it only, so "auto" decimates at least
+    until the Nyquist frequency is at most the bandwidth, and ``above_bandwidth`` says when the
+    test still sees frequencies above it. ``lag``: the decimated test's largest lag (samples of
+    the decimated rate; the logged test's otherwise).
+    """
+    raw_p = np.asarray(lb["pvalue"][0], dtype=float)
+    lag = int(lb["lags"][0]) if lag is None else int(lag)
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    q = 1
+    if decimate == "auto":
+        if band is None:
+            band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
+        if np.isfinite(band) and band > 0:
+            q = int(math.floor(fs / (4.0 * band)))
+        if bandwidth is not None and fs / 2.0 > bandwidth:
+            q = max(q, int(math.ceil(fs / (2.0 * bandwidth))))
+    else:
+        band = None
+        if decimate is not None:
+            q = int(decimate)
+    out = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
+           "log_pvalue_raw": np.asarray(lb["log_pvalue"][0], dtype=float), "decimation": 1,
+           "information_band": band, "information_band_source": "prediction" if band is not None else None,
+           "pvalue_decimated": None, "lag_decimated": None,
+           "n_decimated": None}
+    if q >= 2:
+        d, d_starts = _stats.decimate_segments(e, starts, q)
+        if d is not None:
+            longest = int(np.diff(np.append(d_starts, d.shape[0])).max())
+            h = min(lag, d.shape[0] // 5, longest - 1)
+            if h >= 1:
+                res = kernel.portmanteau(np.ascontiguousarray(d), np.array([h], dtype=np.int64), 0, d_starts,
+                                         "ljung_box")
+                out.update(decimation=q, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
+                           lag_decimated=int(h), n_decimated=int(d.shape[0]))
+    tested_nyquist = fs / (2.0 * int(out["decimation"]))
+    out["bandwidth"] = bandwidth
+    out["above_bandwidth"] = bool(bandwidth is not None and tested_nyquist > bandwidth * (1 + 1e-9))
+    return out
+
+
+class JointGrams:
+    """Each joint's regressor Gram matrix Y_jᵀY_j (m, p, p), from one blocked pass over the rows.
+
+    The residual spectrum's projection (each joint's least squares) and the excitation section
+    (the stacked regressor's Gram matrix is Σ_j Y_jᵀY_j, its column norms the root of its
+    diagonal) share it. ``usable`` is False when an entry is not finite, or a diagonal entry is
+    outside [1e-280, 1e280] without its column being exactly zero: then sums of squares may
+    have overflowed or underflowed, and both users take their exactly scaled routes instead.
+    """
+
+    def __init__(self, reg3: np.ndarray, block: int | None = None):
+        n, m, p = reg3.shape
+        block = block or max(1, _ROW_BLOCK // max(m, 1))
+        self.gram = np.zeros((m, p, p))
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            for i in range(0, n, block):
+                rows = reg3[i:i + block]
+                for j in range(m):
+                    y = rows[:, j, :]
+                    self.gram[j] += y.T @ y
+        diag = np.diagonal(self.gram, axis1=1, axis2=2)
+        in_range = (diag >= 1e-280) & (diag <= 1e280)
+        # A joint's column that is zero throughout is common (a link's parameters do not act on
+        # the joints before it); a zero diagonal of tiny nonzero values is an underflow.
+        zero = np.flatnonzero(diag == 0)  # index j·p + c of the (n, m·p) view
+        self.usable = bool(np.all(np.isfinite(self.gram)) and np.count_nonzero(~in_range) == zero.size
+                           and not (zero.size and _any_nonzero(reg3.reshape(n, m * p), zero)))
+
+    def stacked(self) -> np.ndarray:
+        """The Gram matrix of the regressor stacked over joints, (p, p)."""
+        return self.gram.sum(axis=0)
+
+
+def _any_nonzero(x: np.ndarray, columns: np.ndarray) -> bool:
+    """Whether x[:, columns] holds a nonzero, a block of rows at a time (stops at the first)."""
+    return any(np.any(x[i:i + _ROW_BLOCK, columns]) for i in range(0, x.shape[0], _ROW_BLOCK))
+
+
+def _project_out(e, reg3, grams: JointGrams | None = None):
+    """The residual less its least-squares projection on each joint's regressor columns."""
+    n, m, p = reg3.shape
+    if n < 4 * p:
+        return e
+    out = np.empty_like(e)
+    k_reg = None
+    for j in range(m):
+        beta = None
+        if grams is not None and grams.usable:
+            # The joint's zero columns add nothing to its projection: solved without them.
+            live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
+            cols = slice(None) if live.size == p else live  # a slice is a view, an index a copy
+            with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+                yb = e[:, j] @ reg3[:, j, cols]
+            if live.size and np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
+                beta = _solve_normal_equations(grams.gram[j][np.ix_(live, live)], yb)
+        if beta is not None:
+            out[:, j] = e[:, j] - reg3[:, j, cols] @ beta
+            continue
+        # The projection does not depend on the scale of e or of any column: both are scaled by
+        # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
+        # 1e140 data do not overflow the normal equations. The exponents of every column at
+        # once: one contiguous pass instead of a strided one per joint.
+        if k_reg is None:
+            k_reg = _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p)
+        y = _scale_pow2(reg3[:, j, :], k_reg[j])
+        ej, k = _pow2_columns(e[:, j : j + 1])
+        out[:, j] = np.ldexp(ej[:, 0] - y @ _least_squares(y, ej[:, 0]), k[0])
+    return out
+
+
+# Below this condition number the normal equations lose at most about 1e-8 of the fit
+# (relative error ~ eps·cond²); above it the slower orthogonal factorisations are used.
+_NORMAL_EQUATIONS_COND = 1e4
+
+
+def _sum_squares(x):
+    with np.errstate(over="ignore", under="ignore"):
+        return float(x @ x)
+
+
+def _solve_normal_equations(g, yb):
+    """β from the normal equations gβ = yb of the column-scaled problem, or None when the scaled
+    condition number reaches _NORMAL_EQUATIONS_COND (or a column is zero)."""
+    d = np.sqrt(np.diag(g))
+    if not np.all(d > 0):
+        return None
+    gs = g / np.outer(d, d)  # the condition number of the column-scaled problem decides
+    w = np.linalg.eigvalsh(gs)
+    if w[0] > 0 and np.sqrt(w[-1] / w[0]) < _NORMAL_EQUATIONS_COND:
+        return np.linalg.solve(gs, yb / d) / d
+    return None
+
+
+def _least_squares(y, b):
+    """argmin ‖yβ − b‖: by the normal equations (one BLAS pass) when y is well conditioned."""
+    beta = _solve_normal_equations(y.T @ y, y.T @ b)
+    return beta if beta is not None else np.linalg.lstsq(y, b, rcond=None)[0]
+
+
+def _pow2_exponents(x):
+    """Per column, the exponent k of its largest |x| (0 for a zero column)."""
+    largest = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
+    return np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+
+
+def _scale_pow2(x, k):
+    """x·2^-k per column, exactly (as np.ldexp)."""
+    if np.all(np.abs(k) < 1000):
+        # 2^-k is a normal number: multiplying by it is the same exact scaling, and much faster
+        return x * np.ldexp(1.0, -k)
+    return np.ldexp(x, -k)
+
+
+def _pow2_columns(x):
+    """(x·2^-k, k) per column, k the exponent of the column's largest |x| (0 for zeros)."""
+    k = _pow2_exponents(x)
+    return _scale_pow2(x, k), k
+
+
+def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> tuple[dict, Any]:
+    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
+    the report's section, and the tests of every bin (:func:`dynval.statistics._stats.residual_spectrum`),
+    which the findings read."""
+    x = _project_out(e, reg3, grams) if reg3 is not None else e
+    spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
+    top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
+    return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
+            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": reg3 is not None,
+            "peaks": top}, spec
+
+
+# Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
+# (benchmarks/README.md: 0.75 s against 2.7 s for 490 columns of 200,000 rows at 50 lags, about
+# 12 ms more per lag, while the FFT's cost hardly depends on the lags).
+_DIRECT_ACF_LAGS = 128
+
+
+def _biased_acf(kernel, x, starts, big: int) -> np.ndarray:
+    """Biased autocorrelation of every column of ``x`` (the residual's, the regressor's) to lag
+    ``big`` (acf_fft's definition): the compiled kernel's direct sums when the backend is cpp,
+    the lags few and the array contiguous (no copy), else :func:`dynval.statistics._stats.acf_fft`."""
+    from ..kernels import _reference
+
+    if kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous \
+            and x.dtype == np.float64:
+        return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
+    return _stats.acf_fft(x, starts, big)
+
+
+def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
+                      detail) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
+
+    The band of the lesson (z/√N) is kept for reference; the findings use Bartlett's variance
+    (:func:`dynval.statistics._stats.cross_correlation_sd`) with J lags, J ≥ 5 N/N_eff of the residual, so
+    a smooth regressor column and a coloured residual are not taken for evidence.
+    """
+    out = kernel.cross_correlation(e, reg2, p, max_lag, prof.adjusted, starts)
+    rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
+    mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
+    band = _stats.z_two_sided(level) / math.sqrt(n)
+    lengths = np.diff(np.append(starts, n))
+    longest = int(lengths.max())
+    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
+    tau_int = tau_int if np.isfinite(tau_int) else 1.0
+    big = int(min(longest - 1, max(max_lag, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
+    rho_e = _biased_acf(kernel, e, starts, big)
+    rho_y = _biased_acf(kernel, reg2, starts, big).reshape(big + 1, m, p)
+    lags = np.arange(max_lag + 1)
+    n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
+    d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))
+    sd = _stats.cross_correlation_sd(rho_e, rho_y, n_l, d_l, n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.abs(rho) / sd
+    zf = np.where(np.isnan(z), -1.0, z)
+    lag_max = zf.argmax(axis=2)
+    take = np.take_along_axis
+    z_max = take(z, lag_max[:, :, None], axis=2)[:, :, 0]
+    rho_max = take(rho, lag_max[:, :, None], axis=2)[:, :, 0]
+    colour = (sd[:, :, 0] / (math.sqrt(n_l[0]) / d_l[0]))
+    with np.errstate(invalid="ignore"):
+        white_hits = np.argwhere(np.abs(rho) > band)
+    cells = sorted(((int(j), int(c), int(lag_max[j, c]), float(rho_max[j, c]), float(z_max[j, c]))
+                    for j in range(m) for c in range(p) if np.isfinite(z_max[j, c])),
+                   key=lambda t: (-t[4], t[0], t[1]))
+    # The strongest cells per joint and per column: a report stays small on p = 70 columns.
+    keep = set()
+    for j in range(m):
+        keep.update([t for t in cells if t[0] == j][:5])
+    for c in range(p):
+        keep.update([t for t in cells if t[1] == c][:2])
+    top = sorted(keep, key=lambda t: (-t[4], t[0], t[1]))
+    section = {
+        "max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mask, "band": float(band),
+        "level": float(level), "n_outside_white_band": len(white_hits),
+        "colour_lags": int(big), "colour_factor": colour, "max_abs_rho": np.abs(rho_max), "lag_of_max": lag_max,
+        "z_max": z_max, "top_cells": top, "detail": detail,
+        # (joint, column, lag, rho, z) of the strongest cells, strongest first
+        "outside": top,
+    }
+    if detail == "full":
+        section["rho"] = rho
+        section["sd"] = sd
+        section["outside"] = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(z[j, c, lag]))
+                                     for j, c, lag in white_hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
+    return section, rho, sd
+
+
+def added_variable(e, reg3, model_columns, starts, n_eff):
+    """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
+
+    For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
+    validation data, per joint) is what the model cannot represent of it; a missing term shows as
+    a residual correlated with its z_c, while the model's compensation through S does not
+    (the added-variable or partial-regression idea). Standard deviations are colour-aware as in
+    :func:`cross_correlation`. Returns (columns, rho (m, q), sd (m, q)) or None.
+    """
+    n, m, p = reg3.shape
+    outside = [c for c in range(p) if c not in set(model_columns)]
+    if not outside or n < 4 * p:
+        return None
+    inside = [c for c in range(p) if c in set(model_columns)]
+    z = np.empty((n, m, len(outside)))
+    for j in range(m):
+        y_out = reg3[:, j, outside]
+        if inside:
+            coef, *_ = np.linalg.lstsq(reg3[:, j, inside], y_out, rcond=None)
+            y_out = y_out - reg3[:, j, inside] @ coef
+        z[:, j, :] = y_out
+    ec = e - e.mean(axis=0)
+    zc = z - z.mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = np.einsum("nm,nmq->mq", ec, zc) / np.sqrt(
+            np.einsum("nm,nm->m", ec, ec)[:, None] * np.einsum("nmq,nmq->mq", zc, zc))
+    # A column the model represents entirely (z ≈ 0) carries no evidence.
+    rho = np.where(np.einsum("nmq,nmq->mq", zc, zc) > 1e-20 * np.einsum("nmq,nmq->mq", reg3[:, :, outside] ** 2,
+                                                                       np.ones_like(zc)), rho, np.nan)
+    lengths = np.diff(np.append(starts, n))
+    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
+    tau_int = tau_int if np.isfinite(tau_int) else 1.0
+    big = int(min(int(lengths.max()) - 1, max(1, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
+    rho_e = _stats.acf_fft(e, starts, big)
+    rho_z = _stats.acf_fft(z.reshape(n, -1), starts, big).reshape(big + 1, m, len(outside))
+    sd = _stats.cross_correlation_sd(rho_e, rho_z, np.array([float(n)]), np.array([float(n)]), n)[:, :, 0]
+    # Effect: the share of the residual's mean square the term would remove if added (uncentred,
+    # so a term whose absence shows as a bias counts its mean too).
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
+                                                      * np.einsum("nmq,nmq->mq", z, z))
+    share = np.where(np.isnan(rho), np.nan, share)
+    # The term accounts for the residual's mean when it would move it towards zero: sign(b·z̄) = sign(ē),
+    # b = eᵀz/zᵀz.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
+    explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
+    return {"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
+            "pvalue": _stats.correlation_pvalue(rho, sd), "share": share, "explains_bias": explains}
+
+
+def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
+    """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
+    out: dict[str, dict[str, Any]] = {}
+    start = 0
+    for name, length in zip(names, lengths):
+        a, b = start, start + int(length)
+        start = b
+        mt, pr = meas[a:b], pred[a:b]
+        rows = np.all(np.isfinite(mt), axis=1) & np.all(np.isfinite(pr), axis=1)
+        mt, pr = np.ascontiguousarray(mt[rows]), np.ascontiguousarray(pr[rows])
+        if mt.shape[0] < 2:
+            out[name] = {"n_samples": int(mt.shape[0])}
+            continue
+        km = kernel.compute_metrics(mt, pr, n_params, prof.ddof, prof.noise_model)
+        pj, pooled, _ = point_metrics(km, prof)
+        out[name] = {"n_samples": int(mt.shape[0]), "start": int(a),
+                     "per_joint": {k: pj[k] for k in ("rmse", "max_abs_error", "vaf", "fit_percent", "r2")},
+                     "mean": np.asarray(km["residual_mean"], dtype=float),
+                     "pooled": {k: pooled[k] for k in ("rmse_per_element", "vaf", "fit_percent", "r2")}}
+    return out
+
+
+def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
+             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
+             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
+    """Collect what the findings' rules read."""
+    ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
+                  pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
+                  omitted_rows=omitted, force_finite=force)
+    if bias is not None:
+        ev.mean, ev.rmse = bias["mean"], per_joint["rmse"]
+        ev.bias_statistic, ev.bias_pvalue, ev.n_eff = bias["statistic"], bias["pvalue"], bias["n_eff"]
+    if white is not None:
+        ev.whiteness_lag = white["lag"]
+        ev.whiteness_pvalue_raw = white["pvalue_raw"]
+        ev.whiteness_log_pvalue_raw = white["log_pvalue_raw"]
+        ev.whiteness_pvalue_decimated = white["pvalue_decimated"]
+        if white["pvalue_decimated"] is not None:
+            ev.whiteness_lag = white["lag_decimated"]
+        ev.decimation = white["decimation"]
+        ev.information_band = white["information_band"]
+        ev.whiteness_above_bandwidth = bool(white.get("above_bandwidth", False))
+    if acf is not None:
+        ev.max_abs_acf = np.fmax.reduce(np.abs(acf["rho"][1:]), axis=0) if acf["rho"].shape[0] > 1 else None
+    if spec is not None:
+        ev.spectrum_frequency = spec["frequency"]
+        ev.spectrum_pvalue, ev.spectrum_ratio = spec_tests.pvalue, spec_tests.ratio
+        ev.spectrum_share, ev.spectrum_is_peak = spec_tests.share, spec_tests.is_peak
+        ev.frequency_unit = spec["frequency_unit"]
+    if xcorr_rho is not None:
+        ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
+    if design is not None:
+        ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
+        ev.joint_motion_ratio = design.get("joint_motion_ratio")
+        ev.detectable_share = design.get("detectable_share")
+        ev.noise_n_eff = design.get("noise_n_eff")
+    ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
+    ev.timing, ev.bandwidth = timing, bandwidth
+    if missing is not None:
+        ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
+        ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
+        ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
+    return ev
+
+
+def _relative_distance(a, b, centre: bool) -> float:
+    """‖a − b‖ / ‖b − b̄‖ (centred) or ‖a − b‖ / ‖b‖ on the rows both runs have."""
+    rows = min(a.shape[0], b.shape[0])
+    a, b = a[:rows], b[:rows]
+    ref = b - b.mean(axis=0) if centre else b
+    denom = float(np.linalg.norm(ref))
+    return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
+
+
+def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np.ndarray:
+    """The triangular factor R of x[:, columns] = QR, from the rows in blocks (R of [R; block])."""
+    r = np.zeros((0, columns.size))
+    for start in range(0, x.shape[0], block):
+        r = np.asarray(np.linalg.qr(np.vstack([r, x[start:start + block, columns]]), mode="r"))
+    return r
+
+
+def _singular_values(x, live, norms, gram=None):
+    """Singular values of x[:, live], raw and with unit-norm columns, without copying x.
+
+    From the Gram matrix (one BLAS pass) while both condition numbers stay below
+    _NORMAL_EQUATIONS_COND²/100 = 1e6, where its eigenvalues still give σ_min to about 1e-4;
+    beyond, from the p × p factor R of a blockwise QR (X = QR and XD = Q(RD): R's singular values
+    are X's), which is exact to rounding but several times slower.
+    """
+    if gram is not None:
+        g = gram[np.ix_(live, live)]
+    else:
+        g = np.zeros((live.size, live.size))
+        every = live.size == x.shape[1]  # a slice is a view; indexing by live would copy each block
+        for i in range(0, x.shape[0], _ROW_BLOCK):
+            block = x[i:i + _ROW_BLOCK] if every else x[i:i + _ROW_BLOCK, live]
+            g += block.T @ block
+    d = norms[live]
+    # squares of 1e-170 or 1e150 data underflow or overflow in g: the QR route scales itself
+    if np.all(np.isfinite(g)) and np.all((d > 1e-140) & (d < 1e140)):
+        raw = np.sqrt(np.clip(np.linalg.eigvalsh(g)[::-1], 0.0, None))
+        scaled = np.sqrt(np.clip(np.linalg.eigvalsh(g / np.outer(d, d))[::-1], 0.0, None))
+        limit = _NORMAL_EQUATIONS_COND**2 / 100
+        if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
+            return raw, scaled
+    r = _r_factor(x, live)
+    return np.linalg.svd(r, compute_uv=False), np.linalg.svd(r / d, compute_uv=False)
+
+
+_RANK_TOL = 1e-9
+"""Zero and dependent columns of the design section (conventions §5.6): a column whose norm is at
+most 1e-9 of the largest, or whose pivot |R_kk| of the column-scaled pivoted QR is at most 1e-9 of
+|R_00|. Roundoff of a structural zero or dependency stands near 1e-15 (KUKA LWR4+: at most 3e-15,
+while its weakest identifiable combination stands at 1e-2); a real column this weak would mean a
+condition number of 1e9."""
+
+
+def _gram_singular_values(gram, norms):
+    """Raw and column-scaled singular values from the Gram matrix when it decides them (every
+    column nonzero, both condition numbers below _NORMAL_EQUATIONS_COND²/100 = 1e6), else None."""
+    if gram is None or not np.all(np.isfinite(gram)) or not np.all((norms > 1e-140) & (norms < 1e140)):
+        return None
+    raw = np.sqrt(np.clip(np.linalg.eigvalsh(gram)[::-1], 0.0, None))
+    scaled = np.sqrt(np.clip(np.linalg.eigvalsh(gram / np.outer(norms, norms))[::-1], 0.0, None))
+    limit = _NORMAL_EQUATIONS_COND**2 / 100
+    if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
+        return raw, scaled
+    return None
+
+
+def _column_norms(x):
+    """Column norms, each column scaled by the power of two of its largest |x| (exact), so that the
+    squares of 1e-170 or 1e150 data neither underflow nor overflow."""
+    k = _pow2_exponents(x)
+    return np.ldexp(np.sqrt(sum(np.linalg.norm(_scale_pow2(x[i:i + _ROW_BLOCK], k), axis=0) ** 2
+                                for i in range(0, x.shape[0], _ROW_BLOCK))), k)
+
+
+def _scaled_r(x, columns, k):
+    """R of x[:, columns]·2^-k (an exact column scaling) from blocks of rows, p × p at most."""
+    r = np.zeros((0, columns.size))
+    every = columns.size == x.shape[1]
+    for i in range(0, x.shape[0], _ROW_BLOCK):
+        rows = x[i:i + _ROW_BLOCK] if every else x[i:i + _ROW_BLOCK, columns]
+        r = np.asarray(np.linalg.qr(np.vstack([r, _scale_pow2(rows, k)]), mode="r"))
+    return r
+
+
+def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
+    """The excitation section (contract §4): the columns that are structural (zero or exact
+    combinations of others in both runs: reduced to the identifiable combinations), those the
+    validation run leaves unexcited or inseparable while the estimation run excites them, and the
+    condition number over the combinations the validation run excites."""
+    from ..identify import base_set
+
+    p = stacked.shape[1]
+    tiny = np.finfo(float).tiny
+    with_est = est is not None and est.shape[1] == p
+    est_norms = _column_norms(est) if with_est else None
+    fast = _gram_singular_values(gram, norms) if gram is not None else None
+    if fast is not None:  # full column rank in the validation run: nothing is structural or unexcited
+        sv, sv_s = fast
+        everything = list(range(p))
+        out: dict[str, Any] = {"unexcited": [], "inseparable": [], "unidentifiable": [],
+                               "structural": [] if with_est else None, "identifiable_rank": p if with_est else None,
+                               "identifiable_columns": everything if with_est else None, "validation_rank": p}
+    else:
+        zero_v = norms <= _RANK_TOL * max(float(norms.max(initial=0.0)), tiny)
+        both = np.hypot(norms, est_norms) if with_est else norms
+        k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
+        every = np.arange(p)
+        r_v = _scaled_r(stacked, every, k)
+        structural: list[int] | None = None
+        unidentifiable: list[int] = []
+        if with_est:
+            zero_s = both <= _RANK_TOL * max(float(both.max(initial=0.0)), tiny)
+            nz = np.flatnonzero(~zero_s)
+            base = np.zeros(0, dtype=np.intp)
+            if nz.size:
+                r_s = np.asarray(np.linalg.qr(np.vstack([_scaled_r(est, nz, k[nz]), r_v[:, nz]]), mode="r"))
+                s = base_set(r_s, _RANK_TOL)
+                base = nz[s["base"]]
+            unidentifiable = [int(c) for c in np.flatnonzero(zero_s)]
+            structural = [int(c) for c in np.setdiff1d(every, base)]
+        else:
+            base = every
+        candidates = base[~zero_v[base]]
+        live = np.zeros(0, dtype=np.intp)
+        if candidates.size:
+            v = base_set(r_v[:, candidates], _RANK_TOL)
+            live = candidates[v["base"]]
+        out = {"unexcited": [int(c) for c in base[zero_v[base]]],
+               "inseparable": [int(c) for c in np.setdiff1d(candidates, live)],
+               "unidentifiable": unidentifiable, "structural": structural,
+               "identifiable_rank": int(base.size) if with_est else None,
+               "identifiable_columns": [int(c) for c in base] if with_est else None,
+               "validation_rank": int(live.size)}
+        if live.size:
+            r_live = r_v[:, live]
+            sv = np.linalg.svd(np.ldexp(r_live, k[live]), compute_uv=False)
+            sv_s = np.linalg.svd(r_live / np.ldexp(norms[live], -k[live]), compute_uv=False)
+        else:
+            sv = sv_s = np.zeros(1)
+    with np.errstate(divide="ignore"):
+        out["condition_raw"] = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        out["condition_scaled"] = float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf")
+    out["rank_tolerance"] = _RANK_TOL
+    out["column_norms"] = norms
+    if with_est:
+        # each column's RMS per row on the validation run over the estimation run's
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            out["column_motion_ratio"] = np.where(
+                est_norms > 0, (norms / math.sqrt(stacked.shape[0])) / (est_norms / math.sqrt(est.shape[0])), np.nan)
+    return out
+
+
+def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | None = None,
+           sample_rate=None) -> dict[str, Any] | None:
+    """Whether the validation run repeats the estimation run, and how well it excites the model.
+
+    Repeat (conventions §5.6): the share of the validation run whose state (q, q̇, q̈ from ``q``,
+    else the regressor's leading principal components) lies within ``repeat_tolerance`` of the
+    estimation trajectory at any time (``dynval.statistics._repeat``); ``is_repeat`` when the share exceeds
+    ``repeat_share``. Without a state in both runs, the time-aligned torque distance decides
+    (below ``repeat_distance``). The time-aligned distances are kept beside it: the relative
+    regressor distance ‖Y_val − Y_est‖/‖Y_est‖, the joint-space distance ‖q_val − q_est‖/‖q_est −
+    q̄_est‖ (and its RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖
+    on the rows both runs have; ``measure`` and ``distance`` are the first of them available.
+    Excitation: :func:`_excitation`.
+    """
+    from ..statistics import _repeat
+    from ._findings import Thresholds
+
+    th = thresholds if thresholds is not None else Thresholds()
+    out: dict[str, Any] = {}
+    if estimation is not None:
+        rep: dict[str, Any] = {}
+        if "regressor" in estimation and reg3 is not None:
+            est = estimation["regressor"]
+            rep["regressor"] = _relative_distance(reg3.reshape(reg3.shape[0], -1), est.reshape(est.shape[0], -1),
+                                                  centre=False)
+        if "q" in estimation and q_val is not None:
+            rep["q"] = _relative_distance(q_val, estimation["q"], centre=True)
+            rows = min(q_val.shape[0], estimation["q"].shape[0])
+            rep["q_rms"] = float(np.sqrt(np.mean((q_val[:rows] - estimation["q"][:rows]) ** 2)))
+        if "tau" in estimation:
+            rep["tau"] = _relative_distance(meas, estimation["tau"], centre=True)
+        for measure in ("regressor", "q", "tau"):
+            if measure in rep:
+                rep["measure"] = measure
+                rep["distance"] = rep[measure]
+                break
+        near = _repeat.repeat_share(q_val, estimation.get("q"), reg3,
+                                    estimation.get("regressor") if reg3 is not None else None, sample_rate,
+                                    th.repeat_tolerance)
+        if near is not None:
+            rep.update(near)
+            rep["threshold"] = th.repeat_share
+            rep["is_repeat"] = bool(near["share"] > th.repeat_share)
+        elif "distance" in rep:
+            rep["share"] = None
+            rep["threshold"] = th.repeat_distance
+            rep["is_repeat"] = bool(rep["distance"] < th.repeat_distance)
+        out["repeat"] = rep or None
+    if reg3 is not None:
+        stacked = reg3.reshape(-1, reg3.shape[2])
+        gram = grams.stacked() if grams is not None and grams.usable else None
+        norms = np.sqrt(np.diag(gram).copy()) if gram is not None else _column_norms(stacked)
+        est = None
+        if estimation is not None and "regressor" in estimation:
+            est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
+        out["excitation"] = _excitation(stacked, norms, gram, est)
+    return out or None

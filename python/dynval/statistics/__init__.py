@@ -1,0 +1,1 @@
+"""What the report needs beyond the metrics: spectra, effective samples, periodic noise, physics."""

@@ -1,0 +1,130 @@
+"""What the estimation run tells the findings: the parameters' uncertainty and which term to add.
+
+A model validated on a new trajectory leaves a residual that is noise *plus* the error of its
+estimated parameters, Y_val (π − π̂). On coloured data that error is large (few effective samples)
+and it shows on the validation run as a mean and as correlations with the model's own columns, which
+a test that only knows the validation noise would blame on the model. Given the estimation run
+(``estimation={"regressor", "tau"}``), dynval refits the model's columns by least squares on it and
+takes the covariance of π̂ from the sandwich (XᵀX)⁻¹ XᵀΓX (XᵀX)⁻¹ with Γ the prewhitened covariance
+of the estimation residual (:func:`dynval.statistics._stats.score_covariance`, coloured noise allowed). That covariance
+widens the bias test and the residual × regressor tests by exactly the part of the statistic the
+parameter error explains (docs/conventions.md §5.4).
+
+The same run answers "which term is missing": refit with each column the model lacks added, test
+its coefficient (Wald t with the same covariance) and measure, on the validation run, the share of
+each joint's mean square the added term removes — an out-of-sample effect, and the column named.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.stats
+
+from . import _stats
+
+__all__ = ["EstimationFit", "fit_columns", "missing_terms", "quadratic_forms"]
+
+
+@dataclass(frozen=True)
+class EstimationFit:
+    """Least squares of ``columns`` on the stacked estimation run, with a coloured-noise covariance."""
+
+    columns: tuple
+    coefficients: np.ndarray  # (k,)
+    covariance: np.ndarray  # (k, k): the sandwich with the residual's autocovariance
+    residual: np.ndarray  # (N_e, m)
+    n_eff: np.ndarray  # (m,) of the residual
+
+
+def _least_squares(reg3, tau, columns):
+    x = reg3[:, :, list(columns)]
+    n, m, k = x.shape
+    coef, *_ = np.linalg.lstsq(x.reshape(n * m, k), tau.reshape(-1), rcond=None)
+    return x, coef, tau - x @ coef
+
+
+def _sandwich(x, resid):
+    """(XᵀX)⁺ XᵀΓX (XᵀX)⁺ with Γ the residual's prewhitened covariance; and the residual's N_eff."""
+    k = x.shape[2]
+    stacked = x.reshape(-1, k)
+    ainv = np.linalg.pinv(stacked.T @ stacked)  # a column the run does not excite has no variance
+    n_eff = _stats.long_run_variance(resid, np.array([0])).n_eff
+    return ainv @ _stats.score_covariance(x, resid) @ ainv, n_eff
+
+
+def fit_columns(reg3, tau, columns) -> EstimationFit:
+    """Refit ``columns`` on the estimation run; covariance from the residual's autocovariance."""
+    x, coef, resid = _least_squares(reg3, tau, columns)
+    cov, n_eff = _sandwich(x, resid)
+    return EstimationFit(tuple(int(c) for c in columns), coef, cov, resid, n_eff)
+
+
+def quadratic_forms(fit: EstimationFit, g) -> np.ndarray:
+    """gᵀ Cov(π̂) g for each row g of ``g`` (..., k): the variance a linear statistic gets from π̂."""
+    g = np.asarray(g, dtype=np.float64)
+    return np.einsum("...i,ij,...j->...", g, fit.covariance, g)
+
+
+def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
+    """Refit with every column outside ``model_columns`` added together; test each and measure
+    what it removes once the others are in.
+
+    Terms that interact are refitted together (a shoulder friction column refitted alone also moves
+    the elbow's parameters and can look like the elbow's missing term): one least-squares refit on
+    the estimation run with the model's columns and every absent column, the Wald t of each added
+    coefficient with the coloured-noise covariance, and, per column c, the refit without c.
+
+    Returns a dict: ``columns`` (q,), ``statistic`` (q,) Wald t of each added coefficient in the
+    joint refit, ``pvalue`` (q,) from Student t with N_eff − 1 degrees of freedom (N_eff the
+    smallest effective sample size of the estimation residual's joints), ``share`` (m, q) the share
+    of each joint's validation mean square column c removes from the refit without it (negative when
+    it makes the validation worse), and ``explains_bias`` (m, q): adding c at least halves the
+    joint's validation mean. None when every column is in the model.
+    """
+    p = est_reg3.shape[2]
+    inside = [int(c) for c in model_columns]
+    outside = [c for c in range(p) if c not in set(inside)]
+    if not outside:
+        return None
+    n_val, m = val_tau.shape
+    _, coef0, _ = _least_squares(est_reg3, est_tau, inside) if inside else (None, np.zeros(0), est_tau)
+    e0 = val_tau - (val_reg3[:, :, inside] @ coef0 if inside else 0.0)
+    mse0 = np.mean(e0**2, axis=0)
+    q = len(outside)
+    stat, pval = np.full(q, np.nan), np.full(q, np.nan)
+    share, explains = np.full((m, q), np.nan), np.zeros((m, q), dtype=bool)
+    every = inside + outside
+    x, coef, resid = _least_squares(est_reg3, est_tau, every)
+    cov, n_eff = _sandwich(x, resid)
+    df = max(float(np.min(n_eff)) - 1.0, 1.0)
+    for i in range(q):
+        k = len(inside) + i
+        if cov[k, k] > 0:
+            stat[i] = coef[k] / np.sqrt(cov[k, k])
+            pval[i] = 2.0 * scipy.stats.t.sf(abs(stat[i]), df)
+    # The refits without one column from the estimation run's Gram matrix, their validation mean
+    # squares and means from the validation run's (per joint): no pass over the rows per column.
+    stacked = est_reg3[:, :, every].reshape(-1, len(every))
+    gram, rhs = stacked.T @ stacked, stacked.T @ est_tau.reshape(-1)
+    yv = val_reg3[:, :, every]
+    gv = np.einsum("nmk,nml->mkl", yv, yv)
+    bv = np.einsum("nmk,nm->mk", yv, val_tau)
+    tt = np.einsum("nm,nm->m", val_tau, val_tau)
+    ysum, tsum = yv.sum(axis=0), val_tau.sum(axis=0)
+
+    def validation(keep, c):
+        mse = (tt - 2.0 * bv[:, keep] @ c + np.einsum("k,mkl,l->m", c, gv[np.ix_(range(m), keep, keep)], c)) / n_val
+        return mse, (tsum - ysum[:, keep] @ c) / n_val
+
+    mse_all, mean_all = validation(list(range(len(every))), coef)
+    for i in range(q):
+        keep = [k for k in range(len(every)) if k != len(inside) + i]
+        c_wo = np.linalg.lstsq(gram[np.ix_(keep, keep)], rhs[keep], rcond=None)[0]
+        mse_wo, mean_wo = validation(keep, c_wo)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share[:, i] = (mse_wo - mse_all) / mse0
+        explains[:, i] = np.abs(mean_all) <= 0.5 * np.abs(mean_wo)
+    return {"columns": outside, "statistic": stat, "pvalue": pval, "share": share, "explains_bias": explains,
+            "method": "estimation_refit"}

@@ -1,0 +1,1 @@
+"""The mergeable sums behind the streaming accumulator."""
