@@ -333,3 +333,17 @@ def test_running_out_of_memory_is_an_input_error(files, capsys, monkeypatch):
     paths = files[0]
     code, _, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1")
     assert code == 1 and err == "dynval validate: error: not enough memory for this input\n"
+
+
+@pytest.mark.parametrize("which", ["meas", "pred"])
+def test_a_file_transposed_alone_is_named_as_transposed(files, capsys, tmp_path, which):
+    paths, meas, pred, _ = files
+    flipped = tmp_path / "flipped.npy"
+    np.save(flipped, (meas if which == "meas" else pred).T)
+    argv = ([str(flipped), paths["pred_npy"]] if which == "meas" else [paths["meas_npy"], str(flipped)])
+    for extra in ([], ["--stream"]):
+        code, _, err = run(capsys, "validate", *argv, "--n-params", "3", *extra)
+        assert code == 1
+        assert f"; tau_{which} looks transposed (its shape is the other's reversed): samples are rows" in err
+    code, _, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "3")
+    assert code == 0 and "transposed" not in err

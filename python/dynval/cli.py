@@ -276,7 +276,23 @@ def _load_time(spec: str, sources: dict):
 def _contract_error(command: str, exc: InputError, sources: dict) -> int:
     """Report an error of the dynval contract, worded for the command line."""
     message = str(exc).replace("pass allow_wide=True", "pass --allow-wide")
-    return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}")
+    return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}"
+                           f"{_transpose_hint(message)}")
+
+
+_SHAPES = re.compile(r"^(\w+) and (\w+) must have the same shape, got \((\d+), (\d+)\) and \((\d+), (\d+)\)")
+
+
+def _transpose_hint(message: str) -> str:
+    """When one file's shape is the other's reversed: which one looks transposed (samples are rows)."""
+    m = _SHAPES.match(message)
+    if not m:
+        return ""
+    a, b = (int(m.group(3)), int(m.group(4))), (int(m.group(5)), int(m.group(6)))
+    if a != b[::-1] or a == b:
+        return ""
+    name = m.group(1) if a[0] < a[1] else m.group(2)
+    return f"; {name} looks transposed (its shape is the other's reversed): samples are rows, save it as (N, m)"
 
 
 def _report_options(args, sources: dict, meas) -> dict:
@@ -399,8 +415,8 @@ def _run_validate_streamed(args) -> int:
     except FileInputError as exc:
         return _error("validate", str(exc))
     if meas.shape != pred.shape:
-        return _error("validate", f"ShapeMismatch: tau_meas and tau_pred must have the same shape, got "
-                                  f"{meas.shape} and {pred.shape}")
+        message = f"tau_meas and tau_pred must have the same shape, got {meas.shape} and {pred.shape}"
+        return _error("validate", f"ShapeMismatch: {message}{_transpose_hint(message)}")
     n = meas.n_rows
     if stamps is not None and stamps.n_rows != n:
         return _error("validate", f"ShapeMismatch: time must have one stamp per sample, shape ({n},), got "
