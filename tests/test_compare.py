@@ -137,6 +137,34 @@ def test_cli_compare(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "tau.npy"), "--model", "broken"]) == 2
 
 
+def test_cli_compare_gives_each_candidate_its_columns(tmp_path, capsys):
+    """--model-columns NAME=COLS (indices or names): the same comparison as the API's model_columns."""
+    est, val = _runs(fc=0.6)
+    cands = _candidates(est, val)
+    np.save(tmp_path / "tau.npy", val[2])
+    np.save(tmp_path / "Y.npy", val[1])
+    args = ["compare", str(tmp_path / "tau.npy"), "--regressor", str(tmp_path / "Y.npy"),
+            "--column-names", ",".join(NAMES), "--sample-rate", "100", "--json"]
+    for name, c in cands.items():
+        np.save(tmp_path / f"{name}.npy", c["prediction"])
+        args += ["--model", f"{name}={tmp_path / name}.npy:{c['n_params']}"]
+    by_name = ",".join(NAMES[k] for k in cands["rigid+viscous"]["model_columns"])
+    by_index = ",".join(str(k) for k in cands["full"]["model_columns"])
+    assert main(args + ["--model-columns", f"rigid+viscous={by_name}", "--model-columns", f"full={by_index}"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    want = dynval.compare(val[2], cands, regressor=val[1], column_names=NAMES, sample_rate=100.0)
+    assert got["ranking"] == want.ranking and got["verdict"] == json.loads(want.to_json())["verdict"]
+    assert got["reasons"] == {k: list(v) for k, v in want.reasons.items()}
+    # a name that is no candidate, or columns without a regressor, are usage errors
+    with pytest.raises(SystemExit) as stop:
+        main(args + ["--model-columns", "nobody=0,1"])
+    assert stop.value.code == 2 and "'nobody', which is not a --model" in capsys.readouterr().err
+    bare = [a for a in args if a not in ("--regressor", str(tmp_path / "Y.npy"))]
+    with pytest.raises(SystemExit):
+        main(bare + ["--model-columns", "full=0"])
+    assert "--model-columns needs --regressor" in capsys.readouterr().err
+
+
 def _matter(report):
     """The findings a candidate's reasons are made of: its deficiencies and design findings."""
     return [f for f in report.findings if f.severity in ("deficiency", "design")]

@@ -125,6 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--model", action="append", required=True, metavar="NAME=PRED:P", type=_model_arg,
                      help="a candidate: its name, its predicted torques (file) and its number of parameters "
                           "(repeat for each candidate)")
+    cmp.add_argument("--model-columns", action="append", default=[], metavar="NAME=COLS", type=_model_columns_arg,
+                     help="the regressor columns a candidate contains (indices from 0 or --column-names names, "
+                          "comma-separated; needs --regressor): the other columns are then tested as terms it "
+                          "lacks (repeat for each candidate)")
     cmp.add_argument("--criterion", default="aic", choices=("aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"),
                      help="criterion of the ranking and the Akaike weights (default aic, the lesson's)")
     _add_report_options(cmp)
@@ -150,6 +154,13 @@ def _model_arg(text: str):
         return name, path, int(p)
     except ValueError:
         raise argparse.ArgumentTypeError(f"the number of parameters after ':' must be an integer, got {p!r}") from None
+
+
+def _model_columns_arg(text: str):
+    name, sep, cols = text.partition("=")
+    if not sep or not name.strip() or not cols.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, got {text!r}")
+    return name.strip(), [int(c) if c.strip().lstrip("-").isdigit() else c.strip() for c in cols.split(",")]
 
 
 def _key_file_arg(text: str):
@@ -464,11 +475,19 @@ def _run_compare(args) -> int:
     names = [name for name, _, _ in args.model]
     if len(set(names)) != len(names):
         return _error("compare", f"candidate names must be distinct, got {names}")
+    columns = dict(args.model_columns)
+    unknown = [n for n in columns if n not in names]
+    if unknown:
+        args.subparser.error(f"--model-columns names {unknown[0]!r}, which is not a --model (candidates: {names})")
+    if columns and not args.regressor:
+        args.subparser.error("--model-columns needs --regressor: the columns are the regressor's")
     sources: dict = {}
     try:
         meas = _load(args.meas, "tau_meas", sources)
         # Each candidate's prediction is tau_pred in turn: its errors are not located in a file.
-        candidates = {name: (load_array(path), p) for name, path, p in args.model}
+        candidates = {name: {"prediction": load_array(path), "n_params": p,
+                             **({"model_columns": columns[name]} if name in columns else {})}
+                      for name, path, p in args.model}
         options = _report_options(args, sources, meas)
     except FileInputError as exc:
         return _error("compare", str(exc))
@@ -477,7 +496,8 @@ def _run_compare(args) -> int:
         cmp = compare(meas, candidates, criterion=args.criterion, regressor=regressor, **options)
     except InputError as exc:
         return _contract_error("compare", exc, sources)
-    code = _write_html("compare", args, cmp, tau_meas=meas, tau_pred={n: c[0] for n, c in candidates.items()})
+    preds = {n: c["prediction"] for n, c in candidates.items()}
+    code = _write_html("compare", args, cmp, tau_meas=meas, tau_pred=preds)
     return code if code else _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
 
