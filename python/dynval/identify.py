@@ -57,11 +57,13 @@ from typing import Any, Literal
 
 import numpy as np
 import scipy.linalg
+import scipy.stats
 
 from .checks._errors import InvalidShape, ShapeMismatch
 from .checks._typing import ArrayLike, FloatArray, IntArray, Integer
 from .checks._validation import (
     check_finite,
+    check_level,
     check_min_samples,
     format_shape,
     is_real_number,
@@ -73,12 +75,46 @@ from .checks._validation import (
 from .kernels._blas import one_blas_thread
 from .report import _consistency
 
-__all__ = ["IdentificationResult", "identify", "default_rcond"]
+__all__ = ["IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
 
 
 def default_rcond(rows: int, p: int) -> float:
     """The default rank tolerance ``max(rows, p) · eps`` (relative to the largest pivot)."""
     return float(max(rows, p) * np.finfo(np.float64).eps)
+
+
+@dataclass(frozen=True)
+class PredictionInterval:
+    """A prediction with its band (:meth:`IdentificationResult.prediction_interval`).
+
+    Attributes
+    ----------
+    prediction, lower, upper, std : ndarray (N, m)
+        The predicted torque, the band's edges and each sample's standard deviation.
+    level : float
+        The band's probability; ``quantile`` is the Student-t factor that gives it.
+    noise_std : ndarray (m,)
+        The joints' noise standard deviations the band includes.
+    """
+
+    prediction: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+    std: FloatArray
+    level: float
+    quantile: float
+    noise_std: FloatArray
+
+    def share_inside(self, tau_meas: ArrayLike) -> FloatArray:
+        """Per joint, the share of the measured torques inside the band: ``level`` when the model
+        and its noise are right, less when the model misses structure or the noise is coloured."""
+        meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
+        if meas.shape != self.prediction.shape:
+            raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
+                                f"got {format_shape(meas.shape)}")
+        inside = (meas >= self.lower) & (meas <= self.upper)
+        out: FloatArray = inside.mean(axis=0)
+        return out
 
 
 @dataclass(frozen=True)
@@ -122,6 +158,10 @@ class IdentificationResult:
         (each link's ten parameters, friction, offsets), every link's pseudo-inertia positive
         semidefinite and every friction coefficient ≥ 0; :attr:`estimate` is then its base
         combination ``combination @ full_parameters``. None for the unconstrained fit.
+    noise_std : ndarray (m,) or None
+        Each joint's noise standard deviation on the estimation run: the root mean square of its
+        unweighted residual over its share of the degrees of freedom, ``n·(rows − r)/rows`` (None
+        for a result built by hand). :meth:`prediction_interval` uses it.
     physical : dict or None
         With ``physical=True``: how the constrained fit was solved and what it cost — ``distance2``
         (the increase of the residual sum of squares over the unconstrained fit's, in units of its
@@ -150,6 +190,7 @@ class IdentificationResult:
     residual_sse: float = float("nan")
     full_parameters: FloatArray | None = None
     physical: dict[str, Any] | None = None
+    noise_std: FloatArray | None = None
     _meta: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -180,6 +221,41 @@ class IdentificationResult:
         check_finite(y2, "regressor")
         return (y2[:, list(self.base_columns)] @ self.estimate).reshape(n, m)
 
+    def prediction_interval(self, regressor: ArrayLike, *, level: float = 0.95,
+                            n_joints: Integer | None = None) -> PredictionInterval:
+        """The band in which a new measured torque lies with probability ``level``.
+
+        Each sample's variance is the joint's noise (:attr:`noise_std`) plus what the parameters'
+        uncertainty adds there, ``y_kᵀ C y_k`` (:attr:`covariance`); the band is the prediction ±
+        the Student-t quantile (``rows − r`` degrees of freedom) times its root. It assumes white,
+        Gaussian noise as the covariance does: on coloured residuals it is too narrow, which
+        :meth:`PredictionInterval.share_inside` shows on a validation run.
+
+        Parameters
+        ----------
+        regressor : array_like, shape (N, m, p) or (N*m, p)
+            As for :meth:`predict`.
+        level : float
+            Probability of the band, in (0, 1).
+        n_joints : int, optional
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        PredictionInterval
+        """
+        level = check_level(level)
+        pred = self.predict(regressor, n_joints=n_joints)
+        n, m = pred.shape
+        y = to_float_array(regressor, "regressor").reshape(n * m, -1)[:, list(self.base_columns)]
+        param_var = np.einsum("ij,jk,ik->i", y, self.covariance, y).reshape(n, m)
+        noise = np.full(m, np.sqrt(self.sigma2)) if self.noise_std is None else np.asarray(self.noise_std)
+        std = np.sqrt(noise[None, :] ** 2 + np.clip(param_var, 0.0, None))
+        dof = self.rows - self.rank
+        quantile = float(scipy.stats.t.ppf(0.5 + level / 2.0, dof)) if dof > 0 else float("inf")
+        return PredictionInterval(prediction=pred, lower=pred - quantile * std, upper=pred + quantile * std,
+                                  std=std, level=level, quantile=quantile, noise_std=noise)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
         from .report._json import to_jsonable
@@ -205,6 +281,7 @@ class IdentificationResult:
             "covariance": self.covariance,
             "combination": self.combination,
             "joint_std": self.joint_std,
+            "noise_std": self.noise_std,
             "full_parameters": self.full_parameters,
             "physical": self.physical,
         })
@@ -576,6 +653,9 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
             text += f" {sign} {term}"
         base_names.append(text)
 
+    dof_joint = n * dof / rows if rows else 0.0
+    noise_std = (np.sqrt(np.sum(resid.reshape(n, m) ** 2, axis=0) / dof_joint) if dof_joint > 0
+                 else np.full(m, np.nan))
     return IdentificationResult(
         estimate=est,
         std=std,
@@ -596,6 +676,7 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         residual_sse=float(resid @ resid),
         full_parameters=full,
         physical=info,
+        noise_std=noise_std,
     )
 
 

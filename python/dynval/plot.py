@@ -540,10 +540,12 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
 
 
 def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_name=None, title=None,
-               unit: str = "N·m", report=None, window=None):
+               unit: str = "N·m", report=None, window=None, interval=None):
     """Measured and predicted torque per joint.
 
     ``window`` = (start, stop) in seconds (or samples without a rate) zooms on a stretch.
+    ``interval`` (:meth:`dynval.identify.IdentificationResult.prediction_interval`) draws the
+    prediction's band, labelled with the share of the measured torque inside it.
     """
     meas, pred = _signal(tau_meas, "tau_meas"), _signal(tau_pred, "tau_pred")
     n, m = meas.shape
@@ -559,6 +561,11 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
     for j, ax in enumerate(axes):
         ax.plot(x[sel], meas[sel, j], color=_MEASURED, lw=1.6, label="measured")
         ax.plot(x[sel], pred[sel, j], color="#d62728", lw=1.1, label=label)
+        if interval is not None:
+            share = float(interval.share_inside(meas)[j])
+            ax.fill_between(x[sel], interval.lower[sel, j], interval.upper[sel, j], color="#d62728", alpha=0.18,
+                            lw=0, label=f"{100 * interval.level:g} % prediction interval "
+                                        f"({100 * share:.1f} % of the measured inside)")
         ax.set_ylabel(f"{names[j]}\ntorque ({unit})")
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
