@@ -214,8 +214,9 @@ def _write_outputs(result: DemoResult, out: Path, say) -> None:
     if plot is not None:
         say(f"writing figures to {out}")
         figures = [
-            ("prediction.png", plot.prediction(val.tau_meas, result.predictions[chosen], report=rep,
-                                               model_name=chosen, window=(0.0, 10.0))),
+            ("prediction.png", plot.prediction(
+                val.tau_meas, result.predictions[chosen], report=rep, model_name=chosen, window=(0.0, 10.0),
+                interval=result.identified[chosen].prediction_interval(val.regressors[chosen]))),
             ("residuals.png", plot.residuals(val.tau_meas, result.predictions[chosen], report=rep,
                                              title=f"Residual torque per joint — {chosen}")),
             ("autocorrelation.png", plot.autocorrelation(
