@@ -49,7 +49,10 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 PY=${PYTHON:-python3}
 JOBS=${MUTATION_JOBS:-2}
-TESTS=${MUTATION_TESTS:-tests/test_decisions.py tests/test_finding_records.py tests/test_findings.py tests/test_compare.py tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py}
+# compare with a candidate's parameters is pinned in test_physical_consistency.py; that file as a whole
+# fails mutmut's clean run (one triangle-inequality case under its instrumentation), so only its
+# compare test is in the selection.
+TESTS=${MUTATION_TESTS:-tests/test_decisions.py tests/test_finding_records.py tests/test_findings.py tests/test_compare.py tests/test_text.py tests/test_regressor_acf.py tests/test_stats_reference.py tests/test_physical_consistency.py::test_compare_ranks_a_candidate_that_is_no_robot_after_a_sound_one}
 MODULES=("$@")
 [ ${#MODULES[@]} -gt 0 ] || MODULES=(report/_findings.py comparison/_compare.py statistics/_stats.py)
 for mod in "${MODULES[@]}"; do
