@@ -71,6 +71,10 @@ def test_bad_levels_and_shapes_are_refused_with_their_value():
             fit.prediction_interval(y, level=bad)
     with pytest.raises(dynval.ShapeMismatch, match=r"tau_meas must have the prediction's shape \(50, 2\), got"):
         fit.prediction_interval(y).share_inside(tau[:10])
+    bad = tau.copy()
+    bad[7, 1] = np.nan  # not counted as outside: refused, with its place
+    with pytest.raises(dynval.NonFiniteInput, match=r"^tau_meas has a non-finite value \(nan\) at row 7, column 1$"):
+        fit.prediction_interval(y).share_inside(bad)
 
 
 def test_the_prediction_figure_draws_the_band_with_its_share():

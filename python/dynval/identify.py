@@ -112,6 +112,7 @@ class PredictionInterval:
         if meas.shape != self.prediction.shape:
             raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
                                 f"got {format_shape(meas.shape)}")
+        check_finite(meas, "tau_meas")  # a NaN would count as outside and lower the share silently
         inside = (meas >= self.lower) & (meas <= self.upper)
         out: FloatArray = inside.mean(axis=0)
         return out
