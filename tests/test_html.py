@@ -217,3 +217,5 @@ def test_every_table_of_a_comparison_fits_a_1280_px_window(tmp_path):
     for name in cmp.ranking:
         row = cmp.table["pooled"][name]
         assert f"<td>{row['aic']:.1f} ({row['delta_aic']:+.1f})</td>" in html, name
+        ic = cmp.reports[name].information_criteria  # each candidate's own criteria table too
+        assert f"<td>{ic['aic']:.1f}</td>" in html and f"<td>{ic['bic']:.1f}</td>" in html, name

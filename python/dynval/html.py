@@ -196,7 +196,13 @@ def _criteria_html(report) -> str:
     if not ic:
         return ""
     keys = [k for k in ("n_obs", "n_params", "noise_model", "aic", "bic", "aicc", "fpe") if k in ic]
-    return _table(keys, [[_num(ic[k]) if not isinstance(ic[k], str) else _e(ic[k]) for k in keys]], text_cols=())
+
+    def cell(k: str) -> str:
+        if isinstance(ic[k], str):
+            return _e(ic[k])
+        return _fixed(ic[k], ".1f") if k in ("aic", "bic", "aicc") else _num(ic[k])  # criteria differ in units
+
+    return _table(keys, [[cell(k) for k in keys]], text_cols=())
 
 
 def _provenance_html(report) -> str:
