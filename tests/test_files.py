@@ -249,7 +249,7 @@ def test_a_non_finite_csv_value_is_located_in_the_file_too(tmp_path, capsys):
     code, _, err = run(capsys, "validate", meas, pred, "--n-params", "1")
     assert code == 1
     assert ("NonFiniteInput: tau_meas has a non-finite value (nan) at row 2, column 0 "
-            f"({meas} line 5, column 1)") in err
+            f"(rows and columns from 0; {meas} line 5, column 1)") in err
 
 
 def test_a_line_of_delimiters_only_is_refused(tmp_path, pred, capsys):

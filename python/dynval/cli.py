@@ -246,14 +246,16 @@ def _load(path: str, name: str, sources: dict):
     return table.data
 
 
+_FROM_ZERO = "rows and columns from 0"
 _AT_ROW = re.compile(r"^(\w+) has .* at row (\d+), column (\d+)")
 _TIME_AT_ROW = re.compile(r"^time must .*? at row (\d+)")
 
 
 def _file_position(message: str, sources: dict) -> str:
-    """`` (meas.csv line 12, column 1)`` when an API error points into an array read from CSV.
+    """`` (rows and columns from 0; meas.csv line 12, column 1)`` when an API error points into CSV.
 
-    API errors count rows and columns from 0, files from 1 and by physical line (contract §2.3).
+    API errors count rows and columns from 0, files from 1 and by physical line (contract §2.3): the
+    two positions side by side say which count each uses, so that neither reads as off by one.
     """
     unprefixed = re.sub(r"^chunk \d+: ", "", message)  # a streamed chunk's error
     if unprefixed.startswith("time ") and "time" in sources:
@@ -265,7 +267,7 @@ def _file_position(message: str, sources: dict) -> str:
     row, column = int(match.group(2)), int(match.group(3))
     if lines is None or row >= len(lines):
         return ""
-    return f" ({path} line {int(lines[row])}, column {column + 1})"
+    return f" ({_FROM_ZERO}; {path} line {int(lines[row])}, column {column + 1})"
 
 
 def _time_position(message: str, source: tuple) -> str:
@@ -273,7 +275,8 @@ def _time_position(message: str, source: tuple) -> str:
     spec, lines, column = source
     match = _TIME_AT_ROW.match(message)
     if match and lines is not None and int(match.group(1)) < len(lines):
-        return f" ({file_path(split_column(spec)[0])} line {int(lines[int(match.group(1))])}, column {column + 1})"
+        return (f" ({_FROM_ZERO}; {file_path(split_column(spec)[0])} line {int(lines[int(match.group(1))])}, "
+                f"column {column + 1})")
     return f" (time from {spec})"
 
 
