@@ -313,16 +313,40 @@ def test_cross_correlation_legend_explains_every_mark(flexible):
     fig = plot.cross_correlation(rep)
     assert fig.legends, "the heatmap has no legend"
     text = "\n".join(t.get_text() for t in fig.legends[0].get_texts())
-    assert "beyond the band" in text and "grey" in text and "constant" in text and "finding" in text
-    # many columns: beyond-the-band cells are dots, and the legend says what a dot is
+    assert "beyond the per-cell band" in text and "grey" in text and "constant" in text and "finding" in text
+    assert "Holm" in text and "significant" in text
+    # many columns: the cells significant over the whole report are dots, and the legend says what a dot is
     xc = dict(rep.cross_correlation.items())
     reps = 3
-    for key in ("constant_mask", "max_abs_rho", "z_max", "colour_factor", "lag_of_max"):
+    for key in ("constant_mask", "max_abs_rho", "z_max", "colour_factor", "lag_of_max", "pvalue_adjusted"):
         xc[key] = np.tile(np.asarray(xc[key]), (1, reps))
     fig2 = plot.cross_correlation(xc)
     dots = [ln for ln in fig2.axes[0].get_lines() if ln.get_marker() == "o"]
-    assert len(dots) == int(_colour_aware_beyond(xc).sum())
+    significant = np.asarray(xc["pvalue_adjusted"], dtype=float) <= 1 - xc["level"]
+    assert len(dots) == int(significant.sum()) > 0
+    assert int(significant.sum()) < int(_colour_aware_beyond(xc).sum())  # Holm is stricter than each cell's band
     assert "dot" in "\n".join(t.get_text() for t in fig2.legends[0].get_texts())
+
+
+def test_cross_correlation_marks_the_cells_the_findings_call_significant(flexible):
+    # The report's pvalue_adjusted is each cell's smallest Holm-adjusted p over its lags: a
+    # regressor_correlation finding's cell is among the significant ones, at most at its p.
+    _d, _preds, reports = flexible
+    rep = reports["rigid"]
+    padj = np.asarray(rep.cross_correlation["pvalue_adjusted"], dtype=float)
+    alpha = 1 - rep.cross_correlation["level"]
+    assert padj.shape == np.asarray(rep.cross_correlation["max_abs_rho"]).shape
+    assert np.array_equal(np.isnan(padj), np.asarray(rep.cross_correlation["constant_mask"], dtype=bool))
+    found = [f for f in rep.findings if f.kind == "regressor_correlation"]
+    assert found
+    for f in found:
+        j, c = f.joints[0], f.columns[0]
+        assert padj[j, c] <= f.pvalue_adjusted <= alpha
+    fig = plot.cross_correlation(rep)
+    starred = {(round(t.get_position()[1]), round(t.get_position()[0])) for t in fig.axes[0].texts
+               if t.get_text().endswith("*")}
+    beyond = np.asarray(plot.cross_correlation_ratio(rep.cross_correlation)[0]) > 1
+    assert starred == {tuple(int(i) for i in c) for c in np.argwhere((padj <= alpha) & beyond)}
 
 
 def test_every_axes_with_marks_has_a_legend_or_text(flexible):

@@ -91,3 +91,38 @@ def test_the_prediction_figure_draws_the_band_with_its_share():
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         assert f"90 % prediction interval ({100 * shares[j]:.1f} % of the measured inside)" in labels
         assert ax.collections, "no band drawn"
+
+
+def test_the_html_report_draws_the_band_and_gives_the_share_in_the_caption(tmp_path):
+    pytest.importorskip("matplotlib")
+    from dynval.html import render_report
+
+    rng = np.random.default_rng(2)
+    y, tau = _run(rng, 300, np.array([1.0, -2.0, 0.5]))
+    fit = identify(y, tau)
+    band = fit.prediction_interval(y, level=0.9)
+    rep = dynval.validate(tau, band.prediction, n_params=3)
+    page = render_report(rep, tau_meas=tau, tau_pred=band.prediction, interval=band)
+    shares = ", ".join(f"{100 * s:.1f} %" for s in band.share_inside(tau))
+    assert "Shaded: the 90 % prediction interval" in page and f"per joint: {shares}." in page
+    assert "prediction interval" not in render_report(rep, tau_meas=tau, tau_pred=band.prediction)
+    # a comparison takes one band per model name, drawn for the chosen one
+    cmp = dynval.compare(tau, {"fit": (band.prediction, 3), "zero": (np.zeros_like(tau), 0)})
+    page = render_report(cmp, tau_meas=tau, tau_pred={"fit": band.prediction, "zero": np.zeros_like(tau)},
+                         interval={"fit": band})
+    assert f"per joint: {shares}." in page
+
+
+def test_the_html_report_refuses_a_band_it_cannot_draw():
+    from dynval.html import render_report
+
+    rng = np.random.default_rng(3)
+    y, tau = _run(rng, 300, np.array([1.0, -2.0, 0.5]))
+    band = identify(y, tau).prediction_interval(y)
+    rep = dynval.validate(tau, band.prediction, n_params=3)
+    with pytest.raises(TypeError, match=r"interval must be a PredictionInterval .* got ndarray"):
+        render_report(rep, tau_meas=tau, tau_pred=band.prediction, interval=band.lower)
+    with pytest.raises(ValueError, match="interval needs tau_meas"):
+        render_report(rep, interval=band)
+    with pytest.raises(ValueError, match=r"interval has shape \(300, 2\), tau_meas \(299, 2\)"):
+        render_report(rep, tau_meas=tau[:-1], tau_pred=band.prediction[:-1], interval=band)

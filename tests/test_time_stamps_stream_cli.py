@@ -502,7 +502,8 @@ def test_cli_time_errors_name_the_file_and_line(log_files, capsys):
                        f"{d / 'bad.csv'}:when")
     assert code == 1
     assert err.startswith("dynval validate: error: InvalidParameter: time must never decrease, got ")
-    assert err.endswith(f"at row 700 after {float(bad[699])!r} at row 699 (rows and columns from 0; {d / 'bad.csv'} line 702, column 2)\n")
+    assert err.endswith(f"at row 700 after {float(bad[699])!r} at row 699 "
+                        f"(rows and columns from 0; {d / 'bad.csv'} line 702, column 2)\n")
     code, _, err = run(capsys, "validate", d / "tau.npy", d / "pred.npy", "--n-params", 2, "--time",
                        f"{d / 'bad.csv'}:when", "--stream", "--chunk-rows", 500)
     assert code == 1 and err.startswith("dynval validate: error: InvalidParameter: chunk 1: time must never decrease")

@@ -211,12 +211,13 @@ def _write_outputs(result: DemoResult, out: Path, say) -> None:
         plot = None
     chosen = result.chosen
     rep = result.reports[chosen]
+    band = result.identified[chosen].prediction_interval(val.regressors[chosen])
     if plot is not None:
         say(f"writing figures to {out}")
         figures = [
             ("prediction.png", plot.prediction(
                 val.tau_meas, result.predictions[chosen], report=rep, model_name=chosen, window=(0.0, 10.0),
-                interval=result.identified[chosen].prediction_interval(val.regressors[chosen]))),
+                interval=band)),
             ("residuals.png", plot.residuals(val.tau_meas, result.predictions[chosen], report=rep,
                                              title=f"Residual torque per joint — {chosen}")),
             ("autocorrelation.png", plot.autocorrelation(
@@ -248,7 +249,8 @@ def _write_outputs(result: DemoResult, out: Path, say) -> None:
     path = write_report(target, out / "report.html", tau_meas=val.tau_meas,
                         tau_pred=result.predictions if result.comparison is not None else result.predictions[chosen],
                         title=f"dynval demo — scenario '{d.scenario}'", intro=intro, figures=extra,
-                        reference_frequency=d.mode_frequency, reference_label="simulated mode")
+                        reference_frequency=d.mode_frequency, reference_label="simulated mode",
+                        interval={chosen: band} if result.comparison is not None else band)
     result.files.append(path)
 
 

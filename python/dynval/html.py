@@ -217,7 +217,8 @@ def _provenance_html(report) -> str:
     return _table(["field", "value"], rows, text_cols=(0, 1))
 
 
-def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label) -> list:
+def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label,
+                    interval=None) -> list:
     try:
         from . import plot
     except ImportError:  # pragma: no cover
@@ -228,10 +229,15 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
         n = meas.shape[0]
         fs = sample_rate or (getattr(report, "provenance", None) or {}).get("sample_rate")
         window = (0.0, min(n / fs, 10.0)) if fs else (0.0, min(n, 1000))
+        band = ""
+        if interval is not None:
+            inside = ", ".join(f"{100 * s:.1f} %" for s in interval.share_inside(meas))
+            band = (f" Shaded: the {100 * interval.level:g} % prediction interval (estimation run's parameter "
+                    f"covariance and noise level); share of samples inside it per joint: {inside}.")
         figs.append((plot.prediction(tau_meas, tau_pred, sample_rate=fs, report=report, model_name=model_name,
-                                     window=window),
+                                     window=window, interval=interval),
                      f"Measured and predicted torque of '{model_name}', first "
-                     f"{window[1]:g} {'s' if fs else 'samples'} of the validation data."))
+                     f"{window[1]:g} {'s' if fs else 'samples'} of the validation data.{band}"))
         segments = (getattr(report, "provenance", None) or {}).get("segments")
         figs.append((plot.residuals(tau_meas, tau_pred, sample_rate=fs, report=report,
                                     segments=segments if segments and len(segments) > 1 else None),
@@ -244,9 +250,10 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
                      "Residual spectrum per joint; oscillations found by the report are marked."))
     if getattr(report, "cross_correlation", None) is not None:
         figs.append((plot.cross_correlation(report),
-                     "Residual × regressor-column cross-correlation, max |ρ| over lags divided by the band the "
-                     "findings use (colour-aware when the report has it); cells above 1 are beyond it, grey "
-                     "cells are constant columns, outlined cells are named by a finding."))
+                     "Residual × regressor-column cross-correlation, max |ρ| over lags divided by each cell's "
+                     "band (colour-aware when the report has it); cells above 1 are beyond it, * or a dot marks "
+                     "the cells significant over the whole report (Holm, as the findings test), grey cells are "
+                     "constant columns, outlined cells are named by a finding."))
     return figs
 
 
@@ -295,14 +302,15 @@ def _is_comparison(obj) -> bool:
 
 
 def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
-                  reference_frequency=None, reference_label="expected mode", intro=None) -> str:
+                  reference_frequency=None, reference_label="expected mode", intro=None, interval=None) -> str:
     """The HTML text of :func:`write_report` (same arguments, without the path)."""
     from ._version import __version__
 
     have_plot = _have_matplotlib()
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     signature = f"dynval {_e(__version__)} · {stamp}"
-    plots = _FigureData(have_plot, tau_meas, tau_pred, sample_rate, reference_frequency, reference_label)
+    plots = _FigureData(have_plot, tau_meas, tau_pred, sample_rate, reference_frequency, reference_label,
+                        _checked_interval(interval, tau_meas))
     if _is_comparison(obj):
         parts, first = _comparison_parts(obj, title, intro, signature, plots)
     else:
@@ -372,14 +380,16 @@ class _FigureData:
     sample_rate: Any
     reference_frequency: Any
     reference_label: str
+    interval: Any = None
 
     def html(self, report, tau_pred, model_name) -> list:
         """The report's figures as ``<figure>`` elements (none without matplotlib)."""
         if not self.enabled:
             return []
+        band = self.interval.get(model_name) if isinstance(self.interval, dict) else self.interval
         return [_figure_html(fig, cap) for fig, cap in _report_figures(
             report, self.tau_meas, tau_pred, self.sample_rate, model_name, self.reference_frequency,
-            self.reference_label)]
+            self.reference_label, band)]
 
 
 def _validation_parts(rep, title, intro, signature, plots: _FigureData) -> list:
@@ -520,8 +530,25 @@ def _json_html(obj) -> str:
     return f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>"
 
 
+def _checked_interval(interval, tau_meas):
+    """The prediction interval(s) of ``interval=``, refused when they cannot be drawn."""
+    if interval is None:
+        return None
+    bands = interval.values() if isinstance(interval, dict) else [interval]
+    for band in bands:
+        if not hasattr(band, "share_inside"):
+            raise TypeError("interval must be a PredictionInterval (IdentificationResult.prediction_interval) "
+                            f"or a dict of them by model name, got {type(band).__name__}")
+        if tau_meas is None:
+            raise ValueError("interval needs tau_meas (the band is drawn over the measured torque)")
+        if band.lower.shape != np.shape(tau_meas):
+            raise ValueError(f"interval has shape {band.lower.shape}, tau_meas {np.shape(tau_meas)}: "
+                             "the band must be of the validation data")
+    return interval
+
+
 def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
-                 reference_frequency=None, reference_label="expected mode", intro=None) -> str:
+                 reference_frequency=None, reference_label="expected mode", intro=None, interval=None) -> str:
     """Write one self-contained HTML report of a validation or a comparison.
 
     Parameters
@@ -543,6 +570,10 @@ def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, t
         More figures to embed.
     reference_frequency : float, optional
         A known frequency (a simulated mode) drawn on the spectrum.
+    interval : PredictionInterval, or dict {model name: PredictionInterval}, optional
+        :meth:`dynval.identify.IdentificationResult.prediction_interval` on the validation data:
+        drawn as a band in the measured-vs-predicted figure, whose caption gives the share of
+        samples inside it per joint.
 
     Returns
     -------
@@ -551,6 +582,6 @@ def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, t
     """
     text = render_report(obj, tau_meas=tau_meas, tau_pred=tau_pred, sample_rate=sample_rate, title=title,
                          figures=figures, reference_frequency=reference_frequency,
-                         reference_label=reference_label, intro=intro)
+                         reference_label=reference_label, intro=intro, interval=interval)
     Path(path).write_text(text, encoding="utf-8")
     return str(path)

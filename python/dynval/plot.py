@@ -381,15 +381,34 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     return np.where(mask, np.nan, ratio), aware
 
 
+def _significant_cells(xc, ratio: np.ndarray) -> np.ndarray:
+    """The cells the findings call significant (Holm over every test of the report, contract §4);
+    a report without ``pvalue_adjusted`` (streamed, or a mapping) has only the per-cell band."""
+    padj = xc.get("pvalue_adjusted") if hasattr(xc, "get") else None
+    if padj is None:
+        return np.asarray(ratio > 1.0)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.asarray(padj, dtype=float) <= 1.0 - float(xc.get("level", 0.95)))
+
+
+def _significant_label(xc, count: int, small: bool) -> str:
+    mark = "dot" if small else "*"
+    if (xc.get("pvalue_adjusted") if hasattr(xc, "get") else None) is None:
+        return f"{mark}: beyond the band (this report has no Holm-adjusted p-values)"
+    return f"{mark}: significant over the whole report (Holm over all its tests, as the findings): {count} cells"
+
+
 def cross_correlation(report, *, joint_names=None, column_names=None, title=None):
     """Heatmap joints × regressor columns of ``max_ℓ |ρ(ℓ)| / band`` (lags 0..max_lag).
 
-    The band is the colour-aware one the findings use (Bartlett's variance for two coloured
-    series, :func:`cross_correlation_ratio`); a report without it (streamed) falls back to the
-    white band z/√N and the legend says so. Cells above 1 (beyond the band) carry their value,
-    or a black dot when the columns are many; cells of columns that the report's findings name
-    are outlined; grey cells marked "–" are columns that are constant on that joint (no
-    correlation defined). A legend under the heatmap explains each mark.
+    The colour is the ratio to the per-cell colour-aware band (Bartlett's variance for two
+    coloured series, :func:`cross_correlation_ratio`); a report without it (streamed) falls back to
+    the white band z/√N and the legend says so. A per-cell band is crossed by 5 % of cells by
+    chance, so the cells the findings call significant — Holm over every test of the report, the
+    report's ``pvalue_adjusted`` — are marked apart: a ``*`` after the value (cells above 1 carry
+    their value), or a black dot when the columns are many. Cells of columns that the report's
+    findings name are outlined; grey cells marked "–" are columns that are constant on that joint
+    (no correlation defined). A legend under the heatmap explains each mark.
     """
     xc = report.cross_correlation if not isinstance(report, Mapping) else report
     if xc is None:
@@ -427,44 +446,45 @@ def cross_correlation(report, *, joint_names=None, column_names=None, title=None
     ax.set_yticks(range(m), jnames, fontsize="small" if small else None)
     ax.set_xlabel("regressor column")
     ax.set_ylabel("joint (residual)")
-    beyond = np.zeros((m, p), dtype=bool)
+    significant = _significant_cells(xc, ratio)
+    beyond = ratio > 1.0
     for j in range(m):
         for c in range(p):
             r = ratio[j, c]
             if np.isnan(r):
                 if not small:
                     ax.text(c, j, "–", ha="center", va="center", color="#555555", fontsize="small")
-            elif r > 1.0:
-                beyond[j, c] = True
-                if small:
-                    ax.plot(c, j, "o", color="black", ms=3)
-                else:
-                    ax.text(c, j, f"{r:.1f}", ha="center", va="center", fontsize="small",
-                            color="white" if r > 0.6 * vmax else "black", fontweight="bold")
+            elif small and significant[j, c]:
+                ax.plot(c, j, "o", color="black", ms=3)
+            elif not small and r > 1.0:
+                ax.text(c, j, f"{r:.1f}" + ("*" if significant[j, c] else ""), ha="center", va="center",
+                        fontsize="small", color="white" if r > 0.6 * vmax else "black",
+                        fontweight="bold" if significant[j, c] else "normal")
             if (j, c) in named:
                 ax.add_patch(_rectangle(c, j))
-    which = ("colour-aware band (Bartlett, both series' colour), the one the findings use" if aware
-             else "white-noise band z/√N (this report has no colour-aware fields, e.g. a streamed report)")
+    which = ("per-cell colour-aware band (Bartlett, both series' colour)" if aware
+             else "per-cell white-noise band z/√N (this report has no colour-aware fields, e.g. a streamed report)")
     handles = [Patch(facecolor="#d62728", edgecolor="none",
-                     label=f"beyond the band (> 1): {int(beyond.sum())} of {int(np.isfinite(ratio).sum())} cells"
-                           + ("" if small else ", value printed")),
+                     label=f"beyond the per-cell band (> 1): {int(np.sum(beyond))} of {int(np.isfinite(ratio).sum())} "
+                           "cells" + ("" if small else ", value printed")),
                Patch(facecolor="#f7fbff", edgecolor="#999999", label="inside the band (≤ 1)")]
-    if small:
-        handles.append(Line2D([], [], ls="none", marker="o", color="black", ms=4, label="dot: beyond the band"))
+    handles.append(Line2D([], [], ls="none", marker="o" if small else "$*$", color="black", ms=4 if small else 7,
+                          label=_significant_label(xc, int(significant.sum()), small)))
     if np.isnan(ratio).any():
         handles.append(Patch(facecolor=grey, edgecolor="none",
                              label="grey" + ("" if small else " “–”") + ": column constant on that joint, "
                                    "no correlation defined"))
     if named:
         handles.append(Patch(facecolor="none", edgecolor="black", lw=2.0, label="outlined: column named by a finding"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize="small",
+    fig.legend(handles=handles, loc="outside lower center", ncol=2 if fig.get_figwidth() >= 14 else 1,
+               fontsize="small",
                title=f"{100 * float(xc.get('level', 0.95)):g} % {which}", title_fontsize="small")
     cb = fig.colorbar(im, ax=ax, shrink=0.9)
     cb.set_label("max |ρ| / " + ("colour-aware band" if aware else "white band"))
     lag_text = f"lags 0..{xc.get('max_lag', '?')}"
     band_text = ("colour-aware band" if aware else f"white band z/√N = {band:.3g}")
     fig.suptitle(title or f"Residual × regressor cross-correlation ({lag_text}; {band_text}; "
-                          f"> 1 is beyond the band)")
+                          f"> 1 is beyond the per-cell band)")
     return fig
 
 

@@ -20,7 +20,7 @@ from ..checks._timing import Timing
 from ..metrics._profiles import Profile
 from . import _records as rec
 from . import _sections as sec
-from ._findings import Finding, Thresholds, compute_findings
+from ._findings import Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
 from ._json import to_frame, to_jsonable
 from ._summary import format_summary
 
@@ -346,13 +346,18 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
                       bandwidth=s.bandwidth)
-    found = compute_findings(ev, s.thresholds)
+    family = holm_family(ev)
+    found = compute_findings(ev, s.thresholds, family=family)
+    cross = b.cross
+    cells = cell_pvalue_adjusted(family)
+    if cross is not None and cells is not None:
+        cross = {**cross, "pvalue_adjusted": cells}  # for the heatmap: the cells the findings call significant
     return ValidationReport(
         provenance=rec.Provenance.of(prov), per_joint=rec.PerJoint.of(b.per_joint), pooled=rec.Pooled.of(b.pooled),
         aggregates=rec.Aggregates.of(b.aggregates), residuals=rec.Residuals.of(b.residuals),
         autocorrelation=rec.record_or_none(rec.Autocorrelation, b.acf),
         ljung_box=rec.record_or_none(rec.LjungBox, b.lb),
-        cross_correlation=rec.record_or_none(rec.CrossCorrelation, b.cross),
+        cross_correlation=rec.record_or_none(rec.CrossCorrelation, cross),
         information_criteria=rec.InformationCriteria.of(b.ic), warnings_text=[f.message for f in found],
         findings=found, bias=rec.record_or_none(rec.Bias, b.bias), whiteness=rec.record_or_none(rec.Whiteness, b.white),
         spectrum=rec.record_or_none(rec.Spectrum, b.spec), design=rec.record_or_none(rec.Design, b.design),

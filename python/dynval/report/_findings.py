@@ -320,9 +320,23 @@ def holm_family(ev: Evidence) -> dict[str, Any]:
     return out
 
 
-def compute_findings(ev: Evidence, thresholds: Thresholds | None = None) -> list[Finding]:
-    """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first."""
-    r = _Rules(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev))
+def cell_pvalue_adjusted(family: dict[str, Any]) -> np.ndarray | None:
+    """(m, p): each residual × column cell's smallest Holm-adjusted p-value over its lags, the
+    number the correlation rule compares with 1 − level (NaN for a constant column)."""
+    if "xcorr" not in family:
+        return None
+    padj = np.asarray(family["xcorr"][1], dtype=float)
+    undefined = np.isnan(padj).all(axis=2)
+    smallest = np.min(np.where(np.isnan(padj), np.inf, padj), axis=2)
+    return np.where(undefined, np.nan, smallest)
+
+
+def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
+                     family: dict[str, Any] | None = None) -> list[Finding]:
+    """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first.
+
+    ``family`` is :func:`holm_family` of the same evidence when the caller already has it."""
+    r = _Rules(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev) if family is None else family)
     out = r.found
     for rule in _RULES:
         out.extend(rule(r))

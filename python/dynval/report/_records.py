@@ -200,7 +200,8 @@ class CrossCorrelation(Record):
     """The residual against each regressor column (contract §4): the white ``band`` z/√N and the
     colour-aware summary (``colour_factor``, ``max_abs_rho``, ``lag_of_max``, ``z_max`` (m, p),
     ``top_cells``); ``rho`` and ``sd`` (m, p, L+1) with ``detail="full"``; ``parameter_error``
-    with the estimation run; ``missing_terms`` with ``model_columns``."""
+    with the estimation run; ``missing_terms`` with ``model_columns``; ``pvalue_adjusted`` (m, p),
+    each cell's smallest Holm-adjusted p over its lags, when the findings tested the cells."""
 
     max_lag: int = ABSENT
     adjusted: bool = ABSENT
@@ -220,6 +221,7 @@ class CrossCorrelation(Record):
     sd: Any = ABSENT
     parameter_error: bool = ABSENT
     missing_terms: dict[str, Any] = ABSENT
+    pvalue_adjusted: Any = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
