@@ -54,7 +54,7 @@ def test_a_failed_build_says_what_to_try():
     tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
     build = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["scikit-build"]
     failure = build["messages"]["after-failure"]
-    assert "C++17" in failure and "pip install . -Cwheel.cmake=false" in failure
+    assert "C++17" in failure and "pip install . --config-settings=wheel.cmake=false" in failure
 
 
 def test_the_module_compiles_as_one_unit_by_default():

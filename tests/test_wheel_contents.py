@@ -1,7 +1,7 @@
 """The wheel ships the golden corpus and everything the conformance runner and the ports read at run
 time, but not the corpus generator (golden/generate.py, golden/corpus_generator/: source tree only).
 
-Builds the pure-Python wheel (-Cwheel.cmake=false: no compiler, a few seconds) of this source tree into
+Builds the pure-Python wheel (--config-settings=wheel.cmake=false: no compiler, a few seconds) of this source tree into
 a temporary directory and reads its file list. Needs scikit-build-core importable (the test extra),
 since the build runs without isolation and so without the network.
 """
@@ -27,7 +27,7 @@ def wheel_files(tmp_path_factory) -> set[str]:
         pytest.skip(f"not run from dynval's source tree ({REPO})")
     pytest.importorskip("scikit_build_core", reason="building the wheel needs scikit-build-core (the test extra)")
     out = tmp_path_factory.mktemp("wheel")
-    done = subprocess.run([sys.executable, "-m", "pip", "wheel", str(REPO), "-Cwheel.cmake=false",
+    done = subprocess.run([sys.executable, "-m", "pip", "wheel", str(REPO), "--config-settings=wheel.cmake=false",
                            "--no-build-isolation", "--no-deps", "--no-index", "--quiet", "--disable-pip-version-check",
                            "-w", str(out)], capture_output=True, text=True, check=False, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
