@@ -1,6 +1,6 @@
 """Hostile port: ignores SIGTERM, SIGHUP and SIGINT, leaves processes behind, may kill its supervisor.
 
-    stubborn.py LOG [--slow-greeting] [--kill-supervisor] [--double-fork] [--answer]
+    stubborn.py LOG [--slow-greeting] [--kill-supervisor | --stop-supervisor] [--double-fork] [--answer]
 
 It needs only the standard library (no dynval import), so that it starts fast. Every process
 it makes appends ``ROLE PID`` to LOG, and the port appends a state line when it gets there:
@@ -10,6 +10,8 @@ be gone once ``dynval conform`` has exited; every process carries LOG on its com
 
 * ``--kill-supervisor``: leaves its session (``setsid()``) and SIGKILLs its parent, the
   supervisor the runner started it under (logged first, as ``supervisor PID``), before greeting.
+* ``--stop-supervisor``: the same with SIGSTOP, so that the supervisor can no longer act on the
+  runner's SIGTERM and the runner has to kill it.
 * ``--double-fork``: starts a child that starts a grandchild in a session of its own and
   exits, so that the grandchild is orphaned; a plain child stays in the port's group too.
 * ``--answer``: answers every case with an error instead of hanging, so that the run ends.
@@ -60,9 +62,9 @@ def main(argv: list[str]) -> int:
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
         signal.signal(sig, signal.SIG_IGN)
     log(path, f"supervisor {os.getppid()}")
-    if "--kill-supervisor" in flags:
+    if "--kill-supervisor" in flags or "--stop-supervisor" in flags:
         os.setsid()
-        os.kill(os.getppid(), signal.SIGKILL)
+        os.kill(os.getppid(), signal.SIGKILL if "--kill-supervisor" in flags else signal.SIGSTOP)
     log(path, f"port {os.getpid()}")
     if "--double-fork" in flags:
         double_fork(path)
