@@ -10,6 +10,7 @@ log the port writes, and checked in /proc).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pathlib
 import signal
@@ -36,6 +37,23 @@ def tiny(tmp_path_factory):
     return str(write_tiny_corpus(tmp_path_factory.mktemp("corpus")))
 
 
+@contextlib.contextmanager
+def _default_dispositions():
+    """The runner starts with the default action for the stop signals, whatever pytest has.
+
+    A signal ignored at start stays ignored in the runner, by design (``nohup`` ignores SIGHUP, a
+    shell ignores SIGINT for a background job): pytest run that way must not make these tests fail.
+    A handled signal is reset to the default by ``exec``, so one is handled for the moment of the start.
+    """
+    previous = {sig: signal.signal(sig, lambda signum, frame: None)
+                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 class Run:
     """``python -m dynval conform`` with the stubborn port, and the processes the port logged."""
 
@@ -44,8 +62,9 @@ class Run:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [PACKAGE_ROOT, os.environ.get("PYTHONPATH")])))
         command = [sys.executable, "-m", "dynval", "conform", "--quiet", "--corpus", corpus, "--families", "norms",
                    "--timeout", "60", "--jobs", str(jobs), "--", sys.executable, str(PORT), str(self.log), *port_flags]
-        self.proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, env=env)
+        with _default_dispositions():
+            self.proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                         stderr=subprocess.PIPE, text=True, env=env)
 
     def lines(self) -> list[str]:
         try:
