@@ -17,7 +17,9 @@ descendant and exits the way the port did (same exit code or signal). It only
 ever signals its own children, whose process ids cannot be reused before it reaps
 them, so it cannot hit an unrelated process. It also asks for SIGTERM when the
 runner dies (``prctl(PR_SET_PDEATHSIG)``), so that a runner killed outright, with
-no chance to clean up, still leaves nothing of the port behind.
+no chance to clean up, still leaves nothing of the port behind. (The kernel sends it
+when the runner's *thread* that started the supervisor ends; the runner stops every
+port before the thread that started it ends, so that is never early.)
 """
 
 from __future__ import annotations
