@@ -11,7 +11,8 @@ per family::
 Exit status: 0 when no case failed, 1 when any case failed, when no case
 was run at all (every case skipped: the port declared nothing the corpus
 covers) or, with ``--strict``, when any case was skipped or partial; 2 for a
-usage error.
+usage error; 128 + the signal's number (130, 143, 129) when SIGINT (Ctrl-C), SIGTERM
+or SIGHUP stopped the run, after every port process was killed.
 
 ``dynval conform --matrix`` runs the known ports (python, cpp, java, matlab,
 wolfram; ``--ports`` picks some, ``--port NAME=COMMAND`` adds others) over every
@@ -33,6 +34,7 @@ import json
 import math
 import os
 import pathlib
+import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -42,6 +44,7 @@ from .. import protocol
 from ._matrix import BUILTIN_PORTS
 from ._process import PortFailure, PortProcess, describe_command
 from ._runner import STATUSES, CaseOutcome, RunResult, judge, run
+from ._signals import exit_status, stopping_on_signals
 
 __all__ = ["main", "run", "RunResult", "CaseOutcome", "PortProcess", "PortFailure", "judge", "write_report"]
 
@@ -347,10 +350,21 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None, std
     -------
     int
         0 (no failure), 1 (a case failed, no case ran, or skipped/partial with
-        ``--strict``), 2 (usage error).
+        ``--strict``), 2 (usage error), 128 + the signal's number when SIGINT, SIGTERM
+        or SIGHUP stopped the run (the ports are killed first; one line on ``stderr``).
     """
-    out = stdout or sys.stdout
     err = stderr or sys.stderr
+    try:
+        with stopping_on_signals():
+            return _main(argv, stdout or sys.stdout, err)
+    except KeyboardInterrupt as exc:  # the run has killed its ports on the way out
+        signum = getattr(exc, "signum", signal.SIGINT)
+        err.write(f"dynval conform: interrupted by {signal.Signals(signum).name}\n")
+        err.flush()
+        return exit_status(signum)
+
+
+def _main(argv: Sequence[str] | None, out: TextIO, err: TextIO) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     options, command = _split_command(argv)
     parser = _build_parser()

@@ -7,9 +7,14 @@ a shell wrapper cannot leave the real program running).
 
 On Linux the port runs under a small supervisor (``_reaper.py``, a child
 subreaper): processes the port leaves behind, even those that left its process
-group with ``setsid()``, are killed when the port exits or is killed. The runner
+group with ``setsid()``, are killed when the port exits or is killed. A port that
+kills the supervisor too leaves its processes to the runner, itself a subreaper
+while it runs (``_orphans.py``), which kills them with the port. The runner
 never reaps a port before killing its group, so the group id it signals cannot
 name an unrelated process.
+
+The ports of one run are enlisted in a :class:`PortSet`, so that a run stopped
+by a signal kills every one of them, those being started in other threads too.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import time
 from collections.abc import Sequence
 
 from .. import protocol
+from . import _orphans
 
 #: Bytes of the port's standard error kept for failure reports.
 STDERR_TAIL = 4096
@@ -64,11 +70,16 @@ class PortProcess:
         The port's command line.
     startup_timeout : float
         Seconds allowed between start and the ``ready`` line.
+    ports : PortSet, optional
+        The run's ports, which this one joins as soon as it is started.
     """
 
-    def __init__(self, command: Sequence[str], startup_timeout: float) -> None:
+    def __init__(self, command: Sequence[str], startup_timeout: float, *, ports: PortSet | None = None) -> None:
         self.command = list(command)
         self.startup_timeout = startup_timeout
+        self.ports = ports
+        #: Marks every process of this port, for the runner to find them should the supervisor die.
+        self.token = _orphans.new_token()
         self.version: int | None = None
         self.name = ""
         self.capabilities: list[protocol.Capability] = []
@@ -114,13 +125,21 @@ class PortProcess:
             self._proc = self._popen(self.command)
         except OSError as exc:
             raise PortFailure("handshake", f"cannot start the port {self.command[0]!r}: {exc}") from None
+        self._enlist()
+
+    def _enlist(self) -> None:
+        # At once after the start: a run stopped from now on kills this port too.
+        if self.ports is not None and not self.ports.enlist(self):
+            self.kill()
+            raise PortFailure("handshake", "not started: the run is being stopped")
 
     def _spawn_supervised(self, deadline: float) -> None:
         # The supervisor starts the port itself and says on a private pipe whether
         # that worked, so a missing program is still reported as such.
         read_end, write_end = os.pipe()
         try:
-            command = [sys.executable, "-I", "-S", str(_REAPER), str(write_end), "--", *self.command]
+            command = [sys.executable, "-I", "-S", str(_REAPER), str(write_end), str(os.getpid()), self.token,
+                       "--", *self.command]
             try:
                 self._proc = self._popen(command, pass_fds=(write_end,))
             except OSError as exc:
@@ -128,6 +147,7 @@ class PortProcess:
             self._supervised = True
             os.close(write_end)
             write_end = -1
+            self._enlist()
             status = self._read_status(read_end, deadline)
         finally:
             os.close(read_end)
@@ -241,6 +261,8 @@ class PortProcess:
             proc.wait(timeout=5)
         except subprocess.TimeoutExpired:  # pragma: no cover - unkillable process
             pass
+        if self._supervised:
+            _orphans.kill_adopted([self.token])  # what the port kept after killing its supervisor
         # What the port wrote on stderr before it died is the report's evidence: let the reader
         # reach the end of the pipe before it is closed (a loaded machine schedules it late).
         reader = getattr(self, "_stderr_reader", None)
@@ -399,6 +421,43 @@ class PortProcess:
         return data.decode("utf-8", errors="replace").strip()
 
 
+class PortSet:
+    """The port processes of one run, for :meth:`kill_all` to stop every one of them.
+
+    Once :meth:`kill_all` has begun, a port that is started (a restart, or another
+    ``--jobs`` process in a thread the interruption did not reach) is refused by
+    :meth:`enlist` and killed at once, so none slips through.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._ports: list[PortProcess] = []
+        self._closed = False
+
+    def enlist(self, port: PortProcess) -> bool:
+        """Add a started port; False once the set is being killed (the caller kills the port)."""
+        with self._lock:
+            if self._closed:
+                return False
+            self._ports.append(port)
+            return True
+
+    def kill_all(self) -> None:
+        """Kill every port of the set, with what it started, and refuse ports started from now on."""
+        with self._lock:
+            self._closed = True
+            ports = list(self._ports)
+        for port in ports:
+            port.kill()
+        _orphans.kill_adopted([port.token for port in ports])  # and anything of theirs orphaned since
+
+    def __enter__(self) -> PortSet:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.kill_all()
+
+
 def describe_command(command: Sequence[str]) -> str:
     """The command as one shell-like string, for reports."""
     import shlex
@@ -406,4 +465,4 @@ def describe_command(command: Sequence[str]) -> str:
     return " ".join(shlex.quote(c) for c in command)
 
 
-__all__ = ["PortFailure", "PortProcess", "describe_command", "STDERR_TAIL"]
+__all__ = ["PortFailure", "PortProcess", "PortSet", "describe_command", "STDERR_TAIL"]

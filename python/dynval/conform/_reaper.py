@@ -2,18 +2,24 @@
 
 Run as a script, not imported (only the standard library, so that it starts fast)::
 
-    python -I -S _reaper.py STATUS_FD -- COMMAND ARGS...
+    python -I -S _reaper.py STATUS_FD RUNNER_PID TOKEN -- COMMAND ARGS...
 
 It makes itself a *child subreaper* (``prctl(PR_SET_CHILD_SUBREAPER)``), so every
 process the port leaves behind, even one that left the process group with
 ``setsid()``, is reparented to it instead of to init. It starts the port with its
-own standard streams, reports on ``STATUS_FD`` (``ok`` or ``error MESSAGE``) and
-drops its copies of the streams, so end of output still means the port closed it.
+own standard streams and ``DYNVAL_CONFORM_PORT=TOKEN`` in its environment (by which
+the runner knows the port's processes should the port kill this supervisor), reports
+on ``STATUS_FD`` (``ok`` or ``error MESSAGE``) and drops its copies of the streams, so
+end of output still means the port closed it.
 
 When the port exits, or when the runner sends SIGTERM, it kills every remaining
 descendant and exits the way the port did (same exit code or signal). It only
 ever signals its own children, whose process ids cannot be reused before it reaps
-them, so it cannot hit an unrelated process.
+them, so it cannot hit an unrelated process. It also asks for SIGTERM when the
+runner dies (``prctl(PR_SET_PDEATHSIG)``), so that a runner killed outright, with
+no chance to clean up, still leaves nothing of the port behind. (The kernel sends it
+when the runner's *thread* that started the supervisor ends; the runner stops every
+port before the thread that started it ends, so that is never early.)
 """
 
 from __future__ import annotations
@@ -24,7 +30,10 @@ import subprocess
 import sys
 import time
 
+PR_SET_PDEATHSIG = 1
 PR_SET_CHILD_SUBREAPER = 36
+#: Environment variable carrying the runner's token for this port (see conform/_orphans.py).
+TOKEN_VARIABLE = "DYNVAL_CONFORM_PORT"
 #: Seconds spent killing descendants before giving up on one that will not die.
 CLEANUP_LIMIT = 10.0
 
@@ -38,15 +47,22 @@ def _on_term(signum, frame):
     raise _Stop
 
 
-def _become_subreaper() -> None:
+def _prctl(option: int, value: int) -> None:
     # On failure (no ctypes, no such prctl) the port still runs: the runner's kill of
     # the process group is then the only cleanup left.
     try:
         import ctypes
 
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+        ctypes.CDLL(None, use_errno=True).prctl(option, value, 0, 0, 0)
     except (ImportError, OSError, AttributeError):
         pass
+
+
+def _follow_runner(runner: int) -> None:
+    """SIGTERM when the runner dies; exit now if it already has (we were reparented)."""
+    _prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() != runner:
+        os._exit(1)
 
 
 def _children() -> list[int]:
@@ -127,13 +143,14 @@ def _drop_streams() -> None:
 
 
 def main(argv: list[str]) -> None:
-    status_fd, command = int(argv[0]), argv[2:]
+    status_fd, runner, token, command = int(argv[0]), int(argv[1]), argv[2], argv[4:]
     signal.signal(signal.SIGTERM, _on_term)
-    _become_subreaper()
+    _follow_runner(runner)
+    _prctl(PR_SET_CHILD_SUBREAPER, 1)
     status = signal.SIGKILL  # a wait status: what the runner sees when it stops the port
     try:
         try:
-            port = subprocess.Popen(command)
+            port = subprocess.Popen(command, env={**os.environ, TOKEN_VARIABLE: token})
         except (OSError, ValueError) as exc:
             os.write(status_fd, f"error {exc}".encode("utf-8", "replace"))
             os._exit(127)

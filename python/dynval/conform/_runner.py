@@ -13,7 +13,8 @@ import numpy as np
 
 from .. import protocol
 from ..golden import Case, check_case, iter_cases
-from ._process import PortFailure, PortProcess
+from . import _orphans
+from ._process import PortFailure, PortProcess, PortSet
 
 #: Case statuses, in table order.
 STATUSES = ("passed", "failed", "skipped", "partial")
@@ -205,6 +206,14 @@ def run(
     Returns
     -------
     RunResult
+
+    Notes
+    -----
+    Whatever ends the run, an exception too (``KeyboardInterrupt`` from Ctrl-C, or a
+    signal the caller turned into an exception), every port process and everything it
+    started is killed before this returns or raises. On Linux the calling process is a
+    child subreaper meanwhile, so that processes of a port that killed its supervisor are
+    found too (``golden/PROTOCOL.md``, section 1).
     """
     from ..golden import FAMILIES
 
@@ -213,20 +222,22 @@ def run(
     started = time.monotonic()
     result = RunResult(command=list(command), corpus=str(corpus or ""), families=selected)
     cases = list(iter_cases(corpus, selected))
-    port, dead_reason = _start_port(command, startup_timeout, result)
-    capabilities = port.capabilities if port is not None else []
-    if (not families if skip_unclaimed is None else skip_unclaimed) and capabilities:
-        cases = _without_unclaimed(cases, capabilities, result)
-    feeder = _Feeder(command, timeout, startup_timeout, max_restarts, capabilities, result, progress, len(cases))
-    feeder.feed(cases, jobs, port, dead_reason)
+    with _orphans.adopting(), PortSet() as ports:
+        port, dead_reason = _start_port(command, startup_timeout, result, ports)
+        capabilities = port.capabilities if port is not None else []
+        if (not families if skip_unclaimed is None else skip_unclaimed) and capabilities:
+            cases = _without_unclaimed(cases, capabilities, result)
+        feeder = _Feeder(command, timeout, startup_timeout, max_restarts, capabilities, result, progress, len(cases),
+                         ports)
+        feeder.feed(cases, jobs, port, dead_reason)
     result.seconds = time.monotonic() - started
     return result
 
 
-def _start_port(command: Sequence[str], startup_timeout: float,
-                result: RunResult) -> tuple[PortProcess | None, str]:
+def _start_port(command: Sequence[str], startup_timeout: float, result: RunResult,
+                ports: PortSet) -> tuple[PortProcess | None, str]:
     """Start the port and note its handshake in ``result``: ``(port, "")``, or ``(None, why)``."""
-    port = PortProcess(command, startup_timeout)
+    port = PortProcess(command, startup_timeout, ports=ports)
     try:
         port.start()
     except PortFailure as exc:
@@ -265,8 +276,9 @@ class _Feeder:
 
     def __init__(self, command: Sequence[str], timeout: float, startup_timeout: float, max_restarts: int,
                  capabilities: list[protocol.Capability], result: RunResult,
-                 progress: Callable[[int, int, RunResult], None] | None, total: int) -> None:
+                 progress: Callable[[int, int, RunResult], None] | None, total: int, ports: PortSet) -> None:
         self.command = command
+        self.ports = ports
         self.timeout = timeout
         self.startup_timeout = startup_timeout
         self.max_restarts = max_restarts
@@ -310,7 +322,7 @@ class _Feeder:
         """A further port process: ``(port, "")``, or ``(None, why)``."""
         if dead_reason:
             return None, dead_reason
-        own = PortProcess(self.command, self.startup_timeout)
+        own = PortProcess(self.command, self.startup_timeout, ports=self.ports)
         try:
             own.start()
         except PortFailure as exc:
@@ -323,9 +335,12 @@ class _Feeder:
         try:
             for index, case in shard:
                 self._record(index, worker.outcome(case))
-        finally:
+        except BaseException:
             if worker.port is not None:
-                worker.port.close()
+                worker.port.kill()  # stopped (Ctrl-C, a signal) or broken: no grace for a polite quit
+            raise
+        if worker.port is not None:
+            worker.port.close()
         return worker.restarts
 
     def _record(self, index: int, outcome: CaseOutcome) -> None:
@@ -377,7 +392,7 @@ class _PortWorker:
                 self.dead_reason = f"not run: the port needed more than {max_restarts} restarts"
             else:
                 self.restarts += 1
-                self.port = PortProcess(self.feeder.command, self.feeder.startup_timeout)
+                self.port = PortProcess(self.feeder.command, self.feeder.startup_timeout, ports=self.feeder.ports)
                 try:
                     self.port.start()
                 except PortFailure as exc:
