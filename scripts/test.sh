@@ -105,7 +105,9 @@ step "pytest"
 # The Wolfram port's whole corpus (about 8 minutes under Mathics3 with two port processes) is run once,
 # by the conformance-matrix step below; its pytest test says so when it skips.
 export DYNVAL_CORPUS_IN_MATRIX=wolfram
-"$PY" -m pytest -q --durations=15 "$@"
+# On every core (pytest-xdist; the slow tests start first, tests/conftest.py): about half the time
+# of one process on 2 cores. `bash scripts/test.sh -n 0` runs them in one process.
+"$PY" -m pytest -q -n auto --durations=15 "$@"
 
 step "sanitizers: the fuzz suite against dynval._core built with -fsanitize=address,undefined (bounded)"
 PYTHON="$PY" bash scripts/sanitize.sh 40

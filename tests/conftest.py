@@ -48,6 +48,14 @@ def pytest_report_header(config):
     return lines
 
 
+def pytest_collection_modifyitems(config, items):
+    # With pytest-xdist (scripts/test.sh runs -n 2) a long test collected last runs alone at the end
+    # while the other worker idles: the tests marked slow (the ports' unit tests, the calibrations)
+    # start first. The order is otherwise the collection's; a serial run is not reordered.
+    if getattr(config.option, "numprocesses", None):
+        items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 def pytest_generate_tests(metafunc):
     # Plain parametrisation (not a fixture) so that hypothesis @given tests can use it too.
     if "backend" in metafunc.fixturenames:

@@ -137,9 +137,9 @@ def test_level_given_to_validate_and_compare_reaches_the_findings(monkeypatch):
     seen: list[float] = []
     real = report_module.compute_findings
 
-    def spy(ev, thresholds=None):
+    def spy(ev, thresholds=None, **keywords):
         seen.append(ev.level)
-        return real(ev, thresholds)
+        return real(ev, thresholds, **keywords)
 
     monkeypatch.setattr(report_module, "compute_findings", spy)
     rng = np.random.default_rng(5)
