@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _not_regular, _open_regular
+from ._limits import check_decoded
 
 __all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
 
@@ -252,11 +253,12 @@ def _read_exact(handle, n_bytes: int, where: str) -> bytearray:
     return buf
 
 
-def _read_npy(handle, where: str, size: int) -> np.ndarray:
+def _read_npy(handle, where: str, size: int, hint: str | None = None) -> np.ndarray:
     """Read one .npy stream of ``size`` bytes (a file, or a member of a .npz archive).
 
-    The shape in the header is checked against the bytes that follow it and against the
-    machine's memory before anything is allocated: a header can declare any shape.
+    The shape in the header is checked against the bytes that follow it, the decoded-size limit
+    (``hint``: the advice when it is exceeded) and the machine's memory before anything is
+    allocated or decompressed: a header can declare any shape, and an archive any size.
     """
     start = handle.tell()
     shape, fortran, dtype = _read_npy_header(handle, where)
@@ -271,6 +273,7 @@ def _read_npy(handle, where: str, size: int) -> np.ndarray:
     if declared > available:
         raise FileInputError(f"{where}: its header declares shape {tuple(shape)} of {dtype} ({declared} bytes), "
                              f"but it holds only {available} bytes after the header (truncated or corrupt)")
+    check_decoded(where, tuple(shape), dtype.itemsize, hint=hint)
     memory = _physical_memory()
     if memory is not None and declared > memory:
         raise FileInputError(f"{where}: shape {tuple(shape)} of {dtype} needs {declared} bytes, more than this "
@@ -309,8 +312,12 @@ def _read_npz(handle, path: str, key: str | None) -> np.ndarray:
                 raise FileInputError(f"{path}: no array named {key!r}; the archive holds "
                                      + ", ".join(repr(n) for n in members))
             info = members[key]
+            # A compressed member's size in the archive is the archive's word: the limit is checked
+            # on the shape its own .npy header declares, before anything past the header is inflated.
+            hint = None if info.compress_type == zipfile.ZIP_STORED else \
+                "save it without compression (numpy.savez), which dynval validate --stream reads in blocks"
             with archive.open(info) as member:
-                return _read_npy(member, f"{path}: array {key!r}", info.file_size)
+                return _read_npy(member, f"{path}: array {key!r}", info.file_size, hint)
     except FileInputError:
         raise
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, RuntimeError, ValueError,

@@ -40,6 +40,7 @@ from ._files import (
     read_table,
     split_column,
 )
+from ._limits import decoded_bytes
 
 # Rows per block of the command line's streamed validation (about 8 MB per array at m = 7).
 DEFAULT_CHUNK_ROWS = 1 << 17
@@ -66,7 +67,8 @@ class RowSource:
 
     @property
     def nbytes(self) -> int:
-        return math.prod(self.shape) * (8 if self._dtype is None else self._dtype.itemsize)
+        """Bytes of the whole array decoded as float64 (wider types keep their size)."""
+        return decoded_bytes(self.shape, 8 if self._dtype is None else self._dtype.itemsize)
 
     def chunks(self, rows: int = DEFAULT_CHUNK_ROWS) -> Iterator[np.ndarray]:
         """Consecutive blocks of at most ``rows`` rows (the last may be shorter), as float64."""
@@ -134,6 +136,45 @@ def open_rows(spec: str) -> RowSource:
         return RowSource(path=spec, shape=table.shape, streamed=True, _blocks=table.blocks)
     data = read_table(spec).data  # compressed .npz members (and refusals): whole, then in blocks
     return RowSource(path=spec, shape=tuple(data.shape), streamed=False, _data=data)
+
+
+def decoded_size(spec: str) -> int:
+    """Bytes the array of ``spec`` takes once decoded as float64, from the file's own layout (the
+    .npy header, inside the archive for a .npz member; the HDF5 dataspace; the Parquet footer), not
+    from its size on disk, which a compressed or sparse file makes small; CSV text: its size.
+    FileInputError as :func:`open_rows`."""
+    path, key = _split_key(spec)
+    lower = path.lower()
+    if lower.endswith(".npz"):
+        # a stored member is checked against its bytes; a compressed one only has its header's word
+        stored = _npz_member_source(path, key)
+        size = _npz_member_decoded_size(path, key) if stored is None else stored.nbytes
+        if size is not None:
+            return size
+    if lower.endswith((".npy", *_COLUMNAR_SUFFIXES)):
+        return open_rows(spec).nbytes
+    # CSV text: its size (a value takes at least 2 bytes of text, so it decodes to at most 4 times that)
+    handle, size = _open_regular(path)
+    handle.close()
+    return size
+
+
+def _npz_member_decoded_size(path: str, key: str | None) -> int | None:
+    """The decoded size of a .npz member from the .npy header inside it (only the header is
+    inflated), or None when the file is no archive or has no such member (the reader says so)."""
+    handle, _ = _open_regular(path)
+    with handle:
+        try:
+            with zipfile.ZipFile(handle) as archive:
+                names = [n for n in archive.namelist() if n.endswith(".npy")]
+                name = names[0] if key is None and names else f"{key}.npy"
+                if name not in archive.namelist():
+                    return None
+                with archive.open(name) as member:
+                    shape, _, dtype = _read_npy_header(member, f"{path}:{name[:-4]}")
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+            return None
+    return decoded_bytes(tuple(max(int(s), 0) for s in shape), dtype.itemsize)
 
 
 def open_column(spec: str) -> RowSource:
