@@ -132,7 +132,9 @@ def _as_float(pa: Any, path: str, column: str, values: Any, first_row: int) -> n
     if pa.types.is_integer(values.type) and values.type.bit_width > 32:
         import pyarrow.compute as pc
 
-        outside = pc.or_(pc.greater(values, _EXACT_INTEGER), pc.less(values, -_EXACT_INTEGER))
+        outside = pc.greater(values, pa.scalar(_EXACT_INTEGER, type=values.type))
+        if pa.types.is_signed_integer(values.type):
+            outside = pc.or_(outside, pc.less(values, pa.scalar(-_EXACT_INTEGER, type=values.type)))
         row = pc.index(outside, True).as_py()
         if row is not None and row >= 0:
             raise FileInputError(f"{path}: column {column!r}, row {first_row + row} (counted from 0): the integer "
