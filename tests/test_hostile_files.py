@@ -141,14 +141,14 @@ def test_an_empty_hdf5_dataset_is_an_input_error(tmp_path, capsys):
 
 
 def _compressed_zeros_npz(path, n):
-    """A .npz holding n float64 zeros, deflated (about 1 KB of file per MB of array)."""
+    """A .npz holding n float64 zeros, deflated (about 4 KB of file per MB of array)."""
     header = {"descr": "<f8", "fortran_order": False, "shape": (n,)}
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
-        with archive.open("a.npy", "w", force_zip64=True) as member:
-            np.lib.format.write_array_header_1_0(member, header)
-            block = bytes(8 << 20)
-            for start in range(0, n * 8, len(block)):
-                member.write(block[:min(len(block), n * 8 - start)])
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as archive, \
+            archive.open("a.npy", "w", force_zip64=True) as member:
+        np.lib.format.write_array_header_1_0(member, header)
+        block = bytes(8 << 20)
+        for start in range(0, n * 8, len(block)):
+            member.write(block[:min(len(block), n * 8 - start)])
 
 
 def test_the_limit_is_a_gibibyte_and_is_read_from_the_environment(tmp_path, monkeypatch):
@@ -348,7 +348,7 @@ def test_ctrl_c_while_starting_exits_130_quietly(pair):
             pass
         time.sleep(0.005)
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "Traceback" not in err and err.strip().endswith("interrupted"), err
 
