@@ -101,7 +101,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--stream reads the files a block of rows at a time into dynval.stream.ValidationAccumulator "
         "(.npy, uncompressed .npz members, CSV, Parquet and HDF5 from disk; compressed .npz members are read "
         "whole first). "
-        "It is chosen by itself when the inputs together exceed a quarter of this machine's memory. A "
+        "It is chosen by itself when the inputs together, decoded, exceed a quarter of this machine's memory. "
+        "An array read whole may decode to at most 1 GiB as float64 (environment variable "
+        "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "
         "streamed report leaves out what needs the whole series: bias, spectrum, decimated whiteness, the "
         "colour-aware cross-correlation fields (contract §4.1); --segments, --q, --estimation and "
         "--decimate are refused with it.")

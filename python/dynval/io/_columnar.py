@@ -25,6 +25,7 @@ whole array for a whole read, a row group (Parquet) or a block (HDF5) when strea
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +59,21 @@ def _needs(module: str, extra: str, path: str, what: str) -> Any:
     except ImportError:
         raise FileInputError(f"{path}: reading {what} needs {module.split('.')[0]}, which is not installed "
                              f"(pip install 'dynval[{extra}]')") from None
+
+
+@contextmanager
+def _corrupt_as_input_error(what: str) -> Iterator[None]:
+    """The libraries report a corrupt file in many exception types (OSError, RuntimeError,
+    KeyError, ValueError, ArrowInvalid, ...): each becomes a FileInputError starting with ``what``;
+    dynval's own refusals pass through."""
+    try:
+        yield
+    except FileInputError:
+        raise
+    except MemoryError:
+        raise
+    except Exception as exc:
+        raise FileInputError(f"{what} ({type(exc).__name__}: {exc})") from None
 
 
 def _check_regular(path: str) -> None:
@@ -99,17 +115,23 @@ def parquet_table(path: str, key: str | None) -> Columnar:
             out[:, j] = _as_float(pa, path, column, batch.column(column), first_row)
         return out[:, 0] if len(wanted) == 1 else out
 
+    unreadable = f"{path}: not a readable Parquet file"
+
     def read(start: int, stop: int) -> np.ndarray:
-        return as_array(handle.read(columns=wanted).slice(start, stop - start), start)
+        with _corrupt_as_input_error(unreadable):
+            return as_array(handle.read(columns=wanted).slice(start, stop - start), start)
 
     def blocks(rows: int) -> Iterator[np.ndarray]:
         # batches of at most `rows` rows, decoded one row group at a time: the largest must fit
         check_decoded(f"{path}: a row group of", (max(groups, default=0), len(wanted)),
                       hint="write the file with a smaller row_group_size")
         start = 0
-        for batch in handle.iter_batches(batch_size=rows, columns=wanted):
-            yield as_array(batch, start)
-            start += batch.num_rows
+        with _corrupt_as_input_error(unreadable):
+            batches = handle.iter_batches(batch_size=rows, columns=wanted)
+            for batch in batches:
+                block = as_array(batch, start)
+                start += batch.num_rows
+                yield block
 
     return Columnar(shape, read, blocks, where=path)
 
@@ -152,16 +174,18 @@ def hdf5_dataset(path: str, key: str | None) -> Columnar:
     except Exception as exc:  # h5py raises OSError and others for a file that is not HDF5
         raise FileInputError(f"{path}: not a readable HDF5 file ({exc})") from None
     try:
-        dataset, name = _hdf5_pick(h5py, handle, path, key)
-        _check_hdf5_storage(h5py, dataset, path, name)
-        shape = _hdf5_shape(dataset, path, name)
+        with _corrupt_as_input_error(f"{path}: not a readable HDF5 file"):
+            dataset, name = _hdf5_pick(h5py, handle, path, key)
+            _check_hdf5_storage(h5py, dataset, path, name)
+            shape = _hdf5_shape(dataset, path, name)
     except Exception:
         handle.close()
         raise
     inner = int(np.prod(shape[1:]))
 
     def read(start: int, stop: int) -> np.ndarray:
-        return np.asarray(dataset[start:stop], dtype=np.float64)
+        with _corrupt_as_input_error(f"{path}: dataset {name!r} cannot be read"):
+            return np.asarray(dataset[start:stop], dtype=np.float64)
 
     def blocks(rows: int) -> Iterator[np.ndarray]:
         # unwritten chunks cost no bytes on disk: a block's decoded size is checked too

@@ -234,9 +234,11 @@ def _npz_member_source(path: str, key: str | None) -> RowSource | None:
     with handle:
         try:
             archive = zipfile.ZipFile(handle)
-        except (zipfile.BadZipFile, OSError):
-            return None
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+            return None  # read_table gives the archive's message
         with archive:
+            if any(info.header_offset < 0 for info in archive.infolist()):
+                return None  # a corrupt central directory
             names = [n for n in archive.namelist() if n.endswith(".npy")]
             name = names[0] if key is None and names else f"{key}.npy"
             if name not in archive.namelist():
