@@ -233,6 +233,18 @@ def test_a_streamed_hdf5_block_is_limited_too(tmp_path, monkeypatch):
         next(_readers.open_rows(str(path)).chunks(101))
 
 
+def test_an_hdf5_chunk_larger_than_the_limit_is_refused(tmp_path, monkeypatch):
+    # a chunk may be far larger than the data (maxshape): HDF5 inflates it whole to read one row
+    h5py = _need("h5py")
+    path = tmp_path / "chunk.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("d", data=np.ones((10, 3)), maxshape=(None, 3), chunks=(100_000, 3), compression="gzip")
+    monkeypatch.setenv(LIMIT_ENV, str(1 << 20))
+    _refused(path, "dataset '/d', a chunk of: shape (100000, 3) decodes to 2400000 bytes", "smaller chunks")
+    monkeypatch.setenv(LIMIT_ENV, str(3 << 20))
+    np.testing.assert_array_equal(load_array(str(path)), np.ones((10, 3)))
+
+
 def test_automatic_streaming_looks_at_the_decoded_size_not_the_size_on_disk(tmp_path, monkeypatch, capsys):
     rng = np.random.default_rng(3)
     meas = np.round(rng.standard_normal((20_000, 2)), 1)  # compresses well

@@ -257,6 +257,9 @@ def _check_hdf5_storage(h5py: Any, dataset: Any, path: str, name: str) -> None:
         other = plist.get_external(0)[0].decode(errors="replace")
         raise FileInputError(f"{path}: dataset {name!r} keeps its data in an external file ({other!r}); dynval "
                              "reads only data stored inside the named file")
+    if dataset.chunks:  # HDF5 decodes a whole chunk to read any of its rows
+        check_decoded(f"{path}: dataset {name!r}, a chunk of", tuple(dataset.chunks), dataset.dtype.itemsize,
+                      hint="write the file with smaller chunks")
 
 
 def _hdf5_shape(dataset: Any, path: str, name: str) -> tuple[int, ...]:

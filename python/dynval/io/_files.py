@@ -3,7 +3,9 @@
 Files come from other programs and from users, so reading is bounded and refuses surprises before
 allocating memory: only regular files are opened (a FIFO blocks forever, ``/dev/zero`` never
 ends), a ``.npy`` header is checked against the bytes that follow it, and CSV text is read line
-by line with a length limit and refused at the first NUL byte. Every refusal is a
+by line with a length limit and refused at the first NUL byte. No array read whole may decode to
+more than the limit of :mod:`dynval.io._limits` (1 GiB, ``DYNVAL_MAX_DECODED_BYTES``), computed from
+the ``.npy`` header itself (inside the archive for a ``.npz`` member), never from a size on disk. Every refusal is a
 :class:`FileInputError` whose message starts with the path; positions are 1-based lines and
 columns, as an editor shows them.
 """
