@@ -169,7 +169,20 @@ def test_a_compressed_npz_member_is_limited_by_its_own_header_not_the_archive(tm
     np.savez_compressed(path, a=np.zeros(10_000))
     assert os.path.getsize(path) < 2_000
     monkeypatch.setenv(LIMIT_ENV, "50000")
-    _refused(path, "array 'a': shape (10000,) decodes to 80000 bytes", "numpy.savez")
+    _refused(path, "array 'a': shape (10000,) decodes to 80000 bytes", "--stream")
+
+
+def test_a_compressed_npz_member_streams_in_blocks_beyond_the_limit(tmp_path, monkeypatch):
+    data = np.arange(3000.0).reshape(1000, 3)
+    np.savez_compressed(tmp_path / "c.npz", tau=data, f=np.asfortranarray(data))
+    monkeypatch.setenv(LIMIT_ENV, str(data.nbytes // 2))
+    _refused(f"{tmp_path / 'c.npz'}:tau", "decodes to 24000 bytes", "--stream")
+    source = _readers.open_rows(f"{tmp_path / 'c.npz'}:tau")
+    assert source.streamed
+    np.testing.assert_array_equal(np.concatenate(list(source.chunks(128))), data)
+    _refused(f"{tmp_path / 'c.npz'}:f", "save it in C order or without compression")
+    with pytest.raises(FileInputError, match="save it in C order"):
+        _readers.open_rows(f"{tmp_path / 'c.npz'}:f")
 
 
 @pytest.mark.slow

@@ -99,8 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
     stream = val.add_argument_group(
         "files larger than memory",
         "--stream reads the files a block of rows at a time into dynval.stream.ValidationAccumulator "
-        "(.npy, uncompressed .npz members, CSV, Parquet and HDF5 from disk; compressed .npz members are read "
-        "whole first). "
+        "(.npy, .npz members, CSV, Parquet and HDF5 from disk; a compressed .npz member is inflated block "
+        "after block, read whole first only when Fortran-ordered). "
         "It is chosen by itself when the inputs together, decoded, exceed a quarter of this machine's memory. "
         "An array read whole may decode to at most 1 GiB as float64 (environment variable "
         "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "

@@ -255,12 +255,13 @@ def _read_exact(handle, n_bytes: int, where: str) -> bytearray:
     return buf
 
 
-def _read_npy(handle, where: str, size: int, hint: str | None = None) -> np.ndarray:
+def _read_npy(handle, where: str, size: int, streamable: bool = True) -> np.ndarray:
     """Read one .npy stream of ``size`` bytes (a file, or a member of a .npz archive).
 
     The shape in the header is checked against the bytes that follow it, the decoded-size limit
-    (``hint``: the advice when it is exceeded) and the machine's memory before anything is
-    allocated or decompressed: a header can declare any shape, and an archive any size.
+    and the machine's memory before anything is allocated or decompressed: a header can declare
+    any shape, and an archive any size. ``streamable``: whether the streamed reader reads it in
+    blocks even when Fortran-ordered (a compressed member must be inflated from its start).
     """
     start = handle.tell()
     shape, fortran, dtype = _read_npy_header(handle, where)
@@ -275,7 +276,9 @@ def _read_npy(handle, where: str, size: int, hint: str | None = None) -> np.ndar
     if declared > available:
         raise FileInputError(f"{where}: its header declares shape {tuple(shape)} of {dtype} ({declared} bytes), "
                              f"but it holds only {available} bytes after the header (truncated or corrupt)")
-    check_decoded(where, tuple(shape), dtype.itemsize, hint=hint)
+    rows_scattered = not streamable and fortran and math.prod(shape[1:]) > 1
+    check_decoded(where, tuple(shape), dtype.itemsize, hint="save it in C order or without compression "
+                  "(numpy.savez), then read it in blocks with dynval validate --stream" if rows_scattered else None)
     memory = _physical_memory()
     if memory is not None and declared > memory:
         raise FileInputError(f"{where}: shape {tuple(shape)} of {dtype} needs {declared} bytes, more than this "
@@ -316,10 +319,9 @@ def _read_npz(handle, path: str, key: str | None) -> np.ndarray:
             info = members[key]
             # A compressed member's size in the archive is the archive's word: the limit is checked
             # on the shape its own .npy header declares, before anything past the header is inflated.
-            hint = None if info.compress_type == zipfile.ZIP_STORED else \
-                "save it without compression (numpy.savez), which dynval validate --stream reads in blocks"
             with archive.open(info) as member:
-                return _read_npy(member, f"{path}: array {key!r}", info.file_size, hint)
+                return _read_npy(member, f"{path}: array {key!r}", info.file_size,
+                                 streamable=info.compress_type == zipfile.ZIP_STORED)
     except FileInputError:
         raise
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, RuntimeError, ValueError,

@@ -11,14 +11,17 @@ yields consecutive blocks of rows as float64 arrays. Only the block in hand is i
   to the first data row), then the rows are parsed and checked a block at a time by the loader's
   own code, so errors and their line numbers are those of the whole-file loader;
 * Parquet (row groups, in batches) and HDF5 (hyperslabs of rows): ``dynval.io._columnar``;
-* compressed ``.npz`` members (``numpy.savez_compressed``) are read whole by ``read_table`` and
-  then handed out in blocks: a deflate stream does not allow a seek to a row.
+* compressed ``.npz`` members (``numpy.savez_compressed``): a deflate stream allows no seek to a
+  row, so the member is inflated from its start, one block after the other (rows are consecutive in
+  C order); a Fortran-ordered member with several columns is read whole by ``read_table`` (within
+  its decoded-size limit) and then handed out in blocks.
 """
 
 from __future__ import annotations
 
 import math
 import zipfile
+import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import BinaryIO
@@ -121,7 +124,7 @@ def open_rows(spec: str) -> RowSource:
     if lower.endswith(".npy"):
         return _npy_source(path)
     if lower.endswith(".npz"):
-        source = _npz_member_source(path, key)
+        source = _npz_member_source(path, key) or _npz_compressed_source(path, key)
         if source is not None:
             return source
     if lower.endswith((".csv", ".txt", ".tsv")):
@@ -134,7 +137,7 @@ def open_rows(spec: str) -> RowSource:
 
         table = parquet_table(path, key) if lower.endswith(PARQUET_SUFFIXES) else hdf5_dataset(path, key)
         return RowSource(path=spec, shape=table.shape, streamed=True, _blocks=table.blocks)
-    data = read_table(spec).data  # compressed .npz members (and refusals): whole, then in blocks
+    data = read_table(spec).data  # Fortran-ordered compressed members (and refusals): whole, then in blocks
     return RowSource(path=spec, shape=tuple(data.shape), streamed=False, _data=data)
 
 
@@ -257,3 +260,58 @@ def _npz_member_source(path: str, key: str | None) -> RowSource | None:
             where = f"{path}:{name[:-4]}"
             shape, fortran, dtype, offset = _checked_header(handle, where, info.file_size)
     return RowSource(path=path, shape=shape, streamed=True, _dtype=dtype, _offset=offset, _fortran=fortran)
+
+
+def _npz_compressed_source(path: str, key: str | None) -> RowSource | None:
+    """A source inflating a compressed member from its start, one block after the other (a
+    deflate stream allows no seek), so that only a block is in memory; None when the member is
+    Fortran-ordered with several columns (its rows are not consecutive: read whole) or the archive
+    cannot be read this way (read_table then gives its message)."""
+    opened = _open_member(path, key)
+    if opened is None:
+        return None
+    handle, archive, member, info, where = opened
+    with handle, archive, member:
+        try:
+            shape, fortran, dtype, _ = _checked_header(member, where, info.file_size)
+        except FileInputError:
+            return None  # read_table gives the message of a whole read
+    inner = math.prod(shape[1:])
+    if fortran and inner > 1:
+        return None
+    n_rows = shape[0] if shape else 1
+
+    def blocks(rows: int) -> Iterator[np.ndarray]:
+        reopened = _open_member(path, key)
+        if reopened is None:
+            raise FileInputError(f"{where}: the archive changed while it was read")
+        handle, archive, member, _, _ = reopened
+        with handle, archive, member:
+            _checked_header(member, where, info.file_size)
+            for start in range(0, n_rows, rows):
+                count = min(rows, n_rows - start)
+                try:
+                    raw = _read_exact(member, count * inner * dtype.itemsize, where)
+                except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as exc:
+                    raise FileInputError(f"{where}: not a readable .npz member ({exc})") from None
+                block = np.frombuffer(raw, dtype=dtype).reshape((count, *shape[1:]))
+                yield np.asarray(block, dtype=np.float64)
+
+    return RowSource(path=path, shape=shape, streamed=True, _blocks=blocks, _dtype=dtype)
+
+
+def _open_member(path: str, key: str | None):
+    """(file, archive, member stream, ZipInfo, name for messages) of a compressed .npz member, or None."""
+    handle, _ = _open_regular(path)
+    try:
+        archive = zipfile.ZipFile(handle)
+        names = [n for n in archive.namelist() if n.endswith(".npy")]
+        name = names[0] if key is None and names else f"{key}.npy"
+        if name not in archive.namelist() or archive.getinfo(name).compress_type == zipfile.ZIP_STORED:
+            handle.close()
+            return None
+        info = archive.getinfo(name)
+        return handle, archive, archive.open(info), info, f"{path}: array {name[:-4]!r}"
+    except (zipfile.BadZipFile, zlib.error, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+        handle.close()
+        return None
