@@ -24,7 +24,7 @@ import zipfile
 import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import BinaryIO
+from typing import BinaryIO, cast
 
 import numpy as np
 
@@ -300,7 +300,7 @@ def _npz_compressed_source(path: str, key: str | None) -> RowSource | None:
     return RowSource(path=path, shape=shape, streamed=True, _blocks=blocks, _dtype=dtype)
 
 
-def _open_member(path: str, key: str | None):
+def _open_member(path: str, key: str | None) -> tuple[BinaryIO, zipfile.ZipFile, BinaryIO, zipfile.ZipInfo, str] | None:
     """(file, archive, member stream, ZipInfo, name for messages) of a compressed .npz member, or None."""
     handle, _ = _open_regular(path)
     try:
@@ -311,7 +311,8 @@ def _open_member(path: str, key: str | None):
             handle.close()
             return None
         info = archive.getinfo(name)
-        return handle, archive, archive.open(info), info, f"{path}: array {name[:-4]!r}"
+        member = cast(BinaryIO, archive.open(info))
+        return handle, archive, member, info, f"{path}: array {name[:-4]!r}"
     except (zipfile.BadZipFile, zlib.error, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
         handle.close()
         return None
