@@ -191,3 +191,40 @@ def test_huge_segment_sequences_are_refused_promptly(segments, backend):
     with pytest.raises(dynval.InvalidParameter, match=r"^segments must be"):
         dynval.autocorrelation(e, 2, segments=segments, backend=backend)
     assert time.perf_counter() - start < 1.0
+
+
+# --------------------------------------------------------------------------- tiny levels, unknown dask chunks
+
+
+def test_a_tiny_level_gives_the_exact_band_without_a_warning(backend):
+    # (1 + 1e-300)/2 rounds to 0.5: the quantile was 0 and |rho| / band divided by zero
+    tau, pred, y = _data()
+    xc = dynval.cross_correlation(tau - pred, y, 3, level=1e-300, backend=backend)
+    assert xc.band == pytest.approx(math.sqrt(math.pi / 2) * 1e-300 / math.sqrt(200), rel=1e-13)
+    assert all(math.isfinite(ratio) and ratio > 1e290 for *_, ratio in xc.outside)
+
+
+def test_the_band_quantile_is_unchanged_at_usual_levels():
+    import scipy.stats
+
+    from dynval.statistics._stats import z_two_sided
+
+    for level in (0.5, 0.9, 0.95, 0.99, 0.999):
+        assert z_two_sided(level) == float(scipy.stats.norm.ppf(0.5 * (1.0 + level)))
+    assert z_two_sided(0.3) == pytest.approx(0.38532046640756773, rel=1e-14)
+
+
+def test_dask_arrays_with_unknown_chunk_sizes_are_an_input_error():
+    da = pytest.importorskip("dask.array")
+    import dynval.dask
+
+    rng = np.random.default_rng(2)
+    tau = da.from_array(rng.standard_normal((300, 2)), chunks=100)
+    kept = tau[tau[:, 0] > -10]  # boolean indexing: the chunk sizes are nan until computed
+    with pytest.raises(dynval.InvalidShape, match=r"tau_meas has unknown chunk sizes .*compute_chunk_sizes\(\)"):
+        dynval.dask.validate(kept, tau, n_params=1)
+    with pytest.raises(dynval.InvalidShape, match=r"tau_pred has unknown chunk sizes"):
+        dynval.dask.validate(tau, kept, n_params=1)
+    kept.compute_chunk_sizes()
+    report = dynval.dask.validate(kept, tau, n_params=1)
+    assert report.pooled["rmse_per_element"] == 0.0

@@ -12,6 +12,7 @@ Examples
 0.3333333333333333
 """
 
+from . import _startup  # noqa: F401  (first: Ctrl-C while the command line starts exits quietly)
 from ._version import CONTRACT_VERSION, __version__
 from .checks._errors import (
     ERROR_KINDS,

@@ -33,7 +33,7 @@ from .io._files import (
     read_table,
     split_column,
 )
-from .io._readers import DEFAULT_CHUNK_ROWS, open_column, open_rows
+from .io._readers import DEFAULT_CHUNK_ROWS, decoded_size, open_column, open_rows
 from .metrics._profiles import PROFILE_NAMES
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
@@ -99,9 +99,11 @@ def build_parser() -> argparse.ArgumentParser:
     stream = val.add_argument_group(
         "files larger than memory",
         "--stream reads the files a block of rows at a time into dynval.stream.ValidationAccumulator "
-        "(.npy, uncompressed .npz members, CSV, Parquet and HDF5 from disk; compressed .npz members are read "
-        "whole first). "
-        "It is chosen by itself when the inputs together exceed a quarter of this machine's memory. A "
+        "(.npy, .npz members, CSV, Parquet and HDF5 from disk; a compressed .npz member is inflated block "
+        "after block, read whole first only when Fortran-ordered). "
+        "It is chosen by itself when the inputs together, decoded, exceed a quarter of this machine's memory. "
+        "An array read whole may decode to at most 1 GiB as float64 (environment variable "
+        "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "
         "streamed report leaves out what needs the whole series: bias, spectrum, decimated whiteness, the "
         "colour-aware cross-correlation fields (contract §4.1); --segments, --q, --estimation and "
         "--decimate are refused with it.")
@@ -345,8 +347,17 @@ def _emit(command: str, args, text: str) -> int:
                 handle.write(text + "\n")
         except OSError as exc:
             return _error(command, f"{args.output}: cannot be written ({exc.strerror or exc})")
-    else:
+        return EXIT_OK
+    if sys.stdout is None:  # started with standard output closed: print would drop the report
+        return _error(command, "standard output is closed, so the output cannot be written; give --output FILE")
+    try:
         print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise  # the reader went away: main() ends quietly (141)
+    except OSError as exc:  # a full disk, /dev/full, an I/O error
+        _discard_stdout()
+        return _error(command, f"standard output cannot be written ({exc.strerror or exc})")
     return EXIT_OK
 
 
@@ -354,6 +365,10 @@ def _write_html(command: str, args, obj, **data) -> int:
     """Write ``--html``; 0 when done or not asked, else the error's exit code."""
     if not args.html:
         return EXIT_OK
+    rate = _sample_rate(args, obj)
+    if rate is not None and _frequencies_underflow(obj):
+        return _error(command, f"--html: the sample rate {rate:g} Hz is too small to draw the spectrum: its "
+                               "frequencies (k × rate / N) underflow to 0; give the rate in a larger time unit")
     try:
         from .html import write_report
 
@@ -363,6 +378,17 @@ def _write_html(command: str, args, obj, **data) -> int:
     except OSError as exc:
         return _error(command, f"{args.html}: cannot be written ({exc.strerror or exc})")
     return EXIT_OK
+
+
+def _frequencies_underflow(obj) -> bool:
+    """Whether a report's spectrum (any candidate's) has frequencies but none above 0."""
+    reports = obj.reports.values() if hasattr(obj, "reports") else [obj]
+    for report in reports:
+        spectrum = getattr(report, "spectrum", None)
+        frequency = None if not spectrum else spectrum.get("frequency")
+        if frequency is not None and len(frequency) > 1 and not any(f > 0 for f in frequency):
+            return True
+    return False
 
 
 def _sample_rate(args, obj) -> float | None:
@@ -395,7 +421,8 @@ def _run_validate(args) -> int:
 
 
 def _too_large_for_memory(args) -> bool:
-    """Whether the input files together exceed a quarter of the machine's memory."""
+    """Whether the input arrays, decoded, together exceed a quarter of the machine's memory (the
+    size on disk of a compressed or sparse file says nothing about it)."""
     memory = _physical_memory()
     if memory is None:
         return False
@@ -403,8 +430,8 @@ def _too_large_for_memory(args) -> bool:
     for spec in (args.meas, args.pred, args.regressor, args.time and split_column(args.time)[0]):
         if spec:
             try:
-                total += os.stat(file_path(spec)).st_size
-            except OSError:
+                total += decoded_size(spec)
+            except (FileInputError, OSError):
                 return False  # the loader gives the message
     return total > memory // 4
 
@@ -516,13 +543,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     >>> main(["--version"])  # doctest: +SKIP
     dynval 0.1.0
     """
+    from ._startup import restore
+
+    restore()  # from here on, Ctrl-C is a KeyboardInterrupt caught below
     argv = list(sys.argv[1:] if argv is None else argv)
     command = argv[0] if argv and argv[0] in ("validate", "compare", "demo", "conform") else None
     prefix = f"dynval {command}" if command else "dynval"
     try:
-        code = _dispatch(argv)
-        sys.stdout.flush()  # a closed pipe shows here for output still buffered
-        return code
+        return _flush_stdout(prefix, _dispatch(argv))  # a closed pipe shows here for buffered output
     except BrokenPipeError:
         _discard_stdout()
         return EXIT_BROKEN_PIPE
@@ -533,11 +561,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{prefix}: error: not enough memory for this input", file=sys.stderr)
         return EXIT_INPUT
     except Exception as exc:
-        if os.environ.get("DYNVAL_TRACEBACK"):
-            raise
-        print(f"{prefix}: internal error: {type(exc).__name__}: {exc} (please report it; "
-              "DYNVAL_TRACEBACK=1 shows the traceback)", file=sys.stderr)
-        return EXIT_INTERNAL
+        return _internal_error(prefix, exc)
+
+
+def _internal_error(prefix: str, exc: Exception) -> int:
+    if os.environ.get("DYNVAL_TRACEBACK"):
+        raise exc
+    print(f"{prefix}: internal error: {type(exc).__name__}: {exc} (please report it; "
+          "DYNVAL_TRACEBACK=1 shows the traceback)", file=sys.stderr)
+    return EXIT_INTERNAL
+
+
+def _flush_stdout(prefix: str, code: int) -> int:
+    """Flush standard output (help text and reports are buffered): a full disk or ``/dev/full``
+    is an error on stderr (exit 1); a closed pipe propagates (141)."""
+    if sys.stdout is None:
+        return code
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        _discard_stdout()  # else Python's own flush at exit fails again, with a traceback
+        print(f"{prefix}: error: standard output cannot be written ({exc.strerror or exc})", file=sys.stderr)
+        return EXIT_INPUT
+    return code
 
 
 def _discard_stdout() -> None:

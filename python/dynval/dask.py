@@ -32,13 +32,14 @@ glibc maps and zeroes each of them afresh (``benchmarks/README.md`` has the meas
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import dask.array as da
 import numpy as np
 
 from .checks import _validation as v
-from .checks._errors import InvalidType
+from .checks._errors import InvalidShape, InvalidType
 from .checks._segments import parse_segments
 from .checks._typing import ArrayLike, Integer, SegmentsLike
 from .report._report import ValidationReport
@@ -160,6 +161,9 @@ def _aligned(tau_meas, tau_pred, regressor, n_joints):
 
 def _as_dask(x, name):
     arr = x if isinstance(x, da.Array) else da.asarray(v.to_float_array(x, name))
+    if any(math.isnan(size) for size in arr.shape):  # e.g. after boolean indexing: nan chunk sizes
+        raise InvalidShape(f"{name} has unknown chunk sizes (shape {arr.shape}); call "
+                           f"{name}.compute_chunk_sizes() first (dask must know the rows of each block)")
     if arr.dtype.kind not in "biuf":
         raise InvalidType(f"{name} must be an array of real numbers, got {arr.dtype}")
     return arr.astype(np.float64)

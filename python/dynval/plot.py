@@ -53,12 +53,18 @@ def _provenance(report, key, default=None):
     return default if value is None else value
 
 
+def _literal(text) -> str:
+    """A user's name as matplotlib text: ``$`` escaped, so that it is drawn as written instead of
+    parsed as mathtext (``$\\frac$`` would stop the figure with a parse error)."""
+    return str(text).replace("$", r"\$")
+
+
 def _joint_names(names, m, report=None):
     if names is None and report is not None:
         names = _provenance(report, "joint_names")
     if names is None:
         return [f"joint {j + 1}" for j in range(m)]
-    names = [str(n) for n in names]
+    names = [_literal(n) for n in names]
     if len(names) != m:
         raise ValueError(f"joint_names has {len(names)} names for {m} joints")
     return names
@@ -69,7 +75,7 @@ def _column_names(names, p, report=None):
         names = _provenance(report, "column_names")
     if names is None:
         return [f"c{c}" for c in range(p)]
-    names = [str(n) for n in names]
+    names = [_literal(n) for n in names]
     if len(names) != p:
         raise ValueError(f"column_names has {len(names)} names for {p} columns")
     return names
@@ -228,7 +234,8 @@ def autocorrelation_by_model(reports, *, joint: int = 0, names=None, chosen=None
         ax.plot(lags[1:], -b[1:], "k--", lw=1.0)
         ax.axhline(0.0, color="black", lw=0.6)
         frac = int(out.sum())
-        ax.set_title(f"{name}{' (chosen)' if name == chosen else ''}\n{frac} of {r.shape[0] - 1} lags outside",
+        chosen_mark = " (chosen)" if name == chosen else ""
+        ax.set_title(f"{_literal(name)}{chosen_mark}\n{frac} of {r.shape[0] - 1} lags outside",
                      fontsize="medium")
         ax.set_xlabel("lag ℓ (samples)" + (f", 1 sample = {1000.0 / fs:g} ms" if fs else ""))
         ax.grid(True, alpha=0.3)
@@ -530,7 +537,7 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
         for i, name in enumerate(order):
             vals = np.asarray(reports[name].per_joint[metric], dtype=float)
             shown = np.maximum(vals, floor)
-            lab = f"{name} (chosen)" if name == chosen else name
+            lab = _literal(f"{name} (chosen)" if name == chosen else name)
             pos = x + (i - (len(order) - 1) / 2) * width
             ax.bar(pos, shown, width, label=lab, color=_COLOURS[i % len(_COLOURS)],
                    edgecolor="black" if name == chosen else "none", linewidth=1.5 if name == chosen else 0)
@@ -577,7 +584,7 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
         sel = (x >= window[0]) & (x <= window[1])
     fig = _figure(10, 1.0 + 1.9 * m)
     axes = _stack_axes(fig, m)
-    label = f"predicted ({model_name})" if model_name else "predicted"
+    label = f"predicted ({_literal(model_name)})" if model_name else "predicted"
     for j, ax in enumerate(axes):
         ax.plot(x[sel], meas[sel, j], color=_MEASURED, lw=1.6, label="measured")
         ax.plot(x[sel], pred[sel, j], color="#d62728", lw=1.1, label=label)

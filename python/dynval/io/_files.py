@@ -3,7 +3,9 @@
 Files come from other programs and from users, so reading is bounded and refuses surprises before
 allocating memory: only regular files are opened (a FIFO blocks forever, ``/dev/zero`` never
 ends), a ``.npy`` header is checked against the bytes that follow it, and CSV text is read line
-by line with a length limit and refused at the first NUL byte. Every refusal is a
+by line with a length limit and refused at the first NUL byte. No array read whole may decode to
+more than the limit of :mod:`dynval.io._limits` (1 GiB, ``DYNVAL_MAX_DECODED_BYTES``), computed from
+the ``.npy`` header itself (inside the archive for a ``.npz`` member), never from a size on disk. Every refusal is a
 :class:`FileInputError` whose message starts with the path; positions are 1-based lines and
 columns, as an editor shows them.
 """
@@ -23,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _not_regular, _open_regular
+from ._limits import check_decoded
 
 __all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
 
@@ -252,11 +255,13 @@ def _read_exact(handle, n_bytes: int, where: str) -> bytearray:
     return buf
 
 
-def _read_npy(handle, where: str, size: int) -> np.ndarray:
+def _read_npy(handle, where: str, size: int, streamable: bool = True) -> np.ndarray:
     """Read one .npy stream of ``size`` bytes (a file, or a member of a .npz archive).
 
-    The shape in the header is checked against the bytes that follow it and against the
-    machine's memory before anything is allocated: a header can declare any shape.
+    The shape in the header is checked against the bytes that follow it, the decoded-size limit
+    and the machine's memory before anything is allocated or decompressed: a header can declare
+    any shape, and an archive any size. ``streamable``: whether the streamed reader reads it in
+    blocks even when Fortran-ordered (a compressed member must be inflated from its start).
     """
     start = handle.tell()
     shape, fortran, dtype = _read_npy_header(handle, where)
@@ -271,6 +276,9 @@ def _read_npy(handle, where: str, size: int) -> np.ndarray:
     if declared > available:
         raise FileInputError(f"{where}: its header declares shape {tuple(shape)} of {dtype} ({declared} bytes), "
                              f"but it holds only {available} bytes after the header (truncated or corrupt)")
+    rows_scattered = not streamable and fortran and math.prod(shape[1:]) > 1
+    check_decoded(where, tuple(shape), dtype.itemsize, hint="save it in C order or without compression "
+                  "(numpy.savez), then read it in blocks with dynval validate --stream" if rows_scattered else None)
     memory = _physical_memory()
     if memory is not None and declared > memory:
         raise FileInputError(f"{where}: shape {tuple(shape)} of {dtype} needs {declared} bytes, more than this "
@@ -309,8 +317,11 @@ def _read_npz(handle, path: str, key: str | None) -> np.ndarray:
                 raise FileInputError(f"{path}: no array named {key!r}; the archive holds "
                                      + ", ".join(repr(n) for n in members))
             info = members[key]
+            # A compressed member's size in the archive is the archive's word: the limit is checked
+            # on the shape its own .npy header declares, before anything past the header is inflated.
             with archive.open(info) as member:
-                return _read_npy(member, f"{path}: array {key!r}", info.file_size)
+                return _read_npy(member, f"{path}: array {key!r}", info.file_size,
+                                 streamable=info.compress_type == zipfile.ZIP_STORED)
     except FileInputError:
         raise
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, RuntimeError, ValueError,

@@ -11,17 +11,20 @@ yields consecutive blocks of rows as float64 arrays. Only the block in hand is i
   to the first data row), then the rows are parsed and checked a block at a time by the loader's
   own code, so errors and their line numbers are those of the whole-file loader;
 * Parquet (row groups, in batches) and HDF5 (hyperslabs of rows): ``dynval.io._columnar``;
-* compressed ``.npz`` members (``numpy.savez_compressed``) are read whole by ``read_table`` and
-  then handed out in blocks: a deflate stream does not allow a seek to a row.
+* compressed ``.npz`` members (``numpy.savez_compressed``): a deflate stream allows no seek to a
+  row, so the member is inflated from its start, one block after the other (rows are consecutive in
+  C order); a Fortran-ordered member with several columns is read whole by ``read_table`` (within
+  its decoded-size limit) and then handed out in blocks.
 """
 
 from __future__ import annotations
 
 import math
 import zipfile
+import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import BinaryIO
+from typing import BinaryIO, cast
 
 import numpy as np
 
@@ -40,6 +43,7 @@ from ._files import (
     read_table,
     split_column,
 )
+from ._limits import decoded_bytes
 
 # Rows per block of the command line's streamed validation (about 8 MB per array at m = 7).
 DEFAULT_CHUNK_ROWS = 1 << 17
@@ -66,7 +70,8 @@ class RowSource:
 
     @property
     def nbytes(self) -> int:
-        return math.prod(self.shape) * (8 if self._dtype is None else self._dtype.itemsize)
+        """Bytes of the whole array decoded as float64 (wider types keep their size)."""
+        return decoded_bytes(self.shape, 8 if self._dtype is None else self._dtype.itemsize)
 
     def chunks(self, rows: int = DEFAULT_CHUNK_ROWS) -> Iterator[np.ndarray]:
         """Consecutive blocks of at most ``rows`` rows (the last may be shorter), as float64."""
@@ -119,7 +124,7 @@ def open_rows(spec: str) -> RowSource:
     if lower.endswith(".npy"):
         return _npy_source(path)
     if lower.endswith(".npz"):
-        source = _npz_member_source(path, key)
+        source = _npz_member_source(path, key) or _npz_compressed_source(path, key)
         if source is not None:
             return source
     if lower.endswith((".csv", ".txt", ".tsv")):
@@ -132,8 +137,47 @@ def open_rows(spec: str) -> RowSource:
 
         table = parquet_table(path, key) if lower.endswith(PARQUET_SUFFIXES) else hdf5_dataset(path, key)
         return RowSource(path=spec, shape=table.shape, streamed=True, _blocks=table.blocks)
-    data = read_table(spec).data  # compressed .npz members (and refusals): whole, then in blocks
+    data = read_table(spec).data  # Fortran-ordered compressed members (and refusals): whole, then in blocks
     return RowSource(path=spec, shape=tuple(data.shape), streamed=False, _data=data)
+
+
+def decoded_size(spec: str) -> int:
+    """Bytes the array of ``spec`` takes once decoded as float64, from the file's own layout (the
+    .npy header, inside the archive for a .npz member; the HDF5 dataspace; the Parquet footer), not
+    from its size on disk, which a compressed or sparse file makes small; CSV text: its size.
+    FileInputError as :func:`open_rows`."""
+    path, key = _split_key(spec)
+    lower = path.lower()
+    if lower.endswith(".npz"):
+        # a stored member is checked against its bytes; a compressed one only has its header's word
+        stored = _npz_member_source(path, key)
+        size = _npz_member_decoded_size(path, key) if stored is None else stored.nbytes
+        if size is not None:
+            return size
+    if lower.endswith((".npy", *_COLUMNAR_SUFFIXES)):
+        return open_rows(spec).nbytes
+    # CSV text: its size (a value takes at least 2 bytes of text, so it decodes to at most 4 times that)
+    handle, size = _open_regular(path)
+    handle.close()
+    return size
+
+
+def _npz_member_decoded_size(path: str, key: str | None) -> int | None:
+    """The decoded size of a .npz member from the .npy header inside it (only the header is
+    inflated), or None when the file is no archive or has no such member (the reader says so)."""
+    handle, _ = _open_regular(path)
+    with handle:
+        try:
+            with zipfile.ZipFile(handle) as archive:
+                names = [n for n in archive.namelist() if n.endswith(".npy")]
+                name = names[0] if key is None and names else f"{key}.npy"
+                if name not in archive.namelist():
+                    return None
+                with archive.open(name) as member:
+                    shape, _, dtype = _read_npy_header(member, f"{path}:{name[:-4]}")
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+            return None
+    return decoded_bytes(tuple(max(int(s), 0) for s in shape), dtype.itemsize)
 
 
 def open_column(spec: str) -> RowSource:
@@ -193,9 +237,11 @@ def _npz_member_source(path: str, key: str | None) -> RowSource | None:
     with handle:
         try:
             archive = zipfile.ZipFile(handle)
-        except (zipfile.BadZipFile, OSError):
-            return None
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+            return None  # read_table gives the archive's message
         with archive:
+            if any(info.header_offset < 0 for info in archive.infolist()):
+                return None  # a corrupt central directory
             names = [n for n in archive.namelist() if n.endswith(".npy")]
             name = names[0] if key is None and names else f"{key}.npy"
             if name not in archive.namelist():
@@ -214,3 +260,59 @@ def _npz_member_source(path: str, key: str | None) -> RowSource | None:
             where = f"{path}:{name[:-4]}"
             shape, fortran, dtype, offset = _checked_header(handle, where, info.file_size)
     return RowSource(path=path, shape=shape, streamed=True, _dtype=dtype, _offset=offset, _fortran=fortran)
+
+
+def _npz_compressed_source(path: str, key: str | None) -> RowSource | None:
+    """A source inflating a compressed member from its start, one block after the other (a
+    deflate stream allows no seek), so that only a block is in memory; None when the member is
+    Fortran-ordered with several columns (its rows are not consecutive: read whole) or the archive
+    cannot be read this way (read_table then gives its message)."""
+    opened = _open_member(path, key)
+    if opened is None:
+        return None
+    handle, archive, member, info, where = opened
+    with handle, archive, member:
+        try:
+            shape, fortran, dtype, _ = _checked_header(member, where, info.file_size)
+        except FileInputError:
+            return None  # read_table gives the message of a whole read
+    inner = math.prod(shape[1:])
+    if fortran and inner > 1:
+        return None
+    n_rows = shape[0] if shape else 1
+
+    def blocks(rows: int) -> Iterator[np.ndarray]:
+        reopened = _open_member(path, key)
+        if reopened is None:
+            raise FileInputError(f"{where}: the archive changed while it was read")
+        handle, archive, member, _, _ = reopened
+        with handle, archive, member:
+            _checked_header(member, where, info.file_size)
+            for start in range(0, n_rows, rows):
+                count = min(rows, n_rows - start)
+                try:
+                    raw = _read_exact(member, count * inner * dtype.itemsize, where)
+                except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as exc:
+                    raise FileInputError(f"{where}: not a readable .npz member ({exc})") from None
+                block = np.frombuffer(raw, dtype=dtype).reshape((count, *shape[1:]))
+                yield np.asarray(block, dtype=np.float64)
+
+    return RowSource(path=path, shape=shape, streamed=True, _blocks=blocks, _dtype=dtype)
+
+
+def _open_member(path: str, key: str | None) -> tuple[BinaryIO, zipfile.ZipFile, BinaryIO, zipfile.ZipInfo, str] | None:
+    """(file, archive, member stream, ZipInfo, name for messages) of a compressed .npz member, or None."""
+    handle, _ = _open_regular(path)
+    try:
+        archive = zipfile.ZipFile(handle)
+        names = [n for n in archive.namelist() if n.endswith(".npy")]
+        name = names[0] if key is None and names else f"{key}.npy"
+        if name not in archive.namelist() or archive.getinfo(name).compress_type == zipfile.ZIP_STORED:
+            handle.close()
+            return None
+        info = archive.getinfo(name)
+        member = cast(BinaryIO, archive.open(info))
+        return handle, archive, member, info, f"{path}: array {name[:-4]!r}"
+    except (zipfile.BadZipFile, zlib.error, OSError, EOFError, ValueError, NotImplementedError, RuntimeError):
+        handle.close()
+        return None

@@ -15,6 +15,7 @@ import numpy as np
 import scipy.fft
 import scipy.ndimage
 import scipy.signal
+import scipy.special
 import scipy.stats
 
 from ..checks._typing import ArrayLike, FloatArray
@@ -39,7 +40,13 @@ __all__ = [
 
 
 def z_two_sided(level: float) -> float:
-    """z = Φ⁻¹((1 + level)/2): the half-width, in standard deviations, of a two-sided band."""
+    """z = Φ⁻¹((1 + level)/2): the half-width, in standard deviations, of a two-sided band.
+
+    Below level 0.5, ``(1 + level)/2`` rounds away the level's digits (to exactly 0.5, z = 0, for
+    level 1e-300); there z = √2·erfinv(level), exact for a tiny level (z ≈ √(π/2)·level).
+    """
+    if level < 0.5:
+        return float(math.sqrt(2.0) * scipy.special.erfinv(level))
     return float(scipy.stats.norm.ppf(0.5 * (1.0 + level)))
 
 
