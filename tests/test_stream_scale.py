@@ -85,7 +85,7 @@ def test_chunks_of_very_different_magnitude_merge_exactly(backend):
 
 
 def test_merge_trees_agree_at_small_scale(backend):
-    tau, pred, y = _problem(1e-200, 1e-150, 1e-90, n=200)
+    tau, pred, y = _problem(1e-200, 1e-200, 1e-90, n=200)
     want = dynval.validate(tau, pred, regressor=y, n_params=3, max_lag=5, backend="python",
                            cross_correlation_detail="full")
     accs = []
