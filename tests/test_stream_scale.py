@@ -11,11 +11,11 @@ import pickle
 
 import numpy as np
 import pytest
-from test_stream import assert_same_report
 
 import dynval
 from dynval.stream import ValidationAccumulator
 from dynval.streaming._stream import Compensated, Layout, State
+from test_stream import assert_same_report
 
 # (residual scale, target scale, regressor scale): the magnitudes reported broken and their neighbours
 SCALES = [(1e90, 1e90, 1e70), (1e-90, 1e-90, 1e-90), (1e-100, 1e-100, 1e-100), (1e-100, 1e-100, 1.0),

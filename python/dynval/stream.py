@@ -74,7 +74,7 @@ from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
-from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot
+from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -648,9 +648,17 @@ class ValidationAccumulator:
         xcorr = prof.max_lag_cap if cfg.max_lag is None else cfg.max_lag
         assert xcorr is not None  # _check_max_lag refused max_lag=None for a profile without a cap
         if xcorr == 0:
-            return Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
-        acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES), 10 if prof.ljung_box_rule == "statsmodels" else 0)
-        return Layout(m=m, p=p, acf_lags=acf, xcorr_lags=xcorr, gram=cfg.noise_model == "full")
+            layout = Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
+        else:
+            acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES),
+                      10 if prof.ljung_box_rule == "statsmodels" else 0)
+            layout = Layout(m=m, p=p, acf_lags=acf, xcorr_lags=xcorr, gram=cfg.noise_model == "full")
+        # Refused from the first chunk's shape, before any sum is allocated (contract §4.1).
+        too_large = state_too_large(layout)
+        if too_large is not None:
+            raise InvalidParameter(f"max_lag={v.format_value(cfg.max_lag)}: {too_large}; lower max_lag (0 holds no "
+                                   f"lags) or stream fewer columns")
+        return layout
 
     # ----------------------------------------------------------------------- merge checks
 
@@ -782,7 +790,8 @@ def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int
         "residual_mean": np.ldexp(mo.mean_e, exp_e), "residual_variance": np.ldexp(ssc_e / (n - ddof), 2 * exp_e),
         "constant_target": mo.t_constant.copy(), "sse_total": sse_total,
         "rmse_per_element": float(np.ldexp(math.sqrt(total_s / (n * m)), total_k)),
-        "rmse_per_sample": float(np.ldexp(math.sqrt(total_s / n), total_k)), "max_abs_error_pooled": float(max_abs.max()),
+        "rmse_per_sample": float(np.ldexp(math.sqrt(total_s / n), total_k)),
+        "max_abs_error_pooled": float(max_abs.max()),
         "vaf_pooled": float(vaf_values(flat)[0]), "fit_percent_pooled": float(fit_values(flat)[0]),
         "r2_pooled": float(r2_values(flat)[0]), "constant_target_pooled": t_flat,
         "rmse_uniform_average": float(np.mean(rmse)), "vaf_uniform_average": uniform_average(vaf),

@@ -213,8 +213,11 @@ struct compensated_array {
 /// this file. Arrays are flat and row-major: lag-major `(L+1, m)` for the residual sums,
 /// `(Lx+1, m, p)` for the regressor sums, `(m, p)` per column, `(m, m)` for the products.
 class stream_state {
+public:
     /// Every buffer's cell count, (acf_lags + 1)·m, m·p, (xcorr_lags + 1)·m·p and m·m, formed with
-    /// overflow checks: a count that wraps would allocate a short buffer that the loops overrun.
+    /// overflow checks (a count that wraps would allocate a short buffer that the loops overrun),
+    /// and the whole against the documented bound `max_cells`; std::length_error otherwise. The
+    /// constructor calls it first; a caller may ask it before constructing.
     static void check_fits(const stream_layout& layout) {
         const long long limit = static_cast<long long>(std::vector<double>().max_size());
         const auto mp = detail::checked_mul(layout.m, layout.p);
@@ -223,16 +226,28 @@ class stream_state {
         const auto cells_e = le ? detail::checked_mul(*le, layout.m) : std::nullopt;
         const auto cells_y = (lx && mp) ? detail::checked_mul(*lx, *mp) : std::nullopt;
         const auto cells_g = layout.gram ? detail::checked_mul(layout.m, layout.m) : std::optional<long long>(0);
+        const std::string text = "(m=" + std::to_string(layout.m) + ", p=" + std::to_string(layout.p) +
+                                 ", acf_lags=" + std::to_string(layout.acf_lags) +
+                                 ", xcorr_lags=" + std::to_string(layout.xcorr_lags) + ")";
         for (const auto& cells : {cells_e, cells_y, cells_g})
             if (!cells || *cells > limit)
-                throw std::length_error("stream_state: the layout's buffers (m=" + std::to_string(layout.m) +
-                                        ", p=" + std::to_string(layout.p) + ", acf_lags=" +
-                                        std::to_string(layout.acf_lags) + ", xcorr_lags=" +
-                                        std::to_string(layout.xcorr_lags) + ") do not fit in memory");
+                throw std::length_error("stream_state: the layout's buffers " + text + " do not fit in memory");
+        // The documented bound (contract §4.1, the reference's state_cells):
+        // 8(L+1)m + (L+1) + 5(Lx+1)mp + 2m² + 12m + 6mp, each term formed once the buffers it
+        // sums are known to be at most max_cells (then nothing overflows; m, L+1 and mp are below them).
+        const bool parts_fit = *cells_e <= max_cells && *cells_y <= max_cells && *cells_g <= max_cells;
+        const long long total = parts_fit ? 8 * (*cells_e) + (*le) + 5 * (*cells_y) + 2 * (*cells_g) + 12 * layout.m +
+                                                6 * (*mp)
+                                          : max_cells + 1;
+        if (total > max_cells)
+            throw std::length_error("stream_state: the layout " + text + " would hold more than " +
+                                    std::to_string(max_cells) + " numbers (1 GiB, contract §4.1)");
     }
 
-public:
     static constexpr double inf = std::numeric_limits<double>::infinity();
+    /// Most numbers a state may hold (1 GiB of float64, contract §4.1): a larger layout is refused
+    /// before anything is allocated (dynval.streaming._stream.MAX_STATE_CELLS).
+    static constexpr long long max_cells = 1LL << 27;
 
     stream_state() : stream_state(stream_layout{}) {}
     explicit stream_state(const stream_layout& layout) : layout_(layout) {
@@ -482,6 +497,10 @@ public:
     /// `merge` of a state this one may consume.
     void merge_owned(stream_state b) {
         check_same_layout(b);
+        // Row counts from a pickle may be anything up to 2^63 − 1: their sum must not wrap.
+        if (!detail::checked_add(n, b.n))
+            throw invalid_parameter("stream_state.merge: the row counts " + std::to_string(n) + " and " +
+                                    std::to_string(b.n) + " overflow 64 bits");
         if (b.n == 0) {
             end_break = end_break || b.start_break || b.end_break;
             return;

@@ -90,10 +90,37 @@ class Layout:
     gram: bool
 
 
+MAX_STATE_CELLS = 1 << 27
+"""Most numbers a streamed state may hold (1 GiB of float64; contract §4.1): a larger layout is
+refused before anything is allocated. A merge holds about three states at once."""
+
+
+def state_cells(layout: Layout) -> int:
+    """Numbers a state of ``layout`` holds at most (contract §4.1): the compensated lag sums and
+    boundary rows of the residual, 8(L+1)m, the pair counts L+1, the regressor's compensated lag
+    sums and last rows 5(Lx+1)mp, the m × m products 2m² (``gram``), and per joint and column
+    their centres, extremes and exponents, 12m + 6mp."""
+    m, p, le, lx = layout.m, layout.p, layout.acf_lags, layout.xcorr_lags
+    return (le + 1) * (8 * m + 1) + 5 * (lx + 1) * m * p + (2 * m * m if layout.gram else 0) + 12 * m + 6 * m * p
+
+
+def state_too_large(layout: Layout) -> str | None:
+    """Why a state of ``layout`` is refused (more than :data:`MAX_STATE_CELLS` numbers), or None."""
+    cells = state_cells(layout)
+    if cells <= MAX_STATE_CELLS:
+        return None
+    return (f"the streamed state of m={layout.m} joints, p={layout.p} regressor columns and {layout.acf_lags} lags "
+            f"({layout.xcorr_lags} of the cross-correlation) would hold {cells} numbers ({8 * cells / 2**30:.3g} GiB), "
+            f"more than the limit of {MAX_STATE_CELLS} (1 GiB, contract §4.1)")
+
+
 class State:
     """Centred, mergeable sums of a run of rows (see the module docstring)."""
 
     def __init__(self, layout: Layout):
+        too_large = state_too_large(layout)
+        if too_large is not None:
+            raise MemoryError(too_large)  # the accumulator refuses such a layout first, as InvalidParameter
         m, p, le, lx = layout.m, layout.p, layout.acf_lags, layout.xcorr_lags
         self.layout = layout
         self.n = 0
