@@ -158,7 +158,9 @@ def test_stream_state_binding_checks_and_copies():
     twin.append(e, e, None)
     assert (st.n, twin.n, st.lengths) == (40, 80, [40])
     sums = st.sums()
-    np.testing.assert_allclose(sums["k_e"] + sums["cur_e"][0] / 40, e.mean(axis=0), rtol=0, atol=1e-15)
+    # centres and sums in the units 2^exp_e of each joint (contract §4.1)
+    mean = np.ldexp(sums["k_e"] + sums["cur_e"][0] / 40, sums["exp_e"])
+    np.testing.assert_allclose(mean, e.mean(axis=0), rtol=0, atol=1e-15)
 
 
 # --------------------------------------------------------------------------- errors

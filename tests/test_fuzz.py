@@ -18,6 +18,7 @@ AddressSanitizer + UndefinedBehaviorSanitizer build of ``_core``).
 from __future__ import annotations
 
 import os
+import pickle
 
 import numpy as np
 import pytest
@@ -362,3 +363,93 @@ def test_kernels_agree(kernel, arrays, p1, p2, p3, starts):
         assert outcomes[0][1] == outcomes[1][1]
     elif nice and a.shape == b.shape and _numerically_tame(a, b, _difference(a, b)):
         _close(_plain(outcomes[0][1]), _plain(outcomes[1][1]), kernel)
+
+
+# --------------------------------------------------------------------------- StreamState.__setstate__
+
+
+@st.composite
+def saved_stream_states(draw):
+    """A pickled ``_core.StreamState`` (its ``__getstate__`` tuple) with one to three of its items
+    replaced: arrays of other sizes and values, counts, lengths, exponents, layouts."""
+    m, p = draw(st.integers(1, 3)), draw(st.integers(0, 2))
+    acf = draw(st.integers(0, 6))
+    layout = (m, p, acf, draw(st.integers(0, acf)), draw(st.booleans()))
+    state = _core.StreamState(*layout)
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    for _ in range(draw(st.integers(0, 2))):
+        rows = draw(st.integers(0, 12))
+        y = rng.normal(size=(rows, m * p)) if p else None
+        state.append(rng.normal(size=(rows, m)), rng.normal(size=(rows, m)), y)
+        if draw(st.booleans()):
+            state.end_break = True
+    saved = list(state.__getstate__())
+    arrays = list(saved[6])
+    small_ints = st.one_of(st.integers(-3, 40), st.sampled_from(HUGE_INTS))
+    for _ in range(draw(st.integers(1, 3))):
+        what = draw(st.sampled_from(["array", "array", "array", "n", "lengths", "pairs", "exps", "layout", "flag"]))
+        if what == "array":
+            i = draw(st.integers(0, len(arrays) - 1))
+            size = draw(st.integers(0, 2 * arrays[i].size + 3))
+            values = np.array(draw(st.lists(st.sampled_from(SPECIAL + [0.5, -2.0]), min_size=size, max_size=size)))
+            kind = draw(st.sampled_from(["float64", "float32", "int64"]))
+            with np.errstate(all="ignore"):  # 1e300 as float32 is inf on purpose
+                arrays[i] = np.arange(size) if kind == "int64" else values.astype(kind)
+        elif what == "n":
+            saved[1] = draw(small_ints)
+        elif what == "lengths":
+            saved[2] = draw(st.lists(small_ints, max_size=4))
+        elif what == "pairs":
+            saved[5] = np.array(draw(st.lists(st.integers(-2, 50), max_size=10)), dtype=np.int64)
+        elif what == "exps":
+            exps = list(saved[7])
+            k = draw(st.integers(0, 2))
+            exps[k] = np.array(draw(st.lists(st.sampled_from([0, 1, -1073, 1024, 1025, -5000, 2**40]), max_size=7)),
+                               dtype=np.int64)
+            saved[7] = tuple(exps)
+        elif what == "layout":
+            saved[0] = tuple(draw(st.lists(small_ints, min_size=4, max_size=4))) + (draw(st.booleans()),)
+        else:
+            saved[draw(st.sampled_from([3, 4]))] = draw(ANY_PARAM)
+    saved[6] = arrays
+    return tuple(saved)
+
+
+def _exercise(state) -> None:
+    """Everything a restored state can be asked: its sums, copies, pickling, merges both ways with a
+    state of its layout, more rows."""
+    layout = state.__getstate__()[0]
+    m, p = layout[0], layout[1]
+    state.sums()
+    pickle.loads(pickle.dumps(state.copy())).sums()
+    rng = np.random.default_rng(0)
+    other = _core.StreamState(*layout)
+    other.append(rng.normal(size=(9, m)), rng.normal(size=(9, m)), rng.normal(size=(9, m * p)) if p else None)
+    before = other.copy()
+    before.merge(state)
+    before.sums()
+    state.merge(other)
+    state.append(rng.normal(size=(5, m)), rng.normal(size=(5, m)), rng.normal(size=(5, m * p)) if p else None)
+    state.sums()
+
+
+@pytest.mark.skipif(not HAS_CPP, reason="needs the compiled backend")
+@FUZZ
+@given(saved=saved_stream_states())
+def test_stream_state_setstate_checks_every_size(saved):
+    """A pickle whose sizes do not match its layout is refused (InvalidParameter naming the field,
+    or ValueError for a layout over the state's bound, TypeError for a wrong container) before
+    anything reads it; one that is accepted is a state every operation can use. Under
+    scripts/sanitize.sh an out-of-bounds access here is a sanitizer report."""
+    restored = _core.StreamState.__new__(_core.StreamState)
+    try:
+        restored.__setstate__(saved)
+    except dynval.InputError as error:
+        assert str(error).startswith("StreamState.__setstate__: ")
+        return
+    except (ValueError, TypeError):
+        return
+    try:
+        _exercise(restored)
+    except dynval.InputError as error:  # row counts whose sum overflows 64 bits
+        assert "overflow 64 bits" in str(error), error

@@ -45,6 +45,17 @@ val[comp[hi_, lo_]] := hi + lo;
 SetAttributes[put, HoldFirst];
 put[s_, key_, value_] := (s = Append[s, key -> value]);
 
+(* x 2^k with k a list (one exponent per entry, or per row of a matrix x), exactly unless the
+   result is subnormal: factors of at most 2^1000 each (pow2 of DynVal.wl, for lists). *)
+pow2List[x_, k_List] := If[Max[Abs[k]] <= 1000, x 2.^k,
+  With[{step = (Max[-1000, Min[1000, #]] &) /@ k}, pow2List[x 2.^step, k - step]]];
+shifted[x_, k_List] := If[Max[Abs[k]] == 0, x, pow2List[x, k]];
+
+(* The power-of-two exponent of each row of x (joint or column; contract 4.1, Scale): every centre
+   and sum of a state is held in units 2^k of its column, k that of the largest |x| seen, so no
+   square or product underflows or overflows; extremes and boundary rows stay raw. *)
+rowExponents[ends_List] := (If[# == 0, 0, Floor[Log[2., #]] + 1] &) /@ (Max[Abs[#]] & /@ ends);
+
 (* a (length k) and b (length l): the k x l matrix a_i b_j *)
 outer[a_List, b_List] := Outer[Times, a, b];
 
@@ -85,17 +96,19 @@ lagMatrix[sIn_, vIn_, name_] := Module[{s = sIn}, Partition[sumsPart[s, vIn, nam
    regressor), centred on the block's means. The block's lagged products are whole-list Times
    and Total per lag and column: (L + 1) c m products. *)
 streamBlock[p_, lags_, gram_, eIn_, tIn_, yIn_] := Module[
-  {e = eIn, t = tIn, y = yIn, m, c, top, ke, xe, kt, xt, ky = {}, xy, joint, kept, endsE, endsT, endsY = {}, hi},
+  {e = eIn, t = tIn, y = yIn, m, c, top, ke, xe, kt, xt, ky = {}, xy, joint, kept, endsE, endsT, endsY = {}, hi,
+   expE, expT, expY = {}},
   m = Length[e]; c = Length[First[e]];
   top = Min[lags, c - 1];
   kept = Min[lags, c];
-  ke = (Total /@ e)/c; xe = e - ke;
-  kt = (Total /@ t)/c; xt = t - kt;
   endsE = extremes /@ e; endsT = extremes /@ t;
+  expE = rowExponents[endsE]; expT = rowExponents[endsT];
+  xe = shifted[e, -expE]; ke = (Total /@ xe)/c; xe = xe - ke;
+  xt = shifted[t, -expT]; kt = (Total /@ xt)/c; xt = xt - kt;
   If[p > 0,
     joint = jointIndex[m, p];
-    ky = (Total /@ y)/c; xy = y - ky;
-    endsY = extremes /@ y];
+    endsY = extremes /@ y; expY = rowExponents[endsY];
+    xy = shifted[y, -expY]; ky = (Total /@ xy)/c; xy = xy - ky];
   hi = flatSums[{
     Function[x, lagColumn[Total[x[[# + 1 ;; c]] x[[1 ;; c - #]]] &, top, lags]] /@ xe,
     Function[x, lagColumn[Total[x[[# + 1 ;; c]]] &, top, lags]] /@ xe,
@@ -108,7 +121,8 @@ streamBlock[p_, lags_, gram_, eIn_, tIn_, yIn_] := Module[
       {xe[[joint]], xy}], {}]}];
   <|"m" -> m, "p" -> p, "lags" -> lags, "gram" -> gram, "n" -> c, "start_break" -> False, "end_break" -> False,
     "segments" -> 1, "first_length" -> c, "last_length" -> c, "longest" -> c,
-    "k_e" -> ke, "k_t" -> kt, "k_y" -> ky, "sums" -> comp[hi, 0. hi], "pairs" -> Table[Max[c - l, 0], {l, 0, lags}],
+    "k_e" -> ke, "k_t" -> kt, "k_y" -> ky, "exp_e" -> expE, "exp_t" -> expT, "exp_y" -> expY,
+    "sums" -> comp[hi, 0. hi], "pairs" -> Table[Max[c - l, 0], {l, 0, lags}],
     "min_e" -> endsE[[All, 1]], "max_e" -> endsE[[All, 2]], "min_t" -> endsT[[All, 1]], "max_t" -> endsT[[All, 2]],
     "min_y" -> If[p > 0, endsY[[All, 1]], {}], "max_y" -> If[p > 0, endsY[[All, 2]], {}],
     (* the raw rows a later merge needs for the products across the junction *)
@@ -158,6 +172,21 @@ recentreDelta[sIn_, ke_, kt_, ky_] := Module[{s = sIn, v, n, nl, ix, d, dR, dn, 
       If[s["p"] > 0, -dyn, {}],
       If[s["p"] > 0, djR (dyn - ly) - dyR cur[[ix["curOfY"]]], {}]]];
 
+(* s with every centre and sum moved to the exponents given (each at least s's own): a sum of
+   products of columns a and b times 2^-(da + db), a sum or centre times 2^-da; exact. *)
+rescaleState[sIn_, ee_, et_, ey_] := Module[{s = sIn, m, p, ix, de, dt, dy, dR, dyR, shifts},
+  {m, p} = {s["m"], s["p"]};
+  de = ee - s["exp_e"]; dt = et - s["exp_t"]; dy = If[p > 0, ey - s["exp_y"], {}];
+  If[Max[Abs[Join[de, dt, dy]]] == 0, s,
+    ix = lagIndex[m, p, s["lags"]];
+    dR = de[[ix["joint"]]];
+    If[p > 0, dyR = dy[[ix["column"]]]];
+    shifts = -Join[2 dR, dR, dR, If[s["gram"], Flatten[Table[de[[i]] + de[[j]], {i, m}, {j, m}]], {}], dt, 2 dt,
+      If[p > 0, 2 dy, {}], If[p > 0, dyR, {}], If[p > 0, de[[jointIndex[m, p]]][[ix["column"]]] + dyR, {}]];
+    Join[s, <|"sums" -> comp[shifted[s["sums"][[1]], shifts], shifted[s["sums"][[2]], shifts]],
+      "k_e" -> shifted[s["k_e"], -de], "k_t" -> shifted[s["k_t"], -dt],
+      "k_y" -> If[p > 0, shifted[s["k_y"], -dy], {}], "exp_e" -> ee, "exp_t" -> et, "exp_y" -> ey|>]]];
+
 (* The pairs across a junction of a's last tailRows rows and b's first headRows rows, remembered
    per shape: lag l pairs b's head row i (0-based, i < l) with a's tail row tailRows - l + i. Gives
    the head and tail columns of every pair (1-based), and per lag 0..L the first pair and the count. *)
@@ -181,11 +210,11 @@ junctionDelta[aIn_, bIn_] := Module[{a = aIn, b = bIn, m, p, heads, tails, group
   m = a["m"]; p = a["p"];
   {heads, tails, groups} = junctionIndex[Length[First[a["tail_e"]]], Length[First[b["head_e"]]], a["lags"]];
   If[heads === {}, {0., 0 a["pairs"]},
-    h = (b["head_e"] - a["k_e"])[[All, heads]];
-    g = (a["tail_e"] - a["k_e"])[[All, tails]];
+    h = (shifted[b["head_e"], -a["exp_e"]] - a["k_e"])[[All, heads]];
+    g = (shifted[a["tail_e"], -a["exp_e"]] - a["k_e"])[[All, tails]];
     zero = ConstantArray[0., m];
     If[p > 0,
-      gy = (a["tail_y"] - a["k_y"])[[All, tails]];
+      gy = (shifted[a["tail_y"], -a["exp_y"]] - a["k_y"])[[All, tails]];
       sums = groupSums[Join[h g, h, g, gy, h[[jointIndex[m, p]]] gy], groups],
       sums = groupSums[Join[h g, h, g], groups]];
     {Join[Flatten[sums[[1 ;; 3 m]]], If[a["gram"], ConstantArray[0., m m], {}], zero, zero,
@@ -228,7 +257,11 @@ joinBoundaries[aIn_, bIn_, join_] := Module[{a = aIn, b = bIn, lags, singleA, si
    The running sums take one compensated addition per merge: the corrections that move a and b,
    the junction's products and b's sums are added together first, and b's own compensation term is
    carried over (each compensated step costs Mathics3 seven whole-vector operations). *)
-streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, ke, kt, ky, join, delta, junction},
+streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, ke, kt, ky, join, delta, junction,
+    ee, et, ey},
+  (* both operands in the units of the larger exponent of each column *)
+  {ee, et, ey} = MapThread[Max, #] & /@ {{a["exp_e"], b["exp_e"]}, {a["exp_t"], b["exp_t"]}, {a["exp_y"], b["exp_y"]}};
+  a = rescaleState[a, ee, et, ey]; b = rescaleState[b, ee, et, ey];
   w = b["n"]/(a["n"] + b["n"]);
   {ea, ta, ya} = meansOf[a]; {eb, tb, yb} = meansOf[b];
   {ke, kt, ky} = {ea + w (eb - ea), ta + w (tb - ta), ya + w (yb - ya)};
@@ -251,8 +284,11 @@ streamMerge[aIn_, bIn_] := Module[{a = aIn, b = bIn, w, ea, ta, ya, eb, tb, yb, 
 streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
   {s = sIn, m, p, n, v, nl, cur, lag, prod, a, meanE, eConstant, cov, ssc, sumT, sqT, tConstant, tss,
    sse, acf, out, joint, lagY, prodEY, sqY, b, yConstant, ssY, aj, c0, rho, dead,
-   f, nObs, nVec, size, total, logSize, g, c, sigma},
+   f, nObs, nVec, size, total, logSize, g, c, sigma, expE, expT, top, sh},
   {m, p, n} = {s["m"], s["p"], s["n"]};
+  (* the sums are in units 2^exp of their columns: ratios are formed in them, sums of squares,
+     means and variances are put back with their exponents (restore: IEEE where they leave float64) *)
+  expE = s["exp_e"]; expT = s["exp_t"];
   v = val[s["sums"]];
   nl = s["pairs"][[1 ;; maxLag + 1]];
   cur = lagMatrix[s, v, "cur_e"][[All, 1 ;; maxLag + 1]];
@@ -270,12 +306,17 @@ streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
   sse = ssc + n meanE^2;   (* two terms >= 0: nothing cancels *)
   acf = MapThread[If[#3 || #2 == 0, ConstantArray[Indeterminate, maxLag + 1],
       Prepend[Rest[(#1/nl)/(#2/n)], 1.]] &, {cov, ssc, eConstant}];
-  out = <|"sse" -> sse, "rmse" -> Sqrt[sse/n],
+  out = <|"sse" -> MapThread[restore[#1, 2 #2] &, {sse, expE}],
+    "rmse" -> MapThread[restore[Sqrt[#1/n], #2] &, {sse, expE}],
     "max_abs_error" -> MapThread[Max[Abs[#1], Abs[#2]] &, {s["min_e"], s["max_e"]}],
-    "vaf" -> MapThread[degenerate[If[#3, 0., 100. (1. - #1/#2)], #3, #4] &, {ssc, tss, tConstant, eConstant}],
-    "fit_percent" -> MapThread[degenerate[If[#3, 0., 100. (1. - Sqrt[#1/#2])], #3, #1 == 0] &, {sse, tss, tConstant}],
-    "r2" -> MapThread[degenerate[If[#3, 0., 1. - #1/#2], #3, #1 == 0] &, {sse, tss, tConstant}],
-    "residual_mean" -> meanE, "residual_variance" -> ssc/(n - 1), "autocorrelation" -> transpose[acf]|>;
+    "vaf" -> MapThread[degenerate[If[#3, 0., 100. (1. - restore[#1/#2, #5])], #3, #4] &,
+      {ssc, tss, tConstant, eConstant, 2 (expE - expT)}],
+    "fit_percent" -> MapThread[degenerate[If[#3, 0., 100. (1. - Sqrt[restore[#1/#2, #4]])], #3, #1 == 0] &,
+      {sse, tss, tConstant, 2 (expE - expT)}],
+    "r2" -> MapThread[degenerate[If[#3, 0., 1. - restore[#1/#2, #4]], #3, #1 == 0] &,
+      {sse, tss, tConstant, 2 (expE - expT)}],
+    "residual_mean" -> MapThread[restore, {meanE, expE}],
+    "residual_variance" -> MapThread[restore[#1/(n - 1), 2 #2] &, {ssc, expE}], "autocorrelation" -> transpose[acf]|>;
   If[p > 0,
     joint = jointIndex[m, p];
     lagY = lagMatrix[s, v, "lag_y"][[All, 1 ;; maxLag + 1]];
@@ -293,19 +334,25 @@ streamMetrics[sIn_, maxLag_, nParams_, noiseModel_] := Module[
     put[out, "rho", Partition[rho, p]]];
   Switch[noiseModel,
     "pooled",
-      nObs = n m; nVec = nObs; total = Total[sse];
-      If[total == 0, f = -Infinity; size = 0., size = total/nObs; f = nObs Log[size]],
+      nObs = n m; nVec = nObs;
+      top = Max[Append[Pick[expE, (# > 0 &) /@ sse], -Infinity]]; top = If[top === -Infinity, 0, top];
+      total = Total[shifted[sse, 2 (expE - top)]];
+      If[total == 0, f = -Infinity; size = 0., size = restore[total/nObs, 2 top]; f = nObs (Log[total/nObs] + 2 top Log[2.])],
     "per_joint",
       nObs = n; nVec = n;
       If[Min[sse] == 0, f = -Infinity; size = 0.,
-        logSize = Total[Log[sse/n]]; f = n logSize; size = safeExp[logSize]],
+        logSize = Total[Log[sse/n] + 2 expE Log[2.]]; f = n logSize; size = safeExp[logSize]],
     _,
       nObs = n; nVec = n;
       (* E'E/N is not demeaned: the centred products plus the outer product of the means *)
+      (* one exponent for the whole matrix, the largest joint's *)
       g = Partition[sumsPart[s, v, "products"], m]; c = cur[[All, 1]];
-      sigma = (g - outer[c, c]/n)/n + outer[meanE, meanE];
+      top = Max[expE]; sh = expE - top;
+      sigma = transpose[shifted[transpose[shifted[g - outer[c, c]/n, sh]], sh]]/n
+        + outer[shifted[meanE, sh], shifted[meanE, sh]];
       sigma = (sigma + transpose[sigma])/2.;
       logSize = logDetFull[sigma, m];
+      If[logSize =!= -Infinity, logSize = logSize + 2 top m Log[2.]];
       If[logSize === -Infinity, f = -Infinity; size = 0., f = n logSize; size = safeExp[logSize]]];
   Join[out, Association @@ assemble[f, nVec, nObs, nParams, size]]];
 

@@ -89,6 +89,22 @@ TEST(Overflow, StreamStateBufferSizes) {
     EXPECT_NO_THROW(dynval::stream_state(stream_layout{3, 4, 5, 2, true}));
 }
 
+// The documented bound on a state (contract §4.1): 8(L+1)m + (L+1) + 5(Lx+1)mp + 2m² + 12m + 6mp
+// numbers at most stream_state::max_cells (2^27); a layout over it is refused before allocating.
+TEST(Overflow, StreamStateBound) {
+    using dynval::stream_layout;
+    constexpr long long limit = dynval::stream_state::max_cells;
+    static_assert(limit == 1LL << 27);
+    // m = 1, p = 0: 9(L+1) + 12 numbers; the largest L that fits, and one more
+    const long long fits = (limit - 12) / 9 - 1;
+    EXPECT_NO_THROW(dynval::stream_state::check_fits(stream_layout{1, 0, fits, 0, false}));  // not allocated: 1 GiB
+    EXPECT_THROW(dynval::stream_state(stream_layout{1, 0, fits + 1, 0, false}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{6, 0, 30000000, 0, false}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{524287, 0, 143, 50, false}), std::length_error);
+    EXPECT_THROW(dynval::stream_state(stream_layout{2, 3000, 25000, 25000, true}), std::length_error);
+    EXPECT_THROW(dynval::lag_accumulator(6, 30000000), std::length_error);
+}
+
 // Found by tests/test_fuzz.py: first_nonfinite of an (N, 0) array took the maxCoeff of an empty
 // block (undefined; a segfault through _core.first_nonfinite).
 TEST(EmptyInput, FirstNonfiniteOfNoColumns) {

@@ -40,7 +40,8 @@ Data make_data(Index n, Index m, Index p, unsigned seed, double offset) {
     return d;
 }
 
-/// Centred sums from a state: Σ(x − x̄)(x' − x̄') over the pairs, as dynval.stream's `_moments`.
+/// Centred sums from a state: Σ(x − x̄)(x' − x̄') over the pairs, as dynval.stream's `_moments`,
+/// put back from the state's power-of-two units (2^exp per column) into the data's.
 struct Moments {
     std::vector<double> cov_e, cov_ey, ss_y, tss, gram;
 };
@@ -56,25 +57,30 @@ Moments moments(const dynval::stream_state& st) {
     for (std::size_t i = 0; i <= le; ++i)
         for (std::size_t j = 0; j < m; ++j) {
             const std::size_t k = i * m + j;
-            mo.cov_e.push_back(prod[k] - a[j] * (cur[k] + lag[k]) + static_cast<double>(st.pairs[i]) * a[j] * a[j]);
+            mo.cov_e.push_back(std::ldexp(prod[k] - a[j] * (cur[k] + lag[k]) + static_cast<double>(st.pairs[i]) * a[j] * a[j],
+                                          static_cast<int>(2 * st.exp_e[j])));
         }
     const auto st_sum = st.sum_t.values(), st_sq = st.sq_t.values();
-    for (std::size_t j = 0; j < m; ++j) mo.tss.push_back(st_sq[j] - st_sum[j] * st_sum[j] / n);
+    for (std::size_t j = 0; j < m; ++j)
+        mo.tss.push_back(std::ldexp(st_sq[j] - st_sum[j] * st_sum[j] / n, static_cast<int>(2 * st.exp_t[j])));
     if (mp) {
         const auto ly = st.lag_y.values(), pey = st.prod_ey.values(), sq = st.sq_y.values();
         for (std::size_t i = 0; i <= lx; ++i)
             for (std::size_t q = 0; q < mp; ++q) {
                 const std::size_t j = q / p, k = i * mp + q;
                 const double b = ly[q] / n;
-                mo.cov_ey.push_back(pey[k] - b * cur[i * m + j] - a[j] * ly[k] +
-                                    static_cast<double>(st.pairs[i]) * a[j] * b);
+                mo.cov_ey.push_back(std::ldexp(pey[k] - b * cur[i * m + j] - a[j] * ly[k] +
+                                                   static_cast<double>(st.pairs[i]) * a[j] * b,
+                                               static_cast<int>(st.exp_e[j] + st.exp_y[q])));
             }
-        for (std::size_t q = 0; q < mp; ++q) mo.ss_y.push_back(sq[q] - ly[q] * ly[q] / n);
+        for (std::size_t q = 0; q < mp; ++q)
+            mo.ss_y.push_back(std::ldexp(sq[q] - ly[q] * ly[q] / n, static_cast<int>(2 * st.exp_y[q])));
     }
     if (l.gram) {
         const auto g = st.gram.values();
         for (std::size_t i = 0; i < m; ++i)
-            for (std::size_t k = 0; k < m; ++k) mo.gram.push_back(g[i * m + k] - cur[i] * cur[k] / n);
+            for (std::size_t k = 0; k < m; ++k)
+                mo.gram.push_back(std::ldexp(g[i * m + k] - cur[i] * cur[k] / n, static_cast<int>(st.exp_e[i] + st.exp_e[k])));
     }
     return mo;
 }
@@ -173,6 +179,57 @@ TEST(StreamState, OneAppendEqualsDirectSums) {
 TEST(StreamState, LargeOffsetKeepsDigits) {
     const auto d = make_data(3000, 3, 2, 2, 1e5);
     expect_moments(state_of(d, kLayout, 0, 3000), d, {3000});
+}
+
+// The sums are held in units of a power of two per column (contract §4.1): data multiplied by 2^s
+// give the same sums to the bit, with every exponent moved by s, at magnitudes whose squares
+// underflow (2^-1000, about 1e-301) or whose cross products with a tiny column would.
+TEST(StreamState, SumsDoNotDependOnTheScale) {
+    const auto d = make_data(700, 3, 2, 7, 3.0);
+    const auto chunked = [](const Data& x) {
+        dynval::stream_state st(kLayout);
+        for (auto [a, b] : {std::pair<Index, Index>{0, 1}, {1, 300}, {300, 301}, {301, 700}}) {
+            dynval::stream_state part(kLayout);
+            part.append(x.e.middleRows(a, b - a), x.tau.middleRows(a, b - a), x.y.middleRows(a, b - a));
+            st.merge(part);
+        }
+        return st;
+    };
+    const auto base = chunked(d);
+    for (int s : {-1000, -700, 400}) {
+        const double f = std::ldexp(1.0, s);
+        const Data scaled{d.e * f, d.tau * f, d.y * f};
+        const auto st = chunked(scaled);
+        for (std::size_t j = 0; j < 3; ++j) {
+            EXPECT_EQ(st.exp_e[j], base.exp_e[j] + s);
+            EXPECT_EQ(st.exp_t[j], base.exp_t[j] + s);
+        }
+        for (std::size_t q = 0; q < 6; ++q) EXPECT_EQ(st.exp_y[q], base.exp_y[q] + s);
+        EXPECT_EQ(st.k_e, base.k_e);
+        EXPECT_EQ(st.k_y, base.k_y);
+        for (auto [x, y] : {std::pair{&st.prod_e, &base.prod_e}, {&st.cur_e, &base.cur_e}, {&st.lag_e, &base.lag_e},
+                            {&st.gram, &base.gram}, {&st.sq_t, &base.sq_t}, {&st.sq_y, &base.sq_y},
+                            {&st.prod_ey, &base.prod_ey}, {&st.lag_y, &base.lag_y}}) {
+            EXPECT_EQ(x->hi, y->hi);
+            EXPECT_EQ(x->lo, y->lo);
+        }
+    }
+}
+
+// A first block near 1e-250 and later ones near 1e100: the merge moves the first block's sums to
+// the larger exponent, and the whole equals the direct sums.
+TEST(StreamState, BlocksOfVeryDifferentMagnitudeMerge) {
+    auto d = make_data(600, 3, 2, 8, 0.0);
+    d.e.topRows(100) *= 1e-250;
+    d.tau.topRows(100) *= 1e-250;
+    d.y.topRows(100) *= 1e-250;
+    d.e.bottomRows(500) *= 1e100;
+    d.tau.bottomRows(500) *= 1e100;
+    d.y.bottomRows(500) *= 1e100;
+    auto st = state_of(d, kLayout, 0, 100);
+    st.merge(state_of(d, kLayout, 100, 600));
+    expect_moments(st, d, {600});
+    for (std::size_t j = 0; j < 3; ++j) EXPECT_EQ(st.exp_e[j], std::ilogb(d.e.col(j).cwiseAbs().maxCoeff()) + 1);
 }
 
 TEST(StreamState, RandomChunkingsAndOneRowChunks) {

@@ -12,6 +12,13 @@ NOTES: dict[str, dict[str, Any]] = {
         "effect": "An implementation that squares before scaling gives R² = 1, RMSE = 0, ρ = 0 or ±inf, or a "
         "Box–Pierce Q of N·h instead of the value at scale 1.",
     },
+    "StreamedScale": {
+        "bugType": "NUMERICAL",
+        "description": "A streamed accumulator fed data at 1e90 with a regressor at 1e70, or at 1e-90, 1e-100 or "
+        "1e-200: products of sums of squares (or the squares themselves) leave float64 (contract §1.3, §4.1).",
+        "effect": "Streamed sums not held in power-of-two units per column, or a cross-correlation normalised by "
+        "the root of the product of the two variances, give ρ = 0, ±inf or NaN, R² = 1 or RMSE = 0.",
+    },
     "Basic": {"bugType": "BASIC", "description": "Ordinary, well-conditioned data; every port must pass."},
     "LessonShape": {
         "bugType": "BASIC",

@@ -11,7 +11,7 @@ from __future__ import annotations
 from ._config import RTOL
 from ._exact import css, f64, mmean, resid_cols
 from ._family import Family
-from ._inputs import Stream, predict, q, trajectory
+from ._inputs import Stream, predict, q, scale_comment, scaled, trajectory
 from ._json import arr, mat, num
 from .autocorrelation import acf_expected
 from .cross_correlation import regressor, xcorr_expected
@@ -141,4 +141,14 @@ def build() -> Family:
     err("nan_policy \"omit\", which accumulate does not take", {"nan_policy": "omit"}, good, "InvalidParameter")
     err("nan_policy \"omit\" with a NaN in the data: the data checks come first", {"nan_policy": "omit"},
         {**good, "tau_pred": mat(pred[:3] + [[float("nan"), pred[3][1]]] + pred[4:])}, "NonFiniteInput")
+
+    # StreamedScale (appended last so that the tcIds above stay): the three joints and their regressor
+    # scaled, the residual far from the regressor (1e90 against 1e70: R_e(0)·R_Y(0) overflows) or both
+    # tiny (1e-90, 1e-100: it underflows; 1e-200: the residual's squares do). Streamed sums must be
+    # scaled by a power of two per column, with merges exact (contract §4.1).
+    for factor, y_factor, merge in ((1e90, 1e70, "tree"), (1e-90, 1e-90, "left"), (1e-100, 1e-100, "right"),
+                                    (1e-200, 1.0, "none")):
+        add(f"three joints {scale_comment(factor)}, the regressor by {y_factor:g}, blocks 5, 11, 20, merge {merge}",
+            ["Streaming", "StreamedScale", "MergeOrder"], scaled(meas3, factor), scaled(pred3, factor),
+            [5, 11, 20], merge, 4, None, "per_joint", 6, scaled(Y, y_factor))
     return fam

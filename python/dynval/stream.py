@@ -66,7 +66,7 @@ from .checks._options import (
 )
 from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from .kernels._reference.information import assemble, fit_term_from_sums
+from .kernels._reference.information import _pooled_sum, assemble, fit_term_from_sums
 from .kernels._reference.portmanteau import chi2_logsf
 from .metrics._profiles import Profile
 from .metrics._results import ZeroMeanTest
@@ -74,7 +74,7 @@ from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
-from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot
+from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -648,9 +648,17 @@ class ValidationAccumulator:
         xcorr = prof.max_lag_cap if cfg.max_lag is None else cfg.max_lag
         assert xcorr is not None  # _check_max_lag refused max_lag=None for a profile without a cap
         if xcorr == 0:
-            return Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
-        acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES), 10 if prof.ljung_box_rule == "statsmodels" else 0)
-        return Layout(m=m, p=p, acf_lags=acf, xcorr_lags=xcorr, gram=cfg.noise_model == "full")
+            layout = Layout(m=m, p=p, acf_lags=0, xcorr_lags=0, gram=cfg.noise_model == "full")
+        else:
+            acf = max(xcorr, newey_west_bandwidth(ZERO_MEAN_MAX_SAMPLES),
+                      10 if prof.ljung_box_rule == "statsmodels" else 0)
+            layout = Layout(m=m, p=p, acf_lags=acf, xcorr_lags=xcorr, gram=cfg.noise_model == "full")
+        # Refused from the first chunk's shape, before any sum is allocated (contract §4.1).
+        too_large = state_too_large(layout)
+        if too_large is not None:
+            raise InvalidParameter(f"max_lag={v.format_value(cfg.max_lag)}: {too_large}; lower max_lag (0 holds no "
+                                   f"lags) or stream fewer columns")
+        return layout
 
     # ----------------------------------------------------------------------- merge checks
 
@@ -685,21 +693,24 @@ def _block_rows(layout: Layout) -> int:
 
 @dataclass
 class _Moments:
-    """Centred sums of the whole stream, from the accumulated state."""
+    """Centred sums of the whole stream, from the accumulated state, in the units 2^exp of their
+    columns (``exp_e``, ``exp_t``, ``exp_y``: the state's power-of-two exponents, contract §4.1)."""
 
     n: int
     m: int
-    mean_e: np.ndarray  # (m,)
-    cov_e: np.ndarray  # (L+1, m): Σ(e_t − ē)(e_{t−ℓ} − ē) over the pairs
+    mean_e: np.ndarray  # (m,), scaled by 2^-exp_e
+    cov_e: np.ndarray  # (L+1, m): Σ(e_t − ē)(e_{t−ℓ} − ē) over the pairs, scaled by 4^-exp_e
     e_constant: np.ndarray
     mean_t: np.ndarray
     tss: np.ndarray
     t_constant: np.ndarray
     pairs: np.ndarray  # (L+1,) n_ℓ
-    cov_ey: np.ndarray | None  # (Lx+1, m, p)
+    cov_ey: np.ndarray | None  # (Lx+1, m, p), scaled by 2^-(exp_e + exp_y)
     ss_y: np.ndarray | None  # (m, p)
     y_constant: np.ndarray | None
-    sigma: np.ndarray | None  # EᵀE/N (full noise model)
+    sigma: np.ndarray | None  # EᵀE/N (full noise model), scaled by 4^-max(exp_e)
+    exp_e: np.ndarray
+    exp_t: np.ndarray
 
 
 def _moments(st: State | _Snapshot) -> _Moments:
@@ -724,53 +735,63 @@ def _moments(st: State | _Snapshot) -> _Moments:
         ss_y = np.where(y_constant, 0.0, np.maximum(st.sq_y.value() - lag_y[0] * lag_y[0] / n, 0.0))
     mean_e = st.k_e + a
     if st.gram is not None:
+        # one exponent for the whole matrix, the largest joint's (contract §1.3: over the whole residual)
+        shift = st.exp_e - st.exp_e.max()
         s = cur[0]
-        centred = st.gram.value() - np.outer(s, s) / n
-        sigma = centred / n + np.outer(mean_e, mean_e)  # not demeaned (MATLAB's multi-output convention)
+        centred = np.ldexp(st.gram.value() - np.outer(s, s) / n, shift[:, None] + shift[None, :])
+        mean_c = np.ldexp(mean_e, shift)
+        sigma = centred / n + np.outer(mean_c, mean_c)  # not demeaned (MATLAB's multi-output convention)
     return _Moments(n=n, m=m, mean_e=mean_e, cov_e=cov_e, e_constant=e_constant, mean_t=st.k_t + s_t / n,
                     tss=tss, t_constant=t_constant, pairs=pairs, cov_ey=cov_ey, ss_y=ss_y, y_constant=y_constant,
-                    sigma=sigma)
+                    sigma=sigma, exp_e=st.exp_e, exp_t=st.exp_t)
 
 
-def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, n: int, constant: bool) -> float:
-    """Σ over all N·m values of (x − x̄)² from per-joint parts: Σ_j SS_j + N Σ_j (x̄_j − x̄)², both ≥ 0.
+def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.ndarray, n: int,
+               constant: bool) -> tuple[float, int]:
+    """Σ over all N·m values of (x − x̄)² from per-joint parts: Σ_j SS_j + N Σ_j (x̄_j − x̄)², both ≥ 0,
+    as a scaled sum (s, K): the value s·4^K, K the largest of the joints' exponents ``exps``.
 
-    Joint j's mean is ``centre[j] + offset[j]``; the differences between means are taken on that
-    pair (centres first, they are close floats), so the low digits of the offsets are not rounded
-    away against a large common mean.
+    Joint j's mean is ``centre[j] + offset[j]`` (in units 2^exps[j]); the differences between means
+    are taken on that pair (centres first, they are close floats), so the low digits of the offsets
+    are not rounded away against a large common mean.
     """
+    top = int(exps.max())
     if constant:
-        return 0.0
-    d = (centre - centre[0]) + offset
-    return float(np.sum(ss) + n * np.sum((d - np.mean(d)) ** 2))
+        return 0.0, top
+    shift = exps - top
+    d = (np.ldexp(centre, shift) - np.ldexp(centre[0], shift[0])) + np.ldexp(offset, shift)
+    return float(np.sum(np.ldexp(ss, 2 * shift)) + n * np.sum((d - np.mean(d)) ** 2)), top
 
 
 def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
-    sse = ssc_e + n * mo.mean_e * mo.mean_e  # both terms ≥ 0: nothing cancels
-    sse_total = float(np.sum(sse))
-    # The streamed sums are not rescaled (contract §8): their scale exponents are 0.
-    k0 = np.zeros(m, dtype=np.int64)
-    parts = {"sse": sse, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant,
-             "sse_exp": k0, "tss_exp": k0, "ssc_e_exp": k0}
+    # Scaled sums (value s·4^k, k the columns' exponents, contract §4.1), as validate's kernels give them.
+    exp_e, exp_t = mo.exp_e, mo.exp_t
+    sse_s = ssc_e + n * mo.mean_e * mo.mean_e  # both terms ≥ 0: nothing cancels
+    total_s, total_k = _pooled_sum(sse_s, exp_e)
+    sse_total = float(np.ldexp(total_s, 2 * total_k))
+    parts = {"sse": sse_s, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant,
+             "sse_exp": exp_e, "tss_exp": exp_t, "ssc_e_exp": exp_e}
     t_flat = bool(st.min_t.min() == st.max_t.max())
     e_flat = bool(st.min_e.min() == st.max_e.max())
-    tss_pooled = _pooled_ss(mo.tss, st.k_t, st.sum_t.value() / n, n, t_flat)
-    ssc_pooled = _pooled_ss(ssc_e, st.k_e, st.cur_e.value()[0] / n, n, e_flat)
-    flat = {"sse": np.array([sse_total]), "tss": np.array([tss_pooled]), "ssc_e": np.array([ssc_pooled]),
+    tss_pooled, tss_k = _pooled_ss(mo.tss, st.k_t, st.sum_t.value() / n, exp_t, n, t_flat)
+    ssc_pooled, ssc_k = _pooled_ss(ssc_e, st.k_e, st.cur_e.value()[0] / n, exp_e, n, e_flat)
+    flat = {"sse": np.array([total_s]), "tss": np.array([tss_pooled]), "ssc_e": np.array([ssc_pooled]),
             "constant": np.array([t_flat]), "e_constant": np.array([e_flat]),
-            "sse_exp": k0[:1], "tss_exp": k0[:1], "ssc_e_exp": k0[:1]}
-    rmse = np.sqrt(sse / n)
+            "sse_exp": np.array([total_k]), "tss_exp": np.array([tss_k]), "ssc_e_exp": np.array([ssc_k])}
+    rmse = np.ldexp(np.sqrt(sse_s / n), exp_e)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
     max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))
     out: dict[str, Any] = {
-        "n_samples": n, "n_joints": m, "n_params": n_params, "sse": sse, "rmse": rmse, "max_abs_error": max_abs,
-        "vaf": vaf, "fit_percent": fit, "r2": r2, "residual_mean": mo.mean_e,
-        "residual_variance": ssc_e / (n - ddof), "constant_target": mo.t_constant.copy(),
-        "sse_total": sse_total, "rmse_per_element": math.sqrt(sse_total / (n * m)),
-        "rmse_per_sample": math.sqrt(sse_total / n), "max_abs_error_pooled": float(max_abs.max()),
+        "n_samples": n, "n_joints": m, "n_params": n_params, "sse": np.ldexp(sse_s, 2 * exp_e), "rmse": rmse,
+        "max_abs_error": max_abs, "vaf": vaf, "fit_percent": fit, "r2": r2,
+        "residual_mean": np.ldexp(mo.mean_e, exp_e), "residual_variance": np.ldexp(ssc_e / (n - ddof), 2 * exp_e),
+        "constant_target": mo.t_constant.copy(), "sse_total": sse_total,
+        "rmse_per_element": float(np.ldexp(math.sqrt(total_s / (n * m)), total_k)),
+        "rmse_per_sample": float(np.ldexp(math.sqrt(total_s / n), total_k)),
+        "max_abs_error_pooled": float(max_abs.max()),
         "vaf_pooled": float(vaf_values(flat)[0]), "fit_percent_pooled": float(fit_values(flat)[0]),
         "r2_pooled": float(r2_values(flat)[0]), "constant_target_pooled": t_flat,
         "rmse_uniform_average": float(np.mean(rmse)), "vaf_uniform_average": uniform_average(vaf),
@@ -779,8 +800,7 @@ def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
     }
-    # the sums as scaled sums with exponent 0: the reference's formula, to the bit
-    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse, np.zeros(m, dtype=np.int64)), mo.sigma)
+    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse_s, exp_e), mo.sigma, int(exp_e.max()))
     out.update(assemble(f, n_ic, n_vec, size, n_params))
     return out
 
@@ -818,7 +838,7 @@ class _Kernel:
 def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int) -> dict[str, Any]:
     """``zero_mean_test`` (contract §3.3) from the sums; the N_eff half None past its lags."""
     n = mo.n
-    mean = mo.mean_e
+    mean = mo.mean_e  # scaled by 2^-exp_e: the t statistics do not see the scale, the report does
     std = np.sqrt(mo.cov_e[0] / (n - 1))
     t_iid, p_iid = iid_t_test(mean, std, n)
     k = newey_west_bandwidth(n)
@@ -828,7 +848,8 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
         n_eff = newey_west_n_eff(np.asarray(kernel.autocorrelation(None, k_used, False, None)), k, n)
         t_eff, p_eff = iid_t_test(mean, std, n_eff)
         eff = {"statistic_eff": t_eff, "pvalue_eff": p_eff, "df_eff": n_eff - 1.0, "n_eff": n_eff, "bandwidth": k}
-    zmt = ZeroMeanTest(mean=mean, std=std, n_samples=n, statistic_iid=t_iid, pvalue_iid=p_iid, df_iid=n - 1, **eff)
+    zmt = ZeroMeanTest(mean=np.ldexp(mean, mo.exp_e), std=np.ldexp(std, mo.exp_e), n_samples=n,
+                       statistic_iid=t_iid, pvalue_iid=p_iid, df_iid=n - 1, **eff)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
@@ -839,8 +860,10 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
     assert mo.cov_ey is not None and mo.ss_y is not None and mo.y_constant is not None  # a regressor was given
     ss_e = mo.cov_e[0]
     denom = mo.pairs[: max_lag + 1].astype(float) if prof.adjusted else np.full(max_lag + 1, float(n))
+    # Two roots, never the root of the product (contract §1.3); each sum in its columns' units, so
+    # the exponents cancel in the ratio.
     with np.errstate(divide="ignore", invalid="ignore"):
-        rho = (mo.cov_ey[: max_lag + 1] / denom[:, None, None]) / np.sqrt((ss_e / n)[:, None] * (mo.ss_y / n))
+        rho = (mo.cov_ey[: max_lag + 1] / denom[:, None, None]) / (np.sqrt(ss_e / n)[:, None] * np.sqrt(mo.ss_y / n))
     rho = np.moveaxis(rho, 0, 2).copy()  # (m, p, L+1)
     dead = mo.y_constant | (mo.e_constant | (ss_e == 0))[:, None] | (mo.ss_y == 0)
     rho[dead] = np.nan

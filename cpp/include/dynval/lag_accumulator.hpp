@@ -86,8 +86,10 @@ public:
     }
 
     /// Σ_{products}(x_k − x̄)(x_{k−ℓ} − x̄), ℓ = 0..max_lag, one column per joint (the biased
-    /// autocovariance times N). No checks; see result().
-    Eigen::MatrixXd lag_sums() const {
+    /// autocovariance times N). No checks; see result(). `scaled`: in the units 4^k of the state's
+    /// exponent k per joint (stream_state.hpp), as the ratios of result() and the portmanteau
+    /// tests take them (no square underflows there); otherwise in the data's units (IEEE).
+    Eigen::MatrixXd lag_sums(bool scaled = false) const {
         const Index m = n_joints();
         const double nd = static_cast<double>(state_.n);
         Eigen::MatrixXd sums(max_lag() + 1, m);
@@ -95,8 +97,9 @@ public:
             for (Index j = 0; j < m; ++j) {
                 const auto i = static_cast<std::size_t>(l * m + j);
                 const double d = state_.cur_e.value(static_cast<std::size_t>(j)) / nd;
-                sums(l, j) = state_.prod_e.value(i) - d * (state_.cur_e.value(i) + state_.lag_e.value(i)) +
-                             static_cast<double>(state_.pairs[static_cast<std::size_t>(l)]) * d * d;
+                const double sum = state_.prod_e.value(i) - d * (state_.cur_e.value(i) + state_.lag_e.value(i)) +
+                                   static_cast<double>(state_.pairs[static_cast<std::size_t>(l)]) * d * d;
+                sums(l, j) = scaled ? sum : std::ldexp(sum, static_cast<int>(2 * state_.exp_e[static_cast<std::size_t>(j)]));
             }
         return sums;
     }
@@ -108,7 +111,7 @@ public:
     /// order. A constant joint gives nan.
     row_matrix result(bool adjusted = true) const {
         check("autocorrelation", max_lag() + 1);
-        const Eigen::MatrixXd sums = lag_sums();
+        const Eigen::MatrixXd sums = lag_sums(true);
         const std::vector<bool> constant = constant_joints();
         const double nd = static_cast<double>(state_.n);
         row_matrix rho(max_lag() + 1, n_joints());
@@ -163,7 +166,7 @@ inline PortmanteauTest portmanteau(const lag_accumulator& acc, const std::vector
     acc.check(function, 1);
     const Index limit = std::min(acc.longest_segment(), acc.max_lag() + 1);
     const auto checked = detail::check_portmanteau_parameters(lags, model_df, test, limit);
-    const Eigen::MatrixXd sums = acc.lag_sums();
+    const Eigen::MatrixXd sums = acc.lag_sums(true);
     return detail::portmanteau_from_sums(sums.topRows(checked.max_lag + 1), acc.lag_products(),
                                          static_cast<double>(acc.n_samples()), acc.constant_joints(), lags,
                                          checked.model_df, checked.test);

@@ -20,8 +20,15 @@
 // sums are Neumaier-compensated. Every sum stays centred, so a first row far in the tails costs
 // nothing. The C++ `lag_accumulator` (lag_accumulator.hpp) is a thin layer over this state.
 //
-// The state does not check finiteness (the Python facade checks each chunk first) and does not
-// rescale (§1.3): data whose squares leave float64's normal range lose digits, as in Python.
+// Every sum is held in units of a power of two per column (contract §4.1): `exp_e`, `exp_t` (m)
+// and `exp_y` (m·p) are the exponents k (std::frexp) of the largest |x| seen in each column, 0 for
+// a column of zeros, and the centres and sums are those of x·2^-k, so no square or product
+// underflows or overflows at any accepted magnitude. A block takes the exponents of its own rows;
+// `merge` moves both operands to the larger exponent of each column first (a multiplication by a
+// power of two: exact, but for parts below 2^-1022 of the largest, which are below the rounding
+// of the sums they join). Boundary rows, minima and maxima stay raw.
+//
+// The state does not check finiteness (the Python facade checks each chunk first).
 #pragma once
 
 #include "accumulator.hpp"  // DYNVAL_VECTOR_CLONES, DYNVAL_RESTRICT
@@ -32,6 +39,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <initializer_list>
 #include <limits>
@@ -189,6 +197,11 @@ struct compensated_array {
         }
     }
     double value(std::size_t i) const noexcept { return hi[i] + lo[i]; }
+    /// Multiplies element i by 2^k (exact unless a part underflows).
+    void scale(std::size_t i, int k) noexcept {
+        hi[i] = std::ldexp(hi[i], k);
+        lo[i] = std::ldexp(lo[i], k);
+    }
     std::vector<double> values() const {
         std::vector<double> out(hi.size());
         for (std::size_t i = 0; i < hi.size(); ++i) out[i] = hi[i] + lo[i];
@@ -200,8 +213,11 @@ struct compensated_array {
 /// this file. Arrays are flat and row-major: lag-major `(L+1, m)` for the residual sums,
 /// `(Lx+1, m, p)` for the regressor sums, `(m, p)` per column, `(m, m)` for the products.
 class stream_state {
+public:
     /// Every buffer's cell count, (acf_lags + 1)·m, m·p, (xcorr_lags + 1)·m·p and m·m, formed with
-    /// overflow checks: a count that wraps would allocate a short buffer that the loops overrun.
+    /// overflow checks (a count that wraps would allocate a short buffer that the loops overrun),
+    /// and the whole against the documented bound `max_cells`; std::length_error otherwise. The
+    /// constructor calls it first; a caller may ask it before constructing.
     static void check_fits(const stream_layout& layout) {
         const long long limit = static_cast<long long>(std::vector<double>().max_size());
         const auto mp = detail::checked_mul(layout.m, layout.p);
@@ -210,16 +226,28 @@ class stream_state {
         const auto cells_e = le ? detail::checked_mul(*le, layout.m) : std::nullopt;
         const auto cells_y = (lx && mp) ? detail::checked_mul(*lx, *mp) : std::nullopt;
         const auto cells_g = layout.gram ? detail::checked_mul(layout.m, layout.m) : std::optional<long long>(0);
+        const std::string text = "(m=" + std::to_string(layout.m) + ", p=" + std::to_string(layout.p) +
+                                 ", acf_lags=" + std::to_string(layout.acf_lags) +
+                                 ", xcorr_lags=" + std::to_string(layout.xcorr_lags) + ")";
         for (const auto& cells : {cells_e, cells_y, cells_g})
             if (!cells || *cells > limit)
-                throw std::length_error("stream_state: the layout's buffers (m=" + std::to_string(layout.m) +
-                                        ", p=" + std::to_string(layout.p) + ", acf_lags=" +
-                                        std::to_string(layout.acf_lags) + ", xcorr_lags=" +
-                                        std::to_string(layout.xcorr_lags) + ") do not fit in memory");
+                throw std::length_error("stream_state: the layout's buffers " + text + " do not fit in memory");
+        // The documented bound (contract §4.1, the reference's state_cells):
+        // 8(L+1)m + (L+1) + 5(Lx+1)mp + 2m² + 12m + 6mp, each term formed once the buffers it
+        // sums are known to be at most max_cells (then nothing overflows; m, L+1 and mp are below them).
+        const bool parts_fit = *cells_e <= max_cells && *cells_y <= max_cells && *cells_g <= max_cells;
+        const long long total = parts_fit ? 8 * (*cells_e) + (*le) + 5 * (*cells_y) + 2 * (*cells_g) + 12 * layout.m +
+                                                6 * (*mp)
+                                          : max_cells + 1;
+        if (total > max_cells)
+            throw std::length_error("stream_state: the layout " + text + " would hold more than " +
+                                    std::to_string(max_cells) + " numbers (1 GiB, contract §4.1)");
     }
 
-public:
     static constexpr double inf = std::numeric_limits<double>::infinity();
+    /// Most numbers a state may hold (1 GiB of float64, contract §4.1): a larger layout is refused
+    /// before anything is allocated (dynval.streaming._stream.MAX_STATE_CELLS).
+    static constexpr long long max_cells = 1LL << 27;
 
     stream_state() : stream_state(stream_layout{}) {}
     explicit stream_state(const stream_layout& layout) : layout_(layout) {
@@ -233,6 +261,9 @@ public:
         const auto mp = m * static_cast<std::size_t>(layout.p);
         const auto le = static_cast<std::size_t>(layout.acf_lags) + 1;
         const auto lx = static_cast<std::size_t>(layout.xcorr_lags) + 1;
+        exp_e.assign(m, 0);
+        exp_t.assign(m, 0);
+        exp_y.assign(mp, 0);
         k_e.assign(m, 0.0);
         prod_e = compensated_array(le * m);
         cur_e = compensated_array(le * m);
@@ -264,6 +295,7 @@ public:
     std::vector<long long> lengths;  // segment lengths, in order
     bool start_break = false;         // the first row must not join the rows before it
     bool end_break = false;           // the next row must not join the last row
+    std::vector<long long> exp_e, exp_t, exp_y;  // power-of-two exponents per column: sums in their units
     std::vector<double> k_e;
     compensated_array prod_e, cur_e, lag_e;  // P_ℓ, H_ℓ (H_0 = Σ(e − K)), T_ℓ: (L+1, m)
     std::vector<long long> pairs;            // n_ℓ
@@ -405,6 +437,54 @@ public:
         k_t = kt;
     }
 
+    /// Moves every centre and sum to the exponents given (each at least the state's own): a sum
+    /// of products of columns a and b is multiplied by 2^-(da + db), a sum or centre by 2^-da.
+    void rescale(const std::vector<long long>& ee, const std::vector<long long>& et, const std::vector<long long>& ey) {
+        const std::size_t m = static_cast<std::size_t>(layout_.m), mp = m * static_cast<std::size_t>(layout_.p);
+        const std::size_t le = static_cast<std::size_t>(layout_.acf_lags) + 1, lx = static_cast<std::size_t>(layout_.xcorr_lags) + 1;
+        const std::size_t p = static_cast<std::size_t>(layout_.p);
+        std::vector<int> de(m), dt(m), dy(mp);
+        for (std::size_t j = 0; j < m; ++j) {
+            de[j] = static_cast<int>(ee[j] - exp_e[j]);
+            dt[j] = static_cast<int>(et[j] - exp_t[j]);
+        }
+        for (std::size_t q = 0; q < mp; ++q) dy[q] = static_cast<int>(ey[q] - exp_y[q]);
+        for (std::size_t j = 0; j < m; ++j) {
+            if (de[j]) {
+                k_e[j] = std::ldexp(k_e[j], -de[j]);
+                for (std::size_t l = 0; l < le; ++l) {
+                    prod_e.scale(l * m + j, -2 * de[j]);
+                    cur_e.scale(l * m + j, -de[j]);
+                    lag_e.scale(l * m + j, -de[j]);
+                }
+                if (layout_.gram)
+                    for (std::size_t k = 0; k < m; ++k) {
+                        gram.scale(j * m + k, -de[j]);  // row j and column j: (j, j) twice
+                        gram.scale(k * m + j, -de[j]);
+                    }
+            }
+            if (dt[j]) {
+                k_t[j] = std::ldexp(k_t[j], -dt[j]);
+                sum_t.scale(j, -dt[j]);
+                sq_t.scale(j, -2 * dt[j]);
+            }
+        }
+        for (std::size_t q = 0; q < mp; ++q) {
+            const int d = dy[q], dq = de[q / p] + dy[q];
+            if (d) {
+                k_y[q] = std::ldexp(k_y[q], -d);
+                sq_y.scale(q, -2 * d);
+            }
+            for (std::size_t l = 0; l < lx; ++l) {
+                if (d) lag_y.scale(l * mp + q, -d);
+                if (dq) prod_ey.scale(l * mp + q, -dq);
+            }
+        }
+        exp_e = ee;
+        exp_t = et;
+        exp_y = ey;
+    }
+
     // ------------------------------------------------------------------ merge
 
     /// Adds `later` (rows that follow this state's rows in time). Lags join across the junction
@@ -417,6 +497,10 @@ public:
     /// `merge` of a state this one may consume.
     void merge_owned(stream_state b) {
         check_same_layout(b);
+        // Row counts from a pickle may be anything up to 2^63 − 1: their sum must not wrap.
+        if (!detail::checked_add(n, b.n))
+            throw invalid_parameter("stream_state.merge: the row counts " + std::to_string(n) + " and " +
+                                    std::to_string(b.n) + " overflow 64 bits");
         if (b.n == 0) {
             end_break = end_break || b.start_break || b.end_break;
             return;
@@ -428,6 +512,15 @@ public:
             return;
         }
         const std::size_t m = static_cast<std::size_t>(layout_.m), mp = m * static_cast<std::size_t>(layout_.p);
+        {  // both operands in the units of the larger exponent of each column
+            auto larger = [](std::vector<long long> a, const std::vector<long long>& o) {
+                for (std::size_t i = 0; i < a.size(); ++i) a[i] = std::max(a[i], o[i]);
+                return a;
+            };
+            const auto ee = larger(exp_e, b.exp_e), et = larger(exp_t, b.exp_t), ey = larger(exp_y, b.exp_y);
+            rescale(ee, et, ey);
+            b.rescale(ee, et, ey);
+        }
         const double w = static_cast<double>(b.n) / static_cast<double>(n + b.n);
         std::vector<double> ke(m), kt(m), ky(mp);
         for (std::size_t j = 0; j < m; ++j) {
@@ -512,7 +605,7 @@ private:
             for (Index i = 0; i < ky; ++i)
                 for (Index q = 0; q < mp; ++q) st.tail_y[i * mp + q] = xy(q, c - ky + i);
         }
-        centre_rows(xe, st.k_e, st.min_e, st.max_e);
+        centre_rows(xe, st.k_e, st.min_e, st.max_e, st.exp_e);
         const Index top = std::min(le, c - 1);
         for (Index j = 0; j < m; ++j) {
             const double* x = xe.row(j).data();
@@ -530,14 +623,14 @@ private:
                 for (Index k = i; k < m; ++k)
                     st.gram.hi[i * m + k] = st.gram.hi[k * m + i] =
                         detail::stream_dot(xe.row(i).data(), xe.row(k).data(), c);
-        centre_rows(xt, st.k_t, st.min_t, st.max_t);
+        centre_rows(xt, st.k_t, st.min_t, st.max_t, st.exp_t);
         for (Index j = 0; j < m; ++j) {
             const double* x = xt.row(j).data();
             st.sum_t.hi[j] = xt.row(j).sum();
             st.sq_t.hi[j] = detail::stream_dot(x, x, c);
         }
         if (mp) {
-            centre_rows(xy, st.k_y, st.min_y, st.max_y);  // row j·p + c: joint j, column c
+            centre_rows(xy, st.k_y, st.min_y, st.max_y, st.exp_y);  // row j·p + c: joint j, column c
             for (Index q = 0; q < mp; ++q) st.sq_y.hi[q] = detail::stream_dot(xy.row(q).data(), xy.row(q).data(), c);
             boundary_sums(xy, lx, nullptr, st.lag_y.hi.data(), false);
             const Index topx = std::min(lx, c - 1);
@@ -574,17 +667,35 @@ private:
             throw invalid_shape("stream_state.merge needs states of the same layout");
     }
 
-    /// Centres each row of x on its mean; writes the centres, minima and maxima.
+    /// Scales each row of x by 2^-k, k the exponent of its largest |x| (0 for a row of zeros),
+    /// and centres it on its mean; writes the centres (scaled), the raw minima and maxima and k.
     template <class Rows>
-    static void centre_rows(Rows& x, std::vector<double>& centre, std::vector<double>& lo, std::vector<double>& hi) {
+    static void centre_rows(Rows& x, std::vector<double>& centre, std::vector<double>& lo, std::vector<double>& hi,
+                            std::vector<long long>& exps) {
         const double c = static_cast<double>(x.cols());
         for (Index r = 0; r < x.rows(); ++r) {
             double sum = 0.0;
             detail::stream_extremes(x.row(r).data(), x.cols(), lo[r], hi[r], sum);
-            centre[r] = sum / c;
-            x.row(r).array() -= centre[r];
+            const double largest = std::max(std::fabs(lo[r]), std::fabs(hi[r]));
+            int k = 0;
+            if (largest > 0.0 && largest <= std::numeric_limits<double>::max()) std::frexp(largest, &k);
+            exps[r] = k;
+            double* row = x.row(r).data();
+            if (k > -1000 && k < 1000) {
+                // 2^-k is a normal number: the product is exactly std::ldexp's
+                const double f = std::ldexp(1.0, -k);
+                centre[r] = (sum * f) / c;
+                for (Index i = 0; i < x.cols(); ++i) row[i] = row[i] * f - centre[r];
+            } else {
+                for (Index i = 0; i < x.cols(); ++i) row[i] = std::ldexp(row[i], -k);
+                centre[r] = std::ldexp(sum, -k) / c;
+                x.row(r).array() -= centre[r];
+            }
         }
     }
+
+    /// A raw boundary value in the units 2^k of its column.
+    static double scaled(double x, long long k) noexcept { return k ? std::ldexp(x, static_cast<int>(-k)) : x; }
 
     /// For rows x (k, c) of one segment: Σ x_t over the current elements (t ≥ ℓ) and over the
     /// lagged elements (t < c − ℓ) of the lag-ℓ pairs, ℓ = 0..lags, lag-major (lags+1, k); 0
@@ -640,8 +751,8 @@ private:
         // junction products and sums are then runs of contiguous values (L²/2 pairs per joint).
         std::vector<double> h(static_cast<std::size_t>(m * n_head)), g(static_cast<std::size_t>(m * n_tail));
         for (Index j = 0; j < m; ++j) {
-            for (Index i = 0; i < n_head; ++i) h[j * n_head + i] = b.head_e[i * m + j] - k_e[j];
-            for (Index t = 0; t < n_tail; ++t) g[j * n_tail + t] = tail_e[t * m + j] - k_e[j];
+            for (Index i = 0; i < n_head; ++i) h[j * n_head + i] = scaled(b.head_e[i * m + j], exp_e[j]) - k_e[j];
+            for (Index t = 0; t < n_tail; ++t) g[j * n_tail + t] = scaled(tail_e[t * m + j], exp_e[j]) - k_e[j];
         }
         for (Index l = 1; l <= le; ++l) {
             const Index i0 = std::max<Index>(0, l - n_tail), i1 = std::min(l, n_head);
@@ -666,10 +777,10 @@ private:
             for (Index i = i0; i < i1; ++i) {
                 const Index t = ny - l + i;
                 for (Index j = 0; j < m; ++j) {
-                    const double h = b.head_e[i * m + j] - k_e[j];
+                    const double h = scaled(b.head_e[i * m + j], exp_e[j]) - k_e[j];
                     for (Index col = 0; col < p; ++col) {
                         const Index q = j * p + col;
-                        const double g = tail_y[t * mp + q] - k_y[q];
+                        const double g = scaled(tail_y[t * mp + q], exp_y[q]) - k_y[q];
                         py[q] += h * g;
                         sy[q] += g;
                     }

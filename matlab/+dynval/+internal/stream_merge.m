@@ -4,6 +4,12 @@ function a = stream_merge(a, b)
 %   lagged products), so every sum stays centred and a large offset costs no digits. Lags join
 %   across the junction unless a ended, or b started, with a break; the junction's products
 %   pair b's first rows (current element) with a's last rows (lagged element).
+  % both operands in the units of the larger exponent of each column (exact: powers of two)
+  ee = max(a.exp_e, b.exp_e);
+  et = max(a.exp_t, b.exp_t);
+  ey = max(a.exp_y, b.exp_y);
+  a = rescale(a, ee, et, ey);
+  b = rescale(b, ee, et, ey);
   w = b.n / (a.n + b.n);
   [ea, ta, ya] = means(a);
   [eb, tb, yb] = means(b);
@@ -27,6 +33,39 @@ function a = stream_merge(a, b)
     a.(['max_' x{1}]) = max(a.(['max_' x{1}]), b.(['max_' x{1}]));
   end
   a = join_boundaries(a, b, join);
+end
+
+function s = rescale(s, ee, et, ey)
+  % Every centre and sum moved to the exponents given (each at least the state's own): a sum
+  % of products of columns a and b times 2^-(da + db), a sum or centre times 2^-da.
+  de = ee - s.exp_e;
+  dt = et - s.exp_t;
+  dy = ey - s.exp_y;
+  s.k_e = pow2(s.k_e, -de);
+  s.prod_e = scale(s.prod_e, -2 * de);
+  s.cur_e = scale(s.cur_e, -de);
+  s.lag_e = scale(s.lag_e, -de);
+  if s.gram
+    s.products = scale(s.products, -(de' + de));
+  end
+  s.k_t = pow2(s.k_t, -dt);
+  s.sum_t = scale(s.sum_t, -dt);
+  s.sq_t = scale(s.sq_t, -2 * dt);
+  if s.p > 0
+    joint = reshape(repmat(1:s.m, s.p, 1), 1, s.m * s.p);
+    s.k_y = pow2(s.k_y, -dy);
+    s.sq_y = scale(s.sq_y, -2 * dy);
+    s.lag_y = scale(s.lag_y, -dy);
+    s.prod_ey = scale(s.prod_ey, -(de(joint) + dy));
+  end
+  s.exp_e = ee;
+  s.exp_t = et;
+  s.exp_y = ey;
+end
+
+function c = scale(c, k)
+  c.hi = pow2(c.hi, k);
+  c.lo = pow2(c.lo, k);
 end
 
 function [me, mt, my] = means(s)
@@ -87,13 +126,13 @@ function a = add_junction(a, b)
       continue;
     end
     t = tail_rows - l + i;
-    h = b.head_e(i + 1, :) - a.k_e;
-    g = a.tail_e(t + 1, :) - a.k_e;
+    h = pow2(b.head_e(i + 1, :), -a.exp_e) - a.k_e;
+    g = pow2(a.tail_e(t + 1, :), -a.exp_e) - a.k_e;
     prod(l + 1, :) = sum(h .* g, 1);
     cur(l + 1, :) = sum(h, 1);
     lag(l + 1, :) = sum(g, 1);
     if mp > 0
-      gy = a.tail_y(t + 1, :) - a.k_y;
+      gy = pow2(a.tail_y(t + 1, :), -a.exp_y) - a.k_y;
       py(l + 1, :) = sum(h(:, joint) .* gy, 1);
       sy(l + 1, :) = sum(gy, 1);
     end
@@ -171,5 +210,18 @@ end
 %! s = dynval.internal.stream_merge (a, b);
 %! x = e - mean (e);
 %! assert (s.pairs, [5; 3; 1]);
-%! assert (s.prod_e.hi(2) + s.prod_e.lo(2), x(2) * x(1) + x(4) * x(3) + x(5) * x(4), 1e-14);
+%! assert (pow2 (s.prod_e.hi(2) + s.prod_e.lo(2), 2 * s.exp_e), x(2) * x(1) + x(4) * x(3) + x(5) * x(4), 1e-14);
 %! assert ([s.segments s.first_length s.last_length s.longest], [2 2 3 3]);
+%!test
+%! % A first block near 1e-250 and a later one near 1e100: the merge moves the first block's sums
+%! % to the larger exponent, and the whole equals the sums of the one block of all the rows.
+%! e = [1 4; -2 0; 3 1; 0.5 -1; 2 2; -1 3; 0 0.5];  e(1:3, :) = e(1:3, :) * 1e-250;  e(4:end, :) = e(4:end, :) * 1e100;
+%! t = e;  y = e(:, [2 1]);
+%! whole = dynval.internal.stream_block (1, 3, true, e, t, y);
+%! s = dynval.internal.stream_merge (dynval.internal.stream_block (1, 3, true, e(1:3, :), t(1:3, :), y(1:3, :)), ...
+%!                                   dynval.internal.stream_block (1, 3, true, e(4:end, :), t(4:end, :), y(4:end, :)));
+%! assert (s.exp_e, whole.exp_e);
+%! for name = {'prod_e', 'cur_e', 'lag_e', 'products', 'sq_t', 'sq_y', 'prod_ey'}
+%!   v = s.(name{1}).hi + s.(name{1}).lo;
+%!   assert (v, whole.(name{1}).hi, 1e-13 * max (abs (whole.(name{1}).hi(:))));
+%! end

@@ -2,7 +2,9 @@ function r = stream_metrics(s, max_lag, n_params, noise_model)
 %STREAM_METRICS The metrics of dynval.ValidationAccumulator.result from the accumulated sums.
 %   Every sum is moved to the overall mean first (means are overall, lags stay inside records,
 %   contract §1.1), with the identity of stream_merge; then the in-memory definitions apply,
-%   with the same degenerate values (fit_values, assemble_criteria, log_det_term).
+%   with the same degenerate values (fit_values, assemble_criteria, log_det_term). The sums are
+%   in the power-of-two units of their columns (stream_block): ratios are formed in them, and
+%   sums of squares, means and variances are put back with their exponents (pow2).
   m = s.m;
   p = s.p;
   n = s.n;
@@ -26,14 +28,17 @@ function r = stream_metrics(s, max_lag, n_params, noise_model)
 
   r = struct();
   r.n_samples = n;
-  r.sse = ssc + n * mean_e .^ 2;   % two terms >= 0: nothing cancels
-  r.rmse = sqrt(r.sse / n);
+  ke = s.exp_e;
+  sse = ssc + n * mean_e .^ 2;   % in units 4^exp_e; two terms >= 0: nothing cancels
+  r.sse = pow2(sse, 2 * ke);
+  r.rmse = pow2(sqrt(sse / n), ke);
   r.max_abs_error = max(abs(s.min_e), abs(s.max_e));
-  r.vaf = dynval.internal.fit_values('vaf', r.sse, ssc, tss, t_constant, e_constant);
-  r.fit_percent = dynval.internal.fit_values('fit_percent', r.sse, ssc, tss, t_constant, e_constant);
-  r.r2 = dynval.internal.fit_values('r2', r.sse, ssc, tss, t_constant, e_constant);
-  r.residual_mean = mean_e;
-  r.residual_variance = ssc / (n - 1);
+  tss_e = pow2(tss, 2 * (s.exp_t - ke));   % the TSS in the residual's units (ratios only)
+  r.vaf = dynval.internal.fit_values('vaf', sse, ssc, tss_e, t_constant, e_constant);
+  r.fit_percent = dynval.internal.fit_values('fit_percent', sse, ssc, tss_e, t_constant, e_constant);
+  r.r2 = dynval.internal.fit_values('r2', sse, ssc, tss_e, t_constant, e_constant);
+  r.residual_mean = pow2(mean_e, ke);
+  r.residual_variance = pow2(ssc / (n - 1), 2 * ke);
   acf = (cov ./ nl) ./ (ssc / n);
   acf(1, :) = 1;
   acf(:, e_constant | ssc == 0) = NaN;
@@ -62,22 +67,27 @@ function r = stream_metrics(s, max_lag, n_params, noise_model)
     case 'pooled'
       n_obs = n * m;
       n_vec = n_obs;
-      total = sum(r.sse);
+      live = sse > 0;
+      top = 0;
+      if any(live)
+        top = max(ke(live));
+      end
+      total = sum(pow2(sse, 2 * (ke - top)));   % in units 4^top
       if total == 0
         f = -Inf;
         size_term = 0;
       else
-        size_term = total / n_obs;
-        f = n_obs * log(size_term);
+        size_term = pow2(total / n_obs, 2 * top);
+        f = n_obs * (log(total / n_obs) + 2 * top * log(2));
       end
     case 'per_joint'
       n_obs = n;
       n_vec = n;
-      if any(r.sse == 0)
+      if any(sse == 0)
         f = -Inf;
         size_term = 0;
       else
-        log_size = sum(log(r.sse / n));
+        log_size = sum(log(sse / n) + 2 * ke * log(2));
         f = n * log_size;
         size_term = exp(log_size);
       end
@@ -85,10 +95,14 @@ function r = stream_metrics(s, max_lag, n_params, noise_model)
       n_obs = n;
       n_vec = n;
       % E'E/N is not demeaned: the centred products plus the outer product of the means.
+      % One exponent for the whole matrix, the largest joint's.
       g = s.products.hi + s.products.lo;
       c = cur(1, :);
-      sigma = (g - c' * c / n) / n + mean_e' * mean_e;
-      log_det = dynval.internal.log_det_term(sigma);
+      top = max(ke);
+      sh = ke - top;
+      mc = pow2(mean_e, sh);
+      sigma = pow2(g - c' * c / n, sh' + sh) / n + mc' * mc;
+      log_det = dynval.internal.log_det_term(sigma) + 2 * top * m * log(2);
       f = n * log_det;
       size_term = exp(log_det);
   end

@@ -344,6 +344,16 @@ def check_max_lag(value, limit: int) -> int:
 def check_lags(value, limit: int) -> np.ndarray:
     """``lags``: a positive integer or a non-empty sequence of them, each below ``limit``."""
     requirement = f"a positive integer or a non-empty sequence of positive integers less than {limit}"
+    # A range or an integer array is checked by its ends or in one pass before anything is built
+    # from it: range(1, 10**12) is refused at once, not after materialising a list of its items.
+    if isinstance(value, range):
+        if len(value) == 0 or min(value[0], value[-1]) <= 0 or max(value[0], value[-1]) >= limit:
+            raise parameter_error("lags", requirement, value)
+        return np.arange(value.start, value.stop, value.step, dtype=np.int64)
+    if isinstance(value, np.ndarray) and value.ndim == 1 and value.dtype.kind in "iu":
+        if value.size == 0 or value.min() <= 0 or value.max() >= limit:
+            raise parameter_error("lags", requirement, value)
+        return value.astype(np.int64)
     if is_integer(value):
         items = [value]
     elif (isinstance(value, np.ndarray) and value.ndim == 1) or (

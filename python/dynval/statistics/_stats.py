@@ -127,6 +127,16 @@ def _lag_products(xc, bounds, max_lag: int) -> np.ndarray:
     return acov
 
 
+def _pow2_scaled_columns(x: np.ndarray) -> np.ndarray:
+    """x·2^-k per column, k the exponent (``np.frexp``) of the column's largest |x| (0 for a column
+    of zeros or none): a new array, exactly ``np.ldexp``'s values."""
+    largest = np.max(np.abs(x), axis=0) if x.shape[0] else np.zeros(x.shape[1])
+    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
+    if np.all(np.abs(exps) < 1000):
+        return x * np.ldexp(1.0, -exps)  # 2^-k is a normal number: the same exact products, faster
+    return np.ldexp(x, -exps)
+
+
 def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k), by FFT beyond a
     few lags.
@@ -149,6 +159,9 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     for c0 in range(0, k, batch):
         cols = slice(c0, min(c0 + batch, k))
         xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
+        # ρ is a ratio: each column scaled by a power of two first (exact, contract §1.3), so that
+        # no square underflows near 1e-160 (the compiled kernel scales, and the two must agree).
+        xc = _pow2_scaled_columns(xc)
         if max_lag <= _DIRECT_LAGS:
             acov[:, cols] = _lag_products(xc, bounds, max_lag)
             continue

@@ -18,6 +18,16 @@ to their combined mean before adding them (Chan's pairwise update of centred mom
 lagged products), so the sums stay centred and nothing cancels however large the offset of the
 data. Running sums are compensated (a second array holds what each addition rounded away), so a
 stream of many small chunks is as accurate as one pass.
+
+Every sum is held in units of a power of two per column (contract §4.1, scale): ``exp_e`` (m,),
+``exp_t`` (m,) and ``exp_y`` (m, p) are the exponents k of the largest |x| seen in each column
+(``np.frexp``; 0 for a column of zeros), and the centres and sums are those of x·2^-k, so that no
+square or product underflows or overflows whatever the data's magnitude. A block takes the
+exponents of its own rows; a merge moves both operands to the larger exponent of each column,
+which multiplies every sum by a power of two (exact, but for parts that fall below 2^-1022 of the
+largest: they are below the rounding of the sums they join). After any merge tree the exponents
+are those of the whole stream's largest |x|, the ones ``validate`` scales by. The boundary rows,
+minima and maxima stay raw.
 """
 
 from __future__ import annotations
@@ -61,6 +71,11 @@ class Compensated:
     def value(self) -> np.ndarray:
         return self.hi + self.lo
 
+    def scale(self, k) -> None:
+        """Multiply the sum by 2^k (``k`` broadcast against it), exactly unless a part underflows."""
+        self.hi = np.ldexp(self.hi, k)
+        self.lo = np.ldexp(self.lo, k)
+
 
 @dataclass(frozen=True)
 class Layout:
@@ -75,16 +90,47 @@ class Layout:
     gram: bool
 
 
+MAX_STATE_CELLS = 1 << 27
+"""Most numbers a streamed state may hold (1 GiB of float64; contract §4.1): a larger layout is
+refused before anything is allocated. A merge holds about three states at once."""
+
+
+def state_cells(layout: Layout) -> int:
+    """Numbers a state of ``layout`` holds at most (contract §4.1): the compensated lag sums and
+    boundary rows of the residual, 8(L+1)m, the pair counts L+1, the regressor's compensated lag
+    sums and last rows 5(Lx+1)mp, the m × m products 2m² (``gram``), and per joint and column
+    their centres, extremes and exponents, 12m + 6mp."""
+    m, p, le, lx = layout.m, layout.p, layout.acf_lags, layout.xcorr_lags
+    return (le + 1) * (8 * m + 1) + 5 * (lx + 1) * m * p + (2 * m * m if layout.gram else 0) + 12 * m + 6 * m * p
+
+
+def state_too_large(layout: Layout) -> str | None:
+    """Why a state of ``layout`` is refused (more than :data:`MAX_STATE_CELLS` numbers), or None."""
+    cells = state_cells(layout)
+    if cells <= MAX_STATE_CELLS:
+        return None
+    return (f"the streamed state of m={layout.m} joints, p={layout.p} regressor columns and {layout.acf_lags} lags "
+            f"({layout.xcorr_lags} of the cross-correlation) would hold {cells} numbers ({8 * cells / 2**30:.3g} GiB), "
+            f"more than the limit of {MAX_STATE_CELLS} (1 GiB, contract §4.1)")
+
+
 class State:
     """Centred, mergeable sums of a run of rows (see the module docstring)."""
 
     def __init__(self, layout: Layout):
+        too_large = state_too_large(layout)
+        if too_large is not None:
+            raise MemoryError(too_large)  # the accumulator refuses such a layout first, as InvalidParameter
         m, p, le, lx = layout.m, layout.p, layout.acf_lags, layout.xcorr_lags
         self.layout = layout
         self.n = 0
         self.lengths: list[int] = []  # segment lengths, in order
         self.start_break = False  # the first row must not join the rows before it
         self.end_break = False  # the next row must not join the last row
+        # power-of-two exponents of each column (module docstring): every centre and sum is in their units
+        self.exp_e = np.zeros(m, dtype=np.int64)
+        self.exp_t = np.zeros(m, dtype=np.int64)
+        self.exp_y = np.zeros((m, p), dtype=np.int64)
         # residual e: centre, lagged products and their boundary sums, pair counts, extremes
         self.k_e = np.zeros(m)
         self.prod_e = Compensated(np.zeros((le + 1, m)))
@@ -137,14 +183,14 @@ class State:
         c = e.shape[0]
         st.n = c
         st.lengths = [c]
-        st.k_e, xe, st.min_e, st.max_e = _centred_rows(e)
+        st.k_e, xe, st.min_e, st.max_e, st.exp_e = _centred_rows(e)
         st._set_lagged_sums(xe, c)
         if st.gram is not None:
             g = np.zeros((layout.m, layout.m))
             for i in range(layout.m):
                 g[i, i:] = np.add.reduce(xe[i] * xe[i:], axis=1)
             st.gram = Compensated(np.triu(g) + np.triu(g, 1).T)
-        st.k_t, xt, st.min_t, st.max_t = _centred_rows(tau)
+        st.k_t, xt, st.min_t, st.max_t, st.exp_t = _centred_rows(tau)
         st.sum_t = Compensated(np.add.reduce(xt, axis=1))
         st.sq_t = Compensated(np.add.reduce(np.square(xt, out=xt), axis=1))
         if layout.p:
@@ -165,8 +211,9 @@ class State:
 
     def _set_regressor_sums(self, xe: np.ndarray, y: np.ndarray, c: int) -> None:
         m, p, lx = self.layout.m, self.layout.p, self.layout.xcorr_lags
-        k_y, xy, lo, hi = _centred_rows(y.reshape(c, m * p))  # row j·p + c: joint j, column c
+        k_y, xy, lo, hi, exps = _centred_rows(y.reshape(c, m * p))  # row j·p + c: joint j, column c
         self.k_y, self.min_y, self.max_y = k_y.reshape(m, p), lo.reshape(m, p), hi.reshape(m, p)
+        self.exp_y = exps.reshape(m, p)
         self.sq_y = Compensated(np.add.reduce(xy * xy, axis=1).reshape(m, p))
         _, lag = _boundary_sums(xy, lx)
         self.lag_y = Compensated(lag.reshape(lx + 1, m, p))
@@ -216,6 +263,28 @@ class State:
         self.sum_t.add(-n * dt)
         self.k_t = k_t
 
+    def rescale(self, exp_e: np.ndarray, exp_t: np.ndarray, exp_y: np.ndarray) -> None:
+        """Move every centre and sum to the exponents given (each at least the state's own): a sum
+        of products of columns a and b is multiplied by 2^(da + db), a sum or centre by 2^da."""
+        de, dt, dy = exp_e - self.exp_e, exp_t - self.exp_t, exp_y - self.exp_y
+        if de.any():
+            self.k_e = np.ldexp(self.k_e, -de)
+            self.prod_e.scale(-2 * de)
+            self.cur_e.scale(-de)
+            self.lag_e.scale(-de)
+            if self.gram is not None:
+                self.gram.scale(-(de[:, None] + de[None, :]))
+        if dt.any():
+            self.k_t = np.ldexp(self.k_t, -dt)
+            self.sum_t.scale(-dt)
+            self.sq_t.scale(-2 * dt)
+        if self.layout.p and (de.any() or dy.any()):
+            self.k_y = np.ldexp(self.k_y, -dy)
+            self.sq_y.scale(-2 * dy)
+            self.lag_y.scale(-dy[None])
+            self.prod_ey.scale(-(de[None, :, None] + dy[None]))
+        self.exp_e, self.exp_t, self.exp_y = exp_e, exp_t, exp_y
+
     # ----------------------------------------------------------------------- merge
 
     def merge(self, later: State | CoreState) -> None:
@@ -234,6 +303,9 @@ class State:
             self.start_break = self.start_break or pending
             return
         b = later.copy()
+        exps = (np.maximum(self.exp_e, b.exp_e), np.maximum(self.exp_t, b.exp_t), np.maximum(self.exp_y, b.exp_y))
+        self.rescale(*exps)
+        b.rescale(*exps)
         n = self.n + b.n
         w = b.n / n
         ma, mb = self.mean_e(), b.mean_e()
@@ -265,8 +337,8 @@ class State:
         le, lx = self.layout.acf_lags, self.layout.xcorr_lags
         if le == 0:
             return
-        head = b.head_e - self.k_e  # current elements: b's first rows
-        tail = self.tail_e - self.k_e  # lagged elements: this state's last rows
+        head = _scaled(b.head_e, self.exp_e) - self.k_e  # current elements: b's first rows
+        tail = _scaled(self.tail_e, self.exp_e) - self.k_e  # lagged elements: this state's last rows
         prod, cur, lag = (np.zeros((le + 1, head.shape[1])) for _ in range(3))
         pairs = np.zeros(le + 1, dtype=np.int64)
         # Lags in groups: the gathered (lags, rows, m) arrays stay small however long max_lag is.
@@ -280,7 +352,7 @@ class State:
         self.lag_e.add(lag)
         self.pairs = self.pairs + pairs
         if self.layout.p and lx:
-            self._add_cross_junction(head, self.tail_y - self.k_y)
+            self._add_cross_junction(head, _scaled(self.tail_y, self.exp_y) - self.k_y)
 
     def _add_cross_junction(self, head: np.ndarray, tail_y: np.ndarray) -> None:
         lx, m, p = self.layout.xcorr_lags, self.layout.m, self.layout.p
@@ -349,15 +421,41 @@ def _lagged_products(x: np.ndarray, y: np.ndarray, top: int, repeat: int = 1) ->
 
 
 def _centred_rows(x: np.ndarray):
-    """(centre, rows − centre, min, max) of the columns of ``x`` (c, k), as contiguous rows (k, c):
-    numpy then sums each row pairwise at the speed of reading it. The centre is the block's mean."""
+    """(centre, rows − centre, min, max, exponents) of the columns of ``x`` (c, k), as contiguous
+    rows (k, c): numpy then sums each row pairwise at the speed of reading it. Each row is scaled
+    by 2^-k, k its exponent (:func:`pow2_exponents`), before it is centred on its mean; the minima
+    and maxima are of the raw values."""
     rows = joint_major(x)
     if not rows.flags.owndata:
         rows = rows.copy()  # joint-major input comes back as a view: the caller's data stay untouched
     lo, hi = rows.min(axis=1), rows.max(axis=1)
+    exps = pow2_exponents(lo, hi)
+    if exps.any():
+        rows = _scale_rows(rows, exps)
     centre = np.add.reduce(rows, axis=1) / rows.shape[1]
     rows -= centre[:, None]
-    return centre, rows, lo, hi
+    return centre, rows, lo, hi, exps
+
+
+def pow2_exponents(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The exponent k (``np.frexp``) of max(|lo|, |hi|), elementwise: 0 where both are 0 (and where
+    a column holds no value yet, ±inf). |x|·2^-k < 1 for every x of the column."""
+    largest = np.maximum(np.abs(lo), np.abs(hi))
+    return np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
+
+
+def _scale_rows(rows: np.ndarray, exps: np.ndarray) -> np.ndarray:
+    """rows·2^-k, row by row, in place where the factor is a normal number (the product is then
+    exactly ``np.ldexp``'s)."""
+    if np.all(np.abs(exps) < 1000):
+        rows *= np.ldexp(1.0, -exps)[:, None]
+        return rows
+    return np.ldexp(rows, -exps[:, None])
+
+
+def _scaled(rows: np.ndarray, exps: np.ndarray) -> np.ndarray:
+    """Raw boundary rows (r, ...) in the units 2^exps of their columns (exps broadcast on a row)."""
+    return np.ldexp(rows, -exps[None]) if rows.size else rows
 
 
 def _boundary_sums(x: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray]:
@@ -466,6 +564,9 @@ class _Snapshot:
     max_t: np.ndarray
     min_y: np.ndarray
     max_y: np.ndarray
+    exp_e: np.ndarray
+    exp_t: np.ndarray
+    exp_y: np.ndarray
 
     def __init__(self, layout: Layout, n: int, lengths: list[int], sums: dict) -> None:
         self.layout, self.n, self.lengths = layout, n, lengths

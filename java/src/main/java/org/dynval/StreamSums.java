@@ -26,9 +26,14 @@ import java.util.Arrays;
  * Σ(x_t − K')(y_{t−ℓ} − K'') = P_ℓ − δ_y H_ℓ − δ_x T_ℓ + n_ℓ δ_x δ_y. A merge moves both operands
  * to their combined mean before adding them (Chan's pairwise update, extended to lagged products),
  * so every sum stays centred and an offset of 1e7 on the data costs no digits; running sums are
- * compensated, so many small blocks are as accurate as one. As in the reference, the sums of
- * squares are not rescaled by a power of two (contract §4.1): data whose squares leave float64's
- * normal range lose digits here where the in-memory functions keep them.
+ * compensated, so many small blocks are as accurate as one.
+ *
+ * <p>As in the reference, every centre and sum is held in units of a power of two per column
+ * (contract §4.1, "Scale"): {@code expE}, {@code expT} (m) and {@code expY} (m·p) are the exponents
+ * k of the largest |x| seen in each column ({@link Kernels#scaleExponent}), and the sums are those
+ * of x·2^-k, so no square underflows or overflows at any accepted magnitude. A block takes the
+ * exponents of its own rows; a merge first moves both operands to the larger exponent of each column
+ * (an exact multiplication by a power of two). Boundary rows, minima and maxima stay raw.
  *
  * <p>Arrays are flat and row-major: lag-major {@code (L+1, m)} for the residual,
  * {@code (L+1, m, p)} for the regressor, {@code (m, p)} per column, {@code (m, m)} for the products.
@@ -48,6 +53,9 @@ final class StreamSums {
     long lastLength;
     long longest;
 
+    int[] expE; // power-of-two exponents per column: every centre and sum is in their units
+    int[] expT;
+    int[] expY;
     double[] kE;
     Compensated prodE;
     Compensated curE; // H_ℓ; H_0 = Σ(e − K)
@@ -109,6 +117,12 @@ final class StreamSums {
             return hi[i] + lo[i];
         }
 
+        /** Multiplies element i by 2^k (exact unless a part underflows). */
+        void scale(int i, int k) {
+            hi[i] = Math.scalb(hi[i], k);
+            lo[i] = Math.scalb(lo[i], k);
+        }
+
         double[] values() {
             double[] out = new double[hi.length];
             for (int i = 0; i < out.length; i++) {
@@ -132,6 +146,9 @@ final class StreamSums {
         this.lags = lags;
         this.gram = gram;
         int mp = m * p;
+        expE = new int[m];
+        expT = new int[m];
+        expY = new int[mp];
         kE = new double[m];
         prodE = new Compensated((lags + 1) * m);
         curE = new Compensated((lags + 1) * m);
@@ -166,6 +183,9 @@ final class StreamSums {
         c.firstLength = firstLength;
         c.lastLength = lastLength;
         c.longest = longest;
+        c.expE = expE.clone();
+        c.expT = expT.clone();
+        c.expY = expY.clone();
         c.kE = kE.clone();
         c.prodE = prodE.copy();
         c.curE = curE.copy();
@@ -202,7 +222,7 @@ final class StreamSums {
         for (double[] a : new double[][] {kE, minE, maxE, kT, minT, maxT, kY, minY, maxY, headE, tailE, tailY}) {
             total += a.length;
         }
-        return total + pairs.length;
+        return total + pairs.length + expE.length + expT.length + expY.length;
     }
 
     // ------------------------------------------------------------------ one block
@@ -220,7 +240,7 @@ final class StreamSums {
         st.lastLength = c;
         st.longest = c;
         // Joint-major centred copies: each lagged product is then a run of contiguous values.
-        double[][] xe = centredColumns(e, c, m, st.kE, st.minE, st.maxE);
+        double[][] xe = centredColumns(e, c, m, st.kE, st.minE, st.maxE, st.expE);
         int top = Math.min(lags, c - 1);
         for (int j = 0; j < m; j++) {
             for (int l = 0; l <= top; l++) {
@@ -240,13 +260,13 @@ final class StreamSums {
                 }
             }
         }
-        double[][] xt = centredColumns(tau, c, m, st.kT, st.minT, st.maxT);
+        double[][] xt = centredColumns(tau, c, m, st.kT, st.minT, st.maxT, st.expT);
         for (int j = 0; j < m; j++) {
             st.sumT.hi[j] = Kernels.sum(xt[j]);
             st.sqT.hi[j] = dot(xt[j], 0, xt[j], 0, c);
         }
         if (mp > 0) {
-            double[][] xy = centredColumns(y, c, mp, st.kY, st.minY, st.maxY); // row j·p + col
+            double[][] xy = centredColumns(y, c, mp, st.kY, st.minY, st.maxY, st.expY); // row j·p + col
             for (int q = 0; q < mp; q++) {
                 st.sqY.hi[q] = dot(xy[q], 0, xy[q], 0, c);
             }
@@ -271,8 +291,12 @@ final class StreamSums {
         return st;
     }
 
-    /** The columns of row-major {@code x} (c, k) centred on their means; writes centres and extremes. */
-    private static double[][] centredColumns(double[] x, int c, int k, double[] centre, double[] lo, double[] hi) {
+    /**
+     * The columns of row-major {@code x} (c, k), each scaled by 2^-e (e its exponent) and centred on
+     * its mean; writes the centres (scaled), the raw extremes and the exponents.
+     */
+    private static double[][] centredColumns(double[] x, int c, int k, double[] centre, double[] lo, double[] hi,
+            int[] exps) {
         double[][] out = new double[k][c];
         for (int t = 0; t < c; t++) {
             int base = t * k;
@@ -290,6 +314,10 @@ final class StreamSums {
             }
             lo[j] = mn;
             hi[j] = mx;
+            exps[j] = Kernels.scaleExponent(new double[] {mn, mx});
+            for (int t = 0; t < c; t++) {
+                col[t] = Math.scalb(col[t], -exps[j]);
+            }
             centre[j] = Kernels.sum(col) / c;
             for (int t = 0; t < c; t++) {
                 col[t] -= centre[j];
@@ -417,6 +445,64 @@ final class StreamSums {
         kT = kt.clone();
     }
 
+    /**
+     * Moves every centre and sum to the exponents given (each at least the state's own): a sum of
+     * products of columns a and b is multiplied by 2^-(da + db), a sum or centre by 2^-da.
+     */
+    private void rescale(int[] ee, int[] et, int[] ey) {
+        int mp = m * p;
+        for (int j = 0; j < m; j++) {
+            int de = ee[j] - expE[j];
+            int dt = et[j] - expT[j];
+            if (de != 0) {
+                kE[j] = Math.scalb(kE[j], -de);
+                for (int l = 0; l <= lags; l++) {
+                    prodE.scale(l * m + j, -2 * de);
+                    curE.scale(l * m + j, -de);
+                    lagE.scale(l * m + j, -de);
+                }
+                if (gram) {
+                    for (int k = 0; k < m; k++) {
+                        products.scale(j * m + k, -de); // row j and column j: (j, j) twice
+                        products.scale(k * m + j, -de);
+                    }
+                }
+            }
+            if (dt != 0) {
+                kT[j] = Math.scalb(kT[j], -dt);
+                sumT.scale(j, -dt);
+                sqT.scale(j, -2 * dt);
+            }
+        }
+        for (int q = 0; q < mp; q++) {
+            int dy = ey[q] - expY[q];
+            int dq = ee[q / p] - expE[q / p] + dy;
+            if (dy != 0) {
+                kY[q] = Math.scalb(kY[q], -dy);
+                sqY.scale(q, -2 * dy);
+            }
+            for (int l = 0; l <= lags; l++) {
+                if (dy != 0) {
+                    lagY.scale(l * mp + q, -dy);
+                }
+                if (dq != 0) {
+                    prodEY.scale(l * mp + q, -dq);
+                }
+            }
+        }
+        expE = ee.clone();
+        expT = et.clone();
+        expY = ey.clone();
+    }
+
+    private static int[] larger(int[] a, int[] b) {
+        int[] out = new int[a.length];
+        for (int i = 0; i < a.length; i++) {
+            out[i] = Math.max(a[i], b[i]);
+        }
+        return out;
+    }
+
     // ------------------------------------------------------------------ merge
 
     /**
@@ -425,6 +511,12 @@ final class StreamSums {
      */
     void mergeOwned(StreamSums b) {
         int mp = m * p;
+        // both operands in the units of the larger exponent of each column
+        int[] ee = larger(expE, b.expE);
+        int[] et = larger(expT, b.expT);
+        int[] ey = larger(expY, b.expY);
+        rescale(ee, et, ey);
+        b.rescale(ee, et, ey);
         double w = (double) b.n / (double) (n + b.n);
         double[] ke = new double[m];
         double[] kt = new double[m];
@@ -501,14 +593,14 @@ final class StreamSums {
             for (int i = i0; i < i1; i++) {
                 int t = tailRows - l + i;
                 for (int j = 0; j < m; j++) {
-                    double h = b.headE[i * m + j] - kE[j];
-                    double g = tailE[t * m + j] - kE[j];
+                    double h = Math.scalb(b.headE[i * m + j], -expE[j]) - kE[j];
+                    double g = Math.scalb(tailE[t * m + j], -expE[j]) - kE[j];
                     prod[j] += h * g;
                     cur[j] += h;
                     lag[j] += g;
                     for (int col = 0; col < p; col++) {
                         int q = j * p + col;
-                        double gy = tailY[t * mp + q] - kY[q];
+                        double gy = Math.scalb(tailY[t * mp + q], -expY[q]) - kY[q];
                         py[q] += h * gy;
                         sy[q] += gy;
                     }

@@ -552,4 +552,53 @@ class ValidationAccumulatorTest {
                 rejects(ErrorKind.INVALID_PARAMETER, () -> Operations.run("accumulate", inputs, conventions))
                         .getMessage());
     }
+
+    /**
+     * The sums are held in units of a power of two per column (contract §4.1): data times 2^-1000
+     * (about 1e-301, whose squares underflow) give the same sums to the bit, every exponent moved by
+     * -1000, and blocks of very different magnitude merge into the sums of the one block.
+     */
+    @Test
+    void sumsDoNotDependOnTheScale() {
+        int c = 9;
+        int m = 2;
+        int p = 1;
+        double[] e = new double[c * m];
+        double[] t = new double[c * m];
+        double[] y = new double[c * m * p];
+        for (int i = 0; i < e.length; i++) {
+            e[i] = Math.sin(1.7 * i) + 0.1 * i;
+            t[i] = 3.0 + Math.cos(0.3 * i);
+            y[i] = Math.cos(2.1 * i) * (i % 3);
+        }
+        StreamSums a = StreamSums.fromBlock(m, p, 3, true, e, t, y, c);
+        StreamSums b = StreamSums.fromBlock(m, p, 3, true, Kernels.scaled(e, 1000), Kernels.scaled(t, 1000),
+                Kernels.scaled(y, 1000), c);
+        for (int j = 0; j < m; j++) {
+            assertEquals(a.expE[j] - 1000, b.expE[j]);
+            assertEquals(a.expT[j] - 1000, b.expT[j]);
+            assertEquals(a.expY[j] - 1000, b.expY[j]);
+        }
+        assertTrue(Arrays.equals(a.prodE.hi, b.prodE.hi) && Arrays.equals(a.prodEY.hi, b.prodEY.hi)
+                && Arrays.equals(a.products.hi, b.products.hi) && Arrays.equals(a.sqT.hi, b.sqT.hi));
+
+        double[] mixed = e.clone();
+        for (int i = 0; i < 3 * m; i++) {
+            mixed[i] *= 1e-250; // the first three rows tiny, the rest large
+        }
+        for (int i = 3 * m; i < mixed.length; i++) {
+            mixed[i] *= 1e100;
+        }
+        StreamSums whole = StreamSums.fromBlock(m, p, 3, true, mixed, mixed, mixed.clone(), c);
+        StreamSums merged = StreamSums.fromBlock(m, p, 3, true, Arrays.copyOfRange(mixed, 0, 3 * m),
+                Arrays.copyOfRange(mixed, 0, 3 * m), Arrays.copyOfRange(mixed, 0, 3 * m), 3);
+        merged.mergeOwned(StreamSums.fromBlock(m, p, 3, true, Arrays.copyOfRange(mixed, 3 * m, c * m),
+                Arrays.copyOfRange(mixed, 3 * m, c * m), Arrays.copyOfRange(mixed, 3 * m, c * m), c - 3));
+        assertTrue(Arrays.equals(whole.expE, merged.expE));
+        double[] got = merged.prodE.values();
+        double size = Math.abs(whole.prodE.hi[0]) + Math.abs(whole.prodE.hi[1]);
+        for (int i = 0; i < got.length; i++) {
+            assertEquals(whole.prodE.hi[i], got[i], 1e-13 * size);
+        }
+    }
 }
