@@ -19,8 +19,6 @@ import argparse
 import math
 import time
 
-import numpy as np
-
 import dynval
 from dynval.fleet import Degradation, LogSummary, simulate_fleet
 from dynval.fleet._drift import drift_per_robot
@@ -62,7 +60,8 @@ def size(fleets, n_robots, n_logs, n_samples):
         family += any(d.finding is not None for d in drift)
         total += len(drift)
     print(f"size, {fleets} healthy fleets of {n_robots} robots × {n_logs} logs × {n_samples} samples:")
-    print(f"  per robot (raw p ≤ {ALPHA}): {raw}/{total} = {raw / total:.4f} (95 % upper {binomial_upper(raw, total):.4f})"
+    upper = binomial_upper(raw, total)
+    print(f"  per robot (raw p ≤ {ALPHA}): {raw}/{total} = {raw / total:.4f} (95 % upper {upper:.4f})"
           f"  {'PASS' if raw / total <= ALPHA else 'MISS'}")
     print(f"  any finding in a fleet (Holm): {family}/{fleets} = {family / fleets:.4f}  "
           f"{'PASS' if family / fleets <= ALPHA else 'MISS'}")

@@ -137,7 +137,7 @@ def test_tasks_receive_file_names_not_arrays(small_fleet, monkeypatch):
     import distributed
 
     monkeypatch.setattr(distributed, "as_completed", lambda futures: iter(futures))
-    _, logs, specs = small_fleet
+    _, _, specs = small_fleet
     client = _RecordingClient()
     report = fleet.validate_many(specs, scheduler=client, max_lag=10)
     assert len(client.shipped) == len(specs) and len(report.logs) == len(specs)
@@ -216,7 +216,7 @@ def test_change_point_finds_the_split_and_gives_a_permutation_p():
 
 
 def test_identical_logs_show_no_change():
-    k, t, p = change_point(np.full(8, 0.3), rng=np.random.default_rng(0))
+    _, t, p = change_point(np.full(8, 0.3), rng=np.random.default_rng(0))
     assert t == 0.0 and p == 1.0
 
 

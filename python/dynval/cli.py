@@ -195,7 +195,8 @@ def _add_validate_many(sub) -> None:
                            "over 2 s")
     many.add_argument("--json", action="store_true", help="print the fleet report as JSON")
     many.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
-    many.add_argument("--html", metavar="FILE", help="also write an HTML fleet page with drift plots (needs dynval[plot])")
+    many.add_argument("--html", metavar="FILE",
+                      help="also write an HTML fleet page with drift plots (needs dynval[plot])")
 
 
 def _model_arg(text: str):

@@ -80,7 +80,7 @@ def _split_statistics(x: np.ndarray, min_baseline: int) -> np.ndarray:
     return np.nan_to_num(t, nan=0.0)  # identical logs: no change (0/0); a jump without spread stays +inf
 
 
-def change_point(x: Sequence[float], *, min_baseline: int = MIN_BASELINE,
+def change_point(x: Sequence[float] | np.ndarray, *, min_baseline: int = MIN_BASELINE,
                  n_permutations: int = DEFAULT_PERMUTATIONS, rng: np.random.Generator | None = None,
                  ) -> tuple[int, float, float]:
     """(index of the first later log, statistic, permutation p-value) of an upward change in the
@@ -115,7 +115,7 @@ def drift_per_robot(rows: Sequence[LogSummary], *, level: float, min_baseline: i
     """The drift test of every robot of ``rows`` (already in robot and time order), Holm over the
     robots tested."""
     robots = list(dict.fromkeys(r.robot for r in rows))
-    partial = []
+    partial: list[tuple[str, list[LogSummary], tuple[int, float, float] | None]] = []
     for robot in robots:
         logs = [r for r in rows if r.robot == robot and r.error is None and r.rmse > 0 and math.isfinite(r.rmse)]
         if len(logs) < min_baseline + 1:
@@ -125,7 +125,8 @@ def drift_per_robot(rows: Sequence[LogSummary], *, level: float, min_baseline: i
                                n_permutations=n_permutations, rng=_robot_rng(seed, robot))
         partial.append((robot, logs, (k, t, p)))
     tested = [i for i, (_, _, res) in enumerate(partial) if res is not None]
-    adjusted = dict(zip(tested, holm([partial[i][2][2] for i in tested]))) if tested else {}
+    raw = [res[2] for _, _, res in partial if res is not None]
+    adjusted = dict(zip(tested, holm(raw))) if tested else {}
     return [_drift(robot, logs, res, adjusted.get(i), level, min_baseline, ratio_threshold)
             for i, (robot, logs, res) in enumerate(partial)]
 
@@ -158,5 +159,9 @@ def _finding(d: Drift, logs: Sequence[LogSummary], ratio_threshold: float) -> Fi
                    pvalue_adjusted=d.pvalue_adjusted, effect=d.ratio, effect_unit="× RMSE", threshold=ratio_threshold,
                    action=action, message=message,
                    details={"robot": d.robot, "from_log": d.change_log, "from_time": d.change_time, "from_index": k,
-                            "n_logs": d.n_logs, "rmse_before": float(np.exp(np.mean(np.log([r.rmse for r in logs[:k]])))),
-                            "rmse_after": float(np.exp(np.mean(np.log([r.rmse for r in logs[k:]]))))})
+                            "n_logs": d.n_logs, "rmse_before": _geometric_mean(logs[:k]),
+                            "rmse_after": _geometric_mean(logs[k:])})
+
+
+def _geometric_mean(logs: Sequence[LogSummary]) -> float:
+    return float(np.exp(np.mean(np.log([r.rmse for r in logs]))))

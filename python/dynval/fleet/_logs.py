@@ -175,7 +175,7 @@ def _directory_arrays(path: str) -> dict[str, str]:
     except OSError as exc:
         raise FileInputError(f"{path}: a log named ROBOT__TIME without a suffix is a directory holding "
                              f"tau_meas.* and tau_pred.* ({exc.strerror or exc})") from None
-    found = {}
+    found: dict[str, str] = {}
     for name in names:
         stem, suffix = os.path.splitext(name)
         if stem in ("tau_meas", "tau_pred", "regressor") and suffix.lower() in _ARRAY_SUFFIXES:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..checks._errors import InputError
-from ._logs import LogSpec, as_spec
+from ._logs import as_spec
 
 __all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag"]
 
@@ -83,7 +83,7 @@ def is_bag(logs: Any) -> bool:
 
 
 def _progress_bar(total: int, progress: bool | None, unit: str) -> Any:
-    from tqdm.auto import tqdm
+    from tqdm import tqdm  # type: ignore[import-untyped]
 
     # By default: on a terminal, once the run has lasted 2 s (as dynval validate --stream does).
     return tqdm(total=total, unit=unit, file=sys.stderr, disable=None if progress is None else not progress,
@@ -110,9 +110,9 @@ def run_logs(logs: Any, client: Any, n_params: int | None, keywords: dict,
 def _run_bag(bag: Any, client: Any, n_params: int | None, keywords: dict, progress: bool | None) -> list[LogSummary]:
     parts = bag.map_partitions(_summarise_partition, n_params, keywords).to_delayed()
     if client is None:
-        import dask
+        from dask.base import compute
 
-        return [row for part in dask.compute(*parts, scheduler="sync") for row in part]
+        return [row for part in compute(*parts, scheduler="sync") for row in part]
     return _gathered(client, client.compute(parts), progress, "partition",
                      lambda parts: [row for part in parts for row in part])
 

@@ -101,7 +101,8 @@ def simulate_fleet(*, n_robots: int = 6, n_logs: int = 12, n_samples: int = 1000
         change = changes.get(robot)
         for k in range(n_logs):
             truth = _degraded(arm, change) if change is not None and k >= change.from_log else arm
-            q, dq, ddq = fourier_trajectory(t, *_trajectory_coefficients(rng), base_frequency=0.1)
+            offsets, amplitudes, phases = _trajectory_coefficients(rng)
+            q, dq, ddq = fourier_trajectory(t, offsets, amplitudes, phases, 0.1)
             y = arm_regressor(q, dq, ddq, l1=arm.l1)
             tau = y @ base_parameters(truth) + _ar1(rng, (n_samples, 2), noise, colour)
             stamp = (start + timedelta(days=k)).strftime("%Y-%m-%dT%H:%M")
