@@ -288,8 +288,12 @@ def test_the_command_line_names_a_bad_log_and_exits_1(tmp_path, capsys):
 
 def test_the_summary_lists_every_log_and_the_drift(small_fleet):
     _, _, specs = small_fleet
-    text = fleet.validate_many(specs, scheduler="single", max_lag=10).summary()
+    report = fleet.validate_many(specs, scheduler="single", max_lag=10)
+    text = report.summary()
     assert text.count("\n  r0") >= 40 + 4 and "r02: DRIFT from log" in text
+    table = report.table()
+    assert len(table) == 40 and tuple(table[0]) == fleet.TABLE_COLUMNS
+    assert [row["robot"] for row in table[::10]] == ["r01", "r02", "r03", "r04"]
 
 
 # --------------------------------------------------------------------------- a real cluster
