@@ -306,9 +306,12 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
     import dynval.dask
     directory, _, specs = small_fleet
     single = fleet.validate_many(specs, scheduler="single", max_lag=10)
-    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None) as c:
+    with fleet.local_cluster(2) as c:
         by_address = fleet.validate_many(specs, scheduler=c.scheduler_address, max_lag=10)
-        with distributed.Client(c):
+        with distributed.Client(c) as client:
+            # the workers keep freed memory for the next log's temporaries (dynval.fleet._cluster)
+            environ = client.run(lambda: os.environ.get("MALLOC_MMAP_THRESHOLD_"))
+            assert set(environ.values()) == {str(16 << 20)}
             folders = sorted(os.path.join(directory, d) for d in os.listdir(directory) if "__" in d)
             from_bag = dynval.dask.validate_many(bag.from_sequence(folders, npartitions=3), n_params=10, max_lag=10)
     strip = [{k: v for k, v in vars(r).items() if k not in ("seconds", "log", "time")} for r in single.logs]

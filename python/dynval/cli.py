@@ -584,11 +584,12 @@ def _fleet_scheduler(args):
         return args.scheduler
     if args.workers is None:
         return "single"
+    from .fleet import local_cluster
+
     try:
-        from distributed import LocalCluster
+        return local_cluster(args.workers)
     except ImportError:
         raise ImportError("--workers needs dask.distributed: pip install 'dynval[dask]'") from None
-    return LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
 
 
 def _write_fleet_html(args, fleet) -> int:

@@ -10,14 +10,15 @@ Running on a cluster
 Without dask, or without a dask client, the logs are validated one after the other in this process.
 With a client (``dask.distributed``) they are spread over its workers::
 
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client
     import dynval.fleet
 
-    client = Client(LocalCluster(n_workers=2, threads_per_worker=1))
+    client = Client(dynval.fleet.local_cluster(n_workers=2))  # LocalCluster, workers set for many logs
     fleet = dynval.fleet.validate_many(["fleet.csv"], n_params=40)   # the current client is used
 
 On a real cluster the only change is the scheduler's address (``scheduler="tcp://host:8786"``, or
-``Client("tcp://host:8786")`` first); the files must be readable where the workers run.
+``Client("tcp://host:8786")`` first); the files must be readable where the workers run, and workers
+started with :data:`WORKER_ENVIRON` in their environment spend less time in page faults.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from typing import Any
 
 from ..checks._errors import InvalidParameter
 from ..checks._validation import check_level
+from ._cluster import WORKER_ENVIRON, client_for, local_cluster
 from ._drift import DEFAULT_PERMUTATIONS, MIN_BASELINE, RATIO_THRESHOLD, Drift, change_point, drift_per_robot
 from ._logs import MANIFEST_COLUMNS, LogSpec, log_from_path, log_specs, read_manifest, time_key
 from ._report import TABLE_COLUMNS, FleetReport
@@ -36,8 +38,9 @@ from ._run import LogSummary, is_bag, run_logs, summarise_log
 from ._simulate import Degradation, FleetLog, simulate_fleet, write_fleet
 
 __all__ = ["validate_many", "FleetReport", "LogSummary", "Drift", "LogSpec", "read_manifest", "log_from_path",
-           "change_point", "simulate_fleet", "write_fleet", "Degradation", "FleetLog", "summarise_log",
-           "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE", "RATIO_THRESHOLD", "DEFAULT_PERMUTATIONS"]
+           "change_point", "local_cluster", "WORKER_ENVIRON", "simulate_fleet", "write_fleet", "Degradation",
+           "FleetLog", "summarise_log", "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE", "RATIO_THRESHOLD",
+           "DEFAULT_PERMUTATIONS"]
 
 
 def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = None, progress: bool | None = None,
@@ -94,7 +97,7 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
     _check_settings(min_baseline, ratio_threshold, n_permutations)
     settings = dict(keywords, level=level)
     items = logs if is_bag(logs) else log_specs([logs] if isinstance(logs, (str, os.PathLike)) else logs, n_params)
-    client, owned = _client(scheduler)
+    client, owned = client_for(scheduler)
     start = time.perf_counter()
     try:
         rows = run_logs(items, client, n_params, settings, progress)
@@ -119,29 +122,6 @@ def _check_settings(min_baseline: Any, ratio_threshold: Any, n_permutations: Any
         raise InvalidParameter(f"ratio_threshold must be a number >= 1, got {ratio_threshold!r}")
     if not isinstance(n_permutations, int) or n_permutations < 19:
         raise InvalidParameter(f"n_permutations must be an integer >= 19, got {n_permutations!r}")
-
-
-def _client(scheduler: Any) -> tuple[Any, bool]:
-    """(dask client or None for this process, whether this run made it and must close it)."""
-    if isinstance(scheduler, str) and scheduler == "single":
-        return None, False
-    if scheduler is None:
-        try:
-            from distributed import default_client
-
-            return default_client(), False
-        except (ImportError, ValueError):  # no dask, or no client: this process
-            return None, False
-    if hasattr(scheduler, "submit") and hasattr(scheduler, "gather"):
-        return scheduler, False
-    if isinstance(scheduler, str) or hasattr(scheduler, "scheduler_address"):
-        try:
-            from distributed import Client
-        except ImportError:
-            raise ImportError("a dask scheduler needs dask.distributed: pip install 'dynval[dask]'") from None
-        return Client(scheduler), True
-    raise InvalidParameter(f"scheduler must be None, 'single', a dask Client, a cluster or a scheduler address, "
-                           f"got {scheduler!r}")
 
 
 def _in_fleet_order(rows: Iterable[LogSummary]) -> list[LogSummary]:
