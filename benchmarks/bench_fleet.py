@@ -89,6 +89,28 @@ def bench_fleet(specs, clients, max_lag, repeat):
               f"{verdict(ratio)}")
 
 
+def cpu_per_log(specs, max_lag):
+    """(CPU ms per log, minor page faults per log) of validating ``specs`` where this runs."""
+    import resource
+
+    fleet.summarise_log(specs[0], keywords={"max_lag": max_lag})  # imports and caches
+    faults, cpu = resource.getrusage(resource.RUSAGE_SELF).ru_minflt, time.process_time()
+    for spec in specs:
+        fleet.summarise_log(spec, keywords={"max_lag": max_lag})
+    return ((time.process_time() - cpu) * 1e3 / len(specs),
+            (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults) / len(specs))
+
+
+def bench_cpu_per_log(specs, clients, max_lag):
+    """CPU time does not depend on the other jobs' load the way wall time does: what a log costs."""
+    here = cpu_per_log(specs, max_lag)
+    line = [f"this process {here[0]:.1f} ms, {here[1]:.0f} page faults"]
+    for label, client in clients.items():
+        there = client.submit(cpu_per_log, specs, max_lag, pure=False).result()
+        line.append(f"a worker of {label} {there[0]:.1f} ms ({there[0] / here[0]:.2f} ×), {there[1]:.0f} page faults")
+    print(f"CPU per log ({len(specs)} logs): " + "; ".join(line))
+
+
 def _block(path, start, stop):
     return np.load(path, mmap_mode="r")[start:stop]
 
@@ -148,8 +170,10 @@ def main():
         with fleet.local_cluster(args.workers) as tuned, Client(tuned) as client, \
                 LocalCluster(n_workers=args.workers, threads_per_worker=1, dashboard_address=None) as plain, \
                 Client(plain, set_as_default=False) as plain_client:
-            bench_fleet(specs, {"dynval.fleet.local_cluster (WORKER_ENVIRON)": client,
-                                "LocalCluster as dask starts it": plain_client}, args.max_lag, args.repeat)
+            clients = {"dynval.fleet.local_cluster (WORKER_ENVIRON)": client,
+                       "LocalCluster as dask starts it": plain_client}
+            bench_cpu_per_log(specs[:40], clients, args.max_lag)
+            bench_fleet(specs, clients, args.max_lag, args.repeat)
             if not args.skip_series:
                 bench_single_array(directory, specs, client, args.block, args.m, args.max_lag)
 

@@ -312,6 +312,7 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
             # the workers keep freed memory for the next log's temporaries (dynval.fleet._cluster)
             environ = client.run(lambda: os.environ.get("MALLOC_MMAP_THRESHOLD_"))
             assert set(environ.values()) == {str(16 << 20)}
+            assert "MALLOC_MMAP_THRESHOLD_" not in os.environ  # set for the workers only
             folders = sorted(os.path.join(directory, d) for d in os.listdir(directory) if "__" in d)
             from_bag = dynval.dask.validate_many(bag.from_sequence(folders, npartitions=3), n_params=10, max_lag=10)
     strip = [{k: v for k, v in vars(r).items() if k not in ("seconds", "log", "time")} for r in single.logs]

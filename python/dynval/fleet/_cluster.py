@@ -9,6 +9,7 @@ environment, which fixes glibc's mmap threshold at 128 KiB: every temporary of a
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from ..checks._errors import InvalidParameter
@@ -31,8 +32,18 @@ def local_cluster(n_workers: int = 2, **kwargs: Any) -> Any:
 
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"), **WORKER_ENVIRON}
     settings = {"threads_per_worker": 1, "processes": True, "dashboard_address": None, **kwargs}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=n_workers, **settings)
+    # The nannies run in this process and set the variables in its own environment before they
+    # spawn their workers: restore it, so that later subprocesses of the caller do not inherit them.
+    saved = {key: os.environ.get(key) for key in environ}
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            return LocalCluster(n_workers=n_workers, **settings)
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def client_for(scheduler: Any) -> tuple[Any, bool]:
