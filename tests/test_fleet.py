@@ -321,3 +321,24 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
         assert [(d.robot, d.change, d.pvalue) for d in other.drift] == [(d.robot, d.change, d.pvalue)
                                                                          for d in single.drift]
     assert by_address.provenance["where"] == "2 dask workers"
+
+
+@pytest.mark.slow
+def test_the_command_line_runs_on_a_scheduler_s_address(small_fleet, capsys):
+    distributed = pytest.importorskip("distributed")
+    directory, _, _ = small_fleet
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as c:
+        code = main(["validate-many", os.path.join(directory, "manifest.csv"), "--max-lag", "10", "--json",
+                     "--scheduler", c.scheduler_address])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["provenance"]["where"] == "1 dask worker" and len(out["logs"]) == 40
+
+
+def test_a_bag_without_a_client_runs_in_this_process(small_fleet):
+    bag = pytest.importorskip("dask.bag")
+    directory, _, specs = small_fleet
+    folders = [os.path.join(directory, s.log) for s in specs[:6]]
+    report = fleet.validate_many(bag.from_sequence(folders, npartitions=2), scheduler="single", n_params=10,
+                                 max_lag=5)
+    assert report.provenance["where"] == "this process"
+    assert [r.log for r in report.logs] == [s.log for s in specs[:6]]

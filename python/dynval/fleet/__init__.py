@@ -50,9 +50,10 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
 
     Parameters
     ----------
-    logs : paths, manifests, LogSpecs or mappings, or a dask bag of them
+    logs : paths, manifests, LogSpecs or mappings, or a dask bag of logs
         Manifests (``.csv``/``.json``) name their logs; other paths are logs named ``ROBOT__TIME``
-        (contract §10). A dask bag is mapped on its own partitions (names resolved on the workers).
+        (contract §10). A dask bag of logs (not manifests) is mapped on its own partitions (names
+        resolved on the workers).
     n_params : int, optional
         Parameter count of every log that does not give its own (the manifest's ``n_params``).
     scheduler : None, "single", dask Client, cluster or address, optional
@@ -101,7 +102,8 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
     start = time.perf_counter()
     try:
         rows = run_logs(items, client, n_params, settings, progress)
-        where = "this process" if client is None else f"{len(client.scheduler_info()['workers'])} dask workers"
+        workers = 0 if client is None else len(client.scheduler_info()["workers"])
+        where = "this process" if client is None else f"{workers} dask worker{'s' * (workers != 1)}"
     finally:
         if owned:
             client.close()
