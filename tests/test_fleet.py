@@ -191,6 +191,11 @@ def test_bad_settings_are_refused_with_their_value(small_fleet):
         fleet.validate_many(specs, scheduler=3)
     with pytest.raises(dynval.InvalidParameter, match=r"^level must be a number with 0 < level < 1, got 1.5$"):
         fleet.validate_many(specs, scheduler="single", level=1.5)
+    # validate's own settings are checked once, before any log is read
+    with pytest.raises(dynval.InvalidParameter, match=r"^max_lag must be"):
+        fleet.validate_many(specs, scheduler="single", max_lag=-3)
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'max_lags'"):
+        fleet.validate_many(specs, scheduler="single", max_lags=3)
 
 
 # --------------------------------------------------------------------------- drift

@@ -96,6 +96,7 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
     """
     check_level(level)
     _check_settings(min_baseline, ratio_threshold, n_permutations)
+    _check_validate_keywords(keywords)
     settings = dict(keywords, level=level)
     items = logs if is_bag(logs) else log_specs([logs] if isinstance(logs, (str, os.PathLike)) else logs, n_params)
     client, owned = client_for(scheduler)
@@ -115,6 +116,25 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
                   "ratio_threshold": ratio_threshold, "n_permutations": n_permutations, "seed": seed,
                   "validate_keywords": {k: v for k, v in keywords.items() if isinstance(v, (int, float, str, bool))}}
     return FleetReport(tuple(ordered), tuple(drift), float(level), provenance)
+
+
+# validate's settings that do not depend on a log's data: checked once, before any task runs
+_DATA_FREE = ("profile", "nan_policy", "max_lag", "backend", "noise_model", "sample_rate", "bandwidth", "joint_names",
+              "column_names", "thresholds", "allow_wide")
+
+
+def _check_validate_keywords(keywords: dict[str, Any]) -> None:
+    """Unknown names (TypeError) and bad data-free settings (InvalidParameter) fail here, not in every task."""
+    from dataclasses import fields
+
+    from ..checks._options import Keywords, check_options
+
+    known = {f.name for f in fields(Keywords)} - {"n_params", "level"}
+    for name in keywords:
+        if name not in known:
+            raise TypeError(f"validate_many() got an unexpected keyword argument {name!r}")
+    free = {k: v for k, v in keywords.items() if k in _DATA_FREE}
+    check_options(Keywords(n_params=0, decimate=None, cross_correlation_detail=None, **free), None)
 
 
 def _check_settings(min_baseline: Any, ratio_threshold: Any, n_permutations: Any) -> None:
