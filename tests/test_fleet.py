@@ -281,7 +281,7 @@ def test_the_command_line_prints_the_fleet_and_writes_the_page(small_fleet, tmp_
     assert [f["details"]["robot"] for f in out["findings"]] == ["r02"]
     root = ET.fromstring(page.read_text(encoding="utf-8").split("\n", 1)[1])  # well-formed, as the reports
     text = "".join(root.itertext())
-    assert "Drift per robot" in text and "deficiency" in text
+    assert "Robots and their drift" in text and "deficiency" in text
     assert len(root.findall(".//{http://www.w3.org/1999/xhtml}img")) == 2
 
 
@@ -299,6 +299,12 @@ def test_the_summary_lists_every_log_and_the_drift(small_fleet):
     table = report.table()
     assert len(table) == 40 and tuple(table[0]) == fleet.TABLE_COLUMNS
     assert [row["robot"] for row in table[::10]] == ["r01", "r02", "r03", "r04"]
+    robots = report.robot_table()
+    assert [r["robot"] for r in robots] == ["r01", "r02", "r03", "r04"]
+    assert robots[1]["rmse"] == pytest.approx(np.median([row["rmse"] for row in table[10:20]]))
+    assert sum(robots[1]["decisions"].values()) == 10 and robots[1]["n_errors"] == 0
+    assert (robots[1]["drift"], robots[1]["from_log"]) == ("deficiency", specs[15].log)
+    assert robots[0]["drift"] == "none"
 
 
 # --------------------------------------------------------------------------- a real cluster

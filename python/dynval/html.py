@@ -561,17 +561,19 @@ def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, t
 
 def _fleet_drift_table(fleet) -> str:
     rows, classes = [], []
-    for d in fleet.drift:
+    for d, robot in zip(fleet.drift, fleet.robot_table()):
         sev = d.finding.severity if d.finding is not None else ""
         state = (f'<span class="sev {_a(sev)}">{_e(sev)}</span>' if sev
                  else ("not tested" if not d.tested else "no drift"))
-        rows.append([_e(d.robot), str(d.n_logs), state,
-                     _e(f"{d.change_log} ({d.change_time})") if d.tested else _e(d.reason),
+        decisions = ", ".join(f"{n} {k}" for k, n in sorted(robot["decisions"].items()))
+        rows.append([_e(d.robot), str(robot["n_logs"]), _num(robot["rmse"]), _e(decisions), state,
+                     (_e(d.change_log) if sev else f'<span class="muted">{_e(d.change_log)}</span>') if d.tested
+                     else _e(d.reason),
                      _num(d.ratio, 3) if d.tested else "—", pvalue_text(d.pvalue) if d.tested else "—",
                      pvalue_text(d.pvalue_adjusted) if d.tested else "—"])
         classes.append("flagged" if sev == "deficiency" else "")
-    return _table(["robot", "logs", "drift", "most likely change: from log", "RMSE ratio after/before", "p",
-                   "Holm p"], rows, text_cols=(0, 2, 3), row_classes=classes)
+    return _table(["robot", "logs", "median RMSE", "decisions", "drift", "change from log (most likely)",
+                   "RMSE ratio after/before", "p", "Holm p"], rows, text_cols=(0, 3, 4, 5), row_classes=classes)
 
 
 def _fleet_log_table(fleet) -> str:
@@ -615,7 +617,7 @@ def render_fleet_report(fleet, *, title=None) -> str:
              f'<p class="sub">{len(fleet.logs)} logs of {len(fleet.drift)} robots · decisions: {_e(counts)} · '
              f"ran on {_e(prov.get('where', 'this process'))} in {prov.get('seconds', 0.0):.1f} s · "
              f"α = {1.0 - fleet.level:g}</p>",
-             "<h2>Drift per robot</h2>",
+             "<h2>Robots and their drift</h2>",
              '<p class="muted">A change point in each robot\'s log RMSE (logs in time order): the largest '
              "two-sample t of the later logs against at least "
              f"{_e(prov.get('min_baseline', 3))} earlier ones, its p-value from shuffles of the logs' order, "

@@ -6,6 +6,8 @@ import json
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
 from ..report._json import to_jsonable
 from ..report._text import p_clause
 from ._drift import Drift
@@ -54,12 +56,33 @@ class FleetReport:
         """The fleet table: one dict per log with the keys of :data:`TABLE_COLUMNS`."""
         return [{c: getattr(row, c) for c in TABLE_COLUMNS} for row in self.logs]
 
+    def robot_table(self) -> list[dict[str, Any]]:
+        """One dict per robot: ``robot``, ``n_logs``, ``n_errors``, the median ``rmse`` and ``vaf`` of
+        its valid logs, ``decisions`` (decision → count) and its ``drift`` (``deficiency``, ``note``,
+        ``none`` or ``not tested``) with ``from_log``."""
+        out = []
+        for d in self.drift:
+            rows = [r for r in self.logs if r.robot == d.robot]
+            valid = [r for r in rows if r.error is None]
+            decisions: dict[str, int] = {}
+            for r in rows:
+                decisions[r.decision] = decisions.get(r.decision, 0) + 1
+            state = d.finding.severity if d.finding is not None else ("none" if d.tested else "not tested")
+            out.append({"robot": d.robot, "n_logs": len(rows), "n_errors": len(rows) - len(valid),
+                        "rmse": float(np.median([r.rmse for r in valid])) if valid else float("nan"),
+                        "vaf": float(np.median([r.vaf for r in valid])) if valid else float("nan"),
+                        "decisions": decisions, "drift": state,
+                        "from_log": d.change_log if d.finding is not None else None})
+        return out
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary: ``logs``, ``drift`` (each with its ``finding``), ``findings``,
+        """JSON-ready dictionary: ``robots`` (:meth:`robot_table`), ``logs``, ``drift`` (each with its
+        ``finding``), ``findings``,
         ``level`` and ``provenance`` (non-finite numbers as strings, as a report's)."""
         drift = [{**{k: v for k, v in asdict(d).items() if k != "finding"},
                   "finding": None if d.finding is None else d.finding.to_dict()} for d in self.drift]
-        out: dict[str, Any] = to_jsonable({"level": self.level, "logs": [asdict(r) for r in self.logs],
+        out: dict[str, Any] = to_jsonable({"level": self.level, "robots": self.robot_table(),
+                                           "logs": [asdict(r) for r in self.logs],
                                            "drift": drift, "findings": [f.to_dict() for f in self.findings],
                                            "provenance": self.provenance})
         return out
@@ -88,6 +111,11 @@ def _summary_lines(fleet: FleetReport) -> list[str]:
                      f"{r.rmse:>10.4g} {r.vaf:>7.2f} {r.decision:<9} {found}")
     alpha = 1.0 - fleet.level
     tested = sum(d.tested for d in fleet.drift)
+    lines += ["", "Robots (median over their valid logs):"]
+    for robot in fleet.robot_table():
+        decisions = ", ".join(f"{n} {k}" for k, n in sorted(robot["decisions"].items()))
+        lines.append(f"  {robot['robot']}: {robot['n_logs']} logs, RMSE {robot['rmse']:.4g}, VAF {robot['vaf']:.2f} %; "
+                     f"{decisions}")
     lines += ["", f"Drift (change point in each robot's log RMSE, permutation test, Holm over {tested} robot"
                   f"{'s' * (tested != 1)}, α = {alpha:g}):"]
     for d in fleet.drift:
