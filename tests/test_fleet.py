@@ -75,6 +75,37 @@ def test_a_row_without_n_params_and_no_default_is_refused_naming_the_line(tmp_pa
         fleet.read_manifest(str(tmp_path / "fleet.csv"))
 
 
+def test_a_manifest_row_with_an_empty_needed_cell_is_refused_naming_it(tmp_path):
+    (tmp_path / "fleet.csv").write_text("robot,time,tau_meas,tau_pred\nr,1,m.npy,\n")
+    with pytest.raises(FileInputError, match=r"fleet\.csv line 2: no tau_pred \(a manifest row needs robot, time, "):
+        fleet.read_manifest(str(tmp_path / "fleet.csv"), n_params=1)
+    (tmp_path / "fleet.json").write_text('{"logs": 3}')
+    with pytest.raises(FileInputError, match=r"fleet\.json: a JSON manifest is a list of objects"):
+        fleet.read_manifest(str(tmp_path / "fleet.json"), n_params=1)
+
+
+def test_hdf5_npz_and_parquet_logs_are_read_with_the_command_line_s_readers(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    pq = pytest.importorskip("pyarrow.parquet")
+    import pyarrow as pa
+
+    rng = np.random.default_rng(3)
+    meas, pred = _pair(rng)
+    with h5py.File(tmp_path / "r1__1.h5", "w") as f:
+        f["tau_meas"], f["tau_pred"] = meas, pred
+    np.savez(tmp_path / "r1__2.npz", tau_meas=meas, tau_pred=pred)
+    pq.write_table(pa.table({"m0": meas[:, 0], "m1": meas[:, 1], "p0": pred[:, 0], "p1": pred[:, 1]}),
+                   str(tmp_path / "log3.parquet"))
+    # a cell that names several columns holds commas: quoted, as CSV quotes
+    (tmp_path / "fleet.csv").write_text('robot,time,tau_meas,tau_pred\n'
+                                        'r1,3,"log3.parquet:m0,m1","log3.parquet:p0,p1"\n')
+    logs = [str(tmp_path / "r1__1.h5"), str(tmp_path / "r1__2.npz")]
+    report = fleet.validate_many([*logs, str(tmp_path / "fleet.csv")], n_params=2, scheduler="single", max_lag=5)
+    want = float(dynval.rmse(meas, pred))
+    assert [r.error for r in report.logs] == [None] * 3
+    assert [r.rmse for r in report.logs] == pytest.approx([want] * 3, rel=1e-12)
+
+
 def test_the_naming_pattern_gives_robot_time_and_members(tmp_path):
     spec = fleet.log_from_path(str(tmp_path / "arm_7__2026-03-01T08-00.h5"), n_params=3)
     assert (spec.robot, spec.time, spec.log) == ("arm_7", "2026-03-01T08-00", "arm_7__2026-03-01T08-00")
