@@ -214,6 +214,11 @@ def test_a_progress_bar_goes_to_stderr(small_fleet, capsys):
     assert "3/3" in capsys.readouterr().err
 
 
+def test_no_logs_give_an_empty_report():
+    report = fleet.validate_many([], scheduler="single")
+    assert (report.logs, report.drift, report.findings, report.table()) == ((), (), (), [])
+
+
 def test_bad_settings_are_refused_with_their_value(small_fleet):
     _, _, specs = small_fleet
     with pytest.raises(dynval.InvalidParameter, match=r"^min_baseline must be an integer >= 2, got 1$"):
