@@ -168,7 +168,7 @@ def main():
     with tempfile.TemporaryDirectory() as directory:
         specs = write_logs(directory, args.logs, args.n, args.m)
         with fleet.local_cluster(args.workers) as tuned, Client(tuned) as client, \
-                LocalCluster(n_workers=args.workers, threads_per_worker=1, dashboard_address=None) as plain, \
+                LocalCluster(n_workers=args.workers, threads_per_worker=1, dashboard_address=":0") as plain, \
                 Client(plain, set_as_default=False) as plain_client:
             clients = {"dynval.fleet.local_cluster (WORKER_ENVIRON)": client,
                        "LocalCluster as dask starts it": plain_client}

@@ -374,7 +374,7 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
 def test_the_command_line_runs_on_a_scheduler_s_address(small_fleet, capsys):
     distributed = pytest.importorskip("distributed")
     directory, _, _ = small_fleet
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as c:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as c:
         code = main(["validate-many", os.path.join(directory, "manifest.csv"), "--max-lag", "10", "--json",
                      "--scheduler", c.scheduler_address])
     out = json.loads(capsys.readouterr().out)

@@ -31,7 +31,7 @@ def local_cluster(n_workers: int = 2, **kwargs: Any) -> Any:
     from distributed import LocalCluster
 
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"), **WORKER_ENVIRON}
-    settings = {"threads_per_worker": 1, "processes": True, "dashboard_address": None, **kwargs}
+    settings = {"threads_per_worker": 1, "processes": True, "dashboard_address": ":0", **kwargs}
     # The nannies run in this process and set the variables in its own environment before they
     # spawn their workers: restore it, so that later subprocesses of the caller do not inherit them.
     saved = {key: os.environ.get(key) for key in environ}
