@@ -248,6 +248,15 @@ def test_the_degraded_robot_is_flagged_from_the_log_it_changed(small_fleet):
     assert finding.message.startswith(f"robot r02: the model fits worse from log {specs[15].log} (")
 
 
+def test_a_new_payload_is_flagged_from_its_log_and_only_on_its_robot():
+    logs = fleet.simulate_fleet(n_robots=3, n_logs=10, n_samples=300, seed=11,
+                                degradations={"r03": fleet.Degradation("payload", 6, 1.0)})
+    rows = [fleet.LogSummary(g.robot, g.time, f"{g.robot}#{i % 10}", rmse=float(dynval.rmse(g.tau_meas, g.tau_pred)))
+            for i, g in enumerate(logs)]
+    drift = drift_per_robot(rows, level=0.95, n_permutations=999)
+    assert [(d.robot, d.change_log) for d in drift if d.finding is not None] == [("r03", "r03#6")]
+
+
 def test_change_point_finds_the_split_and_gives_a_permutation_p():
     x = np.r_[np.zeros(6), np.ones(4)] + 0.01 * np.arange(10) % 0.03
     k, t, p = change_point(x, n_permutations=999, rng=np.random.default_rng(0))
