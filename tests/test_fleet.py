@@ -257,6 +257,11 @@ def test_a_new_payload_is_flagged_from_its_log_and_only_on_its_robot():
     assert [(d.robot, d.change_log) for d in drift if d.finding is not None] == [("r03", "r03#6")]
 
 
+def test_a_degradation_of_an_unknown_kind_is_refused():
+    with pytest.raises(dynval.InvalidParameter, match=r"^kind must be one of 'friction', 'payload', got 'wear'$"):
+        fleet.Degradation("wear", 3, 0.1)
+
+
 def test_change_point_finds_the_split_and_gives_a_permutation_p():
     x = np.r_[np.zeros(6), np.ones(4)] + 0.01 * np.arange(10) % 0.03
     k, t, p = change_point(x, n_permutations=999, rng=np.random.default_rng(0))

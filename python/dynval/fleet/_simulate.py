@@ -34,6 +34,13 @@ class Degradation:
     from_log: int
     size: float
 
+    def __post_init__(self) -> None:
+        from ..checks._validation import check_choice, parameter_error
+
+        check_choice("kind", self.kind, ("friction", "payload"))
+        if not isinstance(self.from_log, int) or self.from_log < 0:
+            raise parameter_error("from_log", "an integer >= 0", self.from_log)
+
 
 @dataclass(frozen=True)
 class FleetLog:
@@ -60,7 +67,7 @@ def _degraded(arm: ArmParameters, change: Degradation) -> ArmParameters:
         cx2 = (arm.m2 * arm.cx2 + change.size * _PAYLOAD_DISTANCE) / mass
         inertia = arm.I2 + arm.m2 * (cx2 - arm.cx2) ** 2 + change.size * (_PAYLOAD_DISTANCE - cx2) ** 2
         return replace(arm, m2=mass, cx2=cx2, I2=inertia)
-    raise ValueError(f"unknown degradation {change.kind!r}")
+    raise AssertionError(change.kind)  # checked by Degradation
 
 
 def _ar1(rng: np.random.Generator, shape: tuple[int, int], sd: float, colour: float) -> np.ndarray:
