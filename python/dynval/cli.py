@@ -7,7 +7,9 @@ Subcommands:
 * ``dynval compare MEAS --model NAME=PRED:P [--model ...]`` — candidate models side by side,
   a ranking and the decision (accept, refine, redesign);
 * ``dynval demo`` — the embedded demonstration (a simulated 2-DOF arm), no input needed;
-* ``dynval conform`` — the conformance runner for ports (see ``dynval conform --help``).
+* ``dynval conform`` — the conformance runner for ports (see ``dynval conform --help``);
+* ``dynval validate-many LOGS...`` — many logs of many robots: the fleet table and drift per robot
+  (``dynval.fleet``), in this process or on a dask cluster.
 
 Exit codes (contract §7): 0 success, 1 input error (a file refused, or an error of the dynval
 contract, with the message on stderr), 2 usage error, 3 internal error, 130 interrupted, 141 the
@@ -81,7 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 1 input error, 2 usage error, 3 internal error, "
                "141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform}")
+    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform,validate-many}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
@@ -144,7 +146,59 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("conform", help="run the conformance corpus against a port (see dynval conform --help)",
                    add_help=False)
+    _add_validate_many(sub)
     return parser
+
+
+def _workers_arg(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number of worker processes >= 1, got {text!r}")
+    return value
+
+
+def _add_validate_many(sub) -> None:
+    """``dynval validate-many``: dynval.fleet.validate_many from the command line."""
+    many = sub.add_parser(
+        "validate-many", help="validate many logs of many robots: a fleet table and drift per robot",
+        description="Validate every log of a fleet (one row each: RMSE, VAF, decision, findings) and test each "
+                    "robot's logs for drift: a model that fits worse from some log on than in that robot's earlier "
+                    "logs. LOGS are manifests (.csv or .json with columns robot, time, tau_meas, tau_pred and "
+                    "optionally n_params, regressor, log; paths relative to the manifest) or logs named "
+                    "ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a directory holding "
+                    "tau_meas.* and tau_pred.* (and regressor.*) files (contract §10).",
+        epilog="Example: dynval validate-many fleet.csv --n-params 40 --workers 2 --html fleet.html. "
+               "Exit code 1 also when a log could not be validated (its row then holds the error). " + _EXIT_CODES)
+    many.add_argument("logs", nargs="+", metavar="LOGS", help="manifests (.csv, .json) or logs named ROBOT__TIME")
+    many.add_argument("--n-params", type=int, metavar="P",
+                      help="parameters of every log whose manifest row gives no n_params")
+    where = many.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_workers_arg, metavar="W",
+                       help="start a local dask cluster of W worker processes for the run (needs dynval[dask]); "
+                            "by default the logs are validated one after the other in this process")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="address of a running dask scheduler (tcp://host:8786); the files must be readable "
+                            "where its workers run")
+    many.add_argument("--max-lag", type=int, metavar="L",
+                      help="largest lag of each log's residual analysis (default: the profile's; 0 skips it)")
+    many.add_argument("--level", type=float, default=0.95, metavar="X",
+                      help="confidence level of each log's findings and of the drift test (default 0.95)")
+    many.add_argument("--profile", default="lesson", choices=PROFILE_NAMES, help="convention profile (default lesson)")
+    many.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second of every log")
+    many.add_argument("--min-baseline", type=int, default=3, metavar="K",
+                      help="earlier logs a drift needs before it (default 3: a robot needs 4 logs to be tested)")
+    many.add_argument("--permutations", type=int, default=1999, metavar="B",
+                      help="shuffles of each robot's logs for the drift test's p-value (default 1999)")
+    many.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                      help="progress bar on stderr; by default shown when stderr is a terminal and the run takes "
+                           "over 2 s")
+    many.add_argument("--json", action="store_true", help="print the fleet report as JSON")
+    many.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
+    many.add_argument("--html", metavar="FILE",
+                      help="also write an HTML fleet page with drift plots (needs dynval[plot])")
 
 
 def _model_arg(text: str):
@@ -531,6 +585,57 @@ def _run_compare(args) -> int:
     return code if code else _emit("compare", args, cmp.to_json() if args.json else cmp.summary())
 
 
+def _run_validate_many(args) -> int:
+    from .fleet import validate_many
+
+    keywords = {k: v for k, v in (("max_lag", args.max_lag), ("sample_rate", args.sample_rate)) if v is not None}
+    try:
+        scheduler = _fleet_scheduler(args)
+        try:
+            fleet = validate_many(args.logs, n_params=args.n_params, scheduler=scheduler, progress=args.progress,
+                                  level=args.level, profile=args.profile, min_baseline=args.min_baseline,
+                                  n_permutations=args.permutations, **keywords)
+        finally:
+            if hasattr(scheduler, "close"):  # the local cluster of --workers
+                scheduler.close()
+    except InputError as exc:
+        return _error("validate-many", f"{type(exc).__name__}: {exc}" if not isinstance(exc, FileInputError)
+                      else str(exc))
+    except ImportError as exc:
+        return _error("validate-many", str(exc))
+    code = _write_fleet_html(args, fleet)
+    code = code or _emit("validate-many", args, fleet.to_json() if args.json else fleet.summary())
+    return code or (EXIT_INPUT if any(row.error for row in fleet.logs) else EXIT_OK)
+
+
+def _fleet_scheduler(args):
+    """--workers: a local cluster of that many processes; --scheduler: its address; else this process."""
+    if args.scheduler:
+        return args.scheduler
+    if args.workers is None:
+        return "single"
+    from .fleet import local_cluster
+
+    try:
+        return local_cluster(args.workers)
+    except ImportError:
+        raise ImportError("--workers needs dask.distributed: pip install 'dynval[dask]'") from None
+
+
+def _write_fleet_html(args, fleet) -> int:
+    if not args.html:
+        return EXIT_OK
+    try:
+        from .html import write_fleet_report
+
+        write_fleet_report(fleet, args.html)
+    except ImportError as exc:
+        return _error("validate-many", f"--html needs matplotlib (pip install 'dynval[plot]'): {exc}")
+    except OSError as exc:
+        return _error("validate-many", f"{args.html}: cannot be written ({exc.strerror or exc})")
+    return EXIT_OK
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``dynval`` command line; returns the exit code.
 
@@ -620,6 +725,8 @@ def _dispatch(argv: list) -> int:
         return _run_validate(args)
     if args.command == "compare":
         return _run_compare(args)
+    if args.command == "validate-many":
+        return _run_validate_many(args)
     if args.command == "demo":
         from .demo import run_from_args
 

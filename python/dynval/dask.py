@@ -45,7 +45,7 @@ from .checks._typing import ArrayLike, Integer, SegmentsLike
 from .report._report import ValidationReport
 from .stream import ValidationAccumulator
 
-__all__ = ["validate", "accumulate"]
+__all__ = ["validate", "accumulate", "validate_many"]
 
 
 def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,
@@ -141,6 +141,31 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
     acc = merged.compute()[0]
     acc._chunks, acc._rows_seen = int(meas.numblocks[0]), int(n)  # the messages count blocks and rows
     return acc
+
+
+def validate_many(logs: Any, *, scheduler: Any = None, **keywords: Any) -> Any:
+    """Many logs of many robots, one task per log on the dask workers: :func:`dynval.fleet.validate_many`.
+
+    This module spreads one long series over the workers, and its blocks travel from the caller;
+    a fleet's logs are each read where their task runs, which is what pays on a cluster
+    (README, "Fleets of robots").
+
+    Parameters
+    ----------
+    logs : paths, manifests, LogSpecs or mappings, or a dask bag of them
+        As for :func:`dynval.fleet.validate_many`.
+    scheduler : dask Client, cluster or address, optional
+        Default the current client (else this process).
+    **keywords
+        The other keywords of :func:`dynval.fleet.validate_many`.
+
+    Returns
+    -------
+    dynval.fleet.FleetReport
+    """
+    from .fleet import validate_many as fleet_validate_many
+
+    return fleet_validate_many(logs, scheduler=scheduler, **keywords)
 
 
 def _aligned(tau_meas, tau_pred, regressor, n_joints):

@@ -28,7 +28,7 @@ import numpy as np
 from .report._json import to_jsonable
 from .report._text import pvalue_text
 
-__all__ = ["write_report", "render_report", "render_fragment"]
+__all__ = ["write_report", "render_report", "render_fragment", "write_fleet_report", "render_fleet_report"]
 
 _CSS = """
 body { font-family: system-ui, -apple-system, 'Segoe UI', Roboto, Helvetica, Arial, sans-serif;
@@ -584,4 +584,94 @@ def write_report(obj, path, *, tau_meas=None, tau_pred=None, sample_rate=None, t
                          figures=figures, reference_frequency=reference_frequency,
                          reference_label=reference_label, intro=intro, interval=interval)
     Path(path).write_text(text, encoding="utf-8")
+    return str(path)
+
+
+# --------------------------------------------------------------------------- fleet page
+
+
+def _fleet_drift_table(fleet) -> str:
+    rows, classes = [], []
+    for d, robot in zip(fleet.drift, fleet.robot_table()):
+        sev = d.finding.severity if d.finding is not None else ""
+        state = (f'<span class="sev {_a(sev)}">{_e(sev)}</span>' if sev
+                 else ("not tested" if not d.tested else "no drift"))
+        decisions = ", ".join(f"{n} {k}" for k, n in sorted(robot["decisions"].items()))
+        rows.append([_e(d.robot), str(robot["n_logs"]), _num(robot["rmse"]), _e(decisions), state,
+                     (_e(d.change_log) if sev else f'<span class="muted">{_e(d.change_log)}</span>') if d.tested
+                     else _e(d.reason),
+                     _num(d.ratio, 3) if d.tested else "—", pvalue_text(d.pvalue) if d.tested else "—",
+                     pvalue_text(d.pvalue_adjusted) if d.tested else "—"])
+        classes.append("flagged" if sev == "deficiency" else "")
+    return _table(["robot", "logs", "median RMSE", "decisions", "drift", "change from log (most likely)",
+                   "RMSE ratio after/before", "p", "Holm p"], rows, text_cols=(0, 3, 4, 5), row_classes=classes)
+
+
+def _fleet_log_table(fleet) -> str:
+    rows, classes = [], []
+    for r in fleet.logs:
+        found = _e(r.error) if r.error else (_e(f"{r.n_findings}: {', '.join(r.kinds)}") if r.n_findings else "0")
+        rows.append([_e(r.robot), _e(r.time), _e(r.log), str(r.n_samples), str(r.n_joints), _num(r.rmse),
+                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found])
+        classes.append("error" if r.error else "")
+    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings"], rows,
+                  text_cols=(0, 1, 2, 7, 8), row_classes=classes)
+
+
+def _fleet_findings_html(fleet) -> str:
+    if not fleet.findings:
+        return '<p class="muted">No drift: no robot fits worse in its later logs than in its earlier ones.</p>'
+    rows = [[f'<span class="sev {_a(f.severity)}">{_e(f.severity)}</span>', _e(f.details.get("robot", "")),
+             _e(f.message), _e(f.action) or "—"] for f in fleet.findings]
+    return _table(["severity", "robot", "finding", "what to do"], rows, text_cols=(0, 1, 2, 3))
+
+
+_FLEET_CSS = """
+tr.flagged td { background: #fdecea; }
+tr.error td { background: #fff7e6; }
+.dec { font-weight: 600; }
+.dec.refine { color: #b36b00; }
+.dec.redesign, .dec.error { color: #c62828; }
+.dec.accept { color: #2e7d32; }
+"""
+
+
+def render_fleet_report(fleet, *, title=None) -> str:
+    """The HTML fleet page of a :class:`dynval.fleet.FleetReport`: drift per robot, its findings,
+    the drift figures and the table of every log."""
+    prov = fleet.provenance
+    decisions = {}
+    for r in fleet.logs:
+        decisions[r.decision] = decisions.get(r.decision, 0) + 1
+    counts = ", ".join(f"{n} {d}" for d, n in sorted(decisions.items()))
+    parts = [f"<h1>{_e(title or 'dynval fleet report')}</h1>",
+             f'<p class="sub">{len(fleet.logs)} logs of {len(fleet.drift)} robots · decisions: {_e(counts)} · '
+             f"ran on {_e(prov.get('where', 'this process'))} in {prov.get('seconds', 0.0):.1f} s · "
+             f"α = {1.0 - fleet.level:g}</p>",
+             "<h2>Robots and their drift</h2>",
+             '<p class="muted">A change point in each robot\'s log RMSE (logs in time order): the largest '
+             "two-sample t of the later logs against at least "
+             f"{_e(prov.get('min_baseline', 3))} earlier ones, its p-value from shuffles of the logs' order, "
+             "Holm over the robots tested. A drift is a deficiency when the later logs' RMSE is at least "
+             f"{_e(prov.get('ratio_threshold', 1.1))}× the earlier logs' (geometric means).</p>",
+             _fleet_drift_table(fleet), "<h2>Findings</h2>", _fleet_findings_html(fleet)]
+    if _have_matplotlib():
+        from . import plot
+
+        parts += ["<h2>Figures</h2>",
+                  _figure_html(plot.fleet_drift(fleet), "Each robot's log RMSE and the change the drift test found"),
+                  _figure_html(plot.fleet_metrics(fleet), "RMSE and VAF of every log over time, per robot")]
+    else:
+        parts.append('<p class="muted">Figures need matplotlib (pip install "dynval[plot]").</p>')
+    parts += ["<h2>Every log</h2>", _fleet_log_table(fleet), _json_html(fleet)]
+    return ("<!DOCTYPE html>\n"
+            '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
+            '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
+            f"<title>{_e(title or 'dynval fleet report')}</title>\n<style>{_CSS}{_FLEET_CSS}</style>\n</head>\n"
+            f"<body>\n{chr(10).join(parts)}\n</body>\n</html>\n")
+
+
+def write_fleet_report(fleet, path, *, title=None) -> str:
+    """Write :func:`render_fleet_report` to ``path`` (UTF-8); returns the path."""
+    Path(path).write_text(render_fleet_report(fleet, title=title), encoding="utf-8")
     return str(path)

@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 __all__ = ["residuals", "autocorrelation", "autocorrelation_by_model", "spectrum", "cross_correlation",
-           "cross_correlation_ratio", "metrics", "prediction", "save", "welch"]
+           "cross_correlation_ratio", "metrics", "prediction", "save", "welch", "fleet_metrics", "fleet_drift"]
 
 _MEASURED = "#4d4d4d"
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
@@ -598,4 +598,107 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel(xlabel)
     fig.suptitle(title or ("Measured and predicted joint torque" + (f" — {model_name}" if model_name else "")))
+    return fig
+
+
+def _fleet_x(times):
+    """The time axis of a fleet's logs: dates when every stamp is one, numbers when every stamp is one,
+    else each robot's log order (None)."""
+    import datetime as _dt
+
+    from .fleet._logs import time_key
+
+    keys = [time_key(t) for t in times]
+    kinds = {k[0] for k in keys}
+    if kinds == {1}:
+        return [_dt.datetime.fromtimestamp(k[1], tz=_dt.timezone.utc) for k in keys], "time (UTC)"
+    if kinds == {0}:
+        return [k[1] for k in keys], "time"
+    return None, "log (in time order)"
+
+
+def _plain_log_axis(ax):
+    """A log scale whose ticks read as plain numbers (0.3, 1, 3), not powers of ten."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.set_yscale("log")
+    ax.yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
+def fleet_metrics(fleet, *, which=("rmse", "vaf"), title=None):
+    """Each robot's metrics over its logs (one line per robot; RMSE on a log scale), the start of
+    a drift marked on its robot's line.
+
+    ``fleet`` is a :class:`dynval.fleet.FleetReport`.
+    """
+    rows = [r for r in fleet.logs if r.error is None]
+    xs, xlabel = _fleet_x([r.time for r in rows])
+    fig = _figure(10.0, 1.2 + 2.6 * len(which))
+    axes = list(fig.subplots(len(which), 1, sharex=True, squeeze=False)[:, 0])
+    drift = {d.robot: d for d in fleet.drift}
+    for i, robot in enumerate(fleet.robots):
+        mine = [(k, r) for k, r in enumerate(rows) if r.robot == robot]
+        if not mine:
+            continue
+        x = [xs[k] for k, _ in mine] if xs is not None else list(range(1, len(mine) + 1))
+        colour = _COLOURS[i % len(_COLOURS)]
+        d = drift.get(robot)
+        flagged = d is not None and d.finding is not None
+        for ax, metric in zip(axes, which):
+            y = [getattr(r, metric) for _, r in mine]
+            ax.plot(x, y, marker="o", ms=3.5, lw=2.0 if flagged else 1.0, color=colour,
+                    alpha=1.0 if flagged else 0.55, label=f"{robot} (drift)" if flagged else robot)
+            if flagged:
+                ax.axvline(x[d.change], color=colour, ls="--", lw=1.0)
+                ax.plot(x[d.change:], y[d.change:], ls="none", marker="o", ms=7, mfc="none", mec=colour)
+    for ax, metric in zip(axes, which):
+        ax.set_ylabel(_METRIC_LABELS.get(metric, metric) + (" (%)" if metric == "vaf" else ""))
+        ax.grid(True, alpha=0.3)
+    if "rmse" in which:
+        _plain_log_axis(axes[list(which).index("rmse")])
+    axes[-1].set_xlabel(xlabel)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside right upper", fontsize="small", title="robot")
+    fig.suptitle(title or "Each robot's logs over time (a dashed line: where a drift starts; circled: the logs "
+                 "after it)", fontsize="medium")
+    return fig
+
+
+def fleet_drift(fleet, *, title=None, max_robots: int = 24):
+    """One panel per robot: its log RMSEs in time order, the geometric mean of the logs before and
+    after the change the drift test found, the logs after a significant change shaded.
+
+    ``fleet`` is a :class:`dynval.fleet.FleetReport`; at most ``max_robots`` robots, drifting ones first.
+    """
+    tests = sorted(fleet.drift, key=lambda d: (d.finding is None, fleet.robots.index(d.robot)))[:max_robots]
+    cols = min(4, max(1, len(tests)))
+    nrows = -(-len(tests) // cols)
+    fig = _figure(2.9 * cols + 0.6, 0.8 + 2.1 * nrows)
+    axes = fig.subplots(nrows, cols, squeeze=False).reshape(-1)
+    for ax, d in zip(axes, tests):
+        y = np.array([r.rmse for r in fleet.logs if r.robot == d.robot and r.error is None])
+        x = np.arange(1, y.size + 1)
+        flagged = d.finding is not None
+        ax.plot(x, y, marker="o", ms=3.5, color=_COLOURS[1] if flagged else _COLOURS[0], lw=1.0)
+        if d.tested:
+            k = int(d.change)
+            before, after = np.exp(np.log(y[:k]).mean()), np.exp(np.log(y[k:]).mean())
+            ax.hlines([before, after], [0.7, k + 0.5], [k + 0.5, y.size + 0.3], colors="black", lw=1.0,
+                      linestyles=["-", "--"])
+            if flagged:
+                ax.axvspan(k + 0.5, y.size + 0.5, color=_COLOURS[1], alpha=0.12)
+        holm_p = "Holm " + _p_text(d.pvalue_adjusted, None)
+        state = (f"DRIFT from log {d.change + 1}, ×{d.ratio:.2g}, {holm_p}" if flagged
+                 else ("not tested" if not d.tested else f"no drift ({holm_p})"))
+        ax.set_title(f"{d.robot}: {state}", fontsize="small", loc="left", color=_COLOURS[1] if flagged else "black")
+        ax.grid(True, alpha=0.3)
+        ax.tick_params(labelsize="x-small")
+    for ax in axes[len(tests):]:
+        ax.set_visible(False)
+    fig.supxlabel("log (in each robot's time order)", fontsize="small")
+    fig.supylabel("RMSE per log", fontsize="small")
+    fig.suptitle(title or "Drift per robot: RMSE of each log, geometric mean before (solid) and after (dashed) "
+                 "the most likely change", fontsize="medium")
     return fig
