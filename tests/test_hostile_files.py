@@ -382,3 +382,28 @@ def test_importing_dynval_leaves_sigint_alone():
     code = "import signal, dynval; print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(), timeout=120)
     assert proc.stdout.strip() == "True", proc.stderr
+
+
+@pytest.mark.parametrize("filename", [None, "out/figure.png"])
+def test_a_write_that_fails_mid_command_is_an_error_not_a_bug(monkeypatch, capsys, filename):
+    # The demo prints and writes figures as it goes: a full disk (or /dev/full) can stop it anywhere.
+    import errno
+
+    def full(argv):
+        raise OSError(errno.ENOSPC, "No space left on device", filename)
+
+    monkeypatch.setattr(cli, "_dispatch", full)
+    assert cli.main(["demo"]) == 1
+    where = f" {filename}" if filename else ""
+    assert capsys.readouterr().err == f"dynval demo: error: cannot write the output{where} (No space left on device)\n"
+
+
+def test_another_os_error_is_still_reported_as_a_bug(monkeypatch, capsys):
+    import errno
+
+    def missing(argv):
+        raise OSError(errno.ENOENT, "No such file or directory", "x")
+
+    monkeypatch.setattr(cli, "_dispatch", missing)
+    assert cli.main(["demo"]) == 3
+    assert "internal error" in capsys.readouterr().err

@@ -19,6 +19,7 @@ reader of standard output went away (``dynval validate ... | head -1``).
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import re
 import sys
@@ -652,7 +653,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     restore()  # from here on, Ctrl-C is a KeyboardInterrupt caught below
     argv = list(sys.argv[1:] if argv is None else argv)
-    command = argv[0] if argv and argv[0] in ("validate", "compare", "demo", "conform") else None
+    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "demo", "conform") else None
     prefix = f"dynval {command}" if command else "dynval"
     try:
         return _flush_stdout(prefix, _dispatch(argv))  # a closed pipe shows here for buffered output
@@ -665,8 +666,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MemoryError:
         print(f"{prefix}: error: not enough memory for this input", file=sys.stderr)
         return EXIT_INPUT
+    except OSError as exc:
+        if exc.errno not in _WRITE_FAILURES:
+            return _internal_error(prefix, exc)
+        # A full disk or /dev/full in the middle of a command's output (the demo prints and writes
+        # figures as it goes): the user's environment, not a bug.
+        _discard_stdout()  # else Python's own flush at exit fails again, with a traceback
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"{prefix}: error: cannot write the output{where} ({exc.strerror or exc})", file=sys.stderr)
+        return EXIT_INPUT
     except Exception as exc:
         return _internal_error(prefix, exc)
+
+
+_WRITE_FAILURES = frozenset(getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EIO", "EROFS", "EFBIG")
+                            if hasattr(errno, name))
 
 
 def _internal_error(prefix: str, exc: Exception) -> int:
