@@ -1,0 +1,37 @@
+"""``import dynval`` stays light: the heavy optional or numerical libraries load on first use."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+HEAVY = ("scipy", "matplotlib", "dask", "pinocchio", "pandas")
+
+
+def _modules_after(code: str) -> set[str]:
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "python") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"],
+                          capture_output=True, text=True, env=env, timeout=120, check=True)
+    return {name.split(".")[0] for name in json.loads(done.stdout.splitlines()[-1])}
+
+
+def test_import_dynval_loads_none_of_the_heavy_libraries():
+    assert sorted(_modules_after("import dynval") & set(HEAVY)) == []
+
+
+@pytest.mark.parametrize("name", ["rmse", "validate", "compare", "identify", "physical_consistency"])
+def test_public_names_resolve_without_the_heavy_libraries(name):
+    assert sorted(_modules_after(f"import dynval; dynval.{name}") & set(HEAVY)) == []
+
+
+def test_scipy_loads_on_first_use():
+    # The lazy name stands for scipy: the first statistic that needs it imports it.
+    loaded = _modules_after("import numpy as np, dynval; x = np.sin(np.arange(400.0)); "
+                            "dynval.validate(x, 0.9 * x, n_params=1, max_lag=5)")
+    assert "scipy" in loaded
