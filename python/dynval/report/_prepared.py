@@ -70,11 +70,17 @@ class PreparedRegressor:
 
 
 def _frozen(value: T) -> T:
+    """``value`` with its arrays read-only: those of a tuple, and the attributes of an object (a
+    Gram matrix, a refit); a mapping is handed out as a copy instead."""
     if isinstance(value, np.ndarray):
         value.flags.writeable = False
     elif isinstance(value, tuple):
         for item in value:
             _frozen(item)
+    elif hasattr(value, "__dict__") and not isinstance(value, type):
+        for item in vars(value).values():
+            if isinstance(item, np.ndarray):
+                item.flags.writeable = False
     return value
 
 
