@@ -93,7 +93,7 @@ def test_another_estimation_run_is_not_served_what_the_first_one_gave(runs):
 
 
 def test_kept_arrays_are_read_only(runs):
-    _, (q_v, y_v, tau_v) = runs
+    _, (_, y_v, tau_v) = runs
     prepared = dynval.prepare_regressor(y_v)
     dynval.validate(tau_v, _predictions(runs)["full"], n_params=10, regressor=prepared, sample_rate=100.0)
     kept = [x for v in prepared._cache.values() for x in (v if isinstance(v, tuple) else (v,))]
@@ -137,7 +137,7 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
 
 def test_compare_leaves_other_regressors_as_given(runs, monkeypatch):
     # A list (converted by each validate) is not prepared: its errors and results stay the array's.
-    _, (q_v, y_v, tau_v) = runs
+    _, (_, y_v, tau_v) = runs
     grams = _count_calls(monkeypatch, _sections, "JointGrams")
     preds = _predictions(runs)
     dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v.astype(np.float32), max_lag=5)

@@ -14,9 +14,8 @@ ones the plain array gives, bit for bit.
 from __future__ import annotations
 
 import copy
-import hashlib
 from collections.abc import Callable, Hashable
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
@@ -66,7 +65,7 @@ class PreparedRegressor:
         if key not in self._cache:
             self._cache[key] = _frozen(compute())
         value = self._cache[key]
-        return copy.deepcopy(value) if isinstance(value, dict) else value  # type: ignore[no-any-return]
+        return cast(T, copy.deepcopy(value)) if isinstance(value, dict) else cast(T, value)
 
 
 def _frozen(value: T) -> T:
@@ -136,6 +135,8 @@ def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> 
 def digest(*arrays: Any) -> tuple[Hashable, ...]:
     """A key for arrays given beside the regressor (the estimation run's): their shapes and a hash
     of their bytes, so that a kept result is never reused for other values."""
+    import hashlib  # here: only a prepared regressor with an estimation run needs it
+
     out: list[Hashable] = []
     for a in arrays:
         if a is None:

@@ -233,7 +233,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
                  cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
                  allow_wide=allow_wide)
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
-    d, o = _checked(tau_meas, tau_pred, prepared.array if prepared is not None else regressor, k)
+    d, o = _checked(tau_meas, tau_pred, regressor.array if isinstance(regressor, PreparedRegressor) else regressor, k)
     d = replace(d, memo=memo_for(prepared, d.reg2))
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
@@ -332,8 +332,9 @@ def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
                            lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
     param_var = None
     if b.est_fit is not None and d.reg3 is not None:
-        fit, reg3 = b.est_fit, d.reg3
-        means = d.memo(("column_means", reg3.shape, fit.columns), lambda: reg3[:, :, list(fit.columns)].mean(axis=0))
+        fit, val_reg = b.est_fit, d.reg3
+        means = d.memo(("column_means", val_reg.shape, fit.columns),
+                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
         param_var = _estimation.quadratic_forms(fit, means)
     b.bias = sec.bias_test(d.e, d.lags.starts, b.per_joint["rmse"], param_var) if lagged else None
     b.n_eff = None if b.bias is None else b.bias["n_eff"]
@@ -379,9 +380,11 @@ def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
         est = o.estimation or {}
         if b.est_fit is not None:
             cols = tuple(int(c) for c in o.model_columns)
-            b.missing = d.memo(("missing_terms", _estimation_key(d, est), d.reg3.shape, cols,
+            reg3 = d.reg3
+            assert reg3 is not None  # with reg2
+            b.missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
                                 digest(d.meas) if d.memo is not compute_now else ()),
-                               lambda: _estimation.missing_terms(est["regressor"], est["tau"], d.reg3, d.meas, cols))
+                               lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
         else:
             b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, b.n_eff)
         if b.missing is not None:

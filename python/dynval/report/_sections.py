@@ -7,6 +7,7 @@ computed from the evidence they collect (``_findings.py``) and worded in ``_summ
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -156,7 +157,7 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level, memo: Memo = 
             # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
             if j not in model_cols:
                 model_cols[j] = memo(("centred_model_columns", reg3.shape, j, fit.columns),
-                                     lambda j=j: np.ascontiguousarray(yc[:, j, cols]))
+                                     partial(_joint_columns, yc, j, cols))
             g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
         else:
             cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
@@ -167,6 +168,11 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level, memo: Memo = 
         with np.errstate(invalid="ignore", divide="ignore"):
             sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
     return sd
+
+
+def _joint_columns(yc, j: int, cols):
+    """Joint j's ``cols`` of the centred regressor, contiguous."""
+    return np.ascontiguousarray(yc[:, j, cols])
 
 
 def _centred_columns(reg3):
@@ -331,12 +337,11 @@ def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_
     for j in range(m):
         beta = None
         if grams is not None and grams.usable:
-            live, y = memo(("live_block", reg3.shape, j), lambda j=j: _live_block(reg3, grams, j))
+            live, y = memo(("live_block", reg3.shape, j), partial(_live_block, reg3, grams, j))
             with np.errstate(over="ignore", under="ignore", invalid="ignore"):
                 yb = e[:, j] @ y
             if live.size and np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
-                factor = memo(("live_factor", reg3.shape, j),
-                              lambda j=j, live=live: _normal_factor(grams.gram[j][np.ix_(live, live)]))
+                factor = memo(("live_factor", reg3.shape, j), partial(_live_factor, grams, j, live))
                 beta = _solve_factored(factor, yb)
         if beta is not None:
             out[:, j] = e[:, j] - y @ beta
@@ -344,7 +349,7 @@ def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
         # 1e140 data do not overflow the normal equations.
-        y, factor = memo(("scaled_block", reg3.shape, j), lambda j=j: _scaled_block(reg3, j, memo))
+        y, factor = memo(("scaled_block", reg3.shape, j), partial(_scaled_block, reg3, j, memo))
         ej, k = _pow2_columns(e[:, j : j + 1])
         # Below the condition limit the kept factor solves it; above, LAPACK's SVD-based lstsq on
         # the whole block, per residual: its result depends on the right-hand side throughout.
@@ -361,6 +366,11 @@ def _live_block(reg3, grams: JointGrams, j: int):
     live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
     cols = slice(None) if live.size == reg3.shape[2] else live
     return live, reg3[:, j, cols]
+
+
+def _live_factor(grams: JointGrams, j: int, live):
+    """:func:`_normal_factor` of joint j's live columns."""
+    return _normal_factor(grams.gram[j][np.ix_(live, live)])
 
 
 def _scaled_block(reg3, j: int, memo: Memo):
