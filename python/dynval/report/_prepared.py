@@ -1,4 +1,4 @@
-"""A regressor prepared once for many :func:`dynval.validate` calls (contract §4.3).
+"""A regressor prepared once for many :func:`dynval.validate` calls (contract §4, prepared regressor).
 
 Much of ``validate``'s work with a regressor does not depend on the residual: each joint's Gram
 matrix, the columns' autocorrelations of the colour-aware cross-correlation band, the excitation
