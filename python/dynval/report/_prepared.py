@@ -116,6 +116,15 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegre
     >>> b = dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=Y)
     >>> a.to_json() == b.to_json()
     True
+
+    With omitted rows (``nan_policy="omit"`` and a nan) the call's regressor is a copy without
+    them, so nothing kept is used; the report is still the plain array's:
+
+    >>> tau[5, 0] = np.nan
+    >>> c = dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=prepared, nan_policy="omit")
+    >>> c.to_json() == dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=Y,
+    ...                                nan_policy="omit").to_json()
+    True
     """
     if isinstance(regressor, PreparedRegressor):
         return regressor
