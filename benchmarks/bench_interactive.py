@@ -104,7 +104,7 @@ def compare_rows(tau, y, cands, repeat):
     read = best_of(lambda: [np.sum(a) for a in arrays], 10)
     seconds = best_of(lambda: dynval.compare(tau, cands, regressor=y, sample_rate=RATE), repeat)
     mb = sum(a.nbytes for a in arrays) / 1e6
-    print(f"{'read of the inputs (np.sum of each)':<52} {read:>8.3f} s   {mb:.0f} MB")
+    print(f"{'read of the inputs (np.sum of each)':<52} {read * 1e3:>8.2f} ms  {mb:.0f} MB")
     print(f"{'compare, 3 candidates, shared regressor':<52} {seconds:>8.3f} s   {verdict(seconds, 1.0, ' s')}")
     print(f"{'  compare / read':<52} {seconds / read:>8.0f} ×   {verdict(seconds / read, 100, ' ×')}")
 
