@@ -136,7 +136,7 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
 
 
 def test_compare_leaves_other_regressors_as_given(runs, monkeypatch):
-    # A list (converted by each validate) is not prepared: its errors and results stay the array's.
+    # A float32 array (converted by each validate) is not prepared: its errors and results stay its own.
     _, (_, y_v, tau_v) = runs
     grams = _count_calls(monkeypatch, _sections, "JointGrams")
     preds = _predictions(runs)
