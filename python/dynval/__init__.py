@@ -52,6 +52,7 @@ from .metrics._api import (
 from .metrics._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
 from .report._findings import KINDS as FINDING_KINDS
 from .report._findings import Finding, Thresholds
+from .report._prepared import PreparedRegressor, prepare_regressor
 from .report._report import ValidationReport, validate
 from .robots import physical_consistency
 
@@ -79,6 +80,8 @@ __all__ = [
     "bic",
     "validate",
     "ValidationReport",
+    "prepare_regressor",
+    "PreparedRegressor",
     "compare",
     "ComparisonReport",
     "Verdict",

@@ -53,11 +53,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import scipy.linalg
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.linalg
+    import scipy.stats
+else:
+    from ._lazy import scipy
 
 from .checks._errors import InvalidShape, ShapeMismatch
 from .checks._typing import ArrayLike, FloatArray, IntArray, Integer

@@ -39,7 +39,6 @@ samples at each end).
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -112,6 +111,8 @@ class URDFModel:
     """
 
     def __init__(self, urdf, *, gravity=None):
+        import xml.etree.ElementTree as ET  # here, not at import dynval: only a URDF needs it
+
         pin = _import_pinocchio()
         root = ET.fromstring(_read_urdf(urdf))
         dynamics = {}

@@ -31,6 +31,7 @@ from ..checks import _validation as v
 from ..checks._typing import ArrayLike, FloatArray, Integer
 from ..report._findings import Finding
 from ..report._json import to_frame, to_jsonable
+from ..report._prepared import PreparedRegressor, prepare_regressor
 from ..report._report import ValidationReport, validate
 from ._reasons import candidate_reasons, column_name, joint_name
 
@@ -207,6 +208,18 @@ def _candidate(name: str, spec: object) -> tuple[Any, Any, Any, Any]:
                             "'parameters'", spec)
 
 
+def _shared(regressor: Any, prepared: dict[int, Any]) -> Any:
+    """The regressor prepared once per array object (:func:`dynval.prepare_regressor`), so that
+    its residual-independent work is shared by the candidates. Only a float64 ndarray is prepared
+    here: it needs no conversion, so each ``validate`` still checks it (and words any error) as
+    the array itself; anything else is passed on as given."""
+    if not (isinstance(regressor, np.ndarray) and regressor.dtype == np.float64 and regressor.flags.c_contiguous):
+        return regressor
+    if id(regressor) not in prepared:
+        prepared[id(regressor)] = (regressor, prepare_regressor(regressor))  # the array held: its id stays its own
+    return prepared[id(regressor)][1]
+
+
 def _parameters(spec: object) -> Any:
     """A candidate's own parameters (``"parameters"`` of its mapping), checked for physical
     consistency by its ``validate`` (contract §8); None otherwise."""
@@ -229,7 +242,7 @@ def compare(
     candidates: Mapping[str, CandidateSpec],
     *,
     criterion: Literal["aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"] = "aic",
-    regressor: ArrayLike | None = None,
+    regressor: ArrayLike | PreparedRegressor | None = None,
     **options: Any,
 ) -> ComparisonReport:
     """Validate several candidate models on the same data; rank them and give the decision.
@@ -246,9 +259,12 @@ def compare(
         result: its physical-consistency findings join its report, contract §8).
     criterion : {"aic", "bic", "aicc", "aic_neff", "bic_neff", "aicc_neff"}
         Criterion of the ranking and of the Akaike weights (the lesson's AIC by default).
-    regressor : array_like, optional
+    regressor : array_like or PreparedRegressor, optional
         A regressor shared by every candidate that does not bring its own (e.g. the richest
-        structure's, so that a term missing from a smaller model can be named).
+        structure's, so that a term missing from a smaller model can be named). The work on a
+        regressor that does not depend on the residual (its Gram matrix, its columns'
+        autocorrelations, the excitation section, ...) is done once for all the candidates that
+        use it, here and when candidates bring the same array object as their own.
     **options
         Any keyword of :func:`dynval.validate` (profile, level, segments, sample_rate, decimate,
         joint_names, column_names, q, estimation, thresholds, noise_model, backend, ...).
@@ -287,10 +303,12 @@ def compare(
     if "parameters" in options:
         raise v.parameter_error("parameters", "given per candidate, not to compare", options["parameters"])
     reports: dict[str, ValidationReport] = {}
+    prepared: dict[int, Any] = {}
     for name, spec in candidates.items():
         pred, p, reg, cols = _candidate(name, spec)
-        reports[name] = validate(tau_meas, pred, n_params=p, regressor=reg if reg is not None else regressor,
-                                 model_columns=cols, parameters=_parameters(spec), **options)
+        reg = _shared(reg if reg is not None else regressor, prepared)
+        reports[name] = validate(tau_meas, pred, n_params=p, regressor=reg, model_columns=cols,
+                                 parameters=_parameters(spec), **options)
     names = list(candidates)
     if any(criterion not in reports[n].information_criteria for n in names):
         raise v.parameter_error("criterion", "one of 'aic', 'bic', 'aicc' when max_lag=0 (no N_eff)", criterion)

@@ -10,13 +10,32 @@ README.md). The core's own threads (parallel.hpp) are joined, never spun, and ar
 from __future__ import annotations
 
 import functools
+import sys
 from collections.abc import Callable
 from typing import ParamSpec, TypeVar
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
+
+from .._lazy import scipy
 
 P = ParamSpec("P")
 R = TypeVar("R")
+
+_controller: ThreadpoolController | None = None
+_modules_seen = -1
+
+
+def _blas_controller() -> ThreadpoolController:
+    """The loaded BLAS libraries, found once and again only after an import (a search of every
+    loaded shared library took 50 ms a call on a busy machine: a ``compare`` pays it per candidate).
+    scipy's own BLAS is loaded first, so that the limit covers it although scipy is imported on
+    first use (dynval._lazy)."""
+    global _controller, _modules_seen
+    if _controller is None or len(sys.modules) != _modules_seen:
+        scipy.linalg  # noqa: B018  (the import is the point)
+        _controller = ThreadpoolController()
+        _modules_seen = len(sys.modules)
+    return _controller
 
 
 def one_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
@@ -25,7 +44,7 @@ def one_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
 
     @functools.wraps(func)
     def limited(*args: P.args, **kwargs: P.kwargs) -> R:
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _blas_controller().limit(limits=1, user_api="blas"):
             return func(*args, **kwargs)
 
     return limited

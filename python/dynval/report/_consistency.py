@@ -47,11 +47,15 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.linalg
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 from ..checks._typing import FloatArray, IntArray
 from ..checks._validation import check_finite, is_real_number, parameter_error, to_float_array

@@ -8,10 +8,14 @@ They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or th
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 from ..statistics import _periodic, _physics
 

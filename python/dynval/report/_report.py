@@ -41,6 +41,7 @@ from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds
 from ._json import to_jsonable
+from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -88,7 +89,8 @@ def _prepare(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
 
 
 @one_blas_thread
-def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, regressor: ArrayLike | None = None,
+def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
+             regressor: ArrayLike | PreparedRegressor | None = None,
              n_joints: Integer | None = None, max_lag: Integer | None = None, level: float | None = None,
              profile: ProfileName = "lesson", segments: NamedSegmentsLike = None, nan_policy: NanPolicy = "raise",
              backend: BackendName | None = None, noise_model: NoiseModel | None = None,
@@ -107,10 +109,12 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
         Measured and predicted torques (samples in rows, joints in columns).
     n_params : int
         Number of identified parameters p (always given: there is no default).
-    regressor : array_like, shape (N, m, p) or (N*m, p), optional
+    regressor : array_like, shape (N, m, p) or (N*m, p), or PreparedRegressor, optional
         Regressor Y of the validation data; enables the residual/regressor cross-correlation and
         the excitation diagnostics. Give the columns of every term you suspect (a superset of the
-        model's) to have a missing term named. The stacked 2-D form needs `n_joints`.
+        model's) to have a missing term named. The stacked 2-D form needs `n_joints`. Validating
+        several predictions on one run, pass :func:`dynval.prepare_regressor`'s result: the work
+        that does not depend on the residual is then done once (the report is the same).
     n_joints : int, optional
         Number of joints m, for a stacked 2-D regressor.
     max_lag : int, optional
@@ -228,7 +232,9 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer, reg
                  column_names=column_names, q=q, dq=dq, ddq=ddq, estimation=estimation, thresholds=thresholds,
                  cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
                  allow_wide=allow_wide)
-    d, o = _checked(tau_meas, tau_pred, regressor, k)
+    prepared = regressor if isinstance(regressor, PreparedRegressor) else None
+    d, o = _checked(tau_meas, tau_pred, regressor.array if isinstance(regressor, PreparedRegressor) else regressor, k)
+    d = replace(d, memo=memo_for(prepared, d.reg2))
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
     b = Sections()
@@ -265,6 +271,8 @@ class _Data:
     given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
     given_pred: FloatArray
     lags: Lags
+    # the prepared regressor's store of residual-independent results; compute_now keeps nothing
+    memo: Memo[Any] = compute_now
 
     @property
     def n(self) -> int:
@@ -319,16 +327,29 @@ def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
     est = o.estimation or {}
     if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
-        b.est_fit = _estimation.fit_columns(est["regressor"], est["tau"],
-                                            o.model_columns if o.model_columns is not None else range(d.p_cols))
+        cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
+        b.est_fit = d.memo(("fit_columns", _estimation_key(d, est), cols),
+                           lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
     param_var = None
     if b.est_fit is not None and d.reg3 is not None:
-        param_var = _estimation.quadratic_forms(b.est_fit, d.reg3[:, :, list(b.est_fit.columns)].mean(axis=0))
+        fit, val_reg = b.est_fit, d.reg3
+        means = d.memo(("column_means", val_reg.shape, fit.columns),
+                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
+        param_var = _estimation.quadratic_forms(fit, means)
     b.bias = sec.bias_test(d.e, d.lags.starts, b.per_joint["rmse"], param_var) if lagged else None
     b.n_eff = None if b.bias is None else b.bias["n_eff"]
     b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
-    b.grams = sec.JointGrams(d.reg3) if d.reg3 is not None else None
+    reg3 = d.reg3
+    b.grams = d.memo(("grams", reg3.shape), lambda: sec.JointGrams(reg3)) if reg3 is not None else None
+
+
+def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
+    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
+    prepared regressor, where nothing is kept)."""
+    if d.memo is compute_now:
+        return ()
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"))
 
 
 def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
@@ -342,7 +363,7 @@ def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
         b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, lags.starts)
         b.white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, b.lb, o.decimate, o.sample_rate, band=lags.band,
                                 bandwidth=o.bandwidth, lag=lags.white_lag)
-    b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams)
+    b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams, memo=d.memo)
 
 
 def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
@@ -350,14 +371,20 @@ def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
     if d.reg2 is None:
         return
     b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile,
-                                                   o.level, d.lags.starts, d.n, d.m, b.n_eff, o.detail)
+                                                   o.level, d.lags.starts, d.n, d.m, b.n_eff, o.detail, memo=d.memo)
     if b.est_fit is not None:
-        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, d.lags.starts, o.profile, o.level)
+        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, d.lags.starts, o.profile, o.level,
+                                       memo=d.memo)
         b.cross["parameter_error"] = True
     if o.model_columns is not None and d.e is not None:
         est = o.estimation or {}
         if b.est_fit is not None:
-            b.missing = _estimation.missing_terms(est["regressor"], est["tau"], d.reg3, d.meas, o.model_columns)
+            cols = tuple(int(c) for c in o.model_columns)
+            reg3 = d.reg3
+            assert reg3 is not None  # with reg2
+            b.missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
+                                digest(d.meas) if d.memo is not compute_now else ()),
+                               lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
         else:
             b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, b.n_eff)
         if b.missing is not None:
@@ -367,7 +394,8 @@ def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
 def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
     """The validation design, and what the motion says: physics library, delay, periodic noise,
     predictive test, each joint's motion and the smallest detectable effect."""
-    b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate)
+    b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate,
+                          memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}))
     if o.q is not None and d.e is not None and not d.omitted:
         b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
                                     b.est_fit, o.level, o.estimation, d.meas)

@@ -7,12 +7,14 @@ computed from the evidence they collect (``_findings.py``) and worded in ``_summ
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 import numpy as np
 
 from ..statistics import _estimation, _stats
 from ._findings import Evidence
+from ._prepared import Memo, compute_now
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
 # Rows per block where a pass over the stacked regressor would otherwise copy it whole.
@@ -125,7 +127,7 @@ def bias_test(e, starts, rmse, parameter_variance=None):
     return out
 
 
-def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
+def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level, memo: Memo = compute_now):
     """Widen the residual × regressor standard deviations by the estimated parameters' error.
 
     The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
@@ -143,9 +145,8 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
     lengths = np.diff(np.append(starts, n))
     cols = list(fit.columns)
     ec = e - e.mean(axis=0)
-    yc = reg3 - reg3.mean(axis=0)
     var_e = np.einsum("nm,nm->m", ec, ec) / n
-    var_y = np.einsum("nmp,nmp->mp", yc, yc) / n
+    yc, var_y = memo(("centred_columns", reg3.shape), lambda: _centred_columns(reg3))
     by_cell: dict[tuple[int, int], list[int]] = {}
     for j, c, lag in cells:
         by_cell.setdefault((int(j), int(lag)), []).append(int(c))
@@ -155,7 +156,8 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
         if one_segment:
             # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
             if j not in model_cols:
-                model_cols[j] = np.ascontiguousarray(yc[:, j, cols])
+                model_cols[j] = memo(("centred_model_columns", reg3.shape, j, fit.columns),
+                                     partial(_joint_columns, yc, j, cols))
             g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
         else:
             cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
@@ -166,6 +168,17 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level):
         with np.errstate(invalid="ignore", divide="ignore"):
             sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
     return sd
+
+
+def _joint_columns(yc, j: int, cols):
+    """Joint j's ``cols`` of the centred regressor, contiguous."""
+    return np.ascontiguousarray(yc[:, j, cols])
+
+
+def _centred_columns(reg3):
+    """The regressor less its column means, and each column's variance (over N)."""
+    yc = reg3 - reg3.mean(axis=0)
+    return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
 
 
 def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
@@ -312,36 +325,61 @@ def _any_nonzero(x: np.ndarray, columns: np.ndarray) -> bool:
     return any(np.any(x[i:i + _ROW_BLOCK, columns]) for i in range(0, x.shape[0], _ROW_BLOCK))
 
 
-def _project_out(e, reg3, grams: JointGrams | None = None):
-    """The residual less its least-squares projection on each joint's regressor columns."""
+def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_now):
+    """The residual less its least-squares projection on each joint's regressor columns.
+
+    What depends on the regressor alone (each joint's live columns, their block, the solve's
+    factor) comes from ``memo``: a prepared regressor computes it once for every residual."""
     n, m, p = reg3.shape
     if n < 4 * p:
         return e
     out = np.empty_like(e)
-    k_reg = None
     for j in range(m):
         beta = None
         if grams is not None and grams.usable:
-            # The joint's zero columns add nothing to its projection: solved without them.
-            live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
-            cols = slice(None) if live.size == p else live  # a slice is a view, an index a copy
+            live, y = memo(("live_block", reg3.shape, j), partial(_live_block, reg3, grams, j))
             with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-                yb = e[:, j] @ reg3[:, j, cols]
+                yb = e[:, j] @ y
             if live.size and np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
-                beta = _solve_normal_equations(grams.gram[j][np.ix_(live, live)], yb)
+                factor = memo(("live_factor", reg3.shape, j), partial(_live_factor, grams, j, live))
+                beta = _solve_factored(factor, yb)
         if beta is not None:
-            out[:, j] = e[:, j] - reg3[:, j, cols] @ beta
+            out[:, j] = e[:, j] - y @ beta
             continue
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
-        # 1e140 data do not overflow the normal equations. The exponents of every column at
-        # once: one contiguous pass instead of a strided one per joint.
-        if k_reg is None:
-            k_reg = _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p)
-        y = _scale_pow2(reg3[:, j, :], k_reg[j])
+        # 1e140 data do not overflow the normal equations.
+        y, factor = memo(("scaled_block", reg3.shape, j), partial(_scaled_block, reg3, j, memo))
         ej, k = _pow2_columns(e[:, j : j + 1])
-        out[:, j] = np.ldexp(ej[:, 0] - y @ _least_squares(y, ej[:, 0]), k[0])
+        # Below the condition limit the kept factor solves it; above, LAPACK's SVD-based lstsq on
+        # the whole block, per residual: its result depends on the right-hand side throughout.
+        beta = _solve_factored(factor, y.T @ ej[:, 0]) if factor is not None else None
+        if beta is None:
+            beta = np.linalg.lstsq(y, ej[:, 0], rcond=None)[0]
+        out[:, j] = np.ldexp(ej[:, 0] - y @ beta, k[0])
     return out
+
+
+def _live_block(reg3, grams: JointGrams, j: int):
+    """Joint j's columns with a nonzero norm and their (N, k) block: its zero columns add nothing
+    to its projection. All columns live: a view (a slice); else a copy (an index)."""
+    live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
+    cols = slice(None) if live.size == reg3.shape[2] else live
+    return live, reg3[:, j, cols]
+
+
+def _live_factor(grams: JointGrams, j: int, live):
+    """:func:`_normal_factor` of joint j's live columns."""
+    return _normal_factor(grams.gram[j][np.ix_(live, live)])
+
+
+def _scaled_block(reg3, j: int, memo: Memo):
+    """Joint j's columns scaled exactly by powers of two, and the factor of their normal equations.
+    The exponents of every column at once: one contiguous pass instead of a strided one per joint."""
+    n, m, p = reg3.shape
+    k_reg = memo(("pow2_exponents", reg3.shape), lambda: _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p))
+    y = _scale_pow2(reg3[:, j, :], k_reg[j])
+    return y, _normal_factor(y.T @ y)
 
 
 # Below this condition number the normal equations lose at most about 1e-8 of the fit
@@ -354,17 +392,32 @@ def _sum_squares(x):
         return float(x @ x)
 
 
-def _solve_normal_equations(g, yb):
-    """β from the normal equations gβ = yb of the column-scaled problem, or None when the scaled
-    condition number reaches _NORMAL_EQUATIONS_COND (or a column is zero)."""
+def _normal_factor(g):
+    """(gs, d) of the column-scaled normal equations gs = g/(d dᵀ), d = √diag g, when their
+    condition number is below _NORMAL_EQUATIONS_COND (and no column is zero); else None. It depends
+    on the regressor alone: a prepared regressor keeps it."""
     d = np.sqrt(np.diag(g))
     if not np.all(d > 0):
         return None
     gs = g / np.outer(d, d)  # the condition number of the column-scaled problem decides
     w = np.linalg.eigvalsh(gs)
     if w[0] > 0 and np.sqrt(w[-1] / w[0]) < _NORMAL_EQUATIONS_COND:
-        return np.linalg.solve(gs, yb / d) / d
+        return gs, d
     return None
+
+
+def _solve_factored(factor, yb):
+    """β from the normal equations of :func:`_normal_factor`, or None without a factor."""
+    if factor is None:
+        return None
+    gs, d = factor
+    return np.linalg.solve(gs, yb / d) / d
+
+
+def _solve_normal_equations(g, yb):
+    """β from the normal equations gβ = yb of the column-scaled problem, or None when the scaled
+    condition number reaches _NORMAL_EQUATIONS_COND (or a column is zero)."""
+    return _solve_factored(_normal_factor(g), yb)
 
 
 def _least_squares(y, b):
@@ -393,11 +446,12 @@ def _pow2_columns(x):
     return _scale_pow2(x, k), k
 
 
-def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None) -> tuple[dict, Any]:
+def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
+             memo: Memo = compute_now) -> tuple[dict, Any]:
     """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
     the report's section, and the tests of every bin (:func:`dynval.statistics._stats.residual_spectrum`),
     which the findings read."""
-    x = _project_out(e, reg3, grams) if reg3 is not None else e
+    x = _project_out(e, reg3, grams, memo) if reg3 is not None else e
     spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
     return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
@@ -424,7 +478,7 @@ def _biased_acf(kernel, x, starts, big: int) -> np.ndarray:
 
 
 def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
-                      detail) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+                      detail, memo: Memo = compute_now) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
     """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
 
     The band of the lesson (z/√N) is kept for reference; the findings use Bartlett's variance
@@ -441,7 +495,9 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     tau_int = tau_int if np.isfinite(tau_int) else 1.0
     big = int(min(longest - 1, max(max_lag, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
     rho_e = _biased_acf(kernel, e, starts, big)
-    rho_y = _biased_acf(kernel, reg2, starts, big).reshape(big + 1, m, p)
+    # the regressor's half of the band: the same for every residual on this regressor
+    key = ("columns_acf", getattr(kernel, "__name__", str(kernel)), reg2.shape, tuple(int(s) for s in starts), big)
+    rho_y = memo(key, lambda: _biased_acf(kernel, reg2, starts, big)).reshape(big + 1, m, p)
     lags = np.arange(max_lag + 1)
     n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
     d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))
@@ -751,7 +807,7 @@ def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
 
 
 def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | None = None,
-           sample_rate=None) -> dict[str, Any] | None:
+           sample_rate=None, memo: Memo = compute_now, estimation_key=()) -> dict[str, Any] | None:
     """Whether the validation run repeats the estimation run, and how well it excites the model.
 
     Repeat (conventions §5.6): the share of the validation run whose state (q, q̇, q̈ from ``q``,
@@ -799,11 +855,18 @@ def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | N
             rep["is_repeat"] = bool(rep["distance"] < th.repeat_distance)
         out["repeat"] = rep or None
     if reg3 is not None:
-        stacked = reg3.reshape(-1, reg3.shape[2])
-        gram = grams.stacked() if grams is not None and grams.usable else None
-        norms = np.sqrt(np.diag(gram).copy()) if gram is not None else _column_norms(stacked)
-        est = None
-        if estimation is not None and "regressor" in estimation:
-            est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
-        out["excitation"] = _excitation(stacked, norms, gram, est)
+        # the regressors' alone (``estimation_key`` names the estimation run's)
+        out["excitation"] = memo(("excitation", reg3.shape, estimation_key),
+                                 lambda: _regressor_excitation(reg3, grams, estimation))
     return out or None
+
+
+def _regressor_excitation(reg3, grams: JointGrams | None, estimation) -> dict[str, Any]:
+    """:func:`_excitation` of the stacked validation regressor (and the estimation run's)."""
+    stacked = reg3.reshape(-1, reg3.shape[2])
+    gram = grams.stacked() if grams is not None and grams.usable else None
+    norms = np.sqrt(np.diag(gram).copy()) if gram is not None else _column_norms(stacked)
+    est = None
+    if estimation is not None and "regressor" in estimation:
+        est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
+    return _excitation(stacked, norms, gram, est)

@@ -18,9 +18,14 @@ each joint's mean square the added term removes — an out-of-sample effect, and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 from . import _stats
 

@@ -21,13 +21,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.fft
-import scipy.optimize
-import scipy.signal
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.fft
+    import scipy.optimize
+    import scipy.signal
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 from ..checks._errors import InvalidParameter, InvalidShape, NonFiniteInput, TooFewSamples
 from ..checks._typing import ArrayLike, FloatArray

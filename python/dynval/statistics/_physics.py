@@ -32,12 +32,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
-import scipy.signal
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.linalg
+    import scipy.signal
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 __all__ = ["GROUPS", "LABELS", "PhysicsTest", "derivatives", "library", "physics_test", "delay_test"]
 

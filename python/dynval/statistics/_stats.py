@@ -10,13 +10,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.fft
-import scipy.ndimage
-import scipy.signal
-import scipy.special
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.fft
+    import scipy.ndimage
+    import scipy.signal
+    import scipy.special
+    import scipy.stats
+else:
+    from .._lazy import scipy
 
 from ..checks._typing import ArrayLike, FloatArray
 

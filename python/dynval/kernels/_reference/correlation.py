@@ -8,8 +8,14 @@ sums to rounding.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import scipy.fft
+
+if TYPE_CHECKING:
+    import scipy.fft
+else:
+    from ..._lazy import scipy
 
 from ...checks._validation import check_adjusted, check_finite, check_max_lag, check_n_columns, is_integer
 from ._common import as_2d, check_starts, finite_residual, segment_limit

@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.special
-import scipy.stats
+
+if TYPE_CHECKING:
+    import scipy.special
+    import scipy.stats
+else:
+    from ..._lazy import scipy
 
 from ...checks._validation import check_lags, check_model_df, check_test
 from ._common import check_starts, finite_residual, segment_limit

@@ -1,0 +1,156 @@
+"""A regressor prepared once for many :func:`dynval.validate` calls (contract §4, prepared regressor).
+
+Much of ``validate``'s work with a regressor does not depend on the residual: each joint's Gram
+matrix, the columns' autocorrelations of the colour-aware cross-correlation band, the excitation
+section's factorisation, the per-joint column blocks and solve decisions of the spectrum's
+projection, the centred columns of the parameter-error widening. A :class:`PreparedRegressor`
+keeps each of them the first time a call computes it, under a key naming every other input it
+depends on, and hands the same result to later calls: :func:`dynval.compare` prepares the shared
+regressor once for all its candidates, and a caller validating many predictions on one run can do
+the same. Every number is computed by the same code on the same arrays, so the reports are the
+ones the plain array gives, bit for bit.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Hashable
+from typing import Any, TypeVar, cast
+
+import numpy as np
+
+from ..checks import _validation as v
+from ..checks._typing import ArrayLike, FloatArray
+
+__all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "memo_for", "digest"]
+
+T = TypeVar("T")
+
+#: ``memo(key, compute)``: ``compute()``'s value, kept under ``key`` when the regressor is prepared.
+Memo = Callable[[tuple[Hashable, ...], Callable[[], T]], T]
+
+
+def compute_now(key: tuple[Hashable, ...], compute: Callable[[], T]) -> T:
+    """The memo of a plain regressor: nothing is kept (no extra memory per call)."""
+    return compute()
+
+
+class PreparedRegressor:
+    """A regressor Y, (N, m, p) or (N*m, p), with the residual-independent work on it kept.
+
+    Made by :func:`dynval.prepare_regressor`; accepted wherever a regressor is (``validate``'s and
+    ``compare``'s ``regressor``, a candidate's own). ``array`` is the regressor as float64,
+    C-contiguous and read-only. The results kept are tied to its values: do not modify the array
+    it was prepared from while the prepared regressor is in use (prepare it again instead).
+    """
+
+    __slots__ = ("_cache", "array")
+
+    def __init__(self, array: FloatArray) -> None:
+        view = array.view()
+        view.flags.writeable = False
+        self.array: FloatArray = view
+        self._cache: dict[tuple[Hashable, ...], Any] = {}
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.array.shape)
+
+    def __repr__(self) -> str:
+        return f"PreparedRegressor(shape={self.shape}, kept={len(self._cache)})"
+
+    def memo(self, key: tuple[Hashable, ...], compute: Callable[[], T]) -> T:
+        """``compute()`` the first time ``key`` is asked for; the kept value afterwards. Arrays are
+        kept read-only and mappings handed out as copies, so no caller can change another's."""
+        if key not in self._cache:
+            self._cache[key] = _frozen(compute())
+        value = self._cache[key]
+        return cast(T, copy.deepcopy(value)) if isinstance(value, dict) else cast(T, value)
+
+
+def _frozen(value: T) -> T:
+    """``value`` with its arrays read-only: those of a tuple, and the attributes of an object (a
+    Gram matrix, a refit); a mapping is handed out as a copy instead."""
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    elif isinstance(value, tuple):
+        for item in value:
+            _frozen(item)
+    elif hasattr(value, "__dict__") and not isinstance(value, type):
+        for item in vars(value).values():
+            if isinstance(item, np.ndarray):
+                item.flags.writeable = False
+    return value
+
+
+def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegressor:
+    """Prepare a regressor for repeated :func:`dynval.validate` calls (and :func:`dynval.compare`).
+
+    Parameters
+    ----------
+    regressor : array_like, (N, m, p) or (N*m, p)
+        The regressor of the validation run, as ``validate`` takes it (the stacked 2-D form still
+        needs ``n_joints`` in each call). It is converted to float64 and made C-contiguous once (a
+        copy only when it is not already); its shape and values are checked by each call as a
+        plain regressor's are.
+
+    Returns
+    -------
+    PreparedRegressor
+        Pass it as ``regressor=``: each call computes only what depends on its residual, and the
+        report equals the one the plain array gives.
+
+    Raises
+    ------
+    InvalidType
+        ``regressor`` is not an array of real numbers.
+
+    Examples
+    --------
+    >>> import numpy as np, dynval
+    >>> rng = np.random.default_rng(1)
+    >>> Y = rng.normal(size=(400, 2, 3))
+    >>> tau = Y @ np.array([1.0, -2.0, 0.5]) + rng.normal(0.0, 0.1, (400, 2))
+    >>> prepared = dynval.prepare_regressor(Y)
+    >>> a = dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=prepared)
+    >>> b = dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=Y)
+    >>> a.to_json() == b.to_json()
+    True
+
+    With omitted rows (``nan_policy="omit"`` and a nan) the call's regressor is a copy without
+    them, so nothing kept is used; the report is still the plain array's:
+
+    >>> tau[5, 0] = np.nan
+    >>> c = dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=prepared, nan_policy="omit")
+    >>> c.to_json() == dynval.validate(tau, Y @ np.array([1.0, -2.0, 0.4]), n_params=3, regressor=Y,
+    ...                                nan_policy="omit").to_json()
+    True
+    """
+    if isinstance(regressor, PreparedRegressor):
+        return regressor
+    return PreparedRegressor(np.ascontiguousarray(v.to_float_array(regressor, "regressor")))
+
+
+def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:
+    """The memo a call may use: the prepared regressor's when the call's checked 2-D regressor is
+    the prepared array itself (same memory, every row kept), else one that keeps nothing."""
+    if prepared is None or checked is None:
+        return compute_now
+    same = (checked.ctypes.data == prepared.array.ctypes.data and checked.size == prepared.array.size
+            and checked.flags.c_contiguous)
+    return prepared.memo if same else compute_now
+
+
+def digest(*arrays: Any) -> tuple[Hashable, ...]:
+    """A key for arrays given beside the regressor (the estimation run's): their shapes and a hash
+    of their bytes, so that a kept result is never reused for other values."""
+    import hashlib  # here: only a prepared regressor with an estimation run needs it
+
+    out: list[Hashable] = []
+    for a in arrays:
+        if a is None:
+            out.append(None)
+            continue
+        x = np.ascontiguousarray(a)
+        out.append((x.shape, str(x.dtype), hashlib.blake2b(x.data, digest_size=16).hexdigest()))
+    return tuple(out)

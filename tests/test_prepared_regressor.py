@@ -1,0 +1,153 @@
+"""dynval.prepare_regressor: the regressor's residual-independent work done once, the same reports."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import dynval
+from dynval import calibration as C
+from dynval import simulate as sim
+from dynval.report import _sections
+
+NAMES = list(sim.PARAMETER_NAMES)
+NO_FC = [i for i, n in enumerate(NAMES) if not n.startswith("Fc")]
+
+
+def _run(seed=0, n=800):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 100.0
+    q, dq, ddq = C._trajectory(rng, t)
+    y = np.ascontiguousarray(sim.regressor(q, dq, ddq))
+    pi = sim.base_parameters(sim.DEFAULT_ARM)
+    return q, y, y @ pi + rng.normal(0.0, 0.2, (n, 2))
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return _run(0), _run(1)
+
+
+def _fit(y, tau, cols):
+    return np.linalg.lstsq(y[:, :, cols].reshape(-1, len(cols)), tau.reshape(-1), rcond=None)[0]
+
+
+def _predictions(runs):
+    (_, y_e, tau_e), (_, y_v, _) = runs
+    full = list(range(len(NAMES)))
+    return {"rigid+viscous": y_v[:, :, NO_FC] @ _fit(y_e, tau_e, NO_FC), "full": y_v @ _fit(y_e, tau_e, full),
+            "half": 0.5 * (y_v @ _fit(y_e, tau_e, full))}
+
+
+CASES = {
+    "plain": {"sample_rate": 100.0},
+    "segments": {"segments": [300, 500], "max_lag": 20},
+    "python backend": {"backend": "python", "max_lag": 12},
+    "estimation and model columns": {"sample_rate": 100.0, "model_columns": NO_FC, "estimation": True},
+    "estimation refit": {"sample_rate": 100.0, "estimation": True},
+    "full detail": {"cross_correlation_detail": "full", "max_lag": 15},
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_prepared_regressor_gives_the_plain_report_bit_for_bit(runs, case):
+    options = dict(CASES[case])
+    (q_e, y_e, tau_e), (q_v, y_v, tau_v) = runs
+    if options.pop("estimation", False):
+        options["estimation"] = {"q": q_e, "regressor": y_e, "tau": tau_e}
+    prepared = dynval.prepare_regressor(y_v)
+    for pred in _predictions(runs).values():  # the later calls read what the first kept
+        plain = dynval.validate(tau_v, pred, n_params=10, regressor=y_v, q=q_v, **options)
+        shared = dynval.validate(tau_v, pred, n_params=10, regressor=prepared, q=q_v, **options)
+        assert shared.to_json() == plain.to_json()
+    assert repr(prepared).startswith("PreparedRegressor(shape=(800, 2, 10), kept=") and len(prepared._cache) > 0
+
+
+def test_the_stacked_form_and_omitted_rows_give_the_plain_report(runs):
+    _, (_, y_v, tau_v) = runs
+    pred = _predictions(runs)["full"]
+    stacked = y_v.reshape(-1, y_v.shape[2])
+    prepared = dynval.prepare_regressor(stacked)
+    a = dynval.validate(tau_v, pred, n_params=10, regressor=prepared, n_joints=2, max_lag=10)
+    assert a.to_json() == dynval.validate(tau_v, pred, n_params=10, regressor=stacked, n_joints=2,
+                                          max_lag=10).to_json()
+    # Omitted rows make the call's regressor a copy without them: nothing kept may serve it.
+    holed = tau_v.copy()
+    holed[100, 1] = np.nan
+    b = dynval.validate(holed, pred, n_params=10, regressor=prepared, n_joints=2, max_lag=10, nan_policy="omit")
+    assert b.to_json() == dynval.validate(holed, pred, n_params=10, regressor=stacked, n_joints=2, max_lag=10,
+                                          nan_policy="omit").to_json()
+
+
+def test_another_estimation_run_is_not_served_what_the_first_one_gave(runs):
+    (q_e, y_e, tau_e), (q_v, y_v, tau_v) = runs
+    pred = _predictions(runs)["rigid+viscous"]
+    prepared = dynval.prepare_regressor(y_v)
+    for scale in (1.0, 1.5):  # the same arrays' shapes, other values
+        est = {"q": q_e, "regressor": y_e * scale, "tau": tau_e}
+        shared = dynval.validate(tau_v, pred, n_params=7, regressor=prepared, q=q_v, estimation=est,
+                                 model_columns=NO_FC, sample_rate=100.0)
+        plain = dynval.validate(tau_v, pred, n_params=7, regressor=y_v, q=q_v, estimation=est,
+                                model_columns=NO_FC, sample_rate=100.0)
+        assert shared.to_json() == plain.to_json()
+
+
+def test_kept_arrays_are_read_only(runs):
+    _, (_, y_v, tau_v) = runs
+    prepared = dynval.prepare_regressor(y_v)
+    dynval.validate(tau_v, _predictions(runs)["full"], n_params=10, regressor=prepared, sample_rate=100.0)
+    kept = [x for v in prepared._cache.values() for x in (v if isinstance(v, tuple) else (v,))]
+    kept += [x for v in prepared._cache.values() if hasattr(v, "__dict__") for x in vars(v).values()]
+    arrays = [x for x in kept if isinstance(x, np.ndarray)]
+    assert arrays and not any(x.flags.writeable for x in arrays)
+    assert not prepared.array.flags.writeable and y_v.flags.writeable  # the caller's array stays its own
+
+
+def _count_calls(monkeypatch, module, name):
+    calls = []
+    original = getattr(module, name)
+
+    def counting(*args, **kwargs):
+        calls.append(name)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, counting)
+    return calls
+
+
+@pytest.mark.parametrize("own", [False, True], ids=["shared regressor", "each candidate's own, one array"])
+def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypatch, own):
+    (q_e, y_e, tau_e), (q_v, y_v, tau_v) = runs
+    est = {"q": q_e, "regressor": y_e, "tau": tau_e}
+    # lags to N/4: every candidate's band then takes the regressor's autocorrelations to the same lag
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, q=q_v, estimation=est, max_lag=200)
+             for n, p in _predictions(runs).items()}
+    grams = _count_calls(monkeypatch, _sections, "JointGrams")
+    excitation = _count_calls(monkeypatch, _sections, "_excitation")
+    column_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
+    candidates = {n: (p, 10, y_v) if own else (p, 10) for n, p in _predictions(runs).items()}
+    cmp = dynval.compare(tau_v, candidates, regressor=None if own else y_v, q=q_v, estimation=est, max_lag=200)
+    assert len(grams) == 1 and len(excitation) == 1
+    # each residual's own autocorrelation, and the regressor's once per number of colour lags
+    # (the band's J depends on the residual's N_eff)
+    colour_lags = {r.cross_correlation["colour_lags"] for r in cmp.reports.values()}
+    assert len(column_acf) == 3 + len(colour_lags) and colour_lags == {200}
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+
+
+def test_compare_leaves_other_regressors_as_given(runs, monkeypatch):
+    # A float32 array (converted by each validate) is not prepared: its errors and results stay its own.
+    _, (_, y_v, tau_v) = runs
+    grams = _count_calls(monkeypatch, _sections, "JointGrams")
+    preds = _predictions(runs)
+    dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v.astype(np.float32), max_lag=5)
+    assert len(grams) == 3
+
+
+def test_prepare_regressor_refuses_what_is_not_real_numbers():
+    with pytest.raises(dynval.InvalidType, match="regressor must be an array of real numbers, got <U1"):
+        dynval.prepare_regressor([["a", "b"]])
+    prepared = dynval.prepare_regressor(np.ones((10, 1, 2)))
+    assert dynval.prepare_regressor(prepared) is prepared
+    with pytest.raises(dynval.ShapeMismatch, match="regressor must have shape"):
+        dynval.validate(np.ones((12, 1)), np.ones((12, 1)), n_params=1, regressor=prepared)
