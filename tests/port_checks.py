@@ -26,7 +26,7 @@ def require_toolchain(name: str, missing: list, hint: str) -> None:
     if not missing:
         return
     required = {n.strip() for n in os.environ.get("DYNVAL_REQUIRE_TOOLCHAINS", "").split(",")}
-    reason = f"{name} toolchain not found ({', '.join(missing)} missing from PATH); {hint}"
+    reason = f"{name} toolchain not found ({', '.join(missing)}: missing); {hint}"
     if name in required:
         pytest.fail(f"DYNVAL_REQUIRE_TOOLCHAINS names {name}, but: {reason}")
     pytest.skip(reason)
