@@ -228,3 +228,28 @@ def test_dask_arrays_with_unknown_chunk_sizes_are_an_input_error():
     kept.compute_chunk_sizes()
     report = dynval.dask.validate(kept, tau, n_params=1)
     assert report.pooled["rmse_per_element"] == 0.0
+
+
+@pytest.mark.parametrize("rate", [1e-308, 200.0 * 2.0 ** -1000, 1e300])
+def test_an_extreme_sample_rate_gives_the_spectrum_without_a_warning(rate):
+    # The Welch density per Hz overflows at 1e-308 Hz: it is computed at a power-of-two multiple of
+    # the rate and scaled back, so the tests on it (ratios, shares, peaks) are those of a usual rate.
+    import warnings
+
+    from dynval.statistics._stats import information_bandwidth, residual_spectrum
+
+    rng = np.random.default_rng(0)
+    tau = rng.standard_normal((500, 2))
+    e = 0.1 * rng.standard_normal((500, 2))
+    usual = residual_spectrum(e, [0], sample_rate=200.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        extreme = residual_spectrum(e, [0], sample_rate=rate)
+        band = information_bandwidth(tau, [0], sample_rate=rate)
+        dynval.validate(tau, tau + e, n_params=1, sample_rate=rate)
+    np.testing.assert_allclose(extreme.ratio, usual.ratio, rtol=1e-12)
+    np.testing.assert_allclose(extreme.share, usual.share, rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(extreme.is_peak, usual.is_peak)
+    # atol: the frequencies at 1e-308 Hz are subnormal
+    np.testing.assert_allclose(extreme.frequency, usual.frequency * (rate / 200.0), rtol=1e-15, atol=1e-320)
+    assert band == pytest.approx(information_bandwidth(tau, [0], sample_rate=200.0) * rate / 200.0, rel=1e-15)

@@ -411,6 +411,14 @@ def _side_medians(logp, inner: int, outer: int):
     return left, right
 
 
+def _rate_exponent(fs: float) -> int:
+    """k with the Welch rate fs·2^-k in a range where a density per unit of rate cannot overflow.
+
+    0 for every usual rate (results unchanged to the bit); for an extreme one (1e-308 Hz) the
+    spectrum is computed at fs·2^-k and its frequencies and density scaled back exactly."""
+    return 0 if 2.0 ** -500 < fs < 2.0 ** 500 else math.frexp(fs)[1]
+
+
 def _welch(x, starts, fs, nperseg):
     """Welch power (F, m) averaged over segments weighted by their window counts, and the count."""
     n = x.shape[0]
@@ -461,7 +469,8 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     largest = np.max(np.abs(x), axis=0) if n else np.zeros(m)
     exps = np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
     x = np.ldexp(x, -exps)
-    freq, power, windows = _welch(x, starts, fs, nperseg)
+    k = _rate_exponent(fs)
+    freq, power, windows = _welch(x, starts, math.ldexp(fs, -k), nperseg)
     if power is None:
         empty = np.zeros((0, m))
         return Spectrum(frequency=np.zeros(0), power=empty, dof=float("nan"), nperseg=nperseg, ratio=empty,
@@ -492,11 +501,12 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
         excess = np.where(tested, np.maximum(pj - background, 0.0), 0.0) * df
         # A Hann-windowed line spreads over about three bins: sum the excess over ±2 bins.
         share[tested, j] = (5.0 * scipy.ndimage.uniform_filter1d(excess, 5, mode="constant") / variance[j])[tested]
+    with np.errstate(over="ignore", under="ignore"):  # in the data's and the rate's units: IEEE where it leaves float64
+        freq = np.ldexp(freq, k)
+        power = np.ldexp(power, 2 * exps - k)
     peaks = [{"joint": int(j), "frequency": float(freq[b]), "ratio": float(ratio[b, j]),
               "pvalue": float(pvalue[b, j]), "share": float(share[b, j]), "bin": int(b)}
              for b, j in np.argwhere(is_peak)]
-    with np.errstate(over="ignore"):  # the power in the data's units: IEEE where it leaves float64
-        power = np.ldexp(power, 2 * exps)
     return Spectrum(frequency=freq, power=power, dof=dof, nperseg=nperseg, ratio=ratio, pvalue=pvalue,
                     share=share, is_peak=is_peak, peaks=peaks)
 
@@ -514,7 +524,8 @@ def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=No
     # Shares of power are scale-free: each joint scaled by a power of two first (contract §1.3).
     largest = np.max(np.abs(x), axis=0) if x.shape[0] else np.zeros(x.shape[1])
     x = np.ldexp(x, -np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64))
-    freq, power, _ = _welch(x, starts, fs, _default_nperseg(starts, x.shape[0], None))
+    k = _rate_exponent(fs)
+    freq, power, _ = _welch(x, starts, math.ldexp(fs, -k), _default_nperseg(starts, x.shape[0], None))
     if power is None:
         return float("nan")
     cum = np.cumsum(power, axis=0)
@@ -523,7 +534,7 @@ def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=No
     idx = [int(np.searchsorted(cum[:, j], fraction)) for j in range(cum.shape[1]) if np.isfinite(cum[-1, j])]
     if not idx:
         return float("nan")
-    return float(freq[min(max(idx), len(freq) - 1)])
+    return math.ldexp(float(freq[min(max(idx), len(freq) - 1)]), k)
 
 
 def decimate_segments(x, starts, factor: int):
