@@ -561,6 +561,40 @@ TEST(Correlation, WideAutocorrelationAgainstDirectSums) {
     }
 }
 
+// Narrow row-major data (up to 15 joints, the residual) take tiles of 8 lags over 4 rows at a time,
+// lag by lag before a segment's rows reach the tile's last lag: equal to direct long-double sums
+// with row counts off the 4-row step, a lag count off the tile (20 = 8 + 8 + 4), a segment shorter
+// than the lags, segments that straddle the 512-row blocks, an offset and 1, 7 and 15 joints.
+TEST(Correlation, NarrowAutocorrelationAgainstDirectSums) {
+    const Eigen::Index n = 1603, max_lag = 19;
+    const std::vector<long long> lengths{601, 9, 993};
+    const auto record = [](Eigen::Index k) { return k < 601 ? 0 : (k < 610 ? 1 : 2); };
+    for (const Eigen::Index m : {1, 7, 15}) {
+        const RowMatrix e = random_matrix(n, m, 91 + static_cast<unsigned>(m), 3.0);
+        for (const bool adjusted : {true, false}) {
+            const auto rho = dynval::autocorrelation(e, max_lag, adjusted, lengths);
+            for (Eigen::Index j = 0; j < m; ++j) {
+                long double mean = 0, r0 = 0;
+                for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
+                mean /= n;
+                for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
+                for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
+                    long double s = 0;
+                    Eigen::Index pairs = 0;
+                    for (Eigen::Index k = lag; k < n; ++k) {
+                        if (record(k) != record(k - lag)) continue;
+                        s += (e(k, j) - mean) * (e(k - lag, j) - mean);
+                        ++pairs;
+                    }
+                    const long double d = adjusted && lag > 0 ? pairs : n;
+                    const double want = static_cast<double>((s / d) / (r0 / n));
+                    EXPECT_NEAR(rho(lag, j), want, 1e-14) << m << " joints, joint " << j << " lag " << lag;
+                }
+            }
+        }
+    }
+}
+
 TEST(Correlation, PortmanteauFromHandComputedRho) {
     Eigen::VectorXd e(4);
     e << 1, -1, 1, -1;  // biased ρ1 = −0.75, ρ2 = 0.5
