@@ -274,6 +274,41 @@ TEST(Accumulator, ContiguousPathMatchesGenericPath) {
     EXPECT_EQ(r.nonfinite_pred->col, 2);
 }
 
+// The moments of one signal (update_signal: a residual's or a regressor's) take a lane kernel of
+// their own on contiguous rows; they must be those of the signal with a prediction of zeros (the
+// fused kernel) bit for bit: odd and partial blocks, a large offset, a merge and a non-finite value.
+TEST(Accumulator, SignalPathIsTheZeroPredictionPath) {
+    const auto same = [](const Eigen::ArrayXd& u, const Eigen::ArrayXd& v) {
+        return ((u == v) || (u.isNaN() && v.isNaN())).all();
+    };
+    const auto expect_same = [&](const dynval::joint_moments& r, const dynval::joint_moments& w, Eigen::Index n) {
+        EXPECT_TRUE(same(r.tau_mean, w.tau_mean) && same(r.tau_m2, w.tau_m2) && same(r.e_m2, w.e_m2)) << n;
+        EXPECT_TRUE(same(r.tau_shift, w.tau_shift) && same(r.tau_dev, w.tau_dev) && same(r.e_dev, w.e_dev)) << n;
+        EXPECT_TRUE(same(r.sse, w.sse) && same(r.max_abs_e, w.max_abs_e)) << n;
+        EXPECT_TRUE(same(r.tau_min, w.tau_min) && same(r.tau_max, w.tau_max)) << n;
+        EXPECT_TRUE(same(r.e_min, w.e_min) && same(r.e_max, w.e_max)) << n;
+        EXPECT_EQ(r.nonfinite_meas.has_value(), w.nonfinite_meas.has_value()) << n;
+    };
+    for (Eigen::Index n : {1, 2, 3, 255, 257, 1001}) {
+        RowMatrix x = random_matrix(n, 6, 70 + static_cast<unsigned>(n), 1e5);
+        if (n == 1001) x(600, 4) = std::numeric_limits<double>::quiet_NaN();
+        const RowMatrix zero = RowMatrix::Zero(n, 6);
+        const Eigen::Index h = n / 2;
+        dynval::joint_accumulator sig(6), fused(6), sig_head(6), sig_tail(6), fused_head(6), fused_tail(6);
+        sig.update_signal(x);
+        fused.update(x, zero);
+        expect_same(sig.result(), fused.result(), n);
+        sig_head.update_signal(x.topRows(h));
+        sig_tail.update_signal(x.bottomRows(n - h));
+        fused_head.update(x.topRows(h), zero.topRows(h));
+        fused_tail.update(x.bottomRows(n - h), zero.bottomRows(n - h));
+        expect_same(sig_head.merge(sig_tail).result(), fused_head.merge(fused_tail).result(), n);
+        if (n == 1001) {
+            EXPECT_EQ(sig.result().nonfinite_meas->row, 600);
+        }
+    }
+}
+
 TEST(Accumulator, MergeShiftsNonFiniteRow) {
     MatrixXd t = random_matrix(10, 2, 3), p = random_matrix(10, 2, 4);
     MatrixXd t2 = t;

@@ -4,8 +4,9 @@
 // Lagged products are computed blocked-direct, after a first pass (joint_accumulator) that
 // gives the overall means, the constancy tests and the finiteness check:
 // * C-contiguous (N, m) data: blocks of rows are centred into a buffer that also holds the
-//   previous max_lag rows (the tail that lagged products need), and each lag is a lane-wise
-//   product over the flat buffer (lane l is joint l mod m), vectorised; one read of the data;
+//   previous max_lag rows (the tail that lagged products need), and tiles of several lags are
+//   formed at once with their partial sums in registers (narrow_lag_tiles for up to 15 joints,
+//   lag_tile_wide from 16 columns); one read of the data;
 // * any other expression: each centred column is copied contiguous and summed chunk by chunk.
 // Block sums are Neumaier-compensated. At 50 lags this beats an FFT for N up to millions
 // (benchmarks/README.md). Means are overall (one per joint over all samples); products never
@@ -509,13 +510,15 @@ joint_moments accumulate_signal_halves(const Eigen::MatrixBase<D>& x) {
 /// Σ_k ê_k·Ŷ_{k−ℓ,c} (ℓ = 0..max_lag, c < p) of every joint j with `use[j]`, products within
 /// segments, for a regressor whose rows are contiguous (row stride `stride`, joint j's columns
 /// from j·p): one (L+1, p) matrix per joint (empty where `use[j]` is false). `e` holds the centred
-/// residuals as columns. The regressor is read once, a block of rows at a time for every joint
-/// (reading it joint by joint streamed it m times), each joint's rows centred with the moments'
-/// shift and deviation; partial sums go into compensated totals every `sum_rows` rows.
+/// residuals as columns. The regressor is read once, a block of rows at a time, row by row for
+/// every joint of a thread, each joint's columns centred with the moments' shift and deviation
+/// into its panels (lag_block_products); partial sums go into compensated totals every `sum_rows`
+/// rows.
 inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e, const std::vector<bool>& use,
                                                         const double* y, Index stride, Index p, const joint_moments& my,
                                                         const std::vector<Index>& starts, Index n, Index max_lag) {
-    constexpr Index block = 128, sum_rows = 1024;  // 1 MB of a 7 × 70-column regressor per block
+    // 128 rows: the packed panels of 7 joints × 70 columns (516 KB) stay in the L2 cache.
+    constexpr Index block = 128, sum_rows = 1024;
     const Index m = e.cols(), n_lags = max_lag + 1;
     const auto lengths = segment_lengths(starts, n);
     const auto per_joint = static_cast<std::size_t>(n_lags * p);
