@@ -435,7 +435,7 @@ TEST(Correlation, CrossCorrelationAgainstDirectLoop) {
         }
 }
 
-// Row-major regressors take the register-tiled path (4 lags x 8 columns, blocks of 256 rows,
+// Row-major regressors take the register-tiled path (6 lags x 8 columns, blocks of 128 rows,
 // compensated every 1024); column-major ones the dot product per lag. Both must equal direct
 // long-double sums: lags and columns that are not multiples of the tile, a segment boundary, a
 // constant column, and a joint with a column near 1e-170 (scaled, so that joint is not tiled).
@@ -540,10 +540,10 @@ TEST(Correlation, RegressorMomentsFromTwoHalves) {
     EXPECT_EQ(bad.nonfinite_meas->col, 200);
 }
 
-// Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 4 lags over threads (the
+// Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 7 lags over threads (the
 // last thread also takes the lags after the last whole tile): bit for bit the one-thread result.
 TEST(Correlation, ThreadedWideAutocorrelationIsTheOneThreadResult) {
-    const Eigen::Index n = 100000, m = 40, max_lag = 26;  // 1.08e8 multiply-adds; 6 tiles + 3 lags
+    const Eigen::Index n = 100000, m = 40, max_lag = 26;  // 1.08e8 multiply-adds; 3 tiles + 6 lags
     const RowMatrix e = random_matrix(n, m, 81);
     const std::vector<long long> lengths{37001, 62999};
     setenv("DYNVAL_NUM_THREADS", "1", 1);
