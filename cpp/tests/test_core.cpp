@@ -274,6 +274,41 @@ TEST(Accumulator, ContiguousPathMatchesGenericPath) {
     EXPECT_EQ(r.nonfinite_pred->col, 2);
 }
 
+// The moments of one signal (update_signal: a residual's or a regressor's) take a lane kernel of
+// their own on contiguous rows; they must be those of the signal with a prediction of zeros (the
+// fused kernel) bit for bit: odd and partial blocks, a large offset, a merge and a non-finite value.
+TEST(Accumulator, SignalPathIsTheZeroPredictionPath) {
+    const auto same = [](const Eigen::ArrayXd& u, const Eigen::ArrayXd& v) {
+        return ((u == v) || (u.isNaN() && v.isNaN())).all();
+    };
+    const auto expect_same = [&](const dynval::joint_moments& r, const dynval::joint_moments& w, Eigen::Index n) {
+        EXPECT_TRUE(same(r.tau_mean, w.tau_mean) && same(r.tau_m2, w.tau_m2) && same(r.e_m2, w.e_m2)) << n;
+        EXPECT_TRUE(same(r.tau_shift, w.tau_shift) && same(r.tau_dev, w.tau_dev) && same(r.e_dev, w.e_dev)) << n;
+        EXPECT_TRUE(same(r.sse, w.sse) && same(r.max_abs_e, w.max_abs_e)) << n;
+        EXPECT_TRUE(same(r.tau_min, w.tau_min) && same(r.tau_max, w.tau_max)) << n;
+        EXPECT_TRUE(same(r.e_min, w.e_min) && same(r.e_max, w.e_max)) << n;
+        EXPECT_EQ(r.nonfinite_meas.has_value(), w.nonfinite_meas.has_value()) << n;
+    };
+    for (Eigen::Index n : {1, 2, 3, 255, 257, 1001}) {
+        RowMatrix x = random_matrix(n, 6, 70 + static_cast<unsigned>(n), 1e5);
+        if (n == 1001) x(600, 4) = std::numeric_limits<double>::quiet_NaN();
+        const RowMatrix zero = RowMatrix::Zero(n, 6);
+        const Eigen::Index h = n / 2;
+        dynval::joint_accumulator sig(6), fused(6), sig_head(6), sig_tail(6), fused_head(6), fused_tail(6);
+        sig.update_signal(x);
+        fused.update(x, zero);
+        expect_same(sig.result(), fused.result(), n);
+        sig_head.update_signal(x.topRows(h));
+        sig_tail.update_signal(x.bottomRows(n - h));
+        fused_head.update(x.topRows(h), zero.topRows(h));
+        fused_tail.update(x.bottomRows(n - h), zero.bottomRows(n - h));
+        expect_same(sig_head.merge(sig_tail).result(), fused_head.merge(fused_tail).result(), n);
+        if (n == 1001) {
+            EXPECT_EQ(sig.result().nonfinite_meas->row, 600);
+        }
+    }
+}
+
 TEST(Accumulator, MergeShiftsNonFiniteRow) {
     MatrixXd t = random_matrix(10, 2, 3), p = random_matrix(10, 2, 4);
     MatrixXd t2 = t;
@@ -400,7 +435,7 @@ TEST(Correlation, CrossCorrelationAgainstDirectLoop) {
         }
 }
 
-// Row-major regressors take the register-tiled path (4 lags x 8 columns, blocks of 256 rows,
+// Row-major regressors take the register-tiled path (6 lags x 8 columns, blocks of 128 rows,
 // compensated every 1024); column-major ones the dot product per lag. Both must equal direct
 // long-double sums: lags and columns that are not multiples of the tile, a segment boundary, a
 // constant column, and a joint with a column near 1e-170 (scaled, so that joint is not tiled).
@@ -505,10 +540,10 @@ TEST(Correlation, RegressorMomentsFromTwoHalves) {
     EXPECT_EQ(bad.nonfinite_meas->col, 200);
 }
 
-// Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 4 lags over threads (the
+// Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 7 lags over threads (the
 // last thread also takes the lags after the last whole tile): bit for bit the one-thread result.
 TEST(Correlation, ThreadedWideAutocorrelationIsTheOneThreadResult) {
-    const Eigen::Index n = 100000, m = 40, max_lag = 26;  // 1.08e8 multiply-adds; 6 tiles + 3 lags
+    const Eigen::Index n = 100000, m = 40, max_lag = 26;  // 1.08e8 multiply-adds; 3 tiles + 6 lags
     const RowMatrix e = random_matrix(n, m, 81);
     const std::vector<long long> lengths{37001, 62999};
     setenv("DYNVAL_NUM_THREADS", "1", 1);
@@ -556,6 +591,40 @@ TEST(Correlation, WideAutocorrelationAgainstDirectSums) {
                 const long double d = adjusted && lag > 0 ? pairs : n;
                 const double want = static_cast<double>((s / d) / (r0 / n));
                 EXPECT_NEAR(rho(lag, j), want, 1e-14) << "column " << j << " lag " << lag;
+            }
+        }
+    }
+}
+
+// Narrow row-major data (up to 15 joints, the residual) take tiles of 8 lags over 4 rows at a time,
+// lag by lag before a segment's rows reach the tile's last lag: equal to direct long-double sums
+// with row counts off the 4-row step, a lag count off the tile (20 = 8 + 8 + 4), a segment shorter
+// than the lags, segments that straddle the 512-row blocks, an offset and 1, 7 and 15 joints.
+TEST(Correlation, NarrowAutocorrelationAgainstDirectSums) {
+    const Eigen::Index n = 1603, max_lag = 19;
+    const std::vector<long long> lengths{601, 9, 993};
+    const auto record = [](Eigen::Index k) { return k < 601 ? 0 : (k < 610 ? 1 : 2); };
+    for (const Eigen::Index m : {1, 7, 15}) {
+        const RowMatrix e = random_matrix(n, m, 91 + static_cast<unsigned>(m), 3.0);
+        for (const bool adjusted : {true, false}) {
+            const auto rho = dynval::autocorrelation(e, max_lag, adjusted, lengths);
+            for (Eigen::Index j = 0; j < m; ++j) {
+                long double mean = 0, r0 = 0;
+                for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
+                mean /= n;
+                for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
+                for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
+                    long double s = 0;
+                    Eigen::Index pairs = 0;
+                    for (Eigen::Index k = lag; k < n; ++k) {
+                        if (record(k) != record(k - lag)) continue;
+                        s += (e(k, j) - mean) * (e(k - lag, j) - mean);
+                        ++pairs;
+                    }
+                    const long double d = adjusted && lag > 0 ? pairs : n;
+                    const double want = static_cast<double>((s / d) / (r0 / n));
+                    EXPECT_NEAR(rho(lag, j), want, 1e-14) << m << " joints, joint " << j << " lag " << lag;
+                }
             }
         }
     }

@@ -4,8 +4,9 @@
 // Lagged products are computed blocked-direct, after a first pass (joint_accumulator) that
 // gives the overall means, the constancy tests and the finiteness check:
 // * C-contiguous (N, m) data: blocks of rows are centred into a buffer that also holds the
-//   previous max_lag rows (the tail that lagged products need), and each lag is a lane-wise
-//   product over the flat buffer (lane l is joint l mod m), vectorised; one read of the data;
+//   previous max_lag rows (the tail that lagged products need), and tiles of several lags are
+//   formed at once with their partial sums in registers (narrow_lag_tiles for up to 15 joints,
+//   lag_tile_wide from 16 columns); one read of the data;
 // * any other expression: each centred column is copied contiguous and summed chunk by chunk.
 // Block sums are Neumaier-compensated. At 50 lags this beats an FFT for N up to millions
 // (benchmarks/README.md). Means are overall (one per joint over all samples); products never
@@ -93,7 +94,7 @@ inline long long check_max_lag(long long max_lag, Index limit) {
 
 /// Fixed lane count: the partial sums stay in registers.
 template <int Lanes>
-DYNVAL_VECTOR_CLONES inline void lane_products_fixed(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
+DYNVAL_FMA_CLONES inline void lane_products_fixed(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
                                                      Index count, double* DYNVAL_RESTRICT acc) {
     double part[Lanes] = {};
     const Index chunks = count / Lanes;
@@ -107,7 +108,7 @@ DYNVAL_VECTOR_CLONES inline void lane_products_fixed(const double* DYNVAL_RESTRI
 }
 
 /// acc[i mod lanes] += a[i]·b[i] for i < count: independent lanes, so the loop vectorises.
-DYNVAL_VECTOR_CLONES inline void lane_products(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
+DYNVAL_FMA_CLONES inline void lane_products(const double* DYNVAL_RESTRICT a, const double* DYNVAL_RESTRICT b,
                                                Index count, Index lanes, double* DYNVAL_RESTRICT acc) {
     switch (lanes) {  // 2m lanes for m = 1..8 joints
         case 2: return lane_products_fixed<2>(a, b, count, acc);
@@ -129,44 +130,113 @@ DYNVAL_VECTOR_CLONES inline void lane_products(const double* DYNVAL_RESTRICT a, 
     for (Index i = chunks * lanes; i < count; ++i) acc[i - chunks * lanes] += a[i] * b[i];
 }
 
-/// acc[ℓ·m + j] += Σ_{u ∈ [u0, u1)} r[u·m + j]·r[(u − ℓ)·m + j] for the 4 lags ℓ = l0..l0+3 and every
-/// column j, rows counted from `r` (which must hold the rows u − l0 − 3 before u0). Tiles of 4 lags ×
-/// 8 columns stay in registers across the rows: each loaded row chunk feeds 4 multiply-adds. For
-/// wide data (many columns: the regressor's 490), where one lane per column does not fit in registers.
-DYNVAL_VECTOR_CLONES inline void lag_tile_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index l0,
-                                               double* DYNVAL_RESTRICT acc) {
-    constexpr Index TL = 4;
-    Index c0 = 0;
+/// Lags per tile of the narrow (up to 15 joints) lag-sum kernel.
+constexpr Index narrow_tile_lags = 8;
+
+/// acc[ℓ·4m + l] += Σ_{i ≡ l mod 4m} x[i]·x[i − ℓ·m] for i < rows·m and the TL lags ℓ = l0.. (x holds
+/// rows of m joints; lane l is joint l mod m). Four rows are m vectors; for each vector position
+/// the TL partial sums stay in registers while it steps through the rows, so one loaded value of
+/// x feeds TL multiply-adds (the lane-wise product of one lag needed two loads per multiply-add).
+template <int TL>
+DYNVAL_ALWAYS_INLINE void narrow_lag_tile(const double* DYNVAL_RESTRICT x, Index m, Index rows, Index l0,
+                                          double* DYNVAL_RESTRICT acc) {
+    const Index lanes = 4 * m, steps = rows / 4;
 #if defined(DYNVAL_VECTOR_TYPES)
-    for (; c0 + 8 <= m; c0 += 8) {
-        vec4 s[TL][2] = {};
-        for (Index u = u0; u < u1; ++u) {
-            vec4 x0, x1;
-            load4(x0, r + u * m + c0);
-            load4(x1, r + u * m + c0 + 4);
-            for (Index t = 0; t < TL; ++t) {
-                vec4 y0, y1;
-                load4(y0, r + (u - l0 - t) * m + c0);
-                load4(y1, r + (u - l0 - t) * m + c0 + 4);
-                s[t][0] += x0 * y0;
-                s[t][1] += x1 * y1;
+    for (Index v = 0; v < m; ++v) {
+        vec4 s[TL] = {};
+        for (Index k = 0; k < steps; ++k) {
+            const double* xk = x + k * lanes + 4 * v;
+            vec4 xv;
+            load4(xv, xk);
+            for (int t = 0; t < TL; ++t) {
+                vec4 yv;
+                load4(yv, xk - (l0 + t) * m);
+                s[t] += xv * yv;
             }
         }
-        for (Index t = 0; t < TL; ++t)
-            for (int h = 0; h < 2; ++h)
-                for (int i = 0; i < 4; ++i) acc[(l0 + t) * m + c0 + 4 * h + i] += s[t][h][i];
+        for (int t = 0; t < TL; ++t)
+            for (int i = 0; i < 4; ++i) acc[(l0 + t) * lanes + 4 * v + i] += s[t][i];
+    }
+#else
+    for (int t = 0; t < TL; ++t)
+        for (Index i = 0; i < steps * lanes; ++i) acc[(l0 + t) * lanes + i % lanes] += x[i] * x[i - (l0 + t) * m];
+#endif
+    for (Index i = steps * lanes; i < rows * m; ++i)  // the last rows mod 4
+        for (int t = 0; t < TL; ++t) acc[(l0 + t) * lanes + (i - steps * lanes)] += x[i] * x[i - (l0 + t) * m];
+}
+
+/// narrow_lag_tile for the lags [l0, l1) (at most narrow_tile_lags of them) of `rows` rows from x.
+DYNVAL_FMA_CLONES inline void narrow_lag_tiles(const double* DYNVAL_RESTRICT x, Index m, Index rows, Index l0, Index l1,
+                                               double* DYNVAL_RESTRICT acc) {
+    switch (l1 - l0) {
+        case 8: return narrow_lag_tile<8>(x, m, rows, l0, acc);
+        case 7: return narrow_lag_tile<7>(x, m, rows, l0, acc);
+        case 6: return narrow_lag_tile<6>(x, m, rows, l0, acc);
+        case 5: return narrow_lag_tile<5>(x, m, rows, l0, acc);
+        case 4: return narrow_lag_tile<4>(x, m, rows, l0, acc);
+        case 3: return narrow_lag_tile<3>(x, m, rows, l0, acc);
+        case 2: return narrow_lag_tile<2>(x, m, rows, l0, acc);
+        case 1: return narrow_lag_tile<1>(x, m, rows, l0, acc);
+        default: return;
+    }
+}
+
+/// Lags per tile of the wide (16 columns or more) lag-sum kernel: 7 sums and 7 lagged rows, plus
+/// the row loaded, fill 15 of the 16 AVX registers (6 and 8 measured slower).
+constexpr Index wide_tile_lags = 7;
+
+/// acc[ℓ·m + j] += Σ_{u ∈ [u0, u1)} r[u·m + j]·r[(u − ℓ)·m + j] for the TL lags ℓ = l0..l0+TL−1 and
+/// every column j, rows counted from `r` (which must hold the rows from u0 − l0 − TL + 1). For each
+/// panel of 4 columns the TL partial sums and the TL lagged rows they need stay in registers while
+/// the rows go by: row u − ℓ of lag ℓ is row (u − 1) − (ℓ − 1) of lag ℓ − 1, so each step loads
+/// two rows (u and u − l0) for TL multiply-adds. For wide data (the regressor's 490 columns), where
+/// one lane per column does not fit in registers.
+template <int TL>
+DYNVAL_ALWAYS_INLINE void wide_lag_tile(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index l0,
+                                        double* DYNVAL_RESTRICT acc) {
+    Index c0 = 0;
+#if defined(DYNVAL_VECTOR_TYPES)
+    for (; c0 + 4 <= m; c0 += 4) {
+        vec4 s[TL] = {}, w[TL] = {};
+        for (int k = 0; k + 1 < TL; ++k) load4(w[k], r + (u0 - 1 - l0 - k) * m + c0);
+        for (Index u = u0; u < u1; ++u) {
+            for (int t = TL - 1; t > 0; --t) w[t] = w[t - 1];  // w[t] = row u − l0 − t
+            load4(w[0], r + (u - l0) * m + c0);
+            vec4 x;
+            load4(x, r + u * m + c0);
+            for (int t = 0; t < TL; ++t) s[t] += x * w[t];
+        }
+        for (int t = 0; t < TL; ++t)
+            for (int i = 0; i < 4; ++i) acc[(l0 + t) * m + c0 + i] += s[t][i];
     }
 #endif
-    for (; c0 < m; ++c0)  // the last m mod 8 columns (every column without vector types)
-        for (Index t = 0; t < TL; ++t) {
+    for (; c0 < m; ++c0)  // the last m mod 4 columns (every column without vector types)
+        for (int t = 0; t < TL; ++t) {
             double part = 0.0;
             for (Index u = u0; u < u1; ++u) part += r[u * m + c0] * r[(u - l0 - t) * m + c0];
             acc[(l0 + t) * m + c0] += part;
         }
 }
 
+/// wide_lag_tile for the lags [l0, l1) (at most wide_tile_lags of them) over rows [u0, u1).
+DYNVAL_FMA_CLONES inline void lag_tile_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index l0,
+                                            Index l1, double* DYNVAL_RESTRICT acc) {
+    static_assert(wide_tile_lags >= 1 && wide_tile_lags <= 8, "wide_tile_lags: 1 to 8 lags per tile");
+    switch (l1 - l0) {
+        case 8: return wide_lag_tile<8>(r, m, u0, u1, l0, acc);
+        case 7: return wide_lag_tile<7>(r, m, u0, u1, l0, acc);
+        case 6: return wide_lag_tile<6>(r, m, u0, u1, l0, acc);
+        case 5: return wide_lag_tile<5>(r, m, u0, u1, l0, acc);
+        case 4: return wide_lag_tile<4>(r, m, u0, u1, l0, acc);
+        case 3: return wide_lag_tile<3>(r, m, u0, u1, l0, acc);
+        case 2: return wide_lag_tile<2>(r, m, u0, u1, l0, acc);
+        case 1: return wide_lag_tile<1>(r, m, u0, u1, l0, acc);
+        default: return;
+    }
+}
+
 /// One lag ℓ of every column over rows [u0, u1): acc[ℓ·m + j] += Σ r[u·m + j]·r[(u − ℓ)·m + j].
-DYNVAL_VECTOR_CLONES inline void lag_row_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index lag,
+DYNVAL_FMA_CLONES inline void lag_row_wide(const double* DYNVAL_RESTRICT r, Index m, Index u0, Index u1, Index lag,
                                               double* DYNVAL_RESTRICT acc) {
     double* a = acc + lag * m;
     for (Index u = u0; u < u1; ++u) {
@@ -185,7 +255,9 @@ template <class Products, class Fold>
 Eigen::MatrixXd blocked_lag_sums(const double* x, Index n, Index m, const joint_moments& mo,
                                  const std::vector<Index>& starts, Index max_lag, std::size_t acc_size,
                                  Products&& products, Fold&& fold) {
-    constexpr Index block = 512;
+    // Blocks of at most 512 rows and about 512 KB (wide data: 133 rows of 490 columns), so a block
+    // and its tail stay in the L2 cache while each tile of lags runs over it.
+    const Index block = std::clamp<Index>((Index{1} << 16) / m, 64, 512);
     const auto lengths = segment_lengths(starts, n);
     std::vector<double> buf(static_cast<std::size_t>((block + max_lag) * m)), acc(acc_size);
     std::vector<compensated> total(static_cast<std::size_t>((max_lag + 1) * m));
@@ -212,15 +284,15 @@ Eigen::MatrixXd blocked_lag_sums(const double* x, Index n, Index m, const joint_
 }
 
 /// Lag sums of C-contiguous (N, m) data in one pass (blocked_lag_sums). Up to 15 joints each lag
-/// is a lane-wise product of the buffer with itself shifted by ℓ rows (lane l is joint l mod m);
-/// from 16 columns (a regressor's) lag_tile_wide forms 4 lags at a time, lag_row_wide the lags
-/// left over and the first rows of a segment, where the 4 lags of a tile start at different rows.
+/// takes tiles of 8 lags over 4 rows at a time (narrow_lag_tiles; lane l is joint l mod m), from 16
+/// columns (a regressor's) lag_tile_wide tiles of wide_tile_lags lags; lane_products and
+/// lag_row_wide the first rows of a segment, where the lags of a tile start at different rows.
 inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const joint_moments& mo,
                                      const std::vector<Index>& starts, Index max_lag) {
     const auto size = static_cast<std::size_t>((max_lag + 1) * m);
     if (m >= 16) {
-        constexpr Index TL = 4;
-        // Tiles of 4 lags (l0 = 0, 4, ...) and the lags after the last whole tile. Threads take
+        constexpr Index TL = wide_tile_lags;
+        // Tiles of TL lags (l0 = 0, TL, ...) and the lags after the last whole tile. Threads take
         // contiguous runs of tiles, the last one also the lags left over; each forms its lags'
         // sums in the one-thread order and leaves the other lags 0, so the parts add exactly.
         const Index tiles = (max_lag + 1) / TL;
@@ -228,23 +300,19 @@ inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const jo
         const Index workers = tiles > 0 ? worker_count(tiles, work) : 1;
         std::vector<Eigen::MatrixXd> parts(static_cast<std::size_t>(workers));
         for_ranges(std::max<Index>(tiles, 1), workers, [&](Index w, Index tile_begin, Index tile_end) {
-            const bool rest = w == workers - 1;
+            const Index lag_end = w == workers - 1 ? max_lag + 1 : tile_end * TL;
             const auto tiled = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
-            const Index hi = std::min(a + nb, s1) - a;  // rows of this block, relative to a
-            Index l0 = tile_begin * TL;
-            for (; l0 < tile_end * TL && l0 + TL - 1 <= max_lag; l0 += TL) {
-                // rows where all 4 lags have a partner in the segment; before them, lag by lag
-                const Index tile_from = std::max(a, s0 + l0 + TL - 1) - a;
-                for (Index t = 0; t < TL; ++t) {
-                    const Index from = std::max(a, s0 + l0 + t) - a;
-                    if (from < std::min(tile_from, hi)) lag_row_wide(rows, m, from, std::min(tile_from, hi), l0 + t, acc);
+                const Index hi = std::min(a + nb, s1) - a;  // rows of this block, relative to a
+                for (Index l0 = tile_begin * TL; l0 < lag_end; l0 += TL) {
+                    const Index l1 = std::min(l0 + TL, lag_end);
+                    // rows where every lag of the tile has a partner in the segment; before them, lag by lag
+                    const Index tile_from = std::max(a, s0 + l1 - 1) - a;
+                    for (Index lag = l0; lag < l1; ++lag) {
+                        const Index from = std::max(a, s0 + lag) - a;
+                        if (from < std::min(tile_from, hi)) lag_row_wide(rows, m, from, std::min(tile_from, hi), lag, acc);
+                    }
+                    if (tile_from < hi) lag_tile_wide(rows, m, tile_from, hi, l0, l1, acc);
                 }
-                if (tile_from < hi) lag_tile_wide(rows, m, tile_from, hi, l0, acc);
-            }
-            for (l0 = std::max(l0, tiles * TL); rest && l0 <= max_lag; ++l0) {
-                const Index from = std::max(a, s0 + l0) - a;
-                if (from < hi) lag_row_wide(rows, m, from, hi, l0, acc);
-            }
             };
             const auto fold = [](const double* acc, std::vector<compensated>& total) {
                 for (std::size_t i = 0; i < total.size(); ++i) total[i].add(acc[i]);
@@ -254,20 +322,29 @@ inline Eigen::MatrixXd lag_sums_rows(const double* x, Index n, Index m, const jo
         for (std::size_t w = 1; w < parts.size(); ++w) parts[0] += parts[w];
         return parts[0];
     }
-    const Index lanes = 2 * m;
+    // Four rows (4m lanes, m vectors) per step of the tiled kernel; lane l is joint l mod m.
+    const Index lanes = 4 * m;
     const auto laned = [&](const double* rows, Index a, Index nb, Index s0, Index s1, double* acc) {
-        for (Index lag = 0; lag <= max_lag; ++lag) {
-            const Index lo = std::max(a, s0 + lag), hi = std::min(a + nb, s1);
-            if (lo >= hi) continue;
-            const double* cur = rows + (lo - a) * m;
-            // lane of element (lo − a)·m + i must be joint i mod m: start at lane 0 of a row.
-            lane_products(cur, cur - lag * m, (hi - lo) * m, lanes, acc + lag * lanes);
+        const Index hi = std::min(a + nb, s1);
+        for (Index l0 = 0; l0 <= max_lag; l0 += narrow_tile_lags) {
+            const Index l1 = std::min(l0 + narrow_tile_lags, max_lag + 1);
+            // rows where every lag of the tile has a partner in the segment; before them, lag by lag
+            const Index tile_from = std::max(a, s0 + l1 - 1);
+            for (Index lag = l0; lag < l1; ++lag) {
+                const Index lo = std::max(a, s0 + lag), head_end = std::min(tile_from, hi);
+                if (lo >= head_end) continue;
+                const double* cur = rows + (lo - a) * m;
+                lane_products(cur, cur - lag * m, (head_end - lo) * m, lanes, acc + lag * lanes);
+            }
+            if (tile_from < hi) narrow_lag_tiles(rows + (tile_from - a) * m, m, hi - tile_from, l0, l1, acc);
         }
     };
     const auto fold = [&](const double* acc, std::vector<compensated>& total) {
         for (Index lag = 0; lag <= max_lag; ++lag)
-            for (Index j = 0; j < m; ++j)
-                total[static_cast<std::size_t>(lag * m + j)].add(acc[lag * lanes + j] + acc[lag * lanes + j + m]);
+            for (Index j = 0; j < m; ++j) {
+                const double* l = acc + lag * lanes + j;
+                total[static_cast<std::size_t>(lag * m + j)].add(((l[0] + l[m]) + l[2 * m]) + l[3 * m]);
+            }
     };
     return blocked_lag_sums(x, n, m, mo, starts, max_lag, static_cast<std::size_t>((max_lag + 1) * lanes), laned,
                             fold);
@@ -323,49 +400,95 @@ double centred_for_correlation(const Eigen::MatrixBase<D>& a, Index j, const joi
     return buf.squaredNorm();
 }
 
-/// acc[ℓ·p + c] += Σ_{u < rows} e[u + ℓ]·y[u·p + c] for ℓ < n_lags, c < p: the lagged products
-/// of one joint's residual with a block of its (centred, row-contiguous) regressor rows. Tiles of
-/// 4 lags × 8 columns stay in registers across the rows, so each loaded regressor value feeds 4
-/// multiply-adds and each residual value 8 (27 GFLOP/s with AVX2 here, against 5 for one dot
-/// product per lag, which is bound by its loads). GCC/Clang vector types; a plain loop elsewhere.
-DYNVAL_VECTOR_CLONES inline void lag_block_products(const double* DYNVAL_RESTRICT e, const double* DYNVAL_RESTRICT y,
-                                                    Index rows, Index p, Index n_lags, double* DYNVAL_RESTRICT acc) {
-    constexpr Index TL = 4;
-    Index l0 = 0;
+/// Columns per panel of the packed regressor block: two 4-double vectors, a tile's width.
+constexpr Index lag_panel = 8;
+
+/// acc[(l0 + t)·p + c0 + k] += Σ_{u < rows} e[u + l0 + t]·y[u·8 + k] for t < TL, k < width: TL lags
+/// of one packed panel (8 columns, row u at y + 8u; columns from `width` on are zero padding). The
+/// 2·TL partial sums stay in registers across the rows: each loaded row of the panel feeds TL
+/// multiply-adds per value and each residual value 8. Inlined into the cloned caller.
+template <int TL>
+DYNVAL_ALWAYS_INLINE void lag_panel_tile(const double* DYNVAL_RESTRICT e, const double* DYNVAL_RESTRICT y, Index rows,
+                                         Index l0, Index p, Index c0, Index width, double* DYNVAL_RESTRICT acc) {
 #if defined(DYNVAL_VECTOR_TYPES)
-    for (; l0 + TL <= n_lags; l0 += TL) {
-        Index c0 = 0;
-        for (; c0 + 8 <= p; c0 += 8) {
-            vec4 s[TL][2] = {};
-            for (Index u = 0; u < rows; ++u) {
-                vec4 y0, y1;
-                load4(y0, y + u * p + c0);
-                load4(y1, y + u * p + c0 + 4);
-                for (Index t = 0; t < TL; ++t) {
-                    const vec4 et = vec4{} + e[u + l0 + t];
-                    s[t][0] += et * y0;
-                    s[t][1] += et * y1;
-                }
-            }
-            for (Index t = 0; t < TL; ++t)
-                for (int h = 0; h < 2; ++h)
-                    for (int i = 0; i < 4; ++i) acc[(l0 + t) * p + c0 + 4 * h + i] += s[t][h][i];
+    vec4 s[TL][2] = {};
+    for (Index u = 0; u < rows; ++u) {
+        vec4 y0, y1;
+        load4(y0, y + u * lag_panel);
+        load4(y1, y + u * lag_panel + 4);
+        // The empty asm hides that row u + 1 reads the values of row u shifted by one: otherwise
+        // GCC's predictive commoning (-O3) keeps them in registers across rows, and the extra live
+        // registers spill the sums to the stack (the products ran 1.6x slower).
+        const double* eu = e + u + l0;
+        __asm__("" : "+r"(eu));
+        for (int t = 0; t < TL; ++t) {
+            const double ev = eu[t];
+            const vec4 et = {ev, ev, ev, ev};  // a broadcast (vec4{} + ev would add 0.0 first)
+            s[t][0] += et * y0;
+            s[t][1] += et * y1;
         }
-        for (; c0 < p; ++c0) {  // the last p mod 8 columns
-            double part[TL] = {};
-            for (Index u = 0; u < rows; ++u)
-                for (Index t = 0; t < TL; ++t) part[t] += e[u + l0 + t] * y[u * p + c0];
-            for (Index t = 0; t < TL; ++t) acc[(l0 + t) * p + c0] += part[t];
+    }
+    for (int t = 0; t < TL; ++t)
+        for (Index k = 0; k < width; ++k) acc[(l0 + t) * p + c0 + k] += s[t][k / 4][k % 4];
+#else
+    for (int t = 0; t < TL; ++t)
+        for (Index k = 0; k < width; ++k) {
+            double part = 0.0;
+            for (Index u = 0; u < rows; ++u) part += e[u + l0 + t] * y[u * lag_panel + k];
+            acc[(l0 + t) * p + c0 + k] += part;
+        }
+#endif
+}
+
+/// acc[ℓ·p + c] += Σ_{u < rows} e[u + ℓ]·Y[u, c] for ℓ < n_lags, c < p: the lagged products of one
+/// joint's residual with a block of its centred regressor rows, packed in panels of 8 columns (panel
+/// k holds columns 8k..8k+7, row u at y + (k·panel_stride + u)·8; the last panel zero-padded).
+/// Panel by panel, tiles of 6 lags (12 vector sums in registers, a GEMM micro-kernel: A = the
+/// residual's lag-shifted values, broadcast; B = the panel) run over the block's rows while the panel
+/// (rows × 64 bytes) stays in the L1 cache; the lags after the last whole tile take a narrower tile.
+DYNVAL_FMA_CLONES inline void lag_block_products(const double* DYNVAL_RESTRICT e, const double* DYNVAL_RESTRICT y,
+                                                 Index panel_stride, Index rows, Index p, Index n_lags,
+                                                 double* DYNVAL_RESTRICT acc) {
+    constexpr int TL = 6;
+    for (Index c0 = 0; c0 < p; c0 += lag_panel) {
+        const double* panel = y + (c0 / lag_panel) * panel_stride * lag_panel;
+        const Index width = std::min(lag_panel, p - c0);
+        Index l0 = 0;
+        for (; l0 + TL <= n_lags; l0 += TL) lag_panel_tile<TL>(e, panel, rows, l0, p, c0, width, acc);
+        switch (n_lags - l0) {
+            case 5: lag_panel_tile<5>(e, panel, rows, l0, p, c0, width, acc); break;
+            case 4: lag_panel_tile<4>(e, panel, rows, l0, p, c0, width, acc); break;
+            case 3: lag_panel_tile<3>(e, panel, rows, l0, p, c0, width, acc); break;
+            case 2: lag_panel_tile<2>(e, panel, rows, l0, p, c0, width, acc); break;
+            case 1: lag_panel_tile<1>(e, panel, rows, l0, p, c0, width, acc); break;
+            default: break;
+        }
+    }
+}
+
+/// Row u of one joint's regressor columns `src` (p values), centred with the moments' shift and
+/// deviation, into the panels of lag_block_products (padding columns are left as they are: zero).
+DYNVAL_VECTOR_CLONES inline void pack_centred_row(const double* DYNVAL_RESTRICT src, Index p,
+                                                  const double* DYNVAL_RESTRICT shift, const double* DYNVAL_RESTRICT dev,
+                                                  Index panel_stride, Index u, double* DYNVAL_RESTRICT out) {
+    Index c0 = 0;
+#if defined(DYNVAL_VECTOR_TYPES)
+    for (; c0 + lag_panel <= p; c0 += lag_panel) {  // whole panels, two vectors each
+        double* dst = out + ((c0 / lag_panel) * panel_stride + u) * lag_panel;
+        for (Index h = 0; h < lag_panel; h += 4) {
+            vec4 v, sh, dv;
+            load4(v, src + c0 + h);
+            load4(sh, shift + c0 + h);
+            load4(dv, dev + c0 + h);
+            v = (v - sh) - dv;
+            std::memcpy(dst + h, &v, sizeof v);
         }
     }
 #endif
-    for (; l0 < n_lags; ++l0) {  // the last n_lags mod 4 lags (every lag without vector types)
-        double* a = acc + l0 * p;
-        for (Index u = 0; u < rows; ++u) {
-            const double ev = e[u + l0];
-            const double* yr = y + u * p;
-            for (Index c = 0; c < p; ++c) a[c] += ev * yr[c];
-        }
+    for (; c0 < p; c0 += lag_panel) {
+        double* dst = out + ((c0 / lag_panel) * panel_stride + u) * lag_panel;
+        const Index width = std::min(lag_panel, p - c0);
+        for (Index k = 0; k < width; ++k) dst[k] = (src[c0 + k] - shift[c0 + k]) - dev[c0 + k];
     }
 }
 
@@ -393,13 +516,15 @@ joint_moments accumulate_signal_halves(const Eigen::MatrixBase<D>& x) {
 /// Σ_k ê_k·Ŷ_{k−ℓ,c} (ℓ = 0..max_lag, c < p) of every joint j with `use[j]`, products within
 /// segments, for a regressor whose rows are contiguous (row stride `stride`, joint j's columns
 /// from j·p): one (L+1, p) matrix per joint (empty where `use[j]` is false). `e` holds the centred
-/// residuals as columns. The regressor is read once, a block of rows at a time for every joint
-/// (reading it joint by joint streamed it m times), each joint's rows centred with the moments'
-/// shift and deviation; partial sums go into compensated totals every `sum_rows` rows.
+/// residuals as columns. The regressor is read once, a block of rows at a time, row by row for
+/// every joint of a thread, each joint's columns centred with the moments' shift and deviation
+/// into its panels (lag_block_products); partial sums go into compensated totals every `sum_rows`
+/// rows.
 inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e, const std::vector<bool>& use,
                                                         const double* y, Index stride, Index p, const joint_moments& my,
                                                         const std::vector<Index>& starts, Index n, Index max_lag) {
-    constexpr Index block = 256, sum_rows = 1024;  // 1 MB of a 7 × 70-column regressor per block
+    // 128 rows: the packed panels of 7 joints × 70 columns (516 KB) stay in the L2 cache.
+    constexpr Index block = 128, sum_rows = 1024;
     const Index m = e.cols(), n_lags = max_lag + 1;
     const auto lengths = segment_lengths(starts, n);
     const auto per_joint = static_cast<std::size_t>(n_lags * p);
@@ -428,7 +553,10 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
     const Index n_joints = static_cast<Index>(joints.size());
     const double work = static_cast<double>(n) * static_cast<double>(p * n_lags) * static_cast<double>(n_joints);
     detail::for_ranges(n_joints, detail::worker_count(n_joints, work), [&](Index, Index first, Index last) {
-        std::vector<double> ybuf(static_cast<std::size_t>(block * p));
+        // The block's packed rows of every joint of this range: the regressor is read row by row
+        // (contiguous), not joint by joint (a strided read that ran at about 6 GB/s here).
+        const Index joint_buf = (p + lag_panel - 1) / lag_panel * block * lag_panel;
+        std::vector<double> ybuf(static_cast<std::size_t>(joint_buf * (last - first)), 0.0);
         const auto flush = [&] {
             for (Index i = first; i < last; ++i) {
                 const std::size_t at = static_cast<std::size_t>(joints[static_cast<std::size_t>(i)]) * per_joint;
@@ -442,17 +570,17 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
             const Index s0 = starts[s], len = lengths[s];
             for (Index a = 0; a < len; a += block) {
                 const Index rows = std::min(block, len - a);
+                for (Index u = 0; u < rows; ++u)
+                    for (Index i = first; i < last; ++i) {
+                        const Index j = joints[static_cast<std::size_t>(i)];
+                        pack_centred_row(y + (s0 + a + u) * stride + j * p, p, shift.data() + j * p,
+                                         dev.data() + j * p, block, u, ybuf.data() + (i - first) * joint_buf);
+                    }
                 for (Index i = first; i < last; ++i) {
                     const Index j = joints[static_cast<std::size_t>(i)];
-                    const double* sh = shift.data() + j * p;
-                    const double* dv = dev.data() + j * p;
-                    for (Index u = 0; u < rows; ++u) {
-                        const double* src = y + (s0 + a + u) * stride + j * p;
-                        double* dst = ybuf.data() + u * p;
-                        for (Index c = 0; c < p; ++c) dst[c] = (src[c] - sh[c]) - dv[c];
-                    }
-                    lag_block_products(epad.data() + j * padded_total + seg_offset[s] + a, ybuf.data(), rows, p,
-                                       n_lags, acc.data() + static_cast<std::size_t>(j) * per_joint);
+                    lag_block_products(epad.data() + j * padded_total + seg_offset[s] + a,
+                                       ybuf.data() + (i - first) * joint_buf, block, rows, p, n_lags,
+                                       acc.data() + static_cast<std::size_t>(j) * per_joint);
                 }
                 if ((a + rows) % sum_rows == 0) flush();
             }

@@ -1,5 +1,8 @@
 // Vectorisation helpers: `restrict` for the kernels' non-aliasing arrays and, with GCC on
-// x86-64 Linux, an AVX2 clone of a kernel chosen at load time (DYNVAL_NO_CLONES turns it off).
+// x86-64 Linux, an AVX2 clone of a kernel chosen at load time (DYNVAL_NO_CLONES turns it off, as
+// the DYNVAL_NATIVE build does, whose whole module is compiled for the building machine).
+// DYNVAL_FMA_CLONES is the x86-64-v3 clone (AVX2 and FMA: a multiply-add is one instruction, the
+// peak the compute-bound lag kernels aim at); DYNVAL_VECTOR_CLONES the AVX2 one, without FMA.
 #pragma once
 
 #if defined(_MSC_VER)
@@ -11,8 +14,18 @@
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
     !defined(DYNVAL_NO_CLONES)
 #define DYNVAL_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+#define DYNVAL_FMA_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define DYNVAL_VECTOR_CLONES
+#define DYNVAL_FMA_CLONES
+#endif
+
+// A register tile inlined into the (cloned) kernel that calls it, so it is compiled for that
+// kernel's instruction set.
+#if defined(__GNUC__)
+#define DYNVAL_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define DYNVAL_ALWAYS_INLINE inline
 #endif
 
 #if defined(__GNUC__)
