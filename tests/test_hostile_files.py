@@ -330,13 +330,22 @@ def test_names_that_look_like_mathtext_are_drawn_as_written(pair, tmp_path, caps
 
 def test_a_sample_rate_too_small_to_draw_is_an_input_error(pair, tmp_path):
     _need("matplotlib")
-    # in a child: validate(sample_rate=1e-308) itself warns of an overflow in the spectrum's scale
+    # in a child, as a user runs it: no warning may reach standard error before the message
     proc = subprocess.run([sys.executable, "-m", "dynval", "validate", *pair, "--n-params", "1", "--sample-rate",
                            "1e-308", "--html", str(tmp_path / "r.html")], capture_output=True, text=True,
                           env=_env(), timeout=120)
     assert proc.returncode == 1, proc.stderr
-    assert "error: --html: the sample rate 1e-308 Hz is too small to draw the spectrum" in proc.stderr
+    assert "error: --html: the sample rate 1e-308 Hz is too small to draw the figures: " in proc.stderr
     assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr
+    assert "Warning" not in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize(("rate", "n", "words"), [
+    (1e-308, 500, "too small"), (1e-288, 500, "too small"), (1e292, 500, "too large"), (1e300, 500, "too large"),
+    (1e-280, 500, None), (200.0, 500, None), (1e280, 500, None)])
+def test_the_rates_the_figures_can_draw(rate, n, words):
+    problem = cli._undrawable_rate(rate, n)
+    assert (problem is None) if words is None else problem.startswith(words)
 
 
 def test_a_full_standard_output_is_an_error_without_traceback(pair):

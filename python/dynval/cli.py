@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import math
 import os
 import re
 import sys
@@ -421,9 +422,10 @@ def _write_html(command: str, args, obj, **data) -> int:
     if not args.html:
         return EXIT_OK
     rate = _sample_rate(args, obj)
-    if rate is not None and _frequencies_underflow(obj):
-        return _error(command, f"--html: the sample rate {rate:g} Hz is too small to draw the spectrum: its "
-                               "frequencies (k × rate / N) underflow to 0; give the rate in a larger time unit")
+    problem = None if rate is None else _undrawable_rate(rate, _n_samples(obj))
+    if problem:
+        return _error(command, f"--html: the sample rate {rate:g} Hz is {problem}; give the rate in another "
+                               "time unit")
     try:
         from .html import write_report
 
@@ -435,15 +437,24 @@ def _write_html(command: str, args, obj, **data) -> int:
     return EXIT_OK
 
 
-def _frequencies_underflow(obj) -> bool:
-    """Whether a report's spectrum (any candidate's) has frequencies but none above 0."""
-    reports = obj.reports.values() if hasattr(obj, "reports") else [obj]
-    for report in reports:
-        spectrum = getattr(report, "spectrum", None)
-        frequency = None if not spectrum else spectrum.get("frequency")
-        if frequency is not None and len(frequency) > 1 and not any(f > 0 for f in frequency):
-            return True
-    return False
+# matplotlib's tick arithmetic leaves float64 for axes beyond about 1e±300.
+_DRAWABLE = 1e290
+
+
+def _undrawable_rate(rate: float, n: int) -> str | None:
+    """Why the figures cannot be drawn at this rate (their axes in s and Hz), or None."""
+    span = n / rate if rate > 0 else math.inf  # the time axis, in s
+    step = rate / max(n, 1)  # the spectrum's frequency step, in Hz
+    if not span < _DRAWABLE or not step > 1 / _DRAWABLE:
+        return f"too small to draw the figures: {n} samples span {span:g} s and the spectrum's step is {step:g} Hz"
+    if not rate < _DRAWABLE or not span > 1 / _DRAWABLE:
+        return f"too large to draw the figures: {n} samples span {span:g} s"
+    return None
+
+
+def _n_samples(obj) -> int:
+    report = obj if hasattr(obj, "provenance") else next(iter(obj.reports.values()))
+    return int(report.provenance.get("n_samples", 1))
 
 
 def _sample_rate(args, obj) -> float | None:
