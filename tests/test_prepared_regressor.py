@@ -8,7 +8,7 @@ import pytest
 import dynval
 from dynval import calibration as C
 from dynval import simulate as sim
-from dynval.report import _sections
+from dynval.report import _motion, _sections
 
 NAMES = list(sim.PARAMETER_NAMES)
 NO_FC = [i for i, n in enumerate(NAMES) if not n.startswith("Fc")]
@@ -195,3 +195,16 @@ def test_the_range_projection_cuts_where_lstsq_does():
     y, _ = _block([1.0, 1e-3, 1e-13, 2e-14, 0.0])
     proj = _sections.RangeProjection(y)
     assert proj.rank == np.linalg.lstsq(y, y[:, 0], rcond=None)[2] == 3
+
+
+def test_compare_computes_the_model_columns_gram_of_the_predictive_test_once(runs, monkeypatch):
+    (q_e, y_e, tau_e), (q_v, y_v, tau_v) = runs
+    est = {"q": q_e, "regressor": y_e, "tau": tau_e}
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, q=q_v, estimation=est, max_lag=10)
+             for n, p in preds.items()}
+    grams = _count_calls(monkeypatch, _motion, "model_gram")
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, q=q_v, estimation=est,
+                         max_lag=10)
+    assert len(grams) == 1 and all(r.predictive is not None for r in cmp.reports.values())
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
