@@ -8,7 +8,7 @@ import pytest
 import dynval
 from dynval import calibration as C
 from dynval import simulate as sim
-from dynval.report import _sections
+from dynval.report import _motion, _sections
 
 NAMES = list(sim.PARAMETER_NAMES)
 NO_FC = [i for i, n in enumerate(NAMES) if not n.startswith("Fc")]
@@ -151,3 +151,60 @@ def test_prepare_regressor_refuses_what_is_not_real_numbers():
     assert dynval.prepare_regressor(prepared) is prepared
     with pytest.raises(dynval.ShapeMismatch, match="regressor must have shape"):
         dynval.validate(np.ones((12, 1)), np.ones((12, 1)), n_params=1, regressor=prepared)
+
+
+def test_compare_factors_a_rank_deficient_block_once(runs, monkeypatch):
+    # A column that is the sum of the others makes each joint's block singular: the spectrum's projection
+    # then takes the block's numerical range, factored once per joint for all candidates (not one
+    # lstsq per residual).
+    _, (_, y_v, tau_v) = runs
+    y = np.ascontiguousarray(np.concatenate([y_v, y_v.sum(axis=2, keepdims=True)], axis=2))
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y, max_lag=10) for n, p in preds.items()}
+    factored = _count_calls(monkeypatch, _sections, "RangeProjection")
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y, max_lag=10)
+    assert len(factored) == y.shape[1]
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+
+
+def _block(singular_values, n=400, seed=3):
+    """An (n, k) block with these singular values, and its left singular vectors (n, k)."""
+    rng = np.random.default_rng(seed)
+    u, _ = np.linalg.qr(rng.normal(size=(n, len(singular_values))))
+    v, _ = np.linalg.qr(rng.normal(size=(len(singular_values),) * 2))
+    return (u * np.asarray(singular_values)) @ v.T, u
+
+
+@pytest.mark.parametrize("singular_values", [
+    [1.0, 0.3, 0.1],  # full rank
+    [1.0, 0.5, 0.2, 0.0, 0.0],  # two exactly dependent columns
+    [0.0, 0.0],  # a zero block: nothing to project on
+])
+def test_the_range_projection_gives_the_lstsq_residual(singular_values):
+    y, _ = _block(singular_values)
+    b = np.random.default_rng(4).normal(size=y.shape[0])
+    proj = _sections.RangeProjection(y)
+    beta, _, rank, _ = np.linalg.lstsq(y, b, rcond=None)
+    assert proj.rank == rank == sum(s > 0 for s in singular_values)
+    np.testing.assert_allclose(proj.residual(b), b - y @ beta, rtol=0, atol=1e-12 * np.linalg.norm(b))
+
+
+def test_the_range_projection_cuts_where_lstsq_does():
+    # lstsq's rule keeps s > eps·max(N, p)·s_max ≈ 8.9e-14 here: 1e-13 is kept, 2e-14 is not (a
+    # cut at eps·s_max, or at a fixed 1e-12, would differ)
+    y, _ = _block([1.0, 1e-3, 1e-13, 2e-14, 0.0])
+    proj = _sections.RangeProjection(y)
+    assert proj.rank == np.linalg.lstsq(y, y[:, 0], rcond=None)[2] == 3
+
+
+def test_compare_computes_the_model_columns_gram_of_the_predictive_test_once(runs, monkeypatch):
+    (q_e, y_e, tau_e), (q_v, y_v, tau_v) = runs
+    est = {"q": q_e, "regressor": y_e, "tau": tau_e}
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, q=q_v, estimation=est, max_lag=10)
+             for n, p in preds.items()}
+    grams = _count_calls(monkeypatch, _motion, "model_gram")
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, q=q_v, estimation=est,
+                         max_lag=10)
+    assert len(grams) == 1 and all(r.predictive is not None for r in cmp.reports.values())
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}

@@ -18,6 +18,7 @@ else:
     from .._lazy import scipy
 
 from ..statistics import _periodic, _physics
+from ._prepared import Memo, compute_now
 
 __all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
 
@@ -61,24 +62,25 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
             "n_eff": np.array([t.n_eff for t in tests])}
 
 
-def predictive(e, est_fit, reg3, n_eff_val) -> dict[str, Any] | None:
+def predictive(e, est_fit, reg3, n_eff_val, memo: Memo = compute_now) -> dict[str, Any] | None:
     """Does the validation error exceed what the estimation run's noise and Cov(π̂) allow?
 
     A Chow-type predictive test per joint: the validation mean square against s²_est (the
     estimation residual's, with its degrees of freedom) plus the mean of y_kᵀ Cov(π̂) y_k over the
     validation rows; F with (N_eff,val, N_eff,est − k/m) degrees of freedom, so colour is allowed for.
-    The effect is the ratio of mean squares.
+    The effect is the ratio of mean squares. The model columns' mean Gram matrix per joint depends
+    on the regressor alone: ``memo`` (a prepared regressor's) keeps it.
     """
     if est_fit is None or reg3 is None or e is None:
         return None
     cols = list(est_fit.columns)
-    n, m = e.shape
+    m = e.shape[1]
     res = est_fit.residual
     n_est = res.shape[0]
     k = len(cols)
     dof = max(n_est * m - k, 1)
     s2 = np.sum(res**2, axis=0) / (dof / m)
-    gram = np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / n
+    gram = memo(("model_gram", reg3.shape, tuple(cols)), lambda: model_gram(reg3, cols))
     param = np.einsum("mkl,kl->m", gram, est_fit.covariance)
     expected = s2 + param
     mse = np.mean(e**2, axis=0)
@@ -92,6 +94,11 @@ def predictive(e, est_fit, reg3, n_eff_val) -> dict[str, Any] | None:
     return {"method": "Chow-type predictive F test (N_eff degrees of freedom)", "ratio": ratio,
             "expected_mse": expected, "validation_mse": mse, "noise_variance_estimation": s2,
             "parameter_variance": param, "df": np.column_stack([df1, df2]), "pvalue": p}
+
+
+def model_gram(reg3, cols) -> np.ndarray:
+    """Each joint's mean Gram matrix of the model's columns, Y_{j,S}ᵀY_{j,S}/N, (m, k, k)."""
+    return np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / reg3.shape[0]
 
 
 def _kurtosis_factor(x) -> np.ndarray:

@@ -403,7 +403,7 @@ def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
         band = None if b.white is None else b.white["information_band"]
         b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
     if b.est_fit is not None and b.n_eff is not None:
-        b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff)
+        b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff, memo=d.memo)
     b.design = _motion_design(b.design, o, b.physics, d.m)
 
 

@@ -8,9 +8,15 @@ from __future__ import annotations
 
 import math
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import scipy.linalg
+    import scipy.linalg.lapack
+else:
+    from .._lazy import scipy
 
 from ..statistics import _estimation, _stats
 from ._findings import Evidence
@@ -349,14 +355,15 @@ def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
         # 1e140 data do not overflow the normal equations.
-        y, factor = memo(("scaled_block", reg3.shape, j), partial(_scaled_block, reg3, j, memo))
+        y, solver = memo(("scaled_block", reg3.shape, j), partial(_scaled_block, reg3, j, memo))
         ej, k = _pow2_columns(e[:, j : j + 1])
-        # Below the condition limit the kept factor solves it; above, LAPACK's SVD-based lstsq on
-        # the whole block, per residual: its result depends on the right-hand side throughout.
-        beta = _solve_factored(factor, y.T @ ej[:, 0]) if factor is not None else None
-        if beta is None:
-            beta = np.linalg.lstsq(y, ej[:, 0], rcond=None)[0]
-        out[:, j] = np.ldexp(ej[:, 0] - y @ beta, k[0])
+        # Below the condition limit the kept normal-equations factor solves it; above, the kept
+        # projection on the block's numerical range (lstsq's rank decision) is applied.
+        if y is not None:
+            rest = ej[:, 0] - y @ _solve_factored(solver, y.T @ ej[:, 0])
+        else:
+            rest = solver.residual(ej[:, 0])
+        out[:, j] = np.ldexp(rest, k[0])
     return out
 
 
@@ -374,12 +381,48 @@ def _live_factor(grams: JointGrams, j: int, live):
 
 
 def _scaled_block(reg3, j: int, memo: Memo):
-    """Joint j's columns scaled exactly by powers of two, and the factor of their normal equations.
-    The exponents of every column at once: one contiguous pass instead of a strided one per joint."""
+    """Joint j's columns scaled exactly by powers of two and how to solve on them: (the block, the
+    factor of its normal equations) when they are well conditioned, else (None, the projection on
+    its numerical range), which no longer needs the block. The exponents of every column at once:
+    one contiguous pass instead of a strided one per joint."""
     n, m, p = reg3.shape
     k_reg = memo(("pow2_exponents", reg3.shape), lambda: _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p))
     y = _scale_pow2(reg3[:, j, :], k_reg[j])
-    return y, _normal_factor(y.T @ y)
+    factor = _normal_factor(y.T @ y)
+    return (y, factor) if factor is not None else (None, RangeProjection(y))
+
+
+class RangeProjection:
+    """The orthogonal projection on the numerical range of an (N, p) block, N ≥ p, as
+    ``numpy.linalg.lstsq(y, b, rcond=None)`` decides it: y = QR (Householder, the reflectors kept
+    in LAPACK's compact form), R = U S Vᵀ, and the rank r the number of singular values above
+    eps·max(N, p)·s_max, lstsq's rule. ``residual(b)`` is b − Q U_r U_rᵀ Qᵀ b, what lstsq's
+    b − y β gives up to rounding; it costs two passes of the reflectors over b (O(Np)) where
+    lstsq factors the block again (O(Np²)), so a prepared regressor factors each block once for
+    every residual. ``rank`` is r.
+    """
+
+    def __init__(self, y: np.ndarray):
+        (self.reflectors, self.tau), r = scipy.linalg.qr(y, mode="raw", check_finite=False)
+        u, s, _ = np.linalg.svd(r, full_matrices=False)
+        tol = np.finfo(np.float64).eps * max(y.shape) * (s[0] if s.size else 0.0)
+        self.rank = int(np.count_nonzero(s > tol))
+        self.basis = np.ascontiguousarray(u[:, :self.rank])  # of the range in Q's coordinates
+        work = scipy.linalg.lapack.dormqr("L", "T", self.reflectors, self.tau, y[:, :1], -1)[1]
+        self.lwork = max(int(work[0]), y.shape[1])
+
+    def residual(self, b: np.ndarray) -> np.ndarray:
+        """b less its least-squares fit on the block, (N,)."""
+        if self.rank == 0:
+            return b.copy()
+        dormqr = scipy.linalg.lapack.dormqr
+        c, _, info = dormqr("L", "T", self.reflectors, self.tau, b[:, None], self.lwork)
+        fit = np.zeros_like(c)
+        fit[: self.basis.shape[0], 0] = self.basis @ (self.basis.T @ c[: self.basis.shape[0], 0])
+        fitted, _, info2 = dormqr("L", "N", self.reflectors, self.tau, fit, self.lwork, overwrite_c=1)
+        if info or info2:  # an argument LAPACK refused: a bug here, not bad input
+            raise RuntimeError(f"dormqr failed (info {info}, {info2})")
+        return b - fitted[:, 0]
 
 
 # Below this condition number the normal equations lose at most about 1e-8 of the fit

@@ -177,22 +177,23 @@ def _whiten(x, a):
     return scipy.signal.lfilter(np.concatenate([[1.0], -a]), [1.0], x, axis=0)[a.size:]
 
 
-def _wald(xw, yw, cols=None, gw=None, cov_p=None):
+def _wald(xw, yw, cols=None, gw=None, cov_p=None, gram=None, xg=None):
     """OLS of yw on xw with HC1 covariance; Wald statistic of ``cols`` (all by default), its df.
 
     ``gw`` (N, k_p) and ``cov_p`` (k_p, k_p): the model's own columns (whitened) and Cov(π̂) of its
     estimated parameters; their error Y δ is part of the residual and adds
-    (XᵀX)⁻¹ Xᵀ G Cov(π̂) Gᵀ X (XᵀX)⁻¹ to the coefficients' covariance.
+    (XᵀX)⁻¹ Xᵀ G Cov(π̂) Gᵀ X (XᵀX)⁻¹ to the coefficients' covariance. ``gram`` (XᵀX) and ``xg``
+    (XᵀG): given when the caller assembled them from products it computed once.
     """
     n, k = xw.shape
     b, *_ = np.linalg.lstsq(xw, yw, rcond=None)
     r = yw - xw @ b
-    g = xw.T @ xw
+    g = xw.T @ xw if gram is None else gram
     ginv = np.linalg.pinv(g)
     scores = xw * r[:, None]
     meat = scores.T @ scores * (n / max(n - k, 1))
     if gw is not None and cov_p is not None:
-        xg = xw.T @ gw
+        xg = xw.T @ gw if xg is None else xg
         meat = meat + xg @ cov_p @ xg.T
     cov = ginv @ meat @ ginv
     idx = np.arange(k) if cols is None else np.asarray(cols)
@@ -369,6 +370,7 @@ def _whitened_fit(ej, nz, lib, a, alpha, gw_of=None, cov_p=None):
 
 def _forward_selection(blocks, yw, alpha, gw=None, cov_p=None):
     """Groups in order of entry while the next one is significant at α / (number of groups)."""
+    products = _BlockProducts(blocks, gw if cov_p is not None else None)
     selected: list[int] = []
     while len(selected) < len(blocks):
         best = None
@@ -377,7 +379,8 @@ def _forward_selection(blocks, yw, alpha, gw=None, cov_p=None):
                 continue
             cols = np.hstack([blocks[s] for s in selected + [i]])
             idx = np.arange(cols.shape[1] - blocks[i].shape[1], cols.shape[1])
-            wi, ki, _, _ = _wald(cols, yw, idx, gw, cov_p)
+            gram, xg = products.of(selected + [i])
+            wi, ki, _, _ = _wald(cols, yw, idx, gw, cov_p, gram=gram, xg=xg)
             pi = float(scipy.stats.chi2.sf(wi, ki))
             if best is None or pi < best[1] or (pi == best[1] and wi / ki > best[2]):
                 best = (i, pi, wi / ki)
@@ -385,6 +388,24 @@ def _forward_selection(blocks, yw, alpha, gw=None, cov_p=None):
             break
         selected.append(best[0])
     return selected
+
+
+class _BlockProducts:
+    """The products a forward selection's Wald tests need, for any set of the groups' blocks: every
+    set is some of the same blocks, so the products of all of them side by side (XᵀX, and XᵀG with
+    the model's columns) are computed once and each set takes its rows and columns."""
+
+    def __init__(self, blocks, gw=None):
+        every = np.hstack(blocks)
+        self.gram = every.T @ every
+        self.xg = None if gw is None else every.T @ gw
+        edges = np.cumsum([0] + [b.shape[1] for b in blocks])
+        self.columns = [np.arange(edges[i], edges[i + 1]) for i in range(len(blocks))]
+
+    def of(self, order):
+        """(XᵀX, XᵀG or None) of X = the blocks of ``order`` side by side."""
+        idx = np.concatenate([self.columns[i] for i in order])
+        return self.gram[np.ix_(idx, idx)], None if self.xg is None else self.xg[idx]
 
 
 def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any]:
