@@ -171,9 +171,12 @@ def test_tasks_receive_file_names_not_arrays(small_fleet, monkeypatch):
     _, _, specs = small_fleet
     client = _RecordingClient()
     report = fleet.validate_many(specs, scheduler=client, max_lag=10)
-    assert len(client.shipped) == len(specs) and len(report.logs) == len(specs)
+    batches = [pickle.loads(b)[0] for b in client.shipped]
+    assert [spec for batch in batches for spec in batch] == list(specs) and len(report.logs) == len(specs)
+    # a few tasks per worker thread (2 workers of 1 thread here), each a run of consecutive logs
+    assert len(batches) == min(len(specs), 2 * fleet._run.TASKS_PER_THREAD)
     # a log's arrays are 300 × 2 float64 (4.8 kB each): what travels is its names and settings
-    assert max(len(b) for b in client.shipped) < 1000
+    assert max(len(b) / len(batch) for b, batch in zip(client.shipped, batches)) < 1000
     assert report.provenance["where"] == "2 dask workers"
 
 

@@ -1,6 +1,8 @@
-"""Validating many logs: one task per log, reading and computing where the task runs.
+"""Validating many logs: tasks of a few logs each, reading and computing where the task runs.
 
-A task receives a :class:`~dynval.fleet._logs.LogSpec` (file names, never arrays), reads the arrays
+A task receives consecutive :class:`~dynval.fleet._logs.LogSpec` (file names, never arrays; about
+four tasks per worker thread, so that the scheduler's cost per task stays small beside the logs'),
+reads each log's arrays
 with the command line's readers (``dynval.io``), validates them with :func:`dynval.compare` on the
 one candidate (its verdict is the log's decision) and returns a :class:`LogSummary` of a few
 numbers. Without a dask client the tasks run one after the other in this process.
@@ -8,6 +10,7 @@ numbers. Without a dask client the tasks run one after the other in this process
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -103,8 +106,23 @@ def run_logs(logs: Any, client: Any, n_params: int | None, keywords: dict,
                 out.append(summarise_log(item, n_params, keywords))
                 bar.update(1)
             return out
-    futures = client.map(summarise_log, items, n_params=n_params, keywords=keywords, pure=False)
-    return _gathered(client, futures, progress, "log", lambda rows: rows)
+    batches = _batches(items, client)
+    futures = client.map(_summarise_partition, batches, n_params=n_params, keywords=keywords, pure=False)
+    return _gathered(client, futures, progress, "log", lambda parts: [row for part in parts for row in part],
+                     sizes=[len(b) for b in batches])
+
+
+#: Tasks per worker thread: enough to balance logs of unequal cost, few enough that the scheduler's
+#: per-task cost (milliseconds, on the cores the workers use) stays small beside a log's.
+TASKS_PER_THREAD = 10
+
+
+def _batches(items: list, client: Any) -> list[list]:
+    """The logs in consecutive batches, one task each: about TASKS_PER_THREAD per worker thread."""
+    workers = (client.scheduler_info() or {}).get("workers", {})
+    threads = sum(int(w.get("nthreads", 1)) for w in workers.values()) or 1
+    size = max(1, math.ceil(len(items) / (TASKS_PER_THREAD * threads)))
+    return [items[i:i + size] for i in range(0, len(items), size)]
 
 
 def _run_bag(bag: Any, client: Any, n_params: int | None, keywords: dict, progress: bool | None) -> list[LogSummary]:
@@ -117,10 +135,12 @@ def _run_bag(bag: Any, client: Any, n_params: int | None, keywords: dict, progre
                      lambda parts: [row for part in parts for row in part])
 
 
-def _gathered(client: Any, futures: list, progress: bool | None, unit: str, flatten: Callable) -> list:
+def _gathered(client: Any, futures: list, progress: bool | None, unit: str, flatten: Callable,
+              sizes: list[int] | None = None) -> list:
     from distributed import as_completed
 
-    with _progress_bar(len(futures), progress, unit) as bar:
-        for _ in as_completed(futures):
-            bar.update(1)
+    weight = dict(zip(map(id, futures), sizes or [1] * len(futures)))
+    with _progress_bar(sum(weight.values()), progress, unit) as bar:
+        for done in as_completed(futures):
+            bar.update(weight.get(id(done), 1))
     return list(flatten(client.gather(futures)))
