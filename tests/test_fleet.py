@@ -4,10 +4,12 @@ the fleet table, and the drift test (its size on exchangeable logs, its power an
 from __future__ import annotations
 
 import json
+import math
 import os
 import pickle
 import sys
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -406,3 +408,142 @@ def test_a_bag_without_a_client_runs_in_this_process(small_fleet):
                                  max_lag=5)
     assert report.provenance["where"] == "this process"
     assert [r.log for r in report.logs] == [s.log for s in specs[:6]]
+
+
+# --------------------------------------------------------------------------- the drift test, value by value
+
+
+def _row(robot, i, rmse, error=None):
+    return fleet.LogSummary(robot=robot, time=str(i), log=f"{robot}__{i}", rmse=rmse, error=error,
+                            decision="error" if error else "accept")
+
+
+def test_each_split_statistic_is_the_pooled_two_sample_t():
+    import scipy.stats
+
+    from dynval.fleet._drift import _split_statistics
+
+    x = np.array([[0.3, -0.2, 0.5, 0.1, 0.9, 1.4, 0.7, 1.1], [1.0, 2.0, 0.5, 3.0, 2.5, 0.0, 1.5, 1.0]])
+    for min_baseline in (2, 3, 5):
+        t = _split_statistics(x, min_baseline)
+        assert t.shape == (2, 8 - min_baseline)
+        for row in range(2):
+            for col, k in enumerate(range(min_baseline, 8)):
+                want = scipy.stats.ttest_ind(x[row, k:], x[row, :k], equal_var=True).statistic
+                assert t[row, col] == pytest.approx(want, rel=1e-12)
+    assert np.array_equal(_split_statistics(np.ones((1, 6)), 3), np.zeros((1, 3)))  # 0/0: no change
+    equal_logs = np.log(np.full((1, 3), 0.1))  # equal, but not exactly after rounding, without centring
+    assert np.array_equal(_split_statistics(equal_logs, 2), np.zeros((1, 1)))
+    jump = np.array([[0.0, 0.0, 0.0, 1.0]])  # a jump without spread: +inf, and no overflow after
+    assert _split_statistics(jump, 3)[0, 0] == np.inf
+    k, t, p = change_point(jump[0], min_baseline=3, n_permutations=99)
+    assert (k, t) == (3, np.inf) and p == pytest.approx(0.25, abs=0.15)
+
+
+def test_change_point_returns_the_largest_split_and_a_permutation_p_on_its_grid():
+    x = [0.0, 0.1, -0.1, 0.05, 0.0, 1.0, 1.1, 0.9]
+    k, t, p = change_point(x, min_baseline=3, n_permutations=99, rng=np.random.default_rng(1))
+    assert k == 5
+    import scipy.stats
+    assert t == pytest.approx(scipy.stats.ttest_ind(x[5:], x[:5]).statistic, rel=1e-12)
+    assert round(p * 100) >= 1 and p * 100 == pytest.approx(round(p * 100), abs=1e-9)
+    # only orders that put the three large values last reach this t: 3!·5!/8! = 1/56 of them
+    k, t, p = change_point(x, min_baseline=3, n_permutations=4999, rng=np.random.default_rng(2))
+    assert p == pytest.approx(1 / 56, abs=4 * np.sqrt((1 / 56) * (55 / 56) / 5000) + 1 / 5000)
+    # a decrease is not a drift: the one-sided test gives a large p
+    assert change_point(x[::-1], min_baseline=3, n_permutations=199)[2] > 0.5
+
+
+def test_the_drift_of_each_robot_counts_its_valid_logs_and_holm_runs_over_the_tested_ones():
+    from statsmodels.stats.multitest import multipletests
+
+    rising = [0.1, 0.11, 0.1, 0.1, 0.105, 0.2, 0.21, 0.2, 0.2]
+    flat = [0.1, 0.12, 0.09, 0.11, 0.1, 0.1, 0.11, 0.1, 0.09]
+    rows = [_row("a", i, v) for i, v in enumerate(rising)]
+    rows += [_row("b", i, v) for i, v in enumerate(flat)]
+    rows += [_row("c", 0, 0.1), _row("c", 1, 0.0), _row("c", 2, float("nan")), _row("c", 3, 0.2, error="E"),
+             _row("c", 4, 0.3)]  # two valid logs: zero, NaN and failed logs do not count
+    out = {d.robot: d for d in drift_per_robot(rows, level=0.95, n_permutations=999)}
+    assert not out["c"].tested and out["c"].n_logs == 2
+    assert out["c"].reason == "only 2 valid logs; the drift test needs at least 4"
+    assert out["c"].finding is None and math.isnan(out["c"].pvalue_adjusted)
+    raw = [out["a"].pvalue, out["b"].pvalue]
+    assert [out["a"].pvalue_adjusted, out["b"].pvalue_adjusted] == pytest.approx(
+        list(multipletests(raw, method="holm")[1]), rel=1e-12)
+    a = out["a"]
+    assert (a.change, a.change_log, a.change_time, a.n_logs) == (5, "a__5", "5", 9)
+    assert a.ratio == pytest.approx(np.exp(np.mean(np.log(rising[5:])) - np.mean(np.log(rising[:5]))), rel=1e-12)
+    assert a.finding is not None and out["b"].finding is None
+    one = drift_per_robot([_row("d", i, v) for i, v in enumerate([0.1, 0.1, 0.1, 0.1])], level=0.95)[0]
+    assert one.tested and one.n_logs == 4 and one.change == 3
+    few = drift_per_robot([_row("e", i, 0.1) for i in range(3)], level=0.95, min_baseline=2)[0]
+    assert few.tested and few.change == 2
+    single = drift_per_robot([_row("f", 0, 0.1)], level=0.95)[0]
+    assert single.reason == "only 1 valid log; the drift test needs at least 4"
+
+
+def test_a_drift_finding_is_a_deficiency_from_the_threshold_on_and_says_so():
+    from dynval.fleet._drift import Drift, _drift, _finding
+
+    logs = [_row("r", i, v) for i, v in enumerate([1.0, 2.0, 4.0, 8.0])]
+    at = Drift("r", 4, True, change=2, change_log="r__2", change_time="2", statistic=3.5, pvalue=0.01,
+               pvalue_adjusted=0.02, ratio=1.1)
+    f = _finding(at, logs, 1.1)
+    assert (f.kind, f.severity, f.statistic, f.pvalue, f.pvalue_adjusted, f.effect, f.threshold) == (
+        "drift", "deficiency", 3.5, 0.01, 0.02, 1.1, 1.1)
+    assert f.effect_unit == "× RMSE"
+    assert f.message == ("robot r: the model fits worse from log r__2 (2) on: 1.1× the RMSE of its 2 earlier logs "
+                         "(geometric means; change point in log RMSE over its 4 logs, permutation test, "
+                         "Holm-adjusted p = 0.02 over the fleet's robots)")
+    assert f.action.startswith("re-identify robot r's model on its logs from r__2 on, or find what changed then")
+    assert f.details == {"robot": "r", "from_log": "r__2", "from_time": "2", "from_index": 2, "n_logs": 4,
+                         "rmse_before": pytest.approx(np.sqrt(2.0)), "rmse_after": pytest.approx(np.sqrt(32.0))}
+    below = _finding(replace(at, ratio=1.0999, change=1), logs, 1.1)
+    assert below.severity == "note" and below.action == ""
+    assert "1.1× the RMSE of its 1 earlier logs, below the 1.1× that counts" in below.message
+    one = _finding(replace(at, change=1), logs, 1.1)
+    assert "of its 1 earlier log (" in one.message
+    # significance at exactly α is a finding; just above it is not
+    res = (2, 3.5, 0.05)
+    assert _drift("r", logs, res, 0.05, 0.95, 3, 1.1).finding is not None
+    assert _drift("r", logs, res, 0.0501, 0.95, 3, 1.1).finding is None
+    d = _drift("r", logs, res, 0.05, 0.95, 3, 1.1)
+    assert (d.change, d.change_log, d.statistic, d.pvalue, d.pvalue_adjusted) == (2, "r__2", 3.5, 0.05, 0.05)
+    assert d.ratio == pytest.approx(4.0, rel=1e-12)  # sqrt(32) / sqrt(2)
+
+
+def test_the_drift_p_values_are_reproducible_per_robot_and_on_the_permutation_grid():
+    import zlib
+
+    rising = [0.1, 0.11, 0.1, 0.1, 0.105, 0.2, 0.21, 0.2, 0.2]
+    # an untested robot first: the robots after it are still tested
+    rows = [_row("c", 0, 0.1)] + [_row("a", i, v) for i, v in enumerate(rising)]
+    out = {d.robot: d for d in drift_per_robot(rows, level=0.95, n_permutations=999)}
+    assert out["c"].tested is False and out["a"].tested is True
+    # the shuffles of robot a come from the seed and its name, whatever else is in the fleet
+    own = np.random.default_rng([0, zlib.crc32(b"a")])
+    assert out["a"].pvalue == change_point(np.log(rising), n_permutations=999, rng=own)[2]
+    assert out["a"].pvalue * 1000 == pytest.approx(round(out["a"].pvalue * 1000), abs=1e-9)  # B = 999
+    again = drift_per_robot(rows, level=0.95, n_permutations=999)
+    assert [d.pvalue for d in again] == [out["c"].pvalue, out["a"].pvalue] or math.isnan(out["c"].pvalue)
+    other = drift_per_robot(rows, level=0.95, n_permutations=999, seed=5)
+    assert other[1].pvalue == change_point(np.log(rising), n_permutations=999,
+                                           rng=np.random.default_rng([5, zlib.crc32(b"a")]))[2]
+    # change_point itself: the generator given is the one used, and without one it is seeded
+    x = [0.0, 0.3, -0.2, 0.1, 0.4, 0.2, 0.5]
+    assert change_point(x, n_permutations=199) == change_point(x, n_permutations=199)
+    assert change_point(x, n_permutations=199) == change_point(x, n_permutations=199, rng=np.random.default_rng(0))
+    ps = {change_point(x, n_permutations=199, rng=np.random.default_rng(s))[2] for s in range(1, 6)}
+    assert len(ps) > 1
+
+
+def test_a_drop_without_spread_is_minus_infinity_and_the_boundary_of_alpha_is_a_finding():
+    from dynval.fleet._drift import _drift, _split_statistics
+
+    assert _split_statistics(np.array([[1.0, 1.0, 1.0, 0.0]]), 3)[0, 0] == -np.inf
+    logs = [_row("r", i, v) for i, v in enumerate([1.0, 2.0, 4.0, 8.0])]
+    assert _drift("r", logs, (2, 3.5, 0.25), 0.25, 0.75, 3, 1.1).finding is not None  # 1 − 0.75 is 0.25 exactly
+    assert _drift("r", logs, (2, 3.5, 0.25), 0.2500001, 0.75, 3, 1.1).finding is None
+    f = _drift("r", logs, (2, 3.5, 0.25), 0.25, 0.75, 3, 1.1).finding
+    assert f.action == ("re-identify robot r's model on its logs from r__2 on, or find what changed then "
+                        "(friction wear, a new payload or tool, a sensor's calibration)")

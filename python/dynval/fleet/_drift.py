@@ -69,6 +69,9 @@ def _split_statistics(x: np.ndarray, min_baseline: int) -> np.ndarray:
     rows of ``x`` are series, the result has one column per split."""
     n = x.shape[1]
     k = np.arange(min_baseline, n)
+    # t does not depend on a shift: centred first, equal logs give sums of exact zeros (0/0, no
+    # change) instead of a rounding residue over a rounding spread
+    x = x - x.mean(axis=1, keepdims=True)
     s1, s2 = np.cumsum(x, axis=1), np.cumsum(x * x, axis=1)
     before, before2 = s1[:, k - 1], s2[:, k - 1]
     after, after2 = s1[:, -1:] - before, s2[:, -1:] - before2
@@ -77,7 +80,9 @@ def _split_statistics(x: np.ndarray, min_baseline: int) -> np.ndarray:
     scale = np.sqrt(np.maximum(ss, 0.0) / (n - 2) * (1.0 / k + 1.0 / (n - k)))
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (mean_a - mean_b) / scale
-    return np.nan_to_num(t, nan=0.0)  # identical logs: no change (0/0); a jump without spread stays +inf
+    # identical logs: no change (0/0); a jump without spread stays ±inf (nan_to_num's default would
+    # make it ±1.8e308, and the permutation count's tolerance would overflow on it)
+    return np.nan_to_num(t, nan=0.0, posinf=np.inf, neginf=-np.inf)
 
 
 def change_point(x: Sequence[float] | np.ndarray, *, min_baseline: int = MIN_BASELINE,
