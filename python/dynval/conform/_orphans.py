@@ -27,12 +27,12 @@ import time
 from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 
-#: Environment variable carrying a port's token to every process it starts.
-TOKEN_VARIABLE = "DYNVAL_CONFORM_PORT"
+# the supervisor's module is standard library only and imports nothing of dynval
+from ._reaper import PR_SET_CHILD_SUBREAPER, TOKEN_VARIABLE, children
+
 #: Seconds spent killing adopted processes before giving up on one that will not die.
 KILL_LIMIT = 5.0
 
-_PR_SET_CHILD_SUBREAPER = 36
 _lock = threading.Lock()
 _adopters = 0  # runs under way in this process: the last one to end turns adoption off
 
@@ -48,7 +48,7 @@ def _set_subreaper(on: bool) -> bool:
     try:
         import ctypes
 
-        return ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_CHILD_SUBREAPER, int(on), 0, 0, 0) == 0
+        return ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, int(on), 0, 0, 0) == 0
     except (ImportError, OSError, AttributeError):
         return False
 
@@ -68,28 +68,6 @@ def adopting() -> Iterator[None]:
             _adopters -= 1
             if _adopters == 0:
                 _set_subreaper(False)
-
-
-def _children() -> list[int]:
-    """Our children right now, from /proc/<pid>/stat (adopted orphans included)."""
-    me, found = os.getpid(), []
-    try:
-        entries = os.listdir("/proc")
-    except OSError:
-        return found
-    for entry in entries:
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/stat", "rb") as handle:
-                stat = handle.read()
-        except OSError:
-            continue  # exited meanwhile
-        # "pid (comm) state ppid ...": comm may hold blanks and parentheses.
-        fields = stat[stat.rfind(b")") + 2 :].split()
-        if len(fields) > 1 and int(fields[1]) == me:
-            found.append(int(entry))
-    return found
 
 
 def _carries(pid: int, wanted: set[bytes]) -> bool:
@@ -120,7 +98,7 @@ def kill_adopted(tokens: Collection[str]) -> None:
     killed: set[int] = set()  # killed, not yet reaped: a zombie's environment reads empty
     deadline = time.monotonic() + KILL_LIMIT
     while time.monotonic() < deadline:
-        found = [pid for pid in _children() if pid not in killed and _carries(pid, wanted)]
+        found = [pid for pid in children() if pid not in killed and _carries(pid, wanted)]
         for pid in found:
             try:
                 os.kill(pid, signal.SIGKILL)

@@ -65,8 +65,10 @@ def _follow_runner(runner: int) -> None:
         os._exit(1)
 
 
-def _children() -> list[int]:
-    """Our children right now, from /proc/<pid>/stat (orphans adopted as subreaper included)."""
+def children() -> list[int]:
+    """Our children right now, from /proc/<pid>/stat (orphans adopted as subreaper included).
+
+    Also the runner's list of its adopted processes (conform/_orphans.py): one parser of /proc."""
     me, found = os.getpid(), []
     try:
         entries = os.listdir("/proc")
@@ -103,7 +105,7 @@ def _kill_descendants() -> None:
     # kill our children round after round until none is left.
     deadline = time.monotonic() + CLEANUP_LIMIT
     while _reap() and time.monotonic() < deadline:
-        for pid in _children():
+        for pid in children():
             try:
                 os.kill(pid, signal.SIGKILL)
             except OSError:
