@@ -18,6 +18,7 @@ from dynval import cli
 from dynval.io import _readers
 from dynval.io._files import FileInputError, load_array
 from dynval.io._limits import DEFAULT_MAX_DECODED_BYTES, LIMIT_ENV
+from peak_memory import PEAK_LAUNCHER
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LINUX = os.path.exists("/proc/self/status")
@@ -38,20 +39,12 @@ def _env(**extra):
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1", **extra}
 
 
-# Runs `dynval ARGS` and reports the child's own peak resident memory (VmHWM) on stderr.
-_PEAK_LAUNCHER = ("import atexit, runpy, sys\n"
-                  "def hwm():\n"
-                  "    for line in open('/proc/self/status'):\n"
-                  "        if line.startswith('VmHWM:'): sys.stderr.write('VmHWM ' + line.split()[1] + '\\n')\n"
-                  "atexit.register(hwm)\n"
-                  "sys.argv = ['dynval'] + sys.argv[1:]\n"
-                  "runpy.run_module('dynval', run_name='__main__')\n")
 PEAK_LIMIT = 500 * 2**20
 
 
 def _validate_with_peak(spec, *extra, timeout=120):
     """(exit code, stderr, peak RSS in bytes) of `dynval validate SPEC SPEC --n-params 1` in a child."""
-    proc = subprocess.run([sys.executable, "-c", _PEAK_LAUNCHER, "validate", str(spec), str(spec), "--n-params",
+    proc = subprocess.run([sys.executable, "-c", PEAK_LAUNCHER, "validate", str(spec), str(spec), "--n-params",
                            "1", "--no-progress", *extra], capture_output=True, text=True, env=_env(),
                           timeout=timeout)
     peak = int(proc.stderr.split("VmHWM ")[-1].split()[0]) * 1024

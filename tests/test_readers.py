@@ -13,6 +13,7 @@ import pytest
 from dynval import cli
 from dynval.io import _readers
 from dynval.io._files import FileInputError, load_array
+from peak_memory import PEAK_LAUNCHER
 
 
 @pytest.fixture
@@ -297,16 +298,7 @@ def test_the_cli_validates_files_larger_than_its_peak_memory(tmp_path):
         out.flush()
         del out
     size = 2 * n * m * 8
-    # The child's own high-water mark (VmHWM of its address space, reset at exec; ru_maxrss would
-    # also count the pages of this process at the fork).
-    launcher = ("import atexit, runpy, sys\n"
-                "def hwm():\n"
-                "    for line in open('/proc/self/status'):\n"
-                "        if line.startswith('VmHWM:'): sys.stderr.write('VmHWM ' + line.split()[1] + '\\n')\n"
-                "atexit.register(hwm)\n"
-                "sys.argv = ['dynval'] + sys.argv[1:]\n"
-                "runpy.run_module('dynval', run_name='__main__')\n")
-    proc = subprocess.run([sys.executable, "-c", launcher, "validate", str(tmp_path / "meas.npy"),
+    proc = subprocess.run([sys.executable, "-c", PEAK_LAUNCHER, "validate", str(tmp_path / "meas.npy"),
                            str(tmp_path / "pred.npy"), "--n-params", "3", "--stream", "--max-lag", "5",
                            "--no-progress"], capture_output=True, text=True, env={**os.environ,
                                                                                   "OMP_NUM_THREADS": "1"})

@@ -24,6 +24,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
+from .._environ import restored_environ
 from ._runner import RunResult, run
 
 #: Marker comments delimiting the generated matrix in README.md.
@@ -114,19 +115,12 @@ def run_matrix(
             continue
         if log:
             log(f"conform --matrix: running {spec.name} ({shlex.join(spec.command)})")
-        saved = {key: os.environ.get(key) for key in spec.env}
-        os.environ.update(spec.env)
-        try:
+        with restored_environ(spec.env):
+            os.environ.update(spec.env)
             result = run(spec.command, corpus=corpus, families=families, timeout=timeout,
                          startup_timeout=startup_timeout, max_restarts=max_restarts,
                          skip_unclaimed=skip_unclaimed, jobs=jobs,
                          progress=progress_lines(spec.name, log) if log else None)
-        finally:
-            for key, value in saved.items():
-                if value is None:
-                    os.environ.pop(key, None)
-                else:
-                    os.environ[key] = value
         if log:
             total = result.counts()["total"]
             log(f"conform --matrix: {spec.name}: {total['passed']} passed, {total['failed']} failed, "

@@ -9,9 +9,9 @@ environment, which fixes glibc's mmap threshold at 128 KiB: every temporary of a
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
+from .._environ import restored_environ
 from ..checks._errors import InvalidParameter
 
 __all__ = ["WORKER_ENVIRON", "local_cluster", "client_for"]
@@ -34,16 +34,8 @@ def local_cluster(n_workers: int = 2, **kwargs: Any) -> Any:
     settings = {"threads_per_worker": 1, "processes": True, "dashboard_address": ":0", **kwargs}
     # The nannies run in this process and set the variables in its own environment before they
     # spawn their workers: restore it, so that later subprocesses of the caller do not inherit them.
-    saved = {key: os.environ.get(key) for key in environ}
-    try:
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-            return LocalCluster(n_workers=n_workers, **settings)
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
+    with restored_environ(environ), dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        return LocalCluster(n_workers=n_workers, **settings)
 
 
 def client_for(scheduler: Any) -> tuple[Any, bool]:
