@@ -23,7 +23,7 @@ import numpy as np
 from ..checks import _validation as v
 from ..checks._typing import ArrayLike, FloatArray
 
-__all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "memo_for", "digest"]
+__all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "memo_for", "scan_for", "digest"]
 
 T = TypeVar("T")
 
@@ -132,14 +132,30 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegre
     return PreparedRegressor(np.ascontiguousarray(v.to_float_array(regressor, "regressor")))
 
 
+def _is_prepared(prepared: PreparedRegressor | None, a: FloatArray | None) -> bool:
+    """Whether ``a`` is the prepared array itself (same memory, every value, any shape)."""
+    return (prepared is not None and a is not None and a.ctypes.data == prepared.array.ctypes.data
+            and a.size == prepared.array.size and a.flags.c_contiguous)
+
+
 def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:
     """The memo a call may use: the prepared regressor's when the call's checked 2-D regressor is
     the prepared array itself (same memory, every row kept), else one that keeps nothing."""
-    if prepared is None or checked is None:
-        return compute_now
-    same = (checked.ctypes.data == prepared.array.ctypes.data and checked.size == prepared.array.size
-            and checked.flags.c_contiguous)
-    return prepared.memo if same else compute_now
+    return prepared.memo if prepared is not None and _is_prepared(prepared, checked) else compute_now
+
+
+def scan_for(prepared: PreparedRegressor | None) -> Callable[[FloatArray], tuple[int, int, float] | None]:
+    """The search for a call's first non-finite value (:func:`dynval.checks._validation.first_nonfinite`)
+    that searches the prepared array once for every call (its values do not change)."""
+    if prepared is None:
+        return v.first_nonfinite
+
+    def scan(a: FloatArray) -> tuple[int, int, float] | None:
+        if _is_prepared(prepared, a):
+            return prepared.memo(("first_nonfinite", a.shape), lambda: v.first_nonfinite(a))
+        return v.first_nonfinite(a)
+
+    return scan
 
 
 def digest(*arrays: Any) -> tuple[Hashable, ...]:

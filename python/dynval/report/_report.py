@@ -41,7 +41,7 @@ from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds
 from ._json import to_jsonable
-from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for
+from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -62,8 +62,10 @@ class _Prepared(NamedTuple):
     given_pred: FloatArray
 
 
-def _prepare(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, k: Keywords) -> _Prepared:
-    """Type, shape, size and finiteness checks (the data half of the contract's order)."""
+def _prepare(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None, k: Keywords,
+             prepared: PreparedRegressor | None = None) -> _Prepared:
+    """Type, shape, size and finiteness checks (the data half of the contract's order); a prepared
+    regressor is searched for non-finite values once for all its calls."""
     meas, pred, reg0, shape, _ = v.torque_pair(tau_meas, tau_pred, regressor)
     n, m = meas.shape
     p = None
@@ -76,7 +78,7 @@ def _prepare(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | No
     arrays: list[Array] = [("tau_meas", meas, None), ("tau_pred", pred, None)]
     if reg0 is not None and p is not None:
         arrays.append(("regressor", v.regressor_to_2d(reg0, n, m, p), p))
-    call = CheckedCall("validate", arrays)
+    call = CheckedCall("validate", arrays, scan=scan_for(prepared))
     if isinstance(k.nan_policy, str) and k.nan_policy == "omit":
         # Omission needs the caller's segments to refine them; a bad value is reported now. The
         # row numbers ride along, so that time stamps can follow the kept rows.
@@ -233,7 +235,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
                  cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
                  allow_wide=allow_wide)
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
-    d, o = _checked(tau_meas, tau_pred, regressor.array if isinstance(regressor, PreparedRegressor) else regressor, k)
+    d, o = _checked(tau_meas, tau_pred, regressor, k)
     d = replace(d, memo=memo_for(prepared, d.reg2))
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
@@ -283,11 +285,13 @@ class _Data:
         return int(self.meas.shape[1])
 
 
-def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
+def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | PreparedRegressor | None,
              k: Keywords) -> tuple[_Data, Options]:
     """The data checks, then the settings in the contract's order, deferred (a non-finite value
     still wins over a bad setting), then the lags: with a rate, the motion's time scale."""
-    pr = _prepare(tau_meas, tau_pred, regressor, k)
+    prepared = regressor if isinstance(regressor, PreparedRegressor) else None
+    plain = regressor if not isinstance(regressor, PreparedRegressor) else regressor.array
+    pr = _prepare(tau_meas, tau_pred, plain, k, prepared)
     call = pr.call
     meas, pred = call.pair
     n, m = meas.shape
@@ -341,7 +345,8 @@ def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
     b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
     reg3 = d.reg3
-    b.grams = d.memo(("grams", reg3.shape), lambda: sec.JointGrams(reg3)) if reg3 is not None else None
+    b.grams = None if reg3 is None else d.memo(
+        ("grams", reg3.shape), lambda: sec.JointGrams(reg3, sec.column_largest(reg3, d.memo)))
 
 
 def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:

@@ -293,69 +293,88 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
     return out
 
 
+def column_largest(reg3: np.ndarray, memo: Memo = compute_now) -> np.ndarray:
+    """Each joint column's largest |x|, (m, p): zero exactly for a column of zeros (common: a
+    link's parameters do not act on the joints before it). One contiguous pass, kept by a
+    prepared regressor; the Gram matrices, the projection's blocks, the columns'
+    autocorrelations and the excitation's factor all leave the zero columns out."""
+    n, m, p = reg3.shape
+    return memo(("column_largest", reg3.shape), lambda: _column_largest(reg3.reshape(n, m * p)).reshape(m, p))
+
+
 class JointGrams:
-    """Each joint's regressor Gram matrix Y_jᵀY_j (m, p, p), from one blocked pass over the rows.
+    """Each joint's regressor Gram matrix Y_jᵀY_j (m, p, p), from one blocked pass over the rows
+    (each joint's nonzero columns only: ``largest`` from :func:`column_largest`, computed if not given).
 
     The residual spectrum's projection (each joint's least squares) and the excitation section
     (the stacked regressor's Gram matrix is Σ_j Y_jᵀY_j, its column norms the root of its
-    diagonal) share it. ``usable`` is False when an entry is not finite, or a diagonal entry is
-    outside [1e-280, 1e280] without its column being exactly zero: then sums of squares may
-    have overflowed or underflowed, and both users take their exactly scaled routes instead.
+    diagonal) share it. ``usable`` is False when an entry is not finite, or the diagonal entry of
+    a nonzero column is outside [1e-280, 1e280]: then sums of squares may have overflowed or
+    underflowed, and both users take their exactly scaled routes instead.
     """
 
-    def __init__(self, reg3: np.ndarray, block: int | None = None):
+    def __init__(self, reg3: np.ndarray, largest: np.ndarray | None = None, block: int | None = None):
         n, m, p = reg3.shape
+        largest = column_largest(reg3) if largest is None else largest
         block = block or max(1, _ROW_BLOCK // max(m, 1))
-        self.gram = np.zeros((m, p, p))
+        live = [np.flatnonzero(largest[j] > 0) for j in range(m)]
+        compact = [np.zeros((cols.size, cols.size)) for cols in live]
         with np.errstate(over="ignore", under="ignore", invalid="ignore"):
             for i in range(0, n, block):
                 rows = reg3[i:i + block]
-                for j in range(m):
-                    y = rows[:, j, :]
-                    self.gram[j] += y.T @ y
-        diag = np.diagonal(self.gram, axis1=1, axis2=2)
-        in_range = (diag >= 1e-280) & (diag <= 1e280)
-        # A joint's column that is zero throughout is common (a link's parameters do not act on
-        # the joints before it); a zero diagonal of tiny nonzero values is an underflow.
-        zero = np.flatnonzero(diag == 0)  # index j·p + c of the (n, m·p) view
-        self.usable = bool(np.all(np.isfinite(self.gram)) and np.count_nonzero(~in_range) == zero.size
-                           and not (zero.size and _any_nonzero(reg3.reshape(n, m * p), zero)))
+                for j, cols in enumerate(live):
+                    if cols.size:
+                        y = rows[:, j, :] if cols.size == p else rows[:, j, cols]
+                        compact[j] += y.T @ y
+        self.gram = np.zeros((m, p, p))
+        for j, cols in enumerate(live):
+            self.gram[j][np.ix_(cols, cols)] = compact[j]
+        diag = np.concatenate([np.diagonal(g) for g in compact])
+        self.usable = bool(all(np.all(np.isfinite(g)) for g in compact)
+                           and np.all((diag >= 1e-280) & (diag <= 1e280)))
 
     def stacked(self) -> np.ndarray:
         """The Gram matrix of the regressor stacked over joints, (p, p)."""
         return self.gram.sum(axis=0)
 
 
-def _any_nonzero(x: np.ndarray, columns: np.ndarray) -> bool:
-    """Whether x[:, columns] holds a nonzero, a block of rows at a time (stops at the first)."""
-    return any(np.any(x[i:i + _ROW_BLOCK, columns]) for i in range(0, x.shape[0], _ROW_BLOCK))
-
-
 def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_now):
     """The residual less its least-squares projection on each joint's regressor columns.
 
-    What depends on the regressor alone (each joint's live columns, their block, the solve's
-    factor) comes from ``memo``: a prepared regressor computes it once for every residual."""
+    What depends on the regressor alone (each joint's live columns, the solve's factor, the
+    factorisation of an ill-conditioned block) comes from ``memo``: a prepared regressor computes
+    it once for every residual."""
     n, m, p = reg3.shape
     if n < 4 * p:
         return e
     out = np.empty_like(e)
-    for j in range(m):
-        beta = None
-        if grams is not None and grams.usable:
-            live, y = memo(("live_block", reg3.shape, j), partial(_live_block, reg3, grams, j))
+    fast = np.zeros(m, dtype=bool)
+    # the joints whose live columns are well conditioned: solved by their normal equations
+    solvable = [] if grams is None or not grams.usable else [
+        (j, live, factor) for j in range(m)
+        for live in [memo(("live_columns", reg3.shape, j), partial(_live_columns, grams, j))]
+        for factor in [memo(("live_factor", reg3.shape, j), partial(_live_factor, grams, j, live))]
+        if factor is not None]
+    if solvable:
+        beta = np.zeros((m, p))
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            # every joint's Yⱼᵀeⱼ in one contiguous pass over Y (a strided BLAS pass per joint
+            # reads Y m times); a zero column's entry is zero and is left out below
+            yte = np.einsum("nj,njp->jp", e, reg3)
+        for j, live, factor in solvable:
+            yb = yte[j, live]
+            if np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
+                beta[j, live] = _solve_factored(factor, yb)
+                fast[j] = True
+        if fast.any():
             with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-                yb = e[:, j] @ y
-            if live.size and np.all(np.isfinite(yb)) and 1e-280 <= _sum_squares(e[:, j]) <= 1e280:
-                factor = memo(("live_factor", reg3.shape, j), partial(_live_factor, grams, j, live))
-                beta = _solve_factored(factor, yb)
-        if beta is not None:
-            out[:, j] = e[:, j] - y @ beta
-            continue
+                fitted = np.einsum("njp,jp->nj", reg3, beta)  # one pass again, for every joint
+            out[:, fast] = e[:, fast] - fitted[:, fast]
+    for j in np.flatnonzero(~fast):
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
         # 1e140 data do not overflow the normal equations.
-        y, solver = memo(("scaled_block", reg3.shape, j), partial(_scaled_block, reg3, j, memo))
+        y, solver = memo(("scaled_block", reg3.shape, int(j)), partial(_scaled_block, reg3, int(j), memo))
         ej, k = _pow2_columns(e[:, j : j + 1])
         # Below the condition limit the kept normal-equations factor solves it; above, the kept
         # projection on the block's numerical range (lstsq's rank decision) is applied.
@@ -367,62 +386,66 @@ def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_
     return out
 
 
-def _live_block(reg3, grams: JointGrams, j: int):
-    """Joint j's columns with a nonzero norm and their (N, k) block: its zero columns add nothing
-    to its projection. All columns live: a view (a slice); else a copy (an index)."""
-    live = np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
-    cols = slice(None) if live.size == reg3.shape[2] else live
-    return live, reg3[:, j, cols]
+def _live_columns(grams: JointGrams, j: int) -> np.ndarray:
+    """Joint j's columns with a nonzero norm: its zero columns add nothing to its projection."""
+    return np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
 
 
 def _live_factor(grams: JointGrams, j: int, live):
-    """:func:`_normal_factor` of joint j's live columns."""
-    return _normal_factor(grams.gram[j][np.ix_(live, live)])
+    """:func:`_normal_factor` of joint j's live columns (None without any)."""
+    return _normal_factor(grams.gram[j][np.ix_(live, live)]) if live.size else None
 
 
 def _scaled_block(reg3, j: int, memo: Memo):
-    """Joint j's columns scaled exactly by powers of two and how to solve on them: (the block, the
-    factor of its normal equations) when they are well conditioned, else (None, the projection on
-    its numerical range), which no longer needs the block. The exponents of every column at once:
-    one contiguous pass instead of a strided one per joint."""
-    n, m, p = reg3.shape
-    k_reg = memo(("pow2_exponents", reg3.shape), lambda: _pow2_exponents(reg3.reshape(n, m * p)).reshape(m, p))
-    y = _scale_pow2(reg3[:, j, :], k_reg[j])
-    factor = _normal_factor(y.T @ y)
+    """Joint j's nonzero columns scaled exactly by powers of two and how to solve on them: (the
+    block, the factor of its normal equations) when they are well conditioned, else (None, the
+    projection on its numerical range), which no longer needs the block. A zero column adds
+    nothing to the range, and a serial arm's joint has many (the parameters of the links before
+    it): leaving them out makes the factorisation several times cheaper. The largest |x| of every
+    column at once: one contiguous pass instead of a strided one per joint."""
+    y = _scaled_live_block(reg3, j, column_largest(reg3, memo))
+    factor = _normal_factor(y.T @ y) if y.shape[1] else None
     return (y, factor) if factor is not None else (None, RangeProjection(y))
+
+
+def _scaled_live_block(reg3, j: int, largest) -> np.ndarray:
+    """Joint j's nonzero columns, each scaled by the power of two of its largest |x| (exact)."""
+    live = np.flatnonzero(largest[j] > 0)
+    return _scale_pow2(reg3[:, j, :] if live.size == reg3.shape[2] else reg3[:, j, live], _exponents(largest[j, live]))
 
 
 class RangeProjection:
     """The orthogonal projection on the numerical range of an (N, p) block, N ≥ p, as
-    ``numpy.linalg.lstsq(y, b, rcond=None)`` decides it: y = QR (Householder, the reflectors kept
-    in LAPACK's compact form), R = U S Vᵀ, and the rank r the number of singular values above
-    eps·max(N, p)·s_max, lstsq's rule. ``residual(b)`` is b − Q U_r U_rᵀ Qᵀ b, what lstsq's
-    b − y β gives up to rounding; it costs two passes of the reflectors over b (O(Np)) where
+    ``numpy.linalg.lstsq(y, b, rcond=None)`` decides it: y = QR (Householder), R = U S Vᵀ, and the
+    rank r the number of singular values above eps·max(N, p)·s_max, lstsq's rule. The range's
+    orthonormal basis Q_r = Q U_r (N × r, no larger than the block) is kept, and ``residual(b)`` is
+    b − Q_r Q_rᵀ b, what lstsq's b − y β gives up to rounding: two passes over Q_r (O(Nr)) where
     lstsq factors the block again (O(Np²)), so a prepared regressor factors each block once for
     every residual. ``rank`` is r.
     """
 
     def __init__(self, y: np.ndarray):
-        (self.reflectors, self.tau), r = scipy.linalg.qr(y, mode="raw", check_finite=False)
+        self.rank = 0
+        if y.shape[1] == 0:  # no column: nothing to project on
+            return
+        (reflectors, tau), r = scipy.linalg.qr(y, mode="raw", check_finite=False)
         u, s, _ = np.linalg.svd(r, full_matrices=False)
         tol = np.finfo(np.float64).eps * max(y.shape) * (s[0] if s.size else 0.0)
         self.rank = int(np.count_nonzero(s > tol))
-        self.basis = np.ascontiguousarray(u[:, :self.rank])  # of the range in Q's coordinates
-        work = scipy.linalg.lapack.dormqr("L", "T", self.reflectors, self.tau, y[:, :1], -1)[1]
-        self.lwork = max(int(work[0]), y.shape[1])
+        if self.rank == 0:
+            return
+        top = np.zeros((y.shape[0], self.rank), order="F")
+        top[:u.shape[0]] = u[:, :self.rank]  # the range in Q's coordinates
+        self.basis, _, info = scipy.linalg.lapack.dormqr("L", "N", reflectors, tau, top, max(1, 64 * self.rank),
+                                                         overwrite_c=1)
+        if info:  # an argument LAPACK refused: a bug here, not bad input
+            raise RuntimeError(f"dormqr failed (info {info})")
 
     def residual(self, b: np.ndarray) -> np.ndarray:
         """b less its least-squares fit on the block, (N,)."""
         if self.rank == 0:
             return b.copy()
-        dormqr = scipy.linalg.lapack.dormqr
-        c, _, info = dormqr("L", "T", self.reflectors, self.tau, b[:, None], self.lwork)
-        fit = np.zeros_like(c)
-        fit[: self.basis.shape[0], 0] = self.basis @ (self.basis.T @ c[: self.basis.shape[0], 0])
-        fitted, _, info2 = dormqr("L", "N", self.reflectors, self.tau, fit, self.lwork, overwrite_c=1)
-        if info or info2:  # an argument LAPACK refused: a bug here, not bad input
-            raise RuntimeError(f"dormqr failed (info {info}, {info2})")
-        return b - fitted[:, 0]
+        return b - self.basis @ (self.basis.T @ b)
 
 
 # Below this condition number the normal equations lose at most about 1e-8 of the fit
@@ -469,10 +492,19 @@ def _least_squares(y, b):
     return beta if beta is not None else np.linalg.lstsq(y, b, rcond=None)[0]
 
 
+def _column_largest(x):
+    """Per column, its largest |x|, without a copy of x."""
+    return np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
+
+
+def _exponents(largest):
+    """The exponent k (np.frexp) of each largest |x|, 0 for a zero column."""
+    return np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+
+
 def _pow2_exponents(x):
     """Per column, the exponent k of its largest |x| (0 for a zero column)."""
-    largest = np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
-    return np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
+    return _exponents(_column_largest(x))
 
 
 def _scale_pow2(x, k):
@@ -508,16 +540,17 @@ def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
 _DIRECT_ACF_LAGS = 128
 
 
-def _biased_acf(kernel, x, starts, big: int) -> np.ndarray:
+def _biased_acf(kernel, x, starts, big: int, live: np.ndarray | None = None) -> np.ndarray:
     """Biased autocorrelation of every column of ``x`` (the residual's, the regressor's) to lag
     ``big`` (acf_fft's definition): the compiled kernel's direct sums when the backend is cpp,
-    the lags few and the array contiguous (no copy), else :func:`dynval.statistics._stats.acf_fft`."""
+    the lags few and the array contiguous (no copy), else :func:`dynval.statistics._stats.acf_fft`
+    (``live``: the columns known not to be all zeros)."""
     from ..kernels import _reference
 
     if kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous \
             and x.dtype == np.float64:
         return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
-    return _stats.acf_fft(x, starts, big)
+    return _stats.acf_fft(x, starts, big, live=live)
 
 
 def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
@@ -540,11 +573,13 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     rho_e = _biased_acf(kernel, e, starts, big)
     # the regressor's half of the band: the same for every residual on this regressor
     key = ("columns_acf", getattr(kernel, "__name__", str(kernel)), reg2.shape, tuple(int(s) for s in starts), big)
-    rho_y = memo(key, lambda: _biased_acf(kernel, reg2, starts, big)).reshape(big + 1, m, p)
+    weighted_y = memo(key, lambda: _stats.weighted_column_acf(_biased_acf(
+        kernel, reg2, starts, big, np.flatnonzero(column_largest(reg2.reshape(n, m, p), memo).ravel() > 0),
+    ).reshape(big + 1, m, p)))
     lags = np.arange(max_lag + 1)
     n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
     d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))
-    sd = _stats.cross_correlation_sd(rho_e, rho_y, n_l, d_l, n)
+    sd = _stats.colour_aware_sd(rho_e, weighted_y, n_l, d_l)
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.abs(rho) / sd
     zf = np.where(np.isnan(z), -1.0, z)
@@ -706,12 +741,34 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
-def _r_factor(x: np.ndarray, columns: np.ndarray, block: int = _ROW_BLOCK) -> np.ndarray:
-    """The triangular factor R of x[:, columns] = QR, from the rows in blocks (R of [R; block])."""
-    r = np.zeros((0, columns.size))
-    for start in range(0, x.shape[0], block):
-        r = np.asarray(np.linalg.qr(np.vstack([r, x[start:start + block, columns]]), mode="r"))
-    return r
+# Rows per QR update of :func:`_r_factor`: LAPACK's QR of a tall block runs at a fraction of the
+# speed of its small panels, so many short updates of R beat a few long ones (140,756 × 91 KUKA
+# regressor, one BLAS thread: 0.17 s in blocks of 1,024 rows, 0.57 s in one call).
+_QR_ROWS = 1 << 10
+
+
+def _r_factor(x: np.ndarray, columns: np.ndarray, k: np.ndarray | None = None, block: int = _QR_ROWS) -> np.ndarray:
+    """The triangular factor R of x[:, columns]·2^-k = QR (k: an exact column scaling by powers of
+    two, none by default), p × p at most: each block of rows is stacked under the R so far and
+    factored again, in one Fortran-ordered buffer (no copy of x)."""
+    p = columns.size
+    every = p == x.shape[1]  # a slice is a view; indexing by columns copies only the block
+    scale = np.ldexp(1.0, -k) if k is not None and np.all(np.abs(k) < 1000) else None
+    buf = np.empty((block + p, p), order="F")
+    top = 0  # rows of R at the top of buf
+    for i in range(0, x.shape[0], block):
+        rows = x[i:i + block] if every else x[i:i + block, columns]
+        end = top + rows.shape[0]
+        if k is None:
+            buf[top:end] = rows
+        elif scale is not None:  # 2^-k is a normal number: the same exact products as ldexp
+            np.multiply(rows, scale, out=buf[top:end])
+        else:
+            buf[top:end] = np.ldexp(rows, -k)
+        r = scipy.linalg.qr(buf[:end], mode="r", overwrite_a=True, check_finite=False)[0]
+        top = min(end, p)
+        buf[:top] = np.triu(r[:top])
+    return np.array(buf[:top])
 
 
 def _singular_values(x, live, norms, gram=None):
@@ -771,24 +828,66 @@ def _column_norms(x):
                                 for i in range(0, x.shape[0], _ROW_BLOCK))), k)
 
 
-def _scaled_r(x, columns, k):
-    """R of x[:, columns]·2^-k (an exact column scaling) from blocks of rows, p × p at most."""
-    r = np.zeros((0, columns.size))
-    every = columns.size == x.shape[1]
-    for i in range(0, x.shape[0], _ROW_BLOCK):
-        rows = x[i:i + _ROW_BLOCK] if every else x[i:i + _ROW_BLOCK, columns]
-        r = np.asarray(np.linalg.qr(np.vstack([r, _scale_pow2(rows, k)]), mode="r"))
-    return r
+def _stacked_r(reg3, k, memo: Memo = compute_now) -> np.ndarray:
+    """R of the regressor stacked over joints, Y·2^-k ((N·m) × p, k an exact column scaling), p × p
+    at most: each joint's nonzero columns are factored alone (Y_j·2^-k_j = Q_j R_j, k_j from
+    :func:`column_largest`; kept by a prepared regressor), their R_j·2^(k_j − k) stacked and
+    factored again. The stacked QR's R up to rounding (a tall-skinny QR), without the work on
+    each joint's zero columns: on a serial arm's regressor a fraction of the stacked QR."""
+    _, m, p = reg3.shape
+    largest = column_largest(reg3, memo)
+    pieces = []
+    for j in range(m):
+        live = np.flatnonzero(largest[j] > 0)
+        if live.size:
+            r_j = memo(("joint_r", reg3.shape, j), partial(_joint_r, reg3, j, largest))
+            piece = np.zeros((r_j.shape[0], p))
+            piece[:, live] = np.ldexp(r_j, _exponents(largest[j, live]) - k[live])
+            pieces.append(piece)
+    if not pieces:
+        return np.zeros((0, p))
+    stacked = np.vstack(pieces)
+    r = scipy.linalg.qr(stacked, mode="r", overwrite_a=True, check_finite=False)[0]
+    return np.array(r[:min(stacked.shape[0], p)])
 
 
-def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
+def _joint_r(reg3, j: int, largest) -> np.ndarray:
+    """R of joint j's nonzero columns scaled by powers of two (:func:`_scaled_live_block`)."""
+    y = _scaled_live_block(reg3, j, largest)
+    return _r_factor(y, np.arange(y.shape[1]))
+
+
+def _leading_base(a, tol: float) -> np.ndarray:
+    """The columns of ``a`` (rows × q, or any matrix with its R factor) that are independent of
+    the columns kept before them, in index order: with every column scaled to unit norm, column
+    k is kept when its distance from the span of the kept columns exceeds ``tol``; a column whose
+    norm is at most ``tol`` of the largest is never kept. Of an exactly dependent set the last
+    columns are the dependent ones, whatever the rounding (a pivoted QR chooses among columns of
+    equal norm by rounding, conventions §5.6). The distance is from the kept columns only: a
+    dependent column's roundoff would otherwise add a direction to the span."""
+    norms = np.sqrt(np.einsum("ij,ij->j", a, a))
+    nonzero = np.flatnonzero(norms > tol * norms.max(initial=0.0))
+    x = a[:, nonzero] / norms[nonzero]
+    basis = np.zeros((x.shape[0], 0))
+    keep = []
+    for i in range(x.shape[1]):
+        v = x[:, i].copy()
+        for _ in range(2):  # Gram–Schmidt twice keeps the basis orthonormal to rounding
+            v -= basis @ (basis.T @ v)
+        distance = float(np.linalg.norm(v))
+        if distance > tol:
+            keep.append(i)
+            basis = np.column_stack([basis, v / distance])
+    return nonzero[np.asarray(keep, dtype=np.intp)]
+
+
+def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
     """The excitation section (contract §4): the columns that are structural (zero or exact
     combinations of others in both runs: reduced to the identifiable combinations), those the
     validation run leaves unexcited or inseparable while the estimation run excites them, and the
-    condition number over the combinations the validation run excites."""
-    from ..identify import base_set
-
-    p = stacked.shape[1]
+    condition number over the combinations the validation run excites. ``r_factor(k)`` is R of the
+    stacked validation regressor (``n_rows`` rows) scaled by 2^-k."""
+    p = norms.shape[0]
     tiny = np.finfo(float).tiny
     with_est = est is not None and est.shape[1] == p
     est_norms = _column_norms(est) if with_est else None
@@ -804,7 +903,7 @@ def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
         both = np.hypot(norms, est_norms) if with_est else norms
         k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
         every = np.arange(p)
-        r_v = _scaled_r(stacked, every, k)
+        r_v = r_factor(k)
         structural: list[int] | None = None
         unidentifiable: list[int] = []
         if with_est:
@@ -812,9 +911,8 @@ def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
             nz = np.flatnonzero(~zero_s)
             base = np.zeros(0, dtype=np.intp)
             if nz.size:
-                r_s = np.asarray(np.linalg.qr(np.vstack([_scaled_r(est, nz, k[nz]), r_v[:, nz]]), mode="r"))
-                s = base_set(r_s, _RANK_TOL)
-                base = nz[s["base"]]
+                r_s = np.asarray(np.linalg.qr(np.vstack([_r_factor(est, nz, k[nz]), r_v[:, nz]]), mode="r"))
+                base = nz[_leading_base(r_s, _RANK_TOL)]
             unidentifiable = [int(c) for c in np.flatnonzero(zero_s)]
             structural = [int(c) for c in np.setdiff1d(every, base)]
         else:
@@ -822,8 +920,7 @@ def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
         candidates = base[~zero_v[base]]
         live = np.zeros(0, dtype=np.intp)
         if candidates.size:
-            v = base_set(r_v[:, candidates], _RANK_TOL)
-            live = candidates[v["base"]]
+            live = candidates[_leading_base(r_v[:, candidates], _RANK_TOL)]
         out = {"unexcited": [int(c) for c in base[zero_v[base]]],
                "inseparable": [int(c) for c in np.setdiff1d(candidates, live)],
                "unidentifiable": unidentifiable, "structural": structural,
@@ -845,7 +942,7 @@ def _excitation(stacked, norms, gram, est) -> dict[str, Any]:
         # each column's RMS per row on the validation run over the estimation run's
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             out["column_motion_ratio"] = np.where(
-                est_norms > 0, (norms / math.sqrt(stacked.shape[0])) / (est_norms / math.sqrt(est.shape[0])), np.nan)
+                est_norms > 0, (norms / math.sqrt(n_rows)) / (est_norms / math.sqrt(est.shape[0])), np.nan)
     return out
 
 
@@ -900,11 +997,11 @@ def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | N
     if reg3 is not None:
         # the regressors' alone (``estimation_key`` names the estimation run's)
         out["excitation"] = memo(("excitation", reg3.shape, estimation_key),
-                                 lambda: _regressor_excitation(reg3, grams, estimation))
+                                 lambda: _regressor_excitation(reg3, grams, estimation, memo))
     return out or None
 
 
-def _regressor_excitation(reg3, grams: JointGrams | None, estimation) -> dict[str, Any]:
+def _regressor_excitation(reg3, grams: JointGrams | None, estimation, memo: Memo = compute_now) -> dict[str, Any]:
     """:func:`_excitation` of the stacked validation regressor (and the estimation run's)."""
     stacked = reg3.reshape(-1, reg3.shape[2])
     gram = grams.stacked() if grams is not None and grams.usable else None
@@ -912,4 +1009,4 @@ def _regressor_excitation(reg3, grams: JointGrams | None, estimation) -> dict[st
     est = None
     if estimation is not None and "regressor" in estimation:
         est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
-    return _excitation(stacked, norms, gram, est)
+    return _excitation(partial(_stacked_r, reg3, memo=memo), stacked.shape[0], norms, gram, est)

@@ -24,6 +24,7 @@ else:
     from .._lazy import scipy
 
 from ..checks._typing import ArrayLike, FloatArray
+from ..kernels._threads import worker_count
 
 __all__ = [
     "z_two_sided",
@@ -36,6 +37,8 @@ __all__ = [
     "andrews_bandwidth",
     "score_covariance",
     "cross_correlation_sd",
+    "weighted_column_acf",
+    "colour_aware_sd",
     "correlation_pvalue",
     "Spectrum",
     "residual_spectrum",
@@ -142,14 +145,15 @@ def _pow2_scaled_columns(x: np.ndarray) -> np.ndarray:
     return np.ldexp(x, -exps)
 
 
-def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
+def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | None = None) -> np.ndarray:
     """Biased autocorrelation ρ̂(0..max_lag) of every column of ``x`` (N, k), by FFT beyond a
     few lags.
 
     Means are overall (one per column), products never join two segments (contract §1.1), the
     denominator is N at every lag. A constant column gives nan. ``scipy.fft`` makes long lags
     cheap: O(N log N) per column instead of O(N·max_lag); up to ``_DIRECT_LAGS`` lags the
-    products are summed directly.
+    products are summed directly. ``live``: the columns that are not all zeros, when the caller
+    knows them (found here otherwise); the others are nan without a transform.
     """
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
@@ -161,8 +165,14 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
     # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
     batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
     means = x.mean(axis=0) if centre else None  # one pass over the rows, not one per batch
-    for c0 in range(0, k, batch):
-        cols = slice(c0, min(c0 + batch, k))
+    # A column of zeros (common in a regressor: a link's parameters do not act on the joints
+    # before it) is zero once centred too: its ρ is nan without a transform.
+    if live is None:
+        live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n else np.arange(k)
+    every = live.size == k
+    workers = min(worker_count(), max(1, min(batch, live.size)))  # the columns are transformed apart
+    for c0 in range(0, live.size, batch):
+        cols = slice(c0, min(c0 + batch, k)) if every else live[c0:c0 + batch]
         xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
         # ρ is a ratio: each column scaled by a power of two first (exact, contract §1.3), so that
         # no square underflows near 1e-160 (the compiled kernel scales, and the two must agree).
@@ -174,10 +184,10 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True) -> np.ndarray:
             length = b - a
             # Zero padding to length + max_lag keeps the circular wrap-around out of the lags kept.
             size = scipy.fft.next_fast_len(length + min(max_lag, length - 1), real=True)
-            spec = scipy.fft.rfft(xc[a:b], n=size, axis=0)
+            spec = scipy.fft.rfft(xc[a:b], n=size, axis=0, workers=workers)
             power = spec.real**2 + spec.imag**2
             del spec
-            r = scipy.fft.irfft(power, n=size, axis=0)
+            r = scipy.fft.irfft(power, n=size, axis=0, workers=workers)
             keep = min(max_lag + 1, length)
             acov[:keep, cols] += r[:keep]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -333,11 +343,23 @@ def cross_correlation_sd(rho_e, rho_y, n_lag, d_lag, n: int) -> np.ndarray:
     √n_ℓ/D_ℓ of the white case (n_ℓ products over the denominator D_ℓ) scales it per lag.
     Returns (m, p, L+1).
     """
-    rho_e = np.nan_to_num(np.asarray(rho_e, dtype=np.float64))
-    rho_y = np.nan_to_num(np.asarray(rho_y, dtype=np.float64))
-    big = rho_e.shape[0] - 1
+    return colour_aware_sd(rho_e, weighted_column_acf(rho_y), n_lag, d_lag)
+
+
+def weighted_column_acf(rho_y) -> np.ndarray:
+    """The regressor's half of :func:`cross_correlation_sd`'s sum: w_j·ρ_yy(j), j = 1..J, with
+    Bartlett's weights w_j = 1 − j/(J + 1) and nan (a constant column) as 0; (J, m, p). It does not
+    depend on the residual: a prepared regressor keeps it."""
+    rho_y = np.asarray(rho_y, dtype=np.float64)
+    big = rho_y.shape[0] - 1
     w = 1.0 - np.arange(1, big + 1) / (big + 1.0)
-    colour = 1.0 + 2.0 * np.einsum("j,jm,jmp->mp", w, rho_e[1:], rho_y[1:])
+    return np.nan_to_num(rho_y[1:]) * w[:, None, None]
+
+
+def colour_aware_sd(rho_e, weighted_y, n_lag, d_lag) -> np.ndarray:
+    """:func:`cross_correlation_sd` from the regressor's half :func:`weighted_column_acf`."""
+    rho_e = np.nan_to_num(np.asarray(rho_e, dtype=np.float64))
+    colour = 1.0 + 2.0 * np.einsum("jm,jmp->mp", rho_e[1:], weighted_y)
     colour = np.maximum(colour, 1.0)
     white = np.sqrt(np.asarray(n_lag, dtype=np.float64)) / np.asarray(d_lag, dtype=np.float64)
     return np.sqrt(colour)[:, :, None] * white[None, None, :]

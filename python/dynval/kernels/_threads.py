@@ -1,0 +1,22 @@
+"""How many threads dynval's own parallel work may use, as the compiled core decides it.
+
+The core (``cpp/include/dynval/parallel.hpp``) runs on the machine's hardware threads, or on
+``DYNVAL_NUM_THREADS`` when that is a positive integer (a fleet worker, a benchmark per core);
+the transforms scipy.fft runs for dynval follow the same setting. Its threads are joined, never
+spun, like the core's (unlike a BLAS's, which ``_blas`` limits).
+"""
+
+from __future__ import annotations
+
+import os
+
+
+def worker_count() -> int:
+    """DYNVAL_NUM_THREADS when set to a positive integer, else the CPUs this process may use."""
+    value = os.environ.get("DYNVAL_NUM_THREADS", "").strip()
+    if value.isdigit() and int(value) > 0:
+        return int(value)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
