@@ -159,10 +159,10 @@ def main(argv=None):
         def call():
             return dynval.validate(tau, pred, n_params=30, regressor=y, max_lag=lags, backend="cpp")
 
-        full = best_of(call, 1)
+        full = best_of(call, 2)  # the first call also imports what dynval loads on first use
         ratio = full[0] / xc[0]
         verdict = "PASS" if ratio <= TARGET_VALIDATE_RATIO else "MISS"
-        print(f"cpp validate(..., regressor=Y, max_lag={lags}) (1 run): {full[0] * 1e3:.1f} ms "
+        print(f"cpp validate(..., regressor=Y, max_lag={lags}) (best of 2): {full[0] * 1e3:.1f} ms "
               f"({full[1] * 1e3:.1f} wall) = {ratio:.2f} × the cross-correlation kernel alone "
               f"[{verdict}, target <= {TARGET_VALIDATE_RATIO:.0f} ×]")
         prepared = dynval.prepare_regressor(y)

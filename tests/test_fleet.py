@@ -376,8 +376,10 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
         by_address = fleet.validate_many(specs, scheduler=c.scheduler_address, max_lag=10)
         with distributed.Client(c) as client:
             # the workers keep freed memory for the next log's temporaries (dynval.fleet._cluster)
-            environ = client.run(lambda: os.environ.get("MALLOC_MMAP_THRESHOLD_"))
-            assert set(environ.values()) == {str(16 << 20)}
+            environ = client.run(lambda: (os.environ.get("MALLOC_MMAP_THRESHOLD_"),
+                                          os.environ.get("DYNVAL_NUM_THREADS")))
+            # and one thread each for dynval's own parallel work (the worker runs a task per thread)
+            assert set(environ.values()) == {(str(16 << 20), "1")}
             assert "MALLOC_MMAP_THRESHOLD_" not in os.environ  # set for the workers only
             folders = sorted(os.path.join(directory, d) for d in os.listdir(directory) if "__" in d)
             from_bag = dynval.dask.validate_many(bag.from_sequence(folders, npartitions=3), n_params=10, max_lag=10)

@@ -207,3 +207,26 @@ def test_validate_and_identify_run_their_linear_algebra_on_one_blas_thread(monke
         dynval.identify(regressor, tau)
         assert blas_threads() == {2}
     assert seen == {"validate": {1}, "identify": {1}}
+
+
+def test_the_transforms_use_the_cores_threads_only_on_large_work(monkeypatch):
+    # acf_fft's transforms run on DYNVAL_NUM_THREADS threads (the core's setting) when a batch holds
+    # millions of values, and on one below (a thread costs more than a small transform).
+    from dynval.kernels import _threads
+
+    seen = []
+    real = _stats.scipy.fft.rfft
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("workers"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(_stats.scipy.fft, "rfft", spy)
+    monkeypatch.setenv("DYNVAL_NUM_THREADS", "3")
+    small = np.random.default_rng(7).standard_normal((2000, 4))
+    _stats.acf_fft(small, np.array([0]), 40)
+    large = np.random.default_rng(8).standard_normal((_threads.MIN_PARALLEL_VALUES // 8 + 1, 8))  # one batch
+    _stats.acf_fft(large, np.array([0]), 40)
+    monkeypatch.setenv("DYNVAL_NUM_THREADS", "1")
+    _stats.acf_fft(large, np.array([0]), 40)
+    assert seen == [1, 3, 1]

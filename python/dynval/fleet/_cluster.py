@@ -20,8 +20,10 @@ WORKER_ENVIRON = {
     "MALLOC_MMAP_THRESHOLD_": 16 << 20,  # temporaries below 16 MiB come from the heap, reused
     "MALLOC_TRIM_THRESHOLD_": 256 << 20,  # free memory returns to the system beyond 256 MiB
     "MALLOC_TOP_PAD_": 64 << 20,
+    "DYNVAL_NUM_THREADS": 1,  # a worker's thread per task: no threads of its own (as dask's OMP_NUM_THREADS)
 }
-"""glibc malloc settings for the workers of a fleet (set them where ``dask worker`` starts, too)."""
+"""glibc malloc settings for the workers of a fleet, and one thread for dynval's own parallel work
+(set them where ``dask worker`` starts, too)."""
 
 
 def local_cluster(n_workers: int = 2, **kwargs: Any) -> Any:

@@ -10,9 +10,16 @@ from __future__ import annotations
 
 import os
 
+#: Below this many values a transform is not worth a thread (starting one costs tens of µs; the
+#: transforms of 2^18 values take milliseconds).
+MIN_PARALLEL_VALUES = 1 << 18
 
-def worker_count() -> int:
-    """DYNVAL_NUM_THREADS when set to a positive integer, else the CPUs this process may use."""
+
+def worker_count(values: int | None = None) -> int:
+    """DYNVAL_NUM_THREADS when set to a positive integer, else the CPUs this process may use; one
+    for work on fewer than :data:`MIN_PARALLEL_VALUES` values (``values`` given)."""
+    if values is not None and values < MIN_PARALLEL_VALUES:
+        return 1
     value = os.environ.get("DYNVAL_NUM_THREADS", "").strip()
     if value.isdigit() and int(value) > 0:
         return int(value)

@@ -170,7 +170,8 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
     if live is None:
         live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n else np.arange(k)
     every = live.size == k
-    workers = min(worker_count(), max(1, min(batch, live.size)))  # the columns are transformed apart
+    # the columns of a batch are transformed apart, on the core's threads when they are many
+    workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
     for c0 in range(0, live.size, batch):
         cols = slice(c0, min(c0 + batch, k)) if every else live[c0:c0 + batch]
         xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
@@ -411,25 +412,27 @@ def _welch_dof(n_segments: int) -> float:
 
 
 def _side_medians(logp, inner: int, outer: int):
-    """Running medians of ``logp`` over bins b−outer..b−inner and b+inner..b+outer.
+    """Running medians of ``logp`` (F,) or (F, m), per column, over bins b−outer..b−inner and
+    b+inner..b+outer.
 
-    Near the ends a side keeps the bins that exist; a side with fewer than three is nan.
+    Near the ends a side keeps the bins that exist; a side with fewer than three is nan. Inside,
+    one sliding-window median serves both sides; only the ``outer`` bins at each end, where a side
+    is cut short, take medians of their own (of every column at once).
     """
     f_count = logp.shape[0]
     width = outer - inner + 1
-    left = np.full(f_count, np.nan)
-    right = np.full(f_count, np.nan)
-    full = (np.median(np.lib.stride_tricks.sliding_window_view(logp, width), axis=1)
-            if f_count >= width else np.zeros(0))  # full[i]: the median of bins i..i+width-1
-    for b in range(f_count):
-        if b - outer >= 0:
-            left[b] = full[b - outer]
-        elif b - inner + 1 >= 3:
-            left[b] = np.median(logp[:b - inner + 1])
-        if b + outer < f_count:
-            right[b] = full[b + inner]
-        elif f_count - (b + inner) >= 3:
-            right[b] = np.median(logp[b + inner:])
+    left = np.full(logp.shape, np.nan)
+    right = np.full(logp.shape, np.nan)
+    if f_count > outer:  # then f_count ≥ width: full[i] is the median of bins i..i+width-1
+        full = np.median(np.lib.stride_tricks.sliding_window_view(logp, width, axis=0), axis=-1)
+        left[outer:] = full[:f_count - outer]
+        right[:f_count - outer] = full[inner:f_count - outer + inner]
+    for b in range(min(outer, f_count)):  # the left side reaches before bin 0
+        if b - inner + 1 >= 3:
+            left[b] = np.median(logp[:b - inner + 1], axis=0)
+    for b in range(max(f_count - outer, 0), f_count):  # the right side reaches past the last bin
+        if f_count - (b + inner) >= 3:
+            right[b] = np.median(logp[b + inner:], axis=0)
     return left, right
 
 
@@ -506,29 +509,31 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     is_peak = np.zeros((f_count, m), dtype=bool)
     df = freq[1] - freq[0] if f_count > 1 else 1.0
     variance = x.var(axis=0)
-    for j in range(m):
-        pj = power[:, j]
-        if not np.all(np.isfinite(pj)) or pj.max() <= 0 or variance[j] <= 0:
-            continue
-        logp = np.log(np.maximum(pj, np.finfo(float).tiny))
-        left, right = _side_medians(logp, inner, outer)
+    # the joints with a spectrum to test (finite, not all zero, a residual that varies), together
+    cols = np.flatnonzero(np.all(np.isfinite(power), axis=0) & (power.max(axis=0) > 0) & (variance > 0))
+    if cols.size:
+        pj = power[:, cols]
+        left, right = _side_medians(np.log(np.maximum(pj, np.finfo(float).tiny)), inner, outer)
         tested = np.isfinite(left) & np.isfinite(right)
         background = np.exp(np.fmax(left, right)) / median_factor
         r = pj / background
-        ratio[tested, j] = r[tested]
-        pvalue[tested, j] = scipy.stats.chi2.sf(dof * r[tested], dof)
-        before = np.concatenate([[-np.inf], pj[:-1]])
-        after = np.concatenate([pj[1:], [-np.inf]])
-        is_peak[:, j] = tested & (pj >= before) & (pj >= after)
+        ratio[:, cols] = np.where(tested, r, np.nan)
+        pvalue[:, cols] = np.where(tested, scipy.stats.chi2.sf(dof * np.where(tested, r, 0.0), dof), np.nan)
+        before = np.vstack([np.full((1, cols.size), -np.inf), pj[:-1]])
+        after = np.vstack([pj[1:], np.full((1, cols.size), -np.inf)])
+        is_peak[:, cols] = tested & (pj >= before) & (pj >= after)
         excess = np.where(tested, np.maximum(pj - background, 0.0), 0.0) * df
         # A Hann-windowed line spreads over about three bins: sum the excess over ±2 bins.
-        share[tested, j] = (5.0 * scipy.ndimage.uniform_filter1d(excess, 5, mode="constant") / variance[j])[tested]
+        spread = 5.0 * scipy.ndimage.uniform_filter1d(excess, 5, axis=0, mode="constant") / variance[cols]
+        share[:, cols] = np.where(tested, spread, np.nan)
     with np.errstate(over="ignore", under="ignore"):  # in the data's and the rate's units: IEEE where it leaves float64
         freq = np.ldexp(freq, k)
         power = np.ldexp(power, 2 * exps - k)
-    peaks = [{"joint": int(j), "frequency": float(freq[b]), "ratio": float(ratio[b, j]),
-              "pvalue": float(pvalue[b, j]), "share": float(share[b, j]), "bin": int(b)}
-             for b, j in np.argwhere(is_peak)]
+    bins, joints = np.nonzero(is_peak)  # row-major: by bin, then joint
+    peaks = [{"joint": j, "frequency": f, "ratio": r, "pvalue": pv, "share": sh, "bin": b}
+             for b, j, f, r, pv, sh in zip(bins.tolist(), joints.tolist(), freq[bins].tolist(),
+                                            ratio[bins, joints].tolist(), pvalue[bins, joints].tolist(),
+                                            share[bins, joints].tolist())]
     return Spectrum(frequency=freq, power=power, dof=dof, nperseg=nperseg, ratio=ratio, pvalue=pvalue,
                     share=share, is_peak=is_peak, peaks=peaks)
 
