@@ -230,3 +230,23 @@ def test_the_transforms_use_the_cores_threads_only_on_large_work(monkeypatch):
     monkeypatch.setenv("DYNVAL_NUM_THREADS", "1")
     _stats.acf_fft(large, np.array([0]), 40)
     assert seen == [1, 3, 1]
+
+
+@pytest.mark.parametrize("n", [600, 3])
+def test_the_stacked_r_comes_from_each_joints_nonzero_columns(n):
+    # R of the stacked regressor·2^-k from each joint's R (of its nonzero columns, scaled by its own
+    # powers of two), stacked and factored again: the stacked matrix's singular values, with zero
+    # columns on some joints, a joint all zero, and (n = 3) fewer rows than a joint's columns.
+    rng = np.random.default_rng(9)
+    reg3 = rng.standard_normal((n, 4, 6)) * np.array([1.0, 1e3, 1e-3, 1.0, 5.0, 1.0])
+    reg3[:, 1, :2] = 0.0
+    reg3[:, 3, :] = 0.0
+    reg3[:, 2, 5] = 0.0
+    k = np.array([3, -2, 10, 0, 1, 0])
+    r = _sections._stacked_r(reg3, k)
+    stacked = np.ldexp(reg3.reshape(-1, 6), -k)
+    assert r.shape == (min(stacked.shape[0], 6), 6)
+    expected = np.linalg.svd(stacked, compute_uv=False)
+    # a QR is backward stable: each singular value to about eps·σ_max, not relative to itself
+    np.testing.assert_allclose(np.linalg.svd(r, compute_uv=False), expected, rtol=1e-12, atol=1e-14 * expected[0])
+    np.testing.assert_allclose(r.T @ r, stacked.T @ stacked, rtol=1e-12, atol=1e-13 * expected[0] ** 2)

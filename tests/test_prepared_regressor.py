@@ -208,3 +208,33 @@ def test_compare_computes_the_model_columns_gram_of_the_predictive_test_once(run
                          max_lag=10)
     assert len(grams) == 1 and all(r.predictive is not None for r in cmp.reports.values())
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+
+
+def test_a_prepared_regressor_is_searched_for_non_finite_values_once(runs, monkeypatch):
+    # Its values do not change: the search runs on the first call, and its finding is kept, so
+    # every call refuses a non-finite value with the plain array's message (a kept "finite"
+    # that skipped the search, or a search that is never kept, would each fail here).
+    from dynval.checks import _validation as v
+
+    _, (_, y_v, tau_v) = runs
+    searched = []
+    real = v.first_nonfinite
+
+    def spy(a):
+        searched.append(a.size)
+        return real(a)
+
+    monkeypatch.setattr(v, "first_nonfinite", spy)
+    prepared = dynval.prepare_regressor(y_v)
+    for _ in range(3):
+        dynval.validate(tau_v, tau_v * 0.9, n_params=10, regressor=prepared, max_lag=5)
+    assert searched.count(y_v.size) == 1
+    bad = y_v.copy()
+    bad[7, 1, 3] = np.inf
+    with pytest.raises(dynval.NonFiniteInput) as plain:
+        dynval.validate(tau_v, tau_v * 0.9, n_params=10, regressor=bad, max_lag=5)
+    prepared_bad = dynval.prepare_regressor(bad)
+    for _ in range(2):
+        with pytest.raises(dynval.NonFiniteInput) as kept:
+            dynval.validate(tau_v, tau_v * 0.9, n_params=10, regressor=prepared_bad, max_lag=5)
+        assert str(kept.value) == str(plain.value)
