@@ -389,3 +389,22 @@ def test_lags_beyond_64_bits_are_parameter_errors(lags):
     for kernel in (_core, ref):
         with pytest.raises(dynval.InvalidParameter, match=r"^lags must be"):
             kernel.portmanteau(e, lags, 0, np.array([0]), "ljung_box")
+
+
+def test_kept_regressor_moments_give_the_same_cross_correlation():
+    # regressor_moments(Y) given back (a prepared regressor keeps them): the call's result bit for
+    # bit; moments of another regressor shape are refused with ShapeMismatch, not used.
+    rng = np.random.default_rng(41)
+    e = rng.normal(size=(500, 3))
+    y = rng.normal(size=(500, 3 * 4))
+    y[:, 5] = 2.0  # a constant column: nan either way
+    starts = np.array([0, 200])
+    kept = _core.regressor_moments(y)
+    assert (kept.n_samples, kept.n_columns) == (500, 12)
+    for adjusted in (True, False):
+        a = _core.cross_correlation(e, y, 4, 7, adjusted, starts)
+        b = _core.cross_correlation(e, y, 4, 7, adjusted, starts, kept)
+        np.testing.assert_array_equal(a["rho"], b["rho"])
+        np.testing.assert_array_equal(a["constant_mask"], b["constant_mask"])
+    with pytest.raises(dynval.ShapeMismatch, match=r"moments are of a \(500, 12\) regressor, not of this \(499, 12\)"):
+        _core.cross_correlation(e[:-1], np.ascontiguousarray(y[:-1]), 4, 2, True, np.array([0]), kept)

@@ -238,3 +238,21 @@ def test_a_prepared_regressor_is_searched_for_non_finite_values_once(runs, monke
         with pytest.raises(dynval.NonFiniteInput) as kept:
             dynval.validate(tau_v, tau_v * 0.9, n_params=10, regressor=prepared_bad, max_lag=5)
         assert str(kept.value) == str(plain.value)
+
+
+def test_compare_computes_the_kernels_regressor_moments_once(runs, monkeypatch):
+    # The compiled cross-correlation's first pass (the columns' moments, half its time on a log of
+    # few lags) is kept by the prepared regressor: once for three candidates, the same reports.
+    pytest.importorskip("dynval._core")
+    from dynval import _core
+
+    _, (_, y_v, tau_v) = runs
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, max_lag=10, backend="cpp")
+             for n, p in preds.items()}
+    calls = []
+    real = _core.regressor_moments
+    monkeypatch.setattr(_core, "regressor_moments", lambda y: calls.append(y.shape) or real(y))
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, max_lag=10, backend="cpp")
+    assert len(calls) == 1
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}

@@ -540,6 +540,37 @@ TEST(Correlation, RegressorMomentsFromTwoHalves) {
     EXPECT_EQ(bad.nonfinite_meas->col, 200);
 }
 
+// The regressor's moments computed once (regressor_moments) and given to later calls: bit for bit
+// the call that computes them, tiled (row-major) and direct (column-major) paths alike, constant
+// columns included; moments of another shape are refused, and with them a non-finite value.
+TEST(Correlation, GivenRegressorMomentsGiveTheSameResult) {
+    const Eigen::Index n = 3000, m = 3, p = 4, max_lag = 9;
+    const MatrixXd e = random_matrix(n, m, 81);
+    RowMatrix y = random_matrix(n, m * p, 82);
+    y.col(2).setConstant(3.5);
+    const std::vector<long long> lengths{1000, 2000};
+    const Eigen::MatrixXd y_col_major = y;
+    for (bool adjusted : {true, false}) {
+        const auto kept = dynval::regressor_moments(y);
+        const auto a = dynval::cross_correlation(e, y, p, max_lag, adjusted, lengths);
+        const auto b = dynval::cross_correlation(e, y, p, max_lag, adjusted, lengths, &kept);
+        EXPECT_TRUE((a.rho.array() == b.rho.array() || (a.rho.array().isNaN() && b.rho.array().isNaN())).all());
+        EXPECT_EQ(a.constant_mask, b.constant_mask);
+        const auto c = dynval::cross_correlation(e, y_col_major, p, max_lag, adjusted, lengths);
+        const auto kept_col = dynval::regressor_moments(y_col_major);
+        const auto d = dynval::cross_correlation(e, y_col_major, p, max_lag, adjusted, lengths, &kept_col);
+        EXPECT_TRUE((c.rho.array() == d.rho.array() || (c.rho.array().isNaN() && d.rho.array().isNaN())).all());
+    }
+    const auto kept = dynval::regressor_moments(y);
+    const RowMatrix shorter = y.topRows(n - 1);
+    const MatrixXd e_short = e.topRows(n - 1);
+    EXPECT_THROW(dynval::cross_correlation(e_short, shorter, p, 2, true, {}, &kept), dynval::shape_mismatch);
+    RowMatrix bad = y;
+    bad(10, 5) = inf;
+    const auto bad_moments = dynval::regressor_moments(bad);
+    EXPECT_THROW(dynval::cross_correlation(e, y, p, 2, true, {}, &bad_moments), dynval::non_finite_input);
+}
+
 // Past 1e8 multiply-adds the wide autocorrelation splits its tiles of 7 lags over threads (the
 // last thread also takes the lags after the last whole tile): bit for bit the one-thread result.
 TEST(Correlation, ThreadedWideAutocorrelationIsTheOneThreadResult) {

@@ -51,8 +51,21 @@ def compute_metrics(
 
 # register_correlation.cpp
 def autocorrelation(e: ArrayLike, max_lag: _Int, adjusted: _Bool, starts: _Starts) -> NDArray[np.float64]: ...
+class RegressorMoments:
+    @property
+    def n_samples(self) -> int: ...
+    @property
+    def n_columns(self) -> int: ...
+
+def regressor_moments(Y: ArrayLike) -> RegressorMoments: ...
 def cross_correlation(
-    e: ArrayLike, Y: ArrayLike, n_columns: _Int, max_lag: _Int, adjusted: _Bool, starts: _Starts
+    e: ArrayLike,
+    Y: ArrayLike,
+    n_columns: _Int,
+    max_lag: _Int,
+    adjusted: _Bool,
+    starts: _Starts,
+    moments: RegressorMoments | None = None,
 ) -> dict[str, Any]: ...
 
 # register_portmanteau.cpp

@@ -759,12 +759,22 @@ struct CrossCorrelation {
     double band = 0.0;                    ///< z/√N (filled by the caller that knows `level`)
 };
 
+/// The moments of a regressor's columns that `cross_correlation` computes first (shift, spread,
+/// range, the first non-finite value): they depend on the regressor alone, so a caller correlating
+/// many residuals with one regressor computes them once and passes them to each call.
+template <class DY>
+joint_moments regressor_moments(const Eigen::MatrixBase<DY>& regressor) {
+    return detail::accumulate_signal_halves(regressor);
+}
+
 /// ρ_{e_j Y_jc}(ℓ) = R̂_{eY}(ℓ) / √(R̂_e(0) R̂_Y(0)), with the regressor viewed as (N, m·p):
 /// column j·p + c is joint j, column c (an (N, m, p) row-major array is exactly this view).
+/// `given`: the regressor's `regressor_moments`, kept from an earlier call (the same values: a
+/// different regressor is not detected beyond its shape); computed here when null.
 template <class DE, class DY>
 CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::MatrixBase<DY>& regressor,
                                    long long n_columns, long long max_lag, bool adjusted = true,
-                                   const segment_spec& segments = {}) {
+                                   const segment_spec& segments = {}, const joint_moments* given = nullptr) {
     const Index n = e.rows(), m = e.cols();
     detail::check_columns(n, m, "e");
     if (regressor.cols() == 0)
@@ -777,7 +787,10 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
     detail::check_min_samples(n, 2, "cross_correlation");
     joint_moments me = accumulate_signal(e);
     me.throw_if_nonfinite("e", "e");
-    const joint_moments my = detail::accumulate_signal_halves(regressor);
+    if (given && (given->n_samples != n || given->n_joints != regressor.cols()))
+        throw shape_mismatch("the regressor's moments are of a " + shape_text(given->n_samples, given->n_joints) +
+                             " regressor, not of this " + shape_text(regressor.rows(), regressor.cols()) + " one");
+    const joint_moments my = given ? *given : detail::accumulate_signal_halves(regressor);
     const Index total = regressor.cols();
     // m·n_columns is formed with an overflow check: 2^62 + 1 columns on 4 joints must not wrap to 4.
     const auto product = detail::checked_mul(n_columns, m);

@@ -553,6 +553,15 @@ def _biased_acf(kernel, x, starts, big: int, live: np.ndarray | None = None) -> 
     return _stats.acf_fft(x, starts, big, live=live)
 
 
+def _kept_moments(kernel, reg2, memo: Memo) -> tuple[Any, ...]:
+    """The compiled kernel's moments of the regressor's columns (half of its time on a log of few
+    lags), as an extra argument when a prepared regressor keeps them; none otherwise (the kernel
+    computes them, and a plain array keeps nothing)."""
+    if memo is compute_now or not hasattr(kernel, "regressor_moments"):
+        return ()
+    return (memo(("regressor_moments", reg2.shape), lambda: kernel.regressor_moments(reg2)),)
+
+
 def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
                       detail, memo: Memo = compute_now) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
     """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
@@ -561,7 +570,8 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     (:func:`dynval.statistics._stats.cross_correlation_sd`) with J lags, J ≥ 5 N/N_eff of the residual, so
     a smooth regressor column and a coloured residual are not taken for evidence.
     """
-    out = kernel.cross_correlation(e, reg2, p, max_lag, prof.adjusted, starts)
+    out = kernel.cross_correlation(e, reg2, p, max_lag, prof.adjusted, starts,
+                                   *_kept_moments(kernel, reg2, memo))
     rho = np.asarray(out["rho"], dtype=np.float64).reshape(m, p, max_lag + 1)
     mask = np.asarray(out["constant_mask"], dtype=bool).reshape(m, p)
     band = _stats.z_two_sided(level) / math.sqrt(n)
