@@ -138,11 +138,15 @@ def _lag_products(xc, bounds, max_lag: int) -> np.ndarray:
 def _pow2_scaled_columns(x: np.ndarray) -> np.ndarray:
     """x·2^-k per column, k the exponent (``np.frexp``) of the column's largest |x| (0 for a column
     of zeros or none): a new array, exactly ``np.ldexp``'s values."""
-    largest = np.max(np.abs(x), axis=0) if x.shape[0] else np.zeros(x.shape[1])
+    largest = np.maximum(x.max(axis=0), -x.min(axis=0)) if x.shape[0] else np.zeros(x.shape[1])
     exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
     if np.all(np.abs(exps) < 1000):
         return x * np.ldexp(1.0, -exps)  # 2^-k is a normal number: the same exact products, faster
     return np.ldexp(x, -exps)
+
+
+# Above this many columns acf_fft looks for columns of zeros before transforming.
+_ZERO_TEST_COLUMNS = 32
 
 
 def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | None = None) -> np.ndarray:
@@ -167,8 +171,9 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
     means = x.mean(axis=0) if centre else None  # one pass over the rows, not one per batch
     # A column of zeros (common in a regressor: a link's parameters do not act on the joints
     # before it) is zero once centred too: its ρ is nan without a transform.
-    if live is None:
-        live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n else np.arange(k)
+    if live is None:  # worth a pass only where many columns may be zero (a regressor, not a residual)
+        live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n and k > _ZERO_TEST_COLUMNS \
+            else np.arange(k)
     every = live.size == k
     # the columns of a batch are transformed apart, on the core's threads when they are many
     workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
@@ -549,7 +554,7 @@ def information_bandwidth(tau, starts, *, fraction: float = 0.99, sample_rate=No
     x = x[:, None] if x.ndim == 1 else x
     fs = 1.0 if sample_rate is None else float(sample_rate)
     # Shares of power are scale-free: each joint scaled by a power of two first (contract §1.3).
-    largest = np.max(np.abs(x), axis=0) if x.shape[0] else np.zeros(x.shape[1])
+    largest = np.maximum(x.max(axis=0), -x.min(axis=0)) if x.shape[0] else np.zeros(x.shape[1])
     x = np.ldexp(x, -np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64))
     k = _rate_exponent(fs)
     freq, power, _ = _welch(x, starts, math.ldexp(fs, -k), _default_nperseg(starts, x.shape[0], None))
