@@ -398,3 +398,28 @@ def test_undefined_aicc_and_fpe_are_explained_in_the_summary():
     assert "AICc and FPE are undefined (nan): they need p < n − 1, and p = 60 with n = 60" in text
     assert "undefined" not in dynval.validate(tau, pred, n_params=58, max_lag=0).summary()
     assert "AICc and FPE are undefined" in dynval.validate(tau, pred, n_params=59, max_lag=0).summary()
+
+
+def test_the_top_cells_are_each_joints_five_and_each_columns_two_strongest():
+    # The rule written plainly: every finite cell sorted by −z, joint, column; the first five of
+    # each joint's and the first two of each column's; strongest first. Ties in z (exact here)
+    # go to the lower joint, then column. A changed count, order or tie rule fails.
+    from dynval.report import _sections
+
+    rng = np.random.default_rng(51)
+    m, p = 4, 9
+    z = np.round(rng.uniform(0, 5, size=(m, p)), 1)  # rounded: many exact ties
+    z[1, 3] = np.nan
+    z[2, 0] = np.inf
+    lag = rng.integers(0, 12, size=(m, p))
+    rho = rng.uniform(-1, 1, size=(m, p))
+    cells = sorted(((j, c, int(lag[j, c]), float(rho[j, c]), float(z[j, c])) for j in range(m) for c in range(p)
+                    if np.isfinite(z[j, c])), key=lambda t: (-t[4], t[0], t[1]))
+    keep = set()
+    for j in range(m):
+        keep.update([t for t in cells if t[0] == j][:5])
+    for c in range(p):
+        keep.update([t for t in cells if t[1] == c][:2])
+    expected = sorted(keep, key=lambda t: (-t[4], t[0], t[1]))
+    assert _sections._top_cells(lag, rho, z) == expected
+    assert len(expected) > 5 * m  # the columns' two strongest add cells beyond the joints' five

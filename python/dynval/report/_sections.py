@@ -600,16 +600,7 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     colour = (sd[:, :, 0] / (math.sqrt(n_l[0]) / d_l[0]))
     with np.errstate(invalid="ignore"):
         white_hits = np.argwhere(np.abs(rho) > band)
-    cells = sorted(((int(j), int(c), int(lag_max[j, c]), float(rho_max[j, c]), float(z_max[j, c]))
-                    for j in range(m) for c in range(p) if np.isfinite(z_max[j, c])),
-                   key=lambda t: (-t[4], t[0], t[1]))
-    # The strongest cells per joint and per column: a report stays small on p = 70 columns.
-    keep = set()
-    for j in range(m):
-        keep.update([t for t in cells if t[0] == j][:5])
-    for c in range(p):
-        keep.update([t for t in cells if t[1] == c][:2])
-    top = sorted(keep, key=lambda t: (-t[4], t[0], t[1]))
+    top = _top_cells(lag_max, rho_max, z_max)
     section = {
         "max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mask, "band": float(band),
         "level": float(level), "n_outside_white_band": len(white_hits),
@@ -624,6 +615,27 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
         section["outside"] = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(z[j, c, lag]))
                                      for j, c, lag in white_hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
     return section, rho, sd
+
+
+def _top_cells(lag_max, rho_max, z_max) -> list[tuple[int, int, int, float, float]]:
+    """(joint, column, lag, rho, z) of the strongest cells, strongest first (ties by joint, then
+    column): the five strongest of each joint and the two strongest of each column, so that a
+    report stays small on p = 70 columns."""
+    jj, cc = np.nonzero(np.isfinite(z_max))
+    order = np.lexsort((cc, jj, -z_max[jj, cc]))  # by −z, then joint, then column
+    jj, cc = jj[order], cc[order]
+    cells = zip(jj.tolist(), cc.tolist(), lag_max[jj, cc].tolist(), rho_max[jj, cc].tolist(),
+                z_max[jj, cc].tolist())
+    seen_joint: dict[int, int] = {}
+    seen_column: dict[int, int] = {}
+    top = []
+    for cell in cells:
+        j, c = cell[0], cell[1]
+        if seen_joint.get(j, 0) < 5 or seen_column.get(c, 0) < 2:
+            top.append(cell)
+        seen_joint[j] = seen_joint.get(j, 0) + 1
+        seen_column[c] = seen_column.get(c, 0) + 1
+    return top
 
 
 def added_variable(e, reg3, model_columns, starts, n_eff):
