@@ -38,6 +38,26 @@ MatrixXd random_matrix(Eigen::Index rows, Eigen::Index cols, unsigned seed, doub
     return a;
 }
 
+// ρ̂(ℓ) of column j by direct long-double sums, the lag kernels' reference: the overall mean,
+// products only between rows of the same record (`record(k)`), over the pairs (adjusted, ℓ > 0)
+// or over N, divided by the lag-0 value over N.
+template <class M, class R>
+double direct_rho(const M& e, Eigen::Index j, Eigen::Index lag, bool adjusted, const R& record) {
+    const Eigen::Index n = e.rows();
+    long double mean = 0, r0 = 0, s = 0;
+    for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
+    mean /= n;
+    for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
+    Eigen::Index pairs = 0;
+    for (Eigen::Index k = lag; k < n; ++k) {
+        if (record(k) != record(k - lag)) continue;
+        s += (e(k, j) - mean) * (e(k - lag, j) - mean);
+        ++pairs;
+    }
+    const long double d = adjusted && lag > 0 ? pairs : n;
+    return static_cast<double>((s / d) / (r0 / n));
+}
+
 template <class F>
 std::string error_message(F f, dynval::error_kind expected) {
     try {
@@ -599,30 +619,15 @@ TEST(Correlation, WideAutocorrelationAgainstDirectSums) {
     const std::vector<long long> lengths{300, 530, 470};
     for (const bool adjusted : {true, false}) {
         const auto rho = dynval::autocorrelation(e, max_lag, adjusted, lengths);
-        const std::vector<Eigen::Index> starts{0, 300, 830};
         const auto record = [&](Eigen::Index k) { return k < 300 ? 0 : (k < 830 ? 1 : 2); };
         for (Eigen::Index j = 0; j < m; ++j) {
             if (j == 7) {
                 EXPECT_TRUE(std::isnan(rho(0, 7)) && std::isnan(rho(max_lag, 7)));
                 continue;
             }
-            long double mean = 0;
-            for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
-            mean /= n;
-            long double r0 = 0;
-            for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
-            for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
-                long double s = 0;
-                Eigen::Index pairs = 0;
-                for (Eigen::Index k = lag; k < n; ++k) {
-                    if (record(k) != record(k - lag)) continue;
-                    s += (e(k, j) - mean) * (e(k - lag, j) - mean);
-                    ++pairs;
-                }
-                const long double d = adjusted && lag > 0 ? pairs : n;
-                const double want = static_cast<double>((s / d) / (r0 / n));
-                EXPECT_NEAR(rho(lag, j), want, 1e-14) << "column " << j << " lag " << lag;
-            }
+            for (Eigen::Index lag = 0; lag <= max_lag; ++lag)
+                EXPECT_NEAR(rho(lag, j), direct_rho(e, j, lag, adjusted, record), 1e-14)
+                    << "column " << j << " lag " << lag;
         }
     }
 }
@@ -639,24 +644,10 @@ TEST(Correlation, NarrowAutocorrelationAgainstDirectSums) {
         const RowMatrix e = random_matrix(n, m, 91 + static_cast<unsigned>(m), 3.0);
         for (const bool adjusted : {true, false}) {
             const auto rho = dynval::autocorrelation(e, max_lag, adjusted, lengths);
-            for (Eigen::Index j = 0; j < m; ++j) {
-                long double mean = 0, r0 = 0;
-                for (Eigen::Index k = 0; k < n; ++k) mean += e(k, j);
-                mean /= n;
-                for (Eigen::Index k = 0; k < n; ++k) r0 += (e(k, j) - mean) * (e(k, j) - mean);
-                for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
-                    long double s = 0;
-                    Eigen::Index pairs = 0;
-                    for (Eigen::Index k = lag; k < n; ++k) {
-                        if (record(k) != record(k - lag)) continue;
-                        s += (e(k, j) - mean) * (e(k - lag, j) - mean);
-                        ++pairs;
-                    }
-                    const long double d = adjusted && lag > 0 ? pairs : n;
-                    const double want = static_cast<double>((s / d) / (r0 / n));
-                    EXPECT_NEAR(rho(lag, j), want, 1e-14) << m << " joints, joint " << j << " lag " << lag;
-                }
-            }
+            for (Eigen::Index j = 0; j < m; ++j)
+                for (Eigen::Index lag = 0; lag <= max_lag; ++lag)
+                    EXPECT_NEAR(rho(lag, j), direct_rho(e, j, lag, adjusted, record), 1e-14)
+                        << m << " joints, joint " << j << " lag " << lag;
         }
     }
 }
