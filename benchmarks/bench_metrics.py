@@ -35,7 +35,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import dynval
-from dynval.report import _sections
+from dynval.report import _regressor_algebra
 
 
 # --------------------------------------------------------------------------- the lesson (§6)
@@ -218,9 +218,9 @@ def cross_correlation_rows(tau_meas, tau_pred, args, probe):
     full = best_of(lambda: dynval.validate(tau, pred, n_params=args.p, regressor=y, max_lag=lags, backend="cpp"), 1)
     # validate's one pass of Gram matrices, with the BLAS's own threads and with the one thread
     # validate limits it to (dynval/kernels/_blas.py): on a busy machine the first can be 100× slower
-    gram_default = best_of(lambda: _sections.JointGrams(y), 1)
+    gram_default = best_of(lambda: _regressor_algebra.JointGrams(y), 1)
     with threadpool_limits(limits=1, user_api="blas"):
-        gram_one = best_of(lambda: _sections.JointGrams(y), 1)
+        gram_one = best_of(lambda: _regressor_algebra.JointGrams(y), 1)
     fma = n * m * p * (lags + 1)
     print(f"cross-correlation: N = {n:,} × m = {m}, p = {p} columns per joint, lags 0..{lags} "
           f"(Y is {y.nbytes / 1e6:.0f} MB; {fma / 1e9:.2f} G multiply-adds)")

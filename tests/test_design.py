@@ -18,7 +18,7 @@ import pytest
 
 import dynval
 from dynval import simulate as sim
-from dynval.report import _sections
+from dynval.report import _regressor_algebra, _sections
 from dynval.report._findings import Evidence, Thresholds, compute_findings
 from dynval.statistics import _repeat
 
@@ -312,7 +312,8 @@ def test_dependent_columns_are_the_last_of_their_set_whatever_the_rounding():
     bases, conditions = set(), []
     for rows in (np.arange(3000), rng.permutation(3000), np.arange(3000)[::-1]):
         for block in (64, 1000):
-            bases.add(tuple(_sections._leading_base(_sections._r_factor(x[rows], np.arange(8), block=block), 1e-9)))
+            r = _regressor_algebra._r_factor(x[rows], np.arange(8), block=block)
+            bases.add(tuple(_regressor_algebra._leading_base(r, 1e-9)))
         r = dynval.validate(np.zeros(3000), np.zeros(3000), n_params=6, regressor=x[rows][:, None, :], max_lag=0)
         ex = r.design["excitation"]
         assert ex["inseparable"] == [5, 7] and ex["validation_rank"] == 6
@@ -329,14 +330,15 @@ def test_a_dependent_columns_roundoff_does_not_enter_the_span():
     rng = np.random.default_rng(32)
     r = np.linalg.qr(rng.normal(size=(500, 3)), mode="r")  # the R of three independent columns
     x = np.column_stack([r[:, 0], r[:, 1], r[:, 0] + r[:, 1], r[:, 0] + 1e-3 * r[:, 2]])
-    assert list(_sections._leading_base(x, 1e-9)) == [0, 1, 3]
+    assert list(_regressor_algebra._leading_base(x, 1e-9)) == [0, 1, 3]
 
 
 def test_a_full_rank_regressor_reduces_nothing():
     (qe, dqe, ddqe), (qv, dqv, ddqv) = _two_runs()
     ye, yv = sim.regressor(qe, dqe, ddqe), sim.regressor(qv, dqv, ddqv)
-    with_est = _sections.design(yv, None, {"regressor": ye}, None, None, _sections.JointGrams(yv))["excitation"]
-    alone = _sections.design(yv, None, None, None, None, _sections.JointGrams(yv))["excitation"]
+    grams = _regressor_algebra.JointGrams(yv)
+    with_est = _sections.design(yv, None, {"regressor": ye}, None, None, grams)["excitation"]
+    alone = _sections.design(yv, None, None, None, None, _regressor_algebra.JointGrams(yv))["excitation"]
     assert with_est["structural"] == [] and with_est["identifiable_rank"] == yv.shape[2]
     assert alone["structural"] is None and alone["identifiable_rank"] is None
     assert with_est["condition_scaled"] == alone["condition_scaled"] < 1e3

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval.report import _sections
+from dynval.report import _regressor_algebra, _sections
 from dynval.statistics import _stats
 
 
@@ -55,7 +55,7 @@ def test_condition_numbers_from_the_blockwise_r_factor():
     x = rng.standard_normal((5000, 6)) * np.array([1.0, 10.0, 1e-3, 1e4, 1.0, 3.0])
     x[:, 5] = x[:, 0] + 1e-6 * x[:, 5]  # nearly dependent: a large condition number
     cols = np.arange(6)
-    r = _sections._r_factor(x, cols, block=700)
+    r = _regressor_algebra._r_factor(x, cols, block=700)
     np.testing.assert_allclose(np.linalg.svd(r, compute_uv=False), np.linalg.svd(x, compute_uv=False),
                                rtol=1e-9)
     norms = np.linalg.norm(x, axis=0)
@@ -69,12 +69,12 @@ def test_singular_values_leave_the_gram_matrix_when_it_loses_digits():
     x[:, 4] = x[:, 3] + 1e-9 * x[:, 4]  # condition number about 1e9: the Gram matrix keeps none of σ_min
     cols = np.arange(5)
     norms = np.linalg.norm(x, axis=0)
-    raw, scaled = _sections._singular_values(x, cols, norms)
+    raw, scaled = _regressor_algebra._singular_values(x, cols, norms)
     np.testing.assert_allclose(raw, np.linalg.svd(x, compute_uv=False), rtol=1e-6)
     np.testing.assert_allclose(scaled, np.linalg.svd(x / norms, compute_uv=False), rtol=1e-6)
     # and on a regressor with condition number 1e5 the one-pass route is within eps·cond² ≈ 2e-6
     y = rng.standard_normal((20_000, 5)) * np.array([1.0, 1e3, 1e-2, 5.0, 1.0])
-    raw, scaled = _sections._singular_values(y, cols, np.linalg.norm(y, axis=0))
+    raw, scaled = _regressor_algebra._singular_values(y, cols, np.linalg.norm(y, axis=0))
     np.testing.assert_allclose(raw, np.linalg.svd(y, compute_uv=False), rtol=2e-6)
 
 
@@ -84,7 +84,7 @@ def test_least_squares_equals_lstsq_well_and_ill_conditioned():
     b = y @ rng.standard_normal(6) + rng.standard_normal(5_000)
     for design in (y, np.column_stack([y, y[:, 0] + 1e-10 * y[:, 1]])):
         want = b - design @ np.linalg.lstsq(design, b, rcond=None)[0]
-        got = b - design @ _sections._least_squares(design, b)
+        got = b - design @ _regressor_algebra._least_squares(design, b)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.linalg.norm(b))
 
 
@@ -99,7 +99,7 @@ def _regressor_with_zero_columns(n=4000, m=3, p=5, seed=8):
 
 def test_joint_grams_are_each_joints_gram_and_their_sum_the_stacked_one():
     _, reg3 = _regressor_with_zero_columns()
-    grams = _sections.JointGrams(reg3, block=333)  # blocks that do not divide N
+    grams = _regressor_algebra.JointGrams(reg3, block=333)  # blocks that do not divide N
     for j in range(reg3.shape[1]):
         np.testing.assert_allclose(grams.gram[j], reg3[:, j, :].T @ reg3[:, j, :], rtol=1e-13, atol=1e-9)
     stacked = reg3.reshape(-1, reg3.shape[2])
@@ -111,18 +111,18 @@ def test_joint_grams_are_each_joints_gram_and_their_sum_the_stacked_one():
 def test_joint_grams_are_not_used_where_squares_underflow(tiny):
     _, reg3 = _regressor_with_zero_columns()
     reg3[:, 2, 0] = tiny  # squares underflow to a zero diagonal: not a zero column
-    assert not _sections.JointGrams(reg3).usable
+    assert not _regressor_algebra.JointGrams(reg3).usable
     reg3[:, 2, 0] = 1e150  # sums of squares beyond 1e280
-    assert not _sections.JointGrams(reg3).usable
+    assert not _regressor_algebra.JointGrams(reg3).usable
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e-170, 1e140])
 def test_projection_and_excitation_are_the_same_with_the_shared_gram_pass(scale):
     e, reg3 = _regressor_with_zero_columns()
     e, reg3 = e * scale, reg3 * scale
-    grams = _sections.JointGrams(reg3)
-    shared = _sections._project_out(e, reg3, grams)
-    alone = _sections._project_out(e, reg3)  # the exactly scaled route, joint by joint
+    grams = _regressor_algebra.JointGrams(reg3)
+    shared = _regressor_algebra._project_out(e, reg3, grams)
+    alone = _regressor_algebra._project_out(e, reg3)  # the exactly scaled route, joint by joint
     np.testing.assert_allclose(shared, alone, rtol=0, atol=1e-12 * np.abs(e).max())
     # and the projection is one: orthogonal to every column of its joint
     for j in range(reg3.shape[1]):
@@ -243,7 +243,7 @@ def test_the_stacked_r_comes_from_each_joints_nonzero_columns(n):
     reg3[:, 3, :] = 0.0
     reg3[:, 2, 5] = 0.0
     k = np.array([3, -2, 10, 0, 1, 0])
-    r = _sections._stacked_r(reg3, k)
+    r = _regressor_algebra._stacked_r(reg3, k)
     stacked = np.ldexp(reg3.reshape(-1, 6), -k)
     assert r.shape == (min(stacked.shape[0], 6), 6)
     expected = np.linalg.svd(stacked, compute_uv=False)

@@ -8,7 +8,7 @@ import pytest
 import dynval
 from dynval import calibration as C
 from dynval import simulate as sim
-from dynval.report import _motion, _sections
+from dynval.report import _motion, _regressor_algebra, _sections
 
 NAMES = list(sim.PARAMETER_NAMES)
 NO_FC = [i for i, n in enumerate(NAMES) if not n.startswith("Fc")]
@@ -122,7 +122,7 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
     # lags to N/4: every candidate's band then takes the regressor's autocorrelations to the same lag
     plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, q=q_v, estimation=est, max_lag=200)
              for n, p in _predictions(runs).items()}
-    grams = _count_calls(monkeypatch, _sections, "JointGrams")
+    grams = _count_calls(monkeypatch, _regressor_algebra, "JointGrams")
     excitation = _count_calls(monkeypatch, _sections, "_excitation")
     column_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
     candidates = {n: (p, 10, y_v) if own else (p, 10) for n, p in _predictions(runs).items()}
@@ -138,7 +138,7 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
 def test_compare_leaves_other_regressors_as_given(runs, monkeypatch):
     # A float32 array (converted by each validate) is not prepared: its errors and results stay its own.
     _, (_, y_v, tau_v) = runs
-    grams = _count_calls(monkeypatch, _sections, "JointGrams")
+    grams = _count_calls(monkeypatch, _regressor_algebra, "JointGrams")
     preds = _predictions(runs)
     dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v.astype(np.float32), max_lag=5)
     assert len(grams) == 3
@@ -161,7 +161,7 @@ def test_compare_factors_a_rank_deficient_block_once(runs, monkeypatch):
     y = np.ascontiguousarray(np.concatenate([y_v, y_v.sum(axis=2, keepdims=True)], axis=2))
     preds = _predictions(runs)
     plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y, max_lag=10) for n, p in preds.items()}
-    factored = _count_calls(monkeypatch, _sections, "RangeProjection")
+    factored = _count_calls(monkeypatch, _regressor_algebra, "RangeProjection")
     cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y, max_lag=10)
     assert len(factored) == y.shape[1]
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
@@ -183,7 +183,7 @@ def _block(singular_values, n=400, seed=3):
 def test_the_range_projection_gives_the_lstsq_residual(singular_values):
     y, _ = _block(singular_values)
     b = np.random.default_rng(4).normal(size=y.shape[0])
-    proj = _sections.RangeProjection(y)
+    proj = _regressor_algebra.RangeProjection(y)
     beta, _, rank, _ = np.linalg.lstsq(y, b, rcond=None)
     assert proj.rank == rank == sum(s > 0 for s in singular_values)
     np.testing.assert_allclose(proj.residual(b), b - y @ beta, rtol=0, atol=1e-12 * np.linalg.norm(b))
@@ -193,7 +193,7 @@ def test_the_range_projection_cuts_where_lstsq_does():
     # lstsq's rule keeps s > eps·max(N, p)·s_max ≈ 8.9e-14 here: 1e-13 is kept, 2e-14 is not (a
     # cut at eps·s_max, or at a fixed 1e-12, would differ)
     y, _ = _block([1.0, 1e-3, 1e-13, 2e-14, 0.0])
-    proj = _sections.RangeProjection(y)
+    proj = _regressor_algebra.RangeProjection(y)
     assert proj.rank == np.linalg.lstsq(y, y[:, 0], rcond=None)[2] == 3
 
 

@@ -37,6 +37,7 @@ from ..checks._typing import (
 from ..kernels._blas import one_blas_thread
 from ..statistics import _estimation
 from . import _consistency, _motion
+from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds
@@ -346,7 +347,7 @@ def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
     # One pass over the regressor for both the spectrum's projection and the excitation section.
     reg3 = d.reg3
     b.grams = None if reg3 is None else d.memo(
-        ("grams", reg3.shape), lambda: sec.JointGrams(reg3, sec.column_largest(reg3, d.memo)))
+        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
 
 
 def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
