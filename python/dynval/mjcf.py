@@ -92,17 +92,16 @@ def _import_mujoco() -> Any:
 
 def _load(mujoco: Any, path_or_xml: Any) -> tuple[Any, str]:
     """The compiled model and the label that names it in messages (the file, or ``<MJCF text>``)."""
-    if isinstance(path_or_xml, str) and path_or_xml.lstrip().startswith("<"):
-        label, load = "<MJCF text>", lambda: mujoco.MjModel.from_xml_string(path_or_xml)
-    elif isinstance(path_or_xml, (str, Path)):
-        label = str(path_or_xml)
-        if not Path(path_or_xml).is_file():
-            raise InvalidParameter(f"{label}: no such MJCF file")
-        load = lambda: mujoco.MjModel.from_xml_path(label)  # noqa: E731
-    else:
+    text = isinstance(path_or_xml, str) and path_or_xml.lstrip().startswith("<")
+    if not text and not isinstance(path_or_xml, (str, Path)):
         raise parameter_error("path_or_xml", "a path to an MJCF file or its XML text", type(path_or_xml).__name__)
+    label = "<MJCF text>" if text else str(path_or_xml)
+    if not text and not Path(path_or_xml).is_file():
+        raise InvalidParameter(f"{label}: no such MJCF file")
     try:
-        return load(), label
+        if text:
+            return mujoco.MjModel.from_xml_string(path_or_xml), label
+        return mujoco.MjModel.from_xml_path(label), label
     except ValueError as exc:
         raise InvalidParameter(f"{label}: MuJoCo cannot load it: {str(exc).strip()}") from None
 
@@ -110,7 +109,8 @@ def _load(mujoco: Any, path_or_xml: Any) -> tuple[Any, str]:
 def _refusals(mujoco: Any, m: Any) -> list[str]:
     """What makes the model something other than a fixed-base serial arm of hinges (empty when it is one)."""
     out = []
-    kinds = {mujoco.mjtJoint.mjJNT_FREE: "free", mujoco.mjtJoint.mjJNT_BALL: "ball", mujoco.mjtJoint.mjJNT_SLIDE: "slide"}
+    jt = mujoco.mjtJoint
+    kinds = {int(jt.mjJNT_FREE): "free", int(jt.mjJNT_BALL): "ball", int(jt.mjJNT_SLIDE): "slide"}
     for j in range(m.njnt):
         if int(m.jnt_type[j]) in kinds:
             out.append(f"a {kinds[int(m.jnt_type[j])]} joint '{m.joint(j).name}' (only hinge joints)")
@@ -121,7 +121,8 @@ def _refusals(mujoco: Any, m: Any) -> list[str]:
         if count:
             out.append(f"{count} {what}")
     for values, what in ((m.jnt_stiffness, "joint stiffness (springs)"), (m.jnt_stiffnesspoly, "polynomial stiffness"),
-                         (m.dof_dampingpoly, "polynomial damping"), (m.body_gravcomp, "gravity compensation (gravcomp)"),
+                         (m.dof_dampingpoly, "polynomial damping"),
+                         (m.body_gravcomp, "gravity compensation (gravcomp)"),
                          (m.actuator_armature, "actuator armature"), (m.actuator_damping, "actuator damping")):
         if np.any(np.asarray(values) != 0):
             out.append(f"non-zero {what}")
@@ -271,7 +272,7 @@ class MJCFModel:
         """Where MuJoCo's frictionloss force is ``frictionloss·sign(q̇)`` (to 1e-9 of it): bool ``(N, n)``."""
         q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
         friction = self._inverse(q, dq, ddq)[1]
-        return bool_close(friction, self.frictionloss * np.sign(dq), self.frictionloss)
+        return _close(friction, self.frictionloss * np.sign(dq), self.frictionloss)
 
     def regressor(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """The regressor ``(N, n, 4n)`` of :attr:`column_names`: each column on its own joint only."""
@@ -338,9 +339,10 @@ class MJCFModel:
         return sorted(out, key=lambda r: -r.z if r.z == r.z else 0.0)
 
 
-def bool_close(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> np.ndarray:
+def _close(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """``|a − b| ≤ 1e-9·scale`` elementwise (columns scaled by ``scale``; exact where it is zero)."""
-    return np.abs(a - b) <= 1e-9 * np.abs(scale)
+    close: np.ndarray = np.abs(a - b) <= 1e-9 * np.abs(scale)
+    return close
 
 
 def _named_columns(report: Any, names: tuple[str, ...]) -> list[int]:
