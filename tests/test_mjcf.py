@@ -283,3 +283,17 @@ def test_retune_reads_columns_by_index_without_names_and_skips_the_rigid_body_co
     assert (out[0].joint, out[0].attribute) == ("hinge", "damping")
     assert out[0].refitted == pytest.approx(1.5, abs=0.05) and out[0].current == 0.7
     assert all(r.attribute != "rigid" for r in out) and math.isfinite(out[0].z)
+
+
+def test_retune_puts_the_parameter_that_moved_first_whatever_the_column_order():
+    """A wrong frictionloss is named together with damping (an earlier column); the refit moves only
+    frictionloss, which comes first."""
+    model = pendulum(a=0.2, d=0.7, f=0.3)
+    t = np.linspace(0, 20, 2000)
+    q, dq, ddq = np.sin(t)[:, None], np.cos(t)[:, None], -np.sin(t)[:, None]
+    noise = 0.01 * np.random.default_rng(0).standard_normal(q.shape)
+    tau = pendulum_torque(q, dq, ddq, a=0.2, d=0.7, f=1.0) + noise
+    report = dynval.validate(tau, model.predict(q, dq, ddq), n_params=4, regressor=model.regressor(q, dq, ddq))
+    out = model.retune(report, q, dq, ddq, tau)
+    assert [r.attribute for r in out] == ["frictionloss", "damping"]
+    assert out[0].refitted == pytest.approx(1.0, abs=0.05) and out[0].z > out[1].z
