@@ -1,6 +1,10 @@
 """Size and power of the sim2real findings on the simulated KUKA case (docs/conventions.md §5.8).
 
-    PYTHONPATH=python python3 benchmarks/calibrate_mjcf.py [--replicates 50] [--noise 0.3] [--seed 0]
+    PYTHONPATH=python python3 benchmarks/calibrate_mjcf.py [--replicates 50] [--first 0] [--noise 0.3] [--seed 0]
+    PYTHONPATH=python python3 benchmarks/calibrate_mjcf.py --table-from OUT1 OUT2 ...
+
+``--first`` starts at another replicate (replicates ``first .. first + replicates − 1``), so runs
+split over processes join with ``--table-from`` their printed outputs (each replicate's line).
 
 The robot is the packaged MJCF (``load_kuka_lwr4(run).mjcf``) with its own parameters: its
 ``MJCFModel.predict`` on the logged motions of run 1 (estimation) and run 3 (validation), plus
@@ -24,6 +28,7 @@ import argparse
 import re
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import stats
@@ -59,30 +64,43 @@ def outcome(case: str, model: MJCFModel, val, est, tau_val, tau_est) -> bool:
     return report.verdict.decision == "refine" and [(r.joint, r.attribute) for r in first] == [(joint, attribute)]
 
 
+def table(results: dict[tuple[int, str], bool]) -> None:
+    """One line per case: count, rate and its 95 % Clopper–Pearson interval."""
+    n = len({rep for rep, _ in results})
+    for case in CASES:
+        k = sum(v for (_, c), v in results.items() if c == case)
+        lo, hi = clopper_pearson(k, n)
+        what = "not accepted" if CASES[case] is None else "refined, parameter named"
+        print(f"{case:9s} {what:26s} {k:3d}/{n}  {100 * k / n:5.1f} % [{100 * lo:5.1f}, {100 * hi:5.1f}]")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--replicates", type=int, default=50)
+    parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--noise", type=float, default=0.3, help="noise standard deviation, N·m")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--table-from", nargs="+", type=Path, metavar="OUT")
     args = parser.parse_args(argv)
+    if args.table_from:
+        lines = [ln.split() for f in args.table_from for ln in f.read_text().splitlines() if ln.startswith("rep ")]
+        table({(int(w[1]), w[2]): w[3] == "1" for w in lines})
+        return 0
     est, val = load_kuka_lwr4(1), load_kuka_lwr4(3)
     xml = est.mjcf.read_text(encoding="utf-8")
     models = {c: MJCFModel(xml if w is None else variant(xml, *w)) for c, w in CASES.items()}
     clean = [models["right"].predict(r.q, r.dq, r.ddq) for r in (est, val)]
-    counts = dict.fromkeys(CASES, 0)
+    results = {}
     start = time.perf_counter()
-    for rep in range(args.replicates):
+    for rep in range(args.first, args.first + args.replicates):
         rng = np.random.default_rng([args.seed, rep])
         tau_est, tau_val = (c + args.noise * rng.standard_normal(c.shape) for c in clean)
         for case, model in models.items():
-            counts[case] += outcome(case, model, val, est, tau_val, tau_est)
+            results[rep, case] = outcome(case, model, val, est, tau_val, tau_est)
+            print(f"rep {rep} {case} {int(results[rep, case])}", flush=True)
     seconds = time.perf_counter() - start
     print(f"simulated KUKA (runs 1 -> 3), noise {args.noise} N·m, {args.replicates} replicates, {seconds:.0f} s")
-    for case, k in counts.items():
-        lo, hi = clopper_pearson(k, args.replicates)
-        what = "not accepted" if CASES[case] is None else "refined, parameter named"
-        print(f"{case:9s} {what:26s} {k:3d}/{args.replicates}  {100 * k / args.replicates:5.1f} % "
-              f"[{100 * lo:5.1f}, {100 * hi:5.1f}]")
+    table(results)
     return 0
 
 
