@@ -192,6 +192,28 @@ class MJCFModel:
         The joints' MJCF attributes (read-only copies).
     source : str
         The file (or ``<MJCF text>``), as messages name it.
+
+    Examples
+    --------
+    >>> from dynval.mjcf import MJCFModel
+    >>> arm = MJCFModel('''<mujoco><worldbody><body><joint name="j" axis="0 1 0" damping="0.5"/>
+    ...     <inertial pos="0.5 0 0" mass="2" diaginertia="0.01 0.01 0.01"/></body></worldbody></mujoco>''')
+    >>> arm.column_names
+    ('rigid_body_j', 'armature_j', 'damping_j', 'frictionloss_j')
+
+    Held horizontal and turning at 1 rad/s: gravity's −m·g·l = −9.81 N·m and the damping's 0.5 N·m.
+
+    >>> {k: round(float(v[0, 0]), 6) for k, v in arm.terms([0.0], [1.0], [0.0]).items()}
+    {'rigid_body': -9.81, 'armature': 0.0, 'damping': 0.5, 'frictionloss': 0.0}
+
+    A ball joint is not a serial arm's (the message names the file, or ``<MJCF text>``):
+
+    >>> MJCFModel('''<mujoco><worldbody><body><joint name="b" type="ball"/>
+    ...     <geom size="0.1"/></body></worldbody></mujoco>''')  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    dynval.checks._errors.InvalidParameter: <MJCF text>: dynval.mjcf takes a fixed-base serial arm ...; this
+    model has a ball joint 'b' (only hinge joints)
     """
 
     def __init__(self, path_or_xml: Any) -> None:
@@ -251,7 +273,7 @@ class MJCFModel:
                 mj.mj_inverse(m, d)
                 if d is self._data:
                     full[k] = d.qfrc_inverse
-                    friction[k] = -d.qfrc_constraint
+                    friction[k] = 0.0 - d.qfrc_constraint  # 0 − x, not −x: no −0.0 where there is no friction
                 else:
                     rigid[k] = d.qfrc_inverse
         return full, friction, rigid
