@@ -120,11 +120,11 @@ def _refusals(mujoco: Any, m: Any) -> list[str]:
     for count, what in ((m.neq, "equality constraints"), (m.ntendon, "tendons"), (m.nflex, "flexes")):
         if count:
             out.append(f"{count} {what}")
-    for values, what in ((m.jnt_stiffness, "joint stiffness (springs)"), (m.jnt_stiffnesspoly, "polynomial stiffness"),
-                         (m.dof_dampingpoly, "polynomial damping"),
-                         (m.body_gravcomp, "gravity compensation (gravcomp)"),
-                         (m.actuator_armature, "actuator armature"), (m.actuator_damping, "actuator damping")):
-        if np.any(np.asarray(values) != 0):
+    for field, what in (("jnt_stiffness", "joint stiffness (springs)"), ("jnt_stiffnesspoly", "polynomial stiffness"),
+                        ("dof_dampingpoly", "polynomial damping"), ("body_gravcomp", "gravity compensation (gravcomp)"),
+                        ("actuator_armature", "actuator armature"), ("actuator_damping", "actuator damping")):
+        # the polynomial and actuator fields are MuJoCo 4's; an older MuJoCo has none of them to refuse
+        if np.any(np.asarray(getattr(m, field, 0.0)) != 0):
             out.append(f"non-zero {what}")
     if m.opt.density != 0 or m.opt.viscosity != 0:
         out.append("fluid forces (option density or viscosity non-zero)")
