@@ -18,7 +18,12 @@ from dynval.datasets import load_kuka_lwr4
 from dynval.mjcf import MJCFModel, have_mujoco
 from port_checks import require_toolchain
 
-require_toolchain("mujoco", [] if have_mujoco() else ["mujoco"], "pip install mujoco (the dynval[mujoco] extra)")
+
+@pytest.fixture(autouse=True, scope="module")
+def _mujoco():
+    """Every test here needs MuJoCo: skipped without it, failed when DYNVAL_REQUIRE_TOOLCHAINS names it."""
+    require_toolchain("mujoco", [] if have_mujoco() else ["mujoco"], "pip install mujoco (the dynval[mujoco] extra)")
+
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 G = 9.81
