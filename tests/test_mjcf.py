@@ -302,3 +302,21 @@ def test_retune_puts_the_parameter_that_moved_first_whatever_the_column_order():
     out = model.retune(report, q, dq, ddq, tau)
     assert [r.attribute for r in out] == ["frictionloss", "damping"]
     assert out[0].refitted == pytest.approx(1.0, abs=0.05) and out[0].z > out[1].z
+
+
+def test_retune_gives_nan_for_a_column_the_run_cannot_identify_and_puts_it_last():
+    """The second joint never moves: its columns are zero (or its rigid-body torque alone); a finding
+    that names its damping gets nan, after the identifiable parameter."""
+    model = MJCFModel(_arm().replace("<joint name='j1'/>", "<joint name='j1' axis='0 1 0' damping='0.2'/>")
+                      .replace("<joint name='j2' type=\"hinge\"/>", "<joint name='j2' axis='0 1 0' damping='0.1'/>"))
+    t = np.linspace(0, 20, 1000)
+    zero = np.zeros_like(t)
+    q, dq, ddq = (np.column_stack([x, zero]) for x in (np.sin(t), np.cos(t), -np.sin(t)))
+    tau = model.predict(q, dq, ddq) + np.column_stack([0.5 * dq[:, 0], zero])  # the first joint's damping is 0.7
+    names = list(model.column_names)
+    finding = dynval.Finding(kind="regressor_correlation", severity="deficiency", joints=(0, 1),
+                             columns=(names.index("damping_j2"), names.index("damping_j1")), message="")
+    report = type("R", (), {"findings": [finding], "provenance": type("P", (), {"column_names": names})()})()
+    out = model.retune(report, q, dq, ddq, tau)
+    assert [(r.joint, r.attribute) for r in out] == [("j1", "damping"), ("j2", "damping")]
+    assert out[0].refitted == pytest.approx(0.7, abs=1e-9) and math.isnan(out[1].refitted) and math.isnan(out[1].std)

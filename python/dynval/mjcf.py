@@ -54,6 +54,7 @@ identifiable without a base reduction, and would need pinocchio besides MuJoCo).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -69,8 +70,6 @@ __all__ = ["TERMS", "ATTRIBUTES", "MJCFModel", "Retune", "have_mujoco"]
 TERMS = ("rigid_body", "armature", "damping", "frictionloss")
 #: The MJCF joint attributes the regressor identifies (the terms after ``rigid_body``).
 ATTRIBUTES = TERMS[1:]
-#: Relative tolerance of ``predict == sum(terms)`` (contract §11).
-SUM_TOLERANCE = 1e-9
 
 
 def have_mujoco() -> bool:
@@ -171,9 +170,12 @@ class Retune:
 
     @property
     def z(self) -> float:
-        """How many standard deviations the refitted value is from the current one (inf when std is 0)."""
+        """How many standard deviations the refitted value is from the current one (inf when std is 0;
+        nan when the run could not refit it)."""
         gap = abs(self.refitted - self.current)
-        return gap / self.std if self.std > 0 else (0.0 if gap == 0 else float("inf"))
+        if math.isnan(gap) or math.isnan(self.std):
+            return math.nan
+        return gap / self.std if self.std > 0 else (0.0 if gap == 0 else math.inf)
 
 
 class MJCFModel:
@@ -341,6 +343,8 @@ class MJCFModel:
         finding often names a second column that follows the residual only through the first
         (``frictionloss`` beside a wrong ``damping``), and its refitted value stays near its own.
         Columns are read by name when the report has this model's column names, by index otherwise.
+        A column the run cannot identify on its own (a joint that does not move, or a column that
+        is a combination of others there) has ``refitted`` and ``std`` nan, and comes last.
         """
         from .identify import identify
 
@@ -349,16 +353,19 @@ class MJCFModel:
         if not chosen:
             return []
         fit = identify(self.regressor(q, dq, ddq), tau_meas, column_names=names)
-        where = {c: k for k, c in enumerate(fit.base_columns)}
+        # a base parameter is the column's own value only when no other column is folded into it
+        # (the combination's rounding-level entries, ~1e-18, are not columns)
+        folded = np.abs(fit.combination) > 1e-9 * np.abs(fit.combination).max(axis=1, keepdims=True)
+        alone = {int(np.flatnonzero(row)[0]): k for k, row in enumerate(folded) if row.sum() == 1}
         current = self.parameters()
         out = []
         for c in chosen:
-            k = where.get(c)
+            k = alone.get(c)
             attribute, _, joint = names[c].partition("_")
             out.append(Retune(joint=joint, attribute=attribute, current=float(current[c]),
-                              refitted=float(fit.estimate[k]) if k is not None else float("nan"),
-                              std=float(fit.std[k]) if k is not None else float("nan")))
-        return sorted(out, key=lambda r: -r.z if r.z == r.z else 0.0)
+                              refitted=float(fit.estimate[k]) if k is not None else math.nan,
+                              std=float(fit.std[k]) if k is not None else math.nan))
+        return sorted(out, key=lambda r: math.inf if math.isnan(r.z) else -r.z)
 
 
 def _close(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -378,7 +385,12 @@ def _named_columns(report: Any, names: tuple[str, ...]) -> list[int]:
         if f.severity != "deficiency":
             continue
         for c in f.columns:
-            k = names.index(own[c]) if own is not None and c < len(own) and own[c] in names else int(c)
-            if k in tuned and (own is None or c >= len(own) or own[c] in names):
+            if own is None:
+                k = int(c)
+            elif c < len(own) and own[c] in names:
+                k = names.index(own[c])
+            else:  # a column of another regressor: not this model's parameter
+                continue
+            if k in tuned:
                 out.append(k)
     return out
