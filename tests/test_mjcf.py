@@ -320,3 +320,20 @@ def test_retune_gives_nan_for_a_column_the_run_cannot_identify_and_puts_it_last(
     out = model.retune(report, q, dq, ddq, tau)
     assert [(r.joint, r.attribute) for r in out] == [("j1", "damping"), ("j2", "damping")]
     assert out[0].refitted == pytest.approx(0.7, abs=1e-9) and math.isnan(out[1].refitted) and math.isnan(out[1].std)
+
+
+def test_compare_tests_a_zero_parameter_as_a_term_the_model_lacks():
+    """The model has no damping (0) where the robot has 0.7: its column is outside model_columns, a
+    deficiency names it first, and retune refits it."""
+    model = pendulum(a=0.2, d=0.0, f=0.3)
+    t = np.linspace(0, 20, 2000)
+    q, dq, ddq = np.sin(t)[:, None], np.cos(t)[:, None], -np.sin(t)[:, None]
+    noise = 0.01 * np.random.default_rng(1).standard_normal(q.shape)
+    tau = pendulum(a=0.2, d=0.7, f=0.3).predict(q, dq, ddq) + noise
+    report = model.compare(q, dq, ddq, tau, time=t)
+    assert report.reports["mjcf"].provenance.model_columns == [0, 1, 3]
+    assert report.verdict.decision == "refine"
+    named = [f.columns[0] for f in report.reports["mjcf"].findings if f.severity == "deficiency" and f.columns]
+    assert named == [2]
+    first = model.retune(report, q, dq, ddq, tau)[0]
+    assert (first.attribute, first.current) == ("damping", 0.0) and first.refitted == pytest.approx(0.7, abs=0.01)

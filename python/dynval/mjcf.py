@@ -313,7 +313,8 @@ class MJCFModel:
         """:func:`dynval.compare` of this model's prediction on a run, with every simulator term named.
 
         The candidate ``name`` is :meth:`predict` with ``n_params`` the regressor's 4n columns,
-        ``regressor=self.regressor(q, dq, ddq)``, ``model_columns`` all of them, ``column_names``,
+        ``regressor=self.regressor(q, dq, ddq)``, ``model_columns`` the columns whose parameter is
+        non-zero (the terms the model has: the others are tested as missing terms), ``column_names``,
         ``joint_names``, ``q``, ``dq``, ``ddq``; ``estimation`` is None or ``(q, dq, ddq, tau)`` of the
         estimation run (its ``q``, regressor and torque are passed). Other keywords (``time``,
         ``sample_rate``, ``level``, ...) go to :func:`dynval.compare`. The findings then name the
@@ -325,8 +326,9 @@ class MJCFModel:
         if estimation is not None:
             eq, edq, eddq, etau = estimation
             keywords["estimation"] = {"q": eq, "regressor": self.regressor(eq, edq, eddq), "tau": etau}
-        n_cols = len(self.column_names)
-        candidate = {"prediction": self.predict(q, dq, ddq), "n_params": n_cols, "model_columns": list(range(n_cols))}
+        # the model has a term where its parameter is non-zero: the other columns are tested as missing terms
+        has = [k for k, value in enumerate(self.parameters()) if value != 0]
+        candidate = {"prediction": self.predict(q, dq, ddq), "n_params": len(self.column_names), "model_columns": has}
         return compare(tau_meas, {name: candidate}, regressor=self.regressor(q, dq, ddq), q=q, dq=dq, ddq=ddq,
                        joint_names=list(self.joint_names), column_names=list(self.column_names), **keywords)
 
