@@ -1,4 +1,4 @@
-"""Size and power of the sim2real findings on the simulated KUKA case (docs/conventions.md §5.8).
+"""Size and power of the sim2real findings on the simulated KUKA case (docs/conventions.md §5.9).
 
     PYTHONPATH=python python3 benchmarks/calibrate_mjcf.py [--replicates 50] [--first 0] [--noise 0.3] [--seed 0]
     PYTHONPATH=python python3 benchmarks/calibrate_mjcf.py --table-from OUT1 OUT2 ...
