@@ -341,8 +341,10 @@ def test_the_command_line_prints_the_fleet_and_writes_the_page(small_fleet, tmp_
 
 
 def test_the_command_line_names_a_bad_log_and_exits_1(tmp_path, capsys):
-    assert main(["validate-many", str(tmp_path / "nothing-here.npz"), "--n-params", "2"]) == 1
-    assert "dynval validate-many: error: " in capsys.readouterr().err
+    # a log that cannot be named is an error row (contract §10), the report printed, exit 1
+    assert main(["validate-many", str(tmp_path / "nothing-here.npz"), "--n-params", "2", "--json"]) == 1
+    row, = json.loads(capsys.readouterr().out)["logs"]
+    assert row["decision"] == "error" and "a log's name must be ROBOT__TIME" in row["error"]
     assert main(["validate-many", "x.npz", "--workers", "0"]) == 2
 
 

@@ -11,16 +11,17 @@ numbers. Without a dask client the tasks run one after the other in this process
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from ..checks._errors import InputError
-from ._logs import as_spec
+from ..checks._errors import InputError, InvalidParameter
+from ._logs import LogSpec, as_spec, check_unique, is_manifest, manifest_logs, parse_name
 
-__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag"]
+__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag", "fleet_items", "error_row"]
 
 
 @dataclass(frozen=True)
@@ -57,8 +58,13 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
     from ..comparison._compare import compare
     from ..io._files import load_array
 
-    spec = as_spec(item, n_params)
     start = time.perf_counter()
+    if isinstance(item, LogSummary):  # a log refused before the run (fleet_items)
+        return item
+    try:
+        spec = as_spec(item, n_params)
+    except InputError as exc:  # a log of a dask bag, named on the worker
+        return error_row(item, exc)
     try:
         meas, pred = load_array(spec.tau_meas), load_array(spec.tau_pred)
         reg = None if spec.regressor is None else load_array(spec.regressor)
@@ -74,6 +80,50 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
         vaf=float(report.pooled["vaf"]), rmse_per_joint=tuple(float(x) for x in report.per_joint["rmse"]),
         decision=str(cmp.verdict.decision), n_findings=len(shown), kinds=tuple(dict.fromkeys(f.kind for f in shown)),
         seconds=time.perf_counter() - start)
+
+
+def error_row(item: Any, exc: InputError, seconds: float = 0.0) -> LogSummary:
+    """The row of a log that could not be named or read: its robot and time as far as its name gives them."""
+    message = f"{type(exc).__name__}: {exc}"
+    if isinstance(item, Mapping):
+        return LogSummary(str(item.get("robot") or "?"), str(item.get("time") or ""),
+                          str(item.get("log") or item.get("time") or item.get("tau_meas") or "?"),
+                          error=message, seconds=seconds)
+    path = os.fspath(item) if isinstance(item, (str, os.PathLike)) else repr(item)
+    named = parse_name(path)
+    if named is None:  # no robot to give it: the path stands for one, so that the row is seen
+        return LogSummary(path, "", os.path.basename(path.rstrip("/\\")) or path, error=message, seconds=seconds)
+    robot, stamp, stem, _ = named
+    return LogSummary(robot, stamp, stem, error=message, seconds=seconds)
+
+
+def fleet_items(logs: Iterable[Any], n_params: int | None) -> list[LogSpec | LogSummary]:
+    """The fleet's logs before any runs: manifests read (a bad manifest is refused whole, naming its row),
+    logs named by a path, mapping or LogSpec resolved, and a log that cannot be (a missing directory,
+    a name without ``ROBOT__TIME``) its error row, so that one broken log does not stop the fleet."""
+    out: list[LogSpec | LogSummary] = []
+    named: list[tuple[str, LogSpec]] = []
+    for index, item in enumerate(logs):
+        if is_manifest(item):
+            rows = manifest_logs(os.fspath(item), n_params)
+            named.extend(rows)
+            out.extend(spec for _, spec in rows)
+            continue
+        if not isinstance(item, (str, os.PathLike, Mapping, LogSpec)):
+            raise InvalidParameter(f"a log must be a path, a manifest, a mapping or a LogSpec, got "
+                                   f"{type(item).__name__}")
+        if n_params is None and isinstance(item, (str, os.PathLike)):
+            raise InvalidParameter(f"{os.fspath(item)}: n_params is needed: give it to validate_many (--n-params) "
+                                   "or list the log in a manifest with an n_params column")
+        try:
+            spec = as_spec(item, n_params)
+        except InputError as exc:
+            out.append(error_row(item, exc))
+            continue
+        named.append((os.fspath(item) if isinstance(item, (str, os.PathLike)) else f"logs[{index}]", spec))
+        out.append(spec)
+    check_unique(named)
+    return out
 
 
 def _summarise_partition(items: Sequence[Any], n_params: int | None, keywords: dict) -> list[LogSummary]:
