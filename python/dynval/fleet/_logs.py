@@ -1,10 +1,12 @@
 """Which robot a log comes from, when it was taken, and where its arrays are (contract §10).
 
 A log is named either by a manifest (CSV or JSON: one row per log with ``robot``, ``time``,
-``tau_meas``, ``tau_pred`` and optionally ``n_params``, ``regressor``, ``log``) or by its path,
+``tau_meas``, ``tau_pred`` and optionally ``n_params``, ``log`` and the files of what else
+:func:`dynval.validate` takes: ``regressor``, ``q``, ``dq``, ``ddq``, ``timestamps`` and the robot's
+estimation run ``estimation_tau``, ``estimation_regressor``, ``estimation_q``) or by its path,
 ``ROBOT__TIME`` followed by ``.npz``, ``.h5``/``.hdf5`` (one file holding ``tau_meas`` and
 ``tau_pred``) or nothing (a directory holding ``tau_meas.*`` and ``tau_pred.*`` files, and
-``regressor.*`` when there is one). Only names travel to the workers; the arrays are read there.
+``regressor.*``, ``q.*``, ... when there are). Only names travel to the workers; the arrays are read there.
 """
 
 from __future__ import annotations
@@ -25,11 +27,14 @@ from ..io._fileopen import HDF5_SUFFIXES, FileInputError, _open_regular
 from ..io._files import MAX_LINE_BYTES
 
 __all__ = ["LogSpec", "read_manifest", "manifest_logs", "log_from_path", "log_specs", "time_key", "MANIFEST_COLUMNS",
-           "parse_name", "check_unique", "is_manifest"]
+           "parse_name", "check_unique", "is_manifest", "DATA_COLUMNS"]
 
 MANIFEST_COLUMNS = ("robot", "time", "tau_meas", "tau_pred")
-"""The columns every manifest row needs; ``n_params``, ``regressor`` and ``log`` are optional."""
-_OPTIONAL_COLUMNS = ("n_params", "regressor", "log")
+"""The columns every manifest row needs; ``n_params``, ``log`` and :data:`DATA_COLUMNS` are optional."""
+DATA_COLUMNS = ("regressor", "q", "dq", "ddq", "timestamps", "estimation_tau", "estimation_regressor", "estimation_q")
+"""A log's optional files beside its torques: what :func:`dynval.validate` takes as ``regressor``, ``q``,
+``dq``, ``ddq``, ``time`` and ``estimation`` (``tau``, ``regressor``, ``q``: the robot's estimation run)."""
+_OPTIONAL_COLUMNS = ("n_params", "log", *DATA_COLUMNS)
 MAX_MANIFEST_BYTES = 64 << 20
 """Largest manifest (bytes): about half a million rows; a manifest names files, it holds no arrays."""
 MAX_CELL_CHARS = 4096
@@ -51,6 +56,18 @@ class LogSpec:
     n_params: int
     regressor: str | None = None
     log: str = ""
+    q: str | None = None
+    dq: str | None = None
+    ddq: str | None = None
+    timestamps: str | None = None
+    estimation_tau: str | None = None
+    estimation_regressor: str | None = None
+    estimation_q: str | None = None
+
+    @property
+    def data(self) -> dict[str, str]:
+        """The optional files it names, by their :data:`DATA_COLUMNS` name."""
+        return {name: getattr(self, name) for name in DATA_COLUMNS if getattr(self, name) is not None}
 
     @property
     def name(self) -> str:
@@ -103,10 +120,13 @@ def _spec_from_row(row: Mapping[str, Any], base: str, default: int | None, where
         text = str(spec).strip()
         return text if os.path.isabs(text) else os.path.join(base, text)
 
-    regressor = str(row.get("regressor") or "").strip()
+    data = {name: path(text) for name in DATA_COLUMNS if (text := str(row.get(name) or "").strip())}
+    if ("estimation_tau" in data) != ("estimation_regressor" in data):
+        raise FileInputError(f"{where}: an estimation run is its torques and its regressor: give both "
+                             "estimation_tau and estimation_regressor, or neither")
     return LogSpec(robot=str(row["robot"]).strip(), time=str(row["time"]).strip(), tau_meas=path(row["tau_meas"]),
                    tau_pred=path(row["tau_pred"]), n_params=_n_params(row.get("n_params"), default, where),
-                   regressor=path(regressor) if regressor else None, log=str(row.get("log") or "").strip())
+                   log=str(row.get("log") or "").strip(), **data)
 
 
 def read_manifest(path: str, n_params: int | None = None) -> list[LogSpec]:
@@ -256,7 +276,7 @@ def _check_json_cell(where: str, value: Any) -> None:
 
 def log_from_path(path: str, n_params: int | None = None) -> LogSpec:
     """The log a path names by the pattern ``ROBOT__TIME[.npz|.h5|.hdf5]`` (a directory without a
-    suffix: its ``tau_meas.*``, ``tau_pred.*`` and ``regressor.*`` files).
+    suffix: its ``tau_meas.*``, ``tau_pred.*`` files, and ``regressor.*``, ``q.*``, ... of :data:`DATA_COLUMNS`).
 
     Examples
     --------
@@ -275,7 +295,8 @@ def log_from_path(path: str, n_params: int | None = None) -> LogSpec:
         key = ":/" if suffix.lower() in HDF5_SUFFIXES else ":"
         return LogSpec(robot, time, f"{stripped}{key}tau_meas", f"{stripped}{key}tau_pred", n, log=stem)
     files = _directory_arrays(stripped)
-    return LogSpec(robot, time, files["tau_meas"], files["tau_pred"], n, regressor=files.get("regressor"), log=stem)
+    data = {name: files[name] for name in DATA_COLUMNS if name in files}
+    return LogSpec(robot, time, files["tau_meas"], files["tau_pred"], n, log=stem, **data)
 
 
 def parse_name(path: str) -> tuple[str, str, str, str] | None:
@@ -302,7 +323,7 @@ def _directory_arrays(path: str) -> dict[str, str]:
     found: dict[str, str] = {}
     for name in names:
         stem, suffix = os.path.splitext(name)
-        if stem in ("tau_meas", "tau_pred", "regressor") and suffix.lower() in _ARRAY_SUFFIXES:
+        if stem in ("tau_meas", "tau_pred", *DATA_COLUMNS) and suffix.lower() in _ARRAY_SUFFIXES:
             found.setdefault(stem, os.path.join(path, name))
     lacking = [k for k in ("tau_meas", "tau_pred") if k not in found]
     if lacking:

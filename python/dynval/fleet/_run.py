@@ -21,7 +21,7 @@ from typing import Any
 from ..checks._errors import InputError, InvalidParameter
 from ._logs import LogSpec, as_spec, check_unique, is_manifest, manifest_logs, parse_name
 
-__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag", "fleet_items", "error_row"]
+__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag", "fleet_items", "error_row", "sees"]
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,9 @@ class LogSummary:
     ``rmse`` is the pooled RMSE per element (√(SSE/(N·m))) and ``vaf`` the pooled VAF in %;
     ``decision`` is the verdict of :func:`dynval.compare` on the one model (accept, refine,
     redesign), or ``error`` when the log could not be validated (``error`` then holds the message);
-    ``kinds`` are the kinds of its deficiency and design findings, strongest first.
+    ``kinds`` are the kinds of its deficiency and design findings, strongest first; ``sees`` says
+    what the decision could test (``residual only: no q, no regressor`` when the log gave neither:
+    then no test can tell a changed friction or payload from noise within the log).
     """
 
     robot: str
@@ -47,6 +49,7 @@ class LogSummary:
     kinds: tuple[str, ...] = ()
     error: str | None = None
     seconds: float = 0.0
+    sees: str = ""
 
 
 def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None = None) -> LogSummary:
@@ -67,8 +70,9 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
         return error_row(item, exc)
     try:
         meas, pred = load_array(spec.tau_meas), load_array(spec.tau_pred)
-        reg = None if spec.regressor is None else load_array(spec.regressor)
-        cmp = compare(meas, {spec.name: (pred, spec.n_params, reg)}, **(keywords or {}))
+        arrays = {name: load_array(file) for name, file in spec.data.items()}
+        reg = arrays.pop("regressor", None)
+        cmp = compare(meas, {spec.name: (pred, spec.n_params, reg)}, **_log_keywords(arrays, keywords or {}))
     except InputError as exc:
         return LogSummary(spec.robot, spec.time, spec.name, error=f"{type(exc).__name__}: {exc}",
                           seconds=time.perf_counter() - start)
@@ -79,7 +83,32 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
         n_joints=1 if meas.ndim == 1 else int(meas.shape[1]), rmse=float(report.pooled["rmse_per_element"]),
         vaf=float(report.pooled["vaf"]), rmse_per_joint=tuple(float(x) for x in report.per_joint["rmse"]),
         decision=str(cmp.verdict.decision), n_findings=len(shown), kinds=tuple(dict.fromkeys(f.kind for f in shown)),
-        seconds=time.perf_counter() - start)
+        seconds=time.perf_counter() - start, sees=sees(spec.data))
+
+
+def _log_keywords(arrays: dict[str, Any], keywords: dict) -> dict:
+    """validate's keywords of one log: the fleet's, and the log's own q, dq, ddq, time and estimation run."""
+    out = dict(keywords)
+    out.update({name: arrays[name] for name in ("q", "dq", "ddq") if name in arrays})
+    if "timestamps" in arrays:
+        out["time"] = arrays["timestamps"]
+    run = {key: arrays[f"estimation_{key}"] for key in ("tau", "regressor", "q") if f"estimation_{key}" in arrays}
+    if run:
+        out["estimation"] = run
+    return out
+
+
+def sees(data: dict[str, Any]) -> str:
+    """What a log's decision could test, in words (contract §10): the residual alone unless q or the
+    regressor came with it, and the estimation run when it did."""
+    if "q" not in data and "regressor" not in data:
+        return "residual only: no q, no regressor"
+    given = ["q" if "q" in data else "", "regressor" if "regressor" in data else "",
+             "estimation run" if "estimation_tau" in data or "estimation_q" in data else ""]
+    lacking = [name for name in ("q", "regressor") if name not in data]
+    if "estimation_tau" not in data and "estimation_q" not in data:
+        lacking.append("estimation run")
+    return "residual, " + ", ".join(g for g in given if g) + ("; no " + ", no ".join(lacking) if lacking else "")
 
 
 def error_row(item: Any, exc: InputError, seconds: float = 0.0) -> LogSummary:
