@@ -375,7 +375,7 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
     distributed = pytest.importorskip("distributed")
     bag = pytest.importorskip("dask.bag")
     import dynval.dask
-    directory, _, specs = small_fleet
+    _, _, specs = small_fleet
     single = fleet.validate_many(specs, scheduler="single", max_lag=10)
     with fleet.local_cluster(2) as c:
         by_address = fleet.validate_many(specs, scheduler=c.scheduler_address, max_lag=10)

@@ -224,7 +224,7 @@ def test_a_missing_log_directory_is_an_error_row_and_the_fleet_goes_on(logs):
 
 
 def test_broken_logs_of_every_kind_are_rows_with_their_reason(logs, tmp_path):
-    directory, specs = logs
+    _, specs = logs
     no_pred = tmp_path / "r02__1"
     no_pred.mkdir()
     np.save(no_pred / "tau_meas.npy", np.zeros((10, 2)))

@@ -31,16 +31,24 @@ from typing import Any
 from ..checks._errors import InvalidParameter
 from ..checks._validation import check_level, is_integer, is_real_number, parameter_error
 from ._cluster import WORKER_ENVIRON, client_for, local_cluster
-from ._drift import DEFAULT_PERMUTATIONS, MAX_PERMUTATIONS, MIN_BASELINE, RATIO_THRESHOLD, Drift, change_point, drift_per_robot
+from ._drift import (
+    DEFAULT_PERMUTATIONS,
+    MAX_PERMUTATIONS,
+    MIN_BASELINE,
+    RATIO_THRESHOLD,
+    Drift,
+    change_point,
+    drift_per_robot,
+)
 from ._logs import DATA_COLUMNS, MANIFEST_COLUMNS, LogSpec, log_from_path, read_manifest, time_key
 from ._report import TABLE_COLUMNS, FleetReport
 from ._run import LogSummary, fleet_items, is_bag, run_logs, summarise_log
-from ._simulate import Degradation, FleetLog, simulate_fleet, write_fleet
+from ._simulate import Degradation, EstimationRun, FleetLog, simulate_fleet, write_fleet
 
 __all__ = ["validate_many", "FleetReport", "LogSummary", "Drift", "LogSpec", "read_manifest", "log_from_path",
            "change_point", "local_cluster", "WORKER_ENVIRON", "simulate_fleet", "write_fleet", "Degradation",
-           "FleetLog", "summarise_log", "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE", "RATIO_THRESHOLD",
-           "DEFAULT_PERMUTATIONS", "MAX_PERMUTATIONS", "DATA_COLUMNS"]
+           "FleetLog", "EstimationRun", "summarise_log", "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE",
+           "RATIO_THRESHOLD", "DEFAULT_PERMUTATIONS", "MAX_PERMUTATIONS", "DATA_COLUMNS"]
 
 
 def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = None, progress: bool | None = None,
@@ -139,8 +147,8 @@ def _check_validate_keywords(keywords: dict[str, Any]) -> None:
         if name not in known:
             raise TypeError(f"validate_many() got an unexpected keyword argument {name!r}")
         if name in _PER_LOG:
-            raise InvalidParameter(f"{name}= is one log's data, not the fleet's: give each log's file in the manifest's "
-                                   f"{_PER_LOG[name]} column (contract §10)")
+            raise InvalidParameter(f"{name}= is one log's data, not the fleet's: give each log's file in the "
+                                   f"manifest's {_PER_LOG[name]} column (contract §10)")
     free = {k: v for k, v in keywords.items() if k in _DATA_FREE}
     check_options(Keywords(n_params=0, decimate=None, cross_correlation_detail=None, **free), None)
 

@@ -165,7 +165,8 @@ def write_fleet(logs: list[FleetLog], directory: str, n_params: int = 10, regres
     for log in logs:
         folder = os.path.join(directory, f"{log.robot}__{log.time.replace(':', '-')}")
         os.makedirs(folder, exist_ok=True)
-        files = {"tau_meas": _save(folder, "tau_meas", log.tau_meas), "tau_pred": _save(folder, "tau_pred", log.tau_pred)}
+        files = {name: _save(folder, name, value) for name, value in (("tau_meas", log.tau_meas),
+                                                                       ("tau_pred", log.tau_pred))}
         if regressor:
             files.update({name: _save(folder, name, value) for name, value in
                           (("regressor", log.regressor), ("q", log.q), ("dq", log.dq), ("ddq", log.ddq),
