@@ -129,3 +129,13 @@ def test_a_bad_data_file_of_one_log_is_its_error_row(tmp_path):
     report = fleet.validate_many([first, second], scheduler="single", max_lag=5)
     assert report.logs[0].error is None
     assert report.logs[1].decision == "error" and "q" in report.logs[1].error
+
+
+def test_the_fleet_page_shows_what_each_decision_saw_and_the_note(worn):
+    from dynval.html import render_fleet_report
+
+    _, bare = worn
+    page = render_fleet_report(bare)
+    assert "the decision saw" in page and "residual only: no q, no regressor" in page
+    note, = bare.notes
+    assert f"<li>{note}</li>" in page  # text content: quotes stay as they are
