@@ -186,6 +186,14 @@ def test_every_setting_is_checked_before_any_log_is_read(logs, monkeypatch, sett
         fleet.validate_many(specs, scheduler="single", max_lag=5, progress=False, **setting)
 
 
+def test_a_path_without_n_params_is_refused_before_any_log(logs, monkeypatch):
+    directory, specs = logs
+    monkeypatch.setattr(_run, "summarise_log", lambda *a, **k: pytest.fail("a log ran before the settings' check"))
+    with pytest.raises(dynval.InvalidParameter, match=r"r01__2026-01-01T08-00: n_params is needed: give it to "
+                                                      r"validate_many \(--n-params\)"):
+        fleet.validate_many(_folders(directory, specs), scheduler="single")
+
+
 def test_the_command_line_refuses_a_huge_permutation_count_before_any_log(logs, monkeypatch, capsys):
     directory, _ = logs
     monkeypatch.setattr(_run, "summarise_log", lambda *a, **k: pytest.fail("a log ran before the settings' check"))

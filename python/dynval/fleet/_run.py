@@ -33,7 +33,8 @@ class LogSummary:
     redesign), or ``error`` when the log could not be validated (``error`` then holds the message);
     ``kinds`` are the kinds of its deficiency and design findings, strongest first; ``sees`` says
     what the decision could test (``residual only: no q, no regressor`` when the log gave neither:
-    then no test can tell a changed friction or payload from noise within the log).
+    then a change that leaves the residual zero-mean and no more coloured, such as a grown friction,
+    does not show within the log).
     """
 
     robot: str
