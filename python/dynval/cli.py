@@ -169,9 +169,12 @@ def _add_validate_many(sub) -> None:
         description="Validate every log of a fleet (one row each: RMSE, VAF, decision, findings) and test each "
                     "robot's logs for drift: a model that fits worse from some log on than in that robot's earlier "
                     "logs. LOGS are manifests (.csv or .json with columns robot, time, tau_meas, tau_pred and "
-                    "optionally n_params, regressor, log; paths relative to the manifest) or logs named "
-                    "ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a directory holding "
-                    "tau_meas.* and tau_pred.* (and regressor.*) files (contract §10).",
+                    "optionally n_params, log, and the files each log is validated with: regressor, q, dq, ddq, "
+                    "timestamps, estimation_tau, estimation_regressor, estimation_q; paths relative to the "
+                    "manifest) or logs named ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a "
+                    "directory holding tau_meas.* and tau_pred.* (and regressor.*, q.*, ...) files. Without q or "
+                    "a regressor a log's decision sees its residual only; the table says what each saw "
+                    "(contract §10).",
         epilog="Example: dynval validate-many fleet.csv --n-params 40 --workers 2 --html fleet.html. "
                "Exit code 1 also when a log could not be validated (its row then holds the error). " + _EXIT_CODES)
     many.add_argument("logs", nargs="+", metavar="LOGS", help="manifests (.csv, .json) or logs named ROBOT__TIME")

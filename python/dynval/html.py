@@ -612,10 +612,11 @@ def _fleet_log_table(fleet) -> str:
     for r in fleet.logs:
         found = _e(r.error) if r.error else (_e(f"{r.n_findings}: {', '.join(r.kinds)}") if r.n_findings else "0")
         rows.append([_e(r.robot), _e(r.time), _e(r.log), str(r.n_samples), str(r.n_joints), _num(r.rmse),
-                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found])
+                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found,
+                     _e(r.sees)])
         classes.append("error" if r.error else "")
-    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings"], rows,
-                  text_cols=(0, 1, 2, 7, 8), row_classes=classes)
+    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings", "the decision saw"],
+                  rows, text_cols=(0, 1, 2, 7, 8, 9), row_classes=classes)
 
 
 def _fleet_findings_html(fleet) -> str:
@@ -655,6 +656,8 @@ def render_fleet_report(fleet, *, title=None) -> str:
              "Holm over the robots tested. A drift is a deficiency when the later logs' RMSE is at least "
              f"{_e(prov.get('ratio_threshold', 1.1))}× the earlier logs' (geometric means).</p>",
              _fleet_drift_table(fleet), "<h2>Findings</h2>", _fleet_findings_html(fleet)]
+    if fleet.notes:  # a drift beside accepted logs, explained
+        parts.append("<ul>" + "".join(f"<li>{_e(note)}</li>" for note in fleet.notes) + "</ul>")
     if _have_matplotlib():
         from . import plot
 
