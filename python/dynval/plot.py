@@ -5,15 +5,15 @@ a figure is made. The figures are built on ``matplotlib.figure.Figure`` directly
 ``pyplot``: no display, no global state, and nothing to close; save one with
 ``fig.savefig("name.png", dpi=120)`` (the Agg renderer).
 
-==========================  ==============================================================
-:func:`residuals`           residual over time per joint, segment boundaries marked
-:func:`autocorrelation`     residual autocorrelation per joint with its band (lesson §4.2)
-:func:`autocorrelation_by_model`  one joint's residual autocorrelation for each candidate
-:func:`spectrum`            residual spectrum per joint (log–log), found oscillations marked
-:func:`cross_correlation`   joints × regressor columns heatmap of max |ρ| / colour-aware band
-:func:`metrics`             per-joint VAF / fit / R² bars for each candidate of a comparison
-:func:`prediction`          measured and predicted torque per joint
-==========================  ==============================================================
+==================================  ==============================================================
+:func:`residuals`                   residual over time per joint, segment boundaries marked
+:func:`autocorrelation`             residual autocorrelation per joint with its band (lesson §4.2)
+:func:`autocorrelation_by_model`    one joint's residual autocorrelation for each candidate
+:func:`spectrum`                    residual spectrum per joint (log–log), found oscillations marked
+:func:`cross_correlation`           joints × regressor columns heatmap of ``max |ρ|`` / colour-aware band
+:func:`metrics`                     per-joint VAF / fit / R² bars for each candidate of a comparison
+:func:`prediction`                  measured and predicted torque per joint
+==================================  ==============================================================
 
 Every function takes the names it can use (``joint_names``, ``column_names``) and otherwise
 falls back to the names and sample rate recorded in a report's provenance.
@@ -357,7 +357,7 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     the colour-aware one.
 
     The colour-aware band is the one the findings use: Bartlett's variance for two coloured
-    series (``z_max``, the largest |ρ(ℓ)|/sd(ℓ) over the lags, divided by the band's z), so a
+    series (``z_max``, the largest ``|ρ(ℓ)|/sd(ℓ)`` over the lags, divided by the band's z), so a
     cell above 1 is one whose correlation exceeds z·sd at some lag. Without ``z_max`` (a
     streamed report) the colour factor scales the white band when it is there, else the white
     band z/√N is used, and the second value is False. Constant columns are NaN.
