@@ -57,7 +57,7 @@ echo "installed in $(( $(date +%s) - build_start )) s"
 "$PY" -c "import dynval; print('dynval', dynval.__version__, dynval.backends())"
 
 step "lint and types"
-"$PY" -m ruff check python tests benchmarks golden examples
+"$PY" -m ruff check python tests benchmarks golden examples docs
 "$PY" -m mypy python/dynval
 
 # Eigen from the cmeel-eigen wheel that the install above brought, for machines without Debian's.

@@ -74,8 +74,8 @@ def _top_page(names: list[str]) -> str:
 
 def _module_page(module: str, title: str, names: list[str]) -> str:
     heading = f"``{module}``: {title}"
-    return "\n".join([heading, "=" * len(heading), "", f".. automodule:: {module}", "   :no-members:", "   :no-index:", "",
-                      _autosummary(module, names)])
+    lines = [heading, "=" * len(heading), "", f".. automodule:: {module}", "   :no-members:", "   :no-index:", ""]
+    return "\n".join([*lines, _autosummary(module, names)])
 
 
 def write_pages(api_dir: Path) -> list[Path]:

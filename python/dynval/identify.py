@@ -353,11 +353,11 @@ class IdentificationResult:
 
     def to_frame(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> Any:
         """The coefficient table of :meth:`summary` as a pandas DataFrame, one row per base parameter."""
-        import pandas as pd
+        from .report._json import to_frame
 
         c = self.coefficients(level=level, std=std)
-        return pd.DataFrame({k: c[k] for k in ("estimate", "std_err", "t", "pvalue", "lower", "upper")},
-                            index=pd.Index(c["name"], name="parameter"))
+        return to_frame({k: c[k] for k in ("estimate", "std_err", "t", "pvalue", "lower", "upper")}, c["name"],
+                        "parameter", "IdentificationResult.to_frame()")
 
     def summary(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> str:
         """The fit as a statistician reads it first: sizes, σ², conditioning, and per base parameter the
