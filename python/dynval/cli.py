@@ -85,7 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 1 input error, 2 usage error, 3 internal error, "
                "141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform,validate-many}")
+    sub = parser.add_subparsers(dest="command",
+                                metavar="{validate,compare,demo,conform,validate-many,validate-log}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
@@ -149,6 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("conform", help="run the conformance corpus against a port (see dynval conform --help)",
                    add_help=False)
     _add_validate_many(sub)
+    from ._logcli import add_validate_log
+
+    add_validate_log(sub, _EXIT_CODES)
     return parser
 
 
@@ -667,7 +671,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     restore()  # from here on, Ctrl-C is a KeyboardInterrupt caught below
     argv = list(sys.argv[1:] if argv is None else argv)
-    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "demo", "conform") else None
+    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "validate-log", "demo",
+                                              "conform") else None
     prefix = f"dynval {command}" if command else "dynval"
     try:
         return _flush_stdout(prefix, _dispatch(argv))  # a closed pipe shows here for buffered output
@@ -755,6 +760,10 @@ def _dispatch(argv: list) -> int:
         return _run_compare(args)
     if args.command == "validate-many":
         return _run_validate_many(args)
+    if args.command == "validate-log":
+        from ._logcli import run_validate_log
+
+        return run_validate_log(args, _error, _emit, _write_html)
     if args.command == "demo":
         from .demo import run_from_args
 
