@@ -16,6 +16,8 @@ PUBLIC_MODULES = {
     "dynval.dask": "Dask: validation on a cluster",
     "dynval.fleet": "Fleets: many logs of many robots and the drift test",
     "dynval.identify": "Identification and prediction intervals",
+    "dynval.io": "A robot's own logs: joint states of ROS bags and MCAP files",
+    "dynval.logs": "From a robot's log and its model files to a verdict",
     "dynval.robots": "Robots: URDF regressors, derivatives, physical consistency",
     "dynval.datasets": "Shipped data sets",
     "dynval.plot": "Figures",
