@@ -143,8 +143,8 @@ class CoverageTest:
         parts = [f"joint {j} (p = {self.adjusted[j]:.2g}, {100 * self.share_inside[j]:.1f} % inside): "
                  f"{_WORDS[self.component[j]]}" for j in failed]
         return (f"The {lvl} band fails its coverage test (Holm over {m} joint(s) at alpha = {self.alpha:g}) on "
-                + "; ".join(parts) + ". A term is missing or wrong: the share inside cannot show it, because "
-                "the term widened the band too.")
+                + "; ".join(parts) + ". Where the band misses depends on the state or the time: a term is "
+                "missing or wrong, which the share inside cannot show (the term widened the band too).")
 
 
 def _bins_by_quantile(x: np.ndarray, n_bins: int) -> np.ndarray:
