@@ -120,7 +120,9 @@ class PredictionInterval:
 
     def share_inside(self, tau_meas: ArrayLike) -> FloatArray:
         """Per joint, the share of the measured torques inside the band: ``level`` when the model
-        and its noise are right, less when the model misses structure or the noise is coloured."""
+        and its white noise are right, less when the band is too narrow. A share at or above the
+        level clears nothing: a missing term widens the band with its own error (contract §9);
+        :meth:`coverage_test` shows where the band misses."""
         meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
         if meas.shape != self.prediction.shape:
             raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
@@ -288,7 +290,9 @@ class IdentificationResult:
         uncertainty adds there, ``y_kᵀ C y_k`` (:attr:`covariance`); the band is the prediction ±
         the Student-t quantile (``rows − r`` degrees of freedom) times its root. It assumes white,
         Gaussian noise as the covariance does: on coloured residuals it is too narrow, which
-        :meth:`PredictionInterval.share_inside` shows on a validation run.
+        :meth:`PredictionInterval.share_inside` shows on a validation run. A missing term widens it
+        (the noise level grows with the term), which the share cannot show and
+        :meth:`PredictionInterval.coverage_test` can.
 
         Parameters
         ----------
