@@ -160,7 +160,8 @@ def test_the_right_demo_model_passes_the_coverage_test_with_a_margin(seed):
     test = band.coverage_test(val.tau_meas, q=val.q, dq=val.dq)
     assert test.passed and test.decision == "pass"
     assert np.all(test.adjusted > 0.4), test.adjusted  # alpha 0.05; the friction-less model's are below 1e-8
-    assert str(test).startswith("The 95 % band passes its coverage test on every joint")
+    assert str(test) == ("The 95 % band passes its coverage test (Holm over 2 joint(s) at alpha = 0.05): its misses "
+                         "do not depend on the state or cluster in time.")
 
 
 def test_a_kuka_joint_worse_than_a_constant_fails_the_coverage_test():
@@ -291,3 +292,18 @@ def test_the_right_model_passes_under_coloured_noise(seed):
     test = band.coverage_test(tau_v, q=val.q, dq=val.dq)
     assert test.passed, test.component_pvalues  # with the noise's colour counted as white: p below 1e-3
     assert np.all(test.n_eff < 0.2 * 2000)  # the colour was seen
+
+
+def test_a_joint_whose_band_has_zero_width_is_not_tested_and_says_so():
+    from dynval.identify import PredictionInterval
+
+    band, val = _demo_band("rigid")
+    std = band.std.copy()
+    std[:, 1] = 0.0  # an exact fit's noise level on joint 1
+    flat = PredictionInterval(prediction=band.prediction, lower=band.prediction - band.quantile * std,
+                              upper=band.prediction + band.quantile * std, std=std, level=band.level,
+                              quantile=band.quantile, noise_std=band.noise_std, design=band.design)
+    test = flat.coverage_test(val.tau_meas, q=val.q, dq=val.dq)
+    assert np.all(np.isnan(test.component_pvalues[1])) and np.isnan(test.adjusted[1]) and not test.rejected[1]
+    assert test.component[1] == "" and test.rejected[0] and test.adjusted[0] == test.pvalue[0]  # a family of one
+    assert "(Holm over 1 joint(s)" in str(test) and str(test).endswith("or a band of zero width): joint 1.")

@@ -135,16 +135,19 @@ class CoverageTest:
 
     def __str__(self) -> str:
         lvl = f"{100 * self.level:g} %"
-        m = self.pvalue.size
-        failed = [j for j in range(m) if self.rejected[j]]
+        m = int(np.count_nonzero(~np.isnan(self.pvalue)))  # Holm's family: the joints tested
+        failed = [j for j in range(self.pvalue.size) if self.rejected[j]]
+        untested = [j for j in range(self.pvalue.size) if not self.component[j]]
+        note = ("" if not untested else " Not tested (no component could be formed, or a band of zero width): "
+                + "joint " + ", ".join(str(j) for j in untested) + ".")
         if not failed:
-            return (f"The {lvl} band passes its coverage test on every joint (Holm over {m} joint(s) at "
-                    f"alpha = {self.alpha:g}): its misses do not depend on the state or cluster in time.")
+            return (f"The {lvl} band passes its coverage test (Holm over {m} joint(s) at alpha = {self.alpha:g}): "
+                    "its misses do not depend on the state or cluster in time." + note)
         parts = [f"joint {j} (p = {self.adjusted[j]:.2g}, {100 * self.share_inside[j]:.1f} % inside): "
                  f"{_WORDS[self.component[j]]}" for j in failed]
         return (f"The {lvl} band fails its coverage test (Holm over {m} joint(s) at alpha = {self.alpha:g}) on "
                 + "; ".join(parts) + ". Where the band misses depends on the state or the time: a term is "
-                "missing or wrong, which the share inside cannot show (the term widened the band too).")
+                "missing or wrong, which the share inside cannot show (the term widened the band too)." + note)
 
 
 def _bins_by_quantile(x: np.ndarray, n_bins: int) -> np.ndarray:
@@ -269,14 +272,17 @@ def coverage_test(meas: np.ndarray, pred: np.ndarray, std: np.ndarray, lower: np
     n, m = meas.shape
     with np.errstate(divide="ignore", invalid="ignore"):
         z = (meas - pred) / std
-    z = np.where(np.isfinite(z), z, 0.0)  # std 0 and a measurement on the prediction: not a miss
+    # A band of zero width somewhere (an exact fit's noise level) cannot standardise its misses: the
+    # joint is not tested, and its share inside says what there is to say.
+    testable = np.all(std > 0, axis=0)
+    z = np.where(testable, z, 0.0)
     inside = (meas >= lower) & (meas <= upper)  # as share_inside counts
     hits = ~inside
     lrv = long_run_variance(z, np.array([0]))
     n_eff = np.asarray(lrv.n_eff, dtype=np.float64)
     pvals = np.full((m, len(COMPONENTS)), np.nan)
     stats = np.full((m, len(COMPONENTS)), np.nan)
-    for j in range(m):
+    for j in np.flatnonzero(testable):
         zj = off_model(z[:, j], None if design is None else design[:, j, :] / std[:, j:j + 1])
         for c, labels in _partitions(j, pred, q, dq, n_bins).items():
             if labels is not None:
