@@ -282,7 +282,7 @@ def coverage_test(meas: np.ndarray, pred: np.ndarray, std: np.ndarray, lower: np
     n_eff = np.asarray(lrv.n_eff, dtype=np.float64)
     pvals = np.full((m, len(COMPONENTS)), np.nan)
     stats = np.full((m, len(COMPONENTS)), np.nan)
-    for j in np.flatnonzero(testable):
+    for j in (int(k) for k in np.flatnonzero(testable)):
         zj = off_model(z[:, j], None if design is None else design[:, j, :] / std[:, j:j + 1])
         for c, labels in _partitions(j, pred, q, dq, n_bins).items():
             if labels is not None:
