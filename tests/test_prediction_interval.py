@@ -307,3 +307,26 @@ def test_a_joint_whose_band_has_zero_width_is_not_tested_and_says_so():
     assert np.all(np.isnan(test.component_pvalues[1])) and np.isnan(test.adjusted[1]) and not test.rejected[1]
     assert test.component[1] == "" and test.rejected[0] and test.adjusted[0] == test.pvalue[0]  # a family of one
     assert "(Holm over 1 joint(s)" in str(test) and str(test).endswith("or a band of zero width): joint 1.")
+
+
+def test_a_missing_term_that_acts_in_short_bursts_is_found_by_the_runs_in_time_alone():
+    """Eight bursts of ±3σ over 12 samples each (a contact, say), in both runs: the share stays at the
+    level, the residual's mean at zero in every bin of the prediction, the residual nearly white
+    (N_eff stays near N, so nothing is thinned away); the exceedances come in clusters."""
+    rng = np.random.default_rng(3)
+
+    def run(n):
+        y = rng.standard_normal((n, 1, 2))
+        tau = y[:, 0] @ np.array([1.0, -0.5]) + rng.standard_normal(n)
+        for i, start in enumerate(np.sort(rng.choice(n // 20, 8, replace=False)) * 20):
+            tau[start:start + 12] += 3.0 if i % 2 else -3.0
+        return y, tau[:, None]
+
+    y_e, tau_e = run(3000)
+    y_v, tau_v = run(3000)
+    band = identify(y_e, tau_e).prediction_interval(y_v)
+    assert abs(band.share_inside(tau_v)[0] - 0.95) < 0.01
+    test = band.coverage_test(tau_v)
+    assert test.rejected[0] and test.component == ("runs",) and test.adjusted[0] < 1e-10, test.component_pvalues
+    assert test.component_pvalues[0, 2] > 0.5 and test.n_eff[0] > 1500  # the prediction's bins see nothing
+    assert "the exceedances come in clusters in time" in str(test)
