@@ -75,7 +75,7 @@ class CoverageTest:
         test's standardised number of runs); nan when no component was tested.
     component : tuple of str
         Per joint, the name of that component (one of :data:`COMPONENTS`; ``""`` when none).
-    component_pvalues, component_statistics : ndarray (m, 5)
+    component_pvalues, component_statistics : ndarray (m, 4)
         Every component's p-value and statistic, columns in the order of :data:`COMPONENTS`; nan
         where a component was not tested (no q or dq given, too few samples on one side, no exceedance).
     n_eff : ndarray (m,)
