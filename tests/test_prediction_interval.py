@@ -87,9 +87,11 @@ def test_the_prediction_figure_draws_the_band_with_its_share():
     band = fit.prediction_interval(y, level=0.9)
     fig = plot.prediction(tau, band.prediction, interval=band)
     shares = band.share_inside(tau)
+    # one legend below the panels names the band; each panel's title gives its joint's share
+    assert "90 % prediction interval" in [t.get_text() for t in fig.legends[0].get_texts()]
     for j, ax in enumerate(fig.axes):
-        labels = [t.get_text() for t in ax.get_legend().get_texts()]
-        assert f"90 % prediction interval ({100 * shares[j]:.1f} % of the measured inside)" in labels
+        want = f"{100 * shares[j]:.1f} % of the measured torque inside the band (whole run)"
+        assert ax.get_title(loc="right") == want
         assert ax.collections, "no band drawn"
 
 
