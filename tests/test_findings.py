@@ -500,3 +500,27 @@ def test_refit_missing_term_is_one_test_per_column_named_on_the_joints_it_matter
     # The same column significant but not accounting for the mean: the bias is not attributed.
     ev.missing_explains_bias = np.array([[False], [False]])
     assert [f.columns for f in compute_findings(ev) if f.kind == "bias"] == [()]
+
+
+def test_each_kinds_description_is_the_contracts():
+    # The words a reader sees for each kind (the site's findings page, the HTML report) are the
+    # contract's, both ways: no kind without its row, no row without its kind, the same words.
+    import pathlib
+    import re
+
+    text = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "contract.md").read_text(encoding="utf-8")
+    block = text[text.index("| kind | what it detects |"):]
+    rows = dict(re.findall(r"^\| `([a-z_]+)` \| (.+) \|$", block.split("\n\n")[0], flags=re.M))
+    assert rows == {k: v.replace("|", "/") for k, v in dynval.FINDING_KINDS.items()}
+
+
+def test_the_named_lag_is_the_earliest_within_nine_tenths_of_the_strongest():
+    from dynval.report._findings import _strongest_lag
+
+    rho = np.array([1.0, 0.05, 0.30, 0.86, 0.20, 0.95, 0.40])
+    sig = np.array([2, 3, 5, 6])
+    # lag 3 holds 0.86 / 0.95 = 0.905 of the strongest: it is named; at 0.85 of it, lag 5 would be
+    assert _strongest_lag(rho, sig) == 3
+    rho[3] = 0.85
+    assert _strongest_lag(rho, sig) == 5
+    assert _strongest_lag(-rho, sig) == 5  # by size, whatever the sign
