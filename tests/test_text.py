@@ -237,7 +237,7 @@ def test_underflowing_ljung_box_p_reads_the_same_everywhere(underflow):
     assert f"Holm-adjusted p {text}" in f.message
     assert f"Holm-adjusted p {text}" in summary
     page = render_report(rep)
-    assert "<td>&lt; <span class=\"num\">1e-300</span></td>" in page  # the per-joint table's Ljung–Box cell (kept whole)
+    assert "<td>&lt; <span class=\"num\">1e-300</span></td>" in page  # the per-joint Ljung–Box cell, kept whole
     assert "Holm-adjusted p &lt; 1e-300" in page
     # no exponent outside the double range anywhere a person reads
     for where in (summary, page.split("<details>")[0]):
