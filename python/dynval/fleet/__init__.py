@@ -29,7 +29,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..checks._errors import InvalidParameter
-from ..checks._validation import check_level
+from ..checks._validation import check_level, format_value
 from ._cluster import WORKER_ENVIRON, client_for, local_cluster
 from ._drift import DEFAULT_PERMUTATIONS, MIN_BASELINE, RATIO_THRESHOLD, Drift, change_point, drift_per_robot
 from ._logs import MANIFEST_COLUMNS, LogSpec, log_from_path, log_specs, read_manifest, time_key
@@ -139,11 +139,11 @@ def _check_validate_keywords(keywords: dict[str, Any]) -> None:
 
 def _check_settings(min_baseline: Any, ratio_threshold: Any, n_permutations: Any) -> None:
     if not isinstance(min_baseline, int) or min_baseline < 2:
-        raise InvalidParameter(f"min_baseline must be an integer >= 2, got {min_baseline!r}")
+        raise InvalidParameter(f"min_baseline must be an integer >= 2, got {format_value(min_baseline)}")
     if not isinstance(ratio_threshold, (int, float)) or not ratio_threshold >= 1.0:
-        raise InvalidParameter(f"ratio_threshold must be a number >= 1, got {ratio_threshold!r}")
+        raise InvalidParameter(f"ratio_threshold must be a number >= 1, got {format_value(ratio_threshold)}")
     if not isinstance(n_permutations, int) or n_permutations < 19:
-        raise InvalidParameter(f"n_permutations must be an integer >= 19, got {n_permutations!r}")
+        raise InvalidParameter(f"n_permutations must be an integer >= 19, got {format_value(n_permutations)}")
 
 
 def _in_fleet_order(rows: Iterable[LogSummary]) -> list[LogSummary]:

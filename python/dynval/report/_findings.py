@@ -128,7 +128,7 @@ class Thresholds:
 
 def resolve_thresholds(value: object) -> Thresholds:
     """``None`` → defaults; a mapping overrides named fields; a :class:`Thresholds` as is."""
-    from ..checks._validation import parameter_error
+    from ..checks._validation import format_value, parameter_error
 
     if value is None:
         return Thresholds()
@@ -141,7 +141,7 @@ def resolve_thresholds(value: object) -> Thresholds:
                 raise parameter_error("thresholds", "a mapping with keys among "
                                       + ", ".join(repr(n) for n in sorted(names)), value)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
-                raise parameter_error(f"thresholds[{key!r}]", "a finite number >= 0", x)
+                raise parameter_error(f"thresholds[{format_value(key)}]", "a finite number >= 0", x)
         return replace(Thresholds(), **{k: float(x) for k, x in value.items()})
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
 
