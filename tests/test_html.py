@@ -219,3 +219,58 @@ def test_every_table_of_a_comparison_fits_a_1280_px_window(tmp_path):
         assert f"<td>{row['aic']:.1f} ({row['delta_aic']:+.1f})</td>" in html, name
         ic = cmp.reports[name].information_criteria  # each candidate's own criteria table too
         assert f"<td>{ic['aic']:.1f}</td>" in html and f"<td>{ic['bic']:.1f}</td>" in html, name
+
+
+# --------------------------------------------------------------------------- names as written
+
+NAMES = ["$\\frac$", "$x^2$ and $y$", "r\udcffb"]   # mathtext, a pair of $, a byte that was not UTF-8
+SHOWN = ["$\\frac$", "$x^2$ and $y$", "r\\xffb"]
+
+
+def _svg_text(fig):
+    """The text a figure draws, as an SVG that keeps text as text (mathtext would be drawn as paths)."""
+    import io
+
+    import matplotlib
+
+    out = io.StringIO()
+    with matplotlib.rc_context({"svg.fonttype": "none"}):
+        fig.savefig(out, format="svg")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return out.getvalue().replace("&amp;", "&")
+
+
+def test_fleet_names_are_drawn_and_written_literally(tmp_path):
+    """A robot named '$\\frac$' stopped write_fleet_report with matplotlib's mathtext error."""
+    from dynval import fleet, plot
+    from dynval.html import write_fleet_report
+
+    files = fleet.write_fleet(fleet.simulate_fleet(n_robots=1, n_logs=6, n_samples=200), tmp_path)
+    specs = [fleet.LogSpec(NAMES[i % 3], str(i), s.tau_meas, s.tau_pred, 3, log=f"log{i}") for i, s in enumerate(files)]
+    rep = fleet.validate_many(specs, scheduler="single", max_lag=5, progress=False)
+    write_fleet_report(rep, tmp_path / "fleet.html")
+    page = (tmp_path / "fleet.html").read_text(encoding="utf-8")
+    metrics, drift = _svg_text(plot.fleet_metrics(rep)), _svg_text(plot.fleet_drift(rep))
+    for shown in SHOWN:
+        assert shown in page and shown in metrics and shown in drift
+
+
+def test_joint_and_model_names_are_drawn_and_written_literally(tmp_path):
+    """A joint name holding a lone surrogate (byte 0xff on the command line) stopped --html."""
+    from dynval import plot
+
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(400, 3))
+    pred = tau + 0.1 * rng.normal(size=tau.shape)
+    report = dynval.validate(tau, pred, n_params=1, joint_names=NAMES)
+    write_report(report, tmp_path / "r.html", tau_meas=tau, tau_pred=pred)
+    page = (tmp_path / "r.html").read_text(encoding="utf-8")
+    for shown in SHOWN:
+        assert shown in page
+    for fig in (plot.autocorrelation(report), plot.residuals(tau, pred, report=report),
+                plot.prediction(tau, pred, report=report, model_name=NAMES[0])):
+        drawn = _svg_text(fig)
+        for shown in SHOWN:
+            assert shown in drawn

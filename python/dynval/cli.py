@@ -40,6 +40,7 @@ from .io._files import (
 )
 from .io._readers import DEFAULT_CHUNK_ROWS, decoded_size, open_column, open_rows
 from .metrics._profiles import PROFILE_NAMES
+from .report._text import printable
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
@@ -212,7 +213,7 @@ def _model_arg(text: str):
         raise argparse.ArgumentTypeError("expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, "
                                          f"got {format_value(text)}")
     try:
-        return name, path, int(p)
+        return printable(name), path, int(p)
     except ValueError:
         raise argparse.ArgumentTypeError("the number of parameters after ':' must be an integer, "
                                          f"got {format_value(p)}") from None
@@ -223,7 +224,8 @@ def _model_columns_arg(text: str):
     if not sep or not name.strip() or not cols.strip():
         raise argparse.ArgumentTypeError("expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, "
                                          f"got {format_value(text)}")
-    return name.strip(), [int(c) if c.strip().lstrip("-").isdigit() else c.strip() for c in cols.split(",")]
+    return printable(name.strip()), [int(c) if c.strip().lstrip("-").isdigit() else printable(c.strip())
+                                     for c in cols.split(",")]
 
 
 def _key_file_arg(text: str):
@@ -234,7 +236,9 @@ def _key_file_arg(text: str):
 
 
 def _names_arg(text: str):
-    return [x.strip() for x in text.split(",")]
+    # A name that was not UTF-8 on the command line (Python keeps byte 0xff as the lone surrogate
+    # U+DCFF) is written \xff: as typed, and printable on any terminal, page or figure.
+    return [printable(x.strip()) for x in text.split(",")]
 
 
 def _decimate_arg(text: str):

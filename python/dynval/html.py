@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .report._json import to_jsonable
-from .report._text import pvalue_text
+from .report._text import printable, pvalue_text
 
 __all__ = ["write_report", "render_report", "render_fragment", "write_fleet_report", "render_fleet_report"]
 
@@ -63,13 +63,14 @@ details pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 
 
 
 def _e(text) -> str:
-    """Escape text content (quotes may stay: they need escaping in attributes only)."""
-    return _html.escape(str(text), quote=False)
+    """Escape text content (quotes may stay: they need escaping in attributes only); a byte that was
+    not UTF-8 (a lone surrogate) is written as ``\\xff``, so that the page can be written as UTF-8."""
+    return _html.escape(printable(text), quote=False)
 
 
 def _a(text) -> str:
-    """Escape an attribute value."""
-    return _html.escape(str(text), quote=True)
+    """Escape an attribute value (lone surrogates as :func:`_e`)."""
+    return _html.escape(printable(text), quote=True)
 
 
 def _num(x, digits=4) -> str:
