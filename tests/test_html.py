@@ -160,6 +160,31 @@ def test_comparison_report_html_from_dynval_compare(scenario, tmp_path):
     assert cmp.verdict.decision in text
 
 
+@pytest.mark.skipif(not hasattr(dynval, "compare"), reason="dynval.compare is not in this build yet")
+def test_every_section_of_a_comparison_says_whose_it_is(scenario, tmp_path):
+    """The page ended with a 'Provenance' that was one candidate's, unlabelled, after the last one's."""
+    from dynval import plot
+
+    d, reports, preds = scenario
+    cands = {n: (preds[n], reports[n].provenance["n_params"], d.validation.full_regressor) for n in d.candidates}
+    cmp = dynval.compare(d.validation.tau_meas, cands, sample_rate=d.sample_rate,
+                         joint_names=list(d.joint_names), column_names=list(d.full_column_names))
+    write_report(cmp, tmp_path / "c.html", tau_meas=d.validation.tau_meas, tau_pred=preds,
+                 figures=[(plot.metrics(cmp), "a figure of the caller's")])
+    text = (tmp_path / "c.html").read_text(encoding="utf-8")
+    headings = [h for _, h in re.findall(r"<(h[23])>(.*?)</\1>", text)]
+    whose = ("every candidate", "per candidate", "not of one candidate", *(f"odel '{n}'" for n in d.candidates))
+    for h in headings:
+        assert any(w in h for w in whose), h
+    # the closing provenance holds the fields every candidate shares, each model's section its own
+    closing = text.split("<h2>Provenance shared by every candidate", 1)[1]
+    assert "<td class=\"text\">n_params</td>" not in closing and "<td class=\"text\">profile</td>" in closing
+    for n in d.candidates:
+        own = text.split(f"<h3>Provenance of model '{n}' (its own fields)</h3>", 1)[1].split("<h", 1)[0]
+        assert f"<td class=\"text\">{reports[n].provenance['n_params']}</td>" in own
+    assert "Full comparison as JSON (every candidate)" in text
+
+
 def _chromium():
     for name in ("chromium", "chromium-browser", "google-chrome"):
         path = shutil.which(name)
