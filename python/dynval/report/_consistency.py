@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -661,14 +661,23 @@ def _is_urdf_model(source: object) -> bool:
         hasattr(source, "joint_names")
 
 
+# The robotics layer's URDF reader (dynval.robots.URDFModel), which registers itself when it is
+# imported (``import dynval`` does): this layer is below it and cannot import it.
+_urdf_reader: Callable[[Any], Any] | None = None
+
+
+def register_urdf_reader(reader: Callable[[Any], Any]) -> None:
+    """Called by :mod:`dynval.robots` with :class:`~dynval.robots.URDFModel`."""
+    global _urdf_reader
+    _urdf_reader = reader
+
+
 def urdf_from_path(source: Any) -> Any:
     """A URDF file's path (str or os.PathLike) or XML text as a :class:`dynval.robots.URDFModel`;
     anything else unchanged. A file that cannot be read is InvalidParameter naming it."""
-    if not isinstance(source, (str, os.PathLike)):
+    if not isinstance(source, (str, os.PathLike)) or _urdf_reader is None:
         return source
     import xml.etree.ElementTree as ET
-
-    from ..robots import URDFModel  # the robotics layer (pinocchio) only when a URDF is given
 
     def refused(why: str) -> InvalidParameter:
         return InvalidParameter(f"parameters must be a URDFModel, an IdentificationResult, a parameter vector or "
@@ -679,7 +688,7 @@ def urdf_from_path(source: Any) -> Any:
     if not is_text and os.path.exists(source) and not os.path.isfile(source):
         raise refused("not a regular file")
     try:
-        return URDFModel(source)
+        return _urdf_reader(source)
     except OSError as exc:
         raise refused(exc.strerror or type(exc).__name__) from None
     except (ET.ParseError, UnicodeDecodeError) as exc:
