@@ -475,9 +475,27 @@ def _sample_rate(args, obj) -> float | None:
     return None if rate is None else float(rate)
 
 
+def _declared_shapes_refused(command: str, args, predictions: dict) -> int | None:
+    """The files' shapes, from their headers, checked against each other before any array is
+    decoded (contract §7): the exit code of a refusal, or None."""
+    from .io._shapes import check_declared
+
+    try:
+        check_declared(args.meas, predictions, regressor=args.regressor, time=args.time,
+                       q=getattr(args, "q", None), n_joints=args.n_joints)
+    except FileInputError as exc:
+        return _error(command, str(exc))
+    except InputError as exc:
+        return _contract_error(command, exc, {} if args.time is None else {"time": (args.time, None, 0)})
+    return None
+
+
 def _run_validate(args) -> int:
     from .report._report import validate
 
+    refused = _declared_shapes_refused("validate", args, {"tau_pred": args.pred})
+    if refused is not None:
+        return refused
     if args.stream or _too_large_for_memory(args):
         return _run_validate_streamed(args)
     sources: dict = {}
@@ -587,6 +605,9 @@ def _run_compare(args) -> int:
                              f"(candidates: {names})")
     if columns and not args.regressor:
         args.subparser.error("--model-columns needs --regressor: the columns are the regressor's")
+    refused = _declared_shapes_refused("compare", args, {name: path for name, path, _ in args.model})
+    if refused is not None:
+        return refused
     sources: dict = {}
     try:
         meas = _load(args.meas, "tau_meas", sources)

@@ -56,10 +56,15 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
     """
     from ..comparison._compare import compare
     from ..io._files import load_array
+    from ..io._shapes import check_declared
 
     spec = as_spec(item, n_params)
     start = time.perf_counter()
     try:
+        if all(isinstance(x, str) for x in (spec.tau_meas, spec.tau_pred)):
+            # the files' shapes, from their headers, before any array is decoded (contract §7)
+            check_declared(spec.tau_meas, {"tau_pred": spec.tau_pred},
+                           regressor=spec.regressor if isinstance(spec.regressor, str) else None)
         meas, pred = load_array(spec.tau_meas), load_array(spec.tau_pred)
         reg = None if spec.regressor is None else load_array(spec.regressor)
         cmp = compare(meas, {spec.name: (pred, spec.n_params, reg)}, **(keywords or {}))
