@@ -171,3 +171,20 @@ def test_a_fleet_log_with_mismatched_files_is_an_error_row_without_decoding(tmp_
     bad = [row for row in fleet.logs if row.log == "bad"]
     assert len(bad) == 1 and bad[0].error.startswith("ShapeMismatch") and "(4194304, 2)" in bad[0].error
     assert peak - baseline < 0.1 * (1 << 22) * 2 * 8, f"{(peak - baseline) / 1e6:.0f} MB over the good logs"
+
+
+def test_a_shape_numpy_cannot_describe_is_left_to_the_reader(tmp_path):
+    """(2**40, 2**40) is no array numpy can even stand in for: the reader refuses the file by its size."""
+    from dynval.io._shapes import _describable
+
+    assert _describable((1 << 40, 1 << 40)) is None
+    assert _describable((None, 3)) == (None, 3) and _describable((10, 2)) == (10, 2)
+    path = tmp_path / "huge.npz"
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive, \
+            archive.open("arr_0.npy", "w", force_zip64=True) as member:
+        np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False,
+                                                      "shape": (1 << 40, 1 << 40)})
+        member.write(bytes(1000))
+    np.save(tmp_path / "m.npy", np.zeros((5, 2)))
+    with pytest.raises(FileInputError, match="holds only 1000 bytes after the header"):
+        check_declared(str(path), {"tau_pred": str(tmp_path / "m.npy")})

@@ -13,6 +13,8 @@ its read is bounded by the file itself).
 
 from __future__ import annotations
 
+import math
+import sys
 import zipfile
 from collections.abc import Mapping
 from typing import BinaryIO, cast
@@ -37,6 +39,10 @@ def declared_shape(spec: str) -> tuple[int | None, ...] | None:
     FileInputError for a file the reader refuses on its header (a pickle, a non-numeric dtype, a
     header that needs more bytes than the file holds, ...).
     """
+    return _describable(_declared(spec))
+
+
+def _declared(spec: str) -> tuple[int | None, ...] | None:
     path, key = _split_key(spec)
     lower = path.lower()
     if lower.endswith(_CSV):
@@ -81,6 +87,15 @@ def _npz_declared(path: str, key: str | None) -> tuple[int, ...] | None:
 def _stand_in(shape: tuple[int, ...]) -> np.ndarray:
     """An array of ``shape`` that holds one value: the checks read its shape only."""
     return np.broadcast_to(np.float64(0.0), shape)
+
+
+def _describable(shape: tuple[int | None, ...] | None) -> tuple[int | None, ...] | None:
+    """``shape``, or None when numpy cannot even describe an array of it (a hostile header's
+    (2**40, 2**40)): the reader then refuses the file by its size, with its own message."""
+    if shape is None:
+        return None
+    known = [s for s in shape if s is not None]
+    return shape if math.prod(known) * 8 < sys.maxsize else None
 
 
 def check_declared(tau_meas: str, predictions: Mapping[str, str], *, regressor: str | None = None,
