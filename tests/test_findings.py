@@ -524,3 +524,45 @@ def test_the_named_lag_is_the_earliest_within_nine_tenths_of_the_strongest():
     rho[3] = 0.85
     assert _strongest_lag(rho, sig) == 5
     assert _strongest_lag(-rho, sig) == 5  # by size, whatever the sign
+
+
+# --------------------------------------------------------------------------- n_params and the criteria
+
+
+def _seventy_observations():
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(10, 7))
+    return tau, tau + 0.1 * rng.normal(size=tau.shape)
+
+
+@pytest.mark.parametrize("n_params, noted", [(0, False), (68, False), (69, True), (500, True)])
+def test_n_params_that_leave_the_criteria_no_freedom_are_noted(n_params, noted):
+    """validate(tau[:10], pred[:10], n_params=500) (70 observations) gave AIC and BIC without a word."""
+    tau, pred = _seventy_observations()
+    report = dynval.validate(tau, pred, n_params=n_params)
+    notes = [f for f in report.findings if f.kind == "information_criteria"]
+    assert bool(notes) == noted
+    assert math.isnan(report.information_criteria.aicc) == noted  # the note says what the nan means
+    if noted:
+        (f,) = notes
+        assert f.severity == "note" and f.effect == n_params and f.threshold == 69
+        assert "AICc and FPE are nan" in f.message and "n = 70" in f.message
+        assert f.kind in dynval.FINDING_KINDS
+
+
+def test_the_criteria_note_counts_samples_for_a_per_joint_noise_model():
+    """With one σ² per joint the criteria count N = 10 samples: p = 9 is already too many."""
+    tau, pred = _seventy_observations()
+    report = dynval.validate(tau, pred, n_params=9, profile="matlab")
+    assert report.information_criteria.n_obs == 10
+    (f,) = [f for f in report.findings if f.kind == "information_criteria"]
+    assert f.threshold == 9 and "N samples" in f.message
+
+
+def test_the_criteria_note_changes_no_decision():
+    """The note is information: the verdict reads the residual's tests, which do not use n_params."""
+    tau, pred = _seventy_observations()
+    few = dynval.compare(tau, {"a": (pred, 3)})
+    many = dynval.compare(tau, {"a": (pred, 500)})
+    assert few.verdict.decision == many.verdict.decision
+    assert any(f.kind == "information_criteria" for f in many.reports["a"].findings)
