@@ -634,8 +634,8 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
     # one legend below the panels: inside an axes it covers the data
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize="small", frameon=False)
-    fig.suptitle((title or ("Measured and predicted joint torque" + (f" — {_literal(model_name)}" if model_name else "")))
-                 + (f"\n{shown}" if shown else ""))
+    named = f" — {_literal(model_name)}" if model_name else ""
+    fig.suptitle((title or ("Measured and predicted joint torque" + named)) + (f"\n{shown}" if shown else ""))
     return fig
 
 

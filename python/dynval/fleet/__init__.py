@@ -29,7 +29,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..checks._errors import InvalidParameter
-from ..checks._validation import check_level, format_value, is_integer, is_real_number, parameter_error
+from ..checks._validation import check_level, is_integer, is_real_number, parameter_error
 from ._cluster import WORKER_ENVIRON, client_for, local_cluster
 from ._drift import (
     DEFAULT_PERMUTATIONS,
