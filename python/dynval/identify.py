@@ -18,9 +18,11 @@ The numerical rank ``r`` is the number of diagonal entries with
 
 — the tolerance numpy's ``matrix_rank`` uses for singular values, applied to the pivoted-QR
 diagonal, which bounds the singular values from above and below within a factor of the matrix size.
-Columns that are identically zero, or whose norm is at most ``rcond`` times the largest column
-norm (roundoff of a structurally zero column), are never identifiable and are removed before
-the factorization. The first ``r`` pivoted columns are the *base columns*; every other column is a
+Columns that are identically zero, or whose norm is at most 1e-13 of the median norm of the
+nonzero columns (roundoff of a structurally zero column; the rule of the report's design section,
+``dynval.report._regressor_algebra.zero_columns``), are never identifiable and are removed before
+the factorization. Compared with the median, not the largest, no column's unit changes another
+column's status (contract §4). The first ``r`` pivoted columns are the *base columns*; every other column is a
 linear combination of them, ``Y_d = Y_b β``, and the quantity that the data determine is the base
 parameter ``π_b + β π_d`` (:attr:`IdentificationResult.combination`).
 
@@ -78,6 +80,7 @@ from .checks._validation import (
 )
 from .kernels._blas import one_blas_thread
 from .report import _consistency
+from .report._regressor_algebra import zero_columns
 
 __all__ = ["IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
 
@@ -400,10 +403,9 @@ def _pivoted_qr(a: FloatArray, rcond: float, with_q: bool = True) -> dict[str, A
     ``a``, in pivot order), or None when no column is kept or the rank is 0.
     """
     scale = np.sqrt(np.einsum("ij,ij->j", a, a))
-    # A column whose norm is within rcond of the largest is roundoff of a structurally zero
-    # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
-    # independent and be "identified" from noise.
-    nonzero = np.flatnonzero(scale > rcond * scale.max())
+    # A column whose norm is roundoff of a structurally zero column (cos(π/2) = 6e-17 in a
+    # kinematic chain) would look independent scaled to unit norm and be "identified" from noise.
+    nonzero = np.flatnonzero(~zero_columns(scale))
     if nonzero.size == 0:
         return None
     a_s = a[:, nonzero] / scale[nonzero]
@@ -440,8 +442,8 @@ def base_set(a: FloatArray, rcond: float) -> dict[str, Any]:
     """The base columns of ``a`` (rows × p, or any matrix with its R factor, such as that R).
 
     The reduction :func:`identify` makes, without solving: ``rank``, ``base`` (ascending),
-    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (columns
-    whose norm is at most ``rcond`` times the largest), ``combination`` (rank × p: each base
+    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (zero
+    columns: norm 0 or roundoff, ``_regressor_algebra.zero_columns``), ``combination`` (rank × p: each base
     parameter as a combination of the columns) and ``pivots`` (|R_kk| relative to |R_00|).
     """
     p = a.shape[1]
