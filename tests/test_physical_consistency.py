@@ -535,3 +535,48 @@ def test_kuka_identified_urdf_findings_have_their_sizes_and_reach_validate():
     cad = dynval.validate(run.tau, URDFModel(run.urdf).predict(run.q, run.dq, run.ddq), n_params=0, max_lag=0,
                           parameters=URDFModel(run.urdf))
     assert not any(f.kind == "physical_consistency" for f in cad.findings)
+
+
+def _two_link_problem(seed=37, n=300):
+    """Two links (one impossible: 0.1 + 0.1 < 0.3) and their friction, columns of unequal sizes."""
+    truth = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)),
+                            body(0.5, (0.0, 0.1, 0.0), (0.01, 0.02, 0.02)), [0.5, -0.4, 0.1, 0.2]])
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, 24)) * np.geomspace(0.1, 30.0, 24)
+    cols = ([f"a:{p}" for p in PARAMS] + [f"b:{p}" for p in PARAMS] + ["Fv_j1", "Fc_j1", "Fv_j2", "Fc_j2"])
+    return a, a @ truth + rng.normal(0.0, 0.05, n), cols
+
+
+@needs_cvxpy
+def test_the_constrained_fit_does_not_depend_on_the_units():
+    # N2: the same data with torques in a unit 1e10 times smaller gave a fit 14 times worse,
+    # reported "optimal"; 1e5 moved the parameters by half; 1e-6 raised RuntimeError. The program
+    # is solved in working units (contract §8): the torques' unit, and a unit per link (its ten
+    # columns alike) or per friction coefficient, scale the answer and change nothing else.
+    a, b, cols = _two_link_problem()
+    ref = identify(a, b, column_names=cols, physical=True)
+    assert ref.physical["status"] == "optimal"
+
+    def rms(full, scale=1.0):
+        return float(np.sqrt(np.mean((b - a @ (full * scale)) ** 2)))
+
+    for c in (2.0**33, 1e10, 1e5, 1e-6, 1e-12):
+        fit = identify(a, b * c, column_names=cols, physical=True)
+        assert fit.physical["status"] == "optimal", c
+        full = fit.full_parameters / c
+        assert rms(full) == pytest.approx(rms(ref.full_parameters), rel=1e-6), c
+        np.testing.assert_allclose(full, ref.full_parameters, rtol=0, atol=1e-3 * np.abs(ref.full_parameters).max())
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-4, abs=1e-6), c
+        if c == 2.0**33:  # a power of two: the same program, the answer scaled exactly
+            np.testing.assert_allclose(full, ref.full_parameters, rtol=1e-12, atol=0)
+    # without the Euclidean prior (which adds parameters in their own units) the same holds for a unit
+    # per link and per friction coefficient
+    ref = identify(a, b, column_names=cols, physical=True, prior_weight=0.0)
+    s = np.ones(24)
+    s[:10], s[10:20], s[21] = 1e6, 2.0**-20, 1e-4  # link a in one unit, link b in another, one friction
+    fit = identify(a * s, b, column_names=cols, physical=True, prior_weight=0.0)
+    assert fit.physical["status"] == "optimal"
+    assert rms(fit.full_parameters, s) == pytest.approx(rms(ref.full_parameters), rel=1e-6)
+    assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
+    np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
+                               atol=1e-3 * np.abs(ref.full_parameters).max())

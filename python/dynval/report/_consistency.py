@@ -27,7 +27,9 @@ A model can predict a run well and still be no robot at all. Three questions, on
   share of the estimation run's residual mean square that a consistent robot costs (the practical effect).
 * **Identification under the constraints** (:func:`constrained_fit`, ``identify(physical=True)``).
   The same program with the data's own metric: ``min ‖W(Aπ − b)‖²/σ̂² + λ‖π − π₀‖²`` over consistent
-  π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²). The
+  π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²), and
+  solved in working units (:func:`_working_units`) so that its answer does not depend on the units of
+  the torques or of the regressor (contract §8). The
   Euclidean prior π₀ (the URDF's a-priori values, or zero) with a small weight makes the answer
   unique in the directions the data cannot see; λ is ``prior_weight`` times the mean diagonal of
   the data term's Hessian, so ``prior_weight`` is unit-free. The entropic prior replaces each link's
@@ -371,49 +373,102 @@ def _program(cp: Any, lay: Layout, boxes: dict[str, tuple[FloatArray, FloatArray
 
 
 def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, weight: float,
-                metric: str) -> Any:
-    """``weight·‖π − prior‖²`` (Euclidean), or with ``metric="entropic"`` each link's Bregman divergence
-    of −log det, ``2·weight·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (near J₀ of the order
-    of ``weight·‖J − J₀‖²_F``, so that ``prior_weight`` reads alike; the constants are left out of the
-    objective), and the Euclidean term for the other columns (friction, offsets)."""
+                metric: str, d: FloatArray) -> Any:
+    """``weight·‖π − prior‖²`` (Euclidean; ``π = d·π̂``, ``d`` from :func:`_working_units`),
+    or with ``metric="entropic"`` each link's Bregman divergence of −log det,
+    ``2·weight·s_k²·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (s_k its link's scale; near J₀ of
+    the order of ``weight·‖s_k(J − J₀)‖²_F``, so that ``prior_weight`` reads alike; the constants are left
+    out of the objective; the divergence itself does not depend on the units), and the Euclidean term for
+    the other columns (friction, offsets)."""
     target = 0.0 if prior is None else prior
+    # √weight·d in one constant: the solver sees the same numbers whatever the units (weight and d
+    # apart would carry the units' powers into the program)
+    root = np.sqrt(weight) * d
     if metric != "entropic":
-        return weight * cp.sum_squares(prog.pi - target)
+        return cp.sum_squares(cp.multiply(root, prog.pi - target))
     rest = np.ones(lay.n_columns, dtype=bool)
     terms = []
     for k, jk in enumerate(prog.pseudo_inertias):
         j0 = pseudo_inertia(link_parameters(np.asarray(prior), lay)[k])
-        scale = 2.0 * weight * float(np.sum(j0**2))
+        scale = 2.0 * weight * _link_scale(lay, d, k) ** 2 * float(np.sum(j0**2))
         terms.append(scale * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
         rest[lay.link_columns[k][lay.link_columns[k] >= 0]] = False
     if rest.any():
-        terms.append(weight * cp.sum_squares(prog.pi[np.flatnonzero(rest)] - np.asarray(prior)[rest]))
+        keep = np.flatnonzero(rest)
+        terms.append(cp.sum_squares(cp.multiply(root[keep], prog.pi[keep] - np.asarray(prior)[rest])))
     return cp.sum(cp.hstack(terms)) if len(terms) > 1 else terms[0]
 
 
-def _objective_scale(g_mat: FloatArray, weight: float, prior: FloatArray | None, lay: Layout, metric: str) -> float:
+def _link_scale(lay: Layout, d: FloatArray, k: int) -> float:
+    """Link k's scale s_k (every present column of the link has it, :func:`_working_units`)."""
+    cols = lay.link_columns[k][lay.link_columns[k] >= 0]
+    return float(d[cols[0]]) if cols.size else 1.0
+
+
+def _objective_scale(g_mat: FloatArray, weight: float, prior: FloatArray | None, lay: Layout, metric: str,
+                     d: FloatArray) -> float:
     """With the entropic prior, the size of the objective's curvature (the data term's mean plus the
     prior's largest), by which the objective is divided; 1 otherwise (the Euclidean programs solve
     as they are)."""
     if metric != "entropic" or prior is None or not weight > 0:
         return 1.0
     data = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
-    largest = max((float(np.sum(pseudo_inertia(p10) ** 2)) for p10 in link_parameters(prior, lay)), default=1.0)
+    largest = max((_link_scale(lay, d, k) ** 2 * float(np.sum(pseudo_inertia(p10) ** 2))
+                   for k, p10 in enumerate(link_parameters(prior, lay))), default=1.0)
     return float(max(data, 1e-300) + float(weight) * largest)
+
+
+def _pow2(x: FloatArray) -> FloatArray:
+    """The power of two nearest each positive x (in the logarithm)."""
+    return np.ldexp(1.0, np.rint(np.log2(x)).astype(np.int64))
+
+
+def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArray | None, weight: float) -> FloatArray:
+    """d: the program is solved for π̂ with π = d·π̂ (contract §8). G and g are already in units of the
+    noise (divided by σ̂), so the torques' unit is gone from the data term but not from π; d per column
+    is the power of two nearest 1/‖G_c‖, one value per link (the geometric mean of its columns' norms:
+    the pseudo-inertia's cone holds J ⪰ 0 for any positive multiple of J, not for each entry scaled
+    apart; the centre-of-mass boxes and absent columns are homogeneous too), one per friction
+    coefficient and free column. The solver then sees a data matrix G·d with columns near unit norm
+    whatever the units of the torques and of the regressor: a unit changed by a power of two gives the
+    same program, bit for bit, and its solution scaled exactly. A column of zeros takes the geometric
+    mean of the others. With the entropic prior the exponential cones of log det converge with the
+    parameters near unit size: one d for every column, the power of two nearest the prior's largest
+    |value| (the prior carries the parameters' units as the data do)."""
+    if metric == "entropic" and prior is not None and weight > 0 and np.any(np.asarray(prior) != 0):
+        return np.full(g_mat.shape[1], _pow2(np.array([np.max(np.abs(prior))]))[0])
+    with np.errstate(over="ignore", under="ignore"):
+        norms = np.sqrt(np.einsum("ij,ij->j", g_mat, g_mat))
+    live = (norms > 0) & np.isfinite(norms)
+    typical = float(np.mean(np.log2(norms[live]))) if live.any() else 0.0
+    log_n = np.full(norms.shape, typical)
+    log_n[live] = np.log2(norms[live])
+    for cols in lay.link_columns:
+        cols = cols[cols >= 0]
+        known = cols[live[cols]]
+        log_n[cols] = np.mean(log_n[known]) if known.size else typical
+    return _pow2(np.exp2(-log_n))
 
 
 def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: object = None,
            prior: FloatArray | None = None, weight: float = 0.0, metric: str = "euclidean",
            what: str = "physical consistency") -> dict[str, Any]:
-    """``min ‖G π − g‖² + (the prior's term)`` over consistent π; the clipped π and the solver's record."""
+    """``min ‖G π − g‖² + (the prior's term)`` over consistent π; the clipped π and the solver's record.
+
+    Solved in working units (:func:`_working_units`): ``‖(G d) π̂ − g‖²`` and the prior's term over
+    π̂ = π/d, which is consistent exactly when π is; the answer and the duals are put back in the
+    units given."""
     cp = import_cvxpy(what)
+    d = _working_units(lay, g_mat, metric, prior, weight)
+    g_w = g_mat * d
+    prior_w = None if prior is None else np.asarray(prior, dtype=float) / d
     prog = _program(cp, lay, resolve_com_bounds(com_bounds, lay.links))
-    objective = cp.sum_squares(g_mat @ prog.pi - g_vec)
+    objective = cp.sum_squares(g_w @ prog.pi - g_vec)
     if weight > 0:
-        objective = objective + _prior_term(cp, prog, lay, prior, weight, metric)
+        objective = objective + _prior_term(cp, prog, lay, prior_w, weight, metric, d)
     # one overall scale keeps the conic solver's numbers moderate when the entropic prior's weight is
     # large (the exponential cones of log det fail to converge beyond a weight of about 100 otherwise)
-    scale = _objective_scale(g_mat, weight, prior, lay, metric)
+    scale = _objective_scale(g_w, weight, prior_w, lay, metric, d)
     problem = cp.Problem(cp.Minimize(objective / scale), prog.constraints)
     solver = "CLARABEL" if "CLARABEL" in cp.installed_solvers() else "SCS"
     start = time.perf_counter()
@@ -424,12 +479,16 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     elapsed = time.perf_counter() - start
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"{what}: the solver {solver} ended with status {problem.status!r}")
-    raw = np.asarray(prog.pi.value, dtype=float)
+    raw = d * np.asarray(prog.pi.value, dtype=float)
+    # the duals in the units given: the objective was divided by scale, link k's J and friction
+    # coefficient i by their d (a dual is the objective's rate per unit of its constraint)
+    link_d = [_link_scale(lay, d, k) for k in range(len(lay.links))]
     return {"pi": _clip(raw, lay), "solver": solver, "status": problem.status,
             "solve_time": elapsed, "solver_time": float(problem.solver_stats.solve_time or 0.0),
-            "lmi_duals": [scale * float(np.trace(c.dual_value)) for c in prog.lmis],
+            "lmi_duals": [scale / s_k * float(np.trace(c.dual_value)) for c, s_k in zip(prog.lmis, link_d)],
             "friction_duals": ([] if prog.friction is None
-                               else (scale * np.asarray(prog.friction.dual_value)).tolist())}
+                               else (scale / np.array([d[c] for _, _, c in lay.friction])
+                                     * np.asarray(prog.friction.dual_value)).tolist())}
 
 
 def _clip(values: FloatArray, lay: Layout) -> FloatArray:
