@@ -135,7 +135,7 @@ def test_a_joints_unit_changes_none_of_its_per_joint_results(exponents):
 
 @lru_cache(maxsize=1)
 def _candidates():
-    ye, yv, pred, meas = _runs()
+    _, yv, pred, _ = _runs()
     return {"full": (pred + 0.2 * yv[:, :, 1], 5), "short": (pred, 4)}
 
 
@@ -146,7 +146,7 @@ def _compare(meas, candidates, yv, ye):
 @settings(max_examples=25)
 @given(_exponents(-6.0, 6.0, P), st.floats(-140.0, 140.0))
 def test_compare_does_not_depend_on_the_units(exponents, exponent):
-    ye, yv, pred, meas = _runs()
+    ye, yv, _, meas = _runs()
     s, c = _factors(exponents), 10.0**exponent
     want = _compare(meas, _candidates(), yv, ye)
     scaled = {name: (value * c, k) for name, (value, k) in _candidates().items()}
