@@ -580,3 +580,19 @@ def test_the_constrained_fit_does_not_depend_on_the_units():
     assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
     np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
                                atol=1e-3 * np.abs(ref.full_parameters).max())
+
+
+@needs_cvxpy
+def test_the_base_parameters_distance_does_not_depend_on_the_torques_unit():
+    # the same program (whitened by the estimate's covariance) behind physical_consistency of a
+    # least-squares result: d², its p-value and the binding constraints are unit-free
+    a, b, cols = _two_link_problem()
+    want = dynval.robots.base_consistency(identify(a, b, column_names=cols))
+    assert want.distance2 > 1.0 and want.solver["status"] == "optimal"
+    for c in (1e10, 1e-6, 1e-12):
+        got = dynval.robots.base_consistency(identify(a, b * c, column_names=cols))
+        assert got.solver["status"] == "optimal", c
+        assert got.distance2 == pytest.approx(want.distance2, rel=1e-5), c
+        assert [label for label, _, _ in got.binding] == [label for label, _, _ in want.binding], c
+        np.testing.assert_allclose(got.nearest_full / c, want.nearest_full, rtol=0,
+                                   atol=1e-3 * np.abs(want.nearest_full).max())

@@ -483,7 +483,11 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     # the duals in the units given: the objective was divided by scale, link k's J and friction
     # coefficient i by their d (a dual is the objective's rate per unit of its constraint)
     link_d = [_link_scale(lay, d, k) for k in range(len(lay.links))]
-    return {"pi": _clip(raw, lay), "solver": solver, "status": problem.status,
+    # the duals in working units are unit-free (a relaxation by one working unit moves the fit by
+    # about one noise σ): what decides which constraints bind (:func:`_binding`)
+    unit_free = ([scale * float(np.trace(c.dual_value)) for c in prog.lmis],
+                 [] if prog.friction is None else (scale * np.asarray(prog.friction.dual_value)).tolist())
+    return {"pi": _clip(raw, lay), "unit_free_duals": unit_free, "solver": solver, "status": problem.status,
             "solve_time": elapsed, "solver_time": float(problem.solver_stats.solve_time or 0.0),
             "lmi_duals": [scale / s_k * float(np.trace(c.dual_value)) for c, s_k in zip(prog.lmis, link_d)],
             "friction_duals": ([] if prog.friction is None
@@ -527,8 +531,9 @@ class BaseConsistency:
         ``Kπ*`` and π*, the nearest consistent parameters (π* is one of possibly many).
     binding : tuple of (str, int, tuple of int)
         The constraints that hold β̂ away: ``(label, joint, columns)`` of each link pseudo-inertia
-        and friction bound whose dual (the rate at which d² falls as the bound is relaxed) exceeds
-        ``1e-4·max(1, d²)``, largest first within links, then friction.
+        and friction bound whose dual (the rate at which d² falls as the bound is relaxed, in the
+        program's working units: unit-free) exceeds ``1e-4·max(1, d²)``, largest first within links,
+        then friction.
     solver : dict
         Solver name, status, times, and the duals of each link's LMI (trace) and friction bound.
     """
@@ -576,16 +581,18 @@ def base_consistency(result: Any, *, covariance: FloatArray | None = None, com_b
         distance2=d2, dof=r, pvalue=float(scipy.stats.chi2.sf(d2, r)),
         share=d2 / dof_resid if dof_resid > 0 else float("nan"),
         nearest_base=nearest, nearest_full=solved["pi"], binding=_binding(lay, solved, d2),
-        solver={k: v for k, v in solved.items() if k != "pi"})
+        solver={k: v for k, v in solved.items() if k not in ("pi", "unit_free_duals")})
 
 
 def _binding(lay: Layout, solved: dict[str, Any], d2: float) -> tuple[tuple[str, int, tuple[int, ...]], ...]:
-    """The constraints with a dual above ``1e-4·max(1, d²)`` (BaseConsistency.binding)."""
+    """The constraints with a dual above ``1e-4·max(1, d²)`` in working units (BaseConsistency.binding):
+    unit-free, where a dual in the units given scales with the inverse of its parameters' unit."""
     floor = 1e-4 * max(1.0, d2)
+    lmi_duals, friction_duals = solved["unit_free_duals"]
     links = [(dual, f"{lay.link_label(k)} pseudo-inertia", k, tuple(int(c) for c in lay.link_columns[k] if c >= 0))
-             for k, dual in enumerate(solved["lmi_duals"]) if dual > floor]
+             for k, dual in enumerate(lmi_duals) if dual > floor]
     friction = [(dual, f"{lay.joint_label(j)} {kind}", j, (c,))
-                for (j, kind, c), dual in zip(lay.friction, solved["friction_duals"]) if dual > floor]
+                for (j, kind, c), dual in zip(lay.friction, friction_duals) if dual > floor]
     return tuple((label, j, cols) for _, label, j, cols in sorted(links, key=lambda x: -x[0])
                  + sorted(friction, key=lambda x: -x[0]))
 
@@ -674,6 +681,7 @@ def constrained_fit(a: FloatArray, b: FloatArray, sigma2: float, column_names: S
     weight = rel_weight * float(np.sum(g_mat**2)) / p
     solved = _solve(lay, g_mat, g_vec, com_bounds=com_bounds, prior=prior_values, weight=weight,
                     metric=prior_metric, what="identify(physical=True)")
+    solved.pop("unit_free_duals")
     return {**solved, "prior_weight": rel_weight, "weight": weight, "prior_metric": prior_metric}
 
 
