@@ -567,19 +567,20 @@ def test_the_constrained_fit_does_not_depend_on_the_units():
         assert rms(full) == pytest.approx(rms(ref.full_parameters), rel=1e-6), c
         np.testing.assert_allclose(full, ref.full_parameters, rtol=0, atol=1e-3 * np.abs(ref.full_parameters).max())
         assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-4, abs=1e-6), c
-        if c == 2.0**33:  # a power of two: the same program, the answer scaled exactly
-            np.testing.assert_allclose(full, ref.full_parameters, rtol=1e-12, atol=0)
-    # without the Euclidean prior (which adds parameters in their own units) the same holds for a unit
-    # per link and per friction coefficient
-    ref = identify(a, b, column_names=cols, physical=True, prior_weight=0.0)
+        if c == 2.0**33:  # a power of two: the same program but for the prior's weights' rounding
+            np.testing.assert_allclose(full, ref.full_parameters, rtol=1e-8, atol=0)
+    # a unit per link and per friction coefficient, with the Euclidean prior (weighted per column by its
+    # link's curvature: one weight for all pulled the others 1e12 times harder) and without it
     s = np.ones(24)
     s[:10], s[10:20], s[21] = 1e6, 2.0**-20, 1e-4  # link a in one unit, link b in another, one friction
-    fit = identify(a * s, b, column_names=cols, physical=True, prior_weight=0.0)
-    assert fit.physical["status"] == "optimal"
-    assert rms(fit.full_parameters, s) == pytest.approx(rms(ref.full_parameters), rel=1e-6)
-    assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
-    np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
-                               atol=1e-3 * np.abs(ref.full_parameters).max())
+    for weight in (1e-6, 0.0):
+        ref = identify(a, b, column_names=cols, physical=True, prior_weight=weight)
+        fit = identify(a * s, b, column_names=cols, physical=True, prior_weight=weight)
+        assert fit.physical["status"] == "optimal", weight
+        assert rms(fit.full_parameters, s) == pytest.approx(rms(ref.full_parameters), rel=1e-6)
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
+        np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
+                                   atol=1e-3 * np.abs(ref.full_parameters).max())
 
 
 @needs_cvxpy

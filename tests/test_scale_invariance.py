@@ -243,7 +243,7 @@ def _one_link():
     a = rng.normal(size=(150, 12)) * np.geomspace(0.2, 20.0, 12)
     cols = [f"b:{p}" for p in ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")] + ["Fv_j", "Fc_j"]
     b = a @ truth + rng.normal(0.0, 0.01, 150)
-    return a, b, cols, identify(a, b, column_names=cols, physical=True, prior_weight=0.0)
+    return a, b, cols, identify(a, b, column_names=cols, physical=True)
 
 
 def _rms(a, b, full):
@@ -258,7 +258,7 @@ def test_the_constrained_fit_does_not_depend_on_the_units(torque, link, viscous,
     a, b, cols, want = _one_link()
     c = 10.0**torque
     s = np.concatenate([np.full(10, 10.0**link), [10.0**viscous, 10.0**coulomb]])
-    got = identify(a * s, b * c, column_names=cols, physical=True, prior_weight=0.0)
+    got = identify(a * s, b * c, column_names=cols, physical=True)
     assert got.physical["status"] == want.physical["status"] == "optimal"
     full = got.full_parameters * s / c
     assert _rms(a, b, full) == pytest.approx(_rms(a, b, want.full_parameters), rel=1e-6)

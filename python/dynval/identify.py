@@ -550,8 +550,10 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         With ``physical=True``: the parameters to pull towards where the data say little (the URDF's
         a-priori values, :meth:`dynval.robots.URDFModel.parameters`); None pulls towards zero.
     prior_weight : float
-        Weight of ``‖π − prior‖²`` relative to the mean curvature of the data term (σ²-scaled):
-        the default 1e-6 only picks one answer in the directions the data cannot see.
+        Weight of ``(π_c − prior_c)²`` relative to the curvature of the data term (σ²-scaled) in
+        its column's link (the geometric mean of ‖G_c‖² over the link's columns; its own for a
+        friction or free column), so that it does not depend on the columns' units: the default
+        1e-6 only picks one answer in the directions the data cannot see.
     prior_metric : {"euclidean", "entropic"}
         With ``physical=True``: how the prior pulls. ``"euclidean"``: ``‖π − prior‖²``.
         ``"entropic"``: each link's Bregman divergence of −log det between its pseudo-inertia and the

@@ -31,8 +31,9 @@ A model can predict a run well and still be no robot at all. Three questions, on
   solved in working units (:func:`_working_units`) so that its answer does not depend on the units of
   the torques or of the regressor (contract §8). The
   Euclidean prior π₀ (the URDF's a-priori values, or zero) with a small weight makes the answer
-  unique in the directions the data cannot see; λ is ``prior_weight`` times the mean diagonal of
-  the data term's Hessian, so ``prior_weight`` is unit-free. The entropic prior replaces each link's
+  unique in the directions the data cannot see; column c's λ_c is ``prior_weight`` times the
+  curvature of the data term in its link (:func:`_column_weights`), so ``prior_weight`` is unit-free and
+  the balance between links does not depend on their units. The entropic prior replaces each link's
   Euclidean term by the Bregman divergence of −log det between its pseudo-inertia and the prior's
   (Lee & Park 2018), which keeps J positive definite (:func:`_prior_term`).
 
@@ -372,31 +373,37 @@ def _program(cp: Any, lay: Layout, boxes: dict[str, tuple[FloatArray, FloatArray
                     pseudo_inertias=[lmi.args[0] for lmi in lmis])
 
 
-def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, weight: float,
+def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, w: FloatArray,
                 metric: str, d: FloatArray) -> Any:
-    """``weight·‖π − prior‖²`` (Euclidean; ``π = d·π̂``, ``d`` from :func:`_working_units`),
-    or with ``metric="entropic"`` each link's Bregman divergence of −log det,
-    ``2·weight·s_k²·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (s_k its link's scale; near J₀ of
-    the order of ``weight·‖s_k(J − J₀)‖²_F``, so that ``prior_weight`` reads alike; the constants are left
-    out of the objective; the divergence itself does not depend on the units), and the Euclidean term for
-    the other columns (friction, offsets)."""
+    """``Σ_c w_c·(π_c − prior_c)²`` (Euclidean; ``π = d·π̂``, ``d`` from :func:`_working_units`, ``w``
+    from :func:`_column_weights`), or with ``metric="entropic"`` each link's Bregman divergence of
+    −log det, ``2·w_k·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (w_k its columns' weight; near
+    J₀ of the order of ``w_k·‖J − J₀‖²_F``, so that ``prior_weight`` reads alike; the constants are left
+    out of the objective; the divergence itself does not depend on the units), and the Euclidean term
+    for the other columns (friction, offsets)."""
     target = 0.0 if prior is None else prior
-    # √weight·d in one constant: the solver sees the same numbers whatever the units (weight and d
-    # apart would carry the units' powers into the program)
-    root = np.sqrt(weight) * d
+    # √w·d in one constant: the solver sees the same numbers whatever the units (w and d apart would
+    # carry the units' powers into the program)
+    root = np.sqrt(w) * d
     if metric != "entropic":
         return cp.sum_squares(cp.multiply(root, prog.pi - target))
     rest = np.ones(lay.n_columns, dtype=bool)
     terms = []
     for k, jk in enumerate(prog.pseudo_inertias):
         j0 = pseudo_inertia(link_parameters(np.asarray(prior), lay)[k])
-        scale = 2.0 * weight * _link_scale(lay, d, k) ** 2 * float(np.sum(j0**2))
-        terms.append(scale * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
+        terms.append(_link_prior_weight(lay, w, d, k) * float(np.sum(j0**2))
+                     * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
         rest[lay.link_columns[k][lay.link_columns[k] >= 0]] = False
     if rest.any():
         keep = np.flatnonzero(rest)
         terms.append(cp.sum_squares(cp.multiply(root[keep], prog.pi[keep] - np.asarray(prior)[rest])))
     return cp.sum(cp.hstack(terms)) if len(terms) > 1 else terms[0]
+
+
+def _link_prior_weight(lay: Layout, w: FloatArray, d: FloatArray, k: int) -> float:
+    """2·w_k·s_k²: the entropic term's factor of ‖J₀‖²_F for link k in working units."""
+    cols = lay.link_columns[k][lay.link_columns[k] >= 0]
+    return 2.0 * float(w[cols[0]]) * _link_scale(lay, d, k) ** 2 if cols.size else 0.0
 
 
 def _link_scale(lay: Layout, d: FloatArray, k: int) -> float:
@@ -405,17 +412,17 @@ def _link_scale(lay: Layout, d: FloatArray, k: int) -> float:
     return float(d[cols[0]]) if cols.size else 1.0
 
 
-def _objective_scale(g_mat: FloatArray, weight: float, prior: FloatArray | None, lay: Layout, metric: str,
+def _objective_scale(g_mat: FloatArray, w: FloatArray, prior: FloatArray | None, lay: Layout, metric: str,
                      d: FloatArray) -> float:
     """With the entropic prior, the size of the objective's curvature (the data term's mean plus the
     prior's largest), by which the objective is divided; 1 otherwise (the Euclidean programs solve
     as they are)."""
-    if metric != "entropic" or prior is None or not weight > 0:
+    if metric != "entropic" or prior is None or not np.any(w > 0):
         return 1.0
     data = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
-    largest = max((_link_scale(lay, d, k) ** 2 * float(np.sum(pseudo_inertia(p10) ** 2))
-                   for k, p10 in enumerate(link_parameters(prior, lay))), default=1.0)
-    return float(max(data, 1e-300) + float(weight) * largest)
+    largest = max((0.5 * _link_prior_weight(lay, w, d, k) * float(np.sum(pseudo_inertia(p10) ** 2))
+                   for k, p10 in enumerate(link_parameters(prior, lay))), default=0.0)
+    return float(max(data, 1e-300) + largest)
 
 
 def _pow2(x: FloatArray) -> FloatArray:
@@ -437,7 +444,13 @@ def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArra
     |value| (the prior carries the parameters' units as the data do)."""
     if metric == "entropic" and prior is not None and weight > 0 and np.any(np.asarray(prior) != 0):
         return np.full(g_mat.shape[1], _pow2(np.array([np.max(np.abs(prior))]))[0])
-    with np.errstate(over="ignore", under="ignore"):
+    return _pow2(np.exp2(-_log_link_norms(lay, g_mat)))
+
+
+def _log_link_norms(lay: Layout, g_mat: FloatArray) -> FloatArray:
+    """log₂ of each column's norm in G, the geometric mean over a link's ten columns; a column of
+    zeros (or a link of them) takes the geometric mean of the nonzero columns (1 without any)."""
+    with np.errstate(over="ignore", under="ignore", divide="ignore"):
         norms = np.sqrt(np.einsum("ij,ij->j", g_mat, g_mat))
     live = (norms > 0) & np.isfinite(norms)
     typical = float(np.mean(np.log2(norms[live]))) if live.any() else 0.0
@@ -447,7 +460,23 @@ def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArra
         cols = cols[cols >= 0]
         known = cols[live[cols]]
         log_n[cols] = np.mean(log_n[known]) if known.size else typical
-    return _pow2(np.exp2(-log_n))
+    return log_n
+
+
+def _column_weights(lay: Layout, g_mat: FloatArray, weight: float) -> FloatArray:
+    """The Euclidean prior's weight of each column: ``weight`` (prior_weight × the data term's mean
+    curvature ΣG²/p) times its link's curvature ‖G_c‖² over that mean (:func:`_log_link_norms`), i.e.
+    prior_weight × its own link's curvature. A column's unit then scales its weight as it scales the
+    square of its parameter's change, and the prior's balance between links and friction does not
+    depend on their units (with one weight for all, a link in a unit 1e6 times smaller would pull the
+    others towards the prior 1e12 times harder)."""
+    mean = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
+    if not weight > 0 or not mean > 0 or not np.isfinite(mean):
+        return np.full(g_mat.shape[1], float(weight))
+    out: FloatArray = float(weight) * np.exp2(2.0 * _log_link_norms(lay, g_mat)) / mean
+    return out
+
+
 
 
 def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: object = None,
@@ -464,11 +493,12 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     prior_w = None if prior is None else np.asarray(prior, dtype=float) / d
     prog = _program(cp, lay, resolve_com_bounds(com_bounds, lay.links))
     objective = cp.sum_squares(g_w @ prog.pi - g_vec)
+    w = _column_weights(lay, g_mat, weight)
     if weight > 0:
-        objective = objective + _prior_term(cp, prog, lay, prior_w, weight, metric, d)
+        objective = objective + _prior_term(cp, prog, lay, prior_w, w, metric, d)
     # one overall scale keeps the conic solver's numbers moderate when the entropic prior's weight is
     # large (the exponential cones of log det fail to converge beyond a weight of about 100 otherwise)
-    scale = _objective_scale(g_w, weight, prior_w, lay, metric, d)
+    scale = _objective_scale(g_w, w, prior_w, lay, metric, d)
     problem = cp.Problem(cp.Minimize(objective / scale), prog.constraints)
     solver = "CLARABEL" if "CLARABEL" in cp.installed_solvers() else "SCS"
     start = time.perf_counter()
