@@ -597,3 +597,21 @@ def test_the_base_parameters_distance_does_not_depend_on_the_torques_unit():
         assert [label for label, _, _ in got.binding] == [label for label, _, _ in want.binding], c
         np.testing.assert_allclose(got.nearest_full / c, want.nearest_full, rtol=0,
                                    atol=1e-3 * np.abs(want.nearest_full).max())
+
+
+def test_an_optimal_answer_that_the_clip_moves_is_not_called_optimal():
+    # A solver that stops "optimal" with a pseudo-inertia well outside the cone (what tiny units did
+    # to Clarabel) is clipped into it; when the clip raises the fit's sum of squares beyond 1e-6 of
+    # it, the status says so instead of repeating the solver's "optimal".
+    from dynval.report import _consistency
+
+    rng = np.random.default_rng(41)
+    g = rng.normal(size=(12, 12))
+    inside = np.concatenate([body(2.0, (0.1, 0.0, 0.0), (0.1, 0.2, 0.25)), [0.5, 0.4]])
+    outside = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)), [0.5, -0.4]])
+    lay = _consistency.layout(names())
+    for pi, expected in ((inside, "optimal"), (outside, "optimal_inaccurate")):
+        # the data's own least-squares point, returned as the constrained optimum
+        got = _consistency._checked_status("optimal", g, g @ pi, pi, _consistency._clip(pi, lay))
+        assert got == expected
+    assert _consistency._checked_status("optimal_inaccurate", g, g @ inside, inside, inside) == "optimal_inaccurate"

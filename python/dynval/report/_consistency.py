@@ -510,6 +510,8 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"{what}: the solver {solver} ended with status {problem.status!r}")
     raw = d * np.asarray(prog.pi.value, dtype=float)
+    clipped = _clip(raw, lay)
+    status = _checked_status(str(problem.status), g_w, g_vec, raw / d, clipped / d)
     # the duals in the units given: the objective was divided by scale, link k's J and friction
     # coefficient i by their d (a dual is the objective's rate per unit of its constraint)
     link_d = [_link_scale(lay, d, k) for k in range(len(lay.links))]
@@ -517,12 +519,32 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     # about one noise σ): what decides which constraints bind (:func:`_binding`)
     unit_free = ([scale * float(np.trace(c.dual_value)) for c in prog.lmis],
                  [] if prog.friction is None else (scale * np.asarray(prog.friction.dual_value)).tolist())
-    return {"pi": _clip(raw, lay), "unit_free_duals": unit_free, "solver": solver, "status": problem.status,
+    return {"pi": clipped, "unit_free_duals": unit_free, "solver": solver, "status": status,
             "solve_time": elapsed, "solver_time": float(problem.solver_stats.solve_time or 0.0),
             "lmi_duals": [scale / s_k * float(np.trace(c.dual_value)) for c, s_k in zip(prog.lmis, link_d)],
             "friction_duals": ([] if prog.friction is None
                                else (scale / np.array([d[c] for _, _, c in lay.friction])
                                      * np.asarray(prog.friction.dual_value)).tolist())}
+
+
+CLIP_TOLERANCE = 1e-6
+"""The share of the data term by which the clip of the solver's answer may raise it for the answer
+still to be called ``optimal``: a solver within its tolerance moves it by about 1e-10."""
+
+
+def _checked_status(status: str, g_w: FloatArray, g_vec: FloatArray, raw_w: FloatArray, clipped_w: FloatArray) -> str:
+    """The solver's status, or ``optimal_inaccurate`` when its "optimal" answer lay so far outside the
+    consistent set that clipping it raised the data term ‖G π − g‖² (working units, in units of the
+    noise) by more than :data:`CLIP_TOLERANCE` of it (and of 1): the answer returned is then not the
+    optimum the status claims."""
+    if status != "optimal":
+        return status
+    with np.errstate(over="ignore", invalid="ignore"):
+        before = float(np.sum((g_w @ raw_w - g_vec) ** 2))
+        after = float(np.sum((g_w @ clipped_w - g_vec) ** 2))
+    if not np.isfinite(after) or after - before > CLIP_TOLERANCE * max(1.0, before):
+        return "optimal_inaccurate"
+    return status
 
 
 def _clip(values: FloatArray, lay: Layout) -> FloatArray:
