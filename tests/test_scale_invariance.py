@@ -88,7 +88,7 @@ def _same_numbers(got, want, rtol):
 # --------------------------------------------------------------------------- validate and compare
 
 
-@settings(max_examples=25)
+@settings(max_examples=50)
 @given(_exponents(-6.0, 6.0, P))
 def test_validate_does_not_depend_on_a_columns_unit(exponents):
     ye, yv, pred, meas = _runs()
@@ -106,7 +106,7 @@ def test_validate_does_not_depend_on_a_columns_unit(exponents):
     assert [c[:3] for c in cc["top_cells"]] == [c[:3] for c in cc0["top_cells"]]  # the heatmap's cells
 
 
-@settings(max_examples=20)
+@settings(max_examples=30)
 @given(st.floats(-140.0, 140.0))
 def test_validate_does_not_depend_on_the_torques_unit(exponent):
     ye, yv, pred, meas = _runs()
@@ -119,7 +119,7 @@ def test_validate_does_not_depend_on_the_torques_unit(exponent):
     assert got.per_joint["rmse"] == pytest.approx(c * want.per_joint["rmse"], rel=1e-12)
 
 
-@settings(max_examples=20)
+@settings(max_examples=30)
 @given(_exponents(-6.0, 6.0, M))
 def test_a_joints_unit_changes_none_of_its_per_joint_results(exponents):
     ye, yv, pred, meas = _runs()
@@ -143,7 +143,7 @@ def _compare(meas, candidates, yv, ye):
     return dynval.compare(meas, candidates, regressor=yv, max_lag=10, estimation={"regressor": ye})
 
 
-@settings(max_examples=25)
+@settings(max_examples=50)
 @given(_exponents(-6.0, 6.0, P), st.floats(-140.0, 140.0))
 def test_compare_does_not_depend_on_the_units(exponents, exponent):
     ye, yv, _, meas = _runs()
@@ -251,7 +251,7 @@ def _rms(a, b, full):
 
 
 @pytest.mark.skipif(not HAVE_CVXPY, reason="cvxpy (the physical extra) is not installed")
-@settings(max_examples=6)
+@settings(max_examples=10)
 @given(st.floats(-12.0, 12.0), st.floats(-4.0, 4.0), st.floats(-4.0, 4.0), st.floats(-4.0, 4.0))
 def test_the_constrained_fit_does_not_depend_on_the_units(torque, link, viscous, coulomb):
     # the torques' unit, the link's (its ten columns alike) and each friction coefficient's
@@ -282,7 +282,7 @@ def _streamed_reference():
     return _streamed(meas, pred, yv)
 
 
-@settings(max_examples=20)
+@settings(max_examples=50)
 @given(_exponents(-140.0, 140.0, P), st.floats(-140.0, 140.0))
 def test_the_stream_does_not_depend_on_the_units(exponents, exponent):
     _, yv, pred, meas = _runs()
