@@ -438,8 +438,8 @@ def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArra
     apart; the centre-of-mass boxes and absent columns are homogeneous too), one per friction
     coefficient and free column. The solver then sees a data matrix G·d with columns near unit norm
     whatever the units of the torques and of the regressor: a unit changed by a power of two gives the
-    same program, bit for bit, and its solution scaled exactly. A column of zeros takes the geometric
-    mean of the others. With the entropic prior the exponential cones of log det converge with the
+    same data matrix bit for bit (and, up to the rounding of the prior's weights, the same program).
+    A column of zeros takes the geometric mean of the others. With the entropic prior the exponential cones of log det converge with the
     parameters near unit size: one d for every column, the power of two nearest the prior's largest
     |value| (the prior carries the parameters' units as the data do)."""
     if metric == "entropic" and prior is not None and weight > 0 and np.any(np.asarray(prior) != 0):
