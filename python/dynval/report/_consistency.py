@@ -439,9 +439,9 @@ def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArra
     coefficient and free column. The solver then sees a data matrix G·d with columns near unit norm
     whatever the units of the torques and of the regressor: a unit changed by a power of two gives the
     same data matrix bit for bit (and, up to the rounding of the prior's weights, the same program).
-    A column of zeros takes the geometric mean of the others. With the entropic prior the exponential cones of log det converge with the
-    parameters near unit size: one d for every column, the power of two nearest the prior's largest
-    |value| (the prior carries the parameters' units as the data do)."""
+    A column of zeros takes the geometric mean of the others. With the entropic prior the exponential
+    cones of log det converge with the parameters near unit size: one d for every column, the power of
+    two nearest the prior's largest |value| (the prior carries the parameters' units as the data do)."""
     if metric == "entropic" and prior is not None and weight > 0 and np.any(np.asarray(prior) != 0):
         return np.full(g_mat.shape[1], _pow2(np.array([np.max(np.abs(prior))]))[0])
     return _pow2(np.exp2(-_log_link_norms(lay, g_mat)))
