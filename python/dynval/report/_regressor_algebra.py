@@ -337,6 +337,15 @@ def zero_columns(norms: np.ndarray, tol: float = _ROUNDOFF_COLUMN) -> np.ndarray
     return norms <= tol * float(np.median(nonzero))
 
 
+def unit_norm_columns(x: np.ndarray) -> np.ndarray:
+    """The columns of x (rows × k) divided by their norms, zero columns (:func:`zero_columns`) left
+    out: what a least squares whose coefficients are not reported (the model's own columns as
+    nuisance terms) is solved on, so that its rank decision does not depend on the columns' units."""
+    norms = _column_norms(x)
+    keep = ~zero_columns(norms)
+    return np.asarray(x[:, keep] / norms[keep])
+
+
 def _gram_singular_values(gram, norms):
     """Raw and column-scaled singular values from the Gram matrix when it decides them (every
     column nonzero, both condition numbers below _NORMAL_EQUATIONS_COND²/100 = 1e6), else None."""
