@@ -8,9 +8,10 @@ column's own normalisation does (the stream's cross-correlation); the torques' c
 1e-140..1e140 (contract §1.3).
 
 Each property catches a comparison of one column's or signal's size with another's: the zero test
-against the largest norm (validate, compare, the design section, identify), a weight or tolerance
-in the units of the data (identify(physical=True)), a sum formed across columns of different units
-(the stream).
+against the largest norm (validate, compare, the design section, identify), a rank decision of a least
+squares or pseudo-inverse on raw columns (the estimation refit, the physics and periodic sections'
+nuisance refits), a weight or tolerance in the units of the data (identify(physical=True)), a sum
+formed across columns of different units (the stream).
 """
 
 from __future__ import annotations
