@@ -623,3 +623,83 @@ def test_an_unreadable_urdf_path_is_refused_by_name(tmp_path, make, why):
     with pytest.raises(dynval.InvalidParameter, match="the path of a readable URDF file, got") as info:
         physical_consistency(path)
     assert repr(str(path)) in str(info.value) and why in str(info.value)
+
+
+def _two_link_problem(seed=37, n=300):
+    """Two links (one impossible: 0.1 + 0.1 < 0.3) and their friction, columns of unequal sizes."""
+    truth = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)),
+                            body(0.5, (0.0, 0.1, 0.0), (0.01, 0.02, 0.02)), [0.5, -0.4, 0.1, 0.2]])
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, 24)) * np.geomspace(0.1, 30.0, 24)
+    cols = ([f"a:{p}" for p in PARAMS] + [f"b:{p}" for p in PARAMS] + ["Fv_j1", "Fc_j1", "Fv_j2", "Fc_j2"])
+    return a, a @ truth + rng.normal(0.0, 0.05, n), cols
+
+
+@needs_cvxpy
+def test_the_constrained_fit_does_not_depend_on_the_units():
+    # N2: the same data with torques in a unit 1e10 times smaller gave a fit 14 times worse,
+    # reported "optimal"; 1e5 moved the parameters by half; 1e-6 raised RuntimeError. The program
+    # is solved in working units (contract §8): the torques' unit, and a unit per link (its ten
+    # columns alike) or per friction coefficient, scale the answer and change nothing else.
+    a, b, cols = _two_link_problem()
+    ref = identify(a, b, column_names=cols, physical=True)
+    assert ref.physical["status"] == "optimal"
+
+    def rms(full, scale=1.0):
+        return float(np.sqrt(np.mean((b - a @ (full * scale)) ** 2)))
+
+    for c in (2.0**33, 1e10, 1e5, 1e-6, 1e-12):
+        fit = identify(a, b * c, column_names=cols, physical=True)
+        assert fit.physical["status"] == "optimal", c
+        full = fit.full_parameters / c
+        assert rms(full) == pytest.approx(rms(ref.full_parameters), rel=1e-6), c
+        np.testing.assert_allclose(full, ref.full_parameters, rtol=0, atol=1e-3 * np.abs(ref.full_parameters).max())
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-4, abs=1e-6), c
+        if c == 2.0**33:  # a power of two: the same program but for the prior's weights' rounding
+            np.testing.assert_allclose(full, ref.full_parameters, rtol=1e-8, atol=0)
+    # a unit per link and per friction coefficient, with the Euclidean prior (weighted per column by its
+    # link's curvature: one weight for all pulled the others 1e12 times harder) and without it
+    s = np.ones(24)
+    s[:10], s[10:20], s[21] = 1e6, 2.0**-20, 1e-4  # link a in one unit, link b in another, one friction
+    for weight in (1e-6, 0.0):
+        ref = identify(a, b, column_names=cols, physical=True, prior_weight=weight)
+        fit = identify(a * s, b, column_names=cols, physical=True, prior_weight=weight)
+        assert fit.physical["status"] == "optimal", weight
+        assert rms(fit.full_parameters, s) == pytest.approx(rms(ref.full_parameters), rel=1e-6)
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
+        np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
+                                   atol=1e-3 * np.abs(ref.full_parameters).max())
+
+
+@needs_cvxpy
+def test_the_base_parameters_distance_does_not_depend_on_the_torques_unit():
+    # the same program (whitened by the estimate's covariance) behind physical_consistency of a
+    # least-squares result: d², its p-value and the binding constraints are unit-free
+    a, b, cols = _two_link_problem()
+    want = dynval.robots.base_consistency(identify(a, b, column_names=cols))
+    assert want.distance2 > 1.0 and want.solver["status"] == "optimal"
+    for c in (1e10, 1e-6, 1e-12):
+        got = dynval.robots.base_consistency(identify(a, b * c, column_names=cols))
+        assert got.solver["status"] == "optimal", c
+        assert got.distance2 == pytest.approx(want.distance2, rel=1e-5), c
+        assert [label for label, _, _ in got.binding] == [label for label, _, _ in want.binding], c
+        np.testing.assert_allclose(got.nearest_full / c, want.nearest_full, rtol=0,
+                                   atol=1e-3 * np.abs(want.nearest_full).max())
+
+
+def test_an_optimal_answer_that_the_clip_moves_is_not_called_optimal():
+    # A solver that stops "optimal" with a pseudo-inertia well outside the cone (what tiny units did
+    # to Clarabel) is clipped into it; when the clip raises the fit's sum of squares beyond 1e-6 of
+    # it, the status says so instead of repeating the solver's "optimal".
+    from dynval.report import _consistency
+
+    rng = np.random.default_rng(41)
+    g = rng.normal(size=(12, 12))
+    inside = np.concatenate([body(2.0, (0.1, 0.0, 0.0), (0.1, 0.2, 0.25)), [0.5, 0.4]])
+    outside = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)), [0.5, -0.4]])
+    lay = _consistency.layout(names())
+    for pi, expected in ((inside, "optimal"), (outside, "optimal_inaccurate")):
+        # the data's own least-squares point, returned as the constrained optimum
+        got = _consistency._checked_status("optimal", g, g @ pi, pi, _consistency._clip(pi, lay))
+        assert got == expected
+    assert _consistency._checked_status("optimal_inaccurate", g, g @ inside, inside, inside) == "optimal_inaccurate"

@@ -18,9 +18,11 @@ The numerical rank ``r`` is the number of diagonal entries with::
 
 — the tolerance numpy's ``matrix_rank`` uses for singular values, applied to the pivoted-QR
 diagonal, which bounds the singular values from above and below within a factor of the matrix size.
-Columns that are identically zero, or whose norm is at most ``rcond`` times the largest column
-norm (roundoff of a structurally zero column), are never identifiable and are removed before
-the factorization. The first ``r`` pivoted columns are the *base columns*; every other column is a
+Columns that are identically zero, or whose norm is at most 1e-13 of the median norm of the
+nonzero columns (roundoff of a structurally zero column; the rule of the report's design section,
+``dynval.report._regressor_algebra.zero_columns``), are never identifiable and are removed before
+the factorization. Compared with the median, not the largest, no column's unit changes another
+column's status (contract §4). The first ``r`` pivoted columns are the *base columns*; every other column is a
 linear combination of them, ``Y_d = Y_b β``, and the quantity that the data determine is the base
 parameter ``π_b + β π_d`` (:attr:`IdentificationResult.combination`).
 
@@ -80,6 +82,7 @@ from .checks._validation import (
 )
 from .kernels._blas import one_blas_thread
 from .report import _consistency
+from .report._regressor_algebra import zero_columns
 from .statistics import _coverage
 from .statistics._coverage import CoverageTest
 
@@ -593,10 +596,9 @@ def _pivoted_qr(a: FloatArray, rcond: float, with_q: bool = True) -> dict[str, A
     ``a``, in pivot order), or None when no column is kept or the rank is 0.
     """
     scale = np.sqrt(np.einsum("ij,ij->j", a, a))
-    # A column whose norm is within rcond of the largest is roundoff of a structurally zero
-    # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
-    # independent and be "identified" from noise.
-    nonzero = np.flatnonzero(scale > rcond * scale.max())
+    # A column whose norm is roundoff of a structurally zero column (cos(π/2) = 6e-17 in a
+    # kinematic chain) would look independent scaled to unit norm and be "identified" from noise.
+    nonzero = np.flatnonzero(~zero_columns(scale))
     if nonzero.size == 0:
         return None
     a_s = a[:, nonzero] / scale[nonzero]
@@ -633,8 +635,8 @@ def base_set(a: FloatArray, rcond: float) -> dict[str, Any]:
     """The base columns of ``a`` (rows × p, or any matrix with its R factor, such as that R).
 
     The reduction :func:`identify` makes, without solving: ``rank``, ``base`` (ascending),
-    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (columns
-    whose norm is at most ``rcond`` times the largest), ``combination`` (rank × p: each base
+    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (zero
+    columns: norm 0 or roundoff, ``_regressor_algebra.zero_columns``), ``combination`` (rank × p: each base
     parameter as a combination of the columns) and ``pivots`` (``|R_kk|`` relative to ``|R_00|``).
     """
     p = a.shape[1]
@@ -741,8 +743,10 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         With ``physical=True``: the parameters to pull towards where the data say little (the URDF's
         a-priori values, :meth:`dynval.robots.URDFModel.parameters`); None pulls towards zero.
     prior_weight : float
-        Weight of ``‖π − prior‖²`` relative to the mean curvature of the data term (σ²-scaled):
-        the default 1e-6 only picks one answer in the directions the data cannot see.
+        Weight of ``(π_c − prior_c)²`` relative to the curvature of the data term (σ²-scaled) in
+        its column's link (the geometric mean of ‖G_c‖² over the link's columns; its own for a
+        friction or free column), so that it does not depend on the columns' units: the default
+        1e-6 only picks one answer in the directions the data cannot see.
     prior_metric : {"euclidean", "entropic"}
         With ``physical=True``: how the prior pulls. ``"euclidean"``: ``‖π − prior‖²``.
         ``"entropic"``: each link's Bregman divergence of −log det between its pseudo-inertia and the

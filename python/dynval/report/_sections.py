@@ -25,6 +25,7 @@ from ._regressor_algebra import (
     _r_factor,
     _stacked_r,
     column_largest,
+    zero_columns,
 )
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
@@ -548,7 +549,6 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
     condition number over the combinations the validation run excites. ``r_factor(k)`` is R of the
     stacked validation regressor (``n_rows`` rows) scaled by 2^-k."""
     p = norms.shape[0]
-    tiny = np.finfo(float).tiny
     with_est = est is not None and est.shape[1] == p
     est_norms = _column_norms(est) if with_est else None
     fast = _gram_singular_values(gram, norms) if gram is not None else None
@@ -559,7 +559,7 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
                                "structural": [] if with_est else None, "identifiable_rank": p if with_est else None,
                                "identifiable_columns": everything if with_est else None, "validation_rank": p}
     else:
-        zero_v = norms <= _RANK_TOL * max(float(norms.max(initial=0.0)), tiny)
+        zero_v = zero_columns(norms)
         both = np.hypot(norms, est_norms) if with_est else norms
         k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
         every = np.arange(p)
@@ -567,7 +567,7 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
         structural: list[int] | None = None
         unidentifiable: list[int] = []
         if with_est:
-            zero_s = both <= _RANK_TOL * max(float(both.max(initial=0.0)), tiny)
+            zero_s = zero_columns(both)
             nz = np.flatnonzero(~zero_s)
             base = np.zeros(0, dtype=np.intp)
             if nz.size:
