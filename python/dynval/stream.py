@@ -65,6 +65,7 @@ from .checks._options import (
     to_setting,
 )
 from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .kernels._reference.information import _pooled_sum, assemble, fit_term_from_sums
 from .kernels._reference.portmanteau import chi2_logsf
@@ -73,6 +74,7 @@ from .metrics._results import ZeroMeanTest
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
+from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
 
@@ -711,6 +713,8 @@ class _Moments:
     sigma: np.ndarray | None  # EᵀE/N (full noise model), scaled by 4^-max(exp_e)
     exp_e: np.ndarray
     exp_t: np.ndarray
+    cur1: np.ndarray | None = None  # (m,) Σ(e − ē) over the current elements of the lag-1 pairs, scaled
+    lag1: np.ndarray | None = None  # (m,) and over their lagged elements
 
 
 def _moments(st: State | _Snapshot) -> _Moments:
@@ -741,9 +745,11 @@ def _moments(st: State | _Snapshot) -> _Moments:
         centred = np.ldexp(st.gram.value() - np.outer(s, s) / n, shift[:, None] + shift[None, :])
         mean_c = np.ldexp(mean_e, shift)
         sigma = centred / n + np.outer(mean_c, mean_c)  # not demeaned (MATLAB's multi-output convention)
+    lagged = cur.shape[0] > 1
     return _Moments(n=n, m=m, mean_e=mean_e, cov_e=cov_e, e_constant=e_constant, mean_t=st.k_t + s_t / n,
                     tss=tss, t_constant=t_constant, pairs=pairs, cov_ey=cov_ey, ss_y=ss_y, y_constant=y_constant,
-                    sigma=sigma, exp_e=st.exp_e, exp_t=st.exp_t)
+                    sigma=sigma, exp_e=st.exp_e, exp_t=st.exp_t,
+                    cur1=cur[1] - pairs[1] * a if lagged else None, lag1=lag[1] - pairs[1] * a if lagged else None)
 
 
 def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.ndarray, n: int,
@@ -853,6 +859,29 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
+def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray,
+               longest: int) -> tuple[dict[str, Any] | None, str | None]:
+    """``validate``'s bias test (contract §3.3, docs/conventions.md §5.4) from the lagged sums: the
+    same prewhitened Bartlett long-run variance, its autocovariances the stream's, corrected at the
+    stream's two ends with the rows the state keeps there (the junctions of inner segments are
+    left out, O(bandwidth/N)). None, and why, when Andrews' bandwidth needs more lags than the
+    stream holds."""
+    assert mo.cur1 is not None and mo.lag1 is not None  # lags are held
+    held = mo.cov_e.shape[0] - 1
+
+    def centred(rows: np.ndarray, length: int) -> np.ndarray | None:
+        # the rows of a segment longer than the lags held (the end terms assume it), in the sums' units
+        return np.ldexp(rows, -mo.exp_e[None]) - mo.mean_e if length > held and rows.shape[0] >= held else None
+
+    lr, needed = _stats.long_run_variance_from_sums(
+        mo.cov_e, mo.pairs, mo.n, mo.cur1, mo.lag1, longest,
+        head=centred(st.head_e, st.lengths[0]), tail=centred(st.tail_e, st.lengths[-1]))
+    if lr is None:
+        return None, (f"its bandwidth needs the residual's autocovariance at {needed} lags and the stream holds "
+                      f"{held}: pass max_lag={needed} or more")
+    return sec.bias_from_long_run(mo.mean_e, lr, mo.n, rmse, exponents=mo.exp_e), None
+
+
 def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict[str, Any]:
     """ρ of the residual with every regressor column at lags 0..max_lag (contract §3.6) and the
     white band; the colour-aware fields of ``validate``'s section need whole series (§4.1)."""
@@ -877,6 +906,19 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
+def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
+    """The tests ``validate`` would add to the Holm family on the same data that a stream leaves
+    out: every spectral bin it tests on each varying joint, and the colour-aware cross-correlation's
+    cells (docs/conventions.md §5)."""
+    count = 0
+    if b.acf is not None:
+        varying = int(np.count_nonzero(~mo.e_constant & (mo.cov_e[0] > 0)))
+        count += varying * _stats.spectrum_tests_per_joint(starts, mo.n)
+    if b.cross is not None:
+        count += int(np.count_nonzero(np.isfinite(b.cross["rho"])))
+    return count
+
+
 def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None) -> ValidationReport:
     """The sections mergeable sums allow (no spectrum, bias test, design or motion: they need the
@@ -898,7 +940,13 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
     b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
                    "variance": np.asarray(b.km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
                    "zero_mean_test": zmt}
-    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, None)
+    skipped: dict[str, str] = {}
+    if lagged:
+        b.bias, why = _bias_test(mo, st, b.per_joint["rmse"], lags.longest)
+        if why is not None:
+            skipped["bias"] = why
+    b.n_eff = None if b.bias is None else b.bias["n_eff"]
+    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, b.n_eff)
     b.lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
     if lagged:
         b.acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
@@ -906,6 +954,10 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
             b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
     b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
-    s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True)
+    b.untested = _untested_count(mo, b, starts)
+    given = {"lags"} if lagged else set()
+    given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
+    s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True,
+                   not_tested=not_tested("stream", given, skipped))
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)

@@ -116,20 +116,29 @@ def bias_test(e, starts, rmse, parameter_variance=None):
     (m,), from the estimation run, is the variance the mean gets from the estimated parameters
     (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
     """
-    lr = _stats.long_run_variance(e, starts)
-    mean = e.mean(axis=0)
-    n = e.shape[0]
+    return bias_from_long_run(e.mean(axis=0), _stats.long_run_variance(e, starts), e.shape[0], rmse,
+                              parameter_variance)
+
+
+def bias_from_long_run(mean, lr, n, rmse, parameter_variance=None, exponents=None):
+    """:func:`bias_test` from the mean and the long-run variance ``lr`` (m,) of each joint.
+
+    ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
+    contract §4.1); the test does not see the unit, the reported mean and errors are unscaled.
+    """
     std = np.sqrt(lr.variance * n / max(n - 1, 1))
     noise_var = std**2 / lr.n_eff
     total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
     # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
     t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
+    k = np.zeros(np.shape(mean), dtype=np.int64) if exponents is None else np.asarray(exponents)
+    mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
     with np.errstate(invalid="ignore", divide="ignore"):
         effect = np.abs(mean) / np.asarray(rmse, dtype=float)
     out = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
            "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
            "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
-           "standard_error": np.sqrt(total_var)}
+           "standard_error": standard_error}
     if parameter_variance is not None:
         out["method"] = "student_t_n_eff_with_parameter_error"
         out["parameter_standard_error"] = np.sqrt(parameter_variance)
@@ -488,8 +497,10 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
-    """Collect what the findings' rules read."""
+             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None,
+             untested=0) -> Evidence:
+    """Collect what the findings' rules read (``untested``: tests the entry point left out, which
+    count in Holm's family, docs/conventions.md §5)."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
                   omitted_rows=omitted, force_finite=force)
@@ -521,7 +532,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.detectable_share = design.get("detectable_share")
         ev.noise_n_eff = design.get("noise_n_eff")
     ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
-    ev.timing, ev.bandwidth = timing, bandwidth
+    ev.timing, ev.bandwidth, ev.untested = timing, bandwidth, int(untested)
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]

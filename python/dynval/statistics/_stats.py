@@ -33,6 +33,7 @@ __all__ = [
     "acf_fft",
     "LongRunVariance",
     "long_run_variance",
+    "long_run_variance_from_sums",
     "bartlett_long_run_variance",
     "andrews_bandwidth",
     "score_covariance",
@@ -42,6 +43,7 @@ __all__ = [
     "correlation_pvalue",
     "Spectrum",
     "residual_spectrum",
+    "spectrum_tests_per_joint",
     "information_bandwidth",
     "decimate_segments",
 ]
@@ -305,6 +307,110 @@ def long_run_variance(e, starts) -> LongRunVariance:
                            bandwidth=bandwidth)
 
 
+def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, head=None,
+                                tail=None) -> tuple[LongRunVariance | None, int]:
+    """:func:`long_run_variance` from lagged sums, as a stream keeps them (contract §4.1).
+
+    ``cov`` (K+1, m): Σ x_t x_{t−ℓ} over the lag-ℓ pairs inside segments, x centred on the overall
+    mean, ℓ = 0..K; ``pairs`` (K+1,) their counts; ``cur1``, ``lag1`` (m,): Σ x over the current and
+    over the lagged elements of the lag-1 pairs; ``longest``: the longest segment's length;
+    ``head``, ``tail`` (≥ K rows, m): the centred x of the first segment's first rows and of the last
+    segment's last rows, when that segment is longer than K (None otherwise).
+
+    The prewhitened u_t = x_t − φ̂x_{t−1} (t past each segment's first row) has the lagged sums
+    Σ u_t u_{t−j} = (1 + φ̂²)P_j − φ̂(P_{j+1} + P_{|j−1|}) less a few products at each segment's first
+    and last rows. Those at the stream's two ends come from ``head`` and ``tail``, so that one
+    segment gives the whole series' estimate to rounding; those at the junctions of the segments
+    inside are not kept and are left out, O(j/N) of the sums (docs/conventions.md §5.4). Lag j of u
+    needs lag j + 1 of x: returns ``(None, L + 1)`` when the bandwidth L that Andrews' rule picks
+    needs more than the K lags held, else ``(estimate, L + 1)``.
+    """
+    cov = np.asarray(cov, dtype=np.float64)
+    pairs = np.asarray(pairs, dtype=np.float64)
+    held, m = cov.shape[0] - 1, cov.shape[1]
+    variance = cov[0] / n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho1 = cov[1] / cov[0] if held >= 1 and n > 1 else np.full(m, np.nan)
+    phi = np.clip(np.nan_to_num(rho1, nan=0.0), -0.999, 0.999)
+    nu = int(pairs[1]) if held >= 1 else 0
+    bandwidth = np.zeros(m, dtype=np.int64)
+    lrv_u = np.full(m, np.nan)
+    needed = 2
+    if nu >= 2:
+        if held < 2:
+            return None, needed
+        ends = _EndTerms(phi, head, tail)
+        u_total = np.asarray(cur1) - phi * np.asarray(lag1)
+        u_mean = u_total / nu
+
+        def gamma_u(j: np.ndarray) -> np.ndarray:
+            """Σ(u_t − ū)(u_{t−j} − ū) over u's lag-j pairs, j = 0..J (rows)."""
+            raw = (1.0 + phi**2) * cov[j] - phi * (cov[j + 1] + cov[np.abs(j - 1)]) + ends.products(j)
+            cur, lag = ends.sums(j, u_total)
+            return raw - u_mean * (cur + lag) + pairs[j + 1][:, None] * u_mean**2
+
+        head_sums = gamma_u(np.arange(2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho_u1 = head_sums[1] / head_sums[0]
+        bandwidth = np.maximum(np.minimum(andrews_bandwidth(np.nan_to_num(rho_u1), nu), longest - 2), 0)
+        needed = int(bandwidth.max()) + 1
+        if needed > held:
+            return None, needed
+        g = gamma_u(np.arange(needed))
+        lrv_u = np.empty(m)
+        for j in range(m):
+            lags = np.arange(1, bandwidth[j] + 1)
+            w = 1.0 - lags / (bandwidth[j] + 1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rho = g[1:bandwidth[j] + 1, j] / g[0, j]
+            lrv_u[j] = g[0, j] / nu * (1.0 + 2.0 * float(np.nansum(w * rho)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lrv = lrv_u / (1.0 - phi) ** 2
+        n_eff = n * variance / lrv
+    n_eff = np.where(np.isfinite(n_eff) & (variance > 0), np.clip(n_eff, 2.0, float(n)), float(n))
+    return LongRunVariance(variance=variance, long_run_variance=lrv, n_eff=n_eff, phi=phi, bandwidth=bandwidth), needed
+
+
+class _EndTerms:
+    """What the prewhitened sums of :func:`long_run_variance_from_sums` lose at a segment's first
+    rows x_s.. (``head``) and last rows ..x_{E−1} (``tail``), u_t = x_t − φx_{t−1} for t > s.
+
+    For lag j ≥ 1 the pairs of u miss x_{s+j}x_s and x_{E−1}x_{E−1−j} once and x_{s+j−1}x_s,
+    x_{E−1}x_{E−j} with weight −φ; for j = 0, x_s² and φ²x_{E−1}². The sums of u over the current
+    (lagged) elements of its lag-j pairs miss the first (last) j values of u."""
+
+    def __init__(self, phi: np.ndarray, head, tail) -> None:
+        self.phi = phi
+        self.head = None if head is None else np.asarray(head, dtype=np.float64)
+        self.tail = None if tail is None else np.asarray(tail, dtype=np.float64)[::-1]  # x_{E−1}, x_{E−2}, ...
+
+    def products(self, j: np.ndarray) -> np.ndarray:
+        phi, out = self.phi, np.zeros((j.size, self.phi.size))
+        later = j >= 1
+        if self.head is not None:
+            h = self.head
+            out -= h[j] * h[0]
+            out[later] += phi * h[j[later] - 1] * h[0]
+        if self.tail is not None:
+            t = self.tail
+            out[~later] -= phi**2 * t[0] ** 2
+            out[later] += phi * t[0] * t[j[later] - 1] - phi**2 * t[0] * t[j[later]]
+        return out
+
+    def sums(self, j: np.ndarray, total: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Σ u over the current and over the lagged elements of u's lag-j pairs."""
+        cur = np.broadcast_to(total, (j.size, total.size)).copy()
+        lag = cur.copy()
+        top = int(j.max()) if j.size else 0
+        if self.head is not None and top:
+            u = self.head[1:top + 1] - self.phi * self.head[:top]  # u_{s+1}, ..., u_{s+top}
+            cur -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
+        if self.tail is not None and top:
+            u = self.tail[:top] - self.phi * self.tail[1:top + 1]  # u_{E−1}, u_{E−2}, ...
+            lag -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
+        return cur, lag
+
+
 def score_covariance(x, e, starts=None) -> np.ndarray:
     """Var(Σ_k Σ_j x_kj e_kj) for fixed columns x (N, m, p) and a coloured noise e (N, m).
 
@@ -471,6 +577,15 @@ def _default_nperseg(starts, n, nperseg):
     if nperseg is None:
         nperseg = int(min(1024, max(16, 2 ** int(math.floor(math.log2(max(lengths.max() // 8, 16)))))))
     return int(min(nperseg, lengths.max()))
+
+
+def spectrum_tests_per_joint(starts, n: int, inner: int = 3, outer: int = 10) -> int:
+    """How many bins :func:`residual_spectrum` tests on a joint whose residual varies, for N rows in
+    segments starting at ``starts`` (0 when no segment holds a Welch window)."""
+    nperseg = _default_nperseg(starts, n, None)
+    f_count = nperseg // 2 + 1
+    left, right = _side_medians(np.zeros(f_count), inner, outer)
+    return int(np.count_nonzero(np.isfinite(left) & np.isfinite(right)))
 
 
 def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None,

@@ -1,0 +1,146 @@
+"""The coloured-noise bias test of a streamed report (contract §4.1, docs/conventions.md §5.4).
+
+A stream computes ``validate``'s bias test from its lag sums: with one segment it must equal the
+whole series' test to rounding, across segments within the stated O(L/N) tolerance, and where it
+cannot run (a bandwidth past the lags held) the report must say so rather than read as clean.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.signal
+
+import dynval
+from dynval.cli import main
+from dynval.stream import ValidationAccumulator
+
+
+def _streamed(tau, pred, *, backend, chunk=733, segments=None, **kw):
+    acc = ValidationAccumulator(backend=backend, **kw)
+    start = 0
+    for length in segments or [tau.shape[0]]:
+        for a in range(start, start + length, chunk):
+            b = min(a + chunk, start + length)
+            acc.update(tau[a:b], pred[a:b])
+        acc.break_segment()
+        start += length
+    return acc.result()
+
+
+def _ar1(n, m, rho, seed, offset=0.0):
+    rng = np.random.default_rng(seed)
+    e = scipy.signal.lfilter([1.0], [1.0, -rho], rng.standard_normal((n, m)), axis=0) + offset
+    tau = 3.0 * rng.standard_normal((n, m))
+    return tau, tau - e
+
+
+def _pairs(report):
+    return sorted((f.kind, f.joints) for f in report.findings)
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5, 0.9, 0.99])
+def test_one_segment_equals_validate(backend, rho):
+    tau, pred = _ar1(3000, 3, rho, seed=int(rho * 100), offset=0.04)
+    got = _streamed(tau, pred, backend=backend, n_params=3).bias
+    want = dynval.validate(tau, pred, n_params=3).bias
+    assert got is not None
+    np.testing.assert_array_equal(got["bandwidth"], want["bandwidth"])
+    for key in ("mean", "std", "phi", "n_eff", "statistic", "standard_error", "effect"):
+        np.testing.assert_allclose(got[key], want[key], rtol=1e-10, atol=0, err_msg=key)
+    np.testing.assert_allclose(np.log(got["pvalue"]), np.log(want["pvalue"]), rtol=1e-8, err_msg="pvalue")
+    assert got["method"] == want["method"] and got["long_run_variance_method"] == want["long_run_variance_method"]
+
+
+def test_segments_within_the_stated_tolerance(backend):
+    """The junctions of inner segments are left out: N_eff within 2 % at N = 2000 in 3 segments, ρ ≤ 0.9."""
+    for rho in (0.5, 0.9):
+        for seed in range(3):
+            tau, pred = _ar1(2000, 2, rho, seed, offset=0.05)
+            segments = [666, 666, 668]
+            got = _streamed(tau, pred, backend=backend, n_params=2, segments=segments).bias
+            want = dynval.validate(tau, pred, n_params=2, segments=segments).bias
+            np.testing.assert_allclose(got["n_eff"], want["n_eff"], rtol=0.02)
+            np.testing.assert_allclose(got["statistic"], want["statistic"], rtol=0.02)
+
+
+def test_the_readme_offset_is_a_bias_when_streamed(backend):
+    """README "Logs larger than memory": pred = tau + 0.01, an offset of 100 % of the RMSE, gave
+    "none: ... nothing to note" streamed and seven bias deficiencies whole."""
+    tau = np.random.default_rng(0).standard_normal((20000, 7))
+    pred = tau + 0.01
+    got = _streamed(tau, pred, backend=backend, n_params=10, chunk=4096)
+    want = dynval.validate(tau, pred, n_params=10)
+    assert _pairs(got) == _pairs(want) == [("bias", (j,)) for j in range(7)]
+    assert all(f.severity == "deficiency" for f in got.findings)
+    assert "nothing to note" not in got.summary()
+
+
+def test_the_readme_example_on_the_command_line(tmp_path, capsys):
+    tau = np.random.default_rng(0).standard_normal((20000, 7))
+    np.save(tmp_path / "tau.npy", tau)
+    np.save(tmp_path / "pred.npy", tau + 0.01)
+    files = [str(tmp_path / "tau.npy"), str(tmp_path / "pred.npy"), "--n-params", "10"]
+    for extra in ([], ["--stream"]):
+        assert main(["validate", *files, *extra, "--json"]) in (0, 1)
+        report = json.loads(capsys.readouterr().out)
+        assert sorted((f["kind"], f["severity"]) for f in report["findings"]) == [("bias", "deficiency")] * 7
+    assert [t["test"] for t in report["provenance"]["not_tested"]] == ["information_rate", "spectrum"]
+    main(["validate", *files, "--stream"])
+    text = capsys.readouterr().out
+    assert "nothing to note" not in text and "not tested (2;" in text and "spectrum (oscillation):" in text
+
+
+def test_a_clean_stream_names_what_it_did_not_test(backend):
+    rng = np.random.default_rng(3)
+    tau = rng.standard_normal((5000, 2))
+    pred = tau - 0.1 * rng.standard_normal((5000, 2))
+    report = _streamed(tau, pred, backend=backend, n_params=2)
+    assert report.findings == []
+    lines = report.summary().splitlines()
+    at = lines.index("  - none from the tests this report ran: no deficiency, no design problem at this level.")
+    assert lines[at + 1] == "  - not tested (2; a finding of these kinds cannot show here):"
+    assert lines[at + 2].startswith("      information_rate (sampling_colour): ")
+    assert lines[at + 3].startswith("      spectrum (oscillation): ")
+    assert not any("nothing to note" in line for line in lines)
+    not_tested = json.loads(report.to_json())["provenance"]["not_tested"]
+    assert [(t["test"], t["kinds"]) for t in not_tested] == [("information_rate", ["sampling_colour"]),
+                                                              ("spectrum", ["oscillation"])]
+
+
+def test_a_bandwidth_past_the_lags_held_is_named_and_a_larger_max_lag_runs_it(backend):
+    """A smooth residual (AR(2), double root 0.95) needs Andrews' bandwidth ≈ 225 > the 143 lags held."""
+    rng = np.random.default_rng(7)
+    n = 20000
+    e = scipy.signal.lfilter([1.0], [1.0, -1.9, 0.9025], rng.standard_normal((n, 1)), axis=0)
+    tau = rng.standard_normal((n, 1))
+    pred = tau - e
+    want = dynval.validate(tau, pred, n_params=1).bias
+    needed = int(want["bandwidth"].max()) + 1
+    assert needed > 144
+    report = _streamed(tau, pred, backend=backend, n_params=1, chunk=5000)
+    assert report.bias is None
+    left_out = {t["test"]: t["why"] for t in report.provenance["not_tested"]}
+    assert left_out["bias"] == (f"its bandwidth needs the residual's autocovariance at {needed} lags and the stream "
+                                f"holds 143: pass max_lag={needed} or more")
+    assert "bias (bias): its bandwidth needs" in report.summary()
+    longer = _streamed(tau, pred, backend=backend, n_params=1, chunk=5000, max_lag=needed).bias
+    np.testing.assert_allclose(longer["n_eff"], want["n_eff"], rtol=1e-9)
+
+
+def test_holm_counts_the_tests_a_stream_left_out():
+    """A stream's family is validate's size: a bias significant only in a family without the
+    spectrum's bins is not a finding (it was, when the stream's family held 2m tests)."""
+    rng = np.random.default_rng(1)
+    n = 20000
+    e = scipy.signal.lfilter([1.0], [1.0, -0.8], rng.standard_normal((n, 3)), axis=0) * 0.1
+    e[:, 1] += 0.016
+    tau = rng.standard_normal((n, 3))
+    pred = tau - e
+    streamed = _streamed(tau, pred, backend="python", n_params=10, chunk=999)
+    whole = dynval.validate(tau, pred, n_params=10)
+    assert 1e-4 < streamed.bias["pvalue"][1] < 5e-3  # significant alone, not after validate's Holm
+    assert _pairs(streamed) == _pairs(whole)
+    assert ("bias", (1,)) not in _pairs(streamed)
