@@ -108,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
         "It is chosen by itself when the inputs together, decoded, exceed a quarter of this machine's memory. "
         "An array read whole may decode to at most 1 GiB as float64 (environment variable "
         "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "
-        "streamed report leaves out what needs the whole series: bias, spectrum, decimated whiteness, the "
-        "colour-aware cross-correlation fields (contract §4.1); --segments, --q, --estimation and "
-        "--decimate are refused with it.")
+        "streamed report runs the bias test from its lag sums and names under its findings what it leaves out "
+        "(spectrum, decimated whiteness, the colour-aware cross-correlation; contract §4.1); --segments, --q, "
+        "--estimation and --decimate are refused with it.")
     stream.add_argument("--stream", action="store_true", help="validate block by block (see above)")
     stream.add_argument("--chunk-rows", type=int, default=None, metavar="R",
                         help=f"rows per block when streaming (default {DEFAULT_CHUNK_ROWS})")

@@ -7,7 +7,8 @@ lists the tests of a report (what each needs from the caller in :func:`dynval.va
 finding kinds it can give); :data:`NOT_RUN` says, per entry point, which of them it leaves out and
 why. A streamed report names what it left out in its findings' closing line and in
 ``provenance["not_tested"]`` (:func:`not_tested`); ``python -m dynval.coverage`` prints the table
-(:func:`table`), and tests/test_entry_points.py checks both against what the entry points find.
+(:func:`table`; ``--write docs/contract.md`` puts it there), and tests/test_entry_points.py checks
+both against what the entry points find.
 
 Examples
 --------
@@ -21,7 +22,8 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
-__all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "not_tested", "runs", "table"]
+__all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "not_tested", "excused_kinds", "runs",
+           "table"]
 
 
 @dataclass(frozen=True)
@@ -81,7 +83,8 @@ ENTRY_POINTS = {
 
 _WHOLE = "needs the whole series"
 _STREAMED = {
-    "information_rate": f"the decimation filter {_WHOLE}",
+    "information_rate": f"the decimation filter {_WHOLE}; whiteness is tested at the logged rate, where the "
+                        "sensor's and its filters' colour counts too",
     "spectrum": f"the Welch spectrum of the residual less what the regressor explains {_WHOLE}",
     "regressor_correlation": "the colour-aware band needs each regressor column's autocorrelation, "
                              "which the streamed sums do not keep (the ρ are reported against the white band)",
@@ -146,6 +149,17 @@ def not_tested(entry: str, given: Collection[str], extra: Mapping[str, str] | No
     return out
 
 
+def excused_kinds(entry: str, given: Collection[str], decimated: bool = False) -> set[str]:
+    """The finding kinds in which ``entry``'s report may differ from ``validate``'s on the same
+    inputs: those of the tests it leaves out, and ``whiteness`` when ``validate`` decimated
+    (``decimated``: its whiteness test is then at the information rate, a different test from the
+    logged rate's that an entry point without ``information_rate`` runs)."""
+    kinds = {k for t in not_tested(entry, given) for k in t["kinds"]}  # type: ignore[attr-defined]
+    if decimated and not runs(entry, "information_rate"):
+        kinds.add("whiteness")
+    return kinds
+
+
 def table() -> str:
     """The Markdown table of docs/contract.md §4.1: one row per test, one column per entry point
     ("yes", or "no" and the reason's number; a "yes" with a note has the note's number; the reasons
@@ -176,5 +190,24 @@ def table() -> str:
     return "\n".join(lines)
 
 
+START, END = "<!-- coverage-table:start -->", "<!-- coverage-table:end -->"
+"""The markers around the table in docs/contract.md §4.1."""
+
+
+def write_table(path: str) -> None:
+    """Put :func:`table` between :data:`START` and :data:`END` in the file at ``path``."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    a, b = text.index(START) + len(START), text.index(END)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text[:a] + "\n" + table() + "\n" + text[b:])
+
+
 if __name__ == "__main__":
-    print(table())
+    import sys
+
+    # python -m dynval.coverage prints the table; --write docs/contract.md puts it there
+    if sys.argv[1:2] == ["--write"] and len(sys.argv) == 3:
+        write_table(sys.argv[2])
+    else:
+        print(table())

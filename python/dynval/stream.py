@@ -7,15 +7,19 @@ of each quantity's natural size), to ``validate`` on the concatenated data with 
 
 * point metrics pooled and per joint, their aggregates;
 * residual mean, variance (the profile's ddof) and the zero-mean test, both halves;
+* the coloured-noise bias test, ``validate``'s estimator from the lag sums (one segment: equal to
+  rounding; see contract §4.1 for several), unless its bandwidth needs more lags than are held;
 * autocorrelation with its band and Ljung–Box, across chunk boundaries, honouring segments;
 * the cross-correlation ρ with the regressor columns at lags 0..max_lag;
-* the information criteria of the noise model (not their N_eff-based variants);
+* the information criteria of the noise model, and their N_eff-based variants with the bias test;
 * with time stamps (``update(..., time=...)``), the ``timing`` section and the ``time_stamps`` note,
   a gap in the stamps ending the segment as :meth:`~ValidationAccumulator.break_segment` does.
 
-Sections that need the whole series are None or partial (``bias``, ``spectrum``, ``design`` and
+Sections that need the whole series are None or partial (``spectrum``, ``design`` and
 ``segment_metrics`` None; ``whiteness`` at the logged rate only; the cross-correlation without its
-colour-aware fields; findings from this evidence only): docs/contract.md §4.1 lists them.
+colour-aware fields; findings from this evidence only, Holm over a family of ``validate``'s size):
+docs/contract.md §4.1 lists them, and the report names every test it left out
+(``provenance["not_tested"]``, :mod:`dynval.coverage`).
 
 Two accumulators over consecutive time ranges combine with :meth:`~ValidationAccumulator.merge`
 (the argument's rows come after the accumulator's): the lags join across the junction, as they do
@@ -921,8 +925,9 @@ def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
 
 def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None) -> ValidationReport:
-    """The sections mergeable sums allow (no spectrum, bias test, design or motion: they need the
-    whole series, contract §4.1), then the assembler every report goes through."""
+    """The sections mergeable sums allow (no spectrum, design or motion: they need the whole series,
+    contract §4.1; the tests left out named in ``not_tested``), then the assembler every report
+    goes through."""
     prof = cfg.profile
     sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
