@@ -14,7 +14,9 @@ Examples
 --------
 >>> from dynval.coverage import not_tested
 >>> [t["test"] for t in not_tested("stream", {"lags"})]
-['information_rate', 'spectrum']
+['information_rate']
+>>> [t["test"] for t in not_tested("stream", {"lags", "regressor"})]
+['information_rate', 'spectrum', 'regressor_correlation', 'excitation']
 """
 
 from __future__ import annotations
@@ -22,8 +24,8 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
-__all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "not_tested", "excused_kinds", "runs",
-           "table"]
+__all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "NOT_RUN_WITH", "OFF_GRID", "RUNTIME",
+           "not_tested", "excused_kinds", "runs", "table", "write_table"]
 
 
 @dataclass(frozen=True)
@@ -82,10 +84,15 @@ ENTRY_POINTS = {
 """The entry points, by the key :data:`NOT_RUN` and :func:`not_tested` use, and how they are called."""
 
 _WHOLE = "needs the whole series"
+OFF_GRID = ("accumulators merged without a break_segment between them: the Welch windows across the junction "
+            "are not kept")
+"""Why a merged stream has no spectrum (``dynval.streaming._welch``), as dask's blocks are merged."""
+RUNTIME = ("bias", "spectrum")
+"""Tests a stream may leave out for a reason of its data, named with that reason in ``extra`` of
+:func:`not_tested`: the bias test's bandwidth beyond the lags held, a merge off the Welch grid."""
 _STREAMED = {
     "information_rate": f"the decimation filter {_WHOLE}; whiteness is tested at the logged rate, where the "
                         "sensor's and its filters' colour counts too",
-    "spectrum": f"the Welch spectrum of the residual less what the regressor explains {_WHOLE}",
     "regressor_correlation": "the colour-aware band needs each regressor column's autocorrelation, "
                              "which the streamed sums do not keep (the ρ are reported against the white band)",
     "missing_term": f"model_columns is refused: the added-variable fit {_WHOLE}",
@@ -114,7 +121,9 @@ _STREAM_WHITENESS = "at the logged rate only (no decimation)"
 CAVEATS: Mapping[str, Mapping[str, str]] = {
     "stream": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS},
     "cli_stream": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS},
-    "dask": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS},
+    "dask": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS,
+             "spectrum": "within one block only: blocks merged without a break between them lose the windows "
+                         "across the junction, and the report then names the spectrum as not tested"},
 }
 """Per entry point, how a test it runs differs from ``validate``'s (a "yes" with a note in the table)."""
 
@@ -128,10 +137,21 @@ NOT_RUN: Mapping[str, Mapping[str, str]] = {
 }
 """Per entry point, the tests of :data:`TESTS` it does not run, with the reason."""
 
+_PROJECTED = ("with a regressor, the spectrum is that of the residual less its projection on the regressor, which "
+              f"{_WHOLE}")
+NOT_RUN_WITH: Mapping[str, Mapping[str, tuple[str, str]]] = {
+    "stream": {"spectrum": ("regressor", _PROJECTED)},
+    "cli_stream": {"spectrum": ("regressor", _PROJECTED)},
+    "dask": {"spectrum": ("regressor", _PROJECTED)},
+}
+"""Per entry point, tests it runs but not when an input of :data:`INPUTS` is given: ``(input, why)``."""
 
-def runs(entry: str, test: str) -> bool:
-    """Whether ``entry`` (a key of :data:`ENTRY_POINTS`) runs ``test`` when given what it needs."""
-    return test not in NOT_RUN[entry]
+
+def runs(entry: str, test: str, given: Collection[str] = ()) -> bool:
+    """Whether ``entry`` (a key of :data:`ENTRY_POINTS`) runs ``test`` when given what it needs
+    and the inputs ``given``."""
+    unless = NOT_RUN_WITH.get(entry, {}).get(test)
+    return test not in NOT_RUN[entry] and not (unless is not None and unless[0] in given)
 
 
 def not_tested(entry: str, given: Collection[str], extra: Mapping[str, str] | None = None) -> list[dict[str, object]]:
@@ -142,7 +162,9 @@ def not_tested(entry: str, given: Collection[str], extra: Mapping[str, str] | No
     extra = dict(extra or {})
     out: list[dict[str, object]] = []
     for t in TESTS:
-        why = extra.pop(t.name, None) or (NOT_RUN[entry].get(t.name) if set(t.needs) <= set(given) else None)
+        unless = NOT_RUN_WITH.get(entry, {}).get(t.name)
+        declared = NOT_RUN[entry].get(t.name) or (unless[1] if unless is not None and unless[0] in given else None)
+        why = extra.pop(t.name, None) or (declared if set(t.needs) <= set(given) else None)
         if why:
             out.append({"test": t.name, "kinds": list(t.kinds), "why": why})
     assert not extra, f"unknown tests {sorted(extra)}"
@@ -155,7 +177,7 @@ def excused_kinds(entry: str, given: Collection[str], decimated: bool = False) -
     (``decimated``: its whiteness test is then at the information rate, a different test from the
     logged rate's that an entry point without ``information_rate`` runs)."""
     kinds = {k for t in not_tested(entry, given) for k in t["kinds"]}  # type: ignore[attr-defined]
-    if decimated and not runs(entry, "information_rate"):
+    if decimated and not runs(entry, "information_rate", given):
         kinds.add("whiteness")
     return kinds
 
@@ -178,10 +200,14 @@ def table() -> str:
         cells = []
         for k in keys:
             why, note = NOT_RUN[k].get(t.name), CAVEATS.get(k, {}).get(t.name)
+            unless = NOT_RUN_WITH.get(k, {}).get(t.name)
             if why is not None:
                 cells.append(f"no ({numbered(why)})")
-            else:
-                cells.append("yes" if note is None else f"yes ({numbered(note)})")
+                continue
+            cell = "yes" if note is None else f"yes ({numbered(note)})"
+            if unless is not None:
+                cell += f"; with `{INPUTS[unless[0]]}` no ({numbered(unless[1])})"
+            cells.append(cell)
         needs = ", ".join(f"`{INPUTS[n]}`" for n in t.needs) or "—"
         kinds = ", ".join(f"`{k}`" for k in t.kinds)
         lines.append(f"| {t.name}: {t.what} | {needs} | {kinds} | " + " | ".join(cells) + " |")

@@ -15,8 +15,11 @@ of each quantity's natural size), to ``validate`` on the concatenated data with 
 * with time stamps (``update(..., time=...)``), the ``timing`` section and the ``time_stamps`` note,
   a gap in the stamps ending the segment as :meth:`~ValidationAccumulator.break_segment` does.
 
-Sections that need the whole series are None or partial (``spectrum``, ``design`` and
-``segment_metrics`` None; ``whiteness`` at the logged rate only; the cross-correlation without its
+* without a regressor, the residual's Welch spectrum and its peak tests, summed window by window
+  (``dynval.streaming._welch``; merged accumulators keep it only across a break);
+
+Sections that need the whole series are None or partial (``design`` and ``segment_metrics`` None,
+``spectrum`` with a regressor; ``whiteness`` at the logged rate only; the cross-correlation without its
 colour-aware fields; findings from this evidence only, Holm over a family of ``validate``'s size):
 docs/contract.md §4.1 lists them, and the report names every test it left out
 (``provenance["not_tested"]``, :mod:`dynval.coverage`).
@@ -81,6 +84,7 @@ from .report._findings import Thresholds
 from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
+from .streaming._welch import SIZES, WelchSums
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -164,6 +168,8 @@ class ValidationAccumulator:
             model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
+        self._welch: WelchSums | None = None  # the residual's window periodograms (no regressor, lags held)
+        self._entry = "stream"  # whose tests the report names as left out (dynval.coverage): dask's, the CLI's
         # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
@@ -384,6 +390,8 @@ class ValidationAccumulator:
             self._break_first = True
         else:
             self._state.end_break = True
+        if self._welch is not None:
+            self._welch.end_segment()
 
     def merge(self, other: ValidationAccumulator) -> ValidationAccumulator:
         """Add ``other``'s data, which come after this accumulator's in time; returns ``self``.
@@ -453,10 +461,20 @@ class ValidationAccumulator:
                 self._state = self._new_state(later._state.layout)
                 self._state.end_break = self._break_first
             self._state.merge(later._state)
+            self._merge_welch(later)
         self._chunks += other._chunks
         self._rows_seen += other._rows_seen
         self._omitted += other._omitted
         return self
+
+    def _merge_welch(self, later: ValidationAccumulator) -> None:
+        """The window periodograms of a merge (``later`` flushed, with rows)."""
+        if later._welch is None:
+            return
+        if self._welch is None:
+            self._welch = WelchSums(later._welch.m)
+            self._welch.start_break = self._break_first
+        self._welch.merge(later._welch)
 
     def _merge_waiting(self, later: ValidationAccumulator) -> bool:
         """The time stamps of a merge: True when both still wait for their nominal step (``later``'s
@@ -544,7 +562,7 @@ class ValidationAccumulator:
             timing = acc._stamps.timing(cfg.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
-        return _report(st.snapshot(), cfg, acc._omitted, timing)
+        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -638,6 +656,11 @@ class ValidationAccumulator:
             self._state = self._new_state(layout)
             self._state.end_break = self._break_first
         self._state.append_measured(meas, pred, reg, _block_rows(layout))
+        if layout.acf_lags and not layout.p:  # validate's spectrum needs lags; with a regressor, its projection
+            if self._welch is None:
+                self._welch = WelchSums(layout.m)
+                self._welch.start_break = self._break_first
+            self._welch.add(meas - pred)
 
     def _new_state(self, layout: Layout) -> State | CoreState:
         return CoreState(layout) if self._settings.backend == "cpp" else State(layout)
@@ -915,7 +938,7 @@ def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
     out: every spectral bin it tests on each varying joint, and the colour-aware cross-correlation's
     cells (docs/conventions.md §5)."""
     count = 0
-    if b.acf is not None:
+    if b.acf is not None and b.spec is None:
         varying = int(np.count_nonzero(~mo.e_constant & (mo.cov_e[0] > 0)))
         count += varying * _stats.spectrum_tests_per_joint(starts, mo.n)
     if b.cross is not None:
@@ -923,11 +946,34 @@ def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
     return count
 
 
+def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
+              sample_rate: float | None) -> tuple[tuple[dict[str, Any], Any] | None, str | None]:
+    """``validate``'s spectrum section and peak tests from the window periodograms (no regressor:
+    with one, ``validate`` projects it out first), or None and why not."""
+    if welch is None:
+        return None, None  # a regressor was given: the declaration says why (dynval.coverage)
+    if welch.off_grid is not None:
+        return None, welch.off_grid
+    nperseg = _stats._default_nperseg(starts, mo.n, None)
+    if nperseg not in SIZES:
+        return None, f"the longest segment holds {nperseg} rows, fewer than a Welch window of {SIZES[0]}"
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    k = _stats._rate_exponent(fs)
+    rate = math.ldexp(fs, -k)
+    power, windows = welch.power(nperseg, mo.exp_e)
+    freq = np.fft.rfftfreq(nperseg, 1.0) * rate
+    if power is not None:
+        power = power / rate  # a density per unit of the rate, as scipy's welch at fs = rate
+    spec = _stats.spectrum_from_welch(freq, power, windows, mo.cov_e[0] / mo.n, mo.exp_e, k, nperseg)
+    return (sec.spectrum_section(spec, sample_rate, False), spec), None
+
+
 def _report(st: State | _Snapshot, cfg: Options, omitted: int,
-            timing: _timing.Timing | None = None) -> ValidationReport:
-    """The sections mergeable sums allow (no spectrum, design or motion: they need the whole series,
-    contract §4.1; the tests left out named in ``not_tested``), then the assembler every report
-    goes through."""
+            timing: _timing.Timing | None = None, welch: WelchSums | None = None,
+            entry: str = "stream") -> ValidationReport:
+    """The sections mergeable sums allow (no design or motion, no spectrum with a regressor: they
+    need the whole series, contract §4.1; the tests left out named in ``not_tested``), then the
+    assembler every report goes through."""
     prof = cfg.profile
     sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
@@ -959,10 +1005,16 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
             b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
     b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
+    if lagged:
+        spectral, why = _spectrum(mo, welch, starts, sample_rate)
+        if spectral is not None:
+            b.spec, b.spec_tests = spectral
+        elif why is not None:
+            skipped["spectrum"] = why
     b.untested = _untested_count(mo, b, starts)
     given = {"lags"} if lagged else set()
     given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
     s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True,
-                   not_tested=not_tested("stream", given, skipped))
+                   not_tested=not_tested(entry, given, skipped))
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)

@@ -115,9 +115,19 @@ def bias_test(e, starts, rmse, parameter_variance=None):
     of :func:`dynval.statistics._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
     (m,), from the estimation run, is the variance the mean gets from the estimated parameters
     (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
+    Each joint is scaled by the power of two of its largest |e| first (contract §1.3): the squares of
+    a residual near 1e-200 would underflow to a zero variance and an infinite t.
     """
-    return bias_from_long_run(e.mean(axis=0), _stats.long_run_variance(e, starts), e.shape[0], rmse,
-                              parameter_variance)
+    largest = np.max(np.abs(e), axis=0)
+    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
+    x = np.ldexp(e, -exps[None])
+    if parameter_variance is not None:
+        parameter_variance = np.ldexp(parameter_variance, -2 * exps)
+    out = bias_from_long_run(x.mean(axis=0), _stats.long_run_variance(x, starts), e.shape[0], rmse,
+                             parameter_variance, exponents=exps)
+    if parameter_variance is not None:
+        out["parameter_standard_error"] = np.ldexp(out["parameter_standard_error"], exps)
+    return out
 
 
 def bias_from_long_run(mean, lr, n, rmse, parameter_variance=None, exponents=None):
@@ -312,10 +322,15 @@ def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
     which the findings read."""
     x = _project_out(e, reg3, grams, memo) if reg3 is not None else e
     spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
+    return spectrum_section(spec, sample_rate, reg3 is not None), spec
+
+
+def spectrum_section(spec, sample_rate, regressor_removed: bool) -> dict:
+    """The report's spectrum section from the tested spectrum (:class:`dynval.statistics._stats.Spectrum`)."""
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
     return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
-            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": reg3 is not None,
-            "peaks": top}, spec
+            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": regressor_removed,
+            "peaks": top}
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns

@@ -44,6 +44,7 @@ __all__ = [
     "Spectrum",
     "residual_spectrum",
     "spectrum_tests_per_joint",
+    "spectrum_from_welch",
     "information_bandwidth",
     "decimate_segments",
 ]
@@ -616,6 +617,16 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     x = np.ldexp(x, -exps)
     k = _rate_exponent(fs)
     freq, power, windows = _welch(x, starts, math.ldexp(fs, -k), nperseg)
+    return spectrum_from_welch(freq, power, windows, x.var(axis=0), exps, k, nperseg, inner=inner, outer=outer)
+
+
+def spectrum_from_welch(freq, power, windows: int, variance, exps, k: int, nperseg: int, *, inner: int = 3,
+                        outer: int = 10) -> Spectrum:
+    """:func:`residual_spectrum` from the Welch power: ``freq`` (F,) at the rate fs·2^-k, ``power``
+    (F, m) the mean window periodogram of x·2^-exps (None: no segment held a window), ``windows``
+    their count, ``variance`` (m,) that of x·2^-exps. A stream sums the periodograms window by
+    window (contract §4.1) and tests them here as ``validate`` does."""
+    m = len(exps)
     if power is None:
         empty = np.zeros((0, m))
         return Spectrum(frequency=np.zeros(0), power=empty, dof=float("nan"), nperseg=nperseg, ratio=empty,
@@ -628,7 +639,6 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     share = np.full((f_count, m), np.nan)
     is_peak = np.zeros((f_count, m), dtype=bool)
     df = freq[1] - freq[0] if f_count > 1 else 1.0
-    variance = x.var(axis=0)
     # the joints with a spectrum to test (finite, not all zero, a residual that varies), together
     cols = np.flatnonzero(np.all(np.isfinite(power), axis=0) & (power.max(axis=0) > 0) & (variance > 0))
     if cols.size:
