@@ -24,6 +24,8 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
+from .streaming._welch import OFF_GRID  # why a merged stream has no spectrum, as dask's blocks are merged
+
 __all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "NOT_RUN_WITH", "OFF_GRID", "RUNTIME",
            "not_tested", "excused_kinds", "runs", "table", "write_table"]
 
@@ -84,9 +86,6 @@ ENTRY_POINTS = {
 """The entry points, by the key :data:`NOT_RUN` and :func:`not_tested` use, and how they are called."""
 
 _WHOLE = "needs the whole series"
-OFF_GRID = ("accumulators merged without a break_segment between them: the Welch windows across the junction "
-            "are not kept")
-"""Why a merged stream has no spectrum (``dynval.streaming._welch``), as dask's blocks are merged."""
 RUNTIME = ("bias", "spectrum")
 """Tests a stream may leave out for a reason of its data, named with that reason in ``extra`` of
 :func:`not_tested`: the bias test's bandwidth beyond the lags held, a merge off the Welch grid."""

@@ -26,7 +26,9 @@ import math
 import numpy as np
 import scipy.signal
 
-from ..coverage import OFF_GRID
+OFF_GRID = ("accumulators merged without a break_segment between them: the Welch windows across the junction "
+            "are not kept")
+"""Why a merged stream has no spectrum (its report's ``not_tested``; ``dynval.coverage``)."""
 
 _NO_ROWS = -1100
 SIZES = tuple(2**i for i in range(4, 11))
