@@ -2,7 +2,8 @@
 the table of docs/contract.md §4.1.
 
 Every way into dynval ends in the same findings (docs/conventions.md §5), but not every way can
-compute every test: a stream keeps sums of bounded size, a fleet's manifest gives no q. :data:`TESTS`
+compute every test: a stream keeps sums of bounded size, a fleet's log has the files its manifest
+row names. :data:`TESTS`
 lists the tests of a report (what each needs from the caller in :func:`dynval.validate`, and the
 finding kinds it can give); :data:`NOT_RUN` says, per entry point, which of them it leaves out and
 why. A streamed report names what it left out in its findings' closing line and in
@@ -103,21 +104,18 @@ _STREAMED = {
     "predictive_failure": f"estimation is refused: the refit {_WHOLE}",
     "repeat_trajectory": f"estimation is refused: the distance to its trajectory {_WHOLE}",
 }
-_FLEET = {
-    "missing_term": "a manifest gives no model_columns",
-    "missing_physics": "a manifest gives no q",
-    "delay": "a manifest gives no q",
-    "periodic_error": "a manifest gives no q",
-    "low_information": "a manifest gives no q",
-    "predictive_failure": "a manifest gives no estimation run",
-    "repeat_trajectory": "a manifest gives no estimation run",
-    "time_stamps": "a manifest gives no time stamps (its time is the log's date)",
-}
 
 _STREAM_BIAS = ("from the lag sums the stream keeps (contract §4.1); left out, and named, when its bandwidth needs "
                 "more lags than the stream holds")
 _STREAM_WHITENESS = "at the logged rate only (no decimation)"
+_MANIFEST = ("from the files the log's manifest row names (regressor, q, dq, ddq, timestamps, estimation_tau, "
+             "estimation_regressor, estimation_q; contract §10)")
+_FLEET_WIDE = "model_columns= for every log of the fleet"
 CAVEATS: Mapping[str, Mapping[str, str]] = {
+    "fleet": {"missing_term": _FLEET_WIDE,
+              **{t: _MANIFEST for t in ("regressor_correlation", "excitation", "missing_physics", "delay",
+                                        "periodic_error", "low_information", "predictive_failure", "repeat_trajectory",
+                                        "time_stamps")}},
     "stream": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS},
     "cli_stream": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS},
     "dask": {"bias": _STREAM_BIAS, "whiteness": _STREAM_WHITENESS,
@@ -131,7 +129,7 @@ NOT_RUN: Mapping[str, Mapping[str, str]] = {
     "compare": {},
     "stream": _STREAMED,
     "cli_stream": {**_STREAMED, "missing_term": "--model-columns is not an option of dynval validate"},
-    "fleet": _FLEET,
+    "fleet": {},
     "dask": {**_STREAMED, "time_stamps": "dynval.dask.validate takes no time stamps"},
 }
 """Per entry point, the tests of :data:`TESTS` it does not run, with the reason."""
