@@ -156,3 +156,15 @@ def test_validates_bias_test_does_not_see_the_scale(scale):
     np.testing.assert_allclose(scaled["standard_error"], at_one["standard_error"] * scale, rtol=1e-9)
     assert sorted((f.kind, f.joints) for f in dynval.validate(tau * scale, pred * scale, n_params=2).findings) == \
         sorted((f.kind, f.joints) for f in dynval.validate(tau, pred, n_params=2).findings)
+
+
+def test_the_html_of_a_stream_names_what_it_did_not_test(backend):
+    from dynval.html import render_fragment
+
+    rng = np.random.default_rng(3)
+    tau = rng.standard_normal((5000, 2))
+    report = _streamed(tau, tau - 0.1 * rng.standard_normal((5000, 2)), backend=backend, n_params=2)
+    page = render_fragment(report)
+    assert "nothing in the residuals calls for a change" not in page
+    assert "No findings from the tests this report ran." in page and "Not tested (1;" in page
+    assert "information_rate" in page
