@@ -30,7 +30,7 @@ if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   bash java/install-toolchain
   bash matlab/install-toolchain
   bash wolfram/install-toolchain
-  export DYNVAL_REQUIRE_TOOLCHAINS=${DYNVAL_REQUIRE_TOOLCHAINS:-cc,java,octave,mathics}
+  export DYNVAL_REQUIRE_TOOLCHAINS=${DYNVAL_REQUIRE_TOOLCHAINS:-cc,java,octave,mathics,chromium}
 else
   # Without root only what pip can put in the active environment is installed (Mathics3, in a venv
   # or a conda environment); a port whose toolchain is missing is skipped by its tests, and the

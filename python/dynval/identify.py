@@ -69,7 +69,9 @@ from .checks._validation import (
     check_finite,
     check_level,
     check_min_samples,
+    check_signal_like,
     format_shape,
+    is_integer,
     is_real_number,
     parameter_error,
     promote_signal,
@@ -78,8 +80,10 @@ from .checks._validation import (
 )
 from .kernels._blas import one_blas_thread
 from .report import _consistency
+from .statistics import _coverage
+from .statistics._coverage import CoverageTest
 
-__all__ = ["IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
+__all__ = ["CoverageTest", "IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
 
 
 def default_rcond(rows: int, p: int) -> float:
@@ -99,6 +103,10 @@ class PredictionInterval:
         The band's probability; ``quantile`` is the Student-t factor that gives it.
     noise_std : ndarray (m,)
         The joints' noise standard deviations the band includes.
+    design : ndarray (N, m, r) or None
+        The base regressor rows the band was predicted from, which :meth:`coverage_test` refits to
+        tell the parameters' error from a missing term (None for a band built by hand: the test
+        then takes every state dependence for a missing term).
     """
 
     prediction: FloatArray
@@ -108,10 +116,13 @@ class PredictionInterval:
     level: float
     quantile: float
     noise_std: FloatArray
+    design: FloatArray | None = field(default=None, repr=False, compare=False)
 
     def share_inside(self, tau_meas: ArrayLike) -> FloatArray:
         """Per joint, the share of the measured torques inside the band: ``level`` when the model
-        and its noise are right, less when the model misses structure or the noise is coloured."""
+        and its white noise are right, less when the band is too narrow. A share at or above the
+        level clears nothing: a missing term widens the band with its own error (contract §9);
+        :meth:`coverage_test` shows where the band misses."""
         meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
         if meas.shape != self.prediction.shape:
             raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
@@ -120,6 +131,51 @@ class PredictionInterval:
         inside = (meas >= self.lower) & (meas <= self.upper)
         out: FloatArray = inside.mean(axis=0)
         return out
+
+    def coverage_test(self, tau_meas: ArrayLike, *, q: ArrayLike | None = None, dq: ArrayLike | None = None,
+                      n_bins: Integer = 4, alpha: float = 0.05) -> CoverageTest:
+        """Whether the band's misses depend on the state or cluster in time: a test a missing term fails.
+
+        :meth:`share_inside` cannot show a missing term (the term widened the band too). Per joint,
+        the standardised residuals, less what the model's own columns refitted on this run explain,
+        are tested for a mean that depends on the state: in bins of the joint's velocity sign (from
+        ``dq``, or ``q``'s differences), of its position's and of the prediction's ``n_bins``
+        quantiles; and the exceedances by a runs test in time; all with the residual's colour-aware
+        effective sample size (docs/conventions.md §5.8). A p-value per joint, Holm's correction
+        over the joints.
+
+        Parameters
+        ----------
+        tau_meas : array_like (N, m)
+            The measured torques of the run the band predicts.
+        q, dq : array_like (N, m), optional
+            The run's joint positions and velocities (without them: the prediction's quantiles and
+            time only, and ``q``'s differences stand in for ``dq``).
+        n_bins : int
+            Quantile bins per state variable, 2 to 20.
+        alpha : float
+            Significance level of the joints' family, in (0, 1).
+
+        Returns
+        -------
+        CoverageTest
+        """
+        meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
+        if meas.shape != self.prediction.shape:
+            raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
+                                f"got {format_shape(meas.shape)}")
+        check_finite(meas, "tau_meas")
+        n, m = meas.shape
+        states = {name: None if value is None else check_signal_like(value, name, n, m)
+                  for name, value in (("q", q), ("dq", dq))}
+        if not is_integer(n_bins) or not 2 <= int(n_bins) <= 20:
+            raise parameter_error("n_bins", "an integer with 2 <= n_bins <= 20", n_bins)
+        if not is_real_number(alpha) or not 0 < alpha < 1:
+            raise parameter_error("alpha", "a number with 0 < alpha < 1", alpha)
+        check_min_samples("coverage_test", n, 2 * int(n_bins) * _coverage.MIN_BIN)
+        return _coverage.coverage_test(meas, self.prediction, self.std, self.lower, self.upper, self.level,
+                                       design=self.design, q=states["q"],
+                                       dq=states["dq"], n_bins=int(n_bins), alpha=float(alpha))
 
 
 @dataclass(frozen=True, repr=False)
@@ -245,7 +301,9 @@ class IdentificationResult:
         uncertainty adds there, ``y_kᵀ C y_k`` (:attr:`covariance`); the band is the prediction ±
         the Student-t quantile (``rows − r`` degrees of freedom) times its root. It assumes white,
         Gaussian noise as the covariance does: on coloured residuals it is too narrow, which
-        :meth:`PredictionInterval.share_inside` shows on a validation run.
+        :meth:`PredictionInterval.share_inside` shows on a validation run. A missing term widens it
+        (the noise level grows with the term), which the share cannot show and
+        :meth:`PredictionInterval.coverage_test` can.
 
         Parameters
         ----------
@@ -270,7 +328,8 @@ class IdentificationResult:
         dof = self.rows - self.rank
         quantile = float(scipy.stats.t.ppf(0.5 + level / 2.0, dof)) if dof > 0 else float("inf")
         return PredictionInterval(prediction=pred, lower=pred - quantile * std, upper=pred + quantile * std,
-                                  std=std, level=level, quantile=quantile, noise_std=noise)
+                                  std=std, level=level, quantile=quantile, noise_std=noise,
+                                  design=y.reshape(n, m, -1))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
