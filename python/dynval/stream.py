@@ -7,8 +7,9 @@ of each quantity's natural size), to ``validate`` on the concatenated data with 
 
 * point metrics pooled and per joint, their aggregates;
 * residual mean, variance (the profile's ddof) and the zero-mean test, both halves;
-* the coloured-noise bias test, ``validate``'s estimator from the lag sums (one segment: equal to
-  rounding; see contract §4.1 for several), unless its bandwidth needs more lags than are held;
+* the coloured-noise bias test, ``validate``'s estimator from the lag sums and the rows at the
+  segments' ends (equal to rounding with segments longer than the lags held, contract §4.1), unless
+  its bandwidth needs more lags than are held;
 * autocorrelation with its band and Ljung–Box, across chunk boundaries, honouring segments;
 * the cross-correlation ρ with the regressor columns at lags 0..max_lag;
 * the information criteria of the noise model, and their N_eff-based variants with the bias test;
@@ -83,6 +84,7 @@ from .report._assembly import Sections, ValidationReport, assemble_report, prove
 from .report._findings import Thresholds
 from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
+from .streaming._edges import SegmentEdges
 from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
 from .streaming._welch import SIZES, WelchSums
 
@@ -169,6 +171,7 @@ class ValidationAccumulator:
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
         self._welch: WelchSums | None = None  # the residual's window periodograms (no regressor, lags held)
+        self._edges: SegmentEdges | None = None  # the residual at the inner segment junctions (lags held)
         self._entry = "stream"  # whose tests the report names as left out (dynval.coverage): dask's, the CLI's
         # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
@@ -392,6 +395,8 @@ class ValidationAccumulator:
             self._state.end_break = True
         if self._welch is not None:
             self._welch.end_segment()
+        if self._edges is not None:
+            self._edges.end_segment()
 
     def merge(self, other: ValidationAccumulator) -> ValidationAccumulator:
         """Add ``other``'s data, which come after this accumulator's in time; returns ``self``.
@@ -468,13 +473,17 @@ class ValidationAccumulator:
         return self
 
     def _merge_welch(self, later: ValidationAccumulator) -> None:
-        """The window periodograms of a merge (``later`` flushed, with rows)."""
-        if later._welch is None:
-            return
-        if self._welch is None:
-            self._welch = WelchSums(later._welch.m)
-            self._welch.start_break = self._break_first
-        self._welch.merge(later._welch)
+        """The window periodograms and the segment junctions of a merge (``later`` flushed, with rows)."""
+        if later._welch is not None:
+            if self._welch is None:
+                self._welch = WelchSums(later._welch.m)
+                self._welch.start_break = self._break_first
+            self._welch.merge(later._welch)
+        if later._edges is not None:
+            if self._edges is None:
+                self._edges = SegmentEdges(later._edges.m, later._edges.k)
+                self._edges.start_break = self._break_first
+            self._edges.merge(later._edges)
 
     def _merge_waiting(self, later: ValidationAccumulator) -> bool:
         """The time stamps of a merge: True when both still wait for their nominal step (``later``'s
@@ -562,7 +571,7 @@ class ValidationAccumulator:
             timing = acc._stamps.timing(cfg.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
-        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry)
+        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry, acc._edges)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -656,11 +665,17 @@ class ValidationAccumulator:
             self._state = self._new_state(layout)
             self._state.end_break = self._break_first
         self._state.append_measured(meas, pred, reg, _block_rows(layout))
-        if layout.acf_lags and not layout.p:  # validate's spectrum needs lags; with a regressor, its projection
-            if self._welch is None:
-                self._welch = WelchSums(layout.m)
-                self._welch.start_break = self._break_first
-            self._welch.add(meas - pred)
+        if layout.acf_lags:
+            e = meas - pred
+            if self._edges is None:
+                self._edges = SegmentEdges(layout.m, layout.acf_lags)
+                self._edges.start_break = self._break_first
+            self._edges.add(e)
+            if not layout.p:  # validate's spectrum needs lags; with a regressor, it is of the projection
+                if self._welch is None:
+                    self._welch = WelchSums(layout.m)
+                    self._welch.start_break = self._break_first
+                self._welch.add(e)
 
     def _new_state(self, layout: Layout) -> State | CoreState:
         return CoreState(layout) if self._settings.backend == "cpp" else State(layout)
@@ -886,13 +901,12 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
-def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray,
-               longest: int) -> tuple[dict[str, Any] | None, str | None]:
+def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray, longest: int,
+               edges: SegmentEdges | None = None) -> tuple[dict[str, Any] | None, str | None]:
     """``validate``'s bias test (contract §3.3, docs/conventions.md §5.4) from the lagged sums: the
     same prewhitened Bartlett long-run variance, its autocovariances the stream's, corrected at the
-    stream's two ends with the rows the state keeps there (the junctions of inner segments are
-    left out, O(bandwidth/N)). None, and why, when Andrews' bandwidth needs more lags than the
-    stream holds."""
+    stream's two ends with the rows the state keeps there and at the inner segment junctions with
+    ``edges``. None, and why, when Andrews' bandwidth needs more lags than the stream holds."""
     assert mo.cur1 is not None and mo.lag1 is not None  # lags are held
     held = mo.cov_e.shape[0] - 1
 
@@ -900,13 +914,26 @@ def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray,
         # the rows of a segment longer than the lags held (the end terms assume it), in the sums' units
         return np.ldexp(rows, -mo.exp_e[None]) - mo.mean_e if length > held and rows.shape[0] >= held else None
 
-    lr, needed = _stats.long_run_variance_from_sums(
-        mo.cov_e, mo.pairs, mo.n, mo.cur1, mo.lag1, longest,
-        head=centred(st.head_e, st.lengths[0]), tail=centred(st.tail_e, st.lengths[-1]))
+    head, tail = centred(st.head_e, st.lengths[0]), centred(st.tail_e, st.lengths[-1])
+    starts = None if head is None else (head * head[0], head)
+    ends = None if tail is None else (tail[::-1] * tail[-1], tail[::-1])
+    if edges is not None:
+        inner_starts, inner_ends = edges.centred(mo.mean_e, mo.exp_e)
+        starts, ends = _added(starts, inner_starts, held), _added(ends, inner_ends, held)
+    lr, needed = _stats.long_run_variance_from_sums(mo.cov_e, mo.pairs, mo.n, mo.cur1, mo.lag1, longest,
+                                                    starts=starts, ends=ends)
     if lr is None:
         return None, (f"its bandwidth needs the residual's autocovariance at {needed} lags and the stream holds "
                       f"{held}: pass max_lag={needed} or more")
     return sec.bias_from_long_run(mo.mean_e, lr, mo.n, rmse, exponents=mo.exp_e), None
+
+
+def _added(a: tuple[np.ndarray, np.ndarray] | None, b: tuple[np.ndarray, np.ndarray] | None,
+           rows: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The sum of two (products, values) pairs of edge sums over their first ``rows`` rows."""
+    if a is None or b is None:
+        return a if b is None else b
+    return a[0][:rows] + b[0][:rows], a[1][:rows] + b[1][:rows]
 
 
 def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict[str, Any]:
@@ -970,7 +997,7 @@ def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
 
 def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None, welch: WelchSums | None = None,
-            entry: str = "stream") -> ValidationReport:
+            entry: str = "stream", edges: SegmentEdges | None = None) -> ValidationReport:
     """The sections mergeable sums allow (no design or motion, no spectrum with a regressor: they
     need the whole series, contract §4.1; the tests left out named in ``not_tested``), then the
     assembler every report goes through."""
@@ -993,7 +1020,7 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
                    "zero_mean_test": zmt}
     skipped: dict[str, str] = {}
     if lagged:
-        b.bias, why = _bias_test(mo, st, b.per_joint["rmse"], lags.longest)
+        b.bias, why = _bias_test(mo, st, b.per_joint["rmse"], lags.longest, edges)
         if why is not None:
             skipped["bias"] = why
     b.n_eff = None if b.bias is None else b.bias["n_eff"]

@@ -308,21 +308,22 @@ def long_run_variance(e, starts) -> LongRunVariance:
                            bandwidth=bandwidth)
 
 
-def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, head=None,
-                                tail=None) -> tuple[LongRunVariance | None, int]:
+def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, starts=None,
+                                ends=None) -> tuple[LongRunVariance | None, int]:
     """:func:`long_run_variance` from lagged sums, as a stream keeps them (contract §4.1).
 
     ``cov`` (K+1, m): Σ x_t x_{t−ℓ} over the lag-ℓ pairs inside segments, x centred on the overall
     mean, ℓ = 0..K; ``pairs`` (K+1,) their counts; ``cur1``, ``lag1`` (m,): Σ x over the current and
     over the lagged elements of the lag-1 pairs; ``longest``: the longest segment's length;
-    ``head``, ``tail`` (≥ K rows, m): the centred x of the first segment's first rows and of the last
-    segment's last rows, when that segment is longer than K (None otherwise).
+    ``starts`` = (S, H), S_j = Σ x_{s+j}x_s and H_j = Σ x_{s+j} over the segment starts s known, and
+    ``ends`` = (E, T), E_j = Σ x_{E−1}x_{E−1−j} and T_j = Σ x_{E−1−j} over the segment ends known
+    (each (≥ K rows, m), x centred; None: none known), of segments longer than K.
 
     The prewhitened u_t = x_t − φ̂x_{t−1} (t past each segment's first row) has the lagged sums
     Σ u_t u_{t−j} = (1 + φ̂²)P_j − φ̂(P_{j+1} + P_{|j−1|}) less a few products at each segment's first
-    and last rows. Those at the stream's two ends come from ``head`` and ``tail``, so that one
-    segment gives the whole series' estimate to rounding; those at the junctions of the segments
-    inside are not kept and are left out, O(j/N) of the sums (docs/conventions.md §5.4). Lag j of u
+    and last rows: with every start and end known the estimate is the whole series' to rounding; an
+    end not known (a segment not longer than K, or one a stream did not keep) leaves its products
+    out, O(j/N) of the sums (docs/conventions.md §5.4). Lag j of u
     needs lag j + 1 of x: returns ``(None, L + 1)`` when the bandwidth L that Andrews' rule picks
     needs more than the K lags held, else ``(estimate, L + 1)``.
     """
@@ -340,14 +341,14 @@ def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, he
     if nu >= 2:
         if held < 2:
             return None, needed
-        ends = _EndTerms(phi, head, tail)
+        edges = _EndTerms(phi, starts, ends)
         u_total = np.asarray(cur1) - phi * np.asarray(lag1)
         u_mean = u_total / nu
 
         def gamma_u(j: np.ndarray) -> np.ndarray:
             """Σ(u_t − ū)(u_{t−j} − ū) over u's lag-j pairs, j = 0..J (rows)."""
-            raw = (1.0 + phi**2) * cov[j] - phi * (cov[j + 1] + cov[np.abs(j - 1)]) + ends.products(j)
-            cur, lag = ends.sums(j, u_total)
+            raw = (1.0 + phi**2) * cov[j] - phi * (cov[j + 1] + cov[np.abs(j - 1)]) + edges.products(j)
+            cur, lag = edges.sums(j, u_total)
             return raw - u_mean * (cur + lag) + pairs[j + 1][:, None] * u_mean**2
 
         head_sums = gamma_u(np.arange(2))
@@ -373,29 +374,30 @@ def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, he
 
 
 class _EndTerms:
-    """What the prewhitened sums of :func:`long_run_variance_from_sums` lose at a segment's first
-    rows x_s.. (``head``) and last rows ..x_{E−1} (``tail``), u_t = x_t − φx_{t−1} for t > s.
+    """What the prewhitened sums of :func:`long_run_variance_from_sums` lose at segments' first rows
+    x_s.. (``starts``: S_j = Σ x_{s+j}x_s, H_j = Σ x_{s+j}) and last rows ..x_{E−1} (``ends``:
+    E_j = Σ x_{E−1}x_{E−1−j}, T_j = Σ x_{E−1−j}), u_t = x_t − φx_{t−1} for t > s.
 
     For lag j ≥ 1 the pairs of u miss x_{s+j}x_s and x_{E−1}x_{E−1−j} once and x_{s+j−1}x_s,
     x_{E−1}x_{E−j} with weight −φ; for j = 0, x_s² and φ²x_{E−1}². The sums of u over the current
-    (lagged) elements of its lag-j pairs miss the first (last) j values of u."""
+    (lagged) elements of its lag-j pairs miss the first (last) j values of u at each segment."""
 
-    def __init__(self, phi: np.ndarray, head, tail) -> None:
+    def __init__(self, phi: np.ndarray, starts, ends) -> None:
         self.phi = phi
-        self.head = None if head is None else np.asarray(head, dtype=np.float64)
-        self.tail = None if tail is None else np.asarray(tail, dtype=np.float64)[::-1]  # x_{E−1}, x_{E−2}, ...
+        self.starts = None if starts is None else tuple(np.asarray(a, dtype=np.float64) for a in starts)
+        self.ends = None if ends is None else tuple(np.asarray(a, dtype=np.float64) for a in ends)
 
     def products(self, j: np.ndarray) -> np.ndarray:
         phi, out = self.phi, np.zeros((j.size, self.phi.size))
         later = j >= 1
-        if self.head is not None:
-            h = self.head
-            out -= h[j] * h[0]
-            out[later] += phi * h[j[later] - 1] * h[0]
-        if self.tail is not None:
-            t = self.tail
-            out[~later] -= phi**2 * t[0] ** 2
-            out[later] += phi * t[0] * t[j[later] - 1] - phi**2 * t[0] * t[j[later]]
+        if self.starts is not None:
+            s = self.starts[0]
+            out -= s[j]
+            out[later] += phi * s[j[later] - 1]
+        if self.ends is not None:
+            e = self.ends[0]
+            out[~later] -= phi**2 * e[0]
+            out[later] += phi * e[j[later] - 1] - phi**2 * e[j[later]]
         return out
 
     def sums(self, j: np.ndarray, total: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -403,11 +405,13 @@ class _EndTerms:
         cur = np.broadcast_to(total, (j.size, total.size)).copy()
         lag = cur.copy()
         top = int(j.max()) if j.size else 0
-        if self.head is not None and top:
-            u = self.head[1:top + 1] - self.phi * self.head[:top]  # u_{s+1}, ..., u_{s+top}
+        if self.starts is not None and top:
+            h = self.starts[1]
+            u = h[1:top + 1] - self.phi * h[:top]  # Σ u_{s+1}, ..., Σ u_{s+top}
             cur -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
-        if self.tail is not None and top:
-            u = self.tail[:top] - self.phi * self.tail[1:top + 1]  # u_{E−1}, u_{E−2}, ...
+        if self.ends is not None and top:
+            t = self.ends[1]
+            u = t[:top] - self.phi * t[1:top + 1]  # Σ u_{E−1}, Σ u_{E−2}, ...
             lag -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
         return cur, lag
 
