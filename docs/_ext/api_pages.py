@@ -14,6 +14,7 @@ from pathlib import Path
 PUBLIC_MODULES = {
     "dynval.stream": "Streams: validation of logs larger than memory",
     "dynval.dask": "Dask: validation on a cluster",
+    "dynval.coverage": "Which test each entry point runs (memory, stream, fleet, dask)",
     "dynval.fleet": "Fleets: many logs of many robots and the drift test",
     "dynval.identify": "Identification and prediction intervals",
     "dynval.io": "A robot's own logs: joint states of ROS bags and MCAP files",

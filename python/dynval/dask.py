@@ -90,8 +90,10 @@ def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, 
     >>> float(np.max(np.abs(report.autocorrelation["rho"] - want.autocorrelation["rho"]))) < 1e-14
     True
     """
-    return accumulate(tau_meas, tau_pred, n_params=n_params, regressor=regressor, n_joints=n_joints,
-                      segments=segments, split_every=split_every, **keywords).result()
+    acc = accumulate(tau_meas, tau_pred, n_params=n_params, regressor=regressor, n_joints=n_joints,
+                     segments=segments, split_every=split_every, **keywords)
+    acc._entry = "dask"  # the tests it leaves out are dask's (dynval.coverage)
+    return acc.result()
 
 
 def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,

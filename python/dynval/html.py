@@ -206,7 +206,10 @@ def _findings_html(report) -> str:
         if not texts:
             return '<p class="muted">No findings.</p>'
         return "<ul>" + "".join(f"<li>{_t(t)}</li>" for t in texts) + "</ul>"
+    left_out = _not_tested_html(report)
     if not findings:
+        if left_out:
+            return '<p class="muted">No findings from the tests this report ran.</p>' + left_out
         return '<p class="muted">No findings: nothing in the residuals calls for a change.</p>'
     jn = _joint_names(report)
     cn = _column_names(report)
@@ -219,7 +222,19 @@ def _findings_html(report) -> str:
         title = (jn[j] if 0 <= j < len(jn) else f"joint {j}") if j >= 0 else "the whole run"
         out.append(f'<h4 class="joint">{_e(title)} <span class="muted">({len(groups[j])})</span></h4>'
                    + "".join(groups[j]))
-    return '<div class="findings">' + "".join(out) + "</div>"
+    return '<div class="findings">' + "".join(out) + "</div>" + left_out
+
+
+def _not_tested_html(report) -> str:
+    """The tests a streamed report left out (``provenance["not_tested"]``, contract §4.1): a report
+    that tested less must not read as a clean bill."""
+    prov = getattr(report, "provenance", None)
+    left_out = (prov.get("not_tested") if prov is not None else None) or []
+    if not left_out:
+        return ""
+    items = "".join(f"<li><b>{_e(t['test'])}</b> ({_e(', '.join(t['kinds']))}): {_e(t['why'])}</li>" for t in left_out)
+    return (f'<p class="not-tested">Not tested ({len(left_out)}; a finding of these kinds cannot show here):</p>'
+            f"<ul>{items}</ul>")
 
 
 def _finding_html(f, jn, cn) -> str:

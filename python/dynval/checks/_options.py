@@ -337,12 +337,13 @@ def _motion_max_lag(band: float, o: Options, n: int, longest: int) -> int:
 
 
 def to_setting(o: Options, lags: Lags, m: int, *, sample_rate: float | None, timing: _timing.Timing | None,
-               streaming: bool = False) -> Setting:
-    """What the assembler reads: the settings, the lags chosen, the names (``joint j`` by default)."""
+               streaming: bool = False, not_tested: list[dict[str, Any]] | None = None) -> Setting:
+    """What the assembler reads: the settings, the lags chosen, the names (``joint j`` by default);
+    ``not_tested``: the tests the entry point left out (:func:`dynval.coverage.not_tested`)."""
     joint_names = list(o.joint_names) if o.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
     return Setting(prof=o.profile, noise_model=o.noise_model, level=o.level, max_lag=lags.max_lag,
                    lag_source=lags.source, sample_rate=sample_rate, timing=timing, bandwidth=o.bandwidth,
                    nan_policy=o.nan_policy, n_params=o.n_params, joint_names=joint_names,
                    column_names=list(o.column_names) if o.column_names is not None else None,
                    model_columns=o.model_columns, thresholds=o.thresholds, backend=o.backend,
-                   decimate=o.decimate, streaming=streaming)
+                   decimate=o.decimate, streaming=streaming, not_tested=list(not_tested or []))

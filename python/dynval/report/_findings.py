@@ -272,6 +272,9 @@ class Evidence:
     detectable_share: np.ndarray | None = None
     noise_n_eff: np.ndarray | None = None
     extra_notes: list = field(default_factory=list)
+    # tests validate would have run on these inputs and this entry point did not (a stream's spectrum
+    # and colour-aware cross-correlation): each counts in Holm's family as a p-value of 1
+    untested: int = 0
 
 
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
@@ -320,17 +323,22 @@ def _tests(ev: Evidence):
 
 
 def holm_family(ev: Evidence) -> dict[str, Any]:
-    """Raw and Holm-adjusted p-values of every test in the report, by family; and the count."""
+    """Raw and Holm-adjusted p-values of every test in the report, by family; and the count.
+
+    The tests the entry point left out (``ev.untested``) join the family as p-values of 1: the
+    others are corrected for a family the size of ``validate``'s, so that leaving a test out never
+    makes another more significant than ``validate`` would (docs/conventions.md §5).
+    """
     blocks = _tests(ev)
     flat = np.concatenate([b.reshape(-1) for _, b in blocks]) if blocks else np.zeros(0)
-    adjusted = holm(flat)
+    adjusted = holm(np.concatenate([flat, np.ones(ev.untested)]))[:flat.size]
     out: dict[str, Any] = {}
     pos = 0
     for name, b in blocks:
         size = b.size
         out[name] = (b, adjusted[pos:pos + size].reshape(b.shape))
         pos += size
-    out["_count"] = int(np.sum(~np.isnan(flat)))
+    out["_count"] = int(np.sum(~np.isnan(flat))) + ev.untested
     return out
 
 

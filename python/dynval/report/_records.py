@@ -141,6 +141,7 @@ class Provenance(Record):
     thresholds: dict[str, float] | None = ABSENT
     backend: str = ABSENT
     streaming: bool = ABSENT  #: present (True) on a streamed report only
+    not_tested: list[dict[str, Any]] = ABSENT  #: a streamed report's: the tests left out, by name, and why
     dynval_version: str = ABSENT
     contract_version: str = ABSENT
     report_schema_version: int = ABSENT

@@ -554,6 +554,8 @@ class _Snapshot:
     lag_y: _Sum
     prod_ey: _Sum
     gram: _Sum | None
+    head_e: np.ndarray  # the boundary rows, raw
+    tail_e: np.ndarray
     pairs: np.ndarray
     k_e: np.ndarray
     k_t: np.ndarray
