@@ -98,7 +98,7 @@ SETTLE_STEPS = 100
 
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
+                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
 
 
 class ValidationAccumulator:
@@ -119,9 +119,14 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
+    time_units_checked : bool
+        As for :func:`dynval.validate`: False accepts time stamps at any rate. Checked on the
+        stamps that set the nominal step (the first 100 steps), and again on the whole stream's at
+        :meth:`result`.
     bandwidth : float, optional
         As for :func:`dynval.validate`: whiteness evidence above it (Hz) is a ``processing_band``
-        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``).
+        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``), and
+        is at most their Nyquist frequency.
     backend : None, "python" or "cpp"
         Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
         reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
@@ -144,7 +149,7 @@ class ValidationAccumulator:
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
                  nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
-                 sample_rate: float | None = None, bandwidth: float | None = None,
+                 sample_rate: float | None = None, time_units_checked: bool = True, bandwidth: float | None = None,
                  joint_names: Sequence[str] | None = None, column_names: Sequence[str] | None = None,
                  thresholds: Thresholds | dict[str, float] | None = None, allow_wide: bool = False,
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
@@ -153,7 +158,7 @@ class ValidationAccumulator:
         self._settings = check_options(Keywords(
             n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
             max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
             estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
             model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
@@ -172,6 +177,7 @@ class ValidationAccumulator:
         # ("rows", meas, pred, reg, time, breaks, kept stamps) or ("break",)
         self._waiting: list[tuple[Any, ...]] | None = None
         self._waiting_rows = 0  # kept rows in it
+        self._frozen_rows = 0  # waiting rows summed because their stamps never advanced (_sum_frozen)
         self._first_seen: float | None = None  # the first and the last stamp of any row (omitted too)
         self._last_seen: float | None = None
 
@@ -294,12 +300,33 @@ class ValidationAccumulator:
         return keep
 
     def _settle_when_known(self) -> None:
-        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive."""
-        if self._waiting is None or self._waiting_rows <= SETTLE_STEPS:
+        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive.
+        Waiting stamps that never advanced are summed at once (a frozen clock: every step a
+        duplicate whatever the grid), so that the rows held stay bounded."""
+        if self._waiting is None or self._waiting_rows + self._frozen_rows <= SETTLE_STEPS:
             return
         stamps = self._first_stamps()
         if stamps is not None:
             self._settle(stamps)
+        else:
+            self._sum_frozen()
+
+    def _sum_frozen(self) -> None:
+        """Sum the waiting rows, whose stamps are all equal (no positive step), against a nominal step
+        still unknown (NaN: a zero step is a duplicate, never a gap nor irregular, on any grid); the
+        nominal step replaces it when the stamps advance (:meth:`_settle`)."""
+        assert self._waiting is not None
+        events, self._waiting = self._waiting, None
+        self._frozen_rows += self._waiting_rows
+        self._waiting_rows = 0
+        if self._stamps is None:
+            self._stamps = Stamps(math.nan, math.nan)
+        for event in events:
+            if event[0] == "break":
+                self.break_segment()
+            else:
+                self._feed_timed(*event[1:6])
+        self._waiting = []
 
     def _first_stamps(self) -> Stamps | None:
         """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
@@ -307,19 +334,32 @@ class ValidationAccumulator:
         the inferred rate); None without a positive step."""
         assert self._waiting is not None
         parts = [event[6] for event in self._waiting if event[0] == "rows"]
+        if self._stamps is not None and self._stamps.last is not None:  # after a summed frozen start
+            parts.insert(0, np.array([self._stamps.last]))
         t = np.concatenate(parts) if parts else np.zeros(0)
         steps = np.diff(t - t[0]) if t.size else t
         positive = steps[steps > 0]
         if not positive.size:
             return None
-        rate = self._settings.sample_rate
-        return Stamps(_timing._nominal_step(t, steps) if rate is None else 1.0 / rate, float(np.median(positive)))
+        cfg = self._settings
+        nominal = _timing.nominal_step(t, steps)
+        if cfg.time_units_checked:
+            _timing.check_units(nominal)
+        if cfg.sample_rate is None:
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, 1.0 / nominal)
+        else:
+            nominal = 1.0 / cfg.sample_rate
+        return Stamps(nominal, float(np.median(positive)))
 
     def _settle(self, stamps: Stamps) -> None:
         """Classify and sum the waiting updates with the summary ``stamps`` (its nominal step)."""
         assert self._waiting is not None
         events, self._waiting, self._waiting_rows = self._waiting, None, 0
-        self._stamps = stamps
+        if self._stamps is None:
+            self._stamps = stamps
+        else:  # a frozen start, summed before the grid was known: only duplicates, nothing to recentre
+            self._stamps.nominal, self._stamps.median = stamps.nominal, stamps.median
         for event in events:
             if event[0] == "break":
                 self.break_segment()
@@ -340,6 +380,9 @@ class ValidationAccumulator:
                     v.check_bandwidth(cfg.bandwidth, None)
                 return None
             t = _timing.stamps(time, c, self._rows_seen)
+            if t.size:
+                _timing.check_span(t[0] if self._first_seen is None else self._first_seen, float(t[-1]),
+                                   self._rows_seen + c - 1)
             if t.size and self._last_seen is not None and t[0] < self._last_seen:
                 raise InvalidParameter(f"time must never decrease, got {float(t[0])!r} at row 0 after "
                                        f"{self._last_seen!r}, the last stamp before this chunk (row "
@@ -462,6 +505,10 @@ class ValidationAccumulator:
         self._first_seen = later._first_seen if self._first_seen is None else self._first_seen
         self._last_seen = later._last_seen if later._last_seen is not None else self._last_seen
         if self._waiting is not None and later._waiting is not None:
+            if later._stamps is not None:  # its frozen start is summed: its rows cannot queue after these
+                raise InvalidParameter(f"other must not start with more than {SETTLE_STEPS} rows of one time stamp "
+                                       "while this one's stamps do not yet set the nominal step (fewer than "
+                                       f"{SETTLE_STEPS} steps); merge it once this one holds more rows")
             if later._break_first:
                 self._waiting.append(("break",))
                 later._break_first = False
@@ -535,7 +582,9 @@ class ValidationAccumulator:
         assert st is not None
         timing = None
         if acc._stamps is not None:
-            timing = acc._stamps.timing(cfg.sample_rate)
+            timing = acc._stamps.timing(cfg.sample_rate, cfg.time_units_checked)
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, timing.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
         return _report(st.snapshot(), cfg, acc._omitted, timing)

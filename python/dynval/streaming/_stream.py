@@ -41,6 +41,7 @@ import numpy as np
 import scipy.fft
 
 from ..checks import _timing
+from ..checks._errors import InvalidParameter
 from ..kernels._reference.correlation import DIRECT_MAX_LAGS, row_lagged_products
 from ..kernels._reference.norms import joint_major
 
@@ -724,9 +725,10 @@ class Stamps:
         self.dev_range = {k: (lo + k * dn, hi + k * dn) for k, (lo, hi) in self.dev_range.items()}
         self.nominal, self.median = float(nominal), float(median)
 
-    def timing(self, sample_rate: float | None) -> _timing.Timing:
+    def timing(self, sample_rate: float | None, units_checked: bool = True) -> _timing.Timing:
         """The :class:`dynval.checks._timing.Timing` of the stamps so far (at least one positive step);
-        ``sample_rate`` given: checked against them as ``_timing.analyse`` does."""
+        ``sample_rate`` given: checked against them as ``_timing.analyse`` does, and so are their
+        units (``units_checked``)."""
         assert self.advanced and self.first is not None and self.last is not None
         span = float(self.span.value())
         rate = self.counts / span
@@ -735,6 +737,11 @@ class Stamps:
         jitter = math.sqrt(max(e2 - 2 * dm * ce + dm * dm * c2, 0.0) / self.n_counted)
         uncertainty = 2.0 * float(np.spacing(max(abs(self.first), abs(self.last)))) + 3.0 * jitter
         nominal, source = _timing.rounded_step(rate, span, uncertainty), _timing.INFERRED
+        if not (math.isfinite(nominal) and nominal > 0):
+            raise InvalidParameter(f"time must advance by steps float64 can count, got {self.counts} steps over "
+                                   f"a span of {span!r} s")
+        if units_checked:
+            _timing.check_units(nominal)
         if sample_rate is not None:
             nominal, source = _timing.given_step(sample_rate, nominal), "given"
         dn = nominal - self.nominal  # d' = d − k·dn
