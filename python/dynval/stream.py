@@ -380,9 +380,6 @@ class ValidationAccumulator:
                     v.check_bandwidth(cfg.bandwidth, None)
                 return None
             t = _timing.stamps(time, c, self._rows_seen)
-            if t.size:
-                _timing.check_span(t[0] if self._first_seen is None else self._first_seen, float(t[-1]),
-                                   self._rows_seen + c - 1)
             if t.size and self._last_seen is not None and t[0] < self._last_seen:
                 raise InvalidParameter(f"time must never decrease, got {float(t[0])!r} at row 0 after "
                                        f"{self._last_seen!r}, the last stamp before this chunk (row "

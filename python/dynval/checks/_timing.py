@@ -94,6 +94,12 @@ def stamps(value: Any, n: int, first_row: int | None = None) -> np.ndarray:
     if bad.size:
         r = int(bad[0])
         raise NonFiniteInput(f"time must be finite seconds, got {float(t[r])!r} at row {r}{in_stream(r)}")
+    # the data's range (contract §1.2): differences and squares of such stamps stay finite
+    far = np.flatnonzero(np.abs(t) > v.MAX_MAGNITUDE)
+    if far.size:
+        r = int(far[0])
+        raise NonFiniteInput(f"time has a value out of range ({float(t[r])!r}) at row {r}{in_stream(r)}: "
+                             f"|t| must be at most {v.MAX_MAGNITUDE:g} s")
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         k = int(back[0])
@@ -108,17 +114,6 @@ def check_time(value: Any, n: int) -> np.ndarray:
     if n >= 2 and not t[-1] > t[0]:
         raise InvalidParameter(f"time must advance, got every stamp equal to {float(t[0])!r}")
     return t
-
-
-def check_span(first: float, last: float, first_row: int | None = None) -> None:
-    """The stamps from ``first`` to ``last`` must span a finite number of seconds (float64's range);
-    ``first_row``: in a stream, the row of ``last``."""
-    with np.errstate(over="ignore"):
-        span = np.float64(last) - np.float64(first)
-    if not np.isfinite(span):
-        where = "" if first_row is None else f" (row {first_row} of the stream)"
-        raise InvalidParameter(f"time must span a finite number of seconds, got stamps from {first!r} to "
-                               f"{last!r}{where}, whose difference overflows float64")
 
 
 def check_units(nominal: float) -> None:
@@ -154,7 +149,6 @@ def analyse(t: np.ndarray, sample_rate: float | None = None, rows: np.ndarray | 
     otherwise. ``rows``: the data (N, k) whose exact repeats of the previous row are counted.
     ``units_checked``: the nominal step must be one of seconds (:func:`check_units`).
     """
-    check_span(float(t[0]), float(t[-1]))
     steps = np.diff(t - t[0])
     nominal = nominal_step(t, steps)
     if units_checked:
@@ -202,7 +196,7 @@ def nominal_step(t: np.ndarray, steps: np.ndarray) -> float:
     (epoch stamps in float64 are quantised to 2.4e-7 s: k/200 s stamps then give exactly 200 Hz;
     jittered stamps give their grid's rate when the jitter hides the difference)."""
     median = float(np.median(steps[steps > 0]))
-    _check_resolvable(median, float(steps.sum()))
+    check_resolvable(median, float(steps.sum()))
     counts = np.rint(steps / median)
     counted = counts >= 1
     span = float(steps[counted].sum())
@@ -214,14 +208,20 @@ def nominal_step(t: np.ndarray, steps: np.ndarray) -> float:
     return rounded_step(rate, span, uncertainty)
 
 
-def _check_resolvable(median: float, span: float) -> None:
-    """Steps float64 can count: the median step a normal number (its rate finite) and the span a
-    finite number of them (InvalidParameter otherwise; the span itself is finite, check_span)."""
-    with np.errstate(over="ignore"):
-        count = np.float64(span) / np.float64(median)
-    if median < np.finfo(np.float64).tiny or not np.isfinite(count) or not np.isfinite(1.0 / median):
-        raise InvalidParameter(f"time must advance by steps float64 can count, got a median step of {median!r} s "
-                               f"over a span of {span!r} s")
+MAX_STEPS = 2.0**53
+"""Most nominal steps a run may hold: float64 counts integers exactly up to 2⁵³."""
+
+MIN_STEP = 1.0 / v.MAX_MAGNITUDE
+"""Smallest median step (s): the reciprocal of the data's range, so that the rate stays within it."""
+
+
+def check_resolvable(median: float, span: float) -> None:
+    """Steps float64 can count: the median step at least MIN_STEP and the span at most MAX_STEPS of
+    them (InvalidParameter otherwise)."""
+    if median < MIN_STEP or span / median > MAX_STEPS:
+        raise InvalidParameter(f"time must advance by steps float64 can count (a median step of at least "
+                               f"{MIN_STEP:g} s, at most 2**53 of them), got a median step of {median!r} s over "
+                               f"a span of {span!r} s")
 
 
 def rounded_step(rate: float, span: float, uncertainty: float) -> float:

@@ -41,7 +41,6 @@ import numpy as np
 import scipy.fft
 
 from ..checks import _timing
-from ..checks._errors import InvalidParameter
 from ..kernels._reference.correlation import DIRECT_MAX_LAGS, row_lagged_products
 from ..kernels._reference.norms import joint_major
 
@@ -731,15 +730,13 @@ class Stamps:
         units (``units_checked``)."""
         assert self.advanced and self.first is not None and self.last is not None
         span = float(self.span.value())
+        _timing.check_resolvable(self.median, span)
         rate = self.counts / span
         e2, ce, c2 = self.rate_sums.value()
         dm = 1.0 / rate - self.median
         jitter = math.sqrt(max(e2 - 2 * dm * ce + dm * dm * c2, 0.0) / self.n_counted)
         uncertainty = 2.0 * float(np.spacing(max(abs(self.first), abs(self.last)))) + 3.0 * jitter
         nominal, source = _timing.rounded_step(rate, span, uncertainty), _timing.INFERRED
-        if not (math.isfinite(nominal) and nominal > 0):
-            raise InvalidParameter(f"time must advance by steps float64 can count, got {self.counts} steps over "
-                                   f"a span of {span!r} s")
         if units_checked:
             _timing.check_units(nominal)
         if sample_rate is not None:
