@@ -21,6 +21,7 @@ import pytest
 
 import dynval
 from dynval.streaming._stream import MAX_STATE_CELLS, Layout, State, state_cells
+from dynval.stream import ValidationAccumulator
 
 HAS_CPP = dynval.backends()["cpp"]["available"]
 if HAS_CPP:
@@ -227,3 +228,69 @@ def test_setstate_refuses_a_tuple_of_another_length_and_a_huge_layout():
         _restore(state[:7])
     with pytest.raises(ValueError, match=r"more than 134217728 numbers"):
         _restore(((2, 3, 10**12, 4, True), *state[1:]))
+
+
+# --------------------------------------------------------------------------- a clock that does not advance
+
+
+def _frozen_then_running(n_frozen, n_running, m=3, seed=0):
+    rng = np.random.default_rng(seed)
+    n = n_frozen + n_running
+    tau = rng.normal(size=(n, m))
+    pred = tau + 0.1 * rng.normal(size=(n, m))
+    t = np.r_[np.full(n_frozen, 7.0), 7.0 + np.arange(1, n_running + 1) / 250.0]
+    return tau, pred, t
+
+
+def test_a_frozen_clock_keeps_no_rows(backend):
+    # the rows waited, copied, for the first positive step: memory grew with the stream (472 MB for 4e6 rows)
+    chunk, chunks = 2000, 60
+    tau, pred, _ = _frozen_then_running(chunk, 0)
+    acc = ValidationAccumulator(n_params=2, max_lag=5, backend=backend)
+    acc.update(tau, pred, time=np.zeros(chunk))
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        for _ in range(chunks):
+            acc.update(tau, pred, time=np.zeros(chunk))
+        held = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    fed = chunks * 2 * tau.nbytes  # 5.8 MB of torques
+    assert held < fed / 10, (held, fed)
+    assert acc.n_samples == (chunks + 1) * chunk
+    with pytest.raises(dynval.InvalidParameter, match=r"time must advance, got every stamp equal to 0.0"):
+        acc.result()
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 64, 1000])
+def test_a_frozen_start_gives_validates_report(chunk, backend):
+    tau, pred, t = _frozen_then_running(700, 2300)
+    acc = ValidationAccumulator(n_params=2, max_lag=5, backend=backend)
+    for k in range(0, t.size, chunk):
+        acc.update(tau[k:k + chunk], pred[k:k + chunk], time=t[k:k + chunk])
+    got = acc.result()
+    want = dynval.validate(tau, pred, n_params=2, max_lag=5, backend=backend, time=t)
+    assert got.timing["duplicated_stamps"] == want.timing["duplicated_stamps"] == 699
+    for key in ("sample_rate", "gaps", "irregular_steps", "repeated_rows", "n_steps", "gap_rows", "duration"):
+        assert got.timing[key] == want.timing[key], key
+    np.testing.assert_allclose(got.autocorrelation["rho"], want.autocorrelation["rho"], rtol=0, atol=1e-14)
+    assert got.provenance["segments"] == want.provenance["segments"]
+
+
+def test_merging_a_frozen_start_after_a_stream_still_settling():
+    tau, pred, t = _frozen_then_running(500, 500)
+    early = ValidationAccumulator(n_params=2, max_lag=5)
+    early.update(tau[:50], pred[:50], time=t[:50] - 1.0 + np.arange(50) / 250.0 - 0.2)  # 49 steps: still settling
+    later = ValidationAccumulator(n_params=2, max_lag=5)
+    later.update(tau[50:500], pred[50:500], time=t[50:500])  # 450 equal stamps: summed at once
+    with pytest.raises(dynval.InvalidParameter, match=r"other must not start with more than 100 rows of one time "
+                                                      r"stamp while this one's stamps do not yet set the nominal step"):
+        early.merge(later)
+    # once settled, the merge is taken
+    settled = ValidationAccumulator(n_params=2, max_lag=5)
+    stamps = np.arange(300) / 250.0
+    settled.update(tau[:300], pred[:300], time=stamps - stamps[-1] - 1.0)
+    merged = settled.merge(later).result()
+    assert merged.timing["duplicated_stamps"] == 449 and merged.timing["sample_rate"] == 250.0
+    assert merged.timing["gap_rows"] == [300] and merged.provenance["n_samples"] == 750

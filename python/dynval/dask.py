@@ -135,10 +135,13 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
     meas, pred, reg = _aligned(tau_meas, tau_pred, regressor, n_joints)
     n = meas.shape[0]
     starts = parse_segments(segments, n)
-    rows = da.arange(n, chunks=(meas.chunks[0],))
-    arrays = [rows, "i", meas, "ij", pred, "ij"] + ([] if reg is None else [reg, "ijk"])
+    stamps = None
     if time is not None:
         stamps = _timing.stamps(time.compute() if isinstance(time, da.Array) else time, n)
+        meas, pred, reg = _blocks_at_steps(stamps, meas, pred, reg)
+    rows = da.arange(n, chunks=(meas.chunks[0],))
+    arrays = [rows, "i", meas, "ij", pred, "ij"] + ([] if reg is None else [reg, "ijk"])
+    if stamps is not None:
         arrays += [da.from_array(stamps, chunks=(meas.chunks[0],)), "i"]
     block_starts = np.cumsum((0,) + meas.chunks[0][:-1])
     blocks = da.blockwise(_block, "i", *arrays, starts=starts, block_starts=block_starts, keywords=keywords,
@@ -190,6 +193,24 @@ def _aligned(tau_meas, tau_pred, regressor, n_joints):
             reg0 = reg0.rechunk({0: tuple(c * m for c in meas.chunks[0]), 1: -1}).reshape(n, m, p)
         reg = reg0.rechunk((meas.chunks[0], m, p))
     return meas, pred, reg
+
+
+def _blocks_at_steps(stamps, meas, pred, reg):
+    """The blocks moved so that none starts on a stamp equal to the one before: a merge classifies
+    the step across a junction, and each block's own steps against the zero steps inside it only
+    (a duplicated stamp at a block's start would make its next step look like a gap)."""
+    ends = np.cumsum(meas.chunks[0])[:-1]
+    moved = []
+    for end in ends:
+        while end < stamps.size and stamps[end] == stamps[end - 1]:
+            end += 1
+        if end < stamps.size and (not moved or end > moved[-1]):
+            moved.append(int(end))
+    chunks = tuple(int(c) for c in np.diff([0, *moved, stamps.size]))
+    if chunks == tuple(meas.chunks[0]):
+        return meas, pred, reg
+    return (meas.rechunk({0: chunks}), pred.rechunk({0: chunks}),
+            None if reg is None else reg.rechunk({0: chunks}))
 
 
 def _as_dask(x, name):
