@@ -30,7 +30,8 @@ def _run(fs=200.0, n=2000, seed=0):
 UNITS = [(200.0, 1e3, "milliseconds", "1000"), (200.0, 1e6, "microseconds", "1000000"),
          (200.0, 1e9, "nanoseconds", "1000000000"), (1000.0, 1e3, "milliseconds", "1000"),
          (1000.0, 1e6, "microseconds", "1000000"), (1000.0, 1e9, "nanoseconds", "1000000000"),
-         (100.0, 1e3, "milliseconds", "1000"), (4000.0, 1e6, "microseconds", "1000000")]
+         (100.0, 1e3, "milliseconds", "1000"), (4000.0, 1e6, "microseconds", "1000000"),
+         (4000.0, 1e3, "milliseconds", "1000"), (9000.0, 1e3, "milliseconds", "1000")]
 
 
 @pytest.mark.parametrize("fs, factor, unit, divide", UNITS)
@@ -45,8 +46,8 @@ def test_stamps_in_another_unit_are_refused_with_the_fix(fs, factor, unit, divid
 
 
 @pytest.mark.parametrize("step, accepted", [(1.0, False), (2.0, False), (10.0, False), (1000.0, False),
-                                            (0.999, True), (1e-5, True), (0.99e-5, False), (1.001, False),
-                                            (0.5, True), (1 / 3, True)])
+                                            (0.0999, True), (1e-5, True), (0.99e-5, False), (0.1001, False),
+                                            (0.5, False), (0.25, False), (1 / 3, False), (0.05, True)])
 def test_the_plausible_range_and_whole_second_steps(step, accepted):
     n = 400
     rng = np.random.default_rng(1)
@@ -65,6 +66,7 @@ def test_the_plausible_range_and_whole_second_steps(step, accepted):
 
 def test_the_guess_is_the_unit_nearest_a_robots_rate():
     assert _timing._unit_guess(1.0) == ("milliseconds", 1e3)  # steps of 1: 1 kHz in ms
+    assert _timing._unit_guess(4.0) == ("milliseconds", 1e3)  # steps of 0.25: 4 kHz in ms
     assert _timing._unit_guess(0.1) == ("milliseconds", 1e3)  # steps of 10: 100 Hz in ms, not 100 kHz in µs
     assert _timing._unit_guess(1e-3) == ("microseconds", 1e6)  # steps of 1000
     assert _timing._unit_guess(1e-6) == ("nanoseconds", 1e9)  # steps of 1e6
@@ -231,5 +233,5 @@ def test_cli_help_names_the_override():
     p = subprocess.run([sys.executable, "-m", "dynval", "validate", "--help"], capture_output=True, text=True,
                        timeout=120, env=dict(os.environ, PYTHONPATH=os.path.join(ROOT, "python")))
     text = " ".join(p.stdout.split())
-    assert "--time-units-unchecked" in text and "outside 1 Hz to 100 kHz" in text
+    assert "--time-units-unchecked" in text and "outside 10 Hz to 100 kHz" in text
     assert "at most their Nyquist frequency" in text

@@ -56,7 +56,7 @@ TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column 
              "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
              "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
              "splits the lag analysis, and duplicated, missing and irregular stamps are reported. Stamps at a rate "
-             "outside 1 Hz to 100 kHz, or whole seconds apart, look like ms, us or ns and are refused with the "
+             "outside 10 Hz to 100 kHz (whole seconds apart, say) look like ms, us or ns and are refused with the "
              "fix (divide by 1000, ...) unless --time-units-unchecked")
 
 

@@ -348,8 +348,8 @@ class ValidationAccumulator:
         if cfg.sample_rate is None:
             if cfg.bandwidth is not None:
                 v.check_nyquist(cfg.bandwidth, 1.0 / nominal)
-        else:
-            nominal = 1.0 / cfg.sample_rate
+        else:  # checked against these stamps now, before any step is classified against it
+            nominal = _timing.given_step(cfg.sample_rate, nominal)
         return Stamps(nominal, float(np.median(positive)))
 
     def _settle(self, stamps: Stamps) -> None:

@@ -30,10 +30,11 @@ IRREGULAR_TOLERANCE = 0.1
 RATE_TOLERANCE = 0.01
 """A given sample_rate may differ from the stamps' nominal rate by at most 1 %."""
 
-PLAUSIBLE_RATE = (1.0, 1e5)
-"""The rates (Hz) a robot logs at. Stamps at a rate outside, or a whole number of seconds apart,
-are taken for stamps in another unit (milliseconds, microseconds, nanoseconds) and refused unless
-``time_units_checked=False`` (contract §4)."""
+PLAUSIBLE_RATE = (10.0, 1e5)
+"""The rates (Hz) at which a robot logs its torques for a dynamic model: from 10 Hz (slower logs do not
+hold the dynamics) to 100 kHz. Stamps at a rate outside are taken for stamps in another unit
+(milliseconds of a logger up to 10 kHz give 10 Hz or less; microseconds, nanoseconds) and refused
+unless ``time_units_checked=False`` (contract §4)."""
 
 _UNITS = (("milliseconds", 1e3), ("microseconds", 1e6), ("nanoseconds", 1e9))
 _TYPICAL_RATE = 1e3  # the rate a guessed unit is chosen nearest to: a robot's usual 1 kHz
@@ -117,21 +118,19 @@ def check_time(value: Any, n: int) -> np.ndarray:
 
 
 def check_units(nominal: float) -> None:
-    """Stamps of the nominal step ``nominal`` (s) must be at a rate a robot logs (PLAUSIBLE_RATE)
-    and not a whole number of seconds apart: else they look like another unit (InvalidParameter
-    with the fix, e.g. ``pass time / 1000``)."""
+    """Stamps of the nominal step ``nominal`` (s) must be at a rate a robot logs (PLAUSIBLE_RATE):
+    else they look like another unit (InvalidParameter with the fix, e.g. ``pass time / 1000``)."""
     lo, hi = PLAUSIBLE_RATE
     rate = 1.0 / nominal
-    whole = nominal >= 1.0 and float(nominal).is_integer()
-    if lo <= rate <= hi and not whole:
+    if lo <= rate <= hi:
         return
-    what = (f"a whole number of seconds ({nominal:.6g} s)" if whole
-            else f"{nominal:.6g} s (a rate of {rate:.6g} Hz)")
+    whole = nominal >= 1.0 and float(nominal).is_integer()
+    what = f"a whole number of seconds ({nominal:.6g} s)" if whole else f"{nominal:.6g} s (a rate of {rate:.6g} Hz)"
     unit = _unit_guess(rate)
     fix = "pass them in seconds" if unit is None else f"these look like {unit[0]}: pass time / {unit[1]:.0f}"
-    raise InvalidParameter(f"time must be in seconds, got stamps whose step is {what}, which a robot does not log "
-                           f"at ({lo:g} Hz to {hi / 1e3:g} kHz, steps not whole seconds); {fix}, or "
-                           "time_units_checked=False if they are seconds")
+    raise InvalidParameter(f"time must be in seconds, got stamps whose step is {what}, outside the rates a robot "
+                           f"logs at ({lo:g} Hz to {hi / 1e3:g} kHz); {fix}, or time_units_checked=False if they "
+                           "are seconds")
 
 
 def _unit_guess(rate: float) -> tuple[str, float] | None:

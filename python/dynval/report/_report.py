@@ -148,8 +148,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
         Time stamps of the samples, in seconds (any origin). Duplicated stamps, gaps and irregular
         steps are reported (section ``timing``, a ``time_stamps`` note); the lag and spectral
         analyses use the nominal step (median step, or ``sample_rate``) and are split into segments
-        at every gap (a step longer than 1.5 nominal steps). Stamps at a rate outside 1 Hz to
-        100 kHz, or a whole number of seconds apart, look like milliseconds, microseconds or
+        at every gap (a step longer than 1.5 nominal steps). Stamps at a rate outside 10 Hz to
+        100 kHz (a whole number of seconds apart, say) look like milliseconds, microseconds or
         nanoseconds and are refused with the fix (``pass time / 1000``).
     time_units_checked : bool
         False accepts stamps at any rate (the check above); they must still be finite seconds
