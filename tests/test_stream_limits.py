@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval.streaming._stream import MAX_STATE_CELLS, Layout, State, state_cells
 from dynval.stream import ValidationAccumulator
+from dynval.streaming._stream import MAX_STATE_CELLS, Layout, State, state_cells
 
 HAS_CPP = dynval.backends()["cpp"]["available"]
 if HAS_CPP:

@@ -140,7 +140,7 @@ def test_a_bandwidth_at_nyquist_is_accepted():
 @pytest.mark.parametrize("bandwidth", [1e-307, 5e-324, 1e-30, 1e-3])
 def test_a_bandwidth_far_below_the_rate_gives_a_report(bandwidth):
     # the motion's largest lag (rate / band) and the decimation (rate / 2 band) overflowed int
-    t, meas, pred = _run(100.0, 800)
+    _, meas, pred = _run(100.0, 800)
     report = dynval.validate(meas, pred, n_params=1, sample_rate=100.0, bandwidth=bandwidth)
     assert 1 <= report.provenance["conventions"]["max_lag"] < 800
     assert report.whiteness["decimation"] <= 800

@@ -145,7 +145,8 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
         arrays += [da.from_array(stamps, chunks=(meas.chunks[0],)), "i"]
     block_starts = np.cumsum((0,) + meas.chunks[0][:-1])
     blocks = da.blockwise(_block, "i", *arrays, starts=starts, block_starts=block_starts, keywords=keywords,
-                          has_reg=reg is not None, timed=time is not None, dtype=object, adjust_chunks={"i": 1}, concatenate=True, meta=np.empty((0,), dtype=object))
+                          has_reg=reg is not None, timed=time is not None, dtype=object, adjust_chunks={"i": 1},
+                          concatenate=True, meta=np.empty((0,), dtype=object))
     merged = da.reduction(blocks, _keep, _merge_blocks, combine=_merge_blocks, axis=0, keepdims=True,
                           concatenate=False, split_every=split_every, dtype=object,
                           meta=np.empty((0,), dtype=object))

@@ -98,7 +98,8 @@ SETTLE_STEPS = 100
 
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
+                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
+                    "backend")
 
 
 class ValidationAccumulator:
@@ -158,7 +159,8 @@ class ValidationAccumulator:
         self._settings = check_options(Keywords(
             n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
             max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
+            column_names=column_names, q=q,
             estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
             model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
