@@ -100,9 +100,11 @@ def test_compare_refuses_milliseconds_and_takes_the_override():
 def test_the_stream_refuses_milliseconds_early(chunk):
     t, meas, pred = _run(1000.0)
     acc = ValidationAccumulator(n_params=2, max_lag=5)
-    with pytest.raises(InvalidParameter, match="these look like milliseconds: pass time / 1000"):
+    with pytest.raises(InvalidParameter, match=r"^chunk \d+: time must be in seconds.*these look like "
+                                               r"milliseconds: pass time / 1000"):
         for k in range(0, 1000, chunk):  # within the first thousand rows, not at result()
             acc.update(meas[k:k + chunk], pred[k:k + chunk], time=1e3 * t[k:k + chunk])
+    assert acc.n_samples == (100 // chunk) * chunk  # the chunk that completes the first 100 steps is refused
     acc = ValidationAccumulator(n_params=2, max_lag=5, time_units_checked=False)
     for k in range(0, t.size, chunk):
         acc.update(meas[k:k + chunk], pred[k:k + chunk], time=1e3 * t[k:k + chunk])

@@ -96,6 +96,9 @@ _MAX_BLOCK_ROWS = 1 << 16
 # median step that counts the steps of the inferred rate; until then the rows wait, unsummed.
 SETTLE_STEPS = 100
 
+# What an update changes before its stamps are checked against the grid they set (restored on a refusal).
+_WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting", "_waiting_rows")
+
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
                     "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
@@ -244,6 +247,8 @@ class ValidationAccumulator:
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
         stamps = self._checked_time(time, meas.shape[0])
+        # what the chunk changes before its stamps may settle the grid (and be refused there)
+        before = {name: getattr(self, name) for name in _WAITING_FIELDS}
         if self._layout is None:
             self._layout = self._new_layout(meas.shape[1], 0 if reg is None else reg.shape[2])
         self._chunks += 1
@@ -267,7 +272,14 @@ class ValidationAccumulator:
         self._waiting.append(("rows", meas.copy(), pred.copy(), None if reg is None else reg.copy(), stamps.copy(),
                               tuple(breaks), kept))
         self._waiting_rows += kept.size
-        self._settle_when_known()
+        try:
+            self._settle_when_known()
+        except InputError as exc:  # the stamps that set the grid refused: the chunk is not taken
+            if self._waiting is not None and self._waiting and self._waiting[-1][0] == "rows":
+                self._waiting.pop()
+            for name, value in before.items():
+                setattr(self, name, value)
+            raise type(exc)(f"chunk {before['_chunks']}: {exc}") from None
 
     def _feed_chunk(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, breaks: Sequence[int]) -> None:
         """Sum a checked chunk, with segment breaks before its rows ``breaks``."""
