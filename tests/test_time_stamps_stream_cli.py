@@ -348,7 +348,7 @@ def test_stamps_that_never_advance_and_a_disagreeing_rate(backend):
         dynval.validate(tau, pred, n_params=1, max_lag=1, sample_rate=150.0, time=t)
     assert str(info.value) == "chunk 1: " + str(whole.value)
     assert acc.n_samples == 60  # the refused chunk is not taken, and is refused again
-    with pytest.raises(dynval.InvalidParameter, match="^chunk 1: sample_rate=150 Hz disagrees"):
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 1: sample_rate=150 Hz disagrees"):
         acc.update(tau[60:], pred[60:], time=t[60:])
 
 

@@ -97,7 +97,8 @@ _MAX_BLOCK_ROWS = 1 << 16
 SETTLE_STEPS = 100
 
 # What an update changes before its stamps are checked against the grid they set (restored on a refusal).
-_WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting", "_waiting_rows")
+_WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting",
+                   "_waiting_rows")
 
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
