@@ -97,3 +97,20 @@ def test_time_stamps_are_checked_with_validates_messages():
         dynval.dask.validate(blocks, blocks, n_params=1, max_lag=3, time=back)
     with pytest.raises(dynval.InvalidParameter, match="these look like milliseconds: pass time / 1000"):
         dynval.dask.validate(blocks, blocks, n_params=1, max_lag=3, time=t * 1e3)
+
+
+@pytest.mark.parametrize("chunk", [50, 100, 150, 1000])
+def test_a_frozen_clock_inside_a_block(chunk):
+    # a block of one stamp, after a block still waiting for its grid: the merge refused it
+    rng = np.random.default_rng(6)
+    n = 2000
+    tau = rng.normal(size=(n, 2))
+    pred = tau + 0.1 * rng.normal(size=(n, 2))
+    t = np.arange(n) / 100.0
+    t[500:800] = t[500]
+    got = dynval.dask.validate(da.from_array(tau, chunks=(chunk, 2)), da.from_array(pred, chunks=(chunk, 2)),
+                               n_params=1, max_lag=5, time=t)
+    want = dynval.validate(tau, pred, n_params=1, max_lag=5, time=t)
+    for key in ("duplicated_stamps", "gaps", "gap_rows", "sample_rate", "irregular_steps"):
+        assert got.timing[key] == want.timing[key], key
+    assert_same_report(got, want, tau, pred)

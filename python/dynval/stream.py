@@ -343,14 +343,20 @@ class ValidationAccumulator:
                 self._feed_timed(*event[1:6])
         self._waiting = []
 
-    def _first_stamps(self) -> Stamps | None:
-        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
-        ``_timing`` finds in the waiting stamps, and their median step (which counts the steps of
-        the inferred rate); None without a positive step."""
+    def _waiting_stamps(self) -> list[FloatArray]:
+        """The stamps that set the nominal step: after a summed frozen start its stamp, then the
+        waiting rows' kept stamps."""
         assert self._waiting is not None
         parts = [event[6] for event in self._waiting if event[0] == "rows"]
         if self._stamps is not None and self._stamps.last is not None:  # after a summed frozen start
             parts.insert(0, np.array([self._stamps.last]))
+        return parts
+
+    def _first_stamps(self, later: Sequence[FloatArray] = ()) -> Stamps | None:
+        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
+        ``_timing`` finds in the waiting stamps (and ``later``'s, in a merge), and their median step
+        (which counts the steps of the inferred rate); None without a positive step."""
+        parts = [*self._waiting_stamps(), *later]
         t = np.concatenate(parts) if parts else np.zeros(0)
         steps = np.diff(t - t[0]) if t.size else t
         positive = steps[steps > 0]
@@ -516,11 +522,9 @@ class ValidationAccumulator:
                                    f"{later._first_seen!r} before this one's last stamp {self._last_seen!r}")
         self._first_seen = later._first_seen if self._first_seen is None else self._first_seen
         self._last_seen = later._last_seen if later._last_seen is not None else self._last_seen
+        if self._waiting is not None and later._waiting is not None and later._stamps is not None:
+            return self._merge_frozen_start(later)
         if self._waiting is not None and later._waiting is not None:
-            if later._stamps is not None:  # its frozen start is summed: its rows cannot queue after these
-                raise InvalidParameter(f"other must not start with more than {SETTLE_STEPS} rows of one time stamp "
-                                       "while this one's stamps do not yet set the nominal step (fewer than "
-                                       f"{SETTLE_STEPS} steps); merge it once this one holds more rows")
             if later._break_first:
                 self._waiting.append(("break",))
                 later._break_first = False
@@ -534,6 +538,26 @@ class ValidationAccumulator:
         elif later._waiting is not None:
             assert self._stamps is not None
             later._settle(Stamps(self._stamps.nominal, self._stamps.median))
+        return False
+
+    def _merge_frozen_start(self, later: ValidationAccumulator) -> bool:
+        """Both wait for their nominal step, and ``later``'s frozen start is summed already: its rows
+        cannot queue after these. Both settle on the nominal step of their waiting stamps together
+        (fewer than SETTLE_STEPS perhaps); when none advanced, every step is a duplicate: these rows
+        are summed as a frozen start too and ``later``'s waiting updates queue after them (the
+        summaries and the states then join as settled ones, the caller's part: returns False)."""
+        assert self._waiting is not None and later._waiting is not None
+        stamps = self._first_stamps(later._waiting_stamps())
+        if stamps is not None:
+            self._settle(stamps)
+            later._settle(Stamps(stamps.nominal, stamps.median))
+            return False
+        self._sum_frozen()
+        assert self._waiting is not None
+        self._waiting.extend(later._waiting)
+        self._waiting_rows += later._waiting_rows
+        self._frozen_rows += later._frozen_rows
+        later._waiting, later._waiting_rows = [], 0
         return False
 
     def _check_same_timing(self, other: ValidationAccumulator) -> None:

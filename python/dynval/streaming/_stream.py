@@ -716,6 +716,9 @@ class Stamps:
 
     def _recentre(self, nominal: float, median: float) -> None:
         """Move the centred sums to another nominal step and median (the counts stay)."""
+        if not self.n_counted and not self.n_regular:  # duplicates only (a frozen start): no sum to move
+            self.nominal, self.median = float(nominal), float(median)
+            return
         dm, dn = self.median - median, self.nominal - nominal  # e' = e + c·dm, d' = d + k·dn
         e2, ce, c2 = self.rate_sums.value()
         self.rate_sums = Compensated(np.array([e2 + 2 * dm * ce + dm * dm * c2, ce + dm * c2, c2]))
