@@ -134,6 +134,29 @@ def test_time_stamps(t, data):
 
 @FUZZ
 @given(t=stamps(), data=st.data())
+def test_time_stamps_in_merged_accumulators(t, data):
+    # one accumulator per drawn block, merged in order (as dynval.dask does), some of them copies
+    n = t.shape[0]
+    meas, pred = _data(n, seed=5)
+    backend = data.draw(st.sampled_from(BACKENDS))
+    units = data.draw(st.booleans())
+    chunks = _chunks(data.draw, n)
+    try:
+        parts = []
+        for a, b in zip(chunks[:-1], chunks[1:]):
+            acc = ValidationAccumulator(n_params=2, max_lag=3, backend=backend, time_units_checked=units)
+            acc.update(meas[a:b], pred[a:b], time=t[a:b])
+            parts.append(acc)
+        merged = parts[0]
+        for later in parts[1:]:
+            merged = merged.merge(later.copy() if data.draw(st.booleans()) else later)
+        merged.result().summary()
+    except dynval.InputError:
+        pass
+
+
+@FUZZ
+@given(t=stamps(), data=st.data())
 def test_time_stamps_in_one_chunk_agree_with_validate(t, data):
     # one chunk: the stream sees every stamp at once, as validate does
     n = t.shape[0]
