@@ -66,11 +66,15 @@ def _check_self_contained(text):
     assert not parser.errors and not parser.stack
     root = ET.fromstring(text.split("\n", 1)[1])  # well-formed XML after the doctype
     assert root.tag == XHTML + "html"
+    ids = {attrs["id"] for _tag, attrs in parser.tags if "id" in attrs}
     for tag, attrs in parser.tags:
         assert tag not in ("script", "link", "iframe", "object")
         for key in ("src", "href"):
             if key in attrs:
-                assert attrs[key].startswith("data:"), (tag, attrs[key][:60])
+                # embedded data, or a jump to a section of the page itself (the contents line)
+                target = attrs[key]
+                assert target.startswith("data:") or (target.startswith("#") and target[1:] in ids), (
+                    tag, target[:60])
     assert "http://" not in text.replace('xmlns="http://www.w3.org/1999/xhtml"', "")
     assert "https://" not in text
     assert "@import" not in text and "url(" not in text

@@ -120,3 +120,33 @@ def test_every_field_is_named_in_the_contract(cls):
     section4 = text[text.index("## 4. `validate` and the report"):text.index("## 5. Backends")]
     missing = [f.name for f in dataclasses.fields(cls) if f.name != "_order" and f"`{f.name}`" not in section4]
     assert not missing, f"{cls.__name__}: {missing} not in contract §4"
+
+
+def test_a_record_shows_its_values_not_only_its_names():
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(400, 2)) * [30.0, 2.0]
+    report = dynval.validate(tau, tau + rng.normal(scale=0.5, size=tau.shape), n_params=4)
+    text = repr(report.per_joint)
+    for name in report.per_joint:
+        assert f"{name}=[" in text
+    assert f"{report.per_joint.rmse[0]:.4g}"[:5] in text
+    assert f"rmse_per_sample={report.pooled.rmse_per_sample:.4g}" in repr(report.pooled)
+    html = report.per_joint._repr_html_()
+    assert html.count("<tr>") == len(report.per_joint) and "PerJoint" in html
+
+
+def test_a_long_array_or_mapping_is_abbreviated_in_a_repr():
+    long = rec.PerJoint.of({"rmse": np.arange(1000.0)})
+    assert "..." in repr(long) and len(repr(long)) < 200
+    prov = rec.Provenance.of({"conventions": {f"k{i}": i for i in range(30)}})
+    assert "30 entries" in repr(prov) and "k29" not in repr(prov)
+
+
+def test_a_finding_prints_on_one_line():
+    from dynval import Finding
+
+    f = Finding(kind="bias", severity="deficiency", joints=(1,), pvalue_adjusted=1.234e-7,
+                message="joint 2: the residual's mean is " + "x" * 300)
+    text = repr(f)
+    assert "\n" not in text and text.startswith("<Finding deficiency bias joints=[1] p_adj=1.23e-07: joint 2")
+    assert len(text) < 200 and text.endswith("…>")

@@ -258,3 +258,22 @@ def test_float_range_p_reads_the_same_in_summary_and_html():
 
 def test_module_lists_its_helpers():
     assert set(_text.__all__) >= {"pvalue_text", "p_clause", "versus", "number_text", "P_FLOOR"}
+
+
+def test_a_count_of_one_takes_the_singular():
+    import numpy as np
+
+    import dynval
+    from dynval.report._text import counted
+
+    assert (counted(1, "row"), counted(0, "row"), counted(3, "log"), counted(2, "entry", "entries")) == (
+        "1 row", "0 rows", "3 logs", "2 entries")
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(300, 2))
+    pred = tau + 0.1 * rng.normal(size=tau.shape)
+    pred[5, 0] = np.nan
+    report = dynval.validate(tau, pred, n_params=2, nan_policy="omit")
+    assert "1 row omitted" in report.summary() and "1 rows" not in report.summary()
+    assert any("1 row with non-finite values was omitted" in f.message for f in report.findings)
+    cmp = dynval.compare(tau[1:], {"only": {"prediction": pred[1:], "n_params": 2}}, nan_policy="omit")
+    assert "— 1 candidate," in cmp.summary()

@@ -87,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 1 input error, 2 usage error, 3 internal error, "
                "141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform,validate-many}")
+    sub = parser.add_subparsers(dest="command",
+                                metavar="{validate,compare,demo,conform,validate-many,validate-log}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
@@ -151,6 +152,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("conform", help="run the conformance corpus against a port (see dynval conform --help)",
                    add_help=False)
     _add_validate_many(sub)
+    from ._logcli import add_validate_log
+
+    add_validate_log(sub, _EXIT_CODES)
     return parser
 
 
@@ -171,9 +175,12 @@ def _add_validate_many(sub) -> None:
         description="Validate every log of a fleet (one row each: RMSE, VAF, decision, findings) and test each "
                     "robot's logs for drift: a model that fits worse from some log on than in that robot's earlier "
                     "logs. LOGS are manifests (.csv or .json with columns robot, time, tau_meas, tau_pred and "
-                    "optionally n_params, regressor, log; paths relative to the manifest) or logs named "
-                    "ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a directory holding "
-                    "tau_meas.* and tau_pred.* (and regressor.*) files (contract §10).",
+                    "optionally n_params, log, and the files each log is validated with: regressor, q, dq, ddq, "
+                    "timestamps, estimation_tau, estimation_regressor, estimation_q; paths relative to the "
+                    "manifest) or logs named ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a "
+                    "directory holding tau_meas.* and tau_pred.* (and regressor.*, q.*, ...) files. Without q or "
+                    "a regressor a log's decision sees its residual only; the table says what each saw "
+                    "(contract §10).",
         epilog="Example: dynval validate-many fleet.csv --n-params 40 --workers 2 --html fleet.html. "
                "Exit code 1 also when a log could not be validated (its row then holds the error). " + _EXIT_CODES)
     many.add_argument("logs", nargs="+", metavar="LOGS", help="manifests (.csv, .json) or logs named ROBOT__TIME")
@@ -671,7 +678,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     restore()  # from here on, Ctrl-C is a KeyboardInterrupt caught below
     argv = list(sys.argv[1:] if argv is None else argv)
-    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "demo", "conform") else None
+    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "validate-log", "demo",
+                                              "conform") else None
     prefix = f"dynval {command}" if command else "dynval"
     try:
         return _flush_stdout(prefix, _dispatch(argv))  # a closed pipe shows here for buffered output
@@ -759,6 +767,10 @@ def _dispatch(argv: list) -> int:
         return _run_compare(args)
     if args.command == "validate-many":
         return _run_validate_many(args)
+    if args.command == "validate-log":
+        from ._logcli import run_validate_log
+
+        return run_validate_log(args, _error, _emit, _write_html)
     if args.command == "demo":
         from .demo import run_from_args
 

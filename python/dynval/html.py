@@ -18,6 +18,7 @@ import html as _html
 import io
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,12 +60,39 @@ figcaption { color: #444; font-size: 0.92em; margin-top: 0.3em; }
 details pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.8em; max-height: 40em; }
 .muted { color: #666; }
 .scroll { overflow-x: auto; }
+.num { white-space: nowrap; }
+nav.toc { font-size: 0.9em; color: #444; margin: 0.4em 0 0.2em 0; }
+nav.toc a { color: #1f5fa8; text-decoration: none; margin-right: 0.2em; }
+nav.toc a:hover { text-decoration: underline; }
+.verdict p { margin: 0.35em 0; }
+.verdict details { margin-top: 0.4em; }
+details.finding { border-left: 4px solid #ccc; padding: 0.15em 0.6em; margin: 0.25em 0; }
+details.finding.deficiency { border-left-color: #c62828; }
+details.finding.design { border-left-color: #e08a00; }
+details.finding.note { border-left-color: #607d8b; }
+details.finding summary { cursor: pointer; }
+details.finding p { margin: 0.3em 0 0.3em 1.2em; }
+h4.joint { margin: 0.9em 0 0.2em 0; font-size: 0.98em; }
+@media (max-width: 900px) { body { padding: 0.8em 0.8em; } table { font-size: 0.85em; } }
 """
 
 
 def _e(text) -> str:
     """Escape text content (quotes may stay: they need escaping in attributes only)."""
     return _html.escape(str(text), quote=False)
+
+
+_SCI = re.compile(r"[-+−]?\d+(?:\.\d+)?e[-+−]?\d+|[-+−]?\d+(?:\.\d+)?\s?%")
+
+
+def _t(text) -> str:
+    """Escaped prose whose numbers never break across lines ("2.81e-" / "241" is two numbers to a reader)."""
+    return _SCI.sub(lambda m: f'<span class="num">{m.group(0)}</span>', _e(text))
+
+
+def _whole_numbers(cell: str) -> str:
+    """A table cell's numbers in scientific notation kept on one line (cells with markup unchanged)."""
+    return cell if "<" in cell else _SCI.sub(lambda m: f'<span class="num">{m.group(0)}</span>', cell)
 
 
 def _a(text) -> str:
@@ -99,7 +127,7 @@ def _table(header, rows, *, text_cols=(0,), row_classes=None) -> str:
         cls = f' class="{row_classes[r]}"' if row_classes and row_classes[r] else ""
         out.append(f"<tr{cls}>")
         for i, cell in enumerate(row):
-            out.append(f'<td class="text">{cell}</td>' if i in text_cols else f"<td>{cell}</td>")
+            out.append(f'<td class="text">{cell}</td>' if i in text_cols else f"<td>{_whole_numbers(cell)}</td>")
         out.append("</tr>")
     out.append("</table></div>")
     return "".join(out)
@@ -169,26 +197,43 @@ def _per_joint_table(report) -> str:
 
 
 def _findings_html(report) -> str:
+    """The findings grouped by the joint they concern most (the whole run last), one collapsed line each:
+    severity, kind and the message's first sentence; a click shows the message, what to do and the columns."""
     findings = getattr(report, "findings", None)
     if findings is None:
         texts = getattr(report, "warnings_text", None) or []
         if not texts:
             return '<p class="muted">No findings.</p>'
-        return "<ul>" + "".join(f"<li>{_e(t)}</li>" for t in texts) + "</ul>"
+        return "<ul>" + "".join(f"<li>{_t(t)}</li>" for t in texts) + "</ul>"
     if not findings:
         return '<p class="muted">No findings: nothing in the residuals calls for a change.</p>'
     jn = _joint_names(report)
     cn = _column_names(report)
-    rows = []
+    groups: dict[int, list[str]] = {}
     for f in findings:
-        sev = getattr(f, "severity", "note")
-        joints = ", ".join(jn[j] if 0 <= j < len(jn) else str(j) for j in getattr(f, "joints", ()) or ())
-        cols = ", ".join(cn[c] if 0 <= c < len(cn) else str(c) for c in getattr(f, "columns", ()) or ())
-        rows.append([f'<span class="sev {_a(sev)}">{_e(sev)}</span>', _e(getattr(f, "kind", "")),
-                     _e(joints) or "—", _e(cols) or "—", _e(getattr(f, "message", "")),
-                     _e(getattr(f, "action", "")) or "—"])
-    return _table(["severity", "kind", "joints", "columns", "finding", "what to do"], rows,
-                  text_cols=(0, 1, 2, 3, 4, 5))
+        joints = tuple(getattr(f, "joints", ()) or ())
+        groups.setdefault(joints[0] if joints else -1, []).append(_finding_html(f, jn, cn))
+    out = []
+    for j in sorted(groups, key=lambda k: (k < 0, k)):
+        title = (jn[j] if 0 <= j < len(jn) else f"joint {j}") if j >= 0 else "the whole run"
+        out.append(f'<h4 class="joint">{_e(title)} <span class="muted">({len(groups[j])})</span></h4>'
+                   + "".join(groups[j]))
+    return '<div class="findings">' + "".join(out) + "</div>"
+
+
+def _finding_html(f, jn, cn) -> str:
+    sev = getattr(f, "severity", "note")
+    message = str(getattr(f, "message", ""))
+    first = message.split(": ", 1)[-1] if message.count(": ") and len(message.split(": ", 1)[0]) < 40 else message
+    first = first if len(first) <= 110 else first[:109].rsplit(" ", 1)[0] + " …"
+    joints = ", ".join(jn[j] if 0 <= j < len(jn) else str(j) for j in getattr(f, "joints", ()) or ())
+    cols = ", ".join(cn[c] if 0 <= c < len(cn) else str(c) for c in getattr(f, "columns", ()) or ())
+    action = str(getattr(f, "action", ""))
+    where = "".join(f"<p class=\"muted\">{label}: {_e(v)}</p>" for label, v in (("joints", joints),
+                                                                             ("columns", cols)) if v)
+    return (f'<details class="finding {_a(sev)}"><summary><span class="sev {_a(sev)}">{_e(sev)}</span> '
+            f"<b>{_e(getattr(f, 'kind', ''))}</b> — {_t(first)}</summary><p>{_t(message)}</p>"
+            + (f"<p>What to do: <b>{_t(action)}</b></p>" if action else "") + where + "</details>")
 
 
 def _criteria_html(report) -> str:
@@ -258,23 +303,27 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
 
 
 def _decided_html(verdict, chosen, cmp) -> str:
-    """The verdict's "decided by" and "do first" lines (nothing for an object without them)."""
+    """The verdict's "do first" and "decided by" lines (nothing for an object without them): the
+    deciding findings grouped by kind, one line, so that the box fits the first screen."""
     decided = tuple(getattr(verdict, "decided_by", ()) or ())
     out = ""
+    first = getattr(verdict, "first_step", "")
+    if first:
+        out += f'<p class="first-step">Do first: <b>{_t(first)}</b></p>'
     if decided:
-        items = []
+        by_kind: dict[tuple[str, str], list[str]] = {}
         for d in decided:
-            where = ", ".join(tuple(d.joints) + tuple(d.columns))
             owner = f"{d.severity} of {d.model}" if d.model else f"{d.severity} of the comparison"
-            items.append(f"<li><b>{_e(d.kind)}</b>{' on ' + _e(where) if where else ''} ({_e(owner)})</li>")
-        out += "<p>Decided by:</p><ul>" + "".join(items) + "</ul>"
+            by_kind.setdefault((d.kind, owner), []).extend(str(x) for x in tuple(d.joints) + tuple(d.columns))
+        items = []
+        for (kind, owner), where in by_kind.items():
+            shown = ", ".join(where[:4]) + (f" and {len(where) - 4} more" if len(where) > 4 else "")
+            items.append(f"<b>{_e(kind)}</b>{' on ' + _e(shown) if where else ''} ({_e(owner)})")
+        out += "<p>Decided by: " + "; ".join(items) + "</p>"
     elif hasattr(verdict, "decided_by") and getattr(verdict, "decision", "") == "accept":
         crit = getattr(cmp, "criterion", None) or "the criterion"
         out += (f"<p>Decided by: the criterion — no finding stands against <b>{_e(chosen)}</b> (no deficiency in "
                 f"its report, no design finding in any) and {_e(crit)} ranks it first.</p>")
-    first = getattr(verdict, "first_step", "")
-    if first:
-        out += f"<p>Do first: <b>{_e(first)}</b></p>"
     return out
 
 
@@ -288,7 +337,7 @@ def _candidate_reasons_html(cmp, ranking, chosen) -> str:
     for i, n in enumerate(ranking):
         d = pooled.get(n, {}).get("n_deficiencies")
         rows.append([str(i + 1), _e(n), _num(d),
-                     "<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons.get(n, ())) + "</ul>"])
+                     "<ul>" + "".join(f"<li>{_t(r)}</li>" for r in reasons.get(n, ())) + "</ul>"])
         classes.append("chosen" if n == chosen else "")
     return ("<h2>Reasons per candidate</h2>"
             + _table(["rank", "model", "deficiencies", "reasons (one per deficiency or design finding)"], rows,
@@ -320,12 +369,33 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
         parts.append('<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>')
     parts.append("<h2>Provenance</h2>" + _provenance_html(first))
     parts.append(_json_html(obj))
-    body = "\n".join(p for p in parts if p)
+    body = _with_contents("\n".join(p for p in parts if p))
     head = title or ("dynval model comparison" if _is_comparison(obj) else "dynval validation report")
     return ("<!DOCTYPE html>\n"
             '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
             '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
             f"<title>{_e(head)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+
+
+def _with_contents(body: str) -> str:
+    """Every section heading given an anchor, and a line of jump links to them under the page's
+    subtitle (the verdict first, when there is one)."""
+    links = ['<a href="#verdict">Verdict</a>'] if 'id="verdict"' in body else []
+    used: set[str] = set()
+
+    def anchor(m: re.Match) -> str:
+        text = re.sub(r"<[^>]+>", "", m.group(1))
+        slug = re.sub(r"[^a-z0-9]+", "-", _html.unescape(text).lower()).strip("-") or "section"
+        while slug in used:
+            slug += "-"
+        used.add(slug)
+        links.append(f'<a href="#{slug}">{m.group(1)}</a>')
+        return f'<h2 id="{slug}">{m.group(1)}</h2>'
+
+    body = re.sub(r"<h2>(.*?)</h2>", anchor, body)
+    nav = '<nav class="toc">Contents: ' + " · ".join(links) + "</nav>"
+    head = re.search(r'<p class="sub">.*?</p>', body)
+    return body[:head.end()] + nav + body[head.end():] if head else nav + body
 
 
 def render_fragment(obj) -> str:
@@ -448,12 +518,16 @@ def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple
 
 
 def _verdict_html(verdict, chosen, cmp) -> str:
-    """The verdict box: the decision, the chosen model, what decided it and the reasons."""
+    """The verdict box: the decision, the chosen model, what to do first and what decided it; the
+    reasons, one per finding, collapsed under them (the reasons per candidate follow the table)."""
     decision = str(getattr(verdict, "decision", ""))
-    reasons = getattr(verdict, "reasons", []) or []
-    return (f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
+    reasons = list(getattr(verdict, "reasons", []) or [])
+    shown = reasons if len(reasons) <= 3 else []
+    more = (f"<details><summary>{len(reasons)} reasons</summary><ul>"
+            + "".join(f"<li>{_t(r)}</li>" for r in reasons) + "</ul></details>") if not shown and reasons else ""
+    return (f'<div class="verdict {_a(decision)}" id="verdict"><div class="decision">Verdict: {_e(decision)}</div>'
             f"<p>Model: <b>{_e(chosen)}</b></p>" + _decided_html(verdict, chosen, cmp)
-            + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
+            + ("<ul>" + "".join(f"<li>{_t(r)}</li>" for r in shown) + "</ul>" if shown else "") + more
             + "</div>")
 
 
@@ -480,7 +554,11 @@ def _decision_columns(cmp, names) -> list[tuple[str, Callable[[dict], str]]]:
         return lambda row: (_fixed(row.get(key), ".1f")
                             + (f" ({_fixed(row.get('delta_' + key), '+.1f')})" if ("delta_" + key) in row else ""))
 
+    # the columns that decide come first: at 800 px they are what the reader sees without scrolling
     cols: list[tuple[str, Callable[[dict], str]]] = [
+        ("deficiencies", lambda row: _num(row.get("n_deficiencies"))),
+        ("whiteness", lambda row: _num(row.get("whiteness"))),
+        ("bias", lambda row: _num(row.get("bias"))),
         ("parameters", lambda row: _num(row.get("n_params"))),
         ("RMSE (τ units)", lambda row: _num(row.get("rmse"))),
         ("VAF" + pct, lambda row: _num(row.get("vaf"))),
@@ -489,12 +567,9 @@ def _decision_columns(cmp, names) -> list[tuple[str, Callable[[dict], str]]]:
         ("AIC (Δ)", criterion("aic")),
         ("BIC (Δ)", criterion("bic")),
         ("Akaike weight", lambda row: _num(row.get("akaike_weight"), 3)),
-        ("whiteness", lambda row: _num(row.get("whiteness"))),
-        ("bias", lambda row: _num(row.get("bias"))),
-        ("deficiencies", lambda row: _num(row.get("n_deficiencies"))),
     ]
-    keys = ("n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic", "akaike_weight", "whiteness", "bias",
-            "n_deficiencies")
+    keys = ("n_deficiencies", "whiteness", "bias", "n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic",
+            "akaike_weight")
     return [col for col, key in zip(cols, keys) if has(key)]
 
 
@@ -612,10 +687,11 @@ def _fleet_log_table(fleet) -> str:
     for r in fleet.logs:
         found = _e(r.error) if r.error else (_e(f"{r.n_findings}: {', '.join(r.kinds)}") if r.n_findings else "0")
         rows.append([_e(r.robot), _e(r.time), _e(r.log), str(r.n_samples), str(r.n_joints), _num(r.rmse),
-                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found])
+                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found,
+                     _e(r.sees)])
         classes.append("error" if r.error else "")
-    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings"], rows,
-                  text_cols=(0, 1, 2, 7, 8), row_classes=classes)
+    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings", "the decision saw"],
+                  rows, text_cols=(0, 1, 2, 7, 8, 9), row_classes=classes)
 
 
 def _fleet_findings_html(fleet) -> str:
@@ -655,6 +731,8 @@ def render_fleet_report(fleet, *, title=None) -> str:
              "Holm over the robots tested. A drift is a deficiency when the later logs' RMSE is at least "
              f"{_e(prov.get('ratio_threshold', 1.1))}× the earlier logs' (geometric means).</p>",
              _fleet_drift_table(fleet), "<h2>Findings</h2>", _fleet_findings_html(fleet)]
+    if fleet.notes:  # a drift beside accepted logs, explained
+        parts.append("<ul>" + "".join(f"<li>{_e(note)}</li>" for note in fleet.notes) + "</ul>")
     if _have_matplotlib():
         from . import plot
 

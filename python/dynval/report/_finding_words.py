@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ._text import p_clause, versus
+from ._text import counted, p_clause, versus
 
 Words = tuple[str, str]
 """``(message, action)`` of one finding."""
@@ -74,8 +74,9 @@ def listed_columns(cols: Sequence[str] | None, columns: Sequence[int], most: int
 # -- the data -----------------------------------------------------------------------------------
 
 def omitted_rows(count: int) -> Words:
-    return (f"{count} rows with non-finite values were omitted; segment breaks were inserted so no lag joins "
-            "samples that were not adjacent.", "check the logger for dropped or invalid samples")
+    were = "was" if count == 1 else "were"
+    return (f"{counted(count, 'row')} with non-finite values {were} omitted; segment breaks were inserted so no lag "
+            "joins samples that were not adjacent.", "check the logger for dropped or invalid samples")
 
 
 def constant_target(name: str, force_finite: bool) -> Words:
@@ -87,20 +88,17 @@ def constant_target(name: str, force_finite: bool) -> Words:
 def time_stamps(t: Mapping[str, Any]) -> Words:
     """The irregular steps of a time-stamp record (``dynval.checks._timing.Timing.to_dict``)."""
 
-    def count(k: int, what: str) -> str:
-        return f"{k} {what}" + ("" if k == 1 else "s")
-
     parts = []
     if t["duplicated_stamps"]:
-        parts.append(count(t["duplicated_stamps"], "duplicated stamp"))
+        parts.append(counted(t["duplicated_stamps"], "duplicated stamp"))
     if t["repeated_rows"]:
-        parts.append(f"{count(t['repeated_rows'], 'row')} repeating the previous row's torques exactly "
+        parts.append(f"{counted(t['repeated_rows'], 'row')} repeating the previous row's torques exactly "
                      f"({100 * t['repeated_rows'] / max(t['n_steps'], 1):.2g} %)")
     if t["gaps"]:
-        parts.append(f"{count(t['gaps'], 'gap')} (largest {1e3 * t['largest_gap']:.4g} ms at "
+        parts.append(f"{counted(t['gaps'], 'gap')} (largest {1e3 * t['largest_gap']:.4g} ms at "
                      f"t = {t['largest_gap_time']:.4g} s)")
     if t["irregular_steps"]:
-        parts.append(f"{count(t['irregular_steps'], 'step')} more than 10 % off the nominal one (jitter RMS "
+        parts.append(f"{counted(t['irregular_steps'], 'step')} more than 10 % off the nominal one (jitter RMS "
                      f"{1e3 * t['jitter_rms']:.3g} ms, largest deviation {1e3 * t['largest_step_deviation']:.3g} ms)")
     return (f"Time stamps on a {1e3 * t['nominal_step']:.4g} ms nominal step: " + "; ".join(parts)
             + f". The lag and spectral analyses use {t['grid']}.",

@@ -68,10 +68,10 @@ class Thresholds:
     Attributes
     ----------
     bias : float
-        |ē_j| / RMSE_j (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
+        ``|ē_j| / RMSE_j`` (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
         square). Estimation error alone leaves a smaller mean on a new trajectory (calibrated).
     regressor_correlation : float
-        |ρ̂_eY(ℓ)|, the correlation of the residual with a regressor column; ρ² is the share of
+        ``|ρ̂_eY(ℓ)|``, the correlation of the residual with a regressor column; ρ² is the share of
         residual variance that column explains linearly (0.15, i.e. 2.25 %).
     missing_term : float
         For a column outside ``model_columns``: the share of the residual's mean square that
@@ -146,7 +146,7 @@ def resolve_thresholds(value: object) -> Thresholds:
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Finding:
     """One finding of a report.
 
@@ -191,6 +191,14 @@ class Finding:
 
         out: dict[str, Any] = to_jsonable(asdict(self))
         return out
+
+    def __repr__(self) -> str:
+        # one line a reader can scan in a list of findings; every field stays an attribute
+        where = "".join(f" {name}={list(value)}" for name, value in (("joints", self.joints), ("columns", self.columns))
+                        if value)
+        p = "" if self.pvalue_adjusted is None else f" p_adj={self.pvalue_adjusted:.3g}"
+        message = self.message if len(self.message) <= 100 else self.message[:99] + "…"
+        return f"<Finding {self.severity} {self.kind}{where}{p}: {message}>"
 
 
 @dataclass

@@ -10,7 +10,7 @@ import math
 from collections.abc import Sequence
 
 from ..checks._typing import ReportSections
-from ._text import pvalue_text
+from ._text import counted, pvalue_text
 
 
 def _num(x, fmt=".4g") -> str:
@@ -56,7 +56,7 @@ def _heading_lines(prov) -> list:
         f"dynval validation report — profile '{prov['profile']}'",
         f"N = {prov['n_samples']} samples, m = {prov['n_joints']} joints, p = {prov['n_params']} parameters, "
         f"{len(seg)} segment{'s' if len(seg) != 1 else ''}"
-        + (f", {prov['omitted_rows']} rows omitted" if prov["omitted_rows"] else "")
+        + (f", {counted(prov['omitted_rows'], 'row')} omitted" if prov["omitted_rows"] else "")
         + f"; backend {prov['backend']}, dynval {prov['dynval_version']}",
         "",
     ]
@@ -246,7 +246,7 @@ def format_comparison(cmp) -> str:
     unit = " %" if percent else ""
     vfmt = ".2f" if percent else ".4f"
     w = max(9, max(len(n) for n in cmp.names))
-    lines = [f"dynval model comparison — {len(cmp.names)} candidates, N = {prov['n_samples']} samples, "
+    lines = [f"dynval model comparison — {counted(len(cmp.names), 'candidate')}, N = {prov['n_samples']} samples, "
              f"m = {m} joints, profile '{prov['profile']}', ranked by {crit}", "",
              "Decision table (pooled over joints; Δ to the best; weight = Akaike weight of " + crit + "):"]
     extra = [] if crit in ("aic", "bic", "aicc") else [crit]

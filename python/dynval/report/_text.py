@@ -32,6 +32,11 @@ _SPEC = re.compile(r"^([+ ]?)\.(\d+)([fg])$")
 _EXPONENT = re.compile(r"e([+-])0*(\d)")
 
 
+def counted(k: int, what: str, plural: str | None = None) -> str:
+    """``"1 candidate"``, ``"3 candidates"``: a count with its noun in the right number."""
+    return f"{k} {what if k == 1 else (plural or what + 's')}"
+
+
 def _tidy_exponent(text: str) -> str:
     """``1.23e-05`` → ``1.23e-5``, ``1e+03`` → ``1e3``."""
     return _EXPONENT.sub(lambda m: "e" + ("-" if m.group(1) == "-" else "") + m.group(2), text)
