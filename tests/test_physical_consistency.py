@@ -506,7 +506,8 @@ def test_compare_ranks_a_candidate_that_is_no_robot_after_a_sound_one():
     assert [d.kind for d in alone.verdict.decided_by] == ["physical_consistency"]
     with pytest.raises(dynval.InvalidParameter) as info:
         dynval.compare(tau, {"a": (pred, 1)}, parameters=no_robot)
-    assert str(info.value).startswith("parameters must be given per candidate, not to compare, got [2.0, 0.2, ")
+    assert str(info.value) == ("parameters must be given per candidate, not to compare, "
+                               "got <float64 array of shape (10,)>")
 
 
 def test_physical_consistency_checks_level_and_tolerance():
@@ -535,3 +536,90 @@ def test_kuka_identified_urdf_findings_have_their_sizes_and_reach_validate():
     cad = dynval.validate(run.tau, URDFModel(run.urdf).predict(run.q, run.dq, run.ddq), n_params=0, max_lag=0,
                           parameters=URDFModel(run.urdf))
     assert not any(f.kind == "physical_consistency" for f in cad.findings)
+
+
+# --------------------------------------------------------------------------- degenerate input
+
+
+@pytest.mark.parametrize("mass", [5e-324, 1e-310, 1e-200, 1e-100, 1e-30])
+def test_a_mass_tiny_against_its_first_moment_is_a_finding_not_an_overflow(mass):
+    """h·hᵀ/m beyond float64 (a subnormal mass) was numpy's LinAlgError: no body has such a link."""
+    p = body(1.0, c=(0.1, 0.0, 0.2), moments=(0.01, 0.02, 0.02))
+    p[0] = mass
+    found = physical_consistency(p)
+    assert [f.details["condition"] for f in found] == ["pseudo-inertia positive semidefinite"]
+    assert found[0].severity == "deficiency" and found[0].effect > 0 and np.isfinite(found[0].effect)
+    # the pseudo-inertia is indefinite, and the finding's eigenvalue says so
+    assert found[0].details["pseudo_inertia_min_eigenvalue"] < 0
+    assert np.linalg.eigvalsh(pseudo_inertia(p))[0] < 0
+
+
+def test_a_subnormal_mass_with_no_first_moment_is_a_point_body():
+    """m = 5e-324 at the origin: J = diag(Σ, m) is positive semidefinite."""
+    p = body(1.0, moments=(1.0, 1.0, 1.0))
+    p[0] = 5e-324
+    assert physical_consistency(p) == []
+
+
+@pytest.mark.parametrize("scale", [1e-143, 1e-30, 1.0, 1e30, 1e143])
+def test_the_verdict_does_not_depend_on_the_size_of_the_body(scale):
+    """Zero, negative and huge inertias: the same findings at every scale inside the data range."""
+    sound = body(2.0, c=(0.1, 0.0, 0.0), moments=(0.1, 0.2, 0.25))
+    flat = body(2.0, moments=(0.1, 0.1, 0.3))             # 0.1 + 0.1 < 0.3: no body
+    negative = body(2.0, moments=(-0.1, 0.2, 0.2))
+    zero = np.r_[1.0, 0.0, 0.0, 0.0, np.zeros(6)]          # a point mass at the origin: a body
+    conditions = [[f.details["condition"] for f in physical_consistency(p * scale)]
+                  for p in (sound, flat, negative, zero)]
+    psd = ["pseudo-inertia positive semidefinite"]
+    assert conditions == [[], psd, psd, []]
+    assert [f.details["condition"] for f in physical_consistency(-sound * scale)] == ["mass > 0"]
+
+
+@pytest.mark.parametrize("value, kind", [
+    (np.r_[np.nan, np.ones(9)], dynval.NonFiniteInput),
+    (np.r_[1e145, np.ones(9)], dynval.NonFiniteInput),
+    (np.array([]), dynval.InvalidParameter),
+    (np.ones((2, 10, 1)), dynval.InvalidParameter),
+    (np.ones((3, 5)), dynval.InvalidParameter),
+    (np.ones(7), dynval.InvalidParameter),
+    (1.0, dynval.InvalidParameter),
+    (None, dynval.InvalidType),
+    ({"m": 1.0}, dynval.InvalidType),
+])
+def test_malformed_parameters_are_input_errors(value, kind):
+    with pytest.raises(kind):
+        physical_consistency(value)
+
+
+@needs_pin
+def test_a_urdf_path_is_read_as_its_model(tmp_path):
+    """physical_consistency(path) said 'parameters must be an array of real numbers, got object'."""
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    run = load_kuka_lwr4(1)
+    want = [f.message for f in physical_consistency(URDFModel(run.urdf_identified))]
+    assert want
+    for given in (run.urdf_identified, str(run.urdf_identified)):
+        assert [f.message for f in physical_consistency(given)] == want
+        assert [f.message for f in dynval.physical_consistency(given)] == want
+    # validate(parameters=path) and a candidate's parameters read it the same way
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(300, 7))
+    report = dynval.validate(tau, tau + 0.1 * rng.normal(size=tau.shape), n_params=3, parameters=run.urdf_identified)
+    assert sum(f.kind == "physical_consistency" for f in report.findings) == len(want)
+
+
+@needs_pin
+@pytest.mark.parametrize("make, why", [
+    (lambda d: d / "missing.urdf", "No such file or directory"),
+    (lambda d: d, "not a regular file"),
+    (lambda d: (d / "t.urdf").write_text("not xml") and d / "t.urdf", "not URDF XML"),
+    (lambda d: (d / "b.urdf").write_bytes(b"\xff\xfe<") and d / "b.urdf", "not URDF XML"),
+    (lambda d: (d / "e.urdf").write_text("<robot name='x'/>") and d / "e.urdf", "not a URDF model"),
+])
+def test_an_unreadable_urdf_path_is_refused_by_name(tmp_path, make, why):
+    path = make(tmp_path)
+    with pytest.raises(dynval.InvalidParameter, match="the path of a readable URDF file, got") as info:
+        physical_consistency(path)
+    assert repr(str(path)) in str(info.value) and why in str(info.value)

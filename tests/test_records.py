@@ -11,6 +11,7 @@ import dataclasses
 import json
 import pickle
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +53,10 @@ def test_every_section_is_its_record_read_as_attributes_and_as_a_mapping(full_re
         assert len(section) == len(list(section)) > 0, name
         for key in section:
             assert section[key] is getattr(section, key), (name, key)
-        assert dict(section).keys() == full_report.to_dict()[name].keys(), name
-        assert section.to_dict() == full_report.to_dict()[name], name
+        decoded = json.loads(full_report.to_json())[name]
+        assert list(decoded) == list(section), name
+        for key in section:
+            _assert_same_value(section[key], decoded[key], (name, key))
     for seg in full_report.segment_metrics.values():
         assert type(seg) is rec.Segment and {"n_samples", "start", "per_joint", "mean", "pooled"} <= set(seg)
 
@@ -150,3 +153,24 @@ def test_a_finding_prints_on_one_line():
     text = repr(f)
     assert "\n" not in text and text.startswith("<Finding deficiency bias joints=[1] p_adj=1.23e-07: joint 2")
     assert len(text) < 200 and text.endswith("…>")
+
+
+def _assert_same_value(value, decoded, where):
+    """A section's value against its JSON text, decoded here: arrays as nested lists, non-finite
+    numbers as the strings "NaN", "Infinity", "-Infinity" (contract §4)."""
+    if isinstance(value, Mapping):
+        assert isinstance(decoded, dict) and list(decoded) == [str(k) for k in value], where
+        for k, v in value.items():
+            _assert_same_value(v, decoded[str(k)], (*where, k))
+    elif isinstance(value, (np.ndarray, list, tuple)) and not isinstance(value, str):
+        arr = np.asarray(value, dtype=object)
+        got = np.asarray(decoded, dtype=object)
+        assert arr.shape == got.shape, where
+        for a, b in zip(arr.ravel(), got.ravel()):
+            _assert_same_value(a, b, where)
+    elif isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        assert decoded == ("NaN" if np.isnan(value) else ("Infinity" if value > 0 else "-Infinity")), where
+    elif isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, str):
+        assert decoded == (bool(value) if isinstance(value, np.bool_) else value), where
+    else:
+        assert decoded == pytest.approx(float(value), rel=1e-15, abs=0.0), where

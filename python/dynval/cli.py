@@ -27,6 +27,7 @@ import sys
 from collections.abc import Sequence
 
 from .checks._errors import InputError
+from .checks._validation import format_value
 from .io._files import (
     FileInputError,
     _physical_memory,
@@ -39,6 +40,7 @@ from .io._files import (
 )
 from .io._readers import DEFAULT_CHUNK_ROWS, decoded_size, open_column, open_rows
 from .metrics._profiles import PROFILE_NAMES
+from .report._text import printable
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
@@ -65,7 +67,8 @@ def _segments_arg(text: str):
         values = [int(v) for v in text.replace(";", ",").split(",") if v.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated integers: lengths such as 500,300 or starts such as 0,500, got {text!r}"
+            "expected comma-separated integers: lengths such as 500,300 or starts such as 0,500, "
+            f"got {format_value(text)}"
         ) from None
     if not values:
         raise argparse.ArgumentTypeError("expected at least one integer")
@@ -164,7 +167,7 @@ def _workers_arg(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number of worker processes >= 1, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a number of worker processes >= 1, got {format_value(text)}")
     return value
 
 
@@ -216,29 +219,35 @@ def _model_arg(text: str):
     name, sep, rest = text.partition("=")
     path, sep2, p = rest.rpartition(":")
     if not (sep and sep2 and name and path):
-        raise argparse.ArgumentTypeError(f"expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, got {text!r}")
+        raise argparse.ArgumentTypeError("expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, "
+                                         f"got {format_value(text)}")
     try:
-        return name, path, int(p)
+        return printable(name), path, int(p)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"the number of parameters after ':' must be an integer, got {p!r}") from None
+        raise argparse.ArgumentTypeError("the number of parameters after ':' must be an integer, "
+                                         f"got {format_value(p)}") from None
 
 
 def _model_columns_arg(text: str):
     name, sep, cols = text.partition("=")
     if not sep or not name.strip() or not cols.strip():
-        raise argparse.ArgumentTypeError(f"expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, got {text!r}")
-    return name.strip(), [int(c) if c.strip().lstrip("-").isdigit() else c.strip() for c in cols.split(",")]
+        raise argparse.ArgumentTypeError("expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, "
+                                         f"got {format_value(text)}")
+    return printable(name.strip()), [int(c) if c.strip().lstrip("-").isdigit() else printable(c.strip())
+                                     for c in cols.split(",")]
 
 
 def _key_file_arg(text: str):
     key, sep, path = text.partition("=")
     if not sep or key not in ("q", "regressor", "tau") or not path:
-        raise argparse.ArgumentTypeError(f"expected q=FILE, regressor=FILE or tau=FILE, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected q=FILE, regressor=FILE or tau=FILE, got {format_value(text)}")
     return key, path
 
 
 def _names_arg(text: str):
-    return [x.strip() for x in text.split(",")]
+    # A name that was not UTF-8 on the command line (Python keeps byte 0xff as the lone surrogate
+    # U+DCFF) is written \xff: as typed, and printable on any terminal, page or figure.
+    return [printable(x.strip()) for x in text.split(",")]
 
 
 def _decimate_arg(text: str):
@@ -247,7 +256,7 @@ def _decimate_arg(text: str):
     try:
         return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {format_value(text)}") from None
 
 
 def _add_report_options(sub) -> None:
@@ -479,9 +488,27 @@ def _sample_rate(args, obj) -> float | None:
     return None if rate is None else float(rate)
 
 
+def _declared_shapes_refused(command: str, args, predictions: dict) -> int | None:
+    """The files' shapes, from their headers, checked against each other before any array is
+    decoded (contract §7): the exit code of a refusal, or None."""
+    from .io._shapes import check_declared
+
+    try:
+        check_declared(args.meas, predictions, regressor=args.regressor, time=args.time,
+                       q=getattr(args, "q", None), n_joints=args.n_joints)
+    except FileInputError as exc:
+        return _error(command, str(exc))
+    except InputError as exc:
+        return _contract_error(command, exc, {} if args.time is None else {"time": (args.time, None, 0)})
+    return None
+
+
 def _run_validate(args) -> int:
     from .report._report import validate
 
+    refused = _declared_shapes_refused("validate", args, {"tau_pred": args.pred})
+    if refused is not None:
+        return refused
     if args.stream or _too_large_for_memory(args):
         return _run_validate_streamed(args)
     sources: dict = {}
@@ -588,9 +615,13 @@ def _run_compare(args) -> int:
     columns = dict(args.model_columns)
     unknown = [n for n in columns if n not in names]
     if unknown:
-        args.subparser.error(f"--model-columns names {unknown[0]!r}, which is not a --model (candidates: {names})")
+        args.subparser.error(f"--model-columns names {format_value(unknown[0])}, which is not a --model "
+                             f"(candidates: {names})")
     if columns and not args.regressor:
         args.subparser.error("--model-columns needs --regressor: the columns are the regressor's")
+    refused = _declared_shapes_refused("compare", args, {name: path for name, path, _ in args.model})
+    if refused is not None:
+        return refused
     sources: dict = {}
     try:
         meas = _load(args.meas, "tau_meas", sources)

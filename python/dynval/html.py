@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from .report._json import to_jsonable
-from .report._text import pvalue_text
+from .report._text import printable, pvalue_text
 
 __all__ = ["write_report", "render_report", "render_fragment", "write_fleet_report", "render_fleet_report"]
 
@@ -78,8 +78,9 @@ h4.joint { margin: 0.9em 0 0.2em 0; font-size: 0.98em; }
 
 
 def _e(text) -> str:
-    """Escape text content (quotes may stay: they need escaping in attributes only)."""
-    return _html.escape(str(text), quote=False)
+    """Escape text content (quotes may stay: they need escaping in attributes only); a byte that was
+    not UTF-8 (a lone surrogate) is written as ``\\xff``, so that the page can be written as UTF-8."""
+    return _html.escape(printable(text), quote=False)
 
 
 _SCI = re.compile(r"[-+−]?\d+(?:\.\d+)?e[-+−]?\d+|[-+−]?\d+(?:\.\d+)?\s?%")
@@ -96,8 +97,8 @@ def _whole_numbers(cell: str) -> str:
 
 
 def _a(text) -> str:
-    """Escape an attribute value."""
-    return _html.escape(str(text), quote=True)
+    """Escape an attribute value (lone surrogates as :func:`_e`)."""
+    return _html.escape(printable(text), quote=True)
 
 
 def _num(x, digits=4) -> str:
@@ -250,16 +251,33 @@ def _criteria_html(report) -> str:
     return _table(keys, [[cell(k) for k in keys]], text_cols=())
 
 
-def _provenance_html(report) -> str:
+def _provenance_html(report, fields=None) -> str:
+    """The report's provenance as a table: every field, or those named in ``fields``."""
     prov = getattr(report, "provenance", None) or {}
     rows = []
     for k, v in prov.items():
+        if fields is not None and k not in fields:
+            continue
         if isinstance(v, dict):
             v = json.dumps(to_jsonable(v), ensure_ascii=False, allow_nan=False)
         elif isinstance(v, (list, tuple)):
             v = ", ".join(str(x) for x in v)
         rows.append([_e(k), _e(v)])
     return _table(["field", "value"], rows, text_cols=(0, 1))
+
+
+def _provenance_split(cmp, names) -> tuple[list[str], dict[str, list[str]]]:
+    """The provenance fields every candidate has with the same value, and each candidate's own: a
+    comparison's page shows the shared ones once, for all, and the others in each model's section."""
+    provs = {n: dict(getattr(cmp.reports[n], "provenance", None) or {}) for n in names}
+
+    def same(k: str) -> bool:
+        values = [json.dumps(to_jsonable(p.get(k)), sort_keys=True, default=str) for p in provs.values()]
+        return all(k in p for p in provs.values()) and len(set(values)) == 1
+
+    keys = list(dict.fromkeys(k for p in provs.values() for k in p))
+    shared = [k for k in keys if same(k)]
+    return shared, {n: [k for k in provs[n] if k not in shared] for n in names}
 
 
 def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label,
@@ -350,6 +368,14 @@ def _is_comparison(obj) -> bool:
     return hasattr(obj, "reports") and hasattr(obj, "verdict")
 
 
+def _provenance_heading(obj, tag: str = "") -> str:
+    """A comparison's closing provenance is every candidate's, and says so (each model's own fields are
+    in its section)."""
+    text = ("Provenance shared by every candidate (each model's own fields are in its section)"
+            if _is_comparison(obj) else "Provenance")
+    return f"<{tag}>{text}</{tag}>" if tag else text
+
+
 def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
                   reference_frequency=None, reference_label="expected mode", intro=None, interval=None) -> str:
     """The HTML text of :func:`write_report` (same arguments, without the path)."""
@@ -361,13 +387,16 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
     plots = _FigureData(have_plot, tau_meas, tau_pred, sample_rate, reference_frequency, reference_label,
                         _checked_interval(interval, tau_meas))
     if _is_comparison(obj):
-        parts, first = _comparison_parts(obj, title, intro, signature, plots)
+        parts, provenance = _comparison_parts(obj, title, intro, signature, plots)
     else:
-        parts, first = _validation_parts(obj, title, intro, signature, plots), obj
+        parts, provenance = _validation_parts(obj, title, intro, signature, plots), _provenance_html(obj)
+    if figures and _is_comparison(obj):
+        # after the last candidate's section: a heading, so that they do not read as that model's
+        parts.append("<h2>Further figures (given with the page, not of one candidate)</h2>")
     parts += [_figure_html(fig, cap) for fig, cap in figures or ()]
     if not have_plot:
         parts.append('<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>')
-    parts.append("<h2>Provenance</h2>" + _provenance_html(first))
+    parts.append(_provenance_heading(obj, "h2") + provenance)
     parts.append(_json_html(obj))
     body = _with_contents("\n".join(p for p in parts if p))
     head = title or ("dynval model comparison" if _is_comparison(obj) else "dynval validation report")
@@ -411,10 +440,10 @@ def render_fragment(obj) -> str:
     plots = _FigureData(False, None, None, None, None, "")
     signature = f"dynval {_e(__version__)}"
     if _is_comparison(obj):
-        parts, first = _comparison_parts(obj, None, None, signature, plots)
+        parts, provenance = _comparison_parts(obj, None, None, signature, plots)
     else:
-        parts, first = _validation_parts(obj, None, None, signature, plots), obj
-    parts.append("<details><summary>Provenance</summary>" + _provenance_html(first) + "</details>")
+        parts, provenance = _validation_parts(obj, None, None, signature, plots), _provenance_html(obj)
+    parts.append(f"<details><summary>{_provenance_heading(obj)}</summary>{provenance}</details>")
     body = "\n".join(p for p in parts if p)
     return f'<div class="dynval-report">\n<style>{_scoped_css()}</style>\n{body}\n</div>'
 
@@ -491,8 +520,9 @@ def _deficiency_count_html(rep) -> str:
             f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
 
 
-def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, Any]:
-    """The sections of a comparison's page, and the report whose provenance the page shows."""
+def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, str]:
+    """The sections of a comparison's page, each naming the model it belongs to (or "every
+    candidate"), and the provenance every candidate shares, as HTML."""
     names = list(getattr(cmp, "names", None) or list(cmp.reports))
     verdict = cmp.verdict
     chosen = getattr(verdict, "model", None) or (list(getattr(cmp, "ranking", names)) or names)[0]
@@ -502,7 +532,7 @@ def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple
     if intro:
         parts.append(f"<p>{_e(intro)}</p>")
     parts.append(_verdict_html(verdict, chosen, cmp))
-    parts.append("<h2>Decision table</h2>")
+    parts.append("<h2>Decision table: every candidate</h2>")
     parts.append(_decision_table_html(cmp, names, ranking, chosen))
     parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
                  "(best first); the chosen model is highlighted.</p>")
@@ -512,9 +542,10 @@ def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple
 
         parts.append(_figure_html(plot.metrics(cmp), "Per-joint VAF, fit and R² of every candidate "
                                                      "(the chosen model outlined)."))
+    shared, own = _provenance_split(cmp, names)
     for n in [chosen] + [x for x in ranking if x != chosen]:
-        parts += _candidate_parts(cmp.reports[n], n, n == chosen, plots)
-    return parts, cmp.reports[names[0]]
+        parts += _candidate_parts(cmp.reports[n], n, n == chosen, plots, own.get(n, []))
+    return parts, _provenance_html(cmp.reports[names[0]], fields=shared)
 
 
 def _verdict_html(verdict, chosen, cmp) -> str:
@@ -584,15 +615,23 @@ def _decision_table_html(cmp, names, ranking, chosen) -> str:
     return _table(["model", "rank"] + [h for h, _ in cols], rows, row_classes=classes, text_cols=text)
 
 
-def _candidate_parts(rep, name, chosen, plots: _FigureData) -> list:
-    """One candidate's section: its tables, and the figures for the chosen one."""
+def _candidate_parts(rep, name, chosen, plots: _FigureData, own_fields=()) -> list:
+    """One candidate's section, every heading naming the model: its tables, its own provenance
+    fields (those not shared by every candidate), and the figures for the chosen one."""
+    whose = f"model '{_e(name)}'"
+    own = (_provenance_html(rep, fields=set(own_fields)) if own_fields else
+           '<p class="muted">None: every provenance field is shared by all candidates (at the end of the '
+           "page).</p>")
     parts = [f"<h2>Model '{_e(name)}'{' — chosen' if chosen else ''}</h2>",
-             "<h3>Per joint</h3>" + _per_joint_table(rep),
-             "<h3>Findings</h3>" + _findings_html(rep),
-             "<h3>Information criteria</h3>" + _criteria_html(rep)]
+             f"<h3>Per joint: {whose}</h3>" + _per_joint_table(rep),
+             f"<h3>Findings: {whose}</h3>" + _findings_html(rep),
+             f"<h3>Information criteria: {whose}</h3>" + _criteria_html(rep),
+             f"<h3>Provenance of {whose} (its own fields)</h3>" + own]
     if chosen and plots.enabled:
         pred = plots.tau_pred.get(name) if isinstance(plots.tau_pred, dict) else None
-        parts += plots.html(rep, pred, name)
+        figures = plots.html(rep, pred, name)
+        if figures:
+            parts += [f"<h3>Figures: {whose}</h3>"] + figures
     return parts
 
 
@@ -602,7 +641,8 @@ def _json_html(obj) -> str:
         full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
     except Exception as exc:
         return f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>'
-    return f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>"
+    whose = "Full comparison as JSON (every candidate)" if _is_comparison(obj) else "Full report as JSON"
+    return f"<details><summary>{whose}</summary><pre>{_e(full)}</pre></details>"
 
 
 def _checked_interval(interval, tau_meas):

@@ -55,8 +55,19 @@ def _provenance(report, key, default=None):
 
 def _literal(text) -> str:
     """A user's name as matplotlib text: ``$`` escaped, so that it is drawn as written instead of
-    parsed as mathtext (``$\\frac$`` would stop the figure with a parse error)."""
-    return str(text).replace("$", r"\$")
+    parsed as mathtext (``$\\frac$`` would stop the figure with a parse error), and a byte that was
+    not UTF-8 written as ``\\xff`` (a lone surrogate stops the font's text layout)."""
+    from .report._text import printable
+
+    return printable(text).replace("$", r"\$")
+
+
+def _finite_min(values, default: float) -> float:
+    """The smallest finite value, or ``default`` when there is none (an exactly zero residual has an
+    all-nan autocorrelation; np.nanmin would warn "All-NaN slice encountered" on standard error)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.min()) if v.size else float(default)
 
 
 def _joint_names(names, m, report=None):
@@ -186,7 +197,7 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
                 bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "#999999"})
         ax.set_ylabel(f"{names[j]}\nautocorrelation ρ")
         ax.set_xlim(-0.5, lmax + 0.5)
-        ax.set_ylim(min(-1.05, float(np.nanmin(r)) - 0.05), 1.3)
+        ax.set_ylim(min(-1.05, _finite_min(r, 0.0) - 0.05), 1.3)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("lag ℓ (samples)")
     if fs:
@@ -388,8 +399,8 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     if "max_abs_rho" in xc and xc["max_abs_rho"] is not None:
         mx = np.asarray(xc["max_abs_rho"], dtype=float)
     else:
-        with np.errstate(invalid="ignore"):
-            mx = np.nanmax(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
+        # fmax ignores nan without numpy's "All-NaN slice" warning: a constant column's row stays nan
+        mx = np.fmax.reduce(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
     cm = xc.get("constant_mask") if hasattr(xc, "get") else None
     mask = np.zeros_like(mx, dtype=bool) if cm is None else np.asarray(cm, dtype=bool)
     z_max = xc.get("z_max") if hasattr(xc, "get") else None
@@ -565,7 +576,7 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
                     cut = True
                     ax.text(xp, floor, f"{v:.3g}", rotation=90, ha="center", va="bottom", fontsize="x-small",
                             color="white" if i % len(_COLOURS) in (0, 1, 3, 5) else "black")
-            lowest = min(lowest, float(np.nanmin(shown)))
+            lowest = min(lowest, _finite_min(shown, lowest))
         ax.axhline(top, color="black", lw=0.8, ls=":")
         # at the left end of the line: the right end is where the note on cut bars goes
         ax.annotate("perfect", (0.0, top), xycoords=("axes fraction", "data"), xytext=(3, 2),
@@ -623,8 +634,8 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
     # one legend below the panels: inside an axes it covers the data
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize="small", frameon=False)
-    fig.suptitle((title or ("Measured and predicted joint torque" + (f" — {model_name}" if model_name else "")))
-                 + (f"\n{shown}" if shown else ""))
+    named = f" — {_literal(model_name)}" if model_name else ""
+    fig.suptitle((title or ("Measured and predicted joint torque" + named)) + (f"\n{shown}" if shown else ""))
     return fig
 
 
@@ -688,7 +699,7 @@ def fleet_metrics(fleet, *, which=("rmse", "vaf"), title=None):
         for ax, metric in zip(axes, which):
             y = [getattr(r, metric) for _, r in mine]
             ax.plot(x, y, marker="o", ms=3.5, lw=2.0 if flagged else 1.0, color=colour,
-                    alpha=1.0 if flagged else 0.55, label=f"{robot} (drift)" if flagged else robot)
+                    alpha=1.0 if flagged else 0.55, label=_literal(f"{robot} (drift)" if flagged else robot))
             if flagged:
                 ax.axvline(x[d.change], color=colour, ls="--", lw=1.0)
                 ax.plot(x[d.change:], y[d.change:], ls="none", marker="o", ms=7, mfc="none", mec=colour)
@@ -731,7 +742,8 @@ def fleet_drift(fleet, *, title=None, max_robots: int = 24):
         holm_p = "Holm " + _p_text(d.pvalue_adjusted, None)
         state = (f"DRIFT from log {d.change + 1}, ×{d.ratio:.2g}, {holm_p}" if flagged
                  else ("not tested" if not d.tested else f"no drift ({holm_p})"))
-        ax.set_title(f"{d.robot}: {state}", fontsize="small", loc="left", color=_COLOURS[1] if flagged else "black")
+        ax.set_title(f"{_literal(d.robot)}: {state}", fontsize="small", loc="left",
+                     color=_COLOURS[1] if flagged else "black")
         ax.grid(True, alpha=0.3)
         ax.tick_params(labelsize="x-small")
     for ax in axes[len(tests):]:

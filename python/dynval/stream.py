@@ -949,6 +949,8 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
     # the exponents cancel in the ratio.
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = (mo.cov_ey[: max_lag + 1] / denom[:, None, None]) / (np.sqrt(ss_e / n)[:, None] * np.sqrt(mo.ss_y / n))
+    bound = (n / denom)[:, None, None]  # Cauchy-Schwarz: |rho(l)| <= N/D_l, whatever the rounding (contract §3.6)
+    rho = np.clip(rho, -bound, bound)
     rho = np.moveaxis(rho, 0, 2).copy()  # (m, p, L+1)
     dead = mo.y_constant | (mo.e_constant | (ss_e == 0))[:, None] | (mo.ss_y == 0)
     rho[dead] = np.nan

@@ -23,6 +23,7 @@ from datetime import datetime, timezone
 from typing import Any
 
 from ..checks._errors import InvalidParameter
+from ..checks._validation import format_value
 from ..io._fileopen import HDF5_SUFFIXES, FileInputError, _open_regular
 from ..io._files import MAX_LINE_BYTES
 
@@ -104,7 +105,7 @@ def _n_params(value: Any, default: int | None, where: str) -> int:
     except (TypeError, ValueError, OverflowError):  # inf: OverflowError
         number = -1
     if number < 0 or str(value).strip() not in (str(number), f"{number}.0"):
-        raise InvalidParameter(f"{where}: n_params must be an integer >= 0, got {value!r}")
+        raise InvalidParameter(f"{where}: n_params must be an integer >= 0, got {format_value(value)}")
     return number
 
 
@@ -349,7 +350,8 @@ def as_spec(item: Any, n_params: int | None = None) -> LogSpec:
     if isinstance(item, LogSpec):
         return item
     if isinstance(item, Mapping):
-        return _spec_from_row(item, "", n_params, f"log {dict(item).get('log') or dict(item).get('tau_meas')!r}")
+        row = dict(item)
+        return _spec_from_row(item, "", n_params, f"log {format_value(row.get('log') or row.get('tau_meas'))}")
     if isinstance(item, (str, os.PathLike)):
         return log_from_path(os.fspath(item), n_params)
     raise InvalidParameter(f"a log must be a path, a manifest, a mapping or a LogSpec, got {type(item).__name__}")

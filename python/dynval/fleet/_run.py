@@ -61,6 +61,7 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
     """
     from ..comparison._compare import compare
     from ..io._files import load_array
+    from ..io._shapes import check_declared
 
     start = time.perf_counter()
     if isinstance(item, LogSummary):  # a log refused before the run (fleet_items)
@@ -70,6 +71,10 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
     except InputError as exc:  # a log of a dask bag, named on the worker
         return error_row(item, exc)
     try:
+        if all(isinstance(x, str) for x in (spec.tau_meas, spec.tau_pred)):
+            # the files' shapes, from their headers, before any array is decoded (contract §7)
+            check_declared(spec.tau_meas, {"tau_pred": spec.tau_pred},
+                           regressor=spec.regressor if isinstance(spec.regressor, str) else None)
         meas, pred = load_array(spec.tau_meas), load_array(spec.tau_pred)
         arrays = {name: load_array(file) for name, file in spec.data.items()}
         reg = arrays.pop("regressor", None)

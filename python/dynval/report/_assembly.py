@@ -345,7 +345,7 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth)
+                      bandwidth=s.bandwidth, criteria=b.ic)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross

@@ -44,8 +44,9 @@ then clipped at zero and the friction at zero, so that the returned parameters p
 
 from __future__ import annotations
 
+import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -57,8 +58,9 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
+from ..checks._errors import InputError, InvalidParameter
 from ..checks._typing import FloatArray, IntArray
-from ..checks._validation import check_finite, is_real_number, parameter_error, to_float_array
+from ..checks._validation import check_finite, format_value, is_real_number, parameter_error, to_float_array
 from ._findings import Finding
 from ._text import p_clause
 
@@ -85,6 +87,9 @@ PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 INSTALL_HINT = "pip install 'dynval[physical]' (cvxpy, with its default solver Clarabel)"
 
 TOLERANCE = 1e-9
+# Inertia about the centre of mass beyond this (kg·m²) comes from a mass tiny against its first moment:
+# the data range is 1e144 (contract §1.2), so such a link is no body, and its moments are not computed.
+_FAR = 1e150
 """A triangle-inequality deficit or a centre-of-mass excursion smaller than this share of the
 link's largest principal moment, about its centre of mass or about the joint frame's origin
 (or of the box's size), is rounding (a URDF printed to 16 digits, a solver's answer, the
@@ -213,8 +218,11 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
                      columns: tuple[int, ...]) -> Finding | None:
     """The triangle inequality of the principal moments about the centre of mass (J ⪰ 0 with m > 0)."""
     m, h = float(p10[0]), p10[1:4]
-    sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m  # Schur complement: ½tr(I_C)·1 − I_C
-    inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
+    with np.errstate(over="ignore", invalid="ignore"):
+        sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m  # Schur complement: ½tr(I_C)·1 − I_C
+        inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
+    if not np.all(np.abs(inertia_c) <= _FAR):
+        return _far_centre_finding(lay, k, p10, columns)
     moments = np.linalg.eigvalsh(inertia_c)                        # principal moments about the CoM
     deficit = float(moments[2] - moments[0] - moments[1])          # = −2 λ_min(Σ_C)
     # I_C = I − m(|c|²·1 − c cᵀ) rounds at the scale of the inertia about the joint frame's origin
@@ -235,6 +243,31 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
         message=(f"{lay.link_label(k)}: no mass distribution has these inertial parameters: about the centre "
                  f"of mass the principal moments {i1:.4g}, {i2:.4g}, {i3:.4g} kg·m² break the triangle "
                  f"inequality I1 + I2 >= I3 by {deficit:.3g} kg·m² (the pseudo-inertia's smallest "
+                 f"eigenvalue is {lam:.3g}; condition: pseudo-inertia positive semidefinite)."))
+
+
+def _far_centre_finding(lay: Layout, k: int, p10: FloatArray, columns: tuple[int, ...]) -> Finding:
+    """A mass so small against its first moment that m·c·cᵀ leaves float64 (a subnormal mass, say).
+
+    Every inertia about the joint frame is at most 1e144 (contract §1.2), and ``h hᵀ/m`` is beyond
+    _FAR, so the Schur complement ``Σ − h hᵀ/m`` is not positive semidefinite: no body has these
+    parameters. The pseudo-inertia's smallest eigenvalue is taken of J scaled to unit size, where
+    nothing overflows.
+    """
+    m, h = float(p10[0]), p10[1:4]
+    j = pseudo_inertia(p10)
+    size = float(np.max(np.abs(j)))
+    lam = float(np.linalg.eigvalsh(j / size)[0]) * size
+    first = ", ".join(f"{x:.4g}" for x in h)
+    return Finding(
+        kind="physical_consistency", severity="deficiency", joints=(k,), columns=columns,
+        effect=abs(lam), effect_unit="kg·m²", threshold=0.0, action=_ACTION_LINK,
+        details={"link": lay.links[k], "condition": "pseudo-inertia positive semidefinite",
+                 "pseudo_inertia_min_eigenvalue": lam, "principal_moments": None, "centre_of_mass": None,
+                 "mass": m},
+        message=(f"{lay.link_label(k)}: no mass distribution has these inertial parameters: the mass "
+                 f"{m:.4g} kg is too small for the first moment ({first}) kg·m, which puts the centre of mass "
+                 f"beyond any robot (more than 1e150 kg·m² of inertia about it; the pseudo-inertia's smallest "
                  f"eigenvalue is {lam:.3g}; condition: pseudo-inertia positive semidefinite)."))
 
 
@@ -628,6 +661,44 @@ def _is_urdf_model(source: object) -> bool:
         hasattr(source, "joint_names")
 
 
+# The robotics layer's URDF reader (dynval.robots.URDFModel), which registers itself when it is
+# imported (``import dynval`` does): this layer is below it and cannot import it.
+_urdf_reader: Callable[[Any], Any] | None = None
+
+
+def register_urdf_reader(reader: Callable[[Any], Any]) -> None:
+    """Called by :mod:`dynval.robots` with :class:`~dynval.robots.URDFModel`."""
+    global _urdf_reader
+    _urdf_reader = reader
+
+
+def urdf_from_path(source: Any) -> Any:
+    """A URDF file's path (str or os.PathLike) or XML text as a :class:`dynval.robots.URDFModel`;
+    anything else unchanged. A file that cannot be read is InvalidParameter naming it."""
+    if not isinstance(source, (str, os.PathLike)) or _urdf_reader is None:
+        return source
+    import xml.etree.ElementTree as ET
+
+    def refused(why: str) -> InvalidParameter:
+        return InvalidParameter(f"parameters must be a URDFModel, an IdentificationResult, a parameter vector or "
+                                f"the path of a readable URDF file, got {format_value(os.fspath(source))} ({why})")
+
+    is_text = isinstance(source, str) and source.lstrip().startswith("<")
+    # a FIFO or a device would be read forever: only a regular file is opened
+    if not is_text and os.path.exists(source) and not os.path.isfile(source):
+        raise refused("not a regular file")
+    try:
+        return _urdf_reader(source)
+    except OSError as exc:
+        raise refused(exc.strerror or type(exc).__name__) from None
+    except (ET.ParseError, UnicodeDecodeError) as exc:
+        raise refused(f"not URDF XML: {exc}") from None
+    except InputError:
+        raise
+    except (ValueError, RuntimeError) as exc:  # pinocchio's parser: XML, but no model it can build
+        raise refused(f"not a URDF model: {str(exc).strip().splitlines()[0]}") from None
+
+
 def resolve(source: Any, column_names: Sequence[str] | None = None,
             joint_names: Sequence[str] | None = None) -> tuple[FloatArray, Layout]:
     """A full parameter vector and its :class:`Layout` from a URDF model, an identification result
@@ -641,8 +712,9 @@ def resolve(source: Any, column_names: Sequence[str] | None = None,
     values = to_float_array(source, "parameters")
     if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
         values = values.reshape(-1)
-    if values.ndim != 1:
-        raise parameter_error("parameters", "a 1-D vector (or (n_links, 10) without column_names)",
+    if values.ndim != 1 or values.size == 0:
+        # an empty vector has no link to check: "no finding" would read as a sound robot
+        raise parameter_error("parameters", "a non-empty 1-D vector (or (n_links, 10) without column_names)",
                               f"shape {values.shape}")
     check_finite(values.reshape(1, -1), "parameters")
     if column_names is None:
@@ -666,6 +738,7 @@ def findings(source: Any, *, column_names: Sequence[str] | None = None, joint_na
         raise parameter_error("level", "a number with 0 < level < 1", level)
     if not is_real_number(tolerance) or not 0 <= float(tolerance) < np.inf:
         raise parameter_error("tolerance", "a finite number >= 0", tolerance)
+    source = urdf_from_path(source)
     if getattr(source, "full_parameters", 0) is None:
         cov = None if covariance is None else to_float_array(covariance, "covariance")
         bc = base_consistency(source, covariance=cov, com_bounds=com_bounds, joint_names=joint_names)
@@ -684,6 +757,7 @@ def report_findings(parameters: Any, *, m: int, level: float, column_names: Sequ
     ``details["parameter_columns"]`` and ``details["parameters"]``).
     """
     names = None
+    parameters = urdf_from_path(parameters)
     if _is_urdf_model(parameters):
         source_names = tuple(parameters.column_names(friction=True, offset=False))
     elif hasattr(parameters, "full_parameters"):                    # an IdentificationResult

@@ -18,6 +18,7 @@ Words = tuple[str, str]
 
 UNITS = {
     "omitted_rows": "rows",
+    "information_criteria": "parameters",
     "worse_than_constant": "1 − R² beyond 1 (fraction of TSS)",
     "pooling": "R² below pooled",
     "bias": "|mean| / RMSE",
@@ -77,6 +78,18 @@ def omitted_rows(count: int) -> Words:
     were = "was" if count == 1 else "were"
     return (f"{counted(count, 'row')} with non-finite values {were} omitted; segment breaks were inserted so no lag "
             "joins samples that were not adjacent.", "check the logger for dropped or invalid samples")
+
+
+def information_criteria(n_params: int, n_obs: int, noise_model: str) -> Words:
+    counted = "N·m samples × joints" if noise_model == "pooled" else f"N samples ({noise_model} noise model)"
+    return (f"n_params = {n_params} is not below n − 1 = {n_obs - 1}, where n = {n_obs} is the observations the "
+            f"information criteria count ({counted}): AICc and FPE are nan, undefined there (AICc's correction "
+            f"2p(p+1)/(n − p − 1) divides by a number that is not positive, and FPE's (1 + p/n)/(1 − p/n) has no "
+            f"finite value at p = n), and AIC and BIC are mostly the penalty 2p or p·ln n, "
+            f"so they rank models by their size, not by their fit. The tests of the residual do not depend on "
+            f"n_params.",
+            "compare models on a validation run with more observations than parameters, or by the tests of the "
+            "residual; check that n_params counts the identified parameters")
 
 
 def constant_target(name: str, force_finite: bool) -> Words:

@@ -52,6 +52,8 @@ KINDS = {
     "pooling": "the pooled value hides a joint that does much worse",
     "constant_target": "a joint's measured torque is constant",
     "omitted_rows": "rows with non-finite values were omitted",
+    "information_criteria": "n_params leaves the criteria no degree of freedom (p >= n - 1): AICc and FPE are "
+                            "undefined and AIC and BIC are mostly penalty",
     "time_stamps": "the time stamps are not a uniform grid: duplicated stamps, repeated rows, gaps or "
                    "irregular steps (the grid the analyses used is stated)",
     "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
@@ -128,7 +130,7 @@ class Thresholds:
 
 def resolve_thresholds(value: object) -> Thresholds:
     """``None`` → defaults; a mapping overrides named fields; a :class:`Thresholds` as is."""
-    from ..checks._validation import parameter_error
+    from ..checks._validation import format_value, parameter_error
 
     if value is None:
         return Thresholds()
@@ -141,7 +143,7 @@ def resolve_thresholds(value: object) -> Thresholds:
                 raise parameter_error("thresholds", "a mapping with keys among "
                                       + ", ".join(repr(n) for n in sorted(names)), value)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
-                raise parameter_error(f"thresholds[{key!r}]", "a finite number >= 0", x)
+                raise parameter_error(f"thresholds[{format_value(key)}]", "a finite number >= 0", x)
         return replace(Thresholds(), **{k: float(x) for k, x in value.items()})
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
 
@@ -217,6 +219,10 @@ class Evidence:
     column_names: list | None = None
     omitted_rows: int = 0
     force_finite: bool = False
+    # the information criteria's parameter and observation counts (n: N·m pooled, N otherwise)
+    n_params: int | None = None
+    criteria_n_obs: int | None = None
+    noise_model: str = "pooled"
     # bias: the residual mean against its coloured-noise standard error
     mean: np.ndarray | None = None
     rmse: np.ndarray | None = None
@@ -392,6 +398,11 @@ def _data_notes(r: _Rules) -> list[Finding]:
     for j in np.flatnonzero(constant):
         out.append(_worded(w.constant_target(r.name(int(j)), ev.force_finite), kind="constant_target", severity="note",
                            joints=(int(j),)))
+    if ev.n_params is not None and ev.criteria_n_obs is not None and ev.n_params >= ev.criteria_n_obs - 1:
+        # the rule of contract §3.7 that makes aicc and fpe nan, said where the reader looks
+        out.append(_worded(w.information_criteria(ev.n_params, ev.criteria_n_obs, ev.noise_model),
+                           kind="information_criteria", severity="note", effect=float(ev.n_params),
+                           effect_unit=w.UNITS["information_criteria"], threshold=float(ev.criteria_n_obs - 1)))
     return out
 
 

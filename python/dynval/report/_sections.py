@@ -489,11 +489,14 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
+             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None, criteria=None) -> Evidence:
     """Collect what the findings' rules read."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
                   omitted_rows=omitted, force_finite=force)
+    if criteria is not None:
+        ev.n_params, ev.criteria_n_obs = int(criteria["n_params"]), int(criteria["n_obs"])
+        ev.noise_model = str(criteria["noise_model"])
     if bias is not None:
         ev.mean, ev.rmse = bias["mean"], per_joint["rmse"]
         ev.bias_statistic, ev.bias_pvalue, ev.n_eff = bias["statistic"], bias["pvalue"], bias["n_eff"]

@@ -176,3 +176,21 @@ def versus(effect: Number, threshold: Number, spec: str = ".3g", *, scale: float
         if _sign((abs(read) if absolute else read) - t_read) == want:
             break
     return text, t_text
+
+
+def printable(text: object) -> str:
+    """``str(text)`` that any UTF-8 writer and any font can take: a byte that was not UTF-8 (a command
+    line's ``\\xff``, kept by Python as the lone surrogate ``\\udcff``) is written as ``\\xff``, any
+    other lone surrogate as ``\\udXXX``; everything else unchanged.
+
+    Examples
+    --------
+    >>> printable("jo\\udcffnt"), printable("Δq"), printable("\\ud800")
+    ('jo\\\\xffnt', 'Δq', '\\\\ud800')
+    """
+    text = str(text)
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return raw.decode("utf-8", "backslashreplace")
