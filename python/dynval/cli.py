@@ -57,7 +57,9 @@ SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or
 TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column of a table named as FILE:COLUMN "
              "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
              "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
-             "splits the lag analysis, and duplicated, missing and irregular stamps are reported")
+             "splits the lag analysis, and duplicated, missing and irregular stamps are reported. Stamps at a rate "
+             "outside 10 Hz to 100 kHz (whole seconds apart, say) look like ms, us or ns and are refused with the "
+             "fix (divide by 1000, ...) unless --time-units-unchecked")
 
 
 def _segments_arg(text: str):
@@ -276,10 +278,12 @@ def _add_report_options(sub) -> None:
                      help="noise model of the information criteria (default: the profile's)")
     sub.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second (frequencies in Hz)")
     sub.add_argument("--time", metavar="FILE[:COLUMN]", help=TIME_HELP)
+    sub.add_argument("--time-units-unchecked", action="store_true",
+                     help="accept --time stamps at any rate (they must still be seconds float64 can count)")
     sub.add_argument("--bandwidth", type=float, metavar="HZ",
                      help="band in which the inputs are trustworthy (the differentiation or sensor filter): "
                           "spectral and whiteness evidence above it is a note, never a deficiency; needs "
-                          "--sample-rate or --time")
+                          "--sample-rate or --time, and at most their Nyquist frequency (half the rate)")
     sub.add_argument("--decimate", type=_decimate_arg, default="auto", metavar="Q",
                      help="whiteness at the information rate: auto (default), none, or a factor")
     sub.add_argument("--joint-names", type=_names_arg, metavar="A,B,..", help="joint names, comma-separated")
@@ -364,7 +368,8 @@ def _load_time(spec: str, sources: dict):
 
 def _contract_error(command: str, exc: InputError, sources: dict) -> int:
     """Report an error of the dynval contract, worded for the command line."""
-    message = str(exc).replace("pass allow_wide=True", "pass --allow-wide")
+    message = (str(exc).replace("pass allow_wide=True", "pass --allow-wide")
+               .replace("time_units_checked=False", "--time-units-unchecked"))
     return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}"
                            f"{_transpose_hint(message)}")
 
@@ -393,7 +398,8 @@ def _report_options(args, sources: dict, meas) -> dict:
                 max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
                 nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
                 sample_rate=args.sample_rate, time=_load_time(args.time, sources) if args.time else None,
-                bandwidth=args.bandwidth, decimate=args.decimate, joint_names=_joint_names(args, meas),
+                time_units_checked=not args.time_units_unchecked, bandwidth=args.bandwidth, decimate=args.decimate,
+                joint_names=_joint_names(args, meas),
                 column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
                 estimation=est, allow_wide=args.allow_wide)
 
@@ -572,8 +578,9 @@ def _run_validate_streamed(args) -> int:
         acc = ValidationAccumulator(
             n_params=args.n_params, max_lag=args.max_lag, n_joints=args.n_joints, profile=args.profile,
             level=args.level, noise_model=args.noise_model, nan_policy=args.nan_policy, backend=args.backend,
-            sample_rate=args.sample_rate, bandwidth=args.bandwidth, joint_names=args.joint_names,
-            column_names=args.column_names, allow_wide=args.allow_wide)
+            sample_rate=args.sample_rate, time_units_checked=not args.time_units_unchecked,
+            bandwidth=args.bandwidth, joint_names=args.joint_names, column_names=args.column_names,
+            allow_wide=args.allow_wide)
         show = sys.stderr.isatty() if args.progress is None else args.progress
         from tqdm import tqdm  # type: ignore[import-untyped]
 

@@ -108,9 +108,14 @@ _MAX_BLOCK_ROWS = 1 << 16
 # median step that counts the steps of the inferred rate; until then the rows wait, unsummed.
 SETTLE_STEPS = 100
 
+# What an update changes before its stamps are checked against the grid they set (restored on a refusal).
+_WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting",
+                   "_waiting_rows")
+
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
+                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
+                    "backend")
 
 
 class ValidationAccumulator:
@@ -131,9 +136,14 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
+    time_units_checked : bool
+        As for :func:`dynval.validate`: False accepts time stamps at any rate. Checked on the
+        stamps that set the nominal step (the first 100 steps), and again on the whole stream's at
+        :meth:`result`.
     bandwidth : float, optional
         As for :func:`dynval.validate`: whiteness evidence above it (Hz) is a ``processing_band``
-        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``).
+        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``), and
+        is at most their Nyquist frequency.
     backend : None, "python" or "cpp"
         Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
         reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
@@ -156,7 +166,7 @@ class ValidationAccumulator:
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
                  nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
-                 sample_rate: float | None = None, bandwidth: float | None = None,
+                 sample_rate: float | None = None, time_units_checked: bool = True, bandwidth: float | None = None,
                  joint_names: Sequence[str] | None = None, column_names: Sequence[str] | None = None,
                  thresholds: Thresholds | dict[str, float] | None = None, allow_wide: bool = False,
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
@@ -165,7 +175,8 @@ class ValidationAccumulator:
         self._settings = check_options(Keywords(
             n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
             max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
+            column_names=column_names, q=q,
             estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
             model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
@@ -187,6 +198,7 @@ class ValidationAccumulator:
         # ("rows", meas, pred, reg, time, breaks, kept stamps) or ("break",)
         self._waiting: list[tuple[Any, ...]] | None = None
         self._waiting_rows = 0  # kept rows in it
+        self._frozen_rows = 0  # waiting rows summed because their stamps never advanced (_sum_frozen)
         self._first_seen: float | None = None  # the first and the last stamp of any row (omitted too)
         self._last_seen: float | None = None
 
@@ -251,6 +263,8 @@ class ValidationAccumulator:
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
         stamps = self._checked_time(time, meas.shape[0])
+        # what the chunk changes before its stamps may settle the grid (and be refused there)
+        before = {name: getattr(self, name) for name in _WAITING_FIELDS}
         if self._layout is None:
             self._layout = self._new_layout(meas.shape[1], 0 if reg is None else reg.shape[2])
         self._chunks += 1
@@ -274,7 +288,14 @@ class ValidationAccumulator:
         self._waiting.append(("rows", meas.copy(), pred.copy(), None if reg is None else reg.copy(), stamps.copy(),
                               tuple(breaks), kept))
         self._waiting_rows += kept.size
-        self._settle_when_known()
+        try:
+            self._settle_when_known()
+        except InputError as exc:  # the stamps that set the grid refused: the chunk is not taken
+            if self._waiting is not None and self._waiting and self._waiting[-1][0] == "rows":
+                self._waiting.pop()
+            for name, value in before.items():
+                setattr(self, name, value)
+            raise type(exc)(f"chunk {before['_chunks']}: {exc}") from None
 
     def _feed_chunk(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, breaks: Sequence[int]) -> None:
         """Sum a checked chunk, with segment breaks before its rows ``breaks``."""
@@ -309,32 +330,72 @@ class ValidationAccumulator:
         return keep
 
     def _settle_when_known(self) -> None:
-        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive."""
-        if self._waiting is None or self._waiting_rows <= SETTLE_STEPS:
+        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive.
+        Waiting stamps that never advanced are summed at once (a frozen clock: every step a
+        duplicate whatever the grid), so that the rows held stay bounded."""
+        if self._waiting is None or self._waiting_rows + self._frozen_rows <= SETTLE_STEPS:
             return
         stamps = self._first_stamps()
         if stamps is not None:
             self._settle(stamps)
+        else:
+            self._sum_frozen()
 
-    def _first_stamps(self) -> Stamps | None:
-        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
-        ``_timing`` finds in the waiting stamps, and their median step (which counts the steps of
-        the inferred rate); None without a positive step."""
+    def _sum_frozen(self) -> None:
+        """Sum the waiting rows, whose stamps are all equal (no positive step), against a nominal step
+        still unknown (NaN: a zero step is a duplicate, never a gap nor irregular, on any grid); the
+        nominal step replaces it when the stamps advance (:meth:`_settle`)."""
+        assert self._waiting is not None
+        events, self._waiting = self._waiting, None
+        self._frozen_rows += self._waiting_rows
+        self._waiting_rows = 0
+        if self._stamps is None:
+            self._stamps = Stamps(math.nan, math.nan)
+        for event in events:
+            if event[0] == "break":
+                self.break_segment()
+            else:
+                self._feed_timed(*event[1:6])
+        self._waiting = []
+
+    def _waiting_stamps(self) -> list[FloatArray]:
+        """The stamps that set the nominal step: after a summed frozen start its stamp, then the
+        waiting rows' kept stamps."""
         assert self._waiting is not None
         parts = [event[6] for event in self._waiting if event[0] == "rows"]
+        if self._stamps is not None and self._stamps.last is not None:  # after a summed frozen start
+            parts.insert(0, np.array([self._stamps.last]))
+        return parts
+
+    def _first_stamps(self, later: Sequence[FloatArray] = ()) -> Stamps | None:
+        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
+        ``_timing`` finds in the waiting stamps (and ``later``'s, in a merge), and their median step
+        (which counts the steps of the inferred rate); None without a positive step."""
+        parts = [*self._waiting_stamps(), *later]
         t = np.concatenate(parts) if parts else np.zeros(0)
         steps = np.diff(t - t[0]) if t.size else t
         positive = steps[steps > 0]
         if not positive.size:
             return None
-        rate = self._settings.sample_rate
-        return Stamps(_timing._nominal_step(t, steps) if rate is None else 1.0 / rate, float(np.median(positive)))
+        cfg = self._settings
+        nominal = _timing.nominal_step(t, steps)
+        if cfg.time_units_checked:
+            _timing.check_units(nominal)
+        if cfg.sample_rate is None:
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, 1.0 / nominal)
+        else:  # checked against these stamps now, before any step is classified against it
+            nominal = _timing.given_step(cfg.sample_rate, nominal)
+        return Stamps(nominal, float(np.median(positive)))
 
     def _settle(self, stamps: Stamps) -> None:
         """Classify and sum the waiting updates with the summary ``stamps`` (its nominal step)."""
         assert self._waiting is not None
         events, self._waiting, self._waiting_rows = self._waiting, None, 0
-        self._stamps = stamps
+        if self._stamps is None:
+            self._stamps = stamps
+        else:  # a frozen start, summed before the grid was known: only duplicates, nothing to recentre
+            self._stamps.nominal, self._stamps.median = stamps.nominal, stamps.median
         for event in events:
             if event[0] == "break":
                 self.break_segment()
@@ -494,6 +555,8 @@ class ValidationAccumulator:
                                    f"{later._first_seen!r} before this one's last stamp {self._last_seen!r}")
         self._first_seen = later._first_seen if self._first_seen is None else self._first_seen
         self._last_seen = later._last_seen if later._last_seen is not None else self._last_seen
+        if self._waiting is not None and later._waiting is not None and later._stamps is not None:
+            return self._merge_frozen_start(later)
         if self._waiting is not None and later._waiting is not None:
             if later._break_first:
                 self._waiting.append(("break",))
@@ -508,6 +571,26 @@ class ValidationAccumulator:
         elif later._waiting is not None:
             assert self._stamps is not None
             later._settle(Stamps(self._stamps.nominal, self._stamps.median))
+        return False
+
+    def _merge_frozen_start(self, later: ValidationAccumulator) -> bool:
+        """Both wait for their nominal step, and ``later``'s frozen start is summed already: its rows
+        cannot queue after these. Both settle on the nominal step of their waiting stamps together
+        (fewer than SETTLE_STEPS perhaps); when none advanced, every step is a duplicate: these rows
+        are summed as a frozen start too and ``later``'s waiting updates queue after them (the
+        summaries and the states then join as settled ones, the caller's part: returns False)."""
+        assert self._waiting is not None and later._waiting is not None
+        stamps = self._first_stamps(later._waiting_stamps())
+        if stamps is not None:
+            self._settle(stamps)
+            later._settle(Stamps(stamps.nominal, stamps.median))
+            return False
+        self._sum_frozen()
+        assert self._waiting is not None
+        self._waiting.extend(later._waiting)
+        self._waiting_rows += later._waiting_rows
+        self._frozen_rows += later._frozen_rows
+        later._waiting, later._waiting_rows = [], 0
         return False
 
     def _check_same_timing(self, other: ValidationAccumulator) -> None:
@@ -568,7 +651,9 @@ class ValidationAccumulator:
         assert st is not None
         timing = None
         if acc._stamps is not None:
-            timing = acc._stamps.timing(cfg.sample_rate)
+            timing = acc._stamps.timing(cfg.sample_rate, cfg.time_units_checked)
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, timing.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
         return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry, acc._edges)

@@ -276,8 +276,13 @@ def check_orientation(function: str, name: str, shape, allow_wide) -> None:
 
 def check_allow_wide(value) -> bool:
     """``allow_wide`` is exactly True or False (numpy bools too)."""
+    return check_flag("allow_wide", value)
+
+
+def check_flag(name: str, value) -> bool:
+    """A switch ``name`` is exactly True or False (numpy bools too)."""
     if not isinstance(value, (bool, np.bool_)):
-        raise parameter_error("allow_wide", "True or False", value)
+        raise parameter_error(name, "True or False", value)
     return bool(value)
 
 
@@ -531,15 +536,28 @@ def check_sample_rate(value):
     return float(value)
 
 
-def check_bandwidth(value, sample_rate):
-    """``bandwidth``: None, or a finite number > 0 (Hz), which needs a sample rate (or time stamps)."""
+def check_bandwidth(value, sample_rate, rate_known: bool = True):
+    """``bandwidth``: None, or a finite number > 0 (Hz), which needs a sample rate (or time stamps)
+    and is at most its Nyquist frequency (``rate_known`` False: the rate comes later, with a
+    stream's time stamps, :func:`check_nyquist`)."""
     if value is None:
         return None
     if not is_real_number(value) or not math.isfinite(value) or value <= 0:
         raise parameter_error("bandwidth", "None or a finite number > 0 (Hz)", value)
+    if not rate_known:
+        return float(value)
     if sample_rate is None:
         raise parameter_error("bandwidth", "None without sample_rate or time (it is in Hz)", value)
+    check_nyquist(value, sample_rate)
     return float(value)
+
+
+def check_nyquist(bandwidth, sample_rate: float) -> None:
+    """A band above the Nyquist frequency says nothing about the samples (InvalidParameter)."""
+    nyquist = float(sample_rate) / 2.0
+    if bandwidth > nyquist:
+        raise parameter_error("bandwidth", f"at most the Nyquist frequency {nyquist:.6g} Hz (half the sample rate "
+                              f"{float(sample_rate):.6g} Hz)", bandwidth)
 
 
 def check_decimate(value):

@@ -317,7 +317,7 @@ def _tests(ev: Evidence):
             blocks.append(("delay", np.asarray(ev.physics["delay"]["pvalue"], dtype=float)))
     if ev.predictive is not None:
         blocks.append(("predictive", np.asarray(ev.predictive["pvalue"], dtype=float)))
-    if ev.periodic is not None:
+    if ev.periodic is not None and ev.periodic.get("used", True):  # used False: a period not tested
         blocks.append(("periodic", np.asarray(ev.periodic["pvalue"], dtype=float)))
     return blocks
 

@@ -141,6 +141,10 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=Non
     period = _periodic.detect_period(q, sample_rate=sample_rate)
     if period is None:
         return None
+    if round(period.samples) < _periodic.MIN_TESTED_PERIOD:
+        return _untested_period(period, f"q repeats every {period.samples:.3g} samples: an encoder dithering by a "
+                                        "count at standstill, not a repeated trajectory; such a period has no "
+                                        "harmonic below the Nyquist frequency, so no periodic test")
     projected = False
     if reg3 is not None:
         cols = (list(est_fit.columns) if est_fit is not None
@@ -157,11 +161,19 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=Non
     except ValueError:
         if use_band is None:
             return None
-        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+        try:
+            test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+        except ValueError as exc:
+            return _untested_period(period, f"no periodic test: {exc}")
     out = {"used": True, "period": period.to_dict(), **test.to_dict()}
     out["model_columns_removed"] = projected
     out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
     return out
+
+def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
+    """The periodic section of a period that cannot be tested: ``used`` False and the ``note`` why."""
+    return {"used": False, "period": period.to_dict(), "note": note}
+
 
 def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05) -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the

@@ -403,6 +403,7 @@ class Periodic(Record):
     method: str = ABSENT
     model_columns_removed: bool = ABSENT
     effect_net: Any = ABSENT
+    note: str = ABSENT  # why a period found was not tested (``used`` False)
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -288,9 +288,10 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
         if band is None:
             band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
         if np.isfinite(band) and band > 0:
-            q = int(math.floor(fs / (4.0 * band)))
+            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
         if bandwidth is not None and fs / 2.0 > bandwidth:
-            q = max(q, int(math.ceil(fs / (2.0 * bandwidth))))
+            # a band far below the rate asks for more than the rows: capped before int
+            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
     else:
         band = None
         if decimate is not None:

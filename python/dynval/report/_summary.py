@@ -199,6 +199,8 @@ def _periodic_lines(report: ReportSections) -> list:
     per = getattr(report, "periodic", None)
     if per is None:
         return []
+    if not per["used"]:
+        return [f"Periodic trajectory: {per['note']}."]
     sec = per["period"]["seconds"]
     noise = ", ".join(_num(math.sqrt(max(v, 0.0))) for v in per["noise_variance"])
     return [f"Periodic trajectory: {per['n_periods']} whole periods of "

@@ -609,10 +609,15 @@ def _whole_periods(n: int, period: Period | float) -> tuple[float, int, int]:
     return t_samples, start, n_periods
 
 
+MIN_TESTED_PERIOD = 3
+"""The shortest period (samples) with a harmonic below the Nyquist frequency: q repeating every 2
+samples is an encoder dithering by one count, not a trajectory the periodic test can read."""
+
+
 def _harmonics_tested(t_samples: float, fs: float, band: float | None) -> int:
     """K: every harmonic below L/2, or those up to ``band``."""
     length = int(round(t_samples))
-    if length < 3:
+    if length < MIN_TESTED_PERIOD:
         raise TooFewSamples(f"a period of {t_samples:g} samples has no harmonic below the Nyquist frequency")
     k_max = (length - 1) // 2  # harmonics strictly below L/2
     if band is None:
