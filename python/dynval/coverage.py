@@ -130,7 +130,7 @@ NOT_RUN: Mapping[str, Mapping[str, str]] = {
     "stream": _STREAMED,
     "cli_stream": {**_STREAMED, "missing_term": "--model-columns is not an option of dynval validate"},
     "fleet": {},
-    "dask": {**_STREAMED, "time_stamps": "dynval.dask.validate takes no time stamps"},
+    "dask": _STREAMED,
 }
 """Per entry point, the tests of :data:`TESTS` it does not run, with the reason."""
 
