@@ -176,12 +176,12 @@ def test_every_section_of_a_comparison_says_whose_it_is(scenario, tmp_path):
     write_report(cmp, tmp_path / "c.html", tau_meas=d.validation.tau_meas, tau_pred=preds,
                  figures=[(plot.metrics(cmp), "a figure of the caller's")])
     text = (tmp_path / "c.html").read_text(encoding="utf-8")
-    headings = [h for _, h in re.findall(r"<(h[23])>(.*?)</\1>", text)]
+    headings = [h for _, h in re.findall(r"<(h[23])(?: id=\"[^\"]*\")?>(.*?)</\1>", text)]  # h2s have anchors
     whose = ("every candidate", "per candidate", "not of one candidate", *(f"odel '{n}'" for n in d.candidates))
     for h in headings:
         assert any(w in h for w in whose), h
     # the closing provenance holds the fields every candidate shares, each model's section its own
-    closing = text.split("<h2>Provenance shared by every candidate", 1)[1]
+    closing = re.split(r"<h2[^>]*>Provenance shared by every candidate", text, maxsplit=1)[1]
     assert "<td class=\"text\">n_params</td>" not in closing and "<td class=\"text\">profile</td>" in closing
     for n in d.candidates:
         own = text.split(f"<h3>Provenance of model '{n}' (its own fields)</h3>", 1)[1].split("<h", 1)[0]
