@@ -12,12 +12,12 @@ Rows printed (seconds; each with its target and PASS or MISS):
 * ``import dynval`` in fresh interpreters (the import statement alone, timed inside the process;
   median of ``--imports`` runs): target ≤ 0.3 s. ``import numpy`` alone is printed beside it.
 
-Data: the KUKA LWR4+ measurements of FloBaRoID (``../shared/data/robots/kuka_lwr4_flobaroid`` from
-the repository root, or ``--data``) when that directory and pinocchio are there: the three runs and
-run 1 again end to end, 20,108 × 7 samples at 200 Hz, and the URDF's 91-column joint-torque
-regressor (102 MB); the candidates are the CAD URDF's and the identified URDF's torques and a least
-squares fit of all 91 columns. Otherwise a simulated equivalent of the same shape (smooth columns,
-a joint's columns of the links before it zero, as on a serial arm).
+Data: the KUKA LWR4+ measurements of FloBaRoID as dynval ships them (``dynval.datasets``), or a
+FloBaRoID directory given with ``--data``, when pinocchio is there: the three runs and run 1 again
+end to end, 20,108 × 7 samples at 200 Hz, and the URDF's 91-column joint-torque regressor (102 MB);
+the candidates are the CAD URDF's and the identified URDF's torques and a least squares fit of all
+91 columns. Otherwise a simulated equivalent of the same shape (smooth columns, a joint's columns
+of the links before it zero, as on a serial arm).
 Run: ``python3 benchmarks/bench_interactive.py [--data DIR --repeat 3 --imports 5]``.
 This is a benchmark, not a test: nothing here asserts a time.
 """
@@ -38,22 +38,34 @@ import dynval
 from dynval.kernels._backend import get_backend
 
 ROOT = Path(__file__).resolve().parents[1]
-KUKA = ROOT.parent / "shared" / "data" / "robots" / "kuka_lwr4_flobaroid"
 RATE = 200.0
 
 
-def kuka_log(data: Path):
-    """The three runs and run 1 again end to end: torques, regressor and the three candidates."""
+def kuka_log(data: Path | None):
+    """The three runs and run 1 again end to end: torques, regressor and the three candidates.
+
+    ``data`` is a FloBaRoID KUKA directory (``data/measurements_K.npz``, ``model/*.urdf``); None takes
+    the same runs and URDFs as dynval ships them (``dynval.datasets.load_kuka_lwr4``).
+    """
     from dynval.robots import URDFModel
 
-    runs = [np.load(data / "data" / f"measurements_{k}.npz") for k in (1, 2, 3, 1)]
-    q, dq, ddq, tau = (np.concatenate([r[key] for r in runs])
-                       for key in ("positions", "velocities", "accelerations", "torques"))
-    cad = URDFModel(str(data / "model" / "kuka_lwr4.urdf"))
-    identified = URDFModel(str(data / "model" / "kuka_lwr4_identified.urdf"))
+    if data is None:
+        from dynval.datasets import load_kuka_lwr4
+
+        shipped = [load_kuka_lwr4(k) for k in (1, 2, 3, 1)]
+        q, dq, ddq, tau = (np.concatenate([getattr(r, key) for r in shipped]) for key in ("q", "dq", "ddq", "tau"))
+        cad, identified = URDFModel(shipped[0].urdf), URDFModel(shipped[0].urdf_identified)
+        where = "the KUKA LWR4+ runs shipped with dynval (dynval.datasets)"
+    else:
+        runs = [np.load(data / "data" / f"measurements_{k}.npz") for k in (1, 2, 3, 1)]
+        q, dq, ddq, tau = (np.concatenate([r[key] for r in runs])
+                           for key in ("positions", "velocities", "accelerations", "torques"))
+        cad = URDFModel(str(data / "model" / "kuka_lwr4.urdf"))
+        identified = URDFModel(str(data / "model" / "kuka_lwr4_identified.urdf"))
+        where = f"KUKA LWR4+ log from {data}"
     y = np.ascontiguousarray(cad.regressor(q, dq, ddq))
     preds = {"CAD URDF": (cad.predict(q, dq, ddq), 0), "identified URDF": (identified.predict(q, dq, ddq), 84)}
-    return f"KUKA LWR4+ log from {data}", tau, y, preds
+    return where, tau, y, preds
 
 
 def simulated_log(n=20_108, m=7, p=91, seed=0):
@@ -73,17 +85,19 @@ def simulated_log(n=20_108, m=7, p=91, seed=0):
     noise = np.cumsum(rng.normal(0.0, 0.02, (n, m)), axis=0) * 0.05 + rng.normal(0.0, 0.1, (n, m))
     tau = y @ pi + noise
     preds = {"CAD URDF": (y @ (pi * 1.1), 0), "identified URDF": (y @ (pi + rng.normal(0, 0.01, p)), 84)}
-    return f"simulated log (no {KUKA} or no pinocchio)", tau, y, preds
+    return "simulated log (pinocchio is not installed)", tau, y, preds
 
 
 def load(data: Path | None):
-    data = data or (KUKA if KUKA.is_dir() else None)
-    if data is not None:
-        try:
-            import pinocchio  # noqa: F401
-        except ImportError:
-            data = None
-    return kuka_log(data) if data is not None else simulated_log()
+    """The KUKA log (``--data``, else the shipped runs) when pinocchio is there, else the simulated one."""
+    try:
+        import pinocchio  # noqa: F401
+    except ImportError:
+        return simulated_log()
+    if data is not None and not (data / "data").is_dir():
+        raise SystemExit(f"--data {data}: not a FloBaRoID KUKA directory (no data/ in it); leave --data out "
+                         "to use the runs shipped with dynval")
+    return kuka_log(data)
 
 
 def best_of(fn, repeat):
@@ -151,7 +165,8 @@ def import_rows(runs):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--data", type=Path, default=None, help="a FloBaRoID KUKA directory (default: ../shared/...)")
+    parser.add_argument("--data", type=Path, default=None,
+                        help="a FloBaRoID KUKA directory (default: the runs shipped with dynval)")
     parser.add_argument("--repeat", type=int, default=3, help="best of this many calls of compare and validate")
     parser.add_argument("--imports", type=int, default=5, help="fresh interpreters timing import dynval")
     args = parser.parse_args(argv)

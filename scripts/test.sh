@@ -11,6 +11,7 @@
 #   7. the fuzz suite against an AddressSanitizer + UndefinedBehaviorSanitizer build of the C++
 #      backend (scripts/sanitize.sh, bounded: 40 examples per test, about 2,300 in all),
 #   8. the conformance matrix of README.md against a fresh run of the ports it lists.
+# Between 4 and 6 the documentation site is built with warnings as errors, its gallery run.
 # As root (CI) the ports' toolchains are installed and required: a missing one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,7 +30,7 @@ if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
   bash java/install-toolchain
   bash matlab/install-toolchain
   bash wolfram/install-toolchain
-  export DYNVAL_REQUIRE_TOOLCHAINS=${DYNVAL_REQUIRE_TOOLCHAINS:-cc,java,octave,mathics}
+  export DYNVAL_REQUIRE_TOOLCHAINS=${DYNVAL_REQUIRE_TOOLCHAINS:-cc,java,octave,mathics,chromium}
 else
   # Without root only what pip can put in the active environment is installed (Mathics3, in a venv
   # or a conda environment); a port whose toolchain is missing is skipped by its tests, and the
@@ -57,7 +58,7 @@ echo "installed in $(( $(date +%s) - build_start )) s"
 "$PY" -c "import dynval; print('dynval', dynval.__version__, dynval.backends())"
 
 step "lint and types"
-"$PY" -m ruff check python tests benchmarks golden examples
+"$PY" -m ruff check python tests benchmarks golden examples docs
 "$PY" -m mypy python/dynval
 
 # Eigen from the cmeel-eigen wheel that the install above brought, for machines without Debian's.
@@ -100,6 +101,12 @@ assert b['python']['available'] and not b['cpp']['available'], b
 print('pure-Python build imports with backends', b)
 ")
 rm -rf "$pure"
+
+step "documentation site: sphinx -W, every gallery example run (docs/_build/html)"
+# tests/test_docs.py builds the text and checks every public name's page; here the whole site is
+# built as a reader gets it, the gallery's examples run (a failing example or any warning fails).
+MPLBACKEND=Agg "$PY" -m sphinx -W --keep-going -q -b html docs docs/_build/html
+echo "built docs/_build/html/index.html"
 
 step "pytest"
 # The Wolfram port's whole corpus (about 8 minutes under Mathics3 with two port processes) is run once,

@@ -386,3 +386,47 @@ def test_validate_agrees(problem, profile, n_params):
     cond = np.linalg.cond(e.T @ e) if profile == "matlab" else 1.0
     fit = abs(ic_w["aic"] - 2 * n_params) if math.isfinite(ic_w["aic"]) else 0.0
     close(ic_g["aic"], ic_w["aic"], ic_scale(ic_w["n_obs"], fit, n_params) * cond, "report aic")
+
+
+# --------------------------------------------------------------------------- bounds
+
+
+@pytest.mark.parametrize("adjusted", [True, False])
+def test_cross_correlation_never_exceeds_its_cauchy_schwarz_bound(backend, adjusted):
+    """|rho(l)| <= N/D_l (1 at lag 0, and at every lag without ``adjusted``), contract §3.6.
+
+    A regressor column that is an affine copy of the residual (perfect correlation, a few samples,
+    scales from 1e-80 to 1e80) is where the rounding of the sums stepped one ulp past 1 in the
+    cpp backend (1.0000000000000002); the bound holds exactly, in every backend.
+    """
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(2, 9))
+        e = rng.normal(size=(n, 2)) * 10.0 ** rng.integers(-5, 5)
+        y = (e * rng.normal() + rng.normal())[:, :, None] * 10.0 ** rng.integers(-80, 80)
+        max_lag = min(n - 1, 3)
+        rho = dynval.cross_correlation(e, y, max_lag, adjusted=adjusted, backend=backend).rho
+        lags = np.arange(max_lag + 1)
+        bound = n / (n - lags) if adjusted else np.ones(max_lag + 1)
+        bound[0] = 1.0
+        assert np.all(np.abs(np.nan_to_num(rho)) <= bound), (n, rho)
+
+
+def test_streamed_cross_correlation_never_exceeds_its_bound():
+    """The stream normalises its own lag sums (contract §4.1): the same clamp, the same cases
+    (without it 96 of 200 exceeded 1 at lag 0)."""
+    from dynval.stream import ValidationAccumulator
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(3, 9))
+        e = rng.normal(size=(n, 2)) * 10.0 ** rng.integers(-5, 5)
+        y = (e * rng.normal() + rng.normal())[:, :, None] * 10.0 ** rng.integers(-80, 80)
+        max_lag = min(n - 1, 3)
+        acc = ValidationAccumulator(n_params=1, max_lag=max_lag, allow_wide=True)
+        acc.update(e, np.zeros_like(e), y)
+        rho = np.asarray(acc.result().cross_correlation["rho"])
+        adjusted = acc.result().cross_correlation["adjusted"]
+        lags = np.arange(max_lag + 1)
+        bound = n / (n - lags) if adjusted else np.ones(max_lag + 1)
+        assert np.all(np.abs(np.nan_to_num(rho)) <= bound), (n, rho)

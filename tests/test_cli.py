@@ -347,3 +347,14 @@ def test_a_file_transposed_alone_is_named_as_transposed(files, capsys, tmp_path,
         assert f"; tau_{which} looks transposed (its shape is the other's reversed): samples are rows" in err
     code, _, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "3")
     assert code == 0 and "transposed" not in err
+
+
+def test_html_takes_joint_names_that_were_not_utf8(files, tmp_path, capsys):
+    """--joint-names with byte 0xff (Python's lone surrogate U+DCFF) ended in exit 3 with --html."""
+    paths, _, _, _ = files
+    page = tmp_path / "r.html"
+    code, _out, err = run(capsys, "validate", paths["meas_npy"], paths["pred_npy"], "--n-params", "1",
+                         "--joint-names", "\udcff,$\\frac$", "--html", str(page))
+    assert code in (0, 1) and "internal error" not in err, err
+    text = page.read_text(encoding="utf-8")
+    assert "\\xff" in text and "$\\frac$" in text

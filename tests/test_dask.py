@@ -14,6 +14,7 @@ distributed = pytest.importorskip("distributed")
 
 import dynval  # noqa: E402
 import dynval.dask  # noqa: E402
+from dynval.stream import ValidationAccumulator  # noqa: E402
 from test_stream import assert_same_report  # noqa: E402
 
 pytestmark = pytest.mark.slow
@@ -59,3 +60,57 @@ def test_local_cluster_errors_name_the_block(client):
     report = dynval.dask.validate(da.from_array(tau, chunks=(1_000, 2)), da.from_array(pred, chunks=(1_000, 2)),
                                   n_params=1, max_lag=5, nan_policy="omit")
     assert report.provenance["omitted_rows"] == 1 and report.provenance["segments"] == [2_503, 1_496]
+
+
+@pytest.mark.parametrize("chunk", [100, 37, 1000])
+def test_time_stamps_give_the_streams_report(chunk, backend):
+    # dynval.dask.validate(time=...) raised a raw TypeError from the accumulator's constructor
+    rng = np.random.default_rng(3)
+    n = 3000
+    tau = rng.normal(size=(n, 2))
+    pred = tau + 0.1 * rng.normal(size=(n, 2))
+    t = 12.0 + np.arange(n) / 100.0
+    t[1500:] += 0.5  # a gap: a segment break, wherever the blocks end
+    t[700] = t[699]  # a duplicated stamp
+    acc = ValidationAccumulator(n_params=1, max_lag=5, backend=backend)
+    acc.update(tau, pred, time=t)
+    streamed = acc.result()
+    got = dynval.dask.validate(da.from_array(tau, chunks=(chunk, 2)), da.from_array(pred, chunks=(chunk, 2)),
+                               n_params=1, max_lag=5, backend=backend, time=da.from_array(t, chunks=500))
+    assert got.timing["gaps"] == 1 and got.timing["duplicated_stamps"] == 1 and got.timing["sample_rate"] == 100.0
+    for key in ("gaps", "gap_rows", "duplicated_stamps", "repeated_rows", "irregular_steps", "nominal_step"):
+        assert got.timing[key] == streamed.timing[key], key
+    assert got.provenance["segments"] == [1500, 1500]
+    want = dynval.validate(tau, pred, n_params=1, max_lag=5, backend=backend, time=t)
+    assert_same_report(got, want, tau, pred)
+
+
+def test_time_stamps_are_checked_with_validates_messages():
+    tau = np.zeros((400, 2))
+    blocks = da.from_array(tau, chunks=(100, 2))
+    t = np.arange(400) / 100.0
+    with pytest.raises(dynval.ShapeMismatch, match=r"time must have one stamp per sample, shape \(400,\), got"):
+        dynval.dask.validate(blocks, blocks, n_params=1, max_lag=3, time=t[:-1])
+    back = t.copy()
+    back[250] = 0.0
+    with pytest.raises(dynval.InvalidParameter, match=r"time must never decrease, got 0.0 at row 250"):
+        dynval.dask.validate(blocks, blocks, n_params=1, max_lag=3, time=back)
+    with pytest.raises(dynval.InvalidParameter, match="these look like milliseconds: pass time / 1000"):
+        dynval.dask.validate(blocks, blocks, n_params=1, max_lag=3, time=t * 1e3)
+
+
+@pytest.mark.parametrize("chunk", [50, 100, 150, 1000])
+def test_a_frozen_clock_inside_a_block(chunk):
+    # a block of one stamp, after a block still waiting for its grid: the merge refused it
+    rng = np.random.default_rng(6)
+    n = 2000
+    tau = rng.normal(size=(n, 2))
+    pred = tau + 0.1 * rng.normal(size=(n, 2))
+    t = np.arange(n) / 100.0
+    t[500:800] = t[500]
+    got = dynval.dask.validate(da.from_array(tau, chunks=(chunk, 2)), da.from_array(pred, chunks=(chunk, 2)),
+                               n_params=1, max_lag=5, time=t)
+    want = dynval.validate(tau, pred, n_params=1, max_lag=5, time=t)
+    for key in ("duplicated_stamps", "gaps", "gap_rows", "sample_rate", "irregular_steps"):
+        assert got.timing[key] == want.timing[key], key
+    assert_same_report(got, want, tau, pred)

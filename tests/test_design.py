@@ -422,3 +422,73 @@ def test_kuka_raw_regressor_is_reduced_not_redesigned(kuka):
     assert [f.severity for f in r.findings if f.severity == "design"] == []
     note = [f for f in r.findings if f.kind == "excitation"]
     assert [f.severity for f in note] == ["note"] and "reduced to 64 identifiable combinations" in note[0].message
+
+
+# ------------------------------------------------------------------ a column's unit (contract §4)
+
+_DECISIONS = ("unexcited", "inseparable", "unidentifiable", "structural", "identifiable_rank",
+              "identifiable_columns", "validation_rank")
+
+
+@pytest.mark.parametrize("column, factor", [(0, 1e10), (0, 1e-10), (3, 1e9), (5, 1e12), (1, 1e-7)])
+def test_a_column_in_another_unit_moves_no_other_columns_decision(column, factor):
+    # A column 1e10 times larger (another unit) used to make every column below 1e-9 of it "zero":
+    # the largest norm was the reference. The median is: the roundoff column (4) stays zero, the
+    # others keep their status, with and without the estimation run, and the scaled condition
+    # number does not move.
+    (qe, dqe, ddqe), (qv, dqv, ddqv) = _two_runs()
+    ye, yv = _columns(qe, dqe, ddqe), _columns(qv, dqv, ddqv)
+    s = np.ones(6)
+    s[column] = factor
+    for est in ({"regressor": ye}, None):
+        before = _sections.design(yv, None, est, None, None, None)["excitation"]
+        after = _sections.design(yv * s, None, None if est is None else {"regressor": ye * s}, None, None,
+                                 None)["excitation"]
+        assert {k: after[k] for k in _DECISIONS} == {k: before[k] for k in _DECISIONS}, (column, factor, est)
+        assert after["condition_scaled"] == pytest.approx(before["condition_scaled"], rel=1e-9)
+        assert 4 in (before["unidentifiable"] if est else before["unexcited"])
+
+
+def test_a_healthy_regressor_with_a_column_in_another_unit_is_accepted():
+    # N1: six excited columns, one in a unit 1e10 (or 1e-10) times another's: every column is
+    # excited, the validation rank is 6 and compare accepts, as with the columns as they were.
+    rng = np.random.default_rng(37)
+    n, m, p = 500, 2, 6
+    y = rng.normal(size=(n, m, p))
+    pred = np.einsum("njp,p->nj", y, rng.normal(size=p))
+    meas = pred + 0.1 * rng.normal(size=(n, m))
+    for factor in (1.0, 1e10, 1e-10):
+        y2 = y.copy()
+        y2[:, :, 2] *= factor
+        x = dynval.validate(meas, pred, n_params=p, regressor=y2).design["excitation"]
+        assert x["unexcited"] == [] and x["inseparable"] == [] and x["validation_rank"] == p, factor
+        assert dynval.compare(meas, {"model": (pred, p)}, regressor=y2).verdict.decision == "accept", factor
+
+
+def test_zero_columns_are_judged_against_the_median_norm():
+    # the rule itself (conventions §5.6): exactly zero, or at most 1e-13 of the median nonzero norm
+    zero = _regressor_algebra.zero_columns
+    assert list(zero(np.array([1.0, 2.0, 3.0, 1e-14, 0.0, 1e9]))) == [False, False, False, True, True, False]
+    assert list(zero(np.array([1.0, 3.0, 1.01e-13]))) == [False, False, False]  # the median is 1
+    assert list(zero(np.array([1.0, 3.0, 0.99e-13]))) == [False, False, True]
+    assert list(zero(np.zeros(3))) == [True, True, True]
+
+
+def test_kuka_a_column_in_another_unit_keeps_the_64_combinations():
+    # The shipped KUKA LWR4+ runs (run 3 against run 1, every fourth sample): one column 1e9 times
+    # larger or smaller used to cut the identifiable rank from 64 to 31.
+    pytest.importorskip("pinocchio")
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    r1, r3 = load_kuka_lwr4(1), load_kuka_lwr4(3)
+    model = URDFModel(r1.urdf)
+    ye = model.regressor(r1.q[::4], r1.dq[::4], r1.ddq[::4])
+    yv = model.regressor(r3.q[::4], r3.dq[::4], r3.ddq[::4])
+    before = _sections.design(yv, None, {"regressor": ye}, None, None, None)["excitation"]
+    assert before["identifiable_rank"] == 64 and len(before["structural"]) == 27
+    for column, factor in ((0, 1e9), (71, 1e9), (26, 1e-9)):
+        s = np.ones(yv.shape[2])
+        s[column] = factor
+        after = _sections.design(yv * s, None, {"regressor": ye * s}, None, None, None)["excitation"]
+        assert {k: after[k] for k in _DECISIONS} == {k: before[k] for k in _DECISIONS}, (column, factor)

@@ -10,6 +10,7 @@ import pytest
 import dynval
 from dynval.checks import _validation
 from dynval.kernels import _backend
+from dynval.statistics._periodic import detect_period
 
 NAN, INF = float("nan"), float("inf")
 GOOD = np.arange(10.0)
@@ -550,3 +551,61 @@ def test_compare_passes_allow_wide_on():
     with pytest.raises(dynval.TooFewSamples, match="allow_wide=True"):
         dynval.compare(wide, candidates)
     assert sorted(dynval.compare(wide, candidates, allow_wide=True, max_lag=2).ranking) == ["a", "b"]
+
+
+# --------------------------------------------------------------------------- values in messages
+
+
+class _Framed:
+    """A table-like object whose repr is long (as a DataFrame's is)."""
+
+    shape = (100_000, 3)
+
+    def __repr__(self):
+        return "x" * 10_000
+
+
+@pytest.mark.parametrize("value, shown", [
+    (np.zeros(10**6), "<float64 array of shape (1000000,)>"),
+    (np.zeros((3, 2)), "<float64 array of shape (3, 2)>"),
+    (np.arange(9), "<int64 array of shape (9,)>"),
+    (np.arange(3), "[0, 1, 2]"),
+    (list(range(10**5)), "<list of length 100000>"),
+    ((np.ones(10**5), 3), "(<float64 array of shape (100000,)>, 3)"),
+    ({"prediction": np.ones((5, 2)), "n_params": 1}, "{'prediction': <float64 array of shape (5, 2)>, 'n_params': 1}"),
+    ([[[[1]]]], "[[[<list of length 1>]]]"),
+    ("a" * 10**6, repr("a" * 80) + "... (a str of 1000000 characters)"),
+    (_Framed(), "<_Framed of shape (100000, 3)>"),
+    (10**400, "1" + "0" * 79 + "... (401 characters)"),
+    ([2, 6], "[2, 6]"),
+    ((5,), "(5,)"),
+    (np.int64(12), "12"),
+])
+def test_a_value_is_shown_by_type_and_size_never_by_its_data(value, shown):
+    """Contract §2.1: arrays and long arguments appear by type and shape or length; short ones as typed."""
+    assert _validation.format_value(value) == shown
+
+
+@pytest.mark.parametrize("call", [
+    # a 10^6-row dq without q (the message was 5 MB)
+    lambda: dynval.validate(np.arange(10.0**6), np.zeros(10**6), n_params=1, dq=np.ones(10**6)),
+    # an array where a (prediction, n_params) pair belongs (732,092 characters)
+    lambda: dynval.compare(np.ones((20_000, 2)), {"a": np.ones((20_000, 2)), "b": np.ones((20_000, 2)) * 1.01}),
+    lambda: dynval.validate(np.ones(100), np.ones(100), n_params=1, thresholds={"b" * 10**6: 1.0}),
+    lambda: detect_period(np.sin(np.arange(100.0)), sample_rate=np.ones(10**5)),
+])
+def test_messages_stay_short_whatever_the_argument(call):
+    with pytest.raises(dynval.InputError) as info:
+        call()
+    assert len(str(info.value)) < 600, len(str(info.value))
+
+
+def test_the_cpp_bindings_write_values_as_the_facade_does(backend):
+    """The bindings call the facade's formatter: the same text in both backends, and no data."""
+    message = ("lags must be a positive integer or a non-empty sequence of positive integers less than 10, "
+               "got <int64 array of shape (2, 1)>")
+    with raises("InvalidParameter", message):
+        dynval.ljung_box(GOOD, np.array([[1], [2]]), backend=backend)
+    with raises("InvalidParameter",
+                "max_lag must be an integer with 0 <= max_lag < 10, got <float64 array of shape (9,)>"):
+        dynval.autocorrelation(GOOD, np.ones(9), backend=backend)

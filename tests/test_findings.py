@@ -500,3 +500,69 @@ def test_refit_missing_term_is_one_test_per_column_named_on_the_joints_it_matter
     # The same column significant but not accounting for the mean: the bias is not attributed.
     ev.missing_explains_bias = np.array([[False], [False]])
     assert [f.columns for f in compute_findings(ev) if f.kind == "bias"] == [()]
+
+
+def test_each_kinds_description_is_the_contracts():
+    # The words a reader sees for each kind (the site's findings page, the HTML report) are the
+    # contract's, both ways: no kind without its row, no row without its kind, the same words.
+    import pathlib
+    import re
+
+    text = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "contract.md").read_text(encoding="utf-8")
+    block = text[text.index("| kind | what it detects |"):]
+    rows = dict(re.findall(r"^\| `([a-z_]+)` \| (.+) \|$", block.split("\n\n")[0], flags=re.M))
+    assert rows == {k: v.replace("|", "/") for k, v in dynval.FINDING_KINDS.items()}
+
+
+def test_the_named_lag_is_the_earliest_within_nine_tenths_of_the_strongest():
+    from dynval.report._findings import _strongest_lag
+
+    rho = np.array([1.0, 0.05, 0.30, 0.86, 0.20, 0.95, 0.40])
+    sig = np.array([2, 3, 5, 6])
+    # lag 3 holds 0.86 / 0.95 = 0.905 of the strongest: it is named; at 0.85 of it, lag 5 would be
+    assert _strongest_lag(rho, sig) == 3
+    rho[3] = 0.85
+    assert _strongest_lag(rho, sig) == 5
+    assert _strongest_lag(-rho, sig) == 5  # by size, whatever the sign
+
+
+# --------------------------------------------------------------------------- n_params and the criteria
+
+
+def _seventy_observations():
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(10, 7))
+    return tau, tau + 0.1 * rng.normal(size=tau.shape)
+
+
+@pytest.mark.parametrize("n_params, noted", [(0, False), (68, False), (69, True), (500, True)])
+def test_n_params_that_leave_the_criteria_no_freedom_are_noted(n_params, noted):
+    """validate(tau[:10], pred[:10], n_params=500) (70 observations) gave AIC and BIC without a word."""
+    tau, pred = _seventy_observations()
+    report = dynval.validate(tau, pred, n_params=n_params)
+    notes = [f for f in report.findings if f.kind == "information_criteria"]
+    assert bool(notes) == noted
+    assert math.isnan(report.information_criteria.aicc) == noted  # the note says what the nan means
+    if noted:
+        (f,) = notes
+        assert f.severity == "note" and f.effect == n_params and f.threshold == 69
+        assert "AICc and FPE are nan" in f.message and "n = 70" in f.message
+        assert f.kind in dynval.FINDING_KINDS
+
+
+def test_the_criteria_note_counts_samples_for_a_per_joint_noise_model():
+    """With one σ² per joint the criteria count N = 10 samples: p = 9 is already too many."""
+    tau, pred = _seventy_observations()
+    report = dynval.validate(tau, pred, n_params=9, profile="matlab")
+    assert report.information_criteria.n_obs == 10
+    (f,) = [f for f in report.findings if f.kind == "information_criteria"]
+    assert f.threshold == 9 and "N samples" in f.message
+
+
+def test_the_criteria_note_changes_no_decision():
+    """The note is information: the verdict reads the residual's tests, which do not use n_params."""
+    tau, pred = _seventy_observations()
+    few = dynval.compare(tau, {"a": (pred, 3)})
+    many = dynval.compare(tau, {"a": (pred, 500)})
+    assert few.verdict.decision == many.verdict.decision
+    assert any(f.kind == "information_criteria" for f in many.reports["a"].findings)

@@ -188,7 +188,10 @@ def test_a_row_holds_the_log_s_metrics_and_decision(small_fleet):
     log = logs[0]
     assert row.rmse == pytest.approx(float(dynval.rmse(log.tau_meas, log.tau_pred)), rel=1e-12)
     assert row.vaf == pytest.approx(float(dynval.vaf(log.tau_meas, log.tau_pred)), rel=1e-12)
-    want = dynval.compare(log.tau_meas, {"m": (log.tau_pred, 10)}, max_lag=10)
+    run = log.estimation  # the log is validated with everything it gives, as validate would be
+    want = dynval.compare(log.tau_meas, {"m": (log.tau_pred, 10, log.regressor)}, max_lag=10, q=log.q, dq=log.dq,
+                          ddq=log.ddq, time=log.timestamps,
+                          estimation={"tau": run.tau, "regressor": run.regressor, "q": run.q})
     assert row.decision == want.verdict.decision
     kinds = [f.kind for f in want.reports["m"].findings if f.severity != "note"]
     assert row.n_findings == len(kinds) and set(row.kinds) == set(kinds)
@@ -341,8 +344,10 @@ def test_the_command_line_prints_the_fleet_and_writes_the_page(small_fleet, tmp_
 
 
 def test_the_command_line_names_a_bad_log_and_exits_1(tmp_path, capsys):
-    assert main(["validate-many", str(tmp_path / "nothing-here.npz"), "--n-params", "2"]) == 1
-    assert "dynval validate-many: error: " in capsys.readouterr().err
+    # a log that cannot be named is an error row (contract §10), the report printed, exit 1
+    assert main(["validate-many", str(tmp_path / "nothing-here.npz"), "--n-params", "2", "--json"]) == 1
+    row, = json.loads(capsys.readouterr().out)["logs"]
+    assert row["decision"] == "error" and "a log's name must be ROBOT__TIME" in row["error"]
     assert main(["validate-many", "x.npz", "--workers", "0"]) == 2
 
 
@@ -370,7 +375,7 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
     distributed = pytest.importorskip("distributed")
     bag = pytest.importorskip("dask.bag")
     import dynval.dask
-    directory, _, specs = small_fleet
+    _, _, specs = small_fleet
     single = fleet.validate_many(specs, scheduler="single", max_lag=10)
     with fleet.local_cluster(2) as c:
         by_address = fleet.validate_many(specs, scheduler=c.scheduler_address, max_lag=10)
@@ -381,8 +386,9 @@ def test_a_local_cluster_gives_the_single_process_report(small_fleet):
             # and one thread each for dynval's own parallel work (the worker runs a task per thread)
             assert set(environ.values()) == {(str(16 << 20), "1")}
             assert "MALLOC_MMAP_THRESHOLD_" not in os.environ  # set for the workers only
-            folders = sorted(os.path.join(directory, d) for d in os.listdir(directory) if "__" in d)
-            from_bag = dynval.dask.validate_many(bag.from_sequence(folders, npartitions=3), n_params=10, max_lag=10)
+            # LogSpecs: a log's folder alone does not name its robot's estimation run (write_fleet keeps it
+            # beside the logs, in the manifest), so its decision would see less
+            from_bag = dynval.dask.validate_many(bag.from_sequence(specs, npartitions=3), n_params=10, max_lag=10)
     strip = [{k: v for k, v in vars(r).items() if k not in ("seconds", "log", "time")} for r in single.logs]
     for other in (by_address, from_bag):
         assert [{k: v for k, v in vars(r).items() if k not in ("seconds", "log", "time")} for r in other.logs] == strip

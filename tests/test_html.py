@@ -66,11 +66,15 @@ def _check_self_contained(text):
     assert not parser.errors and not parser.stack
     root = ET.fromstring(text.split("\n", 1)[1])  # well-formed XML after the doctype
     assert root.tag == XHTML + "html"
+    ids = {attrs["id"] for _tag, attrs in parser.tags if "id" in attrs}
     for tag, attrs in parser.tags:
         assert tag not in ("script", "link", "iframe", "object")
         for key in ("src", "href"):
             if key in attrs:
-                assert attrs[key].startswith("data:"), (tag, attrs[key][:60])
+                # embedded data, or a jump to a section of the page itself (the contents line)
+                target = attrs[key]
+                assert target.startswith("data:") or (target.startswith("#") and target[1:] in ids), (
+                    tag, target[:60])
     assert "http://" not in text.replace('xmlns="http://www.w3.org/1999/xhtml"', "")
     assert "https://" not in text
     assert "@import" not in text and "url(" not in text
@@ -160,6 +164,31 @@ def test_comparison_report_html_from_dynval_compare(scenario, tmp_path):
     assert cmp.verdict.decision in text
 
 
+@pytest.mark.skipif(not hasattr(dynval, "compare"), reason="dynval.compare is not in this build yet")
+def test_every_section_of_a_comparison_says_whose_it_is(scenario, tmp_path):
+    """The page ended with a 'Provenance' that was one candidate's, unlabelled, after the last one's."""
+    from dynval import plot
+
+    d, reports, preds = scenario
+    cands = {n: (preds[n], reports[n].provenance["n_params"], d.validation.full_regressor) for n in d.candidates}
+    cmp = dynval.compare(d.validation.tau_meas, cands, sample_rate=d.sample_rate,
+                         joint_names=list(d.joint_names), column_names=list(d.full_column_names))
+    write_report(cmp, tmp_path / "c.html", tau_meas=d.validation.tau_meas, tau_pred=preds,
+                 figures=[(plot.metrics(cmp), "a figure of the caller's")])
+    text = (tmp_path / "c.html").read_text(encoding="utf-8")
+    headings = [h for _, h in re.findall(r"<(h[23])(?: id=\"[^\"]*\")?>(.*?)</\1>", text)]  # h2s have anchors
+    whose = ("every candidate", "per candidate", "not of one candidate", *(f"odel '{n}'" for n in d.candidates))
+    for h in headings:
+        assert any(w in h for w in whose), h
+    # the closing provenance holds the fields every candidate shares, each model's section its own
+    closing = re.split(r"<h2[^>]*>Provenance shared by every candidate", text, maxsplit=1)[1]
+    assert "<td class=\"text\">n_params</td>" not in closing and "<td class=\"text\">profile</td>" in closing
+    for n in d.candidates:
+        own = text.split(f"<h3>Provenance of model '{n}' (its own fields)</h3>", 1)[1].split("<h", 1)[0]
+        assert f"<td class=\"text\">{reports[n].provenance['n_params']}</td>" in own
+    assert "Full comparison as JSON (every candidate)" in text
+
+
 def _chromium():
     for name in ("chromium", "chromium-browser", "google-chrome"):
         path = shutil.which(name)
@@ -219,3 +248,58 @@ def test_every_table_of_a_comparison_fits_a_1280_px_window(tmp_path):
         assert f"<td>{row['aic']:.1f} ({row['delta_aic']:+.1f})</td>" in html, name
         ic = cmp.reports[name].information_criteria  # each candidate's own criteria table too
         assert f"<td>{ic['aic']:.1f}</td>" in html and f"<td>{ic['bic']:.1f}</td>" in html, name
+
+
+# --------------------------------------------------------------------------- names as written
+
+NAMES = ["$\\frac$", "$x^2$ and $y$", "r\udcffb"]   # mathtext, a pair of $, a byte that was not UTF-8
+SHOWN = ["$\\frac$", "$x^2$ and $y$", "r\\xffb"]
+
+
+def _svg_text(fig):
+    """The text a figure draws, as an SVG that keeps text as text (mathtext would be drawn as paths)."""
+    import io
+
+    import matplotlib
+
+    out = io.StringIO()
+    with matplotlib.rc_context({"svg.fonttype": "none"}):
+        fig.savefig(out, format="svg")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return out.getvalue().replace("&amp;", "&")
+
+
+def test_fleet_names_are_drawn_and_written_literally(tmp_path):
+    """A robot named '$\\frac$' stopped write_fleet_report with matplotlib's mathtext error."""
+    from dynval import fleet, plot
+    from dynval.html import write_fleet_report
+
+    files = fleet.write_fleet(fleet.simulate_fleet(n_robots=1, n_logs=6, n_samples=200), tmp_path)
+    specs = [fleet.LogSpec(NAMES[i % 3], str(i), s.tau_meas, s.tau_pred, 3, log=f"log{i}") for i, s in enumerate(files)]
+    rep = fleet.validate_many(specs, scheduler="single", max_lag=5, progress=False)
+    write_fleet_report(rep, tmp_path / "fleet.html")
+    page = (tmp_path / "fleet.html").read_text(encoding="utf-8")
+    metrics, drift = _svg_text(plot.fleet_metrics(rep)), _svg_text(plot.fleet_drift(rep))
+    for shown in SHOWN:
+        assert shown in page and shown in metrics and shown in drift
+
+
+def test_joint_and_model_names_are_drawn_and_written_literally(tmp_path):
+    """A joint name holding a lone surrogate (byte 0xff on the command line) stopped --html."""
+    from dynval import plot
+
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(400, 3))
+    pred = tau + 0.1 * rng.normal(size=tau.shape)
+    report = dynval.validate(tau, pred, n_params=1, joint_names=NAMES)
+    write_report(report, tmp_path / "r.html", tau_meas=tau, tau_pred=pred)
+    page = (tmp_path / "r.html").read_text(encoding="utf-8")
+    for shown in SHOWN:
+        assert shown in page
+    for fig in (plot.autocorrelation(report), plot.residuals(tau, pred, report=report),
+                plot.prediction(tau, pred, report=report, model_name=NAMES[0])):
+        drawn = _svg_text(fig)
+        for shown in SHOWN:
+            assert shown in drawn

@@ -229,3 +229,24 @@ def test_nist_files_in_golden_match_shared_copy():
         pytest.skip(f"{shared} not present")
     for name in DATASETS:
         assert (STRD / "linear_regression" / f"{name}.dat").read_bytes() == (shared / f"{name}.dat").read_bytes()
+
+
+@pytest.mark.parametrize("factor", [1e13, 1e15, 1e-9])
+def test_a_column_in_another_unit_changes_no_other_columns_rank(factor):
+    # A column 1e13 times larger used to make the others "roundoff of a zero column" (their norms
+    # at most rcond times the largest): the rank fell. Zero columns are judged against the median
+    # norm (contract §4): the roundoff column stays zero, the rank, base set and fit do not move,
+    # and the scaled column's parameter scales by 1/factor.
+    rng = np.random.default_rng(37)
+    y = rng.normal(size=(2000, 2, 6))
+    y[:, :, 4] = 1e-17 * np.cos(y[:, :, 0])  # roundoff of a structurally zero column
+    y[:, :, 5] = 0.3 * y[:, :, 0] - 1.7 * y[:, :, 2]
+    tau = y[:, :, :4] @ np.array([1.0, -2.0, 0.5, 3.0]) + 0.01 * rng.normal(size=(2000, 2))
+    before = identify(y, tau)
+    s = np.ones(6)
+    s[1] = factor
+    after = identify(y * s, tau)
+    assert (after.rank, after.base_columns) == (before.rank, before.base_columns) == (4, (0, 1, 2, 3))
+    np.testing.assert_allclose(after.estimate * s[list(after.base_columns)], before.estimate, rtol=1e-9)
+    np.testing.assert_allclose(after.rel_std_percent, before.rel_std_percent, rtol=1e-9)
+    assert after.residual_sse == pytest.approx(before.residual_sse, rel=1e-9)

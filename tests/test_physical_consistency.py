@@ -506,7 +506,8 @@ def test_compare_ranks_a_candidate_that_is_no_robot_after_a_sound_one():
     assert [d.kind for d in alone.verdict.decided_by] == ["physical_consistency"]
     with pytest.raises(dynval.InvalidParameter) as info:
         dynval.compare(tau, {"a": (pred, 1)}, parameters=no_robot)
-    assert str(info.value).startswith("parameters must be given per candidate, not to compare, got [2.0, 0.2, ")
+    assert str(info.value) == ("parameters must be given per candidate, not to compare, "
+                               "got <float64 array of shape (10,)>")
 
 
 def test_physical_consistency_checks_level_and_tolerance():
@@ -535,3 +536,170 @@ def test_kuka_identified_urdf_findings_have_their_sizes_and_reach_validate():
     cad = dynval.validate(run.tau, URDFModel(run.urdf).predict(run.q, run.dq, run.ddq), n_params=0, max_lag=0,
                           parameters=URDFModel(run.urdf))
     assert not any(f.kind == "physical_consistency" for f in cad.findings)
+
+
+# --------------------------------------------------------------------------- degenerate input
+
+
+@pytest.mark.parametrize("mass", [5e-324, 1e-310, 1e-200, 1e-100, 1e-30])
+def test_a_mass_tiny_against_its_first_moment_is_a_finding_not_an_overflow(mass):
+    """h·hᵀ/m beyond float64 (a subnormal mass) was numpy's LinAlgError: no body has such a link."""
+    p = body(1.0, c=(0.1, 0.0, 0.2), moments=(0.01, 0.02, 0.02))
+    p[0] = mass
+    found = physical_consistency(p)
+    assert [f.details["condition"] for f in found] == ["pseudo-inertia positive semidefinite"]
+    assert found[0].severity == "deficiency" and found[0].effect > 0 and np.isfinite(found[0].effect)
+    # the pseudo-inertia is indefinite, and the finding's eigenvalue says so
+    assert found[0].details["pseudo_inertia_min_eigenvalue"] < 0
+    assert np.linalg.eigvalsh(pseudo_inertia(p))[0] < 0
+
+
+def test_a_subnormal_mass_with_no_first_moment_is_a_point_body():
+    """m = 5e-324 at the origin: J = diag(Σ, m) is positive semidefinite."""
+    p = body(1.0, moments=(1.0, 1.0, 1.0))
+    p[0] = 5e-324
+    assert physical_consistency(p) == []
+
+
+@pytest.mark.parametrize("scale", [1e-143, 1e-30, 1.0, 1e30, 1e143])
+def test_the_verdict_does_not_depend_on_the_size_of_the_body(scale):
+    """Zero, negative and huge inertias: the same findings at every scale inside the data range."""
+    sound = body(2.0, c=(0.1, 0.0, 0.0), moments=(0.1, 0.2, 0.25))
+    flat = body(2.0, moments=(0.1, 0.1, 0.3))             # 0.1 + 0.1 < 0.3: no body
+    negative = body(2.0, moments=(-0.1, 0.2, 0.2))
+    zero = np.r_[1.0, 0.0, 0.0, 0.0, np.zeros(6)]          # a point mass at the origin: a body
+    conditions = [[f.details["condition"] for f in physical_consistency(p * scale)]
+                  for p in (sound, flat, negative, zero)]
+    psd = ["pseudo-inertia positive semidefinite"]
+    assert conditions == [[], psd, psd, []]
+    assert [f.details["condition"] for f in physical_consistency(-sound * scale)] == ["mass > 0"]
+
+
+@pytest.mark.parametrize("value, kind", [
+    (np.r_[np.nan, np.ones(9)], dynval.NonFiniteInput),
+    (np.r_[1e145, np.ones(9)], dynval.NonFiniteInput),
+    (np.array([]), dynval.InvalidParameter),
+    (np.ones((2, 10, 1)), dynval.InvalidParameter),
+    (np.ones((3, 5)), dynval.InvalidParameter),
+    (np.ones(7), dynval.InvalidParameter),
+    (1.0, dynval.InvalidParameter),
+    (None, dynval.InvalidType),
+    ({"m": 1.0}, dynval.InvalidType),
+])
+def test_malformed_parameters_are_input_errors(value, kind):
+    with pytest.raises(kind):
+        physical_consistency(value)
+
+
+@needs_pin
+def test_a_urdf_path_is_read_as_its_model(tmp_path):
+    """physical_consistency(path) said 'parameters must be an array of real numbers, got object'."""
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    run = load_kuka_lwr4(1)
+    want = [f.message for f in physical_consistency(URDFModel(run.urdf_identified))]
+    assert want
+    for given in (run.urdf_identified, str(run.urdf_identified)):
+        assert [f.message for f in physical_consistency(given)] == want
+        assert [f.message for f in dynval.physical_consistency(given)] == want
+    # validate(parameters=path) and a candidate's parameters read it the same way
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(300, 7))
+    report = dynval.validate(tau, tau + 0.1 * rng.normal(size=tau.shape), n_params=3, parameters=run.urdf_identified)
+    assert sum(f.kind == "physical_consistency" for f in report.findings) == len(want)
+
+
+@needs_pin
+@pytest.mark.parametrize("make, why", [
+    (lambda d: d / "missing.urdf", "No such file or directory"),
+    (lambda d: d, "not a regular file"),
+    (lambda d: (d / "t.urdf").write_text("not xml") and d / "t.urdf", "not URDF XML"),
+    (lambda d: (d / "b.urdf").write_bytes(b"\xff\xfe<") and d / "b.urdf", "not URDF XML"),
+    (lambda d: (d / "e.urdf").write_text("<robot name='x'/>") and d / "e.urdf", "not a URDF model"),
+])
+def test_an_unreadable_urdf_path_is_refused_by_name(tmp_path, make, why):
+    path = make(tmp_path)
+    with pytest.raises(dynval.InvalidParameter, match="the path of a readable URDF file, got") as info:
+        physical_consistency(path)
+    assert repr(str(path)) in str(info.value) and why in str(info.value)
+
+
+def _two_link_problem(seed=37, n=300):
+    """Two links (one impossible: 0.1 + 0.1 < 0.3) and their friction, columns of unequal sizes."""
+    truth = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)),
+                            body(0.5, (0.0, 0.1, 0.0), (0.01, 0.02, 0.02)), [0.5, -0.4, 0.1, 0.2]])
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, 24)) * np.geomspace(0.1, 30.0, 24)
+    cols = ([f"a:{p}" for p in PARAMS] + [f"b:{p}" for p in PARAMS] + ["Fv_j1", "Fc_j1", "Fv_j2", "Fc_j2"])
+    return a, a @ truth + rng.normal(0.0, 0.05, n), cols
+
+
+@needs_cvxpy
+def test_the_constrained_fit_does_not_depend_on_the_units():
+    # N2: the same data with torques in a unit 1e10 times smaller gave a fit 14 times worse,
+    # reported "optimal"; 1e5 moved the parameters by half; 1e-6 raised RuntimeError. The program
+    # is solved in working units (contract §8): the torques' unit, and a unit per link (its ten
+    # columns alike) or per friction coefficient, scale the answer and change nothing else.
+    a, b, cols = _two_link_problem()
+    ref = identify(a, b, column_names=cols, physical=True)
+    assert ref.physical["status"] == "optimal"
+
+    def rms(full, scale=1.0):
+        return float(np.sqrt(np.mean((b - a @ (full * scale)) ** 2)))
+
+    for c in (2.0**33, 1e10, 1e5, 1e-6, 1e-12):
+        fit = identify(a, b * c, column_names=cols, physical=True)
+        assert fit.physical["status"] == "optimal", c
+        full = fit.full_parameters / c
+        assert rms(full) == pytest.approx(rms(ref.full_parameters), rel=1e-6), c
+        np.testing.assert_allclose(full, ref.full_parameters, rtol=0, atol=1e-3 * np.abs(ref.full_parameters).max())
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-4, abs=1e-6), c
+        if c == 2.0**33:  # a power of two: the same program but for the prior's weights' rounding
+            np.testing.assert_allclose(full, ref.full_parameters, rtol=1e-8, atol=0)
+    # a unit per link and per friction coefficient, with the Euclidean prior (weighted per column by its
+    # link's curvature: one weight for all pulled the others 1e12 times harder) and without it
+    s = np.ones(24)
+    s[:10], s[10:20], s[21] = 1e6, 2.0**-20, 1e-4  # link a in one unit, link b in another, one friction
+    for weight in (1e-6, 0.0):
+        ref = identify(a, b, column_names=cols, physical=True, prior_weight=weight)
+        fit = identify(a * s, b, column_names=cols, physical=True, prior_weight=weight)
+        assert fit.physical["status"] == "optimal", weight
+        assert rms(fit.full_parameters, s) == pytest.approx(rms(ref.full_parameters), rel=1e-6)
+        assert fit.physical["distance2"] == pytest.approx(ref.physical["distance2"], rel=1e-6)
+        np.testing.assert_allclose(fit.full_parameters * s, ref.full_parameters, rtol=0,
+                                   atol=1e-3 * np.abs(ref.full_parameters).max())
+
+
+@needs_cvxpy
+def test_the_base_parameters_distance_does_not_depend_on_the_torques_unit():
+    # the same program (whitened by the estimate's covariance) behind physical_consistency of a
+    # least-squares result: d², its p-value and the binding constraints are unit-free
+    a, b, cols = _two_link_problem()
+    want = dynval.robots.base_consistency(identify(a, b, column_names=cols))
+    assert want.distance2 > 1.0 and want.solver["status"] == "optimal"
+    for c in (1e10, 1e-6, 1e-12):
+        got = dynval.robots.base_consistency(identify(a, b * c, column_names=cols))
+        assert got.solver["status"] == "optimal", c
+        assert got.distance2 == pytest.approx(want.distance2, rel=1e-5), c
+        assert [label for label, _, _ in got.binding] == [label for label, _, _ in want.binding], c
+        np.testing.assert_allclose(got.nearest_full / c, want.nearest_full, rtol=0,
+                                   atol=1e-3 * np.abs(want.nearest_full).max())
+
+
+def test_an_optimal_answer_that_the_clip_moves_is_not_called_optimal():
+    # A solver that stops "optimal" with a pseudo-inertia well outside the cone (what tiny units did
+    # to Clarabel) is clipped into it; when the clip raises the fit's sum of squares beyond 1e-6 of
+    # it, the status says so instead of repeating the solver's "optimal".
+    from dynval.report import _consistency
+
+    rng = np.random.default_rng(41)
+    g = rng.normal(size=(12, 12))
+    inside = np.concatenate([body(2.0, (0.1, 0.0, 0.0), (0.1, 0.2, 0.25)), [0.5, 0.4]])
+    outside = np.concatenate([body(2.0, (0.1, 0.2, -0.1), (0.1, 0.1, 0.3), (0.3, 0.2, 0.1)), [0.5, -0.4]])
+    lay = _consistency.layout(names())
+    for pi, expected in ((inside, "optimal"), (outside, "optimal_inaccurate")):
+        # the data's own least-squares point, returned as the constrained optimum
+        got = _consistency._checked_status("optimal", g, g @ pi, pi, _consistency._clip(pi, lay))
+        assert got == expected
+    assert _consistency._checked_status("optimal_inaccurate", g, g @ inside, inside, inside) == "optimal_inaccurate"

@@ -464,3 +464,82 @@ def test_the_forward_selection_assembles_each_sets_products_from_per_block_ones(
         assembled = _physics._wald(x, yw, idx, gw, cov_p, gram=gram, xg=xg)
         assert assembled[0] == pytest.approx(direct[0], rel=1e-10) and assembled[1] == direct[1]
     assert _physics._BlockProducts(blocks).of([1, 0])[1] is None  # without the model's columns: no XᵀG
+
+
+# --------------------------------------------------------------------------- dithering, quantised q, standstill
+
+
+def _white_run(n=3000, m=2, seed=0):
+    rng = np.random.default_rng(seed)
+    meas = rng.normal(size=(n, m))
+    return meas, meas + 0.1 * rng.normal(size=(n, m))
+
+
+@pytest.mark.parametrize("sample_rate", [1000.0, None])
+@pytest.mark.parametrize("count", [1e-6, 1.0, 2 * math.pi / 2**17])
+def test_an_encoder_dithering_at_standstill_is_a_note_not_an_error(sample_rate, count):
+    # q alternating by one count every sample has a period of 2 samples, which has no harmonic below
+    # the Nyquist frequency: validate raised TooFewSamples and the whole report was lost
+    meas, pred = _white_run()
+    q = 0.5 + count * (np.arange(3000) % 2)[:, None] * np.ones((1, 2))
+    report = dynval.validate(meas, pred, n_params=2, q=q, sample_rate=sample_rate)
+    per = report.periodic
+    assert per["used"] is False and per["period"]["samples"] == pytest.approx(2.0)
+    assert "an encoder dithering by a count at standstill" in per["note"]
+    assert "Periodic trajectory: q repeats every 2 samples" in report.summary()
+    assert not any(f.kind == "periodic_error" for f in report.findings)
+    assert report.to_dict()["periodic"]["used"] is False
+
+
+def test_a_dithering_encoder_beside_a_moving_joint_and_in_the_estimation_run():
+    meas, pred = _white_run()
+    k = np.arange(3000)
+    dither = 1e-6 * (k % 2)[:, None] * np.ones((1, 2))
+    rng = np.random.default_rng(5)
+    y = rng.normal(size=(3000, 2, 3))
+    est = {"q": dither, "regressor": rng.normal(size=(3000, 2, 3)), "tau": meas}
+    report = dynval.validate(meas, pred, n_params=3, regressor=y, q=dither, estimation=est, sample_rate=500.0)
+    assert report.periodic["used"] is False and report.design is not None
+    q = np.c_[np.sin(2 * np.pi * k / 500.0), 1e-6 * (k % 2)]
+    assert dynval.validate(meas, pred, n_params=2, q=q, sample_rate=500.0).physics is not None
+
+
+@pytest.mark.parametrize("q0", [0.0, 0.3, -2.5])
+def test_a_joint_at_rest_tests_no_velocity_term(q0):
+    # the derivative filter's rounding noise (1e-14) was scaled to unit RMS and tested as motion:
+    # "Coulomb friction" on a robot that never moved (Holm p = 3e-7)
+    meas, pred = _white_run()
+    q = np.full((3000, 2), q0)
+    report = dynval.validate(meas, pred, n_params=2, q=q, sample_rate=1000.0)
+    assert not any(f.kind == "missing_physics" for f in report.findings)
+    assert "joints 1, 2 at rest (q constant)" in report.physics["derivatives"]
+    d = _physics.derivatives(q, 1000.0)
+    assert not d.dq.any() and not d.ddq.any()
+
+
+def test_only_the_resting_joint_and_only_derived_derivatives_are_zeroed():
+    k = np.arange(2000)
+    q = np.c_[np.sin(k / 100.0), np.full(2000, 0.4)]
+    given_dq = np.full((2000, 2), 0.25)
+    d = _physics.derivatives(q, 100.0, dq=given_dq)
+    assert np.array_equal(d.dq, given_dq) and not d.ddq[:, 1].any() and d.ddq[:, 0].any()
+    assert "joint 2 at rest" in d.method
+    assert _physics.derivatives(q, 100.0).dq[:, 0].any()
+
+
+@pytest.mark.parametrize("kind", ["quantised", "long_standstill", "standstill_dither", "staircase"])
+def test_quantised_q_and_long_standstills_give_a_report(kind):
+    meas, pred = _white_run()
+    k = np.arange(3000)
+    wave = np.sin(2 * np.pi * k / 1500.0)[:, None] * np.ones((1, 2))
+    q = {"quantised": np.round(wave * 10) / 10,
+         "long_standstill": np.r_[np.zeros((2900, 2)), np.linspace(0, 1, 100)[:, None] * np.ones((1, 2))],
+         "standstill_dither": np.r_[1e-6 * (k[:2900] % 2)[:, None] * np.ones((1, 2)),
+                                    np.linspace(0, 1, 100)[:, None] * np.ones((1, 2))],
+         "staircase": np.repeat(np.arange(750), 4)[:, None] * np.ones((1, 2)) * 1e-3}[kind]
+    rng = np.random.default_rng(2)
+    est = {"q": q[::-1].copy(), "regressor": rng.normal(size=(3000, 2, 3)), "tau": meas}
+    report = dynval.validate(meas, pred, n_params=3, regressor=rng.normal(size=(3000, 2, 3)), q=q, estimation=est,
+                             sample_rate=1000.0)
+    assert report.physics is not None and report.design is not None
+    report.summary()

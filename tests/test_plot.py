@@ -3,6 +3,12 @@ the simulated arm, and that every figure renders to PNG."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -367,3 +373,45 @@ def test_every_axes_with_marks_has_a_legend_or_text(flexible):
                 continue
             explained = ax.get_legend() is not None or bool(fig.legends)
             assert explained, f"{fig.get_suptitle()!r}: an axes with marks has no legend"
+
+
+# --------------------------------------------------------------------------- degenerate input, no warning
+
+
+def _degenerate_reports():
+    """An exactly zero residual (an all-nan autocorrelation), a constant regressor column (a nan
+    cross-correlation row) and a joint whose metrics are nan."""
+    rng = np.random.default_rng(3)
+    tau = rng.normal(size=(400, 2))
+    y = rng.normal(size=(400, 2, 3))
+    y[:, :, 1] = 2.0
+    zero = dynval.validate(tau, tau, n_params=1, regressor=y)
+    const = np.c_[np.full(400, 1.5), tau[:, 1]]
+    flat = dynval.validate(const, const, n_params=1, regressor=y)
+    return tau, {"zero": zero, "flat": flat}
+
+
+def test_figures_of_degenerate_reports_raise_no_warning(tmp_path):
+    """An exactly zero residual printed numpy's 'All-NaN slice encountered' from plot.py on standard
+    error during dynval validate --html. Every warning is an error here, whatever pytest's setting."""
+    from dynval.html import write_report
+
+    tau, reports = _degenerate_reports()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name, report in reports.items():
+            figs = [plot.autocorrelation(report), plot.cross_correlation(report), plot.spectrum(report),
+                    plot.residuals(tau, tau, report=report), plot.metrics(reports)]
+            for i, fig in enumerate(figs):
+                _renders(fig, tmp_path, f"{name}{i}")
+            write_report(report, tmp_path / f"{name}.html", tau_meas=tau, tau_pred=tau)
+
+
+def test_the_command_line_writes_nothing_on_standard_error_for_a_zero_residual(tmp_path):
+    """The same path through a subprocess, where pytest's filter does not reach: stderr stays empty."""
+    np.save(tmp_path / "z.npy", np.zeros(600))
+    env = {**os.environ, "PYTHONPATH": str(Path(dynval.__file__).parents[1])}
+    p = subprocess.run([sys.executable, "-m", "dynval", "validate", "z.npy", "z.npy", "--n-params", "1",
+                        "--html", "r.html"], cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+    assert p.returncode in (0, 1) and p.stderr == ""
+    assert (tmp_path / "r.html").stat().st_size > 0

@@ -11,6 +11,7 @@ import dataclasses
 import json
 import pickle
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +53,10 @@ def test_every_section_is_its_record_read_as_attributes_and_as_a_mapping(full_re
         assert len(section) == len(list(section)) > 0, name
         for key in section:
             assert section[key] is getattr(section, key), (name, key)
-        assert dict(section).keys() == full_report.to_dict()[name].keys(), name
-        assert section.to_dict() == full_report.to_dict()[name], name
+        decoded = json.loads(full_report.to_json())[name]
+        assert list(decoded) == list(section), name
+        for key in section:
+            _assert_same_value(section[key], decoded[key], (name, key))
     for seg in full_report.segment_metrics.values():
         assert type(seg) is rec.Segment and {"n_samples", "start", "per_joint", "mean", "pooled"} <= set(seg)
 
@@ -120,3 +123,54 @@ def test_every_field_is_named_in_the_contract(cls):
     section4 = text[text.index("## 4. `validate` and the report"):text.index("## 5. Backends")]
     missing = [f.name for f in dataclasses.fields(cls) if f.name != "_order" and f"`{f.name}`" not in section4]
     assert not missing, f"{cls.__name__}: {missing} not in contract §4"
+
+
+def test_a_record_shows_its_values_not_only_its_names():
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(400, 2)) * [30.0, 2.0]
+    report = dynval.validate(tau, tau + rng.normal(scale=0.5, size=tau.shape), n_params=4)
+    text = repr(report.per_joint)
+    for name in report.per_joint:
+        assert f"{name}=[" in text
+    assert f"{report.per_joint.rmse[0]:.4g}"[:5] in text
+    assert f"rmse_per_sample={report.pooled.rmse_per_sample:.4g}" in repr(report.pooled)
+    html = report.per_joint._repr_html_()
+    assert html.count("<tr>") == len(report.per_joint) and "PerJoint" in html
+
+
+def test_a_long_array_or_mapping_is_abbreviated_in_a_repr():
+    long = rec.PerJoint.of({"rmse": np.arange(1000.0)})
+    assert "..." in repr(long) and len(repr(long)) < 200
+    prov = rec.Provenance.of({"conventions": {f"k{i}": i for i in range(30)}})
+    assert "30 entries" in repr(prov) and "k29" not in repr(prov)
+
+
+def test_a_finding_prints_on_one_line():
+    from dynval import Finding
+
+    f = Finding(kind="bias", severity="deficiency", joints=(1,), pvalue_adjusted=1.234e-7,
+                message="joint 2: the residual's mean is " + "x" * 300)
+    text = repr(f)
+    assert "\n" not in text and text.startswith("<Finding deficiency bias joints=[1] p_adj=1.23e-07: joint 2")
+    assert len(text) < 200 and text.endswith("…>")
+
+
+def _assert_same_value(value, decoded, where):
+    """A section's value against its JSON text, decoded here: arrays as nested lists, non-finite
+    numbers as the strings "NaN", "Infinity", "-Infinity" (contract §4)."""
+    if isinstance(value, Mapping):
+        assert isinstance(decoded, dict) and list(decoded) == [str(k) for k in value], where
+        for k, v in value.items():
+            _assert_same_value(v, decoded[str(k)], (*where, k))
+    elif isinstance(value, (np.ndarray, list, tuple)) and not isinstance(value, str):
+        arr = np.asarray(value, dtype=object)
+        got = np.asarray(decoded, dtype=object)
+        assert arr.shape == got.shape, where
+        for a, b in zip(arr.ravel(), got.ravel()):
+            _assert_same_value(a, b, where)
+    elif isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        assert decoded == ("NaN" if np.isnan(value) else ("Infinity" if value > 0 else "-Infinity")), where
+    elif isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, str):
+        assert decoded == (bool(value) if isinstance(value, np.bool_) else value), where
+    else:
+        assert decoded == pytest.approx(float(value), rel=1e-15, abs=0.0), where

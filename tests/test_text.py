@@ -93,11 +93,15 @@ def test_plot_annotation_uses_the_same_wording():
     assert plot._p_text(math.nan, math.nan) == "p = n/a"  # was "p = 1"
 
 
-def test_findings_p_text_is_the_shared_one():
+def test_findings_p_text_words():
     from dynval.report._finding_words import p_text as _p_text
 
-    for p in (0.0123, 4.56e-7, 1e-301, 0.0, math.nan, None):
-        assert _p_text(p) == p_clause(p)
+    # three significant digits, exponents without padding, the float64 floor said as a bound, and a
+    # missing p-value said as such (never "p = 0" or "p = nan")
+    expected = {0.0123: "= 0.0123", 4.56e-7: "= 4.56e-7", 1e-301: "< 1e-300", 0.0: "< 1e-300",
+                math.nan: "= n/a", None: "= n/a", 0.98765: "= 0.988"}
+    for p, words in expected.items():
+        assert _p_text(p) == words, p
 
 
 # ---- effect against threshold ----------------------------------------------------------------
@@ -233,7 +237,7 @@ def test_underflowing_ljung_box_p_reads_the_same_everywhere(underflow):
     assert f"Holm-adjusted p {text}" in f.message
     assert f"Holm-adjusted p {text}" in summary
     page = render_report(rep)
-    assert "<td>&lt; 1e-300</td>" in page  # the per-joint table's Ljung–Box cell
+    assert "<td>&lt; <span class=\"num\">1e-300</span></td>" in page  # the per-joint Ljung–Box cell, kept whole
     assert "Holm-adjusted p &lt; 1e-300" in page
     # no exponent outside the double range anywhere a person reads
     for where in (summary, page.split("<details>")[0]):
@@ -258,3 +262,22 @@ def test_float_range_p_reads_the_same_in_summary_and_html():
 
 def test_module_lists_its_helpers():
     assert set(_text.__all__) >= {"pvalue_text", "p_clause", "versus", "number_text", "P_FLOOR"}
+
+
+def test_a_count_of_one_takes_the_singular():
+    import numpy as np
+
+    import dynval
+    from dynval.report._text import counted
+
+    assert (counted(1, "row"), counted(0, "row"), counted(3, "log"), counted(2, "entry", "entries")) == (
+        "1 row", "0 rows", "3 logs", "2 entries")
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(300, 2))
+    pred = tau + 0.1 * rng.normal(size=tau.shape)
+    pred[5, 0] = np.nan
+    report = dynval.validate(tau, pred, n_params=2, nan_policy="omit")
+    assert "1 row omitted" in report.summary() and "1 rows" not in report.summary()
+    assert any("1 row with non-finite values was omitted" in f.message for f in report.findings)
+    cmp = dynval.compare(tau[1:], {"only": {"prediction": pred[1:], "n_params": 2}}, nan_policy="omit")
+    assert "— 1 candidate," in cmp.summary()

@@ -341,12 +341,15 @@ def test_stamps_that_never_advance_and_a_disagreeing_rate(backend):
         acc.result()
     t, tau, pred = stamped_log(n=500)
     acc = ValidationAccumulator(n_params=1, max_lag=1, sample_rate=150.0, backend=backend)
-    acc.update(tau, pred, time=t)
-    with pytest.raises(dynval.InvalidParameter) as info:
-        acc.result()
+    acc.update(tau[:60], pred[:60], time=t[:60])  # fewer than 100 steps: not yet checked
+    with pytest.raises(dynval.InvalidParameter) as info:  # checked by the update that sets the grid
+        acc.update(tau[60:], pred[60:], time=t[60:])
     with pytest.raises(dynval.InvalidParameter) as whole:
         dynval.validate(tau, pred, n_params=1, max_lag=1, sample_rate=150.0, time=t)
-    assert str(info.value) == str(whole.value)
+    assert str(info.value) == "chunk 1: " + str(whole.value)
+    assert acc.n_samples == 60  # the refused chunk is not taken, and is refused again
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 1: sample_rate=150 Hz disagrees"):
+        acc.update(tau[60:], pred[60:], time=t[60:])
 
 
 def test_bandwidth_needs_a_rate_and_turns_whiteness_above_it_into_a_note(backend):

@@ -49,16 +49,13 @@ void register_testing(py::module_& m);
 
 inline py::module_ numpy() { return py::module_::import("numpy"); }
 
-/// The facade's text for a value: numpy scalars and arrays shown as Python ones, then repr.
+/// The facade's text for a value (`dynval.checks._validation.format_value`).
 inline std::string value_repr(py::handle value) {
-    py::object v = py::reinterpret_borrow<py::object>(value);
-    const auto np = numpy();
-    if (py::isinstance(v, np.attr("ndarray"))) {
-        v = v.attr("tolist")();
-    } else if (py::isinstance(v, np.attr("generic"))) {
-        v = v.attr("item")();
-    }
-    return py::repr(v).cast<std::string>();
+    // The facade's own helper writes the value, so the two messages agree byte for byte, and an
+    // array or a long argument is shown by type and shape, never by its values (contract §2.1).
+    // Imported per call, not held in a static: errors are rare, and a static object would outlive
+    // the interpreter at exit.
+    return py::module_::import("dynval.checks._validation").attr("format_value")(value).cast<std::string>();
 }
 
 inline bool is_bool(py::handle v) { return PyBool_Check(v.ptr()) || py::isinstance(v, numpy().attr("bool_")); }

@@ -245,9 +245,13 @@ void register_stream(py::module_& m) {
                 d["prod_ey"] = to_array(st.prod_ey.values(), {lx, m, p});
                 d["min_y"] = to_array(st.min_y, {m, p});
                 d["max_y"] = to_array(st.max_y, {m, p});
+                // the boundary rows (raw): the bias test corrects its prewhitened sums at the stream's two ends
+                d["head_e"] = to_array(st.head_e, {static_cast<py::ssize_t>(st.head_e.size()) / m, m});
+                d["tail_e"] = to_array(st.tail_e, {static_cast<py::ssize_t>(st.tail_e.size()) / m, m});
                 return d;
             },
-            "The sums (compensated ones as hi + lo) as arrays named as in dynval.streaming._stream.State.")
+            "The sums (compensated ones as hi + lo) and the boundary rows head_e, tail_e as arrays named as in "
+            "dynval.streaming._stream.State.")
         .def(py::pickle(
             [](const stream_state& st) {
                 const auto& l = st.layout();

@@ -431,6 +431,22 @@ TEST(Correlation, ConstantResidualIsNan) {
     EXPECT_TRUE(std::isnan(lb.statistic(0, 1)) && std::isnan(lb.pvalue(0, 1)));
 }
 
+TEST(Correlation, CrossCorrelationStaysWithinItsBound) {
+    // y = -0.012·e - 1.259 (a perfectly correlated column): the rounding of the sums gave
+    // rho = -1.0000000000000002; Cauchy-Schwarz bounds |rho(0)| by 1 (contract §3.6).
+    MatrixXd e(7, 1);
+    e << 0.321, -0.818, 0.732, -0.501, 0.879, -1.072, 0.914;
+    RowMatrix y(7, 1);
+    y << -1.2554200000000002, -1.2326400000000002, -1.26364, -1.2389800000000002, -1.26658,
+        -1.2275600000000002, -1.2672800000000002;
+    for (const bool adjusted : {true, false}) {
+        const auto cc = dynval::cross_correlation(e, y, 1, 3, adjusted);
+        EXPECT_EQ(cc.rho(0, 0), -1.0);
+        for (Eigen::Index lag = 1; lag <= 3; ++lag)
+            EXPECT_LE(std::abs(cc.rho(0, lag)), adjusted ? 7.0 / static_cast<double>(7 - lag) : 1.0);
+    }
+}
+
 TEST(Correlation, CrossCorrelationAgainstDirectLoop) {
     const Eigen::Index n = 50, m = 2, p = 3;
     const MatrixXd e = random_matrix(n, m, 31);

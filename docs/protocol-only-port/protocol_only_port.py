@@ -552,33 +552,23 @@ def op_confidence_band(case):
 
 
 def log_chi2_sf(q, df):
+    """ln chi2.sf(q, df), finite where the p-value underflows (PROTOCOL.md: log_pvalue)."""
     if math.isnan(q):
         return float("nan")
     sf = special.chdtrc(df, q)
     if sf > 1e-280:
         return math.log(sf)
-    # log of the regularized upper incomplete gamma Q(a, x) by its continued fraction
+    # chi2.sf(q, k) = Q(k/2, q/2); for x = q/2 far above a = k/2 (an underflowing p-value needs
+    # x > 640) the asymptotic series Q(a, x) = x^(a-1) e^(-x) / Γ(a) · Σ_j (a-1)(a-2)…(a-j) / x^j
+    # converges to double precision long before its terms grow again
     a, x = df / 2.0, q / 2.0
-    tiny = 1e-300
-    b = x + 1.0 - a
-    c = 1.0 / tiny
-    d = 1.0 / b
-    h = d
-    for i in range(1, 10000):
-        an = -i * (i - a)
-        b += 2.0
-        d = an * d + b
-        if abs(d) < tiny:
-            d = tiny
-        c = b + an / c
-        if abs(c) < tiny:
-            c = tiny
-        d = 1.0 / d
-        de = d * c
-        h *= de
-        if abs(de - 1.0) < 1e-16:
+    total = term = 1.0
+    for j in range(1, 400):
+        term *= (a - j) / x
+        total += term
+        if abs(term) < 1e-17 * abs(total):
             break
-    return -x + a * math.log(x) - special.gammaln(a) + math.log(h)
+    return (a - 1.0) * math.log(x) - x - special.gammaln(a) + math.log(total)
 
 
 def portmanteau(case, kind):

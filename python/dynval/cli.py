@@ -27,6 +27,7 @@ import sys
 from collections.abc import Sequence
 
 from .checks._errors import InputError
+from .checks._validation import format_value
 from .io._files import (
     FileInputError,
     _physical_memory,
@@ -39,6 +40,7 @@ from .io._files import (
 )
 from .io._readers import DEFAULT_CHUNK_ROWS, decoded_size, open_column, open_rows
 from .metrics._profiles import PROFILE_NAMES
+from .report._text import printable
 
 __all__ = ["main", "load_array", "build_parser", "FileInputError"]
 
@@ -55,7 +57,9 @@ SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or
 TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column of a table named as FILE:COLUMN "
              "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
              "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
-             "splits the lag analysis, and duplicated, missing and irregular stamps are reported")
+             "splits the lag analysis, and duplicated, missing and irregular stamps are reported. Stamps at a rate "
+             "outside 10 Hz to 100 kHz (whole seconds apart, say) look like ms, us or ns and are refused with the "
+             "fix (divide by 1000, ...) unless --time-units-unchecked")
 
 
 def _segments_arg(text: str):
@@ -63,7 +67,8 @@ def _segments_arg(text: str):
         values = [int(v) for v in text.replace(";", ",").split(",") if v.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated integers: lengths such as 500,300 or starts such as 0,500, got {text!r}"
+            "expected comma-separated integers: lengths such as 500,300 or starts such as 0,500, "
+            f"got {format_value(text)}"
         ) from None
     if not values:
         raise argparse.ArgumentTypeError("expected at least one integer")
@@ -85,7 +90,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 1 input error, 2 usage error, 3 internal error, "
                "141 output pipe closed.")
     parser.add_argument("--version", action="version", version=f"dynval {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{validate,compare,demo,conform,validate-many}")
+    sub = parser.add_subparsers(dest="command",
+                                metavar="{validate,compare,demo,conform,validate-many,validate-log}")
 
     val = sub.add_parser(
         "validate", help="validate predicted torques against measured ones",
@@ -108,8 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
         "It is chosen by itself when the inputs together, decoded, exceed a quarter of this machine's memory. "
         "An array read whole may decode to at most 1 GiB as float64 (environment variable "
         "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "
-        "streamed report leaves out what needs the whole series: bias, spectrum, decimated whiteness, the "
-        "colour-aware cross-correlation fields (contract §4.1); --segments, --q, --estimation and "
+        "streamed report runs the bias test from its lag sums and, without --regressor, the spectrum window by "
+        "window, and names under its findings what it leaves out (decimated whiteness; with --regressor the "
+        "spectrum and the colour-aware cross-correlation; contract §4.1); --segments, --q, --estimation and "
         "--decimate are refused with it.")
     stream.add_argument("--stream", action="store_true", help="validate block by block (see above)")
     stream.add_argument("--chunk-rows", type=int, default=None, metavar="R",
@@ -149,6 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("conform", help="run the conformance corpus against a port (see dynval conform --help)",
                    add_help=False)
     _add_validate_many(sub)
+    from ._logcli import add_validate_log
+
+    add_validate_log(sub, _EXIT_CODES)
     return parser
 
 
@@ -158,7 +168,7 @@ def _workers_arg(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number of worker processes >= 1, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a number of worker processes >= 1, got {format_value(text)}")
     return value
 
 
@@ -169,9 +179,12 @@ def _add_validate_many(sub) -> None:
         description="Validate every log of a fleet (one row each: RMSE, VAF, decision, findings) and test each "
                     "robot's logs for drift: a model that fits worse from some log on than in that robot's earlier "
                     "logs. LOGS are manifests (.csv or .json with columns robot, time, tau_meas, tau_pred and "
-                    "optionally n_params, regressor, log; paths relative to the manifest) or logs named "
-                    "ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a directory holding "
-                    "tau_meas.* and tau_pred.* (and regressor.*) files (contract §10).",
+                    "optionally n_params, log, and the files each log is validated with: regressor, q, dq, ddq, "
+                    "timestamps, estimation_tau, estimation_regressor, estimation_q; paths relative to the "
+                    "manifest) or logs named ROBOT__TIME: a .npz or .h5 file holding tau_meas and tau_pred, or a "
+                    "directory holding tau_meas.* and tau_pred.* (and regressor.*, q.*, ...) files. Without q or "
+                    "a regressor a log's decision sees its residual only; the table says what each saw "
+                    "(contract §10).",
         epilog="Example: dynval validate-many fleet.csv --n-params 40 --workers 2 --html fleet.html. "
                "Exit code 1 also when a log could not be validated (its row then holds the error). " + _EXIT_CODES)
     many.add_argument("logs", nargs="+", metavar="LOGS", help="manifests (.csv, .json) or logs named ROBOT__TIME")
@@ -207,29 +220,35 @@ def _model_arg(text: str):
     name, sep, rest = text.partition("=")
     path, sep2, p = rest.rpartition(":")
     if not (sep and sep2 and name and path):
-        raise argparse.ArgumentTypeError(f"expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, got {text!r}")
+        raise argparse.ArgumentTypeError("expected NAME=PRED_FILE:P, e.g. friction=pred.npy:14, "
+                                         f"got {format_value(text)}")
     try:
-        return name, path, int(p)
+        return printable(name), path, int(p)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"the number of parameters after ':' must be an integer, got {p!r}") from None
+        raise argparse.ArgumentTypeError("the number of parameters after ':' must be an integer, "
+                                         f"got {format_value(p)}") from None
 
 
 def _model_columns_arg(text: str):
     name, sep, cols = text.partition("=")
     if not sep or not name.strip() or not cols.strip():
-        raise argparse.ArgumentTypeError(f"expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, got {text!r}")
-    return name.strip(), [int(c) if c.strip().lstrip("-").isdigit() else c.strip() for c in cols.split(",")]
+        raise argparse.ArgumentTypeError("expected NAME=COLS, e.g. friction=0,1,4 or friction=Fv1,Fc1, "
+                                         f"got {format_value(text)}")
+    return printable(name.strip()), [int(c) if c.strip().lstrip("-").isdigit() else printable(c.strip())
+                                     for c in cols.split(",")]
 
 
 def _key_file_arg(text: str):
     key, sep, path = text.partition("=")
     if not sep or key not in ("q", "regressor", "tau") or not path:
-        raise argparse.ArgumentTypeError(f"expected q=FILE, regressor=FILE or tau=FILE, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected q=FILE, regressor=FILE or tau=FILE, got {format_value(text)}")
     return key, path
 
 
 def _names_arg(text: str):
-    return [x.strip() for x in text.split(",")]
+    # A name that was not UTF-8 on the command line (Python keeps byte 0xff as the lone surrogate
+    # U+DCFF) is written \xff: as typed, and printable on any terminal, page or figure.
+    return [printable(x.strip()) for x in text.split(",")]
 
 
 def _decimate_arg(text: str):
@@ -238,7 +257,7 @@ def _decimate_arg(text: str):
     try:
         return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {format_value(text)}") from None
 
 
 def _add_report_options(sub) -> None:
@@ -259,10 +278,12 @@ def _add_report_options(sub) -> None:
                      help="noise model of the information criteria (default: the profile's)")
     sub.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second (frequencies in Hz)")
     sub.add_argument("--time", metavar="FILE[:COLUMN]", help=TIME_HELP)
+    sub.add_argument("--time-units-unchecked", action="store_true",
+                     help="accept --time stamps at any rate (they must still be seconds float64 can count)")
     sub.add_argument("--bandwidth", type=float, metavar="HZ",
                      help="band in which the inputs are trustworthy (the differentiation or sensor filter): "
                           "spectral and whiteness evidence above it is a note, never a deficiency; needs "
-                          "--sample-rate or --time")
+                          "--sample-rate or --time, and at most their Nyquist frequency (half the rate)")
     sub.add_argument("--decimate", type=_decimate_arg, default="auto", metavar="Q",
                      help="whiteness at the information rate: auto (default), none, or a factor")
     sub.add_argument("--joint-names", type=_names_arg, metavar="A,B,..", help="joint names, comma-separated")
@@ -347,7 +368,8 @@ def _load_time(spec: str, sources: dict):
 
 def _contract_error(command: str, exc: InputError, sources: dict) -> int:
     """Report an error of the dynval contract, worded for the command line."""
-    message = str(exc).replace("pass allow_wide=True", "pass --allow-wide")
+    message = (str(exc).replace("pass allow_wide=True", "pass --allow-wide")
+               .replace("time_units_checked=False", "--time-units-unchecked"))
     return _error(command, f"{type(exc).__name__}: {message}{_file_position(str(exc), sources)}"
                            f"{_transpose_hint(message)}")
 
@@ -376,7 +398,8 @@ def _report_options(args, sources: dict, meas) -> dict:
                 max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
                 nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
                 sample_rate=args.sample_rate, time=_load_time(args.time, sources) if args.time else None,
-                bandwidth=args.bandwidth, decimate=args.decimate, joint_names=_joint_names(args, meas),
+                time_units_checked=not args.time_units_unchecked, bandwidth=args.bandwidth, decimate=args.decimate,
+                joint_names=_joint_names(args, meas),
                 column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
                 estimation=est, allow_wide=args.allow_wide)
 
@@ -466,9 +489,27 @@ def _sample_rate(args, obj) -> float | None:
     return None if rate is None else float(rate)
 
 
+def _declared_shapes_refused(command: str, args, predictions: dict) -> int | None:
+    """The files' shapes, from their headers, checked against each other before any array is
+    decoded (contract §7): the exit code of a refusal, or None."""
+    from .io._shapes import check_declared
+
+    try:
+        check_declared(args.meas, predictions, regressor=args.regressor, time=args.time,
+                       q=getattr(args, "q", None), n_joints=args.n_joints)
+    except FileInputError as exc:
+        return _error(command, str(exc))
+    except InputError as exc:
+        return _contract_error(command, exc, {} if args.time is None else {"time": (args.time, None, 0)})
+    return None
+
+
 def _run_validate(args) -> int:
     from .report._report import validate
 
+    refused = _declared_shapes_refused("validate", args, {"tau_pred": args.pred})
+    if refused is not None:
+        return refused
     if args.stream or _too_large_for_memory(args):
         return _run_validate_streamed(args)
     sources: dict = {}
@@ -537,8 +578,9 @@ def _run_validate_streamed(args) -> int:
         acc = ValidationAccumulator(
             n_params=args.n_params, max_lag=args.max_lag, n_joints=args.n_joints, profile=args.profile,
             level=args.level, noise_model=args.noise_model, nan_policy=args.nan_policy, backend=args.backend,
-            sample_rate=args.sample_rate, bandwidth=args.bandwidth, joint_names=args.joint_names,
-            column_names=args.column_names, allow_wide=args.allow_wide)
+            sample_rate=args.sample_rate, time_units_checked=not args.time_units_unchecked,
+            bandwidth=args.bandwidth, joint_names=args.joint_names, column_names=args.column_names,
+            allow_wide=args.allow_wide)
         show = sys.stderr.isatty() if args.progress is None else args.progress
         from tqdm import tqdm  # type: ignore[import-untyped]
 
@@ -550,6 +592,7 @@ def _run_validate_streamed(args) -> int:
             for m_block, p_block, y_block, t_block in blocks:
                 acc.update(m_block, p_block, y_block, time=t_block)
                 bar.update(m_block.shape[0])
+        acc._entry = "cli_stream"  # the tests it leaves out are the command line's (dynval.coverage)
         report = acc.result()
     except FileInputError as exc:
         return _error("validate", str(exc))
@@ -559,9 +602,8 @@ def _run_validate_streamed(args) -> int:
         return _error("validate", "--html needs the whole series; it is not available with a streamed validation")
     text = report.to_json() if args.json else report.summary()
     if not args.json:
-        text += (f"\n\nStreamed from the files in blocks of {rows} rows: the bias test, the residual spectrum, "
-                 "the decimated whiteness test and the colour-aware cross-correlation fields need the whole "
-                 "series and are left out (contract §4.1).")
+        text += (f"\n\nStreamed from the files in blocks of {rows} rows: the tests a stream leaves out are listed "
+                 "under the findings, \"not tested\" (contract §4.1).")
     return _emit("validate", args, text)
 
 
@@ -574,9 +616,13 @@ def _run_compare(args) -> int:
     columns = dict(args.model_columns)
     unknown = [n for n in columns if n not in names]
     if unknown:
-        args.subparser.error(f"--model-columns names {unknown[0]!r}, which is not a --model (candidates: {names})")
+        args.subparser.error(f"--model-columns names {format_value(unknown[0])}, which is not a --model "
+                             f"(candidates: {names})")
     if columns and not args.regressor:
         args.subparser.error("--model-columns needs --regressor: the columns are the regressor's")
+    refused = _declared_shapes_refused("compare", args, {name: path for name, path, _ in args.model})
+    if refused is not None:
+        return refused
     sources: dict = {}
     try:
         meas = _load(args.meas, "tau_meas", sources)
@@ -664,7 +710,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     restore()  # from here on, Ctrl-C is a KeyboardInterrupt caught below
     argv = list(sys.argv[1:] if argv is None else argv)
-    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "demo", "conform") else None
+    command = argv[0] if argv and argv[0] in ("validate", "compare", "validate-many", "validate-log", "demo",
+                                              "conform") else None
     prefix = f"dynval {command}" if command else "dynval"
     try:
         return _flush_stdout(prefix, _dispatch(argv))  # a closed pipe shows here for buffered output
@@ -752,6 +799,10 @@ def _dispatch(argv: list) -> int:
         return _run_compare(args)
     if args.command == "validate-many":
         return _run_validate_many(args)
+    if args.command == "validate-log":
+        from ._logcli import run_validate_log
+
+        return run_validate_log(args, _error, _emit, _write_html)
     if args.command == "demo":
         from .demo import run_from_args
 

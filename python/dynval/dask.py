@@ -38,6 +38,7 @@ from typing import Any
 import dask.array as da
 import numpy as np
 
+from .checks import _timing
 from .checks import _validation as v
 from .checks._errors import InvalidShape, InvalidType
 from .checks._segments import parse_segments
@@ -50,8 +51,8 @@ __all__ = ["validate", "accumulate", "validate_many"]
 
 def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,
              regressor: da.Array | ArrayLike | None = None, n_joints: Integer | None = None,
-             segments: SegmentsLike = None, split_every: int | dict[int, int] | None = None,
-             **keywords: Any) -> ValidationReport:
+             segments: SegmentsLike = None, time: da.Array | ArrayLike | None = None,
+             split_every: int | dict[int, int] | None = None, **keywords: Any) -> ValidationReport:
     """:func:`dynval.validate` of dask arrays chunked along time (rows), as a
     :class:`~dynval.ValidationReport` with the sections of ``dynval.stream`` (contract §4.1).
 
@@ -68,6 +69,10 @@ def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, 
     segments : lengths or starts, optional
         Independent records (contract §1.1): N is known here, so segments are given as to
         ``validate``; each block gets the breaks that fall in it.
+    time : dask or numpy array, (N,), optional
+        The rows' time stamps in seconds, as for ``validate``: read whole (one number per row) and
+        checked with ``validate``'s messages, then each block gets its stamps, as
+        ``ValidationAccumulator.update(..., time=...)`` does.
     split_every : int, optional
         How many partial accumulators dask merges per step of its tree (dask's default otherwise).
     **keywords
@@ -90,20 +95,22 @@ def validate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, 
     >>> float(np.max(np.abs(report.autocorrelation["rho"] - want.autocorrelation["rho"]))) < 1e-14
     True
     """
-    return accumulate(tau_meas, tau_pred, n_params=n_params, regressor=regressor, n_joints=n_joints,
-                      segments=segments, split_every=split_every, **keywords).result()
+    acc = accumulate(tau_meas, tau_pred, n_params=n_params, regressor=regressor, n_joints=n_joints,
+                     segments=segments, time=time, split_every=split_every, **keywords)
+    acc._entry = "dask"  # the tests it leaves out are dask's (dynval.coverage)
+    return acc.result()
 
 
 def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *, n_params: Integer,
                regressor: da.Array | ArrayLike | None = None, n_joints: Integer | None = None,
-               segments: SegmentsLike = None, split_every: int | dict[int, int] | None = None,
-               **keywords: Any) -> ValidationAccumulator:
+               segments: SegmentsLike = None, time: da.Array | ArrayLike | None = None,
+               split_every: int | dict[int, int] | None = None, **keywords: Any) -> ValidationAccumulator:
     """The merged :class:`~dynval.stream.ValidationAccumulator` of :func:`validate` (merge it with
     accumulators of later data, or call ``.result()``).
 
     Parameters
     ----------
-    tau_meas, tau_pred, n_params, regressor, n_joints, segments, split_every, **keywords
+    tau_meas, tau_pred, n_params, regressor, n_joints, segments, time, split_every, **keywords
         As for :func:`validate`.
 
     Returns
@@ -130,11 +137,18 @@ def accumulate(tau_meas: da.Array | ArrayLike, tau_pred: da.Array | ArrayLike, *
     meas, pred, reg = _aligned(tau_meas, tau_pred, regressor, n_joints)
     n = meas.shape[0]
     starts = parse_segments(segments, n)
+    stamps = None
+    if time is not None:
+        stamps = _timing.stamps(time.compute() if isinstance(time, da.Array) else time, n)
+        meas, pred, reg = _blocks_at_steps(stamps, meas, pred, reg)
     rows = da.arange(n, chunks=(meas.chunks[0],))
     arrays = [rows, "i", meas, "ij", pred, "ij"] + ([] if reg is None else [reg, "ijk"])
+    if stamps is not None:
+        arrays += [da.from_array(stamps, chunks=(meas.chunks[0],)), "i"]
     block_starts = np.cumsum((0,) + meas.chunks[0][:-1])
     blocks = da.blockwise(_block, "i", *arrays, starts=starts, block_starts=block_starts, keywords=keywords,
-                          dtype=object, adjust_chunks={"i": 1}, concatenate=True, meta=np.empty((0,), dtype=object))
+                          has_reg=reg is not None, timed=time is not None, dtype=object, adjust_chunks={"i": 1},
+                          concatenate=True, meta=np.empty((0,), dtype=object))
     merged = da.reduction(blocks, _keep, _merge_blocks, combine=_merge_blocks, axis=0, keepdims=True,
                           concatenate=False, split_every=split_every, dtype=object,
                           meta=np.empty((0,), dtype=object))
@@ -184,6 +198,24 @@ def _aligned(tau_meas, tau_pred, regressor, n_joints):
     return meas, pred, reg
 
 
+def _blocks_at_steps(stamps, meas, pred, reg):
+    """The blocks moved so that none starts on a stamp equal to the one before: a merge classifies
+    the step across a junction, and each block's own steps against the zero steps inside it only
+    (a duplicated stamp at a block's start would make its next step look like a gap)."""
+    ends = np.cumsum(meas.chunks[0])[:-1]
+    moved = []
+    for end in ends:
+        while end < stamps.size and stamps[end] == stamps[end - 1]:
+            end += 1
+        if end < stamps.size and (not moved or end > moved[-1]):
+            moved.append(int(end))
+    chunks = tuple(int(c) for c in np.diff([0, *moved, stamps.size]))
+    if chunks == tuple(meas.chunks[0]):
+        return meas, pred, reg
+    return (meas.rechunk({0: chunks}), pred.rechunk({0: chunks}),
+            None if reg is None else reg.rechunk({0: chunks}))
+
+
 def _as_dask(x, name):
     arr = x if isinstance(x, da.Array) else da.asarray(v.to_float_array(x, name))
     if any(math.isnan(size) for size in arr.shape):  # e.g. after boolean indexing: nan chunk sizes
@@ -194,8 +226,11 @@ def _as_dask(x, name):
     return arr.astype(np.float64)
 
 
-def _block(rows, meas, pred, reg=None, *, starts, block_starts, keywords):
-    """The accumulator of one time block, with the segment breaks that fall inside it."""
+def _block(rows, meas, pred, *rest, starts, block_starts, keywords, has_reg, timed):
+    """The accumulator of one time block (``rest``: its regressor, its stamps, as given), with the
+    segment breaks that fall inside it."""
+    reg = rest[0] if has_reg else None
+    stamps = rest[-1] if timed else None
     acc = ValidationAccumulator(**keywords)
     if rows.size == 0:
         return _holder(acc)
@@ -204,7 +239,7 @@ def _block(rows, meas, pred, reg=None, *, starts, block_starts, keywords):
     inside = starts[(starts >= max(first, 1)) & (starts < first + rows.size)] - first
     # Errors then name the block as the chunk and give the row in the whole array.
     acc._chunks, acc._rows_seen = int(np.searchsorted(block_starts, first)), first
-    acc._update(meas, pred, reg, [int(k) for k in inside])
+    acc._update(meas, pred, reg, [int(k) for k in inside], stamps)
     return _holder(acc)
 
 

@@ -18,6 +18,7 @@ import html as _html
 import io
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from .report._json import to_jsonable
-from .report._text import pvalue_text
+from .report._text import printable, pvalue_text
 
 __all__ = ["write_report", "render_report", "render_fragment", "write_fleet_report", "render_fleet_report"]
 
@@ -59,17 +60,45 @@ figcaption { color: #444; font-size: 0.92em; margin-top: 0.3em; }
 details pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.8em; max-height: 40em; }
 .muted { color: #666; }
 .scroll { overflow-x: auto; }
+.num { white-space: nowrap; }
+nav.toc { font-size: 0.9em; color: #444; margin: 0.4em 0 0.2em 0; }
+nav.toc a { color: #1f5fa8; text-decoration: none; margin-right: 0.2em; }
+nav.toc a:hover { text-decoration: underline; }
+.verdict p { margin: 0.35em 0; }
+.verdict details { margin-top: 0.4em; }
+details.finding { border-left: 4px solid #ccc; padding: 0.15em 0.6em; margin: 0.25em 0; }
+details.finding.deficiency { border-left-color: #c62828; }
+details.finding.design { border-left-color: #e08a00; }
+details.finding.note { border-left-color: #607d8b; }
+details.finding summary { cursor: pointer; }
+details.finding p { margin: 0.3em 0 0.3em 1.2em; }
+h4.joint { margin: 0.9em 0 0.2em 0; font-size: 0.98em; }
+@media (max-width: 900px) { body { padding: 0.8em 0.8em; } table { font-size: 0.85em; } }
 """
 
 
 def _e(text) -> str:
-    """Escape text content (quotes may stay: they need escaping in attributes only)."""
-    return _html.escape(str(text), quote=False)
+    """Escape text content (quotes may stay: they need escaping in attributes only); a byte that was
+    not UTF-8 (a lone surrogate) is written as ``\\xff``, so that the page can be written as UTF-8."""
+    return _html.escape(printable(text), quote=False)
+
+
+_SCI = re.compile(r"[-+−]?\d+(?:\.\d+)?e[-+−]?\d+|[-+−]?\d+(?:\.\d+)?\s?%")
+
+
+def _t(text) -> str:
+    """Escaped prose whose numbers never break across lines ("2.81e-" / "241" is two numbers to a reader)."""
+    return _SCI.sub(lambda m: f'<span class="num">{m.group(0)}</span>', _e(text))
+
+
+def _whole_numbers(cell: str) -> str:
+    """A table cell's numbers in scientific notation kept on one line (cells with markup unchanged)."""
+    return cell if "<" in cell else _SCI.sub(lambda m: f'<span class="num">{m.group(0)}</span>', cell)
 
 
 def _a(text) -> str:
-    """Escape an attribute value."""
-    return _html.escape(str(text), quote=True)
+    """Escape an attribute value (lone surrogates as :func:`_e`)."""
+    return _html.escape(printable(text), quote=True)
 
 
 def _num(x, digits=4) -> str:
@@ -99,7 +128,7 @@ def _table(header, rows, *, text_cols=(0,), row_classes=None) -> str:
         cls = f' class="{row_classes[r]}"' if row_classes and row_classes[r] else ""
         out.append(f"<tr{cls}>")
         for i, cell in enumerate(row):
-            out.append(f'<td class="text">{cell}</td>' if i in text_cols else f"<td>{cell}</td>")
+            out.append(f'<td class="text">{cell}</td>' if i in text_cols else f"<td>{_whole_numbers(cell)}</td>")
         out.append("</tr>")
     out.append("</table></div>")
     return "".join(out)
@@ -169,26 +198,58 @@ def _per_joint_table(report) -> str:
 
 
 def _findings_html(report) -> str:
+    """The findings grouped by the joint they concern most (the whole run last), one collapsed line each:
+    severity, kind and the message's first sentence; a click shows the message, what to do and the columns."""
     findings = getattr(report, "findings", None)
     if findings is None:
         texts = getattr(report, "warnings_text", None) or []
         if not texts:
             return '<p class="muted">No findings.</p>'
-        return "<ul>" + "".join(f"<li>{_e(t)}</li>" for t in texts) + "</ul>"
+        return "<ul>" + "".join(f"<li>{_t(t)}</li>" for t in texts) + "</ul>"
+    left_out = _not_tested_html(report)
     if not findings:
+        if left_out:
+            return '<p class="muted">No findings from the tests this report ran.</p>' + left_out
         return '<p class="muted">No findings: nothing in the residuals calls for a change.</p>'
     jn = _joint_names(report)
     cn = _column_names(report)
-    rows = []
+    groups: dict[int, list[str]] = {}
     for f in findings:
-        sev = getattr(f, "severity", "note")
-        joints = ", ".join(jn[j] if 0 <= j < len(jn) else str(j) for j in getattr(f, "joints", ()) or ())
-        cols = ", ".join(cn[c] if 0 <= c < len(cn) else str(c) for c in getattr(f, "columns", ()) or ())
-        rows.append([f'<span class="sev {_a(sev)}">{_e(sev)}</span>', _e(getattr(f, "kind", "")),
-                     _e(joints) or "—", _e(cols) or "—", _e(getattr(f, "message", "")),
-                     _e(getattr(f, "action", "")) or "—"])
-    return _table(["severity", "kind", "joints", "columns", "finding", "what to do"], rows,
-                  text_cols=(0, 1, 2, 3, 4, 5))
+        joints = tuple(getattr(f, "joints", ()) or ())
+        groups.setdefault(joints[0] if joints else -1, []).append(_finding_html(f, jn, cn))
+    out = []
+    for j in sorted(groups, key=lambda k: (k < 0, k)):
+        title = (jn[j] if 0 <= j < len(jn) else f"joint {j}") if j >= 0 else "the whole run"
+        out.append(f'<h4 class="joint">{_e(title)} <span class="muted">({len(groups[j])})</span></h4>'
+                   + "".join(groups[j]))
+    return '<div class="findings">' + "".join(out) + "</div>" + left_out
+
+
+def _not_tested_html(report) -> str:
+    """The tests a streamed report left out (``provenance["not_tested"]``, contract §4.1): a report
+    that tested less must not read as a clean bill."""
+    prov = getattr(report, "provenance", None)
+    left_out = (prov.get("not_tested") if prov is not None else None) or []
+    if not left_out:
+        return ""
+    items = "".join(f"<li><b>{_e(t['test'])}</b> ({_e(', '.join(t['kinds']))}): {_e(t['why'])}</li>" for t in left_out)
+    return (f'<p class="not-tested">Not tested ({len(left_out)}; a finding of these kinds cannot show here):</p>'
+            f"<ul>{items}</ul>")
+
+
+def _finding_html(f, jn, cn) -> str:
+    sev = getattr(f, "severity", "note")
+    message = str(getattr(f, "message", ""))
+    first = message.split(": ", 1)[-1] if message.count(": ") and len(message.split(": ", 1)[0]) < 40 else message
+    first = first if len(first) <= 110 else first[:109].rsplit(" ", 1)[0] + " …"
+    joints = ", ".join(jn[j] if 0 <= j < len(jn) else str(j) for j in getattr(f, "joints", ()) or ())
+    cols = ", ".join(cn[c] if 0 <= c < len(cn) else str(c) for c in getattr(f, "columns", ()) or ())
+    action = str(getattr(f, "action", ""))
+    where = "".join(f"<p class=\"muted\">{label}: {_e(v)}</p>" for label, v in (("joints", joints),
+                                                                             ("columns", cols)) if v)
+    return (f'<details class="finding {_a(sev)}"><summary><span class="sev {_a(sev)}">{_e(sev)}</span> '
+            f"<b>{_e(getattr(f, 'kind', ''))}</b> — {_t(first)}</summary><p>{_t(message)}</p>"
+            + (f"<p>What to do: <b>{_t(action)}</b></p>" if action else "") + where + "</details>")
 
 
 def _criteria_html(report) -> str:
@@ -205,16 +266,33 @@ def _criteria_html(report) -> str:
     return _table(keys, [[cell(k) for k in keys]], text_cols=())
 
 
-def _provenance_html(report) -> str:
+def _provenance_html(report, fields=None) -> str:
+    """The report's provenance as a table: every field, or those named in ``fields``."""
     prov = getattr(report, "provenance", None) or {}
     rows = []
     for k, v in prov.items():
+        if fields is not None and k not in fields:
+            continue
         if isinstance(v, dict):
             v = json.dumps(to_jsonable(v), ensure_ascii=False, allow_nan=False)
         elif isinstance(v, (list, tuple)):
             v = ", ".join(str(x) for x in v)
         rows.append([_e(k), _e(v)])
     return _table(["field", "value"], rows, text_cols=(0, 1))
+
+
+def _provenance_split(cmp, names) -> tuple[list[str], dict[str, list[str]]]:
+    """The provenance fields every candidate has with the same value, and each candidate's own: a
+    comparison's page shows the shared ones once, for all, and the others in each model's section."""
+    provs = {n: dict(getattr(cmp.reports[n], "provenance", None) or {}) for n in names}
+
+    def same(k: str) -> bool:
+        values = [json.dumps(to_jsonable(p.get(k)), sort_keys=True, default=str) for p in provs.values()]
+        return all(k in p for p in provs.values()) and len(set(values)) == 1
+
+    keys = list(dict.fromkeys(k for p in provs.values() for k in p))
+    shared = [k for k in keys if same(k)]
+    return shared, {n: [k for k in provs[n] if k not in shared] for n in names}
 
 
 def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, reference, reference_label,
@@ -258,23 +336,27 @@ def _report_figures(report, tau_meas, tau_pred, sample_rate, model_name, referen
 
 
 def _decided_html(verdict, chosen, cmp) -> str:
-    """The verdict's "decided by" and "do first" lines (nothing for an object without them)."""
+    """The verdict's "do first" and "decided by" lines (nothing for an object without them): the
+    deciding findings grouped by kind, one line, so that the box fits the first screen."""
     decided = tuple(getattr(verdict, "decided_by", ()) or ())
     out = ""
+    first = getattr(verdict, "first_step", "")
+    if first:
+        out += f'<p class="first-step">Do first: <b>{_t(first)}</b></p>'
     if decided:
-        items = []
+        by_kind: dict[tuple[str, str], list[str]] = {}
         for d in decided:
-            where = ", ".join(tuple(d.joints) + tuple(d.columns))
             owner = f"{d.severity} of {d.model}" if d.model else f"{d.severity} of the comparison"
-            items.append(f"<li><b>{_e(d.kind)}</b>{' on ' + _e(where) if where else ''} ({_e(owner)})</li>")
-        out += "<p>Decided by:</p><ul>" + "".join(items) + "</ul>"
+            by_kind.setdefault((d.kind, owner), []).extend(str(x) for x in tuple(d.joints) + tuple(d.columns))
+        items = []
+        for (kind, owner), where in by_kind.items():
+            shown = ", ".join(where[:4]) + (f" and {len(where) - 4} more" if len(where) > 4 else "")
+            items.append(f"<b>{_e(kind)}</b>{' on ' + _e(shown) if where else ''} ({_e(owner)})")
+        out += "<p>Decided by: " + "; ".join(items) + "</p>"
     elif hasattr(verdict, "decided_by") and getattr(verdict, "decision", "") == "accept":
         crit = getattr(cmp, "criterion", None) or "the criterion"
         out += (f"<p>Decided by: the criterion — no finding stands against <b>{_e(chosen)}</b> (no deficiency in "
                 f"its report, no design finding in any) and {_e(crit)} ranks it first.</p>")
-    first = getattr(verdict, "first_step", "")
-    if first:
-        out += f"<p>Do first: <b>{_e(first)}</b></p>"
     return out
 
 
@@ -288,7 +370,7 @@ def _candidate_reasons_html(cmp, ranking, chosen) -> str:
     for i, n in enumerate(ranking):
         d = pooled.get(n, {}).get("n_deficiencies")
         rows.append([str(i + 1), _e(n), _num(d),
-                     "<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons.get(n, ())) + "</ul>"])
+                     "<ul>" + "".join(f"<li>{_t(r)}</li>" for r in reasons.get(n, ())) + "</ul>"])
         classes.append("chosen" if n == chosen else "")
     return ("<h2>Reasons per candidate</h2>"
             + _table(["rank", "model", "deficiencies", "reasons (one per deficiency or design finding)"], rows,
@@ -299,6 +381,14 @@ def _candidate_reasons_html(cmp, ranking, chosen) -> str:
 
 def _is_comparison(obj) -> bool:
     return hasattr(obj, "reports") and hasattr(obj, "verdict")
+
+
+def _provenance_heading(obj, tag: str = "") -> str:
+    """A comparison's closing provenance is every candidate's, and says so (each model's own fields are
+    in its section)."""
+    text = ("Provenance shared by every candidate (each model's own fields are in its section)"
+            if _is_comparison(obj) else "Provenance")
+    return f"<{tag}>{text}</{tag}>" if tag else text
 
 
 def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=None, figures=(),
@@ -312,20 +402,44 @@ def render_report(obj, *, tau_meas=None, tau_pred=None, sample_rate=None, title=
     plots = _FigureData(have_plot, tau_meas, tau_pred, sample_rate, reference_frequency, reference_label,
                         _checked_interval(interval, tau_meas))
     if _is_comparison(obj):
-        parts, first = _comparison_parts(obj, title, intro, signature, plots)
+        parts, provenance = _comparison_parts(obj, title, intro, signature, plots)
     else:
-        parts, first = _validation_parts(obj, title, intro, signature, plots), obj
+        parts, provenance = _validation_parts(obj, title, intro, signature, plots), _provenance_html(obj)
+    if figures and _is_comparison(obj):
+        # after the last candidate's section: a heading, so that they do not read as that model's
+        parts.append("<h2>Further figures (given with the page, not of one candidate)</h2>")
     parts += [_figure_html(fig, cap) for fig, cap in figures or ()]
     if not have_plot:
         parts.append('<p class="muted">Figures omitted: matplotlib is not installed (pip install dynval[plot]).</p>')
-    parts.append("<h2>Provenance</h2>" + _provenance_html(first))
+    parts.append(_provenance_heading(obj, "h2") + provenance)
     parts.append(_json_html(obj))
-    body = "\n".join(p for p in parts if p)
+    body = _with_contents("\n".join(p for p in parts if p))
     head = title or ("dynval model comparison" if _is_comparison(obj) else "dynval validation report")
     return ("<!DOCTYPE html>\n"
             '<html xmlns="http://www.w3.org/1999/xhtml" lang="en">\n<head>\n<meta charset="utf-8"/>\n'
             '<meta name="viewport" content="width=device-width, initial-scale=1"/>\n'
             f"<title>{_e(head)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+
+
+def _with_contents(body: str) -> str:
+    """Every section heading given an anchor, and a line of jump links to them under the page's
+    subtitle (the verdict first, when there is one)."""
+    links = ['<a href="#verdict">Verdict</a>'] if 'id="verdict"' in body else []
+    used: set[str] = set()
+
+    def anchor(m: re.Match) -> str:
+        text = re.sub(r"<[^>]+>", "", m.group(1))
+        slug = re.sub(r"[^a-z0-9]+", "-", _html.unescape(text).lower()).strip("-") or "section"
+        while slug in used:
+            slug += "-"
+        used.add(slug)
+        links.append(f'<a href="#{slug}">{m.group(1)}</a>')
+        return f'<h2 id="{slug}">{m.group(1)}</h2>'
+
+    body = re.sub(r"<h2>(.*?)</h2>", anchor, body)
+    nav = '<nav class="toc">Contents: ' + " · ".join(links) + "</nav>"
+    head = re.search(r'<p class="sub">.*?</p>', body)
+    return body[:head.end()] + nav + body[head.end():] if head else nav + body
 
 
 def render_fragment(obj) -> str:
@@ -341,10 +455,10 @@ def render_fragment(obj) -> str:
     plots = _FigureData(False, None, None, None, None, "")
     signature = f"dynval {_e(__version__)}"
     if _is_comparison(obj):
-        parts, first = _comparison_parts(obj, None, None, signature, plots)
+        parts, provenance = _comparison_parts(obj, None, None, signature, plots)
     else:
-        parts, first = _validation_parts(obj, None, None, signature, plots), obj
-    parts.append("<details><summary>Provenance</summary>" + _provenance_html(first) + "</details>")
+        parts, provenance = _validation_parts(obj, None, None, signature, plots), _provenance_html(obj)
+    parts.append(f"<details><summary>{_provenance_heading(obj)}</summary>{provenance}</details>")
     body = "\n".join(p for p in parts if p)
     return f'<div class="dynval-report">\n<style>{_scoped_css()}</style>\n{body}\n</div>'
 
@@ -421,8 +535,9 @@ def _deficiency_count_html(rep) -> str:
             f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
 
 
-def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, Any]:
-    """The sections of a comparison's page, and the report whose provenance the page shows."""
+def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, str]:
+    """The sections of a comparison's page, each naming the model it belongs to (or "every
+    candidate"), and the provenance every candidate shares, as HTML."""
     names = list(getattr(cmp, "names", None) or list(cmp.reports))
     verdict = cmp.verdict
     chosen = getattr(verdict, "model", None) or (list(getattr(cmp, "ranking", names)) or names)[0]
@@ -432,7 +547,7 @@ def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple
     if intro:
         parts.append(f"<p>{_e(intro)}</p>")
     parts.append(_verdict_html(verdict, chosen, cmp))
-    parts.append("<h2>Decision table</h2>")
+    parts.append("<h2>Decision table: every candidate</h2>")
     parts.append(_decision_table_html(cmp, names, ranking, chosen))
     parts.append('<p class="muted">Pooled over joints on the validation data; rank from the comparison '
                  "(best first); the chosen model is highlighted.</p>")
@@ -442,18 +557,23 @@ def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple
 
         parts.append(_figure_html(plot.metrics(cmp), "Per-joint VAF, fit and R² of every candidate "
                                                      "(the chosen model outlined)."))
+    shared, own = _provenance_split(cmp, names)
     for n in [chosen] + [x for x in ranking if x != chosen]:
-        parts += _candidate_parts(cmp.reports[n], n, n == chosen, plots)
-    return parts, cmp.reports[names[0]]
+        parts += _candidate_parts(cmp.reports[n], n, n == chosen, plots, own.get(n, []))
+    return parts, _provenance_html(cmp.reports[names[0]], fields=shared)
 
 
 def _verdict_html(verdict, chosen, cmp) -> str:
-    """The verdict box: the decision, the chosen model, what decided it and the reasons."""
+    """The verdict box: the decision, the chosen model, what to do first and what decided it; the
+    reasons, one per finding, collapsed under them (the reasons per candidate follow the table)."""
     decision = str(getattr(verdict, "decision", ""))
-    reasons = getattr(verdict, "reasons", []) or []
-    return (f'<div class="verdict {_a(decision)}"><div class="decision">Verdict: {_e(decision)}</div>'
+    reasons = list(getattr(verdict, "reasons", []) or [])
+    shown = reasons if len(reasons) <= 3 else []
+    more = (f"<details><summary>{len(reasons)} reasons</summary><ul>"
+            + "".join(f"<li>{_t(r)}</li>" for r in reasons) + "</ul></details>") if not shown and reasons else ""
+    return (f'<div class="verdict {_a(decision)}" id="verdict"><div class="decision">Verdict: {_e(decision)}</div>'
             f"<p>Model: <b>{_e(chosen)}</b></p>" + _decided_html(verdict, chosen, cmp)
-            + ("<ul>" + "".join(f"<li>{_e(r)}</li>" for r in reasons) + "</ul>" if reasons else "")
+            + ("<ul>" + "".join(f"<li>{_t(r)}</li>" for r in shown) + "</ul>" if shown else "") + more
             + "</div>")
 
 
@@ -480,7 +600,11 @@ def _decision_columns(cmp, names) -> list[tuple[str, Callable[[dict], str]]]:
         return lambda row: (_fixed(row.get(key), ".1f")
                             + (f" ({_fixed(row.get('delta_' + key), '+.1f')})" if ("delta_" + key) in row else ""))
 
+    # the columns that decide come first: at 800 px they are what the reader sees without scrolling
     cols: list[tuple[str, Callable[[dict], str]]] = [
+        ("deficiencies", lambda row: _num(row.get("n_deficiencies"))),
+        ("whiteness", lambda row: _num(row.get("whiteness"))),
+        ("bias", lambda row: _num(row.get("bias"))),
         ("parameters", lambda row: _num(row.get("n_params"))),
         ("RMSE (τ units)", lambda row: _num(row.get("rmse"))),
         ("VAF" + pct, lambda row: _num(row.get("vaf"))),
@@ -489,12 +613,9 @@ def _decision_columns(cmp, names) -> list[tuple[str, Callable[[dict], str]]]:
         ("AIC (Δ)", criterion("aic")),
         ("BIC (Δ)", criterion("bic")),
         ("Akaike weight", lambda row: _num(row.get("akaike_weight"), 3)),
-        ("whiteness", lambda row: _num(row.get("whiteness"))),
-        ("bias", lambda row: _num(row.get("bias"))),
-        ("deficiencies", lambda row: _num(row.get("n_deficiencies"))),
     ]
-    keys = ("n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic", "akaike_weight", "whiteness", "bias",
-            "n_deficiencies")
+    keys = ("n_deficiencies", "whiteness", "bias", "n_params", "rmse", "vaf", "fit_percent", "r2", "aic", "bic",
+            "akaike_weight")
     return [col for col, key in zip(cols, keys) if has(key)]
 
 
@@ -509,15 +630,23 @@ def _decision_table_html(cmp, names, ranking, chosen) -> str:
     return _table(["model", "rank"] + [h for h, _ in cols], rows, row_classes=classes, text_cols=text)
 
 
-def _candidate_parts(rep, name, chosen, plots: _FigureData) -> list:
-    """One candidate's section: its tables, and the figures for the chosen one."""
+def _candidate_parts(rep, name, chosen, plots: _FigureData, own_fields=()) -> list:
+    """One candidate's section, every heading naming the model: its tables, its own provenance
+    fields (those not shared by every candidate), and the figures for the chosen one."""
+    whose = f"model '{_e(name)}'"
+    own = (_provenance_html(rep, fields=set(own_fields)) if own_fields else
+           '<p class="muted">None: every provenance field is shared by all candidates (at the end of the '
+           "page).</p>")
     parts = [f"<h2>Model '{_e(name)}'{' — chosen' if chosen else ''}</h2>",
-             "<h3>Per joint</h3>" + _per_joint_table(rep),
-             "<h3>Findings</h3>" + _findings_html(rep),
-             "<h3>Information criteria</h3>" + _criteria_html(rep)]
+             f"<h3>Per joint: {whose}</h3>" + _per_joint_table(rep),
+             f"<h3>Findings: {whose}</h3>" + _findings_html(rep),
+             f"<h3>Information criteria: {whose}</h3>" + _criteria_html(rep),
+             f"<h3>Provenance of {whose} (its own fields)</h3>" + own]
     if chosen and plots.enabled:
         pred = plots.tau_pred.get(name) if isinstance(plots.tau_pred, dict) else None
-        parts += plots.html(rep, pred, name)
+        figures = plots.html(rep, pred, name)
+        if figures:
+            parts += [f"<h3>Figures: {whose}</h3>"] + figures
     return parts
 
 
@@ -527,7 +656,8 @@ def _json_html(obj) -> str:
         full = json.dumps(obj.to_dict(), indent=1, allow_nan=False, ensure_ascii=False)
     except Exception as exc:
         return f'<p class="muted">JSON not included: {_e(type(exc).__name__)}: {_e(exc)}</p>'
-    return f"<details><summary>Full report as JSON</summary><pre>{_e(full)}</pre></details>"
+    whose = "Full comparison as JSON (every candidate)" if _is_comparison(obj) else "Full report as JSON"
+    return f"<details><summary>{whose}</summary><pre>{_e(full)}</pre></details>"
 
 
 def _checked_interval(interval, tau_meas):
@@ -612,10 +742,11 @@ def _fleet_log_table(fleet) -> str:
     for r in fleet.logs:
         found = _e(r.error) if r.error else (_e(f"{r.n_findings}: {', '.join(r.kinds)}") if r.n_findings else "0")
         rows.append([_e(r.robot), _e(r.time), _e(r.log), str(r.n_samples), str(r.n_joints), _num(r.rmse),
-                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found])
+                     _fixed(r.vaf, ".2f"), f'<span class="dec {_a(r.decision)}">{_e(r.decision)}</span>', found,
+                     _e(r.sees)])
         classes.append("error" if r.error else "")
-    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings"], rows,
-                  text_cols=(0, 1, 2, 7, 8), row_classes=classes)
+    return _table(["robot", "time", "log", "N", "m", "RMSE", "VAF %", "decision", "findings", "the decision saw"],
+                  rows, text_cols=(0, 1, 2, 7, 8, 9), row_classes=classes)
 
 
 def _fleet_findings_html(fleet) -> str:
@@ -655,6 +786,8 @@ def render_fleet_report(fleet, *, title=None) -> str:
              "Holm over the robots tested. A drift is a deficiency when the later logs' RMSE is at least "
              f"{_e(prov.get('ratio_threshold', 1.1))}× the earlier logs' (geometric means).</p>",
              _fleet_drift_table(fleet), "<h2>Findings</h2>", _fleet_findings_html(fleet)]
+    if fleet.notes:  # a drift beside accepted logs, explained
+        parts.append("<ul>" + "".join(f"<li>{_e(note)}</li>" for note in fleet.notes) + "</ul>")
     if _have_matplotlib():
         from . import plot
 

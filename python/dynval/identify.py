@@ -12,15 +12,17 @@ The regressor is stacked sample-major (row ``k·m + j`` is sample k, joint j), e
 scaled to unit Euclidean norm (so that the rank test does not depend on the parameters' units)
 and factored by Householder QR with column pivoting (``scipy.linalg.qr(..., pivoting=True)``,
 LAPACK ``dgeqp3``). Pivoting moves the most independent columns first, so ``|R_00| >= |R_11| >= ...``.
-The numerical rank ``r`` is the number of diagonal entries with
+The numerical rank ``r`` is the number of diagonal entries with::
 
     |R_kk| > rcond · |R_00|,    rcond = max(rows, p) · eps   (eps = 2.22e-16, the default)
 
 — the tolerance numpy's ``matrix_rank`` uses for singular values, applied to the pivoted-QR
 diagonal, which bounds the singular values from above and below within a factor of the matrix size.
-Columns that are identically zero, or whose norm is at most ``rcond`` times the largest column
-norm (roundoff of a structurally zero column), are never identifiable and are removed before
-the factorization. The first ``r`` pivoted columns are the *base columns*; every other column is a
+Columns that are identically zero, or whose norm is at most 1e-13 of the median norm of the
+nonzero columns (roundoff of a structurally zero column; the rule of the report's design section,
+``dynval.report._regressor_algebra.zero_columns``), are never identifiable and are removed before
+the factorization. Compared with the median, not the largest, no column's unit changes another
+column's status (contract §4). The first ``r`` pivoted columns are the *base columns*; every other column is a
 linear combination of them, ``Y_d = Y_b β``, and the quantity that the data determine is the base
 parameter ``π_b + β π_d`` (:attr:`IdentificationResult.combination`).
 
@@ -69,7 +71,9 @@ from .checks._validation import (
     check_finite,
     check_level,
     check_min_samples,
+    check_signal_like,
     format_shape,
+    is_integer,
     is_real_number,
     parameter_error,
     promote_signal,
@@ -78,8 +82,11 @@ from .checks._validation import (
 )
 from .kernels._blas import one_blas_thread
 from .report import _consistency
+from .report._regressor_algebra import zero_columns
+from .statistics import _coverage
+from .statistics._coverage import CoverageTest
 
-__all__ = ["IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
+__all__ = ["CoverageTest", "IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
 
 
 def default_rcond(rows: int, p: int) -> float:
@@ -99,6 +106,10 @@ class PredictionInterval:
         The band's probability; ``quantile`` is the Student-t factor that gives it.
     noise_std : ndarray (m,)
         The joints' noise standard deviations the band includes.
+    design : ndarray (N, m, r) or None
+        The base regressor rows the band was predicted from, which :meth:`coverage_test` refits to
+        tell the parameters' error from a missing term (None for a band built by hand: the test
+        then takes every state dependence for a missing term).
     """
 
     prediction: FloatArray
@@ -108,10 +119,13 @@ class PredictionInterval:
     level: float
     quantile: float
     noise_std: FloatArray
+    design: FloatArray | None = field(default=None, repr=False, compare=False)
 
     def share_inside(self, tau_meas: ArrayLike) -> FloatArray:
         """Per joint, the share of the measured torques inside the band: ``level`` when the model
-        and its noise are right, less when the model misses structure or the noise is coloured."""
+        and its white noise are right, less when the band is too narrow. A share at or above the
+        level clears nothing: a missing term widens the band with its own error (contract §9);
+        :meth:`coverage_test` shows where the band misses."""
         meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
         if meas.shape != self.prediction.shape:
             raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
@@ -121,8 +135,53 @@ class PredictionInterval:
         out: FloatArray = inside.mean(axis=0)
         return out
 
+    def coverage_test(self, tau_meas: ArrayLike, *, q: ArrayLike | None = None, dq: ArrayLike | None = None,
+                      n_bins: Integer = 4, alpha: float = 0.05) -> CoverageTest:
+        """Whether the band's misses depend on the state or cluster in time: a test a missing term fails.
 
-@dataclass(frozen=True)
+        :meth:`share_inside` cannot show a missing term (the term widened the band too). Per joint,
+        the standardised residuals, less what the model's own columns refitted on this run explain,
+        are tested for a mean that depends on the state: in bins of the joint's velocity sign (from
+        ``dq``, or ``q``'s differences), of its position's and of the prediction's ``n_bins``
+        quantiles; and the exceedances by a runs test in time; all with the residual's colour-aware
+        effective sample size (docs/conventions.md §5.8). A p-value per joint, Holm's correction
+        over the joints.
+
+        Parameters
+        ----------
+        tau_meas : array_like (N, m)
+            The measured torques of the run the band predicts.
+        q, dq : array_like (N, m), optional
+            The run's joint positions and velocities (without them: the prediction's quantiles and
+            time only, and ``q``'s differences stand in for ``dq``).
+        n_bins : int
+            Quantile bins per state variable, 2 to 20.
+        alpha : float
+            Significance level of the joints' family, in (0, 1).
+
+        Returns
+        -------
+        CoverageTest
+        """
+        meas = promote_signal(to_float_array(tau_meas, "tau_meas"), "tau_meas")
+        if meas.shape != self.prediction.shape:
+            raise ShapeMismatch(f"tau_meas must have the prediction's shape {format_shape(self.prediction.shape)}, "
+                                f"got {format_shape(meas.shape)}")
+        check_finite(meas, "tau_meas")
+        n, m = meas.shape
+        states = {name: None if value is None else check_signal_like(value, name, n, m)
+                  for name, value in (("q", q), ("dq", dq))}
+        if not is_integer(n_bins) or not 2 <= int(n_bins) <= 20:
+            raise parameter_error("n_bins", "an integer with 2 <= n_bins <= 20", n_bins)
+        if not is_real_number(alpha) or not 0 < alpha < 1:
+            raise parameter_error("alpha", "a number with 0 < alpha < 1", alpha)
+        check_min_samples("coverage_test", n, 2 * int(n_bins) * _coverage.MIN_BIN)
+        return _coverage.coverage_test(meas, self.prediction, self.std, self.lower, self.upper, self.level,
+                                       design=self.design, q=states["q"],
+                                       dq=states["dq"], n_bins=int(n_bins), alpha=float(alpha))
+
+
+@dataclass(frozen=True, repr=False)
 class IdentificationResult:
     """Estimate of the base parameters and its statistics.
 
@@ -167,6 +226,15 @@ class IdentificationResult:
         Each joint's noise standard deviation on the estimation run: the root mean square of its
         unweighted residual over its share of the degrees of freedom, ``n·(rows − r)/rows`` (None
         for a result built by hand). :meth:`prediction_interval` uses it.
+    colour_std : ndarray (r,) or None
+        Standard errors that allow for the residual's colour: √(N · LRV(u_i)), with u_k = C⁻¹-weighted
+        score of sample k (``(Y_bᵀY_b)⁻¹ Σ_j y_kjᵀ e_kj``, so that π̂ − π = Σ_k u_k) and LRV the
+        prewhitened Newey–West long-run variance the report's bias test uses. Under white noise it
+        is close to :attr:`std`; under coloured noise :attr:`std` is too small (None with
+        ``physical=True`` or for a result built by hand).
+    residual_lag1 : ndarray (m,) or None
+        Each joint's lag-1 autocorrelation of the estimation residual; :meth:`summary` calls the
+        residual coloured when one of them exceeds 2.576/√N (white noise's 99 % band).
     physical : dict or None
         With ``physical=True``: how the constrained fit was solved and what it cost — ``distance2``
         (the increase of the residual sum of squares over the unconstrained fit's, in units of its
@@ -196,6 +264,8 @@ class IdentificationResult:
     full_parameters: FloatArray | None = None
     physical: dict[str, Any] | None = None
     noise_std: FloatArray | None = None
+    colour_std: FloatArray | None = None
+    residual_lag1: FloatArray | None = None
     _meta: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -234,7 +304,9 @@ class IdentificationResult:
         uncertainty adds there, ``y_kᵀ C y_k`` (:attr:`covariance`); the band is the prediction ±
         the Student-t quantile (``rows − r`` degrees of freedom) times its root. It assumes white,
         Gaussian noise as the covariance does: on coloured residuals it is too narrow, which
-        :meth:`PredictionInterval.share_inside` shows on a validation run.
+        :meth:`PredictionInterval.share_inside` shows on a validation run. A missing term widens it
+        (the noise level grows with the term), which the share cannot show and
+        :meth:`PredictionInterval.coverage_test` can.
 
         Parameters
         ----------
@@ -259,7 +331,8 @@ class IdentificationResult:
         dof = self.rows - self.rank
         quantile = float(scipy.stats.t.ppf(0.5 + level / 2.0, dof)) if dof > 0 else float("inf")
         return PredictionInterval(prediction=pred, lower=pred - quantile * std, upper=pred + quantile * std,
-                                  std=std, level=level, quantile=quantile, noise_std=noise)
+                                  std=std, level=level, quantile=quantile, noise_std=noise,
+                                  design=y.reshape(n, m, -1))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
@@ -305,6 +378,129 @@ class IdentificationResult:
                          f"{self.physical['distance2']:.4g} from the unconstrained estimate, "
                          f"{100 * self.physical['share']:.3g} % of its mean square")
         return "\n".join(lines)
+
+
+    def coloured(self) -> bool:
+        """Whether the estimation residual is coloured (:attr:`residual_lag1` beyond white noise's 99 % band)."""
+        if self.residual_lag1 is None:
+            return False
+        n = self.rows // max(self.n_joints, 1)
+        return bool(np.any(np.abs(self.residual_lag1) > 2.576 / np.sqrt(max(n, 1))))
+
+    def coefficients(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> dict[str, Any]:
+        """Per base parameter: estimate, standard error, t, two-sided p-value and the ``level`` interval.
+
+        ``std="white"`` uses :attr:`std` (white noise; Student t with ``rows − r`` degrees of
+        freedom), ``"colour"`` uses :attr:`colour_std` (normal quantiles: an asymptotic result),
+        ``"auto"`` the latter when the residual is :meth:`coloured` and it is available. The entry
+        ``std_kind`` says which was used.
+        """
+        level = check_level(level)
+        if std not in ("auto", "white", "colour"):
+            raise parameter_error("std", "'auto', 'white' or 'colour'", std)
+        use_colour = self.colour_std is not None and (std == "colour" or (std == "auto" and self.coloured()))
+        if std == "colour" and self.colour_std is None:
+            raise parameter_error("std", "'white' or 'auto': this result has no colour-robust standard errors "
+                                  "(physical=True, or built by hand)", std)
+        se = np.asarray(self.colour_std if use_colour else self.std, dtype=np.float64)
+        dof = self.rows - self.rank
+        dist = scipy.stats.norm if use_colour or dof <= 0 else scipy.stats.t(dof)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = self.estimate / se
+        quantile = float(dist.ppf(0.5 + level / 2.0))
+        return {"name": list(self.base_names), "estimate": self.estimate, "std_err": se, "t": t,
+                "pvalue": 2.0 * dist.sf(np.abs(t)), "lower": self.estimate - quantile * se,
+                "upper": self.estimate + quantile * se, "level": level,
+                "std_kind": "colour" if use_colour else "white"}
+
+    def to_frame(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> Any:
+        """The coefficient table of :meth:`summary` as a pandas DataFrame, one row per base parameter."""
+        from .report._json import to_frame
+
+        c = self.coefficients(level=level, std=std)
+        return to_frame({k: c[k] for k in ("estimate", "std_err", "t", "pvalue", "lower", "upper")}, c["name"],
+                        "parameter", "IdentificationResult.to_frame()")
+
+    def summary(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> str:
+        """The fit as a statistician reads it first: sizes, σ², conditioning, and per base parameter the
+        estimate, standard error, t, p and the ``level`` confidence interval (:meth:`coefficients`),
+        with notes on the base parameters and on the standard errors used.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from dynval.identify import identify
+        >>> x = np.linspace(-1.0, 1.0, 50)
+        >>> fit = identify(np.column_stack([np.ones(50), x]), 2.0 + 0.5 * x + 0.01 * np.cos(40 * x),
+        ...                column_names=["offset", "slope"])
+        >>> print(fit.summary())  # doctest: +ELLIPSIS
+        Identification: least squares on τ = Y π + ε
+        ...
+        parameter  estimate    std err  ...
+        offset     ...
+        """
+        c = self.coefficients(level=level, std=std)
+        width = max([len("parameter")] + [len(s) for s in c["name"]])
+        lo, hi = f"[{(1 - c['level']) / 2:.3g}", f"{(1 + c['level']) / 2:.3g}]"
+        head = (f"{'parameter':<{width}}  {'estimate':>11}  {'std err':>10}  {'t':>9}  {'P>|t|':>9}  "
+                f"{lo:>11}  {hi:>11}")
+        rule = "=" * len(head)
+        dof = self.rows - self.rank
+        n = self.rows // max(self.n_joints, 1)
+        lines = ["Identification: least squares on τ = Y π + ε"
+                 + (" under physical consistency" if self.full_parameters is not None else ""), rule,
+                 f"samples N = {n}, joints m = {self.n_joints}, rows N·m = {self.rows}, columns p = {self.n_columns}",
+                 f"rank r = {self.rank}, residual degrees of freedom = {dof}, σ² = {self.sigma2:.4g}"
+                 + ("" if self.joint_std is None else " (weighted by each joint's σ)"),
+                 f"condition number of the base regressor = {self.condition_number:.4g}, rank tolerance = "
+                 f"{self.rcond:.3g}", rule, head, "-" * len(head)]
+        for i, name in enumerate(c["name"]):
+            lines.append(f"{name:<{width}}  {c['estimate'][i]:>11.5g}  {c['std_err'][i]:>10.4g}  {c['t'][i]:>9.3g}  "
+                         f"{c['pvalue'][i]:>9.3g}  {c['lower'][i]:>11.5g}  {c['upper'][i]:>11.5g}")
+        lines += [rule, "Notes:"] + [f"[{k}] {note}" for k, note in enumerate(self._summary_notes(c), start=1)]
+        return "\n".join(lines)
+
+    def _summary_notes(self, c: dict[str, Any]) -> list[str]:
+        notes = []
+        dropped = self.n_columns - self.rank
+        if dropped:
+            notes.append(f"Base parameters: {dropped} of the {self.n_columns} columns are zero or combinations of "
+                         "others; each name shows the combination the parameter stands for.")
+        lag1 = "" if self.residual_lag1 is None else (
+            f" (largest |lag-1 autocorrelation| of a joint's residual: {np.max(np.abs(self.residual_lag1)):.3g})")
+        if c["std_kind"] == "colour":
+            ratio = np.nanmax(np.asarray(self.colour_std) / self.std) if np.all(self.std > 0) else float("nan")
+            notes.append(f"The residual is coloured{lag1}: standard errors, t, p and intervals allow for it "
+                         f"(Newey–West long-run variance, normal quantiles); they are up to {ratio:.3g} × the "
+                         "white-noise ones (std=\"white\" shows those).")
+        elif self.coloured():
+            notes.append(f"The residual is coloured{lag1}: the standard errors shown assume white noise and are "
+                         "too small" + (" (std=\"auto\" allows for the colour)." if self.colour_std is not None
+                                        else "; this result has no colour-robust ones."))
+        else:
+            notes.append(f"Standard errors assume white noise (Student t, {self.rows - self.rank} degrees of "
+                         f"freedom); the residual shows no colour{lag1}.")
+        return notes
+
+    def _repr_html_(self) -> str:
+        import html
+
+        c = self.coefficients()
+        cells = "".join(
+            f"<tr><td>{html.escape(name)}</td>" + "".join(
+                f"<td style='text-align:right'>{c[k][i]:.4g}</td>"
+                for k in ("estimate", "std_err", "t", "pvalue", "lower", "upper")) + "</tr>"
+            for i, name in enumerate(c["name"]))
+        head = "".join(f"<th>{h}</th>" for h in ("parameter", "estimate", "std err", "t", "P>|t|",
+                                                 f"[{(1 - c['level']) / 2:.3g}", f"{(1 + c['level']) / 2:.3g}]"))
+        return (f"<p>Identification: rank {self.rank} of {self.n_columns} columns, {self.rows} rows, "
+                f"σ² = {self.sigma2:.4g}, {c['std_kind']}-noise standard errors</p>"
+                f"<table><thead><tr>{head}</tr></thead><tbody>{cells}</tbody></table>")
+
+    def __repr__(self) -> str:
+        return (f"IdentificationResult(rank={self.rank} of {self.n_columns} columns, rows={self.rows}, "
+                f"joints={self.n_joints}, sigma2={self.sigma2:.4g}, condition_number={self.condition_number:.4g}"
+                + (", physical" if self.full_parameters is not None else "") + ")")
 
 
 def _stack(regressor: ArrayLike, tau_meas: ArrayLike,
@@ -400,10 +596,9 @@ def _pivoted_qr(a: FloatArray, rcond: float, with_q: bool = True) -> dict[str, A
     ``a``, in pivot order), or None when no column is kept or the rank is 0.
     """
     scale = np.sqrt(np.einsum("ij,ij->j", a, a))
-    # A column whose norm is within rcond of the largest is roundoff of a structurally zero
-    # column (cos(π/2) = 6e-17 in a kinematic chain); scaled to unit norm it would look
-    # independent and be "identified" from noise.
-    nonzero = np.flatnonzero(scale > rcond * scale.max())
+    # A column whose norm is roundoff of a structurally zero column (cos(π/2) = 6e-17 in a
+    # kinematic chain) would look independent scaled to unit norm and be "identified" from noise.
+    nonzero = np.flatnonzero(~zero_columns(scale))
     if nonzero.size == 0:
         return None
     a_s = a[:, nonzero] / scale[nonzero]
@@ -440,9 +635,9 @@ def base_set(a: FloatArray, rcond: float) -> dict[str, Any]:
     """The base columns of ``a`` (rows × p, or any matrix with its R factor, such as that R).
 
     The reduction :func:`identify` makes, without solving: ``rank``, ``base`` (ascending),
-    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (columns
-    whose norm is at most ``rcond`` times the largest), ``combination`` (rank × p: each base
-    parameter as a combination of the columns) and ``pivots`` (|R_kk| relative to |R_00|).
+    ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (zero
+    columns: norm 0 or roundoff, ``_regressor_algebra.zero_columns``), ``combination`` (rank × p: each base
+    parameter as a combination of the columns) and ``pivots`` (``|R_kk|`` relative to ``|R_00|``).
     """
     p = a.shape[1]
     f = _pivoted_qr(a, rcond, with_q=False)
@@ -548,8 +743,10 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         With ``physical=True``: the parameters to pull towards where the data say little (the URDF's
         a-priori values, :meth:`dynval.robots.URDFModel.parameters`); None pulls towards zero.
     prior_weight : float
-        Weight of ``‖π − prior‖²`` relative to the mean curvature of the data term (σ²-scaled):
-        the default 1e-6 only picks one answer in the directions the data cannot see.
+        Weight of ``(π_c − prior_c)²`` relative to the curvature of the data term (σ²-scaled) in
+        its column's link (the geometric mean of ‖G_c‖² over the link's columns; its own for a
+        friction or free column), so that it does not depend on the columns' units: the default
+        1e-6 only picks one answer in the directions the data cannot see.
     prior_metric : {"euclidean", "entropic"}
         With ``physical=True``: how the prior pulls. ``"euclidean"``: ``‖π − prior‖²``.
         ``"entropic"``: each link's Bregman divergence of −log det between its pseudo-inertia and the
@@ -682,7 +879,29 @@ def identify(regressor: ArrayLike, tau_meas: ArrayLike, *, weights: Literal["per
         full_parameters=full,
         physical=info,
         noise_std=noise_std,
+        colour_std=None if physical else _colour_std(a_w[:, base], resid_w, solved["cinv"], n, m),
+        residual_lag1=_lag1(resid.reshape(n, m)),
     )
+
+
+def _colour_std(a_b: FloatArray, resid: FloatArray, cinv: FloatArray, n: int, m: int) -> FloatArray:
+    """Standard errors robust to the residual's colour (:attr:`IdentificationResult.colour_std`)."""
+    from .statistics._stats import long_run_variance
+
+    scores = np.einsum("kjc,kj->kc", a_b.reshape(n, m, -1), resid.reshape(n, m))
+    influence = scores @ cinv.T  # π̂ − π = Σ_k influence_k
+    lrv = long_run_variance(influence, np.array([0])).long_run_variance
+    out: FloatArray = np.sqrt(np.clip(n * lrv, 0.0, None))
+    return out
+
+
+def _lag1(resid: FloatArray) -> FloatArray:
+    """Each joint's lag-1 (biased) autocorrelation; 0 for a constant residual."""
+    centred = resid - resid.mean(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.sum(centred[1:] * centred[:-1], axis=0) / np.sum(centred**2, axis=0)
+    out: FloatArray = np.nan_to_num(rho, nan=0.0)
+    return out
 
 
 def _physical_fit(a_w: FloatArray, b_w: FloatArray, sigma2: float, names: tuple[str, ...], solved: dict[str, Any],

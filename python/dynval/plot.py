@@ -5,15 +5,15 @@ a figure is made. The figures are built on ``matplotlib.figure.Figure`` directly
 ``pyplot``: no display, no global state, and nothing to close; save one with
 ``fig.savefig("name.png", dpi=120)`` (the Agg renderer).
 
-==========================  ==============================================================
-:func:`residuals`           residual over time per joint, segment boundaries marked
-:func:`autocorrelation`     residual autocorrelation per joint with its band (lesson §4.2)
-:func:`autocorrelation_by_model`  one joint's residual autocorrelation for each candidate
-:func:`spectrum`            residual spectrum per joint (log–log), found oscillations marked
-:func:`cross_correlation`   joints × regressor columns heatmap of max |ρ| / colour-aware band
-:func:`metrics`             per-joint VAF / fit / R² bars for each candidate of a comparison
-:func:`prediction`          measured and predicted torque per joint
-==========================  ==============================================================
+==================================  ==============================================================
+:func:`residuals`                   residual over time per joint, segment boundaries marked
+:func:`autocorrelation`             residual autocorrelation per joint with its band (lesson §4.2)
+:func:`autocorrelation_by_model`    one joint's residual autocorrelation for each candidate
+:func:`spectrum`                    residual spectrum per joint (log–log), found oscillations marked
+:func:`cross_correlation`           joints × regressor columns heatmap of ``max |ρ|`` / colour-aware band
+:func:`metrics`                     per-joint VAF / fit / R² bars for each candidate of a comparison
+:func:`prediction`                  measured and predicted torque per joint
+==================================  ==============================================================
 
 Every function takes the names it can use (``joint_names``, ``column_names``) and otherwise
 falls back to the names and sample rate recorded in a report's provenance.
@@ -55,8 +55,19 @@ def _provenance(report, key, default=None):
 
 def _literal(text) -> str:
     """A user's name as matplotlib text: ``$`` escaped, so that it is drawn as written instead of
-    parsed as mathtext (``$\\frac$`` would stop the figure with a parse error)."""
-    return str(text).replace("$", r"\$")
+    parsed as mathtext (``$\\frac$`` would stop the figure with a parse error), and a byte that was
+    not UTF-8 written as ``\\xff`` (a lone surrogate stops the font's text layout)."""
+    from .report._text import printable
+
+    return printable(text).replace("$", r"\$")
+
+
+def _finite_min(values, default: float) -> float:
+    """The smallest finite value, or ``default`` when there is none (an exactly zero residual has an
+    all-nan autocorrelation; np.nanmin would warn "All-NaN slice encountered" on standard error)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.min()) if v.size else float(default)
 
 
 def _joint_names(names, m, report=None):
@@ -186,7 +197,7 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
                 bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "#999999"})
         ax.set_ylabel(f"{names[j]}\nautocorrelation ρ")
         ax.set_xlim(-0.5, lmax + 0.5)
-        ax.set_ylim(min(-1.05, float(np.nanmin(r)) - 0.05), 1.3)
+        ax.set_ylim(min(-1.05, _finite_min(r, 0.0) - 0.05), 1.3)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("lag ℓ (samples)")
     if fs:
@@ -194,8 +205,27 @@ def autocorrelation(report, *, joint_names=None, sample_rate=None, title=None):
         top.set_xlabel("lag (s)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize="small")
-    fig.suptitle(title or "Residual autocorrelation per joint (white residual: inside the band)")
+    rates = _two_rates_words(source, fs, lmax)
+    fig.suptitle((title or "Residual autocorrelation per joint (white residual: inside the band)")
+                 + (f"\n{rates}" if rates else ""), fontsize="medium" if rates else None)
     return fig
+
+
+def _two_rates_words(report, fs, lmax: int) -> str:
+    """Why the whiteness finding's lags differ from this figure's: the finding's Ljung–Box has its own
+    largest lag, and may be counted at the information rate (every k-th sample)."""
+    wh = getattr(report, "whiteness", None)
+    if wh is None:
+        return ""
+    k, lag_d, lag = (getattr(wh, name, None) for name in ("decimation", "lag_decimated", "lag"))
+    seconds = (lambda n: f" ({n / fs:.3g} s)") if fs else (lambda n: "")
+    if isinstance(k, (int, np.integer)) and k > 1 and isinstance(lag_d, (int, np.integer)):
+        rate = f", {fs / k:.3g} Hz" if fs else ""
+        return (f"lags at the logged rate; the whiteness finding tests every {k}th sample (the information "
+                f"rate{rate}),\nup to its lag {lag_d} = {lag_d * k} samples here{seconds(lag_d * k)}")
+    if isinstance(lag, (int, np.integer)) and lag != lmax:
+        return f"the whiteness finding's Ljung–Box runs to lag {lag}{seconds(lag)}, this figure to lag {lmax}"
+    return ""
 
 
 def _p_text(p, log_p):
@@ -357,7 +387,7 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     the colour-aware one.
 
     The colour-aware band is the one the findings use: Bartlett's variance for two coloured
-    series (``z_max``, the largest |ρ(ℓ)|/sd(ℓ) over the lags, divided by the band's z), so a
+    series (``z_max``, the largest ``|ρ(ℓ)|/sd(ℓ)`` over the lags, divided by the band's z), so a
     cell above 1 is one whose correlation exceeds z·sd at some lag. Without ``z_max`` (a
     streamed report) the colour factor scales the white band when it is there, else the white
     band z/√N is used, and the second value is False. Constant columns are NaN.
@@ -369,8 +399,8 @@ def cross_correlation_ratio(section) -> tuple[np.ndarray, bool]:
     if "max_abs_rho" in xc and xc["max_abs_rho"] is not None:
         mx = np.asarray(xc["max_abs_rho"], dtype=float)
     else:
-        with np.errstate(invalid="ignore"):
-            mx = np.nanmax(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
+        # fmax ignores nan without numpy's "All-NaN slice" warning: a constant column's row stays nan
+        mx = np.fmax.reduce(np.abs(np.asarray(xc["rho"], dtype=float)), axis=2)
     cm = xc.get("constant_mask") if hasattr(xc, "get") else None
     mask = np.zeros_like(mx, dtype=bool) if cm is None else np.asarray(cm, dtype=bool)
     z_max = xc.get("z_max") if hasattr(xc, "get") else None
@@ -546,10 +576,11 @@ def metrics(comparison, *, names=None, joint_names=None, which=("vaf", "fit_perc
                     cut = True
                     ax.text(xp, floor, f"{v:.3g}", rotation=90, ha="center", va="bottom", fontsize="x-small",
                             color="white" if i % len(_COLOURS) in (0, 1, 3, 5) else "black")
-            lowest = min(lowest, float(np.nanmin(shown)))
+            lowest = min(lowest, _finite_min(shown, lowest))
         ax.axhline(top, color="black", lw=0.8, ls=":")
-        ax.annotate("perfect", (1.0, top), xycoords=("axes fraction", "data"), xytext=(-3, 2),
-                    textcoords="offset points", ha="right", va="bottom", fontsize="x-small")
+        # at the left end of the line: the right end is where the note on cut bars goes
+        ax.annotate("perfect", (0.0, top), xycoords=("axes fraction", "data"), xytext=(3, 2),
+                    textcoords="offset points", ha="left", va="bottom", fontsize="x-small")
         ax.axhline(0.0, color="black", lw=0.6)
         if cut:
             ax.set_title(f"bars below {floor:g} are cut there, their value printed on them", loc="right",
@@ -580,25 +611,44 @@ def prediction(tau_meas, tau_pred, *, sample_rate=None, joint_names=None, model_
     names = _joint_names(joint_names, m, report)
     x, xlabel = _time_axis(n, fs)
     sel = slice(None)
+    shown = ""
     if window is not None:
         sel = (x >= window[0]) & (x <= window[1])
-    fig = _figure(10, 1.0 + 1.9 * m)
+        shown = _window_words(x, sel, "s" if fs else "samples")
+    fig = _figure(10, 1.4 + 1.9 * m)
     axes = _stack_axes(fig, m)
     label = f"predicted ({_literal(model_name)})" if model_name else "predicted"
+    shares = interval.share_inside(meas) if interval is not None else None
     for j, ax in enumerate(axes):
         ax.plot(x[sel], meas[sel, j], color=_MEASURED, lw=1.6, label="measured")
         ax.plot(x[sel], pred[sel, j], color="#d62728", lw=1.1, label=label)
         if interval is not None:
-            share = float(interval.share_inside(meas)[j])
             ax.fill_between(x[sel], interval.lower[sel, j], interval.upper[sel, j], color="#d62728", alpha=0.18,
-                            lw=0, label=f"{100 * interval.level:g} % prediction interval "
-                                        f"({100 * share:.1f} % of the measured inside)")
+                            lw=0, label=f"{100 * interval.level:g} % prediction interval")
+            # the share is over the whole run, not only the window shown
+            ax.set_title(f"{100 * float(shares[j]):.1f} % of the measured torque inside the band (whole run)",
+                         fontsize="small", loc="right")
         ax.set_ylabel(f"{names[j]}\ntorque ({unit})")
-        ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel(xlabel)
-    fig.suptitle(title or ("Measured and predicted joint torque" + (f" — {model_name}" if model_name else "")))
+    # one legend below the panels: inside an axes it covers the data
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize="small", frameon=False)
+    named = f" — {_literal(model_name)}" if model_name else ""
+    fig.suptitle((title or ("Measured and predicted joint torque" + named)) + (f"\n{shown}" if shown else ""))
     return fig
+
+
+def _window_words(x, sel, unit: str) -> str:
+    """What part of the run a zoomed figure shows (``"0–10 s of 20 s shown"``)."""
+    if not np.any(sel):
+        return "no sample in the window"
+    lo, hi = float(x[sel][0]), float(x[sel][-1])
+    step = float(x[1] - x[0]) if len(x) > 1 else 0.0
+    total = float(x[-1] - x[0] + step)
+    if lo <= float(x[0]) and hi >= float(x[-1]):
+        return ""
+    return f"{lo:.3g}–{hi + step:.3g} {unit} of {total:.3g} {unit} shown"
 
 
 def _fleet_x(times):
@@ -649,7 +699,7 @@ def fleet_metrics(fleet, *, which=("rmse", "vaf"), title=None):
         for ax, metric in zip(axes, which):
             y = [getattr(r, metric) for _, r in mine]
             ax.plot(x, y, marker="o", ms=3.5, lw=2.0 if flagged else 1.0, color=colour,
-                    alpha=1.0 if flagged else 0.55, label=f"{robot} (drift)" if flagged else robot)
+                    alpha=1.0 if flagged else 0.55, label=_literal(f"{robot} (drift)" if flagged else robot))
             if flagged:
                 ax.axvline(x[d.change], color=colour, ls="--", lw=1.0)
                 ax.plot(x[d.change:], y[d.change:], ls="none", marker="o", ms=7, mfc="none", mec=colour)
@@ -692,7 +742,8 @@ def fleet_drift(fleet, *, title=None, max_robots: int = 24):
         holm_p = "Holm " + _p_text(d.pvalue_adjusted, None)
         state = (f"DRIFT from log {d.change + 1}, ×{d.ratio:.2g}, {holm_p}" if flagged
                  else ("not tested" if not d.tested else f"no drift ({holm_p})"))
-        ax.set_title(f"{d.robot}: {state}", fontsize="small", loc="left", color=_COLOURS[1] if flagged else "black")
+        ax.set_title(f"{_literal(d.robot)}: {state}", fontsize="small", loc="left",
+                     color=_COLOURS[1] if flagged else "black")
         ax.grid(True, alpha=0.3)
         ax.tick_params(labelsize="x-small")
     for ax in axes[len(tests):]:

@@ -372,7 +372,7 @@ def _array_type(arr: np.ndarray) -> str:
 
 
 def encode_array(name: str, values: Any, keyword: str = "array", encoding: str = "decimal") -> str:
-    """Write ``array NAME TYPE NDIM D1 .. Dn V1 .. Vk`` (values row-major).
+    """Write the line ``array NAME TYPE NDIM D1 … Dn V1 … Vk`` (values row-major).
 
     ``TYPE`` is ``real`` (float arrays; numbers as :func:`format_real`), ``int``
     or ``bool`` (``0``/``1``). ``keyword="result"`` writes a ``result`` line,

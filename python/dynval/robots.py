@@ -231,6 +231,11 @@ class URDFModel:
         return identify(y, tau_meas, column_names=names, physical=physical, **kwargs)
 
 
+# a URDF path given where a model is taken (physical_consistency, validate(parameters=...)) is read
+# with URDFModel; the report layer, below this one, gets the reader here
+_consistency.register_urdf_reader(URDFModel)
+
+
 # --------------------------------------------------------------------------- physical consistency
 
 

@@ -22,7 +22,7 @@ tuned to one simulator. This module is a library of such scenarios (docs/convent
   torque RMS on a reference trajectory: ``white``, ``t3`` (Student t, 3 dof), ``ar0.9``,
   ``ar0.99``, ``ar0.999`` (AR(1), marginal sd σ), ``lowpass`` (white noise through a 2nd-order
   Butterworth low-pass at 30 Hz, run at 1 kHz and sampled at the run's rate), ``heteroscedastic``
-  (sd ∝ 0.3 + |q̇_j|/max|q̇_j|, RMS σ) and ``jitter`` (white noise, and every row — positions
+  (sd ∝ ``0.3 + |q̇_j|/max|q̇_j|``, RMS σ) and ``jitter`` (white noise, and every row — positions
   and torques alike — taken at t_k + U(−0.3, 0.3)/f_s while the run is analysed as uniformly
   sampled: a logger whose rows are consistent but whose stamps are irregular).
 * **Scenarios** (:func:`library`): a right model under every noise (size), and deficient models
@@ -309,7 +309,7 @@ def noise(kind: str, rng: np.random.Generator, n: int, sigma: FloatArray, sample
           dq: FloatArray | None = None) -> FloatArray:
     """Noise ``(n, m)`` of kind ``kind`` with marginal standard deviation ``sigma`` (m,) per joint.
 
-    ``heteroscedastic`` needs ``dq`` (its sd is ∝ 0.3 + |q̇_j|/max|q̇_j|, scaled to RMS σ_j on
+    ``heteroscedastic`` needs ``dq`` (its sd is ∝ ``0.3 + |q̇_j|/max|q̇_j|``, scaled to RMS σ_j on
     the run); ``lowpass`` is generated at 1 kHz and taken every 1000/f_s-th sample.
     """
     import scipy.signal

@@ -7,15 +7,23 @@ of each quantity's natural size), to ``validate`` on the concatenated data with 
 
 * point metrics pooled and per joint, their aggregates;
 * residual mean, variance (the profile's ddof) and the zero-mean test, both halves;
+* the coloured-noise bias test, ``validate``'s estimator from the lag sums and the rows at the
+  segments' ends (equal to rounding with segments longer than the lags held, contract §4.1), unless
+  its bandwidth needs more lags than are held;
 * autocorrelation with its band and Ljung–Box, across chunk boundaries, honouring segments;
 * the cross-correlation ρ with the regressor columns at lags 0..max_lag;
-* the information criteria of the noise model (not their N_eff-based variants);
+* the information criteria of the noise model, and their N_eff-based variants with the bias test;
 * with time stamps (``update(..., time=...)``), the ``timing`` section and the ``time_stamps`` note,
   a gap in the stamps ending the segment as :meth:`~ValidationAccumulator.break_segment` does.
 
-Sections that need the whole series are None or partial (``bias``, ``spectrum``, ``design`` and
-``segment_metrics`` None; ``whiteness`` at the logged rate only; the cross-correlation without its
-colour-aware fields; findings from this evidence only): docs/contract.md §4.1 lists them.
+* without a regressor, the residual's Welch spectrum and its peak tests, summed window by window
+  (``dynval.streaming._welch``; merged accumulators keep it only across a break);
+
+Sections that need the whole series are None or partial (``design`` and ``segment_metrics`` None,
+``spectrum`` with a regressor; ``whiteness`` at the logged rate only; the cross-correlation without its
+colour-aware fields; findings from this evidence only, Holm over a family of ``validate``'s size):
+docs/contract.md §4.1 lists them, and the report names every test it left out
+(``provenance["not_tested"]``, :mod:`dynval.coverage`).
 
 Two accumulators over consecutive time ranges combine with :meth:`~ValidationAccumulator.merge`
 (the argument's rows come after the accumulator's): the lags join across the junction, as they do
@@ -65,6 +73,7 @@ from .checks._options import (
     to_setting,
 )
 from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .kernels._reference.information import _pooled_sum, assemble, fit_term_from_sums
 from .kernels._reference.portmanteau import chi2_logsf
@@ -73,8 +82,11 @@ from .metrics._results import ZeroMeanTest
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
+from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
+from .streaming._edges import SegmentEdges
 from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
+from .streaming._welch import SIZES, WelchSums
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
 
@@ -96,9 +108,14 @@ _MAX_BLOCK_ROWS = 1 << 16
 # median step that counts the steps of the inferred rate; until then the rows wait, unsummed.
 SETTLE_STEPS = 100
 
+# What an update changes before its stamps are checked against the grid they set (restored on a refusal).
+_WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting",
+                   "_waiting_rows")
+
 # The settings two accumulators must share to merge, in the order their difference is reported.
 _MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide", "backend")
+                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
+                    "backend")
 
 
 class ValidationAccumulator:
@@ -119,9 +136,14 @@ class ValidationAccumulator:
     profile, level, noise_model, nan_policy, sample_rate, joint_names, column_names, thresholds, allow_wide
         As for :func:`dynval.validate`. ``nan_policy="omit"`` deletes rows and inserts a segment
         break where rows were deleted, across chunk boundaries too.
+    time_units_checked : bool
+        As for :func:`dynval.validate`: False accepts time stamps at any rate. Checked on the
+        stamps that set the nominal step (the first 100 steps), and again on the whole stream's at
+        :meth:`result`.
     bandwidth : float, optional
         As for :func:`dynval.validate`: whiteness evidence above it (Hz) is a ``processing_band``
-        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``).
+        note. Needs ``sample_rate`` or time stamps with the chunks (``update(..., time=...)``), and
+        is at most their Nyquist frequency.
     backend : None, "python" or "cpp"
         Where the sums run: ``"cpp"`` the C++ core's ``StreamState``, ``"python"`` numpy (the
         reference); ``None`` the default backend (:func:`dynval.backends`). The report is built
@@ -144,7 +166,7 @@ class ValidationAccumulator:
     def __init__(self, *, n_params: Integer, max_lag: Integer | None = None, n_joints: Integer | None = None,
                  profile: ProfileName = "lesson", level: float | None = None, noise_model: NoiseModel | None = None,
                  nan_policy: NanPolicy = "raise", backend: Literal["python", "cpp"] | None = None,
-                 sample_rate: float | None = None, bandwidth: float | None = None,
+                 sample_rate: float | None = None, time_units_checked: bool = True, bandwidth: float | None = None,
                  joint_names: Sequence[str] | None = None, column_names: Sequence[str] | None = None,
                  thresholds: Thresholds | dict[str, float] | None = None, allow_wide: bool = False,
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
@@ -153,11 +175,15 @@ class ValidationAccumulator:
         self._settings = check_options(Keywords(
             n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
             max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            bandwidth=bandwidth, decimate=decimate, joint_names=joint_names, column_names=column_names, q=q,
+            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
+            column_names=column_names, q=q,
             estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
             model_columns=model_columns, allow_wide=allow_wide), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
+        self._welch: WelchSums | None = None  # the residual's window periodograms (no regressor, lags held)
+        self._edges: SegmentEdges | None = None  # the residual at the inner segment junctions (lags held)
+        self._entry = "stream"  # whose tests the report names as left out (dynval.coverage): dask's, the CLI's
         # rows of the current segment not yet summed: (tau_meas, tau_pred, regressor) chunks
         self._pending: list[tuple[FloatArray, FloatArray, FloatArray | None]] = []
         self._pending_rows = 0
@@ -172,6 +198,7 @@ class ValidationAccumulator:
         # ("rows", meas, pred, reg, time, breaks, kept stamps) or ("break",)
         self._waiting: list[tuple[Any, ...]] | None = None
         self._waiting_rows = 0  # kept rows in it
+        self._frozen_rows = 0  # waiting rows summed because their stamps never advanced (_sum_frozen)
         self._first_seen: float | None = None  # the first and the last stamp of any row (omitted too)
         self._last_seen: float | None = None
 
@@ -236,6 +263,8 @@ class ValidationAccumulator:
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
         stamps = self._checked_time(time, meas.shape[0])
+        # what the chunk changes before its stamps may settle the grid (and be refused there)
+        before = {name: getattr(self, name) for name in _WAITING_FIELDS}
         if self._layout is None:
             self._layout = self._new_layout(meas.shape[1], 0 if reg is None else reg.shape[2])
         self._chunks += 1
@@ -259,7 +288,14 @@ class ValidationAccumulator:
         self._waiting.append(("rows", meas.copy(), pred.copy(), None if reg is None else reg.copy(), stamps.copy(),
                               tuple(breaks), kept))
         self._waiting_rows += kept.size
-        self._settle_when_known()
+        try:
+            self._settle_when_known()
+        except InputError as exc:  # the stamps that set the grid refused: the chunk is not taken
+            if self._waiting is not None and self._waiting and self._waiting[-1][0] == "rows":
+                self._waiting.pop()
+            for name, value in before.items():
+                setattr(self, name, value)
+            raise type(exc)(f"chunk {before['_chunks']}: {exc}") from None
 
     def _feed_chunk(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, breaks: Sequence[int]) -> None:
         """Sum a checked chunk, with segment breaks before its rows ``breaks``."""
@@ -294,32 +330,72 @@ class ValidationAccumulator:
         return keep
 
     def _settle_when_known(self) -> None:
-        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive."""
-        if self._waiting is None or self._waiting_rows <= SETTLE_STEPS:
+        """Sum the waiting updates once their stamps hold SETTLE_STEPS steps, one of them positive.
+        Waiting stamps that never advanced are summed at once (a frozen clock: every step a
+        duplicate whatever the grid), so that the rows held stay bounded."""
+        if self._waiting is None or self._waiting_rows + self._frozen_rows <= SETTLE_STEPS:
             return
         stamps = self._first_stamps()
         if stamps is not None:
             self._settle(stamps)
+        else:
+            self._sum_frozen()
 
-    def _first_stamps(self) -> Stamps | None:
-        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
-        ``_timing`` finds in the waiting stamps, and their median step (which counts the steps of
-        the inferred rate); None without a positive step."""
+    def _sum_frozen(self) -> None:
+        """Sum the waiting rows, whose stamps are all equal (no positive step), against a nominal step
+        still unknown (NaN: a zero step is a duplicate, never a gap nor irregular, on any grid); the
+        nominal step replaces it when the stamps advance (:meth:`_settle`)."""
+        assert self._waiting is not None
+        events, self._waiting = self._waiting, None
+        self._frozen_rows += self._waiting_rows
+        self._waiting_rows = 0
+        if self._stamps is None:
+            self._stamps = Stamps(math.nan, math.nan)
+        for event in events:
+            if event[0] == "break":
+                self.break_segment()
+            else:
+                self._feed_timed(*event[1:6])
+        self._waiting = []
+
+    def _waiting_stamps(self) -> list[FloatArray]:
+        """The stamps that set the nominal step: after a summed frozen start its stamp, then the
+        waiting rows' kept stamps."""
         assert self._waiting is not None
         parts = [event[6] for event in self._waiting if event[0] == "rows"]
+        if self._stamps is not None and self._stamps.last is not None:  # after a summed frozen start
+            parts.insert(0, np.array([self._stamps.last]))
+        return parts
+
+    def _first_stamps(self, later: Sequence[FloatArray] = ()) -> Stamps | None:
+        """The summary that classifies the steps: the nominal step of ``sample_rate``, else the one
+        ``_timing`` finds in the waiting stamps (and ``later``'s, in a merge), and their median step
+        (which counts the steps of the inferred rate); None without a positive step."""
+        parts = [*self._waiting_stamps(), *later]
         t = np.concatenate(parts) if parts else np.zeros(0)
         steps = np.diff(t - t[0]) if t.size else t
         positive = steps[steps > 0]
         if not positive.size:
             return None
-        rate = self._settings.sample_rate
-        return Stamps(_timing._nominal_step(t, steps) if rate is None else 1.0 / rate, float(np.median(positive)))
+        cfg = self._settings
+        nominal = _timing.nominal_step(t, steps)
+        if cfg.time_units_checked:
+            _timing.check_units(nominal)
+        if cfg.sample_rate is None:
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, 1.0 / nominal)
+        else:  # checked against these stamps now, before any step is classified against it
+            nominal = _timing.given_step(cfg.sample_rate, nominal)
+        return Stamps(nominal, float(np.median(positive)))
 
     def _settle(self, stamps: Stamps) -> None:
         """Classify and sum the waiting updates with the summary ``stamps`` (its nominal step)."""
         assert self._waiting is not None
         events, self._waiting, self._waiting_rows = self._waiting, None, 0
-        self._stamps = stamps
+        if self._stamps is None:
+            self._stamps = stamps
+        else:  # a frozen start, summed before the grid was known: only duplicates, nothing to recentre
+            self._stamps.nominal, self._stamps.median = stamps.nominal, stamps.median
         for event in events:
             if event[0] == "break":
                 self.break_segment()
@@ -378,6 +454,10 @@ class ValidationAccumulator:
             self._break_first = True
         else:
             self._state.end_break = True
+        if self._welch is not None:
+            self._welch.end_segment()
+        if self._edges is not None:
+            self._edges.end_segment()
 
     def merge(self, other: ValidationAccumulator) -> ValidationAccumulator:
         """Add ``other``'s data, which come after this accumulator's in time; returns ``self``.
@@ -447,10 +527,24 @@ class ValidationAccumulator:
                 self._state = self._new_state(later._state.layout)
                 self._state.end_break = self._break_first
             self._state.merge(later._state)
+            self._merge_welch(later)
         self._chunks += other._chunks
         self._rows_seen += other._rows_seen
         self._omitted += other._omitted
         return self
+
+    def _merge_welch(self, later: ValidationAccumulator) -> None:
+        """The window periodograms and the segment junctions of a merge (``later`` flushed, with rows)."""
+        if later._welch is not None:
+            if self._welch is None:
+                self._welch = WelchSums(later._welch.m)
+                self._welch.start_break = self._break_first
+            self._welch.merge(later._welch)
+        if later._edges is not None:
+            if self._edges is None:
+                self._edges = SegmentEdges(later._edges.m, later._edges.k)
+                self._edges.start_break = self._break_first
+            self._edges.merge(later._edges)
 
     def _merge_waiting(self, later: ValidationAccumulator) -> bool:
         """The time stamps of a merge: True when both still wait for their nominal step (``later``'s
@@ -461,6 +555,8 @@ class ValidationAccumulator:
                                    f"{later._first_seen!r} before this one's last stamp {self._last_seen!r}")
         self._first_seen = later._first_seen if self._first_seen is None else self._first_seen
         self._last_seen = later._last_seen if later._last_seen is not None else self._last_seen
+        if self._waiting is not None and later._waiting is not None and later._stamps is not None:
+            return self._merge_frozen_start(later)
         if self._waiting is not None and later._waiting is not None:
             if later._break_first:
                 self._waiting.append(("break",))
@@ -475,6 +571,26 @@ class ValidationAccumulator:
         elif later._waiting is not None:
             assert self._stamps is not None
             later._settle(Stamps(self._stamps.nominal, self._stamps.median))
+        return False
+
+    def _merge_frozen_start(self, later: ValidationAccumulator) -> bool:
+        """Both wait for their nominal step, and ``later``'s frozen start is summed already: its rows
+        cannot queue after these. Both settle on the nominal step of their waiting stamps together
+        (fewer than SETTLE_STEPS perhaps); when none advanced, every step is a duplicate: these rows
+        are summed as a frozen start too and ``later``'s waiting updates queue after them (the
+        summaries and the states then join as settled ones, the caller's part: returns False)."""
+        assert self._waiting is not None and later._waiting is not None
+        stamps = self._first_stamps(later._waiting_stamps())
+        if stamps is not None:
+            self._settle(stamps)
+            later._settle(Stamps(stamps.nominal, stamps.median))
+            return False
+        self._sum_frozen()
+        assert self._waiting is not None
+        self._waiting.extend(later._waiting)
+        self._waiting_rows += later._waiting_rows
+        self._frozen_rows += later._frozen_rows
+        later._waiting, later._waiting_rows = [], 0
         return False
 
     def _check_same_timing(self, other: ValidationAccumulator) -> None:
@@ -535,10 +651,12 @@ class ValidationAccumulator:
         assert st is not None
         timing = None
         if acc._stamps is not None:
-            timing = acc._stamps.timing(cfg.sample_rate)
+            timing = acc._stamps.timing(cfg.sample_rate, cfg.time_units_checked)
+            if cfg.bandwidth is not None:
+                v.check_nyquist(cfg.bandwidth, timing.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
-        return _report(st.snapshot(), cfg, acc._omitted, timing)
+        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry, acc._edges)
 
     # ----------------------------------------------------------------------- chunks
 
@@ -632,6 +750,17 @@ class ValidationAccumulator:
             self._state = self._new_state(layout)
             self._state.end_break = self._break_first
         self._state.append_measured(meas, pred, reg, _block_rows(layout))
+        if layout.acf_lags:
+            e = meas - pred
+            if self._edges is None:
+                self._edges = SegmentEdges(layout.m, layout.acf_lags)
+                self._edges.start_break = self._break_first
+            self._edges.add(e)
+            if not layout.p:  # validate's spectrum needs lags; with a regressor, it is of the projection
+                if self._welch is None:
+                    self._welch = WelchSums(layout.m)
+                    self._welch.start_break = self._break_first
+                self._welch.add(e)
 
     def _new_state(self, layout: Layout) -> State | CoreState:
         return CoreState(layout) if self._settings.backend == "cpp" else State(layout)
@@ -711,6 +840,8 @@ class _Moments:
     sigma: np.ndarray | None  # EᵀE/N (full noise model), scaled by 4^-max(exp_e)
     exp_e: np.ndarray
     exp_t: np.ndarray
+    cur1: np.ndarray | None = None  # (m,) Σ(e − ē) over the current elements of the lag-1 pairs, scaled
+    lag1: np.ndarray | None = None  # (m,) and over their lagged elements
 
 
 def _moments(st: State | _Snapshot) -> _Moments:
@@ -741,9 +872,11 @@ def _moments(st: State | _Snapshot) -> _Moments:
         centred = np.ldexp(st.gram.value() - np.outer(s, s) / n, shift[:, None] + shift[None, :])
         mean_c = np.ldexp(mean_e, shift)
         sigma = centred / n + np.outer(mean_c, mean_c)  # not demeaned (MATLAB's multi-output convention)
+    lagged = cur.shape[0] > 1
     return _Moments(n=n, m=m, mean_e=mean_e, cov_e=cov_e, e_constant=e_constant, mean_t=st.k_t + s_t / n,
                     tss=tss, t_constant=t_constant, pairs=pairs, cov_ey=cov_ey, ss_y=ss_y, y_constant=y_constant,
-                    sigma=sigma, exp_e=st.exp_e, exp_t=st.exp_t)
+                    sigma=sigma, exp_e=st.exp_e, exp_t=st.exp_t,
+                    cur1=cur[1] - pairs[1] * a if lagged else None, lag1=lag[1] - pairs[1] * a if lagged else None)
 
 
 def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.ndarray, n: int,
@@ -853,6 +986,41 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
+def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray, longest: int,
+               edges: SegmentEdges | None = None) -> tuple[dict[str, Any] | None, str | None]:
+    """``validate``'s bias test (contract §3.3, docs/conventions.md §5.4) from the lagged sums: the
+    same prewhitened Bartlett long-run variance, its autocovariances the stream's, corrected at the
+    stream's two ends with the rows the state keeps there and at the inner segment junctions with
+    ``edges``. None, and why, when Andrews' bandwidth needs more lags than the stream holds."""
+    assert mo.cur1 is not None and mo.lag1 is not None  # lags are held
+    held = mo.cov_e.shape[0] - 1
+
+    def centred(rows: np.ndarray, length: int) -> np.ndarray | None:
+        # the rows of a segment longer than the lags held (the end terms assume it), in the sums' units
+        return np.ldexp(rows, -mo.exp_e[None]) - mo.mean_e if length > held and rows.shape[0] >= held else None
+
+    head, tail = centred(st.head_e, st.lengths[0]), centred(st.tail_e, st.lengths[-1])
+    starts = None if head is None else (head * head[0], head)
+    ends = None if tail is None else (tail[::-1] * tail[-1], tail[::-1])
+    if edges is not None:
+        inner_starts, inner_ends = edges.centred(mo.mean_e, mo.exp_e)
+        starts, ends = _added(starts, inner_starts, held), _added(ends, inner_ends, held)
+    lr, needed = _stats.long_run_variance_from_sums(mo.cov_e, mo.pairs, mo.n, mo.cur1, mo.lag1, longest,
+                                                    starts=starts, ends=ends)
+    if lr is None:
+        return None, (f"its bandwidth needs the residual's autocovariance at {needed} lags and the stream holds "
+                      f"{held}: pass max_lag={needed} or more")
+    return sec.bias_from_long_run(mo.mean_e, lr, mo.n, rmse, exponents=mo.exp_e), None
+
+
+def _added(a: tuple[np.ndarray, np.ndarray] | None, b: tuple[np.ndarray, np.ndarray] | None,
+           rows: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The sum of two (products, values) pairs of edge sums over their first ``rows`` rows."""
+    if a is None or b is None:
+        return a if b is None else b
+    return a[0][:rows] + b[0][:rows], a[1][:rows] + b[1][:rows]
+
+
 def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict[str, Any]:
     """ρ of the residual with every regressor column at lags 0..max_lag (contract §3.6) and the
     white band; the colour-aware fields of ``validate``'s section need whole series (§4.1)."""
@@ -864,6 +1032,8 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
     # the exponents cancel in the ratio.
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = (mo.cov_ey[: max_lag + 1] / denom[:, None, None]) / (np.sqrt(ss_e / n)[:, None] * np.sqrt(mo.ss_y / n))
+    bound = (n / denom)[:, None, None]  # Cauchy-Schwarz: |rho(l)| <= N/D_l, whatever the rounding (contract §3.6)
+    rho = np.clip(rho, -bound, bound)
     rho = np.moveaxis(rho, 0, 2).copy()  # (m, p, L+1)
     dead = mo.y_constant | (mo.e_constant | (ss_e == 0))[:, None] | (mo.ss_y == 0)
     rho[dead] = np.nan
@@ -877,10 +1047,47 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
             "outside": outside}
 
 
+def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
+    """The tests ``validate`` would add to the Holm family on the same data that a stream leaves
+    out: every spectral bin it tests on each varying joint, and the colour-aware cross-correlation's
+    cells (docs/conventions.md §5)."""
+    count = 0
+    if b.acf is not None and b.spec is None:
+        varying = int(np.count_nonzero(~mo.e_constant & (mo.cov_e[0] > 0)))
+        count += varying * _stats.spectrum_tests_per_joint(starts, mo.n)
+    if b.cross is not None:
+        count += int(np.count_nonzero(np.isfinite(b.cross["rho"])))
+    return count
+
+
+def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
+              sample_rate: float | None) -> tuple[tuple[dict[str, Any], Any] | None, str | None]:
+    """``validate``'s spectrum section and peak tests from the window periodograms (no regressor:
+    with one, ``validate`` projects it out first), or None and why not."""
+    if welch is None:
+        return None, None  # a regressor was given: the declaration says why (dynval.coverage)
+    if welch.off_grid is not None:
+        return None, welch.off_grid
+    nperseg = _stats._default_nperseg(starts, mo.n, None)
+    if nperseg not in SIZES:
+        return None, f"the longest segment holds {nperseg} rows, fewer than a Welch window of {SIZES[0]}"
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    k = _stats._rate_exponent(fs)
+    rate = math.ldexp(fs, -k)
+    power, windows = welch.power(nperseg, mo.exp_e)
+    freq = np.fft.rfftfreq(nperseg, 1.0) * rate
+    if power is not None:
+        power = power / rate  # a density per unit of the rate, as scipy's welch at fs = rate
+    spec = _stats.spectrum_from_welch(freq, power, windows, mo.cov_e[0] / mo.n, mo.exp_e, k, nperseg)
+    return (sec.spectrum_section(spec, sample_rate, False), spec), None
+
+
 def _report(st: State | _Snapshot, cfg: Options, omitted: int,
-            timing: _timing.Timing | None = None) -> ValidationReport:
-    """The sections mergeable sums allow (no spectrum, bias test, design or motion: they need the
-    whole series, contract §4.1), then the assembler every report goes through."""
+            timing: _timing.Timing | None = None, welch: WelchSums | None = None,
+            entry: str = "stream", edges: SegmentEdges | None = None) -> ValidationReport:
+    """The sections mergeable sums allow (no design or motion, no spectrum with a regressor: they
+    need the whole series, contract §4.1; the tests left out named in ``not_tested``), then the
+    assembler every report goes through."""
     prof = cfg.profile
     sample_rate = cfg.sample_rate if timing is None else timing.sample_rate
     n, m, p = st.n, st.layout.m, st.layout.p
@@ -898,7 +1105,13 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
     b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
                    "variance": np.asarray(b.km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
                    "zero_mean_test": zmt}
-    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, None)
+    skipped: dict[str, str] = {}
+    if lagged:
+        b.bias, why = _bias_test(mo, st, b.per_joint["rmse"], lags.longest, edges)
+        if why is not None:
+            skipped["bias"] = why
+    b.n_eff = None if b.bias is None else b.bias["n_eff"]
+    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, b.n_eff)
     b.lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
     if lagged:
         b.acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
@@ -906,6 +1119,16 @@ def _report(st: State | _Snapshot, cfg: Options, omitted: int,
             b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
             b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
     b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
-    s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True)
+    if lagged:
+        spectral, why = _spectrum(mo, welch, starts, sample_rate)
+        if spectral is not None:
+            b.spec, b.spec_tests = spectral
+        elif why is not None:
+            skipped["spectrum"] = why
+    b.untested = _untested_count(mo, b, starts)
+    given = {"lags"} if lagged else set()
+    given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
+    s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True,
+                   not_tested=not_tested(entry, given, skipped))
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)

@@ -879,8 +879,13 @@ CrossCorrelation cross_correlation(const Eigen::MatrixBase<DE>& e, const Eigen::
             // Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
             // and underflows near 1e-80, both inside the accepted range.
             const double scale = 1.0 / (std::sqrt(re0) * std::sqrt(ry0));
-            for (Index l = 0; l <= lmax; ++l)
-                r.rho(q, l) = out[static_cast<std::size_t>(l)] / denom[static_cast<std::size_t>(l)] * scale;
+            for (Index l = 0; l <= lmax; ++l) {
+                const double d = denom[static_cast<std::size_t>(l)];
+                // Cauchy-Schwarz bounds |rho(l)| by N/D_l (1 at lag 0 and without `adjusted`); the
+                // rounding of the sums can step one ulp past it (contract §3.6).
+                const double bound = nd / d;
+                r.rho(q, l) = std::clamp(out[static_cast<std::size_t>(l)] / d * scale, -bound, bound);
+            }
         }
     }
     return r;

@@ -3,7 +3,7 @@
 ``validate`` and :class:`dynval.stream.ValidationAccumulator` take the same keywords; the
 accumulator refuses those that need the whole series (:data:`UNSUPPORTED`). :func:`check_options`
 checks each in the contract's order (§2.1): n_params, n_joints, profile, nan_policy, segments,
-max_lag, level, backend, noise_model, sample_rate, time, bandwidth, decimate, joint_names,
+max_lag, level, backend, noise_model, sample_rate, time_units_checked, time, bandwidth, decimate, joint_names,
 column_names, q, dq, ddq, estimation, thresholds, cross_correlation_detail, model_columns,
 allow_wide, with one function per setting for both, and returns one frozen :class:`Options`.
 ``validate`` passes what its data tell (:class:`Data`) and runs the checks deferred
@@ -65,6 +65,7 @@ class Keywords:
     noise_model: Any = None
     sample_rate: Any = None
     time: Any = None
+    time_units_checked: Any = True
     bandwidth: Any = None
     decimate: Any = "auto"
     joint_names: Any = None
@@ -106,6 +107,7 @@ class Options:
     backend: BackendName
     noise_model: str
     sample_rate: float | None  # given, or validate's from the time stamps
+    time_units_checked: bool
     bandwidth: float | None
     joint_names: tuple[str, ...] | None
     column_names: tuple[str, ...] | None
@@ -157,13 +159,14 @@ def check_options(k: Keywords, data: Data | None) -> Options:
     backend, _ = resolve(k.backend)
     noise_model = prof.noise_model if k.noise_model is None else v.check_noise_model(k.noise_model)
     sample_rate = v.check_sample_rate(k.sample_rate)
+    units_checked = v.check_flag("time_units_checked", k.time_units_checked)
     timing = None
     if data is not None and k.time is not None:  # the accumulator's stamps come with its chunks
         assert starts is not None
-        timing, starts = _time_stamps(k.time, max_lag, sample_rate, data, starts)
+        timing, starts = _time_stamps(k.time, max_lag, sample_rate, units_checked, data, starts)
         sample_rate = timing.sample_rate
-    # the accumulator's rate may also come with its chunks' stamps: checked at the first chunk
-    bandwidth = v.check_bandwidth(k.bandwidth, 1.0 if data is None and sample_rate is None else sample_rate)
+    # the accumulator's rate may also come with its chunks' stamps: checked when they set it
+    bandwidth = v.check_bandwidth(k.bandwidth, sample_rate, rate_known=data is not None or sample_rate is not None)
     decimate = _refused("decimate", k.decimate) if data is None else v.check_decimate(k.decimate)
     joint_names = _joint_names(k.joint_names, data, n_joints)
     column_names = _names(k.column_names) if data is None else check_column_names(k.column_names, data.p)
@@ -179,7 +182,8 @@ def check_options(k: Keywords, data: Data | None) -> Options:
     allow_wide = v.check_allow_wide(k.allow_wide)
     return Options(n_params=n_params, n_joints=n_joints, profile=prof, nan_policy=nan_policy, max_lag=max_lag,
                    level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                   bandwidth=bandwidth, joint_names=joint_names, column_names=column_names, thresholds=thresholds,
+                   time_units_checked=units_checked, bandwidth=bandwidth, joint_names=joint_names,
+                   column_names=column_names, thresholds=thresholds,
                    allow_wide=allow_wide, starts=starts, timing=timing, decimate=decimate, q=q, dq=dq, ddq=ddq,
                    estimation=estimation, detail=detail or "top", model_columns=model_columns)
 
@@ -220,13 +224,14 @@ def _max_lag(value: Any, prof: Profile, data: Data | None, starts: IntArray | No
     return int(value)
 
 
-def _time_stamps(time: Any, max_lag: int | None, sample_rate: float | None, data: Data,
+def _time_stamps(time: Any, max_lag: int | None, sample_rate: float | None, units_checked: bool, data: Data,
                  starts: IntArray) -> tuple[_timing.Timing, IntArray]:
-    """The time stamps: their summary, and the segments split at their gaps (a given ``max_lag``
-    must stay below the longest run between gaps)."""
+    """The time stamps: their summary (in seconds unless not ``units_checked``), and the segments
+    split at their gaps (a given ``max_lag`` must stay below the longest run between gaps)."""
     stamps = _timing.check_time(time, data.given_n)
     # rows omitted for non-finite data leave gaps in the stamps, as they should
-    timing = _timing.analyse(stamps if data.kept_rows is None else stamps[data.kept_rows], sample_rate, data.meas)
+    timing = _timing.analyse(stamps if data.kept_rows is None else stamps[data.kept_rows], sample_rate, data.meas,
+                             units_checked)
     starts = _timing.split_at_gaps(starts, timing.gap_rows)
     longest = longest_segment(starts, data.n)
     if max_lag is not None and max_lag >= longest:
@@ -331,18 +336,20 @@ def _motion_max_lag(band: float, o: Options, n: int, longest: int) -> int:
     information band's edge (lags within it see one phenomenon), at most four times the profile's
     count and below the longest segment."""
     assert o.sample_rate is not None
-    lags = int(math.ceil(o.sample_rate / band))
+    # a band far below the rate (bandwidth=1e-307) gives more lags than any cap: capped before int
+    lags = int(math.ceil(min(o.sample_rate / band, float(longest))))
     cap = 4 * max(o.profile.default_max_lag(n, n + 1), 1)
     return int(max(1, min(lags, cap, longest - 1)))
 
 
 def to_setting(o: Options, lags: Lags, m: int, *, sample_rate: float | None, timing: _timing.Timing | None,
-               streaming: bool = False) -> Setting:
-    """What the assembler reads: the settings, the lags chosen, the names (``joint j`` by default)."""
+               streaming: bool = False, not_tested: list[dict[str, Any]] | None = None) -> Setting:
+    """What the assembler reads: the settings, the lags chosen, the names (``joint j`` by default);
+    ``not_tested``: the tests the entry point left out (:func:`dynval.coverage.not_tested`)."""
     joint_names = list(o.joint_names) if o.joint_names is not None else [f"joint {j + 1}" for j in range(m)]
     return Setting(prof=o.profile, noise_model=o.noise_model, level=o.level, max_lag=lags.max_lag,
                    lag_source=lags.source, sample_rate=sample_rate, timing=timing, bandwidth=o.bandwidth,
                    nan_policy=o.nan_policy, n_params=o.n_params, joint_names=joint_names,
                    column_names=list(o.column_names) if o.column_names is not None else None,
                    model_columns=o.model_columns, thresholds=o.thresholds, backend=o.backend,
-                   decimate=o.decimate, streaming=streaming)
+                   decimate=o.decimate, streaming=streaming, not_tested=list(not_tested or []))

@@ -11,6 +11,7 @@ conventions §1.7).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,6 +29,15 @@ IRREGULAR_TOLERANCE = 0.1
 
 RATE_TOLERANCE = 0.01
 """A given sample_rate may differ from the stamps' nominal rate by at most 1 %."""
+
+PLAUSIBLE_RATE = (10.0, 1e5)
+"""The rates (Hz) at which a robot logs its torques for a dynamic model: from 10 Hz (slower logs do not
+hold the dynamics) to 100 kHz. Stamps at a rate outside are taken for stamps in another unit
+(milliseconds of a logger up to 10 kHz give 10 Hz or less; microseconds, nanoseconds) and refused
+unless ``time_units_checked=False`` (contract §4)."""
+
+_UNITS = (("milliseconds", 1e3), ("microseconds", 1e6), ("nanoseconds", 1e9))
+_TYPICAL_RATE = 1e3  # the rate a guessed unit is chosen nearest to: a robot's usual 1 kHz
 
 
 @dataclass(frozen=True)
@@ -85,6 +95,12 @@ def stamps(value: Any, n: int, first_row: int | None = None) -> np.ndarray:
     if bad.size:
         r = int(bad[0])
         raise NonFiniteInput(f"time must be finite seconds, got {float(t[r])!r} at row {r}{in_stream(r)}")
+    # the data's range (contract §1.2): differences and squares of such stamps stay finite
+    far = np.flatnonzero(np.abs(t) > v.MAX_MAGNITUDE)
+    if far.size:
+        r = int(far[0])
+        raise NonFiniteInput(f"time has a value out of range ({float(t[r])!r}) at row {r}{in_stream(r)}: "
+                             f"|t| must be at most {v.MAX_MAGNITUDE:g} s")
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         k = int(back[0])
@@ -101,14 +117,41 @@ def check_time(value: Any, n: int) -> np.ndarray:
     return t
 
 
-def analyse(t: np.ndarray, sample_rate: float | None = None, rows: np.ndarray | None = None) -> Timing:
+def check_units(nominal: float) -> None:
+    """Stamps of the nominal step ``nominal`` (s) must be at a rate a robot logs (PLAUSIBLE_RATE):
+    else they look like another unit (InvalidParameter with the fix, e.g. ``pass time / 1000``)."""
+    lo, hi = PLAUSIBLE_RATE
+    rate = 1.0 / nominal
+    if lo <= rate <= hi:
+        return
+    whole = nominal >= 1.0 and float(nominal).is_integer()
+    what = f"a whole number of seconds ({nominal:.6g} s)" if whole else f"{nominal:.6g} s (a rate of {rate:.6g} Hz)"
+    unit = _unit_guess(rate)
+    fix = "pass them in seconds" if unit is None else f"these look like {unit[0]}: pass time / {unit[1]:.0f}"
+    raise InvalidParameter(f"time must be in seconds, got stamps whose step is {what}, outside the rates a robot "
+                           f"logs at ({lo:g} Hz to {hi / 1e3:g} kHz); {fix}, or time_units_checked=False if they "
+                           "are seconds")
+
+
+def _unit_guess(rate: float) -> tuple[str, float] | None:
+    """The unit (name, stamps per second) that brings ``rate`` into PLAUSIBLE_RATE nearest 1 kHz."""
+    lo, hi = PLAUSIBLE_RATE
+    fits = [(name, factor) for name, factor in _UNITS if lo <= rate * factor <= hi]
+    return min(fits, key=lambda u: abs(math.log10(rate * u[1] / _TYPICAL_RATE)), default=None)
+
+
+def analyse(t: np.ndarray, sample_rate: float | None = None, rows: np.ndarray | None = None,
+            units_checked: bool = True) -> Timing:
     """The stamps ``t`` (checked by :func:`check_time`) against a uniform grid.
 
     ``sample_rate``: the caller's, checked against the stamps (within 1 %); inferred from them
     otherwise. ``rows``: the data (N, k) whose exact repeats of the previous row are counted.
+    ``units_checked``: the nominal step must be one of seconds (:func:`check_units`).
     """
     steps = np.diff(t - t[0])
-    nominal = _nominal_step(t, steps)
+    nominal = nominal_step(t, steps)
+    if units_checked:
+        check_units(nominal)
     source = INFERRED
     if sample_rate is not None:
         nominal, source = given_step(sample_rate, nominal), "given"
@@ -145,13 +188,14 @@ def _zeros_before(steps: np.ndarray) -> np.ndarray:
     return idx - 1 - previous
 
 
-def _nominal_step(t: np.ndarray, steps: np.ndarray) -> float:
+def nominal_step(t: np.ndarray, steps: np.ndarray) -> float:
     """The grid's step: the run's span over the number of nominal steps it holds (a gap counts as
     the steps it misses, a duplicated stamp as none; the median step decides the count), rounded
     to the fewest significant digits of the rate that the span's uncertainty cannot tell apart
     (epoch stamps in float64 are quantised to 2.4e-7 s: k/200 s stamps then give exactly 200 Hz;
     jittered stamps give their grid's rate when the jitter hides the difference)."""
     median = float(np.median(steps[steps > 0]))
+    check_resolvable(median, float(steps.sum()))
     counts = np.rint(steps / median)
     counted = counts >= 1
     span = float(steps[counted].sum())
@@ -161,6 +205,22 @@ def _nominal_step(t: np.ndarray, steps: np.ndarray) -> float:
     jitter = float(np.sqrt(np.mean((steps[counted] - counts[counted] / rate) ** 2)))
     uncertainty = 2.0 * float(np.spacing(max(abs(t[0]), abs(t[-1])))) + 3.0 * jitter
     return rounded_step(rate, span, uncertainty)
+
+
+MAX_STEPS = 2.0**53
+"""Most nominal steps a run may hold: float64 counts integers exactly up to 2⁵³."""
+
+MIN_STEP = 1.0 / v.MAX_MAGNITUDE
+"""Smallest median step (s): the reciprocal of the data's range, so that the rate stays within it."""
+
+
+def check_resolvable(median: float, span: float) -> None:
+    """Steps float64 can count: the median step at least MIN_STEP and the span at most MAX_STEPS of
+    them (InvalidParameter otherwise)."""
+    if median < MIN_STEP or span / median > MAX_STEPS:
+        raise InvalidParameter(f"time must advance by steps float64 can count (a median step of at least "
+                               f"{MIN_STEP:g} s, at most 2**53 of them), got a median step of {median!r} s over "
+                               f"a span of {span!r} s")
 
 
 def rounded_step(rate: float, span: float, uncertainty: float) -> float:

@@ -61,18 +61,73 @@ def format_shape(shape) -> str:
     return repr(tuple(int(s) for s in shape))
 
 
-def format_value(value) -> str:
-    """Write a parameter value as its Python repr, with numpy types shown as Python ones.
+# A container with more items than this, or nested deeper, is shown by type and length: the
+# message names the bad value without repeating a caller's data (a 10^6-row array is 5 MB of text).
+_LISTED_ITEMS = 8
+_LISTED_DEPTH = 3
+_SHOWN_CHARS = 80
+_LISTED_CHARS = 400
 
-    numpy scalars and arrays are converted first (``np.int64(3)`` -> ``3``,
-    ``array([1, 2])`` -> ``[1, 2]``) so that the C++ core, which sees plain numbers, can write
-    the same text.
+
+def format_value(value) -> str:
+    """Write a value for a message: short values as their Python repr, large ones by type and size.
+
+    numpy scalars are shown as Python ones (``np.int64(3)`` -> ``3``) so that the C++ core, which
+    sees plain numbers, writes the same text (its bindings call this function). A data array is
+    never written out: ``<float64 array of shape (1000000,)>``. A list, tuple, dict or 1-D numeric
+    array of at most eight items is written item by item (``[500, 300]``); a longer, deeper (three
+    levels) or wordier (400 characters) one as ``<list of length 1000000>``; a long string is cut
+    (``'abc...' (a str of 5000 characters)``); any other object whose repr is long as
+    ``<DataFrame of shape (3, 2)>`` if it has a shape, else as its repr cut (``1000...
+    (401 characters)`` for 10**400).
+
+    Examples
+    --------
+    >>> format_value(np.int64(12)), format_value([2, 6]), format_value(np.zeros((1000, 2)))
+    ('12', '[2, 6]', '<float64 array of shape (1000, 2)>')
+    >>> format_value((list(range(100)), 1))
+    '(<list of length 100>, 1)'
     """
+    return _shown(value, 0)
+
+
+def _shown(value, depth: int) -> str:
     if isinstance(value, np.ndarray):
-        value = value.tolist()
-    elif isinstance(value, np.generic):
-        value = value.item()
-    return repr(value)
+        if value.ndim == 0:
+            return repr(value.item())
+        if value.ndim == 1 and value.size <= _LISTED_ITEMS and value.dtype.kind in "biuf":
+            # A short 1-D array is a parameter such as lags or segments: its values are what is wrong.
+            return _shown_container(value.tolist(), depth)
+        return f"<{value.dtype} array of shape {format_shape(value.shape)}>"
+    if isinstance(value, np.generic):
+        return repr(value.item())
+    if isinstance(value, (list, tuple, dict)):
+        return _shown_container(value, depth)
+    if isinstance(value, (str, bytes)):
+        if len(value) <= _SHOWN_CHARS:
+            return repr(value)
+        return f"{value[:_SHOWN_CHARS]!r}... (a {type(value).__name__} of {len(value)} characters)"
+    text = repr(value)
+    if len(text) <= _SHOWN_CHARS:
+        return text
+    shape = getattr(value, "shape", None)
+    if isinstance(shape, tuple) and all(isinstance(s, numbers.Integral) for s in shape):
+        return f"<{type(value).__name__} of shape {format_shape(shape)}>"
+    return f"{text[:_SHOWN_CHARS]}... ({len(text)} characters)"
+
+
+def _shown_container(value: list | tuple | dict, depth: int) -> str:
+    if len(value) > _LISTED_ITEMS or (depth >= _LISTED_DEPTH and len(value) > 0):
+        return f"<{type(value).__name__} of length {len(value)}>"
+    if isinstance(value, dict):
+        text = "{" + ", ".join(f"{_shown(k, depth + 1)}: {_shown(v, depth + 1)}" for k, v in value.items()) + "}"
+    else:
+        items = [_shown(v, depth + 1) for v in value]
+        if isinstance(value, list):
+            text = "[" + ", ".join(items) + "]"
+        else:
+            text = "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+    return text if len(text) <= _LISTED_CHARS else f"<{type(value).__name__} of length {len(value)}>"
 
 
 def format_nonfinite(value: float) -> str:
@@ -221,8 +276,13 @@ def check_orientation(function: str, name: str, shape, allow_wide) -> None:
 
 def check_allow_wide(value) -> bool:
     """``allow_wide`` is exactly True or False (numpy bools too)."""
+    return check_flag("allow_wide", value)
+
+
+def check_flag(name: str, value) -> bool:
+    """A switch ``name`` is exactly True or False (numpy bools too)."""
     if not isinstance(value, (bool, np.bool_)):
-        raise parameter_error("allow_wide", "True or False", value)
+        raise parameter_error(name, "True or False", value)
     return bool(value)
 
 
@@ -476,15 +536,28 @@ def check_sample_rate(value):
     return float(value)
 
 
-def check_bandwidth(value, sample_rate):
-    """``bandwidth``: None, or a finite number > 0 (Hz), which needs a sample rate (or time stamps)."""
+def check_bandwidth(value, sample_rate, rate_known: bool = True):
+    """``bandwidth``: None, or a finite number > 0 (Hz), which needs a sample rate (or time stamps)
+    and is at most its Nyquist frequency (``rate_known`` False: the rate comes later, with a
+    stream's time stamps, :func:`check_nyquist`)."""
     if value is None:
         return None
     if not is_real_number(value) or not math.isfinite(value) or value <= 0:
         raise parameter_error("bandwidth", "None or a finite number > 0 (Hz)", value)
+    if not rate_known:
+        return float(value)
     if sample_rate is None:
         raise parameter_error("bandwidth", "None without sample_rate or time (it is in Hz)", value)
+    check_nyquist(value, sample_rate)
     return float(value)
+
+
+def check_nyquist(bandwidth, sample_rate: float) -> None:
+    """A band above the Nyquist frequency says nothing about the samples (InvalidParameter)."""
+    nyquist = float(sample_rate) / 2.0
+    if bandwidth > nyquist:
+        raise parameter_error("bandwidth", f"at most the Nyquist frequency {nyquist:.6g} Hz (half the sample rate "
+                              f"{float(sample_rate):.6g} Hz)", bandwidth)
 
 
 def check_decimate(value):
@@ -547,7 +620,7 @@ def check_estimation(value, m: int):
         raise parameter_error("estimation", "None or a mapping with any of 'q', 'regressor', 'tau'", value)
     out = {}
     for key, arr in value.items():
-        name = f"estimation[{key!r}]"
+        name = f"estimation[{format_value(key)}]"
         a = to_float_array(arr, name)
         if key == "regressor":
             if a.ndim == 2 and a.shape[0] % m == 0:

@@ -194,16 +194,17 @@ class ComparisonReport:
 def _candidate(name: str, spec: object) -> tuple[Any, Any, Any, Any]:
     """``(pred, p)``, ``(pred, p, regressor)`` or a mapping with prediction, n_params[, regressor,
     model_columns, parameters]."""
+    where = f"candidates[{v.format_value(name)}]"
     if isinstance(spec, dict):
         unknown = set(spec) - {"prediction", "n_params", "regressor", "model_columns", "parameters"}
         if unknown or "prediction" not in spec or "n_params" not in spec:
-            raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
+            raise v.parameter_error(where, "(prediction, n_params[, regressor]) or a mapping "
                                     "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns', "
                                     "'parameters'", spec)
         return spec["prediction"], spec["n_params"], spec.get("regressor"), spec.get("model_columns")
     if isinstance(spec, (tuple, list)) and len(spec) in (2, 3) and v.is_integer(spec[1]):
         return spec[0], spec[1], spec[2] if len(spec) == 3 else None, None
-    raise v.parameter_error(f"candidates[{name!r}]", "(prediction, n_params[, regressor]) or a mapping "
+    raise v.parameter_error(where, "(prediction, n_params[, regressor]) or a mapping "
                             "with 'prediction', 'n_params' and optionally 'regressor', 'model_columns', "
                             "'parameters'", spec)
 

@@ -29,18 +29,26 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..checks._errors import InvalidParameter
-from ..checks._validation import check_level
+from ..checks._validation import check_level, is_integer, is_real_number, parameter_error
 from ._cluster import WORKER_ENVIRON, client_for, local_cluster
-from ._drift import DEFAULT_PERMUTATIONS, MIN_BASELINE, RATIO_THRESHOLD, Drift, change_point, drift_per_robot
-from ._logs import MANIFEST_COLUMNS, LogSpec, log_from_path, log_specs, read_manifest, time_key
+from ._drift import (
+    DEFAULT_PERMUTATIONS,
+    MAX_PERMUTATIONS,
+    MIN_BASELINE,
+    RATIO_THRESHOLD,
+    Drift,
+    change_point,
+    drift_per_robot,
+)
+from ._logs import DATA_COLUMNS, MANIFEST_COLUMNS, LogSpec, log_from_path, read_manifest, time_key
 from ._report import TABLE_COLUMNS, FleetReport
-from ._run import LogSummary, is_bag, run_logs, summarise_log
-from ._simulate import Degradation, FleetLog, simulate_fleet, write_fleet
+from ._run import LogSummary, fleet_items, is_bag, run_logs, summarise_log
+from ._simulate import Degradation, EstimationRun, FleetLog, simulate_fleet, write_fleet
 
 __all__ = ["validate_many", "FleetReport", "LogSummary", "Drift", "LogSpec", "read_manifest", "log_from_path",
            "change_point", "local_cluster", "WORKER_ENVIRON", "simulate_fleet", "write_fleet", "Degradation",
-           "FleetLog", "summarise_log", "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE", "RATIO_THRESHOLD",
-           "DEFAULT_PERMUTATIONS"]
+           "FleetLog", "EstimationRun", "summarise_log", "MANIFEST_COLUMNS", "TABLE_COLUMNS", "MIN_BASELINE",
+           "RATIO_THRESHOLD", "DEFAULT_PERMUTATIONS", "MAX_PERMUTATIONS", "DATA_COLUMNS"]
 
 
 def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = None, progress: bool | None = None,
@@ -95,10 +103,10 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
     'only 3 valid logs; the drift test needs at least 4'
     """
     check_level(level)
-    _check_settings(min_baseline, ratio_threshold, n_permutations)
+    _check_settings(min_baseline, ratio_threshold, n_permutations, seed, n_params)
     _check_validate_keywords(keywords)
     settings = dict(keywords, level=level)
-    items = logs if is_bag(logs) else log_specs([logs] if isinstance(logs, (str, os.PathLike)) else logs, n_params)
+    items = logs if is_bag(logs) else fleet_items([logs] if isinstance(logs, (str, os.PathLike)) else logs, n_params)
     client, owned = client_for(scheduler)
     start = time.perf_counter()
     try:
@@ -123,6 +131,11 @@ _DATA_FREE = ("profile", "nan_policy", "max_lag", "backend", "noise_model", "sam
               "column_names", "thresholds", "allow_wide")
 
 
+# validate's data keywords: each log has its own, named by the manifest's columns
+_PER_LOG = {"q": "q", "dq": "dq", "ddq": "ddq", "time": "timestamps",
+            "estimation": "estimation_tau, estimation_regressor and estimation_q"}
+
+
 def _check_validate_keywords(keywords: dict[str, Any]) -> None:
     """Unknown names (TypeError) and bad data-free settings (InvalidParameter) fail here, not in every task."""
     from dataclasses import fields
@@ -133,17 +146,26 @@ def _check_validate_keywords(keywords: dict[str, Any]) -> None:
     for name in keywords:
         if name not in known:
             raise TypeError(f"validate_many() got an unexpected keyword argument {name!r}")
+        if name in _PER_LOG:
+            raise InvalidParameter(f"{name}= is one log's data, not the fleet's: give each log's file in the "
+                                   f"manifest's {_PER_LOG[name]} column (contract §10)")
     free = {k: v for k, v in keywords.items() if k in _DATA_FREE}
     check_options(Keywords(n_params=0, decimate=None, cross_correlation_detail=None, **free), None)
 
 
-def _check_settings(min_baseline: Any, ratio_threshold: Any, n_permutations: Any) -> None:
-    if not isinstance(min_baseline, int) or min_baseline < 2:
-        raise InvalidParameter(f"min_baseline must be an integer >= 2, got {min_baseline!r}")
-    if not isinstance(ratio_threshold, (int, float)) or not ratio_threshold >= 1.0:
-        raise InvalidParameter(f"ratio_threshold must be a number >= 1, got {ratio_threshold!r}")
-    if not isinstance(n_permutations, int) or n_permutations < 19:
-        raise InvalidParameter(f"n_permutations must be an integer >= 19, got {n_permutations!r}")
+def _check_settings(min_baseline: Any, ratio_threshold: Any, n_permutations: Any, seed: Any, n_params: Any) -> None:
+    """Every setting of the run's own, before any log is read (a bad one must not cost the fleet's time)."""
+    if not is_integer(min_baseline) or min_baseline < 2:
+        raise parameter_error("min_baseline", "an integer >= 2", min_baseline)
+    if isinstance(ratio_threshold, bool) or not is_real_number(ratio_threshold) or not ratio_threshold >= 1.0:
+        raise parameter_error("ratio_threshold", "a number >= 1", ratio_threshold)
+    if not is_integer(n_permutations) or not 19 <= n_permutations <= MAX_PERMUTATIONS:
+        raise parameter_error("n_permutations", f"an integer with 19 <= n_permutations <= {MAX_PERMUTATIONS}",
+                              n_permutations)
+    if not is_integer(seed) or not 0 <= seed < 2**63:
+        raise parameter_error("seed", "an integer with 0 <= seed < 2**63", seed)
+    if n_params is not None and (not is_integer(n_params) or n_params < 0):
+        raise parameter_error("n_params", "None or an integer >= 0", n_params)
 
 
 def _in_fleet_order(rows: Iterable[LogSummary]) -> list[LogSummary]:

@@ -13,6 +13,7 @@ from typing import Any
 
 from .._environ import restored_environ
 from ..checks._errors import InvalidParameter
+from ..checks._validation import format_value
 
 __all__ = ["WORKER_ENVIRON", "local_cluster", "client_for"]
 
@@ -60,4 +61,4 @@ def client_for(scheduler: Any) -> tuple[Any, bool]:
             raise ImportError("a dask scheduler needs dask.distributed: pip install 'dynval[dask]'") from None
         return Client(scheduler), True
     raise InvalidParameter(f"scheduler must be None, 'single', a dask Client, a cluster or a scheduler address, "
-                           f"got {scheduler!r}")
+                           f"got {format_value(scheduler)}")

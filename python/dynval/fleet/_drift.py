@@ -30,10 +30,15 @@ from ..statistics._stats import holm
 from ._run import LogSummary
 
 __all__ = ["Drift", "change_point", "drift_per_robot", "DEFAULT_PERMUTATIONS", "RATIO_THRESHOLD",
-           "MIN_BASELINE"]
+           "MIN_BASELINE", "MAX_PERMUTATIONS"]
 
 DEFAULT_PERMUTATIONS = 1999
 """Shuffles of a robot's logs for the permutation p-value (its smallest value is 1/2000)."""
+MAX_PERMUTATIONS = 1_000_000
+"""Most shuffles a run accepts: a p-value resolution of 1e-6, far below any level, in seconds per robot."""
+# Shuffles drawn and reduced at a time, so that memory stays bounded whatever n_permutations is
+# (the draws are those of one call: permuted consumes the generator row after row).
+_SHUFFLE_BLOCK = 10_000
 RATIO_THRESHOLD = 1.10
 """A drift is a deficiency when the RMSE grew by at least 10 % (geometric means after / before)."""
 MIN_BASELINE = 3
@@ -102,8 +107,10 @@ def change_point(x: Sequence[float] | np.ndarray, *, min_baseline: int = MIN_BAS
     observed = _split_statistics(values, min_baseline)[0]
     best = int(np.argmax(observed))
     generator = rng if rng is not None else np.random.default_rng(0)
-    shuffled = generator.permuted(np.repeat(values, n_permutations, axis=0), axis=1)
-    maxima = _split_statistics(shuffled, min_baseline).max(axis=1)
+    maxima = np.concatenate([
+        _split_statistics(generator.permuted(np.repeat(values, min(_SHUFFLE_BLOCK, n_permutations - done), axis=0),
+                                             axis=1), min_baseline).max(axis=1)
+        for done in range(0, n_permutations, _SHUFFLE_BLOCK)])
     # shuffles that reproduce the observed order up to rounding count as at least as large
     tolerance = 1e-9 * max(1.0, abs(float(observed[best]))) if math.isfinite(observed[best]) else 0.0
     exceed = int(np.sum(maxima >= observed[best] - tolerance))

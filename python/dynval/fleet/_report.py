@@ -16,7 +16,7 @@ from ._run import LogSummary
 __all__ = ["FleetReport", "TABLE_COLUMNS"]
 
 TABLE_COLUMNS = ("robot", "time", "log", "n_samples", "n_joints", "rmse", "vaf", "decision", "n_findings", "kinds",
-                 "error")
+                 "error", "sees")
 """The columns of :meth:`FleetReport.table`, in order."""
 
 
@@ -75,15 +75,22 @@ class FleetReport:
                         "from_log": d.change_log if d.finding is not None else None})
         return out
 
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """Sentences that reconcile a robot's drift with its per-log decisions where they would read as
+        a contradiction: a drifting robot whose logs from the change on are accepted (contract §10)."""
+        return tuple(note for d in self.drift if (note := _drift_note(d, self.logs)))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary: ``robots`` (:meth:`robot_table`), ``logs``, ``drift`` (each with its
-        ``finding``), ``findings``,
+        ``finding``), ``findings``, ``notes``,
         ``level`` and ``provenance`` (non-finite numbers as strings, as a report's)."""
         drift = [{**{k: v for k, v in asdict(d).items() if k != "finding"},
                   "finding": None if d.finding is None else d.finding.to_dict()} for d in self.drift]
         out: dict[str, Any] = to_jsonable({"level": self.level, "robots": self.robot_table(),
                                            "logs": [asdict(r) for r in self.logs],
                                            "drift": drift, "findings": [f.to_dict() for f in self.findings],
+                                           "notes": list(self.notes),
                                            "provenance": self.provenance})
         return out
 
@@ -99,16 +106,42 @@ class FleetReport:
         return self.summary()
 
 
+def _drift_note(d: Drift, logs: tuple[LogSummary, ...]) -> str:
+    """Why a drifting robot's logs from the change on can be accepted one by one, or ''."""
+    if d.finding is None or d.change is None:
+        return ""
+    valid = [r for r in logs if r.robot == d.robot and r.error is None and r.rmse > 0 and np.isfinite(r.rmse)]
+    later = valid[d.change:]
+    accepted = [r for r in later if r.decision == "accept"]
+    if not accepted:
+        return ""
+    seen = sorted({r.sees for r in accepted})
+    if all(s.startswith("residual only") for s in seen):
+        why = (", from the residual only (no q, no regressor), where a grown friction or a new payload that leaves "
+               "the residual zero-mean and no more coloured than before does not show; give the logs' q and regressor "
+               "(manifest columns q, regressor) for per-log tests that can see it")
+    else:
+        why = f" ({'; '.join(seen)}), and within one log the change is not (yet) beyond what its tests allow"
+    return (f"{d.robot} drifts from log {d.change_log} on, yet {len(accepted)} of its {len(later)} logs from then on "
+            f"are accepted: the drift compares the robot's logs with each other, each per-log decision compares one "
+            f"log with the model alone{why}.")
+
+
 def _summary_lines(fleet: FleetReport) -> list[str]:
     prov = fleet.provenance
     lines = [f"dynval fleet report — {len(fleet.logs)} logs of {len(fleet.drift)} robots "
              f"(ran on {prov.get('where', 'this process')}, {prov.get('seconds', 0.0):.1f} s)", ""]
+    # the inputs the decisions saw: once above the table when every log saw the same, else per row
+    inputs = {r.sees for r in fleet.logs if r.error is None}
+    if len(inputs) == 1:
+        lines[-1:-1] = [f"Each log's decision saw: {next(iter(inputs))}."]
     lines.append(f"  {'robot':<10} {'time':<20} {'log':<24} {'N':>7} {'m':>2} {'RMSE':>10} {'VAF %':>7} "
                  f"{'decision':<9} findings")
     for r in fleet.logs:
         found = r.error if r.error else (f"{r.n_findings}: {', '.join(r.kinds)}" if r.n_findings else "0")
+        seen = f" [saw: {r.sees}]" if len(inputs) > 1 and r.error is None else ""
         lines.append(f"  {r.robot:<10.10} {r.time:<20.20} {r.log:<24.24} {r.n_samples:>7} {r.n_joints:>2} "
-                     f"{r.rmse:>10.4g} {r.vaf:>7.2f} {r.decision:<9} {found}")
+                     f"{r.rmse:>10.4g} {r.vaf:>7.2f} {r.decision:<9} {found}{seen}")
     alpha = 1.0 - fleet.level
     tested = sum(d.tested for d in fleet.drift)
     lines += ["", "Robots (median over their valid logs):"]
@@ -129,4 +162,6 @@ def _summary_lines(fleet: FleetReport) -> list[str]:
                          f"Holm-adjusted p {p_clause(d.pvalue_adjusted)} [{d.finding.severity}]")
     if fleet.findings:
         lines += ["", "Findings:"] + [f"  - [{f.severity}] {f.message}" for f in fleet.findings]
+    if fleet.notes:
+        lines += ["", "Drift and the per-log decisions:"] + [f"  - {note}" for note in fleet.notes]
     return lines

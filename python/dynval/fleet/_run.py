@@ -11,16 +11,17 @@ numbers. Without a dask client the tasks run one after the other in this process
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from ..checks._errors import InputError
-from ._logs import as_spec
+from ..checks._errors import InputError, InvalidParameter
+from ._logs import LogSpec, as_spec, check_unique, is_manifest, manifest_logs, parse_name
 
-__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag"]
+__all__ = ["LogSummary", "summarise_log", "run_logs", "is_bag", "fleet_items", "error_row", "sees"]
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,10 @@ class LogSummary:
     ``rmse`` is the pooled RMSE per element (√(SSE/(N·m))) and ``vaf`` the pooled VAF in %;
     ``decision`` is the verdict of :func:`dynval.compare` on the one model (accept, refine,
     redesign), or ``error`` when the log could not be validated (``error`` then holds the message);
-    ``kinds`` are the kinds of its deficiency and design findings, strongest first.
+    ``kinds`` are the kinds of its deficiency and design findings, strongest first; ``sees`` says
+    what the decision could test (``residual only: no q, no regressor`` when the log gave neither:
+    then a change that leaves the residual zero-mean and no more coloured, such as a grown friction,
+    does not show within the log).
     """
 
     robot: str
@@ -46,6 +50,7 @@ class LogSummary:
     kinds: tuple[str, ...] = ()
     error: str | None = None
     seconds: float = 0.0
+    sees: str = ""
 
 
 def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None = None) -> LogSummary:
@@ -56,13 +61,24 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
     """
     from ..comparison._compare import compare
     from ..io._files import load_array
+    from ..io._shapes import check_declared
 
-    spec = as_spec(item, n_params)
     start = time.perf_counter()
+    if isinstance(item, LogSummary):  # a log refused before the run (fleet_items)
+        return item
     try:
+        spec = as_spec(item, n_params)
+    except InputError as exc:  # a log of a dask bag, named on the worker
+        return error_row(item, exc)
+    try:
+        if all(isinstance(x, str) for x in (spec.tau_meas, spec.tau_pred)):
+            # the files' shapes, from their headers, before any array is decoded (contract §7)
+            check_declared(spec.tau_meas, {"tau_pred": spec.tau_pred},
+                           regressor=spec.regressor if isinstance(spec.regressor, str) else None)
         meas, pred = load_array(spec.tau_meas), load_array(spec.tau_pred)
-        reg = None if spec.regressor is None else load_array(spec.regressor)
-        cmp = compare(meas, {spec.name: (pred, spec.n_params, reg)}, **(keywords or {}))
+        arrays = {name: load_array(file) for name, file in spec.data.items()}
+        reg = arrays.pop("regressor", None)
+        cmp = compare(meas, {spec.name: (pred, spec.n_params, reg)}, **_log_keywords(arrays, keywords or {}))
     except InputError as exc:
         return LogSummary(spec.robot, spec.time, spec.name, error=f"{type(exc).__name__}: {exc}",
                           seconds=time.perf_counter() - start)
@@ -73,7 +89,76 @@ def summarise_log(item: Any, n_params: int | None = None, keywords: dict | None 
         n_joints=1 if meas.ndim == 1 else int(meas.shape[1]), rmse=float(report.pooled["rmse_per_element"]),
         vaf=float(report.pooled["vaf"]), rmse_per_joint=tuple(float(x) for x in report.per_joint["rmse"]),
         decision=str(cmp.verdict.decision), n_findings=len(shown), kinds=tuple(dict.fromkeys(f.kind for f in shown)),
-        seconds=time.perf_counter() - start)
+        seconds=time.perf_counter() - start, sees=sees(spec.data))
+
+
+def _log_keywords(arrays: dict[str, Any], keywords: dict) -> dict:
+    """validate's keywords of one log: the fleet's, and the log's own q, dq, ddq, time and estimation run."""
+    out = dict(keywords)
+    out.update({name: arrays[name] for name in ("q", "dq", "ddq") if name in arrays})
+    if "timestamps" in arrays:
+        out["time"] = arrays["timestamps"]
+    run = {key: arrays[f"estimation_{key}"] for key in ("tau", "regressor", "q") if f"estimation_{key}" in arrays}
+    if run:
+        out["estimation"] = run
+    return out
+
+
+def sees(data: dict[str, Any]) -> str:
+    """What a log's decision could test, in words (contract §10): the residual alone unless q or the
+    regressor came with it, and the estimation run when it did."""
+    if "q" not in data and "regressor" not in data:
+        return "residual only: no q, no regressor"
+    given = ["q" if "q" in data else "", "regressor" if "regressor" in data else "",
+             "estimation run" if "estimation_tau" in data or "estimation_q" in data else ""]
+    lacking = [name for name in ("q", "regressor") if name not in data]
+    if "estimation_tau" not in data and "estimation_q" not in data:
+        lacking.append("estimation run")
+    return "residual, " + ", ".join(g for g in given if g) + ("; no " + ", no ".join(lacking) if lacking else "")
+
+
+def error_row(item: Any, exc: InputError, seconds: float = 0.0) -> LogSummary:
+    """The row of a log that could not be named or read: its robot and time as far as its name gives them."""
+    message = f"{type(exc).__name__}: {exc}"
+    if isinstance(item, Mapping):
+        return LogSummary(str(item.get("robot") or "?"), str(item.get("time") or ""),
+                          str(item.get("log") or item.get("time") or item.get("tau_meas") or "?"),
+                          error=message, seconds=seconds)
+    path = os.fspath(item) if isinstance(item, (str, os.PathLike)) else repr(item)
+    named = parse_name(path)
+    if named is None:  # no robot to give it: the path stands for one, so that the row is seen
+        return LogSummary(path, "", os.path.basename(path.rstrip("/\\")) or path, error=message, seconds=seconds)
+    robot, stamp, stem, _ = named
+    return LogSummary(robot, stamp, stem, error=message, seconds=seconds)
+
+
+def fleet_items(logs: Iterable[Any], n_params: int | None) -> list[LogSpec | LogSummary]:
+    """The fleet's logs before any runs: manifests read (a bad manifest is refused whole, naming its row),
+    logs named by a path, mapping or LogSpec resolved, and a log that cannot be (a missing directory,
+    a name without ``ROBOT__TIME``) its error row, so that one broken log does not stop the fleet."""
+    out: list[LogSpec | LogSummary] = []
+    named: list[tuple[str, LogSpec]] = []
+    for index, item in enumerate(logs):
+        if is_manifest(item):
+            rows = manifest_logs(os.fspath(item), n_params)
+            named.extend(rows)
+            out.extend(spec for _, spec in rows)
+            continue
+        if not isinstance(item, (str, os.PathLike, Mapping, LogSpec)):
+            raise InvalidParameter(f"a log must be a path, a manifest, a mapping or a LogSpec, got "
+                                   f"{type(item).__name__}")
+        if n_params is None and isinstance(item, (str, os.PathLike)):
+            raise InvalidParameter(f"{os.fspath(item)}: n_params is needed: give it to validate_many (--n-params) "
+                                   "or list the log in a manifest with an n_params column")
+        try:
+            spec = as_spec(item, n_params)
+        except InputError as exc:
+            out.append(error_row(item, exc))
+            continue
+        named.append((os.fspath(item) if isinstance(item, (str, os.PathLike)) else f"logs[{index}]", spec))
+        out.append(spec)
+    check_unique(named)
+    return out
 
 
 def _summarise_partition(items: Sequence[Any], n_params: int | None, keywords: dict) -> list[LogSummary]:

@@ -1,10 +1,13 @@
 """Simulated fleets of the 2-DOF arm of :mod:`dynval.simulate`, some robots degrading from a log on.
 
-Each robot is the arm with its own masses (±5 %) and an identified model a little off its truth
-(every base parameter ±3 %): the model every log is validated against. Each log is a new excitation
-trajectory with coloured torque noise (AR(1)); a degradation changes the robot's true parameters
-from one log on (friction grows, or a payload is added at link 2), the model staying as identified.
-The drift test (``benchmarks/calibrate_fleet.py``) is calibrated on these fleets.
+Each robot is the arm with its own masses (±5 %) and a model identified by least squares on an
+estimation run of its own (an excitation trajectory with the logs' noise): the model every log is
+validated against, off its truth by what that run's noise leaves (``model_error=0.03`` instead gives
+the earlier simulator's model, every base parameter ±3 % off its truth, far beyond that noise). Each log
+is a new excitation trajectory with coloured torque noise (AR(1)), with its joint positions and their
+derivatives, its regressor and its time stamps; a degradation changes the robot's true parameters from
+one log on (friction grows, or a payload is added at link 2), the model staying as identified. The drift
+test (``benchmarks/calibrate_fleet.py``) is calibrated on these fleets.
 """
 
 from __future__ import annotations
@@ -17,9 +20,9 @@ import numpy as np
 
 from ..simulate import DEFAULT_ARM, ArmParameters, _trajectory_coefficients, base_parameters, fourier_trajectory
 from ..simulate import regressor as arm_regressor
-from ._logs import LogSpec
+from ._logs import DATA_COLUMNS, LogSpec
 
-__all__ = ["Degradation", "FleetLog", "simulate_fleet", "write_fleet", "robot_names"]
+__all__ = ["Degradation", "FleetLog", "EstimationRun", "simulate_fleet", "write_fleet", "robot_names"]
 
 _PAYLOAD_DISTANCE = 0.4  # m along link 2: where a payload is held
 
@@ -43,14 +46,30 @@ class Degradation:
 
 
 @dataclass(frozen=True)
+class EstimationRun:
+    """The run a robot's model was identified on: torques (N, 2), regressor (N, 2, 10), positions (N, 2)."""
+
+    tau: np.ndarray
+    regressor: np.ndarray
+    q: np.ndarray
+
+
+@dataclass(frozen=True)
 class FleetLog:
-    """One simulated log in memory."""
+    """One simulated log in memory: torques, the model's prediction, the regressor (N, 2, 10), the joint
+    positions, velocities and accelerations (N, 2), the time stamps (s) and the robot's estimation run
+    (None for a model ``model_error`` off its truth, which no run identified)."""
 
     robot: str
     time: str
     tau_meas: np.ndarray
     tau_pred: np.ndarray
     regressor: np.ndarray
+    q: np.ndarray | None = None
+    dq: np.ndarray | None = None
+    ddq: np.ndarray | None = None
+    timestamps: np.ndarray | None = None
+    estimation: EstimationRun | None = None
 
 
 def robot_names(n: int) -> list[str]:
@@ -78,18 +97,33 @@ def _ar1(rng: np.random.Generator, shape: tuple[int, int], sd: float, colour: fl
     return np.asarray(scipy.signal.lfilter([1.0], [1.0, -colour], white, axis=0))
 
 
-def _robot(rng: np.random.Generator) -> tuple[ArmParameters, np.ndarray]:
+def _robot(rng: np.random.Generator, model_error: float = 0.03) -> tuple[ArmParameters, np.ndarray]:
     scale = 1.0 + 0.05 * rng.uniform(-1.0, 1.0, size=2)
     arm = replace(DEFAULT_ARM, m1=DEFAULT_ARM.m1 * scale[0], m2=DEFAULT_ARM.m2 * scale[1])
-    model = base_parameters(arm) * (1.0 + 0.03 * rng.uniform(-1.0, 1.0, size=10))
+    model = base_parameters(arm) * (1.0 + model_error * rng.uniform(-1.0, 1.0, size=10))
     return arm, model
+
+
+def _identified(arm: ArmParameters, seed: np.random.SeedSequence, t: np.ndarray, noise: float,
+                colour: float) -> tuple[np.ndarray, EstimationRun]:
+    """The model least squares gives on an estimation run of the robot (its own stream, so that the
+    logs' trajectories and noise are those of the earlier simulator)."""
+    rng = np.random.default_rng(seed)
+    offsets, amplitudes, phases = _trajectory_coefficients(rng)
+    q, dq, ddq = fourier_trajectory(t, offsets, amplitudes, phases, 0.1)
+    y = arm_regressor(q, dq, ddq, l1=arm.l1)
+    tau = y @ base_parameters(arm) + _ar1(rng, (t.size, 2), noise, colour)
+    model = np.linalg.lstsq(y.reshape(-1, y.shape[-1]), tau.reshape(-1), rcond=None)[0]
+    return model, EstimationRun(tau, y, q)
 
 
 def simulate_fleet(*, n_robots: int = 6, n_logs: int = 12, n_samples: int = 1000,
                    degradations: dict[str, Degradation] | None = None, seed: int = 0, noise: float = 0.2,
-                   colour: float = 0.9, sample_rate: float = 100.0) -> list[FleetLog]:
+                   colour: float = 0.9, sample_rate: float = 100.0, model_error: float | None = None) -> list[FleetLog]:
     """Logs of ``n_robots`` robots (``r01``, ...), ``n_logs`` each, one a day from 2026-01-01;
-    ``degradations`` maps a robot to its change. Deterministic for a seed.
+    ``degradations`` maps a robot to its change. Each robot's model is identified on an estimation run
+    of ``n_samples`` samples, or, with ``model_error``, is its truth with every base parameter off by
+    up to that share (no estimation run). Deterministic for a seed.
 
     Examples
     --------
@@ -104,7 +138,10 @@ def simulate_fleet(*, n_robots: int = 6, n_logs: int = 12, n_samples: int = 1000
     t = np.arange(n_samples) / sample_rate
     for robot, child in zip(robot_names(n_robots), root.spawn(n_robots)):
         rng = np.random.default_rng(child)
-        arm, model = _robot(rng)
+        arm, model = _robot(rng, 0.03 if model_error is None else model_error)
+        run = None
+        if model_error is None:
+            model, run = _identified(arm, child.spawn(1)[0], t, noise, colour)
         change = changes.get(robot)
         for k in range(n_logs):
             truth = _degraded(arm, change) if change is not None and k >= change.from_log else arm
@@ -113,29 +150,50 @@ def simulate_fleet(*, n_robots: int = 6, n_logs: int = 12, n_samples: int = 1000
             y = arm_regressor(q, dq, ddq, l1=arm.l1)
             tau = y @ base_parameters(truth) + _ar1(rng, (n_samples, 2), noise, colour)
             stamp = (start + timedelta(days=k)).strftime("%Y-%m-%dT%H:%M")
-            out.append(FleetLog(robot, stamp, tau, y @ model, y))
+            out.append(FleetLog(robot, stamp, tau, y @ model, y, q, dq, ddq, t, run))
     return out
 
 
-def write_fleet(logs: list[FleetLog], directory: str, n_params: int = 10, regressor: bool = False) -> list[LogSpec]:
-    """Write each log as a directory ``ROBOT__TIME`` of ``.npy`` files (``:`` of the time as ``-``)
-    under ``directory``, and a ``manifest.csv`` naming them; returns their LogSpecs."""
+def write_fleet(logs: list[FleetLog], directory: str, n_params: int = 10, regressor: bool = True) -> list[LogSpec]:
+    """Write each log as a directory ``ROBOT__TIME`` (``:`` of the time as ``-``) of ``.npy`` files under
+    ``directory`` — its torques, prediction, and, with ``regressor`` (default), its regressor, joint
+    positions, velocities, accelerations and time stamps — each robot's estimation run under
+    ``estimation/ROBOT/``, and a ``manifest.csv`` naming them all; returns their LogSpecs.
+    ``regressor=False`` writes the torques alone (the logs' decisions then see the residual only)."""
     specs = []
+    runs: dict[str, dict[str, str]] = {}
     for log in logs:
         folder = os.path.join(directory, f"{log.robot}__{log.time.replace(':', '-')}")
         os.makedirs(folder, exist_ok=True)
-        np.save(os.path.join(folder, "tau_meas.npy"), log.tau_meas)
-        np.save(os.path.join(folder, "tau_pred.npy"), log.tau_pred)
-        reg = None
+        files = {name: _save(folder, name, value) for name, value in (("tau_meas", log.tau_meas),
+                                                                       ("tau_pred", log.tau_pred))}
         if regressor:
-            reg = os.path.join(folder, "regressor.npy")
-            np.save(reg, log.regressor)
-        specs.append(LogSpec(log.robot, log.time, os.path.join(folder, "tau_meas.npy"),
-                             os.path.join(folder, "tau_pred.npy"), n_params, reg, os.path.basename(folder)))
+            files.update({name: _save(folder, name, value) for name, value in
+                          (("regressor", log.regressor), ("q", log.q), ("dq", log.dq), ("ddq", log.ddq),
+                           ("timestamps", log.timestamps)) if value is not None})
+            if log.estimation is not None:
+                if log.robot not in runs:
+                    where = os.path.join(directory, "estimation", log.robot)
+                    os.makedirs(where, exist_ok=True)
+                    runs[log.robot] = {"estimation_tau": _save(where, "tau", log.estimation.tau),
+                                       "estimation_regressor": _save(where, "regressor", log.estimation.regressor),
+                                       "estimation_q": _save(where, "q", log.estimation.q)}
+                files.update(runs[log.robot])
+        specs.append(LogSpec(log.robot, log.time, n_params=n_params, log=os.path.basename(folder), **files))
+    columns = ("robot", "time", "log", "tau_meas", "tau_pred", *DATA_COLUMNS, "n_params")
     with open(os.path.join(directory, "manifest.csv"), "w", encoding="utf-8") as handle:
-        handle.write("robot,time,log,tau_meas,tau_pred,regressor,n_params\n")
+        handle.write(",".join(columns) + "\n")
         for s in specs:
-            handle.write(f"{s.robot},{s.time},{s.log},{os.path.relpath(s.tau_meas, directory)},"
-                         f"{os.path.relpath(s.tau_pred, directory)},"
-                         f"{'' if s.regressor is None else os.path.relpath(s.regressor, directory)},{s.n_params}\n")
+            cells = [s.robot, s.time, s.log] + [_relative(getattr(s, c), directory) for c in columns[3:-1]]
+            handle.write(",".join(cells + [str(s.n_params)]) + "\n")
     return specs
+
+
+def _save(folder: str, name: str, value: np.ndarray) -> str:
+    path = os.path.join(folder, f"{name}.npy")
+    np.save(path, value)
+    return path
+
+
+def _relative(path: str | None, directory: str) -> str:
+    return "" if path is None else os.path.relpath(path, directory)

@@ -161,6 +161,8 @@ def column_index(spec: str, column: str | None, shape: tuple[int, ...]) -> int |
     path = file_path(spec)
     if len(shape) > 2:
         raise FileInputError(f"{spec}: holds an array of shape {tuple(shape)}; one column is needed")
+    if not shape:
+        raise FileInputError(f"{spec}: holds a single number (an array of shape ()); one column is needed")
     width = 1 if len(shape) == 1 else shape[1]
     if column is None:
         if width == 1:

@@ -77,7 +77,7 @@ class CrossCorrelation(_ToDict):
 
     ``rho`` is ``(m, p, max_lag+1)``; ``constant_mask`` ``(m, p)`` marks columns constant on a
     joint (their rows are nan); ``outside`` lists ``(joint, column, lag, rho, ratio)`` with
-    |rho| > band, largest ratio |rho|/band first.
+    ``|rho| > band``, largest ratio ``|rho|/band`` first.
     """
 
     rho: FloatArray

@@ -252,6 +252,7 @@ class Sections:
     predictive: dict[str, Any] | None = None
     periodic: dict[str, Any] | None = None
     segment_metrics: dict[str, Any] | None = None
+    untested: int = 0  # tests validate would run that this route did not (Holm's family, _findings.holm_family)
 
 
 @dataclass(frozen=True)
@@ -275,14 +276,16 @@ class Setting:
     backend: str
     decimate: str | int | None
     streaming: bool = False
+    not_tested: list[dict[str, Any]] = field(default_factory=list)  # dynval.coverage.not_tested
 
 
 def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | None,
                lengths: Sequence[int] | np.ndarray, seg_names: list[str] | None, omitted: int) -> dict[str, Any]:
     """What the report was computed from and with: every convention, unit, size and version.
 
-    A streamed report has no bias test and no colour-aware correlation band (they need the whole
-    series, contract §4.1): their conventions are None and ``streaming`` is True.
+    A streamed report has no colour-aware correlation band (it needs the whole series, contract
+    §4.1): its convention is None, ``streaming`` is True and ``not_tested`` lists every test the
+    stream left out (:mod:`dynval.coverage`).
     """
     prof = s.prof
     crossed = sections.cross is not None
@@ -303,8 +306,9 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
             "rmse": "both: rmse_per_element = sqrt(SSE/(N*m)), rmse_per_sample = sqrt(SSE/N)",
             "r2": "centred, 1 - SSE/TSS",
             "zero_mean_test": "i.i.d. Student t and Newey-West (Bartlett) effective sample size",
-            "bias_test": (None if s.streaming
-                          else "Student t with N_eff from the Andrews-Monahan prewhitened Bartlett long-run variance"),
+            "bias_test": (None if sections.bias is None
+                          else "Student t with N_eff from the Andrews-Monahan prewhitened Bartlett long-run variance"
+                          + (" (autocovariances from the streamed lag sums)" if s.streaming else "")),
             "multiple_testing": "Holm over every test of the report",
             "cross_correlation_band": "white" if crossed else None,
             "cross_correlation_findings": ("Bartlett variance for two coloured series" if crossed and not s.streaming
@@ -329,6 +333,7 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
     }
     if s.streaming:
         out["streaming"] = True
+        out["not_tested"] = [dict(t) for t in s.not_tested]
     out.update(dynval_version=__version__, contract_version=CONTRACT_VERSION,
                report_schema_version=REPORT_SCHEMA_VERSION)
     return out
@@ -345,7 +350,7 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth)
+                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross

@@ -27,10 +27,13 @@ A model can predict a run well and still be no robot at all. Three questions, on
   share of the estimation run's residual mean square that a consistent robot costs (the practical effect).
 * **Identification under the constraints** (:func:`constrained_fit`, ``identify(physical=True)``).
   The same program with the data's own metric: ``min ‖W(Aπ − b)‖²/σ̂² + λ‖π − π₀‖²`` over consistent
-  π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²). The
+  π, A reduced to its R factor first (one QR of ``[A b]``: ‖Aπ − b‖² = ‖R₁₁π − r₁₂‖² + r₂₂²), and
+  solved in working units (:func:`_working_units`) so that its answer does not depend on the units of
+  the torques or of the regressor (contract §8). The
   Euclidean prior π₀ (the URDF's a-priori values, or zero) with a small weight makes the answer
-  unique in the directions the data cannot see; λ is ``prior_weight`` times the mean diagonal of
-  the data term's Hessian, so ``prior_weight`` is unit-free. The entropic prior replaces each link's
+  unique in the directions the data cannot see; column c's λ_c is ``prior_weight`` times the
+  curvature of the data term in its link (:func:`_column_weights`), so ``prior_weight`` is unit-free and
+  the balance between links does not depend on their units. The entropic prior replaces each link's
   Euclidean term by the Bregman divergence of −log det between its pseudo-inertia and the prior's
   (Lee & Park 2018), which keeps J positive definite (:func:`_prior_term`).
 
@@ -44,8 +47,9 @@ then clipped at zero and the friction at zero, so that the returned parameters p
 
 from __future__ import annotations
 
+import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -57,8 +61,9 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
+from ..checks._errors import InputError, InvalidParameter
 from ..checks._typing import FloatArray, IntArray
-from ..checks._validation import check_finite, is_real_number, parameter_error, to_float_array
+from ..checks._validation import check_finite, format_value, is_real_number, parameter_error, to_float_array
 from ._findings import Finding
 from ._text import p_clause
 
@@ -85,6 +90,9 @@ PARAM_NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 INSTALL_HINT = "pip install 'dynval[physical]' (cvxpy, with its default solver Clarabel)"
 
 TOLERANCE = 1e-9
+# Inertia about the centre of mass beyond this (kg·m²) comes from a mass tiny against its first moment:
+# the data range is 1e144 (contract §1.2), so such a link is no body, and its moments are not computed.
+_FAR = 1e150
 """A triangle-inequality deficit or a centre-of-mass excursion smaller than this share of the
 link's largest principal moment, about its centre of mass or about the joint frame's origin
 (or of the box's size), is rounding (a URDF printed to 16 digits, a solver's answer, the
@@ -213,8 +221,11 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
                      columns: tuple[int, ...]) -> Finding | None:
     """The triangle inequality of the principal moments about the centre of mass (J ⪰ 0 with m > 0)."""
     m, h = float(p10[0]), p10[1:4]
-    sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m  # Schur complement: ½tr(I_C)·1 − I_C
-    inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
+    with np.errstate(over="ignore", invalid="ignore"):
+        sigma_c = pseudo_inertia(p10)[:3, :3] - np.outer(h, h) / m  # Schur complement: ½tr(I_C)·1 − I_C
+        inertia_c = np.trace(sigma_c) * np.eye(3) - sigma_c
+    if not np.all(np.abs(inertia_c) <= _FAR):
+        return _far_centre_finding(lay, k, p10, columns)
     moments = np.linalg.eigvalsh(inertia_c)                        # principal moments about the CoM
     deficit = float(moments[2] - moments[0] - moments[1])          # = −2 λ_min(Σ_C)
     # I_C = I − m(|c|²·1 − c cᵀ) rounds at the scale of the inertia about the joint frame's origin
@@ -235,6 +246,31 @@ def _inertia_finding(lay: Layout, k: int, p10: FloatArray, tolerance: float,
         message=(f"{lay.link_label(k)}: no mass distribution has these inertial parameters: about the centre "
                  f"of mass the principal moments {i1:.4g}, {i2:.4g}, {i3:.4g} kg·m² break the triangle "
                  f"inequality I1 + I2 >= I3 by {deficit:.3g} kg·m² (the pseudo-inertia's smallest "
+                 f"eigenvalue is {lam:.3g}; condition: pseudo-inertia positive semidefinite)."))
+
+
+def _far_centre_finding(lay: Layout, k: int, p10: FloatArray, columns: tuple[int, ...]) -> Finding:
+    """A mass so small against its first moment that m·c·cᵀ leaves float64 (a subnormal mass, say).
+
+    Every inertia about the joint frame is at most 1e144 (contract §1.2), and ``h hᵀ/m`` is beyond
+    _FAR, so the Schur complement ``Σ − h hᵀ/m`` is not positive semidefinite: no body has these
+    parameters. The pseudo-inertia's smallest eigenvalue is taken of J scaled to unit size, where
+    nothing overflows.
+    """
+    m, h = float(p10[0]), p10[1:4]
+    j = pseudo_inertia(p10)
+    size = float(np.max(np.abs(j)))
+    lam = float(np.linalg.eigvalsh(j / size)[0]) * size
+    first = ", ".join(f"{x:.4g}" for x in h)
+    return Finding(
+        kind="physical_consistency", severity="deficiency", joints=(k,), columns=columns,
+        effect=abs(lam), effect_unit="kg·m²", threshold=0.0, action=_ACTION_LINK,
+        details={"link": lay.links[k], "condition": "pseudo-inertia positive semidefinite",
+                 "pseudo_inertia_min_eigenvalue": lam, "principal_moments": None, "centre_of_mass": None,
+                 "mass": m},
+        message=(f"{lay.link_label(k)}: no mass distribution has these inertial parameters: the mass "
+                 f"{m:.4g} kg is too small for the first moment ({first}) kg·m, which puts the centre of mass "
+                 f"beyond any robot (more than 1e150 kg·m² of inertia about it; the pseudo-inertia's smallest "
                  f"eigenvalue is {lam:.3g}; condition: pseudo-inertia positive semidefinite)."))
 
 
@@ -370,50 +406,132 @@ def _program(cp: Any, lay: Layout, boxes: dict[str, tuple[FloatArray, FloatArray
                     pseudo_inertias=[lmi.args[0] for lmi in lmis])
 
 
-def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, weight: float,
-                metric: str) -> Any:
-    """``weight·‖π − prior‖²`` (Euclidean), or with ``metric="entropic"`` each link's Bregman divergence
-    of −log det, ``2·weight·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (near J₀ of the order
-    of ``weight·‖J − J₀‖²_F``, so that ``prior_weight`` reads alike; the constants are left out of the
-    objective), and the Euclidean term for the other columns (friction, offsets)."""
+def _prior_term(cp: Any, prog: _Program, lay: Layout, prior: FloatArray | None, w: FloatArray,
+                metric: str, d: FloatArray) -> Any:
+    """``Σ_c w_c·(π_c − prior_c)²`` (Euclidean; ``π = d·π̂``, ``d`` from :func:`_working_units`, ``w``
+    from :func:`_column_weights`), or with ``metric="entropic"`` each link's Bregman divergence of
+    −log det, ``2·w_k·‖J₀‖²_F·(tr(J₀⁻¹J) − log det J + log det J₀ − 4)`` (w_k its columns' weight; near
+    J₀ of the order of ``w_k·‖J − J₀‖²_F``, so that ``prior_weight`` reads alike; the constants are left
+    out of the objective; the divergence itself does not depend on the units), and the Euclidean term
+    for the other columns (friction, offsets)."""
     target = 0.0 if prior is None else prior
+    # √w·d in one constant: the solver sees the same numbers whatever the units (w and d apart would
+    # carry the units' powers into the program)
+    root = np.sqrt(w) * d
     if metric != "entropic":
-        return weight * cp.sum_squares(prog.pi - target)
+        return cp.sum_squares(cp.multiply(root, prog.pi - target))
     rest = np.ones(lay.n_columns, dtype=bool)
     terms = []
     for k, jk in enumerate(prog.pseudo_inertias):
         j0 = pseudo_inertia(link_parameters(np.asarray(prior), lay)[k])
-        scale = 2.0 * weight * float(np.sum(j0**2))
-        terms.append(scale * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
+        terms.append(_link_prior_weight(lay, w, d, k) * float(np.sum(j0**2))
+                     * (cp.trace(np.linalg.inv(j0) @ jk) - cp.log_det(jk)))
         rest[lay.link_columns[k][lay.link_columns[k] >= 0]] = False
     if rest.any():
-        terms.append(weight * cp.sum_squares(prog.pi[np.flatnonzero(rest)] - np.asarray(prior)[rest]))
+        keep = np.flatnonzero(rest)
+        terms.append(cp.sum_squares(cp.multiply(root[keep], prog.pi[keep] - np.asarray(prior)[rest])))
     return cp.sum(cp.hstack(terms)) if len(terms) > 1 else terms[0]
 
 
-def _objective_scale(g_mat: FloatArray, weight: float, prior: FloatArray | None, lay: Layout, metric: str) -> float:
+def _link_prior_weight(lay: Layout, w: FloatArray, d: FloatArray, k: int) -> float:
+    """2·w_k·s_k²: the entropic term's factor of ‖J₀‖²_F for link k in working units."""
+    cols = lay.link_columns[k][lay.link_columns[k] >= 0]
+    return 2.0 * float(w[cols[0]]) * _link_scale(lay, d, k) ** 2 if cols.size else 0.0
+
+
+def _link_scale(lay: Layout, d: FloatArray, k: int) -> float:
+    """Link k's scale s_k (every present column of the link has it, :func:`_working_units`)."""
+    cols = lay.link_columns[k][lay.link_columns[k] >= 0]
+    return float(d[cols[0]]) if cols.size else 1.0
+
+
+def _objective_scale(g_mat: FloatArray, w: FloatArray, prior: FloatArray | None, lay: Layout, metric: str,
+                     d: FloatArray) -> float:
     """With the entropic prior, the size of the objective's curvature (the data term's mean plus the
     prior's largest), by which the objective is divided; 1 otherwise (the Euclidean programs solve
     as they are)."""
-    if metric != "entropic" or prior is None or not weight > 0:
+    if metric != "entropic" or prior is None or not np.any(w > 0):
         return 1.0
     data = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
-    largest = max((float(np.sum(pseudo_inertia(p10) ** 2)) for p10 in link_parameters(prior, lay)), default=1.0)
-    return float(max(data, 1e-300) + float(weight) * largest)
+    largest = max((0.5 * _link_prior_weight(lay, w, d, k) * float(np.sum(pseudo_inertia(p10) ** 2))
+                   for k, p10 in enumerate(link_parameters(prior, lay))), default=0.0)
+    return float(max(data, 1e-300) + largest)
+
+
+def _pow2(x: FloatArray) -> FloatArray:
+    """The power of two nearest each positive x (in the logarithm)."""
+    return np.ldexp(1.0, np.rint(np.log2(x)).astype(np.int64))
+
+
+def _working_units(lay: Layout, g_mat: FloatArray, metric: str, prior: FloatArray | None, weight: float) -> FloatArray:
+    """d: the program is solved for π̂ with π = d·π̂ (contract §8). G and g are already in units of the
+    noise (divided by σ̂), so the torques' unit is gone from the data term but not from π; d per column
+    is the power of two nearest 1/‖G_c‖, one value per link (the geometric mean of its columns' norms:
+    the pseudo-inertia's cone holds J ⪰ 0 for any positive multiple of J, not for each entry scaled
+    apart; the centre-of-mass boxes and absent columns are homogeneous too), one per friction
+    coefficient and free column. The solver then sees a data matrix G·d with columns near unit norm
+    whatever the units of the torques and of the regressor: a unit changed by a power of two gives the
+    same data matrix bit for bit (and, up to the rounding of the prior's weights, the same program).
+    A column of zeros takes the geometric mean of the others. With the entropic prior the exponential
+    cones of log det converge with the parameters near unit size: one d for every column, the power of
+    two nearest the prior's largest |value| (the prior carries the parameters' units as the data do)."""
+    if metric == "entropic" and prior is not None and weight > 0 and np.any(np.asarray(prior) != 0):
+        return np.full(g_mat.shape[1], _pow2(np.array([np.max(np.abs(prior))]))[0])
+    return _pow2(np.exp2(-_log_link_norms(lay, g_mat)))
+
+
+def _log_link_norms(lay: Layout, g_mat: FloatArray) -> FloatArray:
+    """log₂ of each column's norm in G, the geometric mean over a link's ten columns; a column of
+    zeros (or a link of them) takes the geometric mean of the nonzero columns (1 without any)."""
+    with np.errstate(over="ignore", under="ignore", divide="ignore"):
+        norms = np.sqrt(np.einsum("ij,ij->j", g_mat, g_mat))
+    live = (norms > 0) & np.isfinite(norms)
+    typical = float(np.mean(np.log2(norms[live]))) if live.any() else 0.0
+    log_n = np.full(norms.shape, typical)
+    log_n[live] = np.log2(norms[live])
+    for cols in lay.link_columns:
+        cols = cols[cols >= 0]
+        known = cols[live[cols]]
+        log_n[cols] = np.mean(log_n[known]) if known.size else typical
+    return log_n
+
+
+def _column_weights(lay: Layout, g_mat: FloatArray, weight: float) -> FloatArray:
+    """The Euclidean prior's weight of each column: ``weight`` (prior_weight × the data term's mean
+    curvature ΣG²/p) times its link's curvature ‖G_c‖² over that mean (:func:`_log_link_norms`), i.e.
+    prior_weight × its own link's curvature. A column's unit then scales its weight as it scales the
+    square of its parameter's change, and the prior's balance between links and friction does not
+    depend on their units (with one weight for all, a link in a unit 1e6 times smaller would pull the
+    others towards the prior 1e12 times harder)."""
+    mean = float(np.sum(g_mat**2)) / max(g_mat.shape[1], 1)
+    if not weight > 0 or not mean > 0 or not np.isfinite(mean):
+        return np.full(g_mat.shape[1], float(weight))
+    out: FloatArray = float(weight) * np.exp2(2.0 * _log_link_norms(lay, g_mat)) / mean
+    return out
+
+
 
 
 def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: object = None,
            prior: FloatArray | None = None, weight: float = 0.0, metric: str = "euclidean",
            what: str = "physical consistency") -> dict[str, Any]:
-    """``min ‖G π − g‖² + (the prior's term)`` over consistent π; the clipped π and the solver's record."""
+    """``min ‖G π − g‖² + (the prior's term)`` over consistent π; the clipped π and the solver's record.
+
+    Solved in working units (:func:`_working_units`): ``‖(G d) π̂ − g‖²`` and the prior's term over
+    π̂ = π/d, which is consistent exactly when π is; the answer and the duals are put back in the
+    units given."""
     cp = import_cvxpy(what)
+    d = _working_units(lay, g_mat, metric, prior, weight)
+    g_w = g_mat * d
+    prior_w = None if prior is None else np.asarray(prior, dtype=float) / d
     prog = _program(cp, lay, resolve_com_bounds(com_bounds, lay.links))
-    objective = cp.sum_squares(g_mat @ prog.pi - g_vec)
+    objective = cp.sum_squares(g_w @ prog.pi - g_vec)
+    w = _column_weights(lay, g_mat, weight)
     if weight > 0:
-        objective = objective + _prior_term(cp, prog, lay, prior, weight, metric)
+        objective = objective + _prior_term(cp, prog, lay, prior_w, w, metric, d)
     # one overall scale keeps the conic solver's numbers moderate when the entropic prior's weight is
     # large (the exponential cones of log det fail to converge beyond a weight of about 100 otherwise)
-    scale = _objective_scale(g_mat, weight, prior, lay, metric)
+    scale = _objective_scale(g_w, w, prior_w, lay, metric, d)
     problem = cp.Problem(cp.Minimize(objective / scale), prog.constraints)
     solver = "CLARABEL" if "CLARABEL" in cp.installed_solvers() else "SCS"
     start = time.perf_counter()
@@ -424,12 +542,42 @@ def _solve(lay: Layout, g_mat: FloatArray, g_vec: FloatArray, *, com_bounds: obj
     elapsed = time.perf_counter() - start
     if problem.status not in ("optimal", "optimal_inaccurate"):
         raise RuntimeError(f"{what}: the solver {solver} ended with status {problem.status!r}")
-    raw = np.asarray(prog.pi.value, dtype=float)
-    return {"pi": _clip(raw, lay), "solver": solver, "status": problem.status,
+    raw = d * np.asarray(prog.pi.value, dtype=float)
+    clipped = _clip(raw, lay)
+    status = _checked_status(str(problem.status), g_w, g_vec, raw / d, clipped / d)
+    # the duals in the units given: the objective was divided by scale, link k's J and friction
+    # coefficient i by their d (a dual is the objective's rate per unit of its constraint)
+    link_d = [_link_scale(lay, d, k) for k in range(len(lay.links))]
+    # the duals in working units are unit-free (a relaxation by one working unit moves the fit by
+    # about one noise σ): what decides which constraints bind (:func:`_binding`)
+    unit_free = ([scale * float(np.trace(c.dual_value)) for c in prog.lmis],
+                 [] if prog.friction is None else (scale * np.asarray(prog.friction.dual_value)).tolist())
+    return {"pi": clipped, "unit_free_duals": unit_free, "solver": solver, "status": status,
             "solve_time": elapsed, "solver_time": float(problem.solver_stats.solve_time or 0.0),
-            "lmi_duals": [scale * float(np.trace(c.dual_value)) for c in prog.lmis],
+            "lmi_duals": [scale / s_k * float(np.trace(c.dual_value)) for c, s_k in zip(prog.lmis, link_d)],
             "friction_duals": ([] if prog.friction is None
-                               else (scale * np.asarray(prog.friction.dual_value)).tolist())}
+                               else (scale / np.array([d[c] for _, _, c in lay.friction])
+                                     * np.asarray(prog.friction.dual_value)).tolist())}
+
+
+CLIP_TOLERANCE = 1e-6
+"""The share of the data term by which the clip of the solver's answer may raise it for the answer
+still to be called ``optimal``: a solver within its tolerance moves it by about 1e-10."""
+
+
+def _checked_status(status: str, g_w: FloatArray, g_vec: FloatArray, raw_w: FloatArray, clipped_w: FloatArray) -> str:
+    """The solver's status, or ``optimal_inaccurate`` when its "optimal" answer lay so far outside the
+    consistent set that clipping it raised the data term ‖G π − g‖² (working units, in units of the
+    noise) by more than :data:`CLIP_TOLERANCE` of it (and of 1): the answer returned is then not the
+    optimum the status claims."""
+    if status != "optimal":
+        return status
+    with np.errstate(over="ignore", invalid="ignore"):
+        before = float(np.sum((g_w @ raw_w - g_vec) ** 2))
+        after = float(np.sum((g_w @ clipped_w - g_vec) ** 2))
+    if not np.isfinite(after) or after - before > CLIP_TOLERANCE * max(1.0, before):
+        return "optimal_inaccurate"
+    return status
 
 
 def _clip(values: FloatArray, lay: Layout) -> FloatArray:
@@ -468,8 +616,9 @@ class BaseConsistency:
         ``Kπ*`` and π*, the nearest consistent parameters (π* is one of possibly many).
     binding : tuple of (str, int, tuple of int)
         The constraints that hold β̂ away: ``(label, joint, columns)`` of each link pseudo-inertia
-        and friction bound whose dual (the rate at which d² falls as the bound is relaxed) exceeds
-        ``1e-4·max(1, d²)``, largest first within links, then friction.
+        and friction bound whose dual (the rate at which d² falls as the bound is relaxed, in the
+        program's working units: unit-free) exceeds ``1e-4·max(1, d²)``, largest first within links,
+        then friction.
     solver : dict
         Solver name, status, times, and the duals of each link's LMI (trace) and friction bound.
     """
@@ -517,16 +666,18 @@ def base_consistency(result: Any, *, covariance: FloatArray | None = None, com_b
         distance2=d2, dof=r, pvalue=float(scipy.stats.chi2.sf(d2, r)),
         share=d2 / dof_resid if dof_resid > 0 else float("nan"),
         nearest_base=nearest, nearest_full=solved["pi"], binding=_binding(lay, solved, d2),
-        solver={k: v for k, v in solved.items() if k != "pi"})
+        solver={k: v for k, v in solved.items() if k not in ("pi", "unit_free_duals")})
 
 
 def _binding(lay: Layout, solved: dict[str, Any], d2: float) -> tuple[tuple[str, int, tuple[int, ...]], ...]:
-    """The constraints with a dual above ``1e-4·max(1, d²)`` (BaseConsistency.binding)."""
+    """The constraints with a dual above ``1e-4·max(1, d²)`` in working units (BaseConsistency.binding):
+    unit-free, where a dual in the units given scales with the inverse of its parameters' unit."""
     floor = 1e-4 * max(1.0, d2)
+    lmi_duals, friction_duals = solved["unit_free_duals"]
     links = [(dual, f"{lay.link_label(k)} pseudo-inertia", k, tuple(int(c) for c in lay.link_columns[k] if c >= 0))
-             for k, dual in enumerate(solved["lmi_duals"]) if dual > floor]
+             for k, dual in enumerate(lmi_duals) if dual > floor]
     friction = [(dual, f"{lay.joint_label(j)} {kind}", j, (c,))
-                for (j, kind, c), dual in zip(lay.friction, solved["friction_duals"]) if dual > floor]
+                for (j, kind, c), dual in zip(lay.friction, friction_duals) if dual > floor]
     return tuple((label, j, cols) for _, label, j, cols in sorted(links, key=lambda x: -x[0])
                  + sorted(friction, key=lambda x: -x[0]))
 
@@ -615,6 +766,7 @@ def constrained_fit(a: FloatArray, b: FloatArray, sigma2: float, column_names: S
     weight = rel_weight * float(np.sum(g_mat**2)) / p
     solved = _solve(lay, g_mat, g_vec, com_bounds=com_bounds, prior=prior_values, weight=weight,
                     metric=prior_metric, what="identify(physical=True)")
+    solved.pop("unit_free_duals")
     return {**solved, "prior_weight": rel_weight, "weight": weight, "prior_metric": prior_metric}
 
 
@@ -626,6 +778,44 @@ def _is_urdf_model(source: object) -> bool:
     layer need not import the robotics layer)."""
     return all(callable(getattr(source, a, None)) for a in ("parameters", "column_names", "regressor")) and \
         hasattr(source, "joint_names")
+
+
+# The robotics layer's URDF reader (dynval.robots.URDFModel), which registers itself when it is
+# imported (``import dynval`` does): this layer is below it and cannot import it.
+_urdf_reader: Callable[[Any], Any] | None = None
+
+
+def register_urdf_reader(reader: Callable[[Any], Any]) -> None:
+    """Called by :mod:`dynval.robots` with :class:`~dynval.robots.URDFModel`."""
+    global _urdf_reader
+    _urdf_reader = reader
+
+
+def urdf_from_path(source: Any) -> Any:
+    """A URDF file's path (str or os.PathLike) or XML text as a :class:`dynval.robots.URDFModel`;
+    anything else unchanged. A file that cannot be read is InvalidParameter naming it."""
+    if not isinstance(source, (str, os.PathLike)) or _urdf_reader is None:
+        return source
+    import xml.etree.ElementTree as ET
+
+    def refused(why: str) -> InvalidParameter:
+        return InvalidParameter(f"parameters must be a URDFModel, an IdentificationResult, a parameter vector or "
+                                f"the path of a readable URDF file, got {format_value(os.fspath(source))} ({why})")
+
+    is_text = isinstance(source, str) and source.lstrip().startswith("<")
+    # a FIFO or a device would be read forever: only a regular file is opened
+    if not is_text and os.path.exists(source) and not os.path.isfile(source):
+        raise refused("not a regular file")
+    try:
+        return _urdf_reader(source)
+    except OSError as exc:
+        raise refused(exc.strerror or type(exc).__name__) from None
+    except (ET.ParseError, UnicodeDecodeError) as exc:
+        raise refused(f"not URDF XML: {exc}") from None
+    except InputError:
+        raise
+    except (ValueError, RuntimeError) as exc:  # pinocchio's parser: XML, but no model it can build
+        raise refused(f"not a URDF model: {str(exc).strip().splitlines()[0]}") from None
 
 
 def resolve(source: Any, column_names: Sequence[str] | None = None,
@@ -641,8 +831,9 @@ def resolve(source: Any, column_names: Sequence[str] | None = None,
     values = to_float_array(source, "parameters")
     if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
         values = values.reshape(-1)
-    if values.ndim != 1:
-        raise parameter_error("parameters", "a 1-D vector (or (n_links, 10) without column_names)",
+    if values.ndim != 1 or values.size == 0:
+        # an empty vector has no link to check: "no finding" would read as a sound robot
+        raise parameter_error("parameters", "a non-empty 1-D vector (or (n_links, 10) without column_names)",
                               f"shape {values.shape}")
     check_finite(values.reshape(1, -1), "parameters")
     if column_names is None:
@@ -666,6 +857,7 @@ def findings(source: Any, *, column_names: Sequence[str] | None = None, joint_na
         raise parameter_error("level", "a number with 0 < level < 1", level)
     if not is_real_number(tolerance) or not 0 <= float(tolerance) < np.inf:
         raise parameter_error("tolerance", "a finite number >= 0", tolerance)
+    source = urdf_from_path(source)
     if getattr(source, "full_parameters", 0) is None:
         cov = None if covariance is None else to_float_array(covariance, "covariance")
         bc = base_consistency(source, covariance=cov, com_bounds=com_bounds, joint_names=joint_names)
@@ -684,6 +876,7 @@ def report_findings(parameters: Any, *, m: int, level: float, column_names: Sequ
     ``details["parameter_columns"]`` and ``details["parameters"]``).
     """
     names = None
+    parameters = urdf_from_path(parameters)
     if _is_urdf_model(parameters):
         source_names = tuple(parameters.column_names(friction=True, offset=False))
     elif hasattr(parameters, "full_parameters"):                    # an IdentificationResult

@@ -52,6 +52,8 @@ KINDS = {
     "pooling": "the pooled value hides a joint that does much worse",
     "constant_target": "a joint's measured torque is constant",
     "omitted_rows": "rows with non-finite values were omitted",
+    "information_criteria": "n_params leaves the criteria no degree of freedom (p >= n - 1): AICc and FPE are "
+                            "undefined and AIC and BIC are mostly penalty",
     "time_stamps": "the time stamps are not a uniform grid: duplicated stamps, repeated rows, gaps or "
                    "irregular steps (the grid the analyses used is stated)",
     "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
@@ -68,10 +70,10 @@ class Thresholds:
     Attributes
     ----------
     bias : float
-        |ē_j| / RMSE_j (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
+        ``|ē_j| / RMSE_j`` (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
         square). Estimation error alone leaves a smaller mean on a new trajectory (calibrated).
     regressor_correlation : float
-        |ρ̂_eY(ℓ)|, the correlation of the residual with a regressor column; ρ² is the share of
+        ``|ρ̂_eY(ℓ)|``, the correlation of the residual with a regressor column; ρ² is the share of
         residual variance that column explains linearly (0.15, i.e. 2.25 %).
     missing_term : float
         For a column outside ``model_columns``: the share of the residual's mean square that
@@ -128,7 +130,7 @@ class Thresholds:
 
 def resolve_thresholds(value: object) -> Thresholds:
     """``None`` → defaults; a mapping overrides named fields; a :class:`Thresholds` as is."""
-    from ..checks._validation import parameter_error
+    from ..checks._validation import format_value, parameter_error
 
     if value is None:
         return Thresholds()
@@ -141,12 +143,12 @@ def resolve_thresholds(value: object) -> Thresholds:
                 raise parameter_error("thresholds", "a mapping with keys among "
                                       + ", ".join(repr(n) for n in sorted(names)), value)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
-                raise parameter_error(f"thresholds[{key!r}]", "a finite number >= 0", x)
+                raise parameter_error(f"thresholds[{format_value(key)}]", "a finite number >= 0", x)
         return replace(Thresholds(), **{k: float(x) for k, x in value.items()})
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Finding:
     """One finding of a report.
 
@@ -192,6 +194,14 @@ class Finding:
         out: dict[str, Any] = to_jsonable(asdict(self))
         return out
 
+    def __repr__(self) -> str:
+        # one line a reader can scan in a list of findings; every field stays an attribute
+        where = "".join(f" {name}={list(value)}" for name, value in (("joints", self.joints), ("columns", self.columns))
+                        if value)
+        p = "" if self.pvalue_adjusted is None else f" p_adj={self.pvalue_adjusted:.3g}"
+        message = self.message if len(self.message) <= 100 else self.message[:99] + "…"
+        return f"<Finding {self.severity} {self.kind}{where}{p}: {message}>"
+
 
 @dataclass
 class Evidence:
@@ -209,6 +219,10 @@ class Evidence:
     column_names: list | None = None
     omitted_rows: int = 0
     force_finite: bool = False
+    # the information criteria's parameter and observation counts (n: N·m pooled, N otherwise)
+    n_params: int | None = None
+    criteria_n_obs: int | None = None
+    noise_model: str = "pooled"
     # bias: the residual mean against its coloured-noise standard error
     mean: np.ndarray | None = None
     rmse: np.ndarray | None = None
@@ -258,6 +272,9 @@ class Evidence:
     detectable_share: np.ndarray | None = None
     noise_n_eff: np.ndarray | None = None
     extra_notes: list = field(default_factory=list)
+    # tests validate would have run on these inputs and this entry point did not (a stream's spectrum
+    # and colour-aware cross-correlation): each counts in Holm's family as a p-value of 1
+    untested: int = 0
 
 
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
@@ -300,23 +317,28 @@ def _tests(ev: Evidence):
             blocks.append(("delay", np.asarray(ev.physics["delay"]["pvalue"], dtype=float)))
     if ev.predictive is not None:
         blocks.append(("predictive", np.asarray(ev.predictive["pvalue"], dtype=float)))
-    if ev.periodic is not None:
+    if ev.periodic is not None and ev.periodic.get("used", True):  # used False: a period not tested
         blocks.append(("periodic", np.asarray(ev.periodic["pvalue"], dtype=float)))
     return blocks
 
 
 def holm_family(ev: Evidence) -> dict[str, Any]:
-    """Raw and Holm-adjusted p-values of every test in the report, by family; and the count."""
+    """Raw and Holm-adjusted p-values of every test in the report, by family; and the count.
+
+    The tests the entry point left out (``ev.untested``) join the family as p-values of 1: the
+    others are corrected for a family the size of ``validate``'s, so that leaving a test out never
+    makes another more significant than ``validate`` would (docs/conventions.md §5).
+    """
     blocks = _tests(ev)
     flat = np.concatenate([b.reshape(-1) for _, b in blocks]) if blocks else np.zeros(0)
-    adjusted = holm(flat)
+    adjusted = holm(np.concatenate([flat, np.ones(ev.untested)]))[:flat.size]
     out: dict[str, Any] = {}
     pos = 0
     for name, b in blocks:
         size = b.size
         out[name] = (b, adjusted[pos:pos + size].reshape(b.shape))
         pos += size
-    out["_count"] = int(np.sum(~np.isnan(flat)))
+    out["_count"] = int(np.sum(~np.isnan(flat))) + ev.untested
     return out
 
 
@@ -384,6 +406,11 @@ def _data_notes(r: _Rules) -> list[Finding]:
     for j in np.flatnonzero(constant):
         out.append(_worded(w.constant_target(r.name(int(j)), ev.force_finite), kind="constant_target", severity="note",
                            joints=(int(j),)))
+    if ev.n_params is not None and ev.criteria_n_obs is not None and ev.n_params >= ev.criteria_n_obs - 1:
+        # the rule of contract §3.7 that makes aicc and fpe nan, said where the reader looks
+        out.append(_worded(w.information_criteria(ev.n_params, ev.criteria_n_obs, ev.noise_model),
+                           kind="information_criteria", severity="note", effect=float(ev.n_params),
+                           effect_unit=w.UNITS["information_criteria"], threshold=float(ev.criteria_n_obs - 1)))
     return out
 
 

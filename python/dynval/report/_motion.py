@@ -17,8 +17,9 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
-from ..statistics import _periodic, _physics
+from ..statistics import _estimation, _periodic, _physics
 from ._prepared import Memo, compute_now
+from ._regressor_algebra import unit_norm_columns
 
 __all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
 
@@ -45,7 +46,8 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
         how = "their estimation error, Cov(π̂) from the estimation run, widens the test"
     elif reg3 is not None:
         cols = list(range(reg3.shape[2])) if model_columns is None else list(model_columns)
-        kwargs["nuisance"] = [reg3[:, j, cols] for j in range(reg3.shape[1])]
+        # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
+        kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
         how = "refitted on the validation run (what they represent is not missing)"
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
@@ -139,14 +141,18 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=Non
     period = _periodic.detect_period(q, sample_rate=sample_rate)
     if period is None:
         return None
+    if round(period.samples) < _periodic.MIN_TESTED_PERIOD:
+        return _untested_period(period, f"q repeats every {period.samples:.3g} samples: an encoder dithering by a "
+                                        "count at standstill, not a repeated trajectory; such a period has no "
+                                        "harmonic below the Nyquist frequency, so no periodic test")
     projected = False
     if reg3 is not None:
         cols = (list(est_fit.columns) if est_fit is not None
                 else list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
         e = e.copy()
         for j in range(e.shape[1]):
-            y = reg3[:, j, cols]
-            if np.any(y):
+            y = unit_norm_columns(reg3[:, j, cols])  # the projection in any unit of the columns
+            if y.size:
                 e[:, j] -= y @ np.linalg.lstsq(y, e[:, j], rcond=None)[0]
         projected = True
     use_band = band if band is not None and np.isfinite(band) and band > 0 else None
@@ -155,11 +161,19 @@ def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=Non
     except ValueError:
         if use_band is None:
             return None
-        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+        try:
+            test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
+        except ValueError as exc:
+            return _untested_period(period, f"no periodic test: {exc}")
     out = {"used": True, "period": period.to_dict(), **test.to_dict()}
     out["model_columns_removed"] = projected
     out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
     return out
+
+def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
+    """The periodic section of a period that cannot be tested: ``used`` False and the ``note`` why."""
+    return {"used": False, "period": period.to_dict(), "note": note}
+
 
 def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05) -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
@@ -177,9 +191,13 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
     cols = list(est_fit.columns)
     q_e = est_run["q"]
     de = _physics.derivatives(q_e, sample_rate)
-    y_e = est_run["regressor"][:, :, cols]
     tau_e = est_run["tau"]
-    n_e, m, k = y_e.shape
+    n_e, m, k = est_run["regressor"][:, :, cols].shape
+    # the refits on unit-norm columns (zero ones left out: scale 0), so that their rank decisions do
+    # not depend on the columns' units (contract §4); the validation rows scaled alike
+    scales = _estimation._column_scales(est_run["regressor"][:, :, cols].reshape(n_e * m, k))
+    y_e = est_run["regressor"][:, :, cols] * scales
+    y_v = reg3[:, :, cols] * scales
     x = y_e.reshape(n_e * m, k)
     gram, rhs = x.T @ x, x.T @ tau_e.reshape(-1)
     lib_e = {t.joint: _physics.library(t.joint, q_e, de.dq, de.ddq, np.zeros(n_e), sample_rate) for t in flagged}
@@ -200,7 +218,7 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
         rhs_g = np.concatenate([rhs] + [b.T @ tau_e[:, j] for j, b in zip(joints, blocks)])
         coef = np.linalg.lstsq(a, rhs_g, rcond=None)[0]
         for i, j in enumerate(joints):
-            resid = meas[:, j] - reg3[:, j, cols] @ coef[:k] - lib_v[j][g] @ coef[k + sizes[i]:k + sizes[i + 1]]
+            resid = meas[:, j] - y_v[:, j, :] @ coef[:k] - lib_v[j][g] @ coef[k + sizes[i]:k + sizes[i + 1]]
             if base[j] > 0:
                 gains[j][g] = (base[j] - float(np.mean(resid**2))) / base[j]
     for t in flagged:
@@ -212,7 +230,7 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
             # hardly changes posture), or its parameter error (other joints' noise through the
             # shared parameters) outweighs the term. Name the group that best explains, on the
             # validation run, what the model's own columns cannot represent there.
-            gv = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
+            gv = _validation_refit_gains(meas[:, t.joint], unit_norm_columns(reg3[:, t.joint, cols]), lib_v[t.joint])
             if gv and max(gv.values()) > max(list(gj.values()) + [0.0]):
                 gj, how = gv, "validation"
             if not gj or not max(gj.values()) > 0:

@@ -78,12 +78,40 @@ class Record(Mapping[str, Any]):
         return len(self._order)
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}({', '.join(self._order)})"
+        return f"{type(self).__name__}({', '.join(f'{k}={_short(getattr(self, k))}' for k in self._order)})"
+
+    def _repr_html_(self) -> str:
+        """A two-column table, quantity and value (arrays abbreviated as in the repr)."""
+        import html
+
+        rows = "".join(f"<tr><th style='text-align:left'>{html.escape(k)}</th>"
+                       f"<td style='text-align:left'><code>{html.escape(_short(getattr(self, k)))}</code></td></tr>"
+                       for k in self._order)
+        return f"<table><caption>{type(self).__name__}</caption><tbody>{rows}</tbody></table>"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary: nested lists, non-finite numbers as strings (contract §4)."""
         out: dict[str, Any] = to_jsonable({k: getattr(self, k) for k in self._order})
         return out
+
+
+def _short(value: Any) -> str:
+    """A value as a reader wants it in a repr: numbers to 4 significant digits, long arrays and
+    mappings abbreviated (the full values are the attributes)."""
+    import numpy as np
+
+    if isinstance(value, np.ndarray):
+        return np.array2string(value, precision=4, threshold=8, edgeitems=3, max_line_width=100,
+                               separator=", ").replace("\n", "")
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value):.4g}"
+    if isinstance(value, Mapping):
+        keys = list(value)
+        shown = ", ".join(str(k) for k in keys[:4]) + (", …" if len(keys) > 4 else "")
+        return f"{{{len(keys)} entries: {shown}}}"
+    if isinstance(value, (list, tuple)) and len(value) > 8:
+        return f"[{', '.join(map(str, value[:3]))}, …, {', '.join(map(str, value[-2:]))}] ({len(value)} items)"
+    return repr(value)
 
 
 def record_or_none(cls: type[_R], section: Mapping[str, Any] | None) -> _R | None:
@@ -113,6 +141,7 @@ class Provenance(Record):
     thresholds: dict[str, float] | None = ABSENT
     backend: str = ABSENT
     streaming: bool = ABSENT  #: present (True) on a streamed report only
+    not_tested: list[dict[str, Any]] = ABSENT  #: a streamed report's: the tests left out, by name, and why
     dynval_version: str = ABSENT
     contract_version: str = ABSENT
     report_schema_version: int = ABSENT
@@ -374,6 +403,7 @@ class Periodic(Record):
     method: str = ABSENT
     model_columns_removed: bool = ABSENT
     effect_net: Any = ABSENT
+    note: str = ABSENT  # why a period found was not tested (``used`` False)
 
 
 @dataclass(frozen=True, eq=False, repr=False)

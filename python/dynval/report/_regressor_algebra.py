@@ -312,11 +312,38 @@ def _singular_values(x, live, norms, gram=None):
 
 
 _RANK_TOL = 1e-9
-"""Zero and dependent columns of the design section (conventions §5.6): a column whose norm is at
-most 1e-9 of the largest, or whose pivot |R_kk| of the column-scaled pivoted QR is at most 1e-9 of
-|R_00|. Roundoff of a structural zero or dependency stands near 1e-15 (KUKA LWR4+: at most 3e-15,
-while its weakest identifiable combination stands at 1e-2); a real column this weak would mean a
-condition number of 1e9."""
+"""Dependent columns of the design section (conventions §5.6): a column that, scaled to unit norm,
+lies within 1e-9 of the span of the columns kept before it (zero columns: :func:`zero_columns`).
+Roundoff of a dependency stands near 1e-15 (KUKA LWR4+: at most 3e-15, while its weakest
+identifiable combination stands at 1e-2); a real column this weak would mean a condition number of
+1e9."""
+
+
+_ROUNDOFF_COLUMN = 1e-13
+"""A column is zero (conventions §5.6, contract §4) when its norm is 0 or at most 1e-13 of the median
+norm of the nonzero columns: roundoff of a structurally zero column (cos(π/2) = 6e-17 in a kinematic
+chain; KUKA LWR4+: 1.3e-16 and 3.9e-16 of the median in runs 3 and 1). The median, not the largest:
+a column in another unit (×1e9) then moves no other column's decision, and columns scaled each by
+any factor in [1e-6, 1e6] keep theirs while their norms are within 10 of each other."""
+
+
+def zero_columns(norms: np.ndarray, tol: float = _ROUNDOFF_COLUMN) -> np.ndarray:
+    """Which columns are zero (:data:`_ROUNDOFF_COLUMN`): norm 0, or at most ``tol`` of the median
+    norm of the nonzero columns. The only place a column's size is judged against the others'."""
+    norms = np.asarray(norms, dtype=float)
+    nonzero = norms[norms > 0]
+    if nonzero.size == 0:
+        return np.ones(norms.shape, dtype=bool)
+    return norms <= tol * float(np.median(nonzero))
+
+
+def unit_norm_columns(x: np.ndarray) -> np.ndarray:
+    """The columns of x (rows × k) divided by their norms, zero columns (:func:`zero_columns`) left
+    out: what a least squares whose coefficients are not reported (the model's own columns as
+    nuisance terms) is solved on, so that its rank decision does not depend on the columns' units."""
+    norms = _column_norms(x)
+    keep = ~zero_columns(norms)
+    return np.asarray(x[:, keep] / norms[keep])
 
 
 def _gram_singular_values(gram, norms):

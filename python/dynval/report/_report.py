@@ -97,8 +97,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
              n_joints: Integer | None = None, max_lag: Integer | None = None, level: float | None = None,
              profile: ProfileName = "lesson", segments: NamedSegmentsLike = None, nan_policy: NanPolicy = "raise",
              backend: BackendName | None = None, noise_model: NoiseModel | None = None,
-             sample_rate: float | None = None, time: ArrayLike | None = None, bandwidth: float | None = None,
-             decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
+             sample_rate: float | None = None, time: ArrayLike | None = None, time_units_checked: bool = True,
+             bandwidth: float | None = None, decimate: Decimate = "auto", joint_names: Sequence[str] | None = None,
              column_names: Sequence[str] | None = None, q: ArrayLike | None = None,
              dq: ArrayLike | None = None, ddq: ArrayLike | None = None,
              estimation: dict[str, ArrayLike] | None = None, thresholds: Thresholds | dict[str, float] | None = None,
@@ -148,11 +148,17 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
         Time stamps of the samples, in seconds (any origin). Duplicated stamps, gaps and irregular
         steps are reported (section ``timing``, a ``time_stamps`` note); the lag and spectral
         analyses use the nominal step (median step, or ``sample_rate``) and are split into segments
-        at every gap (a step longer than 1.5 nominal steps).
+        at every gap (a step longer than 1.5 nominal steps). Stamps at a rate outside 10 Hz to
+        100 kHz (a whole number of seconds apart, say) look like milliseconds, microseconds or
+        nanoseconds and are refused with the fix (``pass time / 1000``).
+    time_units_checked : bool
+        False accepts stamps at any rate (the check above); they must still be finite seconds
+        that float64 can count.
     bandwidth : float, optional
         The band, in Hz, in which the inputs are trustworthy (the differentiation or sensor filter,
         e.g. what :func:`dynval.robots.differentiate` returns). Spectral and whiteness evidence above
-        it is a note naming the processing, never a deficiency. Needs a sample rate.
+        it is a note naming the processing, never a deficiency. Needs a sample rate, and is at most
+        its Nyquist frequency.
     decimate : "auto", None or int
         Whiteness is also tested at the rate that carries information: "auto" decimates so the
         Nyquist frequency is twice the band holding 99 % of the measured torque's power
@@ -195,7 +201,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     InvalidType, InvalidShape, ShapeMismatch, TooFewSamples, NonFiniteInput, InvalidParameter
         In that order of precedence (contract §2.1). Parameters are checked in the order
         n_params, n_joints, profile, nan_policy, segments, max_lag, level, backend, noise_model,
-        sample_rate, time, bandwidth, decimate, joint_names, column_names, q, dq, ddq, estimation, thresholds,
+        sample_rate, time_units_checked, time, bandwidth, decimate, joint_names, column_names, q, dq, ddq,
+        estimation, thresholds,
         cross_correlation_detail, model_columns, allow_wide, parameters.
 
     Notes
@@ -231,7 +238,8 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     seg_names, segments = v.named_segments(segments)
     k = Keywords(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
                  max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                 time=time, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
+                 time=time, time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate,
+                 joint_names=joint_names,
                  column_names=column_names, q=q, dq=dq, ddq=ddq, estimation=estimation, thresholds=thresholds,
                  cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
                  allow_wide=allow_wide)

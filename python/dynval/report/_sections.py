@@ -25,6 +25,7 @@ from ._regressor_algebra import (
     _r_factor,
     _stacked_r,
     column_largest,
+    zero_columns,
 )
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
@@ -115,21 +116,40 @@ def bias_test(e, starts, rmse, parameter_variance=None):
     of :func:`dynval.statistics._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
     (m,), from the estimation run, is the variance the mean gets from the estimated parameters
     (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
+    Each joint is scaled by the power of two of its largest |e| first (contract §1.3): the squares of
+    a residual near 1e-200 would underflow to a zero variance and an infinite t.
     """
-    lr = _stats.long_run_variance(e, starts)
-    mean = e.mean(axis=0)
-    n = e.shape[0]
+    largest = np.max(np.abs(e), axis=0)
+    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
+    x = np.ldexp(e, -exps[None])
+    if parameter_variance is not None:
+        parameter_variance = np.ldexp(parameter_variance, -2 * exps)
+    out = bias_from_long_run(x.mean(axis=0), _stats.long_run_variance(x, starts), e.shape[0], rmse,
+                             parameter_variance, exponents=exps)
+    if parameter_variance is not None:
+        out["parameter_standard_error"] = np.ldexp(out["parameter_standard_error"], exps)
+    return out
+
+
+def bias_from_long_run(mean, lr, n, rmse, parameter_variance=None, exponents=None):
+    """:func:`bias_test` from the mean and the long-run variance ``lr`` (m,) of each joint.
+
+    ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
+    contract §4.1); the test does not see the unit, the reported mean and errors are unscaled.
+    """
     std = np.sqrt(lr.variance * n / max(n - 1, 1))
     noise_var = std**2 / lr.n_eff
     total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
     # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
     t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
+    k = np.zeros(np.shape(mean), dtype=np.int64) if exponents is None else np.asarray(exponents)
+    mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
     with np.errstate(invalid="ignore", divide="ignore"):
         effect = np.abs(mean) / np.asarray(rmse, dtype=float)
     out = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
            "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
            "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
-           "standard_error": np.sqrt(total_var)}
+           "standard_error": standard_error}
     if parameter_variance is not None:
         out["method"] = "student_t_n_eff_with_parameter_error"
         out["parameter_standard_error"] = np.sqrt(parameter_variance)
@@ -268,9 +288,10 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
         if band is None:
             band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
         if np.isfinite(band) and band > 0:
-            q = int(math.floor(fs / (4.0 * band)))
+            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
         if bandwidth is not None and fs / 2.0 > bandwidth:
-            q = max(q, int(math.ceil(fs / (2.0 * bandwidth))))
+            # a band far below the rate asks for more than the rows: capped before int
+            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
     else:
         band = None
         if decimate is not None:
@@ -303,10 +324,15 @@ def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
     which the findings read."""
     x = _project_out(e, reg3, grams, memo) if reg3 is not None else e
     spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
+    return spectrum_section(spec, sample_rate, reg3 is not None), spec
+
+
+def spectrum_section(spec, sample_rate, regressor_removed: bool) -> dict:
+    """The report's spectrum section from the tested spectrum (:class:`dynval.statistics._stats.Spectrum`)."""
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
     return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
-            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": reg3 is not None,
-            "peaks": top}, spec
+            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": regressor_removed,
+            "peaks": top}
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
@@ -488,11 +514,16 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None) -> Evidence:
-    """Collect what the findings' rules read."""
+             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None, criteria=None,
+             untested=0) -> Evidence:
+    """Collect what the findings' rules read (``untested``: tests the entry point left out, which
+    count in Holm's family, docs/conventions.md §5)."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
                   pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
                   omitted_rows=omitted, force_finite=force)
+    if criteria is not None:
+        ev.n_params, ev.criteria_n_obs = int(criteria["n_params"]), int(criteria["n_obs"])
+        ev.noise_model = str(criteria["noise_model"])
     if bias is not None:
         ev.mean, ev.rmse = bias["mean"], per_joint["rmse"]
         ev.bias_statistic, ev.bias_pvalue, ev.n_eff = bias["statistic"], bias["pvalue"], bias["n_eff"]
@@ -521,7 +552,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.detectable_share = design.get("detectable_share")
         ev.noise_n_eff = design.get("noise_n_eff")
     ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
-    ev.timing, ev.bandwidth = timing, bandwidth
+    ev.timing, ev.bandwidth, ev.untested = timing, bandwidth, int(untested)
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
@@ -545,7 +576,6 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
     condition number over the combinations the validation run excites. ``r_factor(k)`` is R of the
     stacked validation regressor (``n_rows`` rows) scaled by 2^-k."""
     p = norms.shape[0]
-    tiny = np.finfo(float).tiny
     with_est = est is not None and est.shape[1] == p
     est_norms = _column_norms(est) if with_est else None
     fast = _gram_singular_values(gram, norms) if gram is not None else None
@@ -556,7 +586,7 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
                                "structural": [] if with_est else None, "identifiable_rank": p if with_est else None,
                                "identifiable_columns": everything if with_est else None, "validation_rank": p}
     else:
-        zero_v = norms <= _RANK_TOL * max(float(norms.max(initial=0.0)), tiny)
+        zero_v = zero_columns(norms)
         both = np.hypot(norms, est_norms) if with_est else norms
         k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
         every = np.arange(p)
@@ -564,7 +594,7 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
         structural: list[int] | None = None
         unidentifiable: list[int] = []
         if with_est:
-            zero_s = both <= _RANK_TOL * max(float(both.max(initial=0.0)), tiny)
+            zero_s = zero_columns(both)
             nz = np.flatnonzero(~zero_s)
             base = np.zeros(0, dtype=np.intp)
             if nz.size:

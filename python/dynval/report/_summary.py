@@ -10,7 +10,7 @@ import math
 from collections.abc import Sequence
 
 from ..checks._typing import ReportSections
-from ._text import pvalue_text
+from ._text import counted, pvalue_text
 
 
 def _num(x, fmt=".4g") -> str:
@@ -34,7 +34,7 @@ def format_summary(report: ReportSections) -> str:
     lines += _criteria_lines(report.information_criteria)
     lines += [""] + _analysis_lines(report, names)
     lines += ["", f"Findings (family-wise error rate α = {alpha:g} over every test of the report, Holm):"]
-    lines += format_findings(report.findings)
+    lines += format_findings(report.findings, prov.get("not_tested"))
     return "\n".join(lines)
 
 
@@ -56,7 +56,7 @@ def _heading_lines(prov) -> list:
         f"dynval validation report — profile '{prov['profile']}'",
         f"N = {prov['n_samples']} samples, m = {prov['n_joints']} joints, p = {prov['n_params']} parameters, "
         f"{len(seg)} segment{'s' if len(seg) != 1 else ''}"
-        + (f", {prov['omitted_rows']} rows omitted" if prov["omitted_rows"] else "")
+        + (f", {counted(prov['omitted_rows'], 'row')} omitted" if prov["omitted_rows"] else "")
         + f"; backend {prov['backend']}, dynval {prov['dynval_version']}",
         "",
     ]
@@ -199,6 +199,8 @@ def _periodic_lines(report: ReportSections) -> list:
     per = getattr(report, "periodic", None)
     if per is None:
         return []
+    if not per["used"]:
+        return [f"Periodic trajectory: {per['note']}."]
     sec = per["period"]["seconds"]
     noise = ", ".join(_num(math.sqrt(max(v, 0.0))) for v in per["noise_variance"])
     return [f"Periodic trajectory: {per['n_periods']} whole periods of "
@@ -212,8 +214,8 @@ def _bias_lines(report: ReportSections) -> list:
     if report.bias is not None:
         return []
     if report.provenance.get("streaming"):
-        return ["Residual mean: zero-mean test only (the coloured-noise bias test needs the whole series), "
-                "so the findings do not use it."]
+        return ["Residual mean: zero-mean test only (the coloured-noise bias test was not run: see \"not tested\" "
+                "under the findings), so the findings do not use it."]
     return ["Residual mean: i.i.d. t-test only (max_lag = 0), not corrected for autocorrelation, "
             "so the findings do not use it."]
 
@@ -221,15 +223,21 @@ def _bias_lines(report: ReportSections) -> list:
 _SEVERITY_LABEL = {"deficiency": "DEFICIENCY", "design": "DESIGN", "note": "note"}
 
 
-def format_findings(findings) -> list:
-    """One line per finding, deficiencies first, each with its action."""
-    if not findings:
-        return ["  - none: no deficiency, no design problem, nothing to note at this level."]
+def format_findings(findings, not_tested=None) -> list:
+    """One line per finding, deficiencies first, each with its action; then one line per test the
+    report left out (``not_tested``: a streamed report's, :func:`dynval.coverage.not_tested`), so
+    that a report which tested less never reads as a clean bill."""
     lines = []
     for f in findings:
         lines.append(f"  - [{_SEVERITY_LABEL[f.severity]}] {f.message}")
         if f.severity != "note" and f.action:
             lines.append(f"      → {f.action}")
+    if not not_tested:
+        return lines or ["  - none: no deficiency, no design problem, nothing to note at this level."]
+    if not lines:
+        lines.append("  - none from the tests this report ran: no deficiency, no design problem at this level.")
+    lines.append(f"  - not tested ({len(not_tested)}; a finding of these kinds cannot show here):")
+    lines += [f"      {t['test']} ({', '.join(t['kinds'])}): {t['why']}" for t in not_tested]
     return lines
 
 
@@ -244,7 +252,7 @@ def format_comparison(cmp) -> str:
     unit = " %" if percent else ""
     vfmt = ".2f" if percent else ".4f"
     w = max(9, max(len(n) for n in cmp.names))
-    lines = [f"dynval model comparison — {len(cmp.names)} candidates, N = {prov['n_samples']} samples, "
+    lines = [f"dynval model comparison — {counted(len(cmp.names), 'candidate')}, N = {prov['n_samples']} samples, "
              f"m = {m} joints, profile '{prov['profile']}', ranked by {crit}", "",
              "Decision table (pooled over joints; Δ to the best; weight = Akaike weight of " + crit + "):"]
     extra = [] if crit in ("aic", "bic", "aicc") else [crit]

@@ -32,6 +32,11 @@ _SPEC = re.compile(r"^([+ ]?)\.(\d+)([fg])$")
 _EXPONENT = re.compile(r"e([+-])0*(\d)")
 
 
+def counted(k: int, what: str, plural: str | None = None) -> str:
+    """``"1 candidate"``, ``"3 candidates"``: a count with its noun in the right number."""
+    return f"{k} {what if k == 1 else (plural or what + 's')}"
+
+
 def _tidy_exponent(text: str) -> str:
     """``1.23e-05`` → ``1.23e-5``, ``1e+03`` → ``1e3``."""
     return _EXPONENT.sub(lambda m: "e" + ("-" if m.group(1) == "-" else "") + m.group(2), text)
@@ -171,3 +176,21 @@ def versus(effect: Number, threshold: Number, spec: str = ".3g", *, scale: float
         if _sign((abs(read) if absolute else read) - t_read) == want:
             break
     return text, t_text
+
+
+def printable(text: object) -> str:
+    """``str(text)`` that any UTF-8 writer and any font can take: a byte that was not UTF-8 (a command
+    line's ``\\xff``, kept by Python as the lone surrogate ``\\udcff``) is written as ``\\xff``, any
+    other lone surrogate as ``\\udXXX``; everything else unchanged.
+
+    Examples
+    --------
+    >>> printable("jo\\udcffnt"), printable("Δq"), printable("\\ud800")
+    ('jo\\\\xffnt', 'Δq', '\\\\ud800')
+    """
+    text = str(text)
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return raw.decode("utf-8", "backslashreplace")

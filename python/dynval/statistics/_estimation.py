@@ -43,18 +43,38 @@ class EstimationFit:
     n_eff: np.ndarray  # (m,) of the residual
 
 
+def _column_scales(stacked):
+    """Per column 1/its norm, and 0 for a zero column (contract §4: norm 0 or at most 1e-13 of the
+    median norm): the least squares and the pseudo-inverse are taken on unit-norm columns, so that
+    their rank decisions (relative to the largest singular value) and the minimum-norm choice among
+    dependent columns do not depend on the columns' units (columns 1e6 apart put a direction of the
+    Gram matrix below pinv's 1e-15), and a column the run does not excite gets no coefficient and no
+    variance."""
+    from ..report._regressor_algebra import _column_norms, zero_columns
+
+    norms = _column_norms(stacked)
+    zero = zero_columns(norms)
+    return np.where(zero, 0.0, 1.0 / np.where(zero, 1.0, norms))
+
+
 def _least_squares(reg3, tau, columns):
     x = reg3[:, :, list(columns)]
     n, m, k = x.shape
-    coef, *_ = np.linalg.lstsq(x.reshape(n * m, k), tau.reshape(-1), rcond=None)
+    stacked = x.reshape(n * m, k)
+    d = _column_scales(stacked)
+    coef_s, *_ = np.linalg.lstsq(stacked * d, tau.reshape(-1), rcond=None)
+    coef = coef_s * d
     return x, coef, tau - x @ coef
 
 
 def _sandwich(x, resid):
-    """(XᵀX)⁺ XᵀΓX (XᵀX)⁺ with Γ the residual's prewhitened covariance; and the residual's N_eff."""
+    """(XᵀX)⁺ XᵀΓX (XᵀX)⁺ with Γ the residual's prewhitened covariance; and the residual's N_eff.
+    (XᵀX)⁺ = D (DXᵀXD)⁺ D on the unit-size columns XD (:func:`_column_scales`)."""
     k = x.shape[2]
     stacked = x.reshape(-1, k)
-    ainv = np.linalg.pinv(stacked.T @ stacked)  # a column the run does not excite has no variance
+    d = _column_scales(stacked)
+    xs = stacked * d
+    ainv = d[:, None] * np.linalg.pinv(xs.T @ xs) * d[None, :]  # a column the run does not excite has no variance
     n_eff = _stats.long_run_variance(resid, np.array([0])).n_eff
     return ainv @ _stats.score_covariance(x, resid) @ ainv, n_eff
 
@@ -112,7 +132,8 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     # The refits without one column from the estimation run's Gram matrix, their validation mean
     # squares and means from the validation run's (per joint): no pass over the rows per column.
     stacked = est_reg3[:, :, every].reshape(-1, len(every))
-    gram, rhs = stacked.T @ stacked, stacked.T @ est_tau.reshape(-1)
+    d = _column_scales(stacked)  # the refits without one column on unit-size columns, as above
+    gram, rhs = (stacked * d).T @ (stacked * d), (stacked * d).T @ est_tau.reshape(-1)
     yv = val_reg3[:, :, every]
     gv = np.einsum("nmk,nml->mkl", yv, yv)
     bv = np.einsum("nmk,nm->mk", yv, val_tau)
@@ -126,7 +147,7 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     mse_all, mean_all = validation(list(range(len(every))), coef)
     for i in range(q):
         keep = [k for k in range(len(every)) if k != len(inside) + i]
-        c_wo = np.linalg.lstsq(gram[np.ix_(keep, keep)], rhs[keep], rcond=None)[0]
+        c_wo = np.linalg.lstsq(gram[np.ix_(keep, keep)], rhs[keep], rcond=None)[0] * d[keep]
         mse_wo, mean_wo = validation(keep, c_wo)
         with np.errstate(invalid="ignore", divide="ignore"):
             share[:, i] = (mse_wo - mse_all) / mse0

@@ -35,6 +35,7 @@ else:
 
 from ..checks._errors import InvalidParameter, InvalidShape, NonFiniteInput, TooFewSamples
 from ..checks._typing import ArrayLike, FloatArray
+from ..checks._validation import format_value, is_real_number
 
 __all__ = ["Period", "PeriodicTest", "detect_period", "periodic_noise_test"]
 
@@ -192,9 +193,9 @@ def _as_2d(x: ArrayLike, name: str) -> FloatArray:
 def _positive_rate(sample_rate: float | None) -> float | None:
     if sample_rate is None:
         return None
-    rate = float(sample_rate)
+    rate = float(sample_rate) if is_real_number(sample_rate) else math.nan
     if not (math.isfinite(rate) and rate > 0):
-        raise InvalidParameter(f"sample_rate must be a positive finite number, got {sample_rate!r}")
+        raise InvalidParameter(f"sample_rate must be a positive finite number, got {format_value(sample_rate)}")
     return rate
 
 
@@ -312,10 +313,10 @@ def detect_period(
     x = _as_2d(q, "q")
     rate = _positive_rate(sample_rate)
     if isinstance(min_periods, bool) or not isinstance(min_periods, (int, np.integer)) or min_periods < 2:
-        raise InvalidParameter(f"min_periods must be an integer ≥ 2, got {min_periods!r}")
-    tol = float(tolerance)
+        raise InvalidParameter(f"min_periods must be an integer ≥ 2, got {format_value(min_periods)}")
+    tol = float(tolerance) if is_real_number(tolerance) else math.nan
     if not (math.isfinite(tol) and tol > 0):
-        raise InvalidParameter(f"tolerance must be a positive finite number, got {tolerance!r}")
+        raise InvalidParameter(f"tolerance must be a positive finite number, got {format_value(tolerance)}")
     n = x.shape[0]
     max_lag = n // int(min_periods)
     if max_lag < 2:
@@ -591,10 +592,10 @@ def _whole_periods(n: int, period: Period | float) -> tuple[float, int, int]:
     if isinstance(period, Period):
         t_samples, start = float(period.samples), int(period.start)
     else:
-        t_samples = float(period)
+        t_samples = float(period) if is_real_number(period) else math.nan
         start = -1
     if not (math.isfinite(t_samples) and t_samples > 1.0):
-        raise InvalidParameter(f"the period must be a finite number of samples > 1, got {t_samples!r}")
+        raise InvalidParameter(f"the period must be a finite number of samples > 1, got {format_value(period)}")
     if start < 0:  # a plain T: the last whole periods of the run
         whole = int(math.floor(n / t_samples + 1e-9))
         start = max(int(math.floor(n - whole * t_samples + 1e-9)), 0)
@@ -608,17 +609,22 @@ def _whole_periods(n: int, period: Period | float) -> tuple[float, int, int]:
     return t_samples, start, n_periods
 
 
+MIN_TESTED_PERIOD = 3
+"""The shortest period (samples) with a harmonic below the Nyquist frequency: q repeating every 2
+samples is an encoder dithering by one count, not a trajectory the periodic test can read."""
+
+
 def _harmonics_tested(t_samples: float, fs: float, band: float | None) -> int:
     """K: every harmonic below L/2, or those up to ``band``."""
     length = int(round(t_samples))
-    if length < 3:
+    if length < MIN_TESTED_PERIOD:
         raise TooFewSamples(f"a period of {t_samples:g} samples has no harmonic below the Nyquist frequency")
     k_max = (length - 1) // 2  # harmonics strictly below L/2
     if band is None:
         return k_max
-    band_f = float(band)
+    band_f = float(band) if is_real_number(band) else math.nan
     if not (math.isfinite(band_f) and band_f > 0):
-        raise InvalidParameter(f"band must be a positive finite frequency, got {band!r}")
+        raise InvalidParameter(f"band must be a positive finite frequency, got {format_value(band)}")
     n_harm = min(k_max, int(math.floor(band_f * t_samples / fs + 1e-9)))
     if n_harm < 1:
         raise InvalidParameter(

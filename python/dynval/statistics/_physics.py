@@ -76,9 +76,25 @@ class Derivatives:
 
 
 def derivatives(q, sample_rate, dq=None, ddq=None) -> Derivatives:
-    """q̇ and q̈ as given, or by zero-phase Savitzky–Golay differentiation of q (0.1 s window)."""
+    """q̇ and q̈ as given, or by zero-phase Savitzky–Golay differentiation of q (0.1 s window).
+    A joint at rest (q constant) has derived q̇ and q̈ of exactly zero: the filter's rounding
+    noise would otherwise be scaled to unit RMS by the library and tested as motion."""
     if dq is not None and ddq is not None:
         return Derivatives(np.asarray(dq, float), np.asarray(ddq, float), "given", None)
+    d = _derived(q, sample_rate, dq, ddq)
+    rest = [j for j in range(q.shape[1]) if np.ptp(q[:, j]) == 0]
+    if not rest:
+        return d
+    for x, given in ((d.dq, dq), (d.ddq, ddq)):
+        if given is None:
+            x[:, rest] = 0.0
+    joints = ", ".join(str(j + 1) for j in rest)
+    return Derivatives(d.dq, d.ddq, f"{d.method}; joint{'s' if len(rest) > 1 else ''} {joints} at rest (q constant): "
+                       "no velocity or acceleration of theirs tested", d.bandwidth_hz)
+
+
+def _derived(q, sample_rate, dq, ddq) -> Derivatives:
+    """q̇ and q̈ derived where not given (the filter, or central differences on short runs)."""
     from ._derivatives import differentiate
 
     fs = 1.0 if sample_rate is None else float(sample_rate)

@@ -33,6 +33,7 @@ __all__ = [
     "acf_fft",
     "LongRunVariance",
     "long_run_variance",
+    "long_run_variance_from_sums",
     "bartlett_long_run_variance",
     "andrews_bandwidth",
     "score_covariance",
@@ -42,6 +43,8 @@ __all__ = [
     "correlation_pvalue",
     "Spectrum",
     "residual_spectrum",
+    "spectrum_tests_per_joint",
+    "spectrum_from_welch",
     "information_bandwidth",
     "decimate_segments",
 ]
@@ -305,6 +308,114 @@ def long_run_variance(e, starts) -> LongRunVariance:
                            bandwidth=bandwidth)
 
 
+def long_run_variance_from_sums(cov, pairs, n: int, cur1, lag1, longest: int, starts=None,
+                                ends=None) -> tuple[LongRunVariance | None, int]:
+    """:func:`long_run_variance` from lagged sums, as a stream keeps them (contract §4.1).
+
+    ``cov`` (K+1, m): Σ x_t x_{t−ℓ} over the lag-ℓ pairs inside segments, x centred on the overall
+    mean, ℓ = 0..K; ``pairs`` (K+1,) their counts; ``cur1``, ``lag1`` (m,): Σ x over the current and
+    over the lagged elements of the lag-1 pairs; ``longest``: the longest segment's length;
+    ``starts`` = (S, H), S_j = Σ x_{s+j}x_s and H_j = Σ x_{s+j} over the segment starts s known, and
+    ``ends`` = (E, T), E_j = Σ x_{E−1}x_{E−1−j} and T_j = Σ x_{E−1−j} over the segment ends known
+    (each (≥ K rows, m), x centred; None: none known), of segments longer than K.
+
+    The prewhitened u_t = x_t − φ̂x_{t−1} (t past each segment's first row) has the lagged sums
+    Σ u_t u_{t−j} = (1 + φ̂²)P_j − φ̂(P_{j+1} + P_{|j−1|}) less a few products at each segment's first
+    and last rows: with every start and end known the estimate is the whole series' to rounding; an
+    end not known (a segment not longer than K, or one a stream did not keep) leaves its products
+    out, O(j/N) of the sums (docs/conventions.md §5.4). Lag j of u
+    needs lag j + 1 of x: returns ``(None, L + 1)`` when the bandwidth L that Andrews' rule picks
+    needs more than the K lags held, else ``(estimate, L + 1)``.
+    """
+    cov = np.asarray(cov, dtype=np.float64)
+    pairs = np.asarray(pairs, dtype=np.float64)
+    held, m = cov.shape[0] - 1, cov.shape[1]
+    variance = cov[0] / n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho1 = cov[1] / cov[0] if held >= 1 and n > 1 else np.full(m, np.nan)
+    phi = np.clip(np.nan_to_num(rho1, nan=0.0), -0.999, 0.999)
+    nu = int(pairs[1]) if held >= 1 else 0
+    bandwidth = np.zeros(m, dtype=np.int64)
+    lrv_u = np.full(m, np.nan)
+    needed = 2
+    if nu >= 2:
+        if held < 2:
+            return None, needed
+        edges = _EndTerms(phi, starts, ends)
+        u_total = np.asarray(cur1) - phi * np.asarray(lag1)
+        u_mean = u_total / nu
+
+        def gamma_u(j: np.ndarray) -> np.ndarray:
+            """Σ(u_t − ū)(u_{t−j} − ū) over u's lag-j pairs, j = 0..J (rows)."""
+            raw = (1.0 + phi**2) * cov[j] - phi * (cov[j + 1] + cov[np.abs(j - 1)]) + edges.products(j)
+            cur, lag = edges.sums(j, u_total)
+            return raw - u_mean * (cur + lag) + pairs[j + 1][:, None] * u_mean**2
+
+        head_sums = gamma_u(np.arange(2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho_u1 = head_sums[1] / head_sums[0]
+        bandwidth = np.maximum(np.minimum(andrews_bandwidth(np.nan_to_num(rho_u1), nu), longest - 2), 0)
+        needed = int(bandwidth.max()) + 1
+        if needed > held:
+            return None, needed
+        g = gamma_u(np.arange(needed))
+        lrv_u = np.empty(m)
+        for j in range(m):
+            lags = np.arange(1, bandwidth[j] + 1)
+            w = 1.0 - lags / (bandwidth[j] + 1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rho = g[1:bandwidth[j] + 1, j] / g[0, j]
+            lrv_u[j] = g[0, j] / nu * (1.0 + 2.0 * float(np.nansum(w * rho)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lrv = lrv_u / (1.0 - phi) ** 2
+        n_eff = n * variance / lrv
+    n_eff = np.where(np.isfinite(n_eff) & (variance > 0), np.clip(n_eff, 2.0, float(n)), float(n))
+    return LongRunVariance(variance=variance, long_run_variance=lrv, n_eff=n_eff, phi=phi, bandwidth=bandwidth), needed
+
+
+class _EndTerms:
+    """What the prewhitened sums of :func:`long_run_variance_from_sums` lose at segments' first rows
+    x_s.. (``starts``: S_j = Σ x_{s+j}x_s, H_j = Σ x_{s+j}) and last rows ..x_{E−1} (``ends``:
+    E_j = Σ x_{E−1}x_{E−1−j}, T_j = Σ x_{E−1−j}), u_t = x_t − φx_{t−1} for t > s.
+
+    For lag j ≥ 1 the pairs of u miss x_{s+j}x_s and x_{E−1}x_{E−1−j} once and x_{s+j−1}x_s,
+    x_{E−1}x_{E−j} with weight −φ; for j = 0, x_s² and φ²x_{E−1}². The sums of u over the current
+    (lagged) elements of its lag-j pairs miss the first (last) j values of u at each segment."""
+
+    def __init__(self, phi: np.ndarray, starts, ends) -> None:
+        self.phi = phi
+        self.starts = None if starts is None else tuple(np.asarray(a, dtype=np.float64) for a in starts)
+        self.ends = None if ends is None else tuple(np.asarray(a, dtype=np.float64) for a in ends)
+
+    def products(self, j: np.ndarray) -> np.ndarray:
+        phi, out = self.phi, np.zeros((j.size, self.phi.size))
+        later = j >= 1
+        if self.starts is not None:
+            s = self.starts[0]
+            out -= s[j]
+            out[later] += phi * s[j[later] - 1]
+        if self.ends is not None:
+            e = self.ends[0]
+            out[~later] -= phi**2 * e[0]
+            out[later] += phi * e[j[later] - 1] - phi**2 * e[j[later]]
+        return out
+
+    def sums(self, j: np.ndarray, total: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Σ u over the current and over the lagged elements of u's lag-j pairs."""
+        cur = np.broadcast_to(total, (j.size, total.size)).copy()
+        lag = cur.copy()
+        top = int(j.max()) if j.size else 0
+        if self.starts is not None and top:
+            h = self.starts[1]
+            u = h[1:top + 1] - self.phi * h[:top]  # Σ u_{s+1}, ..., Σ u_{s+top}
+            cur -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
+        if self.ends is not None and top:
+            t = self.ends[1]
+            u = t[:top] - self.phi * t[1:top + 1]  # Σ u_{E−1}, Σ u_{E−2}, ...
+            lag -= np.vstack([np.zeros((1, total.size)), np.cumsum(u, axis=0)])[j]
+        return cur, lag
+
+
 def score_covariance(x, e, starts=None) -> np.ndarray:
     """Var(Σ_k Σ_j x_kj e_kj) for fixed columns x (N, m, p) and a coloured noise e (N, m).
 
@@ -473,6 +584,15 @@ def _default_nperseg(starts, n, nperseg):
     return int(min(nperseg, lengths.max()))
 
 
+def spectrum_tests_per_joint(starts, n: int, inner: int = 3, outer: int = 10) -> int:
+    """How many bins :func:`residual_spectrum` tests on a joint whose residual varies, for N rows in
+    segments starting at ``starts`` (0 when no segment holds a Welch window)."""
+    nperseg = _default_nperseg(starts, n, None)
+    f_count = nperseg // 2 + 1
+    left, right = _side_medians(np.zeros(f_count), inner, outer)
+    return int(np.count_nonzero(np.isfinite(left) & np.isfinite(right)))
+
+
 def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None,
                       inner: int = 3, outer: int = 10) -> Spectrum:
     """Welch spectrum of each joint's residual and the bins that stand above their neighbourhood.
@@ -501,6 +621,16 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     x = np.ldexp(x, -exps)
     k = _rate_exponent(fs)
     freq, power, windows = _welch(x, starts, math.ldexp(fs, -k), nperseg)
+    return spectrum_from_welch(freq, power, windows, x.var(axis=0), exps, k, nperseg, inner=inner, outer=outer)
+
+
+def spectrum_from_welch(freq, power, windows: int, variance, exps, k: int, nperseg: int, *, inner: int = 3,
+                        outer: int = 10) -> Spectrum:
+    """:func:`residual_spectrum` from the Welch power: ``freq`` (F,) at the rate fs·2^-k, ``power``
+    (F, m) the mean window periodogram of x·2^-exps (None: no segment held a window), ``windows``
+    their count, ``variance`` (m,) that of x·2^-exps. A stream sums the periodograms window by
+    window (contract §4.1) and tests them here as ``validate`` does."""
+    m = len(exps)
     if power is None:
         empty = np.zeros((0, m))
         return Spectrum(frequency=np.zeros(0), power=empty, dof=float("nan"), nperseg=nperseg, ratio=empty,
@@ -513,7 +643,6 @@ def residual_spectrum(e, starts, *, sample_rate=None, nperseg: int | None = None
     share = np.full((f_count, m), np.nan)
     is_peak = np.zeros((f_count, m), dtype=bool)
     df = freq[1] - freq[0] if f_count > 1 else 1.0
-    variance = x.var(axis=0)
     # the joints with a spectrum to test (finite, not all zero, a residual that varies), together
     cols = np.flatnonzero(np.all(np.isfinite(power), axis=0) & (power.max(axis=0) > 0) & (variance > 0))
     if cols.size:

@@ -554,6 +554,8 @@ class _Snapshot:
     lag_y: _Sum
     prod_ey: _Sum
     gram: _Sum | None
+    head_e: np.ndarray  # the boundary rows, raw
+    tail_e: np.ndarray
     pairs: np.ndarray
     k_e: np.ndarray
     k_t: np.ndarray
@@ -716,6 +718,9 @@ class Stamps:
 
     def _recentre(self, nominal: float, median: float) -> None:
         """Move the centred sums to another nominal step and median (the counts stay)."""
+        if not self.n_counted and not self.n_regular:  # duplicates only (a frozen start): no sum to move
+            self.nominal, self.median = float(nominal), float(median)
+            return
         dm, dn = self.median - median, self.nominal - nominal  # e' = e + c·dm, d' = d + k·dn
         e2, ce, c2 = self.rate_sums.value()
         self.rate_sums = Compensated(np.array([e2 + 2 * dm * ce + dm * dm * c2, ce + dm * c2, c2]))
@@ -724,17 +729,21 @@ class Stamps:
         self.dev_range = {k: (lo + k * dn, hi + k * dn) for k, (lo, hi) in self.dev_range.items()}
         self.nominal, self.median = float(nominal), float(median)
 
-    def timing(self, sample_rate: float | None) -> _timing.Timing:
+    def timing(self, sample_rate: float | None, units_checked: bool = True) -> _timing.Timing:
         """The :class:`dynval.checks._timing.Timing` of the stamps so far (at least one positive step);
-        ``sample_rate`` given: checked against them as ``_timing.analyse`` does."""
+        ``sample_rate`` given: checked against them as ``_timing.analyse`` does, and so are their
+        units (``units_checked``)."""
         assert self.advanced and self.first is not None and self.last is not None
         span = float(self.span.value())
+        _timing.check_resolvable(self.median, span)
         rate = self.counts / span
         e2, ce, c2 = self.rate_sums.value()
         dm = 1.0 / rate - self.median
         jitter = math.sqrt(max(e2 - 2 * dm * ce + dm * dm * c2, 0.0) / self.n_counted)
         uncertainty = 2.0 * float(np.spacing(max(abs(self.first), abs(self.last)))) + 3.0 * jitter
         nominal, source = _timing.rounded_step(rate, span, uncertainty), _timing.INFERRED
+        if units_checked:
+            _timing.check_units(nominal)
         if sample_rate is not None:
             nominal, source = _timing.given_step(sample_rate, nominal), "given"
         dn = nominal - self.nominal  # d' = d − k·dn

@@ -162,6 +162,9 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
             # Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
             # and underflows near 1e-80, both inside the accepted range.
             rho[:, cols] = s / d_l / (np.sqrt(ss_e[j] / n) * np.sqrt(ss_y / n))
+        # Cauchy-Schwarz bounds |rho(l)| by N/D_l (1 at lag 0 and without `adjusted`); rounding can
+        # step one ulp past it (contract §3.6). clip keeps nan.
+        rho[:, cols] = np.clip(rho[:, cols], -n / d_l, n / d_l)
         if e_constant[j] or ss_e[j] == 0:
             rho[:, cols] = np.nan
         rho[:, cols][:, constant_mask[cols] | (ss_y == 0)] = np.nan

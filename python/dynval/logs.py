@@ -1,0 +1,216 @@
+"""From a robot's own log and its model files to a verdict (contract §7.3).
+
+:func:`validate_log` reads the joint states of a log (:func:`dynval.io.read_joint_states`: ROS 2
+bags, ROS 1 bags, MCAP files), takes the joint order from the first model, differentiates the
+positions with a stated filter, predicts every model (URDF through pinocchio), identifies each
+model's parameters on an estimation log when one is given, and compares the candidates with the
+positions, the time stamps, the regressor and the estimation run: what ``dynval validate-log`` runs.
+
+Examples
+--------
+>>> from dynval.logs import validate_log                               # doctest: +SKIP
+>>> cmp = validate_log("run3_bag", ["kuka.urdf"], estimation="run1_bag")  # doctest: +SKIP
+>>> print(cmp.summary())                                                # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["validate_log", "LogMotion", "log_motion", "DERIVATIVES"]
+
+#: Where the velocities come from: the log's own (``"logged"``: the acceleration is still
+#: differentiated from the positions), or both from the positions (``"positions"``).
+DERIVATIVES = ("positions", "logged")
+
+
+@dataclass(frozen=True)
+class LogMotion:
+    """A log's motion ready for a model: positions and their derivatives, the torques, the stamps,
+    and how the derivatives were obtained (``source``, the filter's ``bandwidth_hz``)."""
+
+    time: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray
+    joint_names: tuple[str, ...]
+    sample_rate: float
+    bandwidth_hz: float
+    source: str
+    notes: tuple[str, ...]
+
+
+def log_motion(path: str | os.PathLike[str], joints: Sequence[str], *, topic: str | None = None,
+               derivatives: str = "positions", effort_unit: str = "N·m",
+               torque_constant: float | Sequence[float] | None = None) -> LogMotion:
+    """The joint states of ``path`` in ``joints``' order, with velocities and accelerations.
+
+    The derivatives come from the positions through :func:`dynval.robots.differentiate`
+    (Savitzky–Golay, 0.1 s, degree 4, zero phase) at the stamps' median rate; with
+    ``derivatives="logged"`` the log's velocities are used and only the acceleration is
+    differentiated. Either way the report's ``bandwidth`` is the filter's band.
+    """
+    from .checks._validation import parameter_error
+    from .io._ros import read_joint_states
+    from .robots import differentiate
+
+    if derivatives not in DERIVATIVES:
+        raise parameter_error("derivatives", "'positions' or 'logged'", derivatives)
+    log = read_joint_states(path, joints=joints, topic=topic, effort_unit=effort_unit,
+                            torque_constant=torque_constant)
+    if log.tau is None:
+        raise parameter_error("log", "joint states with an effort field (the measured torque)", os.fspath(path))
+    rate = log.sample_rate
+    d = differentiate(log.q, rate)
+    notes = list(log.notes)
+    if derivatives == "logged":
+        if log.dq is None:
+            raise parameter_error("derivatives", "'positions': the log carries no velocities", derivatives)
+        dq, source = log.dq, ("velocities as logged; accelerations differentiated from the positions "
+                              f"({d.method}, zero phase, {rate:.4g} Hz)")
+    else:
+        dq, source = d.dq, f"velocities and accelerations differentiated from the positions ({d.method}, zero " \
+                           f"phase, {rate:.4g} Hz)"
+    if any("gap" in n for n in log.notes):
+        notes.append("the derivatives are taken at the median rate across the gaps: samples next to a gap are "
+                     "less trustworthy")
+    return LogMotion(time=log.time, q=log.q, dq=np.ascontiguousarray(dq), ddq=d.ddq, tau=log.tau,
+                     joint_names=log.joint_names, sample_rate=rate, bandwidth_hz=d.input_bandwidth_hz,
+                     source=source, notes=tuple(notes))
+
+
+def _load_model(path: str) -> Any:
+    """A URDF (pinocchio) or an MJCF (MuJoCo) model, by the file's suffix and root element."""
+    from .checks._validation import parameter_error
+    from .io._fileopen import FileInputError
+
+    if not os.path.isfile(path):
+        raise FileInputError(f"{path}: no such model file")
+    with open(path, "rb") as handle:
+        head = handle.read(4096).decode("utf-8", "replace")
+    if "<robot" in head or path.endswith(".urdf"):
+        from .robots import URDFModel
+
+        return URDFModel(path)  # type: ignore[no-untyped-call]
+    if "<mujoco" in head:
+        try:
+            from .mjcf import MJCFModel  # type: ignore[import-not-found,unused-ignore]
+        except ImportError as exc:
+            raise ImportError(f"{path} is an MJCF model: reading it needs dynval.mjcf and mujoco "
+                              "(pip install 'dynval[mujoco]')") from exc
+        return MJCFModel(path)
+    raise parameter_error("model", "a URDF (<robot>) or MJCF (<mujoco>) file", path)
+
+
+def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[str, str], *,
+                 estimation: str | os.PathLike[str] | None = None, topic: str | None = None,
+                 derivatives: str = "positions", effort_unit: str = "N·m",
+                 torque_constant: float | Sequence[float] | None = None,
+                 progress: Callable[[str], None] | bool | None = None, **keywords: Any) -> Any:
+    """Compare model files on a robot's log: the verdict, as :func:`dynval.compare` gives it.
+
+    Parameters
+    ----------
+    log : str or path
+        The validation log (a bag or MCAP file: :func:`dynval.io.read_joint_states`).
+    models : sequence of str, or mapping name → path
+        URDF (and, with ``dynval[mujoco]``, MJCF) files; the first one's joint order is the
+        columns' order, and every model must name the same joints. Each is a candidate as it is
+        (its own parameters; ``n_params`` 0), named by its file's stem.
+    estimation : str or path, optional
+        A second log of the same robot: each URDF model's parameters (inertial, viscous and
+        Coulomb friction, offset) of the first URDF model are identified on it by least squares
+        and the fit is a candidate too (``"NAME identified"``); the comparison then has the
+        regressor (the fit's base columns), their names and the estimation run.
+    topic, effort_unit, torque_constant, derivatives
+        How to read the logs (:func:`log_motion`; the same for both logs).
+    progress : callable, bool or None
+        Where to say what is being done (a function of one line; True: stderr; None/False: quiet).
+    **keywords
+        Passed to :func:`dynval.compare` (``level``, ``criterion``, ``joint_names`` is taken from
+        the model).
+
+    Returns
+    -------
+    dynval.ComparisonReport
+        With ``log_provenance`` set on it: the files, topic and derivative source.
+    """
+    from .checks._validation import parameter_error
+    from .comparison._compare import compare
+
+    say = _say(progress)
+    named = dict(models) if isinstance(models, Mapping) else {_stem(p): p for p in models}
+    if not named:
+        raise parameter_error("models", "at least one model file", models)
+    loaded = {}
+    for name, path in named.items():
+        say(f"loading the model {name} ({os.fspath(path)})")
+        loaded[name] = _load_model(os.fspath(path))
+    joints = tuple(next(iter(loaded.values())).joint_names)
+    for name, model in loaded.items():
+        if tuple(model.joint_names) != joints:
+            raise parameter_error("models", f"models of the same joints in the same order (the first names "
+                                  f"{list(joints)})", f"{name}: {list(model.joint_names)}")
+    say(f"reading {os.fspath(log)}")
+    val = log_motion(log, joints, topic=topic, derivatives=derivatives, effort_unit=effort_unit,
+                     torque_constant=torque_constant)
+    candidates: dict[str, Any] = {}
+    for name, model in loaded.items():
+        say(f"predicting {name} on {val.q.shape[0]} samples")
+        candidates[name] = {"prediction": model.predict(val.q, val.dq, val.ddq), "n_params": 0}
+    options: dict[str, Any] = {}
+    if estimation is not None:
+        say(f"reading the estimation log {os.fspath(estimation)}")
+        est = log_motion(estimation, joints, topic=topic, derivatives=derivatives, effort_unit=effort_unit,
+                         torque_constant=torque_constant)
+        options.update(_identified(loaded, est, val, candidates, say))
+    say(f"comparing {len(candidates)} candidates")
+    cmp = compare(val.tau, candidates, time=val.time, bandwidth=val.bandwidth_hz, q=val.q, dq=val.dq,
+                  ddq=val.ddq, joint_names=list(joints), **options, **keywords)
+    object.__setattr__(cmp, "log_provenance", {
+        "log": os.fspath(log), "estimation": None if estimation is None else os.fspath(estimation),
+        "models": {n: os.fspath(p) for n, p in named.items()}, "derivatives": val.source,
+        "notes": list(val.notes)})
+    return cmp
+
+
+def _identified(loaded: Mapping[str, Any], est: LogMotion, val: LogMotion, candidates: dict[str, Any],
+                say: Callable[[str], None]) -> dict[str, Any]:
+    """The first URDF model identified on the estimation log, as a candidate; the comparison's
+    regressor and estimation run: that model's identifiable (base) columns, as examples/kuka_lwr4
+    does (the other columns no motion of a fixed-base arm can excite)."""
+    options: dict[str, Any] = {}
+    for name, model in loaded.items():
+        if not hasattr(model, "identify"):
+            continue
+        say(f"identifying {name} on the estimation log")
+        y_est = model.regressor(est.q, est.dq, est.ddq)
+        fit = model.identify(est.q, est.dq, est.ddq, est.tau)
+        y_val = model.regressor(val.q, val.dq, val.ddq)
+        candidates[f"{name} identified"] = {"prediction": fit.predict(y_val), "n_params": fit.rank}
+        keep = list(fit.base_columns)
+        names = list(model.column_names())
+        # one identification: the other URDFs of the same robot have the same columns, so the
+        # same least-squares fit
+        return {"regressor": np.ascontiguousarray(y_val[:, :, keep]), "column_names": [names[c] for c in keep],
+                "estimation": {"q": est.q, "regressor": np.ascontiguousarray(y_est[:, :, keep]), "tau": est.tau}}
+    return options
+
+
+def _stem(path: str | os.PathLike[str]) -> str:
+    return os.path.splitext(os.path.basename(os.fspath(path)))[0]
+
+
+def _say(progress: Callable[[str], None] | bool | None) -> Callable[[str], None]:
+    if callable(progress):
+        return progress
+    if progress:
+        return lambda line: print(f"[validate-log] {line}", file=sys.stderr, flush=True)
+    return lambda line: None
