@@ -337,3 +337,21 @@ def test_compare_tests_a_zero_parameter_as_a_term_the_model_lacks():
     assert named == [2]
     first = model.retune(report, q, dq, ddq, tau)[0]
     assert (first.attribute, first.current) == ("damping", 0.0) and first.refitted == pytest.approx(0.7, abs=0.01)
+
+
+def test_validate_log_reads_an_mjcf_model_beside_a_urdf(tmp_path):
+    """dynval.logs takes the packaged MJCF as a model file: its candidate is MJCFModel.predict on the
+    log's motion (a ROS 2 bag written from run 3's first 1000 rows)."""
+    pytest.importorskip("rosbags")
+    pytest.importorskip("pinocchio")
+    from dynval.logs import log_motion, validate_log
+    from ros_logs import write_joint_states
+
+    run = load_kuka_lwr4(3)
+    rows = slice(0, 1000)
+    bag = write_joint_states(tmp_path / "bag", run.time[rows], run.q[rows], run.dq[rows], run.tau[rows],
+                             run.joint_names)
+    report = validate_log(bag, {"sim": run.mjcf, "cad": run.urdf})
+    motion = log_motion(bag, run.joint_names)
+    expected = dynval.rmse(motion.tau, MJCFModel(run.mjcf).predict(motion.q, motion.dq, motion.ddq))
+    assert report.table["pooled"]["sim"]["rmse"] == pytest.approx(expected, rel=1e-12)
