@@ -78,6 +78,9 @@ urdf_identified is kuka_lwr4_identified.urdf, the model FloBaRoID identified, wi
 viscous and Coulomb friction in its <dynamics> tags (the Coulomb values negative on lwr_3_joint to
 lwr_6_joint) and without the torque offsets FloBaRoID also identifies. The meshes they refer to are
 not included; the dynamics do not need them. dynval.robots.URDFModel reads both (pip install pin).
+mjcf is kuka_lwr4.xml, an MJCF of the a-priori model for MuJoCo (written by dynval from kuka_lwr4.urdf,
+so under the same LGPL-3.0), with joint armature, damping and frictionloss identified on run 1;
+dynval.mjcf.MJCFModel reads it (pip install mujoco).
 """
 
 
@@ -107,6 +110,9 @@ class KukaLWR4Run:
         One line: the run and its trajectory.
     urdf, urdf_identified : pathlib.Path
         The a-priori (CAD) model and the model identified by FloBaRoID.
+    mjcf : pathlib.Path
+        ``kuka_lwr4.xml``: the a-priori model as a MuJoCo MJCF, with joint ``armature``, ``damping``
+        and ``frictionloss`` identified on run 1 (:class:`dynval.mjcf.MJCFModel`; contract §11).
     license : str
         ``"LGPL-3.0"``, the data's licence.
     DESCR : str
@@ -128,6 +134,7 @@ class KukaLWR4Run:
     description: str
     urdf: Path
     urdf_identified: Path
+    mjcf: Path
     license: str = "LGPL-3.0"
 
     @property
@@ -164,8 +171,8 @@ def load_kuka_lwr4(run: int = 1) -> KukaLWR4Run:
     -------
     KukaLWR4Run
         ``time`` (N,), ``q``, ``dq``, ``ddq``, ``tau`` (N, 7) as read-only float64 arrays, with
-        N = 5027 samples at ``sample_rate`` = 200 Hz, ``joint_names``, ``units``, the paths ``urdf`` and
-        ``urdf_identified``, and ``DESCR`` (source, licence and how the accelerations were obtained).
+        N = 5027 samples at ``sample_rate`` = 200 Hz, ``joint_names``, ``units``, the paths ``urdf``,
+        ``urdf_identified`` and ``mjcf``, and ``DESCR`` (source, licence and how the accelerations were obtained).
 
     Raises
     ------
@@ -210,6 +217,7 @@ def load_kuka_lwr4(run: int = 1) -> KukaLWR4Run:
                     f"{times.shape[0]} samples at 200 Hz",
         urdf=_KUKA_DIR / "kuka_lwr4.urdf",
         urdf_identified=_KUKA_DIR / "kuka_lwr4_identified.urdf",
+        mjcf=_KUKA_DIR / "kuka_lwr4.xml",
     )
 
 
