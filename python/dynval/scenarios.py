@@ -746,7 +746,7 @@ def _estimation_keys() -> tuple[str, ...]:
     accepted = []
     for key in ("dq", "ddq"):
         try:
-            dynval.validate(np.sin(7 * x), np.zeros_like(x), n_params=1, max_lag=2, estimation={key: x})
+            dynval.validate(np.sin(7 * x), np.zeros_like(x), n_params=1, max_lag=2, estimation={"q": x, key: x})
         except dynval.InputError:
             continue
         accepted.append(key)
