@@ -552,7 +552,7 @@ def check_estimation(value, m: int):
     unknown = [k for k in value if k not in ESTIMATION_KEYS]
     if unknown:  # name the key, not the arrays
         raise InvalidParameter(f"estimation must be {requirement}, got a mapping with the key {unknown[0]!r}")
-    out = {}
+    out: dict[str, Any] = {}
     for key, arr in value.items():
         name = f"estimation[{key!r}]"
         if key == "bandwidth":

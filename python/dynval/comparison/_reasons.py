@@ -45,7 +45,6 @@ def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, st
 _PHYSICS_RELATION = {
     "missing": "missing",
     "reweight": "mis-weighted or changed between runs (the model has it):",
-    "unsupported": "mis-weighted terms (re-identify; not the lack of)",
     "coupling": "missing the cross-joint coupling of",
     "partial": "part of a term the model has, another shape of",
 }
@@ -84,8 +83,11 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         text = f"worse than a constant (R² = {e} < {t})"
     elif f.kind == "missing_physics":
         label = f.details.get("label") or f.details.get("term") or "a physical term"
-        what = _PHYSICS_RELATION.get(f.details.get("relation"), "a structure of this kind remains:")
+        what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")
         text = f"{what} {label} (the physical terms would remove {e} of the mean square ≥ {t})"
+        if f.details.get("relation") == "unsupported":
+            text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
+                    f"terms would remove {e} of the mean square ≥ {t})")
     elif f.kind == "delay":
         d_s = f.details.get("delay_s")
         lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None

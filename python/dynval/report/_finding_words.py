@@ -123,9 +123,11 @@ def pooling(name: str, r2: float, pooled: float) -> Words:
 
 
 def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, n: int, padj: float, big: bool,
-         culprit: tuple[str, float] | None, kinds: Mapping[str, bool | None] | None = None) -> Words:
+         culprit: tuple[str, float] | None, kinds: Mapping[str, bool | None] | None = None,
+         term: tuple[str, str, str] | None = None) -> Words:
     """``culprit``: the missing column that accounts for the mean, and its share; ``kinds``: which of
-    an offset, a friction and a gravity term the model has (:func:`bias_action`)."""
+    an offset, a friction and a gravity term the model has (:func:`bias_action`); ``term``: (group,
+    label, relation) of a physical term the model lacks on the joint, whose mean the bias is."""
     pct = versus(effect, threshold, ".0f", scale=100.0)
     head = (f"{name}: residual mean {mean:+.4g} ({pct[0]} % of the RMSE; coloured-noise t-test N_eff = {n_eff:.0f} "
             f"of {n}, Holm-adjusted p {p_text(padj)})")
@@ -136,6 +138,13 @@ def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, 
     if culprit is not None:
         action = (f"add the term {culprit[0]} on {name}: without it the model leaves this offset "
                   f"({100 * culprit[1]:.1f} % of the mean square is its part outside the model)")
+    elif term is not None:
+        group, label, relation = term
+        tail = f"; the physical term the model lacks on this joint ({label}, see below) accounts for it."
+        action = (f"add the coupling (cross-joint) terms of {label} on {name}: {_coupling_terms(group, name)}"
+                  if relation == "coupling" else
+                  f"complete {label} on {name}: add {_PARTIAL.get(group, 'the form it lacks')}"
+                  if relation == "partial" else f"add {label} on {name}: the bias is its mean on this trajectory")
     else:
         action = bias_action(name, kinds)
     return head + ": a systematic bias, e.g. a missing offset, friction or gravity term" + tail, action
@@ -271,8 +280,8 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
     head += _measured(label, advice)
     if not big:
         return (head + NEGLIGIBLE, "none: the structure is real but too small to matter")
-    rel = advice.get("relation")
-    kind = None if rel is None else rel.get("relation")
+    rel: Mapping[str, Any] = advice.get("relation") or {}
+    kind = rel.get("relation")
     if kind is None:
         return (head + f": a structure of this kind remains ({label}); the model's columns are unknown, so whether "
                 "it lacks the term or weights it wrongly cannot be told.",
@@ -300,7 +309,8 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
     if kind == "partial":
         return (head + f": the model has part of this term ({rel['own_in_span']} of its {rel['own_columns']} own "
                 f"columns lie in the span of its columns); what lies outside removes {held}: another shape of it.",
-                f"complete {label} on {name}: the model has part of it; add {_PARTIAL.get(rel['group'], 'the form it lacks')}")
+                f"complete {label} on {name}: the model has part of it; add "
+                + _PARTIAL.get(rel["group"], "the form it lacks"))
     return (head + f": a term the model lacks (outside the span of its columns on this joint; it removes {held}).",
             f"add {label} on {name} to the model")
 

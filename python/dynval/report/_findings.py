@@ -453,15 +453,35 @@ def _bias_rule(r: _Rules) -> list[Finding]:
             r.deficient.add(j)
         culprit = _bias_culprit(ev, j, th)
         named = None if culprit is None else (r.column(culprit[0]), culprit[1])
+        term = None if culprit is not None else _bias_term(r, j)
         out.append(_worded(
             w.bias(r.name(j), float(mean[j]), float(effect[j]), th.bias, float(ev.n_eff[j]), ev.n_samples,
-                   float(padj[j]), big, named, _bias_kinds(ev, j)),
+                   float(padj[j]), big, named, _bias_kinds(ev, j), term),
             kind="bias", severity="deficiency" if big else "note", joints=(j,),
             columns=() if culprit is None else (culprit[0],),
             statistic=float(ev.bias_statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
             effect=float(effect[j]), effect_unit=w.UNITS["bias"], threshold=th.bias,
-            details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])}))
+            details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j]),
+                     **({} if term is None else {"term": term[0], "relation": term[2]})}))
     return out
+
+
+def _bias_term(r: _Rules, j: int) -> tuple[str, str, str] | None:
+    """The physical term the library finds on joint j, when the model lacks it (missing, its
+    coupling, or a part of it) and it is a practical deficiency there: (group, label, relation). A
+    term the model lacks shows on a new trajectory as an offset too, and is what to change."""
+    from ..statistics._physics import LABELS
+
+    ev = r.ev
+    if ev.physics is None or "physics" not in r.fam or _delay_explains(ev, j):
+        return None
+    t = ev.physics["tests"][j]
+    rel = (t.get("relation") or {}).get("relation")
+    if t["term"] is None or rel not in ("missing", "coupling", "partial") or not r.fam["physics"][1][j] <= r.alpha:
+        return None
+    if not (t["share"] >= r.th.missing_physics and _term_effect(t) >= r.th.missing_physics):
+        return None
+    return t["term"], LABELS[t["term"]], rel
 
 
 def _missing_term_rule(r: _Rules) -> list[Finding]:

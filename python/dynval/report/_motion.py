@@ -129,8 +129,9 @@ def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, p
             continue
         y_j = reg3[:, j, cols]
         active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
-        base = _model_terms.crossfit_sse(ej, y_j[:, active])
-        t.carried_share = (base - _model_terms.crossfit_sse(ej, np.hstack([y_j[:, active], lib[t.term]]))) / total
+        both = np.hstack([y_j[:, active], lib[t.term]])
+        base = _model_terms.crossfit_sse(ej, y_j[:, active], full=both)
+        t.carried_share = (base - _model_terms.crossfit_sse(ej, both, full=both)) / total
         rel = _model_terms.relate(j, t.term, ej, y_j, lib, m, practical, declared[j] if declared else set())
         near = _model_terms.aligned_columns(y_j, lib[t.term])
         if est_fit is not None:
@@ -306,10 +307,11 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
             # shared parameters) outweighs the term. Name the group that best explains, on the
             # validation run, what the model's own columns cannot represent there.
             gv = _validation_refit_gains(meas[:, t.joint], reg3[:, t.joint, cols], lib_v[t.joint])
-            if gv and max(gv.values()) > max(list(gj.values()) + [0.0]):
-                gj, how = gv, "validation"
-            if not gj or not max(gj.values()) > 0:
+            if not gv or not max(gv.values()) >= practical:
+                # Neither refit names a group that carries a practical share: keep the validation
+                # test's own naming (the model's columns may span the term: mis-weighted, not missing).
                 continue
+            gj, how = gv, "validation"
         top = max(gj.values())
         near = [g for g, v in gj.items() if v >= 0.8 * top]
         best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
@@ -321,9 +323,12 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
 def _validation_refit_gains(tau_j, y_j, groups) -> dict[str, float]:
     """Per group, the share of the residual left by the model's columns refitted on this run that
     the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
-    (:func:`dynval.statistics._model_terms.crossfit_sse`), so a group that fits the noise of the
-    rows it sees does not count."""
-    base = _model_terms.crossfit_sse(tau_j, y_j)
-    if not base > 0:
-        return {}
-    return {g: (base - _model_terms.crossfit_sse(tau_j, np.hstack([y_j, b]))) / base for g, b in groups.items()}
+    (:func:`dynval.statistics._model_terms.crossfit_sse`, the rows near a block's edge unscored), so
+    a group that fits the noise of the rows it sees does not count."""
+    out = {}
+    for g, b in groups.items():
+        both = np.hstack([y_j, b])
+        base = _model_terms.crossfit_sse(tau_j, y_j, full=both)
+        if base > 0:
+            out[g] = (base - _model_terms.crossfit_sse(tau_j, both, full=both)) / base
+    return out

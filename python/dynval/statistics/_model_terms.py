@@ -79,32 +79,62 @@ def outside_fraction(basis: np.ndarray, cols: np.ndarray) -> np.ndarray:
         return np.where(norm > 0, np.sqrt(np.sum(left * left, axis=0)) / norm, 0.0)
 
 
-def crossfit_sse(y: np.ndarray, x: np.ndarray, blocks: int | None = None) -> float:
+def crossfit_sse(y: np.ndarray, x: np.ndarray, blocks: int | None = None, full: np.ndarray | None = None) -> float:
     """Sum of squares of ``y`` left by least squares on ``x`` out of sample: the run cut into
-    ``blocks`` contiguous blocks, fitted on the even ones and scored on the odd ones and the other
-    way round (a term must carry to rows its fit did not see, so noise it fits by chance does not
-    count)."""
+    contiguous blocks, fitted on the even ones and scored on the odd ones and the other way round (a
+    term must carry to rows its fit did not see, so noise it fits by chance does not count), scaled
+    to all N rows.
+
+    Coloured noise carries across a block's edge: rows within ``gap`` of an edge are not scored,
+    ``gap`` twice the correlation time of the AR(1) model of what the largest design of the
+    comparison, ``full`` (default ``x``), leaves in sample, at most a quarter of a block; blocks are
+    about :data:`CROSSFIT_ROWS` long (8 to 64 blocks). Every design compared on one ``y``
+    must be given the same ``full``, so the blocks and the rows scored are the same."""
     n = y.shape[0]
     if x.shape[1] == 0:
         return float(y @ y)
     blocks = blocks or int(np.clip(n // CROSSFIT_ROWS, 8, 64))
-    half = (np.arange(n) * blocks // max(n, 1)) % 2 == 0
-    sse = 0.0
+    # at most a quarter of a block: half of each block is scored, and short blocks keep the halves
+    # interleaved (a slow structure's own colour must not stretch them into extrapolation)
+    gap = min(_gap(y, x if full is None else full), n // (4 * blocks))
+    index = np.arange(n) * blocks // max(n, 1)
+    half = index % 2 == 0
+    starts = np.flatnonzero(np.diff(index)) + 1
+    edge = np.full(n, np.inf)
+    for b in starts:
+        edge = np.minimum(edge, np.abs(np.arange(n) - b + 0.5))
+    scored = edge >= gap
+    sse, rows = 0.0, 0
     for fit_rows in (half, ~half):
         coef, *_ = np.linalg.lstsq(x[fit_rows], y[fit_rows], rcond=None)
-        r = y[~fit_rows] - x[~fit_rows] @ coef
+        test = ~fit_rows & scored
+        r = y[test] - x[test] @ coef
         sse += float(r @ r)
-    return sse
+        rows += int(test.sum())
+    return float(sse * n / max(rows, 1))
 
 
-def _shares(e_j, y_j, out_own, out_coupling):
+def _gap(y: np.ndarray, full: np.ndarray) -> int:
+    """Twice the correlation time (samples) of the AR(1) model of what ``full`` leaves of ``y``."""
+    r = y - full @ np.linalg.lstsq(full, y, rcond=None)[0] if full.shape[1] else y
+    r = r - r.mean()
+    den = float(r[:-1] @ r[:-1])
+    phi = float(r[1:] @ r[:-1]) / den if den > 0 else 0.0
+    if not 0.0 < phi < 1.0:
+        return 0
+    return int(math.ceil(2.0 / -math.log(max(phi, 1e-12)))) if phi < 1.0 - 1e-9 else y.shape[0]
+
+
+def _shares(e_j: np.ndarray, y_j: np.ndarray, out_own: np.ndarray,
+            out_coupling: np.ndarray) -> tuple[float, float, float]:
     total = float(e_j @ e_j)
     if not total > 0:
         return 0.0, 0.0, 0.0
     y = y_j if y_j.size else np.zeros((e_j.shape[0], 0))
-    base = crossfit_sse(e_j, y)
-    own = crossfit_sse(e_j, np.hstack([y, out_own])) if out_own.shape[1] else base
-    both = crossfit_sse(e_j, np.hstack([y, out_own, out_coupling])) if out_coupling.shape[1] else own
+    full = np.hstack([y, out_own, out_coupling])
+    base = crossfit_sse(e_j, y, full=full) if y.shape[1] else total
+    own = crossfit_sse(e_j, np.hstack([y, out_own]), full=full) if out_own.shape[1] else base
+    both = crossfit_sse(e_j, full, full=full) if out_coupling.shape[1] else own
     return (total - base) / total, (base - both) / total, (base - own) / total
 
 
@@ -114,14 +144,32 @@ is a link's inertial parameter: the model holds the rigid body's gravity and ine
 its coupling to the other joints included, in a form the library's planar columns only approximate."""
 
 
-def declared_kinds(names) -> set[str]:
+_NAMED_KINDS = (("Fv", "viscous"), ("Fc", "coulomb"), ("off", "offset"))
+"""Column-name prefixes of the friction and offset columns (URDFModel.column_names: ``Fv_<joint>``,
+``Fc_<joint>``, ``off_<joint>``)."""
+
+
+def declared_kinds(names: Any) -> set[str]:
     """The library groups a model's column names declare: rigid-body inertial parameters declare
-    ``gravity`` and ``inertia`` (coupling included)."""
+    ``gravity`` and ``inertia`` (coupling included); ``Fv``, ``Fc``, ``off`` columns viscous,
+    Coulomb friction and an offset. A rigid-body model's names also declare what it lacks: the
+    friction and offset kinds it has no column of are marked ``"-viscous"``, ``"-coulomb"``,
+    ``"-offset"`` (on a rich trajectory its many columns can span a friction column numerically,
+    yet re-identifying it would not give it friction)."""
+    names = [str(x) for x in names]
+    out: set[str] = set()
+    rigid = False
     for name in names:
-        for token in str(name).replace("+", " ").replace("-", " ").replace("*", " ").split():
+        for token in name.replace("+", " ").replace("-", " ").replace("*", " ").split():
             if ":" in token and token.rsplit(":", 1)[1] in RIGID_BODY_PARAMETERS:
-                return {"gravity", "inertia"}
-    return set()
+                rigid = True
+        for prefix, group in _NAMED_KINDS:
+            if name.startswith(prefix) and not name[len(prefix):len(prefix) + 1].isalpha():
+                out.add(group)
+    if rigid:
+        out |= {"gravity", "inertia"}
+        out |= {f"-{g}" for _, g in _NAMED_KINDS if g not in out}
+    return out
 
 
 def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
@@ -135,13 +183,16 @@ def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str
     mask = coupling_mask(group, j, m, cols.shape[1])
     basis = span_basis(y_j)
     frac = outside_fraction(basis, cols)
-    inside = frac <= SPAN_TOLERANCE
+    # the names say the model lacks it, whatever the data span
+    inside = (frac <= SPAN_TOLERANCE) & (f"-{group}" not in declared)
     out_own = cols[:, ~inside & ~mask]
     out_coupling = cols[:, ~inside & mask]
     active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0 if y_j.size else np.zeros(0, bool)
     reweight, outside, outside_own = _shares(e_j, y_j[:, active] if y_j.size else y_j, out_own, out_coupling)
     has_own = bool(np.any(inside & ~mask)) or group in declared
-    if group in declared:
+    if f"-{group}" in declared:
+        relation = "missing"
+    elif group in declared:
         relation = "reweight" if outside < practical else "partial"
     elif outside < practical and has_own:
         relation = "reweight"
@@ -157,7 +208,8 @@ def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str
             "outside_own_share": outside_own, "own_in_span": int(np.sum(inside & ~mask)),
             "own_columns": int(np.sum(~mask)), "coupling_in_span": int(np.sum(inside & mask)),
             "coupling_columns": int(np.sum(mask)), "outside_fraction": [float(x) for x in frac],
-            "tolerance": SPAN_TOLERANCE, "declared": group in declared}
+            "tolerance": SPAN_TOLERANCE,
+            "declared": True if group in declared else False if f"-{group}" in declared else None}
 
 
 def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
@@ -168,7 +220,8 @@ def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
     out = {}
     for g, cols in lib_j.items():
         mask = coupling_mask(g, j, m, cols.shape[1])
-        out[g] = g in declared or bool(np.any((outside_fraction(basis, cols) <= SPAN_TOLERANCE) & ~mask))
+        spanned = bool(np.any((outside_fraction(basis, cols) <= SPAN_TOLERANCE) & ~mask))
+        out[g] = g in declared or (spanned and f"-{g}" not in declared)
     return out
 
 
@@ -176,7 +229,7 @@ def coefficients(y_j: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Least squares of ``target`` on joint j's model columns (minimum norm where they are dependent)."""
     if y_j.shape[1] == 0:
         return np.zeros(0)
-    return np.linalg.lstsq(y_j, target, rcond=None)[0]
+    return np.asarray(np.linalg.lstsq(y_j, target, rcond=None)[0], dtype=float)
 
 
 def aligned_columns(y_j: np.ndarray, cols: np.ndarray, most: int = 2) -> list[int]:
@@ -194,6 +247,6 @@ def aligned_columns(y_j: np.ndarray, cols: np.ndarray, most: int = 2) -> list[in
     return order[:most]
 
 
-def library_for(j: int, q, dq, ddq, n: int, sample_rate) -> dict[str, np.ndarray]:
+def library_for(j: int, q: Any, dq: Any, ddq: Any, n: int, sample_rate: Any) -> dict[str, np.ndarray]:
     """Joint j's library (q may be None: offset and drift only)."""
     return _physics.library(j, q, dq, ddq, np.zeros(n), sample_rate)
