@@ -237,3 +237,30 @@ def test_a_fallback_refit_is_labelled_and_decides_only_when_it_carries():
     assert "held-out rows" in f.message
     (f,) = [g for g in compute_findings(_fallback_evidence(0.01)) if g.kind == "missing_physics"]
     assert f.severity == "note"
+
+
+def test_rigid_body_column_names_declare_what_the_model_holds_and_lacks():
+    """A URDF model's inertial parameters hold the rigid body (its inertia and gravity, coupling
+    included): an inertial structure is never "missing" for it, whatever the library's planar columns
+    span; its names also say it lacks friction when no Fv/Fc column is there, even where its many
+    columns span q̇ numerically on one trajectory.
+    Kills: "add an inertial term" told to a full rigid-body URDF model; "re-identify viscous friction"
+    told to a rigid model without friction columns."""
+    names = ["lwr_1_link:Izz", "lwr_2_link:mx - lwr_3_link:m", "Fc_lwr_1_joint"]
+    kinds = _model_terms.declared_kinds(names)
+    assert {"gravity", "inertia", "coulomb", "-viscous", "-offset"} <= kinds and "-coulomb" not in kinds
+    assert _model_terms.declared_kinds(["ddq1", "sgn1", "offset"]) == set()
+    rng = np.random.default_rng(5)
+    n, m = 2000, 2
+    ddq = rng.standard_normal((n, m))
+    dq = np.cumsum(rng.standard_normal((n, m)), axis=0) / 30
+    lib = {"inertia": ddq, "viscous": dq[:, :1]}
+    y_j = np.column_stack([dq[:, 0], rng.standard_normal(n)])  # spans q̇₀, not the accelerations
+    e_j = ddq @ [0.3, 0.5] + 0.8 * dq[:, 0] + 0.01 * rng.standard_normal(n)
+    free = _model_terms.relate(0, "inertia", e_j, y_j, lib, m, 0.05)
+    assert free["relation"] == "missing"
+    held = _model_terms.relate(0, "inertia", e_j, y_j, lib, m, 0.05, declared={"inertia", "gravity"})
+    assert held["relation"] in ("reweight", "partial") and held["declared"] is True
+    assert _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05)["relation"] == "reweight"
+    lacks = _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05, declared={"-viscous"})
+    assert lacks["relation"] == "missing" and lacks["declared"] is False
