@@ -86,8 +86,7 @@ def test_a_friction_the_model_has_that_changed_between_runs_is_reweighted_never_
     assert "estimated on the estimation run" in f.message and "refitted on this run" in f.message
     # the estimated and refitted coefficients of the model's sign(q̇₀) column: 0.3 and 1.5
     rel = f.details["model_terms"]
-    names = dynval.validate  # noqa: F841 (the column is the third per-joint block: sign q̇)
-    k = rel["columns"].index(4)  # columns [ddq0, ddq1, dq0, dq1, sgn0, sgn1, ...]
+    k = rel["columns"].index(4)  # columns [ddq0, ddq1, dq0, dq1, sgn0, sgn1, ...]: sign q̇₀
     assert rel["estimated"][k] == pytest.approx(0.3, abs=0.05) and rel["refitted"][k] == pytest.approx(1.5, abs=0.1)
     assert not any(g.action.startswith("add") for g in r.deficiencies)
 
