@@ -32,6 +32,15 @@ def test_readme_examples_run(capsys):
     assert {j for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"
             for j in f.joints} >= {0, 1, 2, 3}
     assert any(f.kind == "time_stamps" for f in real.findings)
+    # advice relative to the model's columns (issue 34): the decoupled model holds q̇_j and sign q̇_j,
+    # so it is never told to add them; joint 0 is told the coupling of its gravity; both runs'
+    # derivatives come from one filter, handed to estimation= too
+    named = {f.joints[0]: f for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"}
+    assert named[0].details["relation"] == "coupling" and "coupling" in named[0].action
+    for j in (2, 3, 4):
+        assert named[j].details["term"] in ("viscous", "coulomb") and not named[j].action.startswith("add"), j
+    assert not any(f.action.startswith(("add viscous", "add Coulomb")) for f in real.findings)
+    assert real.physics["derivative_source"] == "given"
 
 
 @pytest.mark.parametrize("scenario, decision", [("friction", "accept"), ("repeat", "redesign")])
