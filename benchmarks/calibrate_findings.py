@@ -110,7 +110,7 @@ def run_library(scenarios, replicates: int, jobs: int, backend, first_seed: int 
 
 def table(scenarios, results) -> list[str]:
     lines = [f"{'scenario':40} {'offered':7} {'reps':>4} {'any deficiency':>25} {'named right':>25} "
-             f"{'sim s':>6} {'val s':>6}  kinds"]
+             f"{'advice right':>25} {'adds a term it has':>25} {'sim s':>6} {'val s':>6}  kinds"]
     for s in scenarios:
         for offered in (True, False):
             rows = results.get((s.key, offered), [])
@@ -123,10 +123,16 @@ def table(scenarios, results) -> list[str]:
             for r in rows:
                 for k in r["kinds"]:
                     kinds[k] = kinds.get(k, 0) + 1
+            scored = [r for r in rows if r.get("advice_right") is not None]
+            advice = interval(sum(bool(r["advice_right"]) for r in scored), len(scored)) if scored else "—"
+            counted = [r for r in rows if "adds_what_it_has" in r]
+            adds = (interval(sum(r["adds_what_it_has"] > 0 for r in counted), len(counted))
+                    if counted else "—")
             sim = sum(r["seconds_simulate"] for r in rows) / n
             val = sum(r["seconds_validate"] for r in rows) / n
             lines.append(f"{s.key:40} {'yes' if offered else 'no':7} {n:4d} {interval(anyd, n):>25} {right:>25} "
-                         f"{sim:6.2f} {val:6.2f}  " + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
+                         f"{advice:>25} {adds:>25} {sim:6.2f} {val:6.2f}  "
+                         + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())))
     return lines
 
 

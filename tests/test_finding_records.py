@@ -363,6 +363,12 @@ def _library(pvalues, shares, terms, term_shares=None, delay=None, others=None):
     return out
 
 
+def _advice(effect: float) -> dict:
+    """The advice a library test without a refit or the model's columns gives the words."""
+    return {"refit_run": None, "effect": effect, "relation": None, "column_names": None,
+            "derivatives": "Savitzky–Golay derivatives of q on both runs (0.1 s window, degree 4)"}
+
+
 def test_missing_physics_record_needs_both_shares_at_the_threshold():
     lib = _library([1e-9, 1e-9, 1e-9, 0.9], [0.05, 0.2, 0.0499, 0.5], ["coulomb", "viscous", "offset", "drift"],
                    term_shares=[0.05, 0.04, 0.0499, 0.5], others={0: {"viscous": 0.02, "offset": 0.005}})
@@ -376,10 +382,15 @@ def test_missing_physics_record_needs_both_shares_at_the_threshold():
         effect_unit="share of the joint's mean square the physical terms remove", threshold=0.05,
         details={"term": "coulomb", "label": LABELS["coulomb"], "term_share": 0.05, "selected_share": 0.05,
                  "selected": ["coulomb"], "shares": {"coulomb": 0.05, "viscous": 0.02, "offset": 0.005},
-                 "n_eff": 300.0, "method": "library", "derivatives": "given"})
+                 "n_eff": 300.0, "method": "library", "derivatives": "given",
+                 # issue 34: how the share was measured and the term relative to the model's columns
+                 # (unknown here: the evidence has no relation)
+                 "refit_run": None, "effect_out_of_sample": 0.05, "heldout_share": None, "carried_share": None,
+                 "relation": None, "model_terms": None, "derivative_source": None})
     # the other groups that remove at least 1 % are named with it, largest first
-    _worded(found[0], w.missing_physics("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0], True))
-    _worded(found[1], w.missing_physics("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False))
+    _worded(found[0], w.missing_physics("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0], True,
+                                        _advice(0.05)))
+    _worded(found[1], w.missing_physics("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False, _advice(0.04)))
 
 
 def test_missing_physics_without_a_term_names_nothing():
@@ -766,7 +777,7 @@ def test_missing_physics_names_the_other_groups_by_share_from_one_percent():
     lib = _library([1e-9], [0.3], ["coulomb"], others={0: {"offset": 0.01, "viscous": 0.05, "drift": 0.0099}})
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
     _worded(f, w.missing_physics("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3, 0.3,
-                                 f.pvalue_adjusted, True))
+                                 f.pvalue_adjusted, True, _advice(0.3)))
     del lib["tests"][0]["selected_share"]  # without a selection, the term's own share is what it removes
     lib["tests"][0]["term_share"] = 0.2
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")

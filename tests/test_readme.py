@@ -50,6 +50,15 @@ def test_the_real_robot_example_runs_alone(capsys):
     assert any(f.kind == "time_stamps" for f in real.findings)
     assert {j for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"
             for j in f.joints} >= {0, 1, 2, 3}
+    # advice relative to the model's columns (issue 34): the decoupled model holds q̇_j and sign q̇_j,
+    # so it is never told to add them; joint 0 is told the coupling of its gravity; both runs'
+    # derivatives come from one filter, handed to estimation= too
+    named = {f.joints[0]: f for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"}
+    assert named[0].details["relation"] == "coupling" and "coupling" in named[0].action
+    for j in (2, 3, 4):
+        assert named[j].details["term"] in ("viscous", "coulomb") and not named[j].action.startswith("add"), j
+    assert not any(f.action.startswith(("add viscous", "add Coulomb")) for f in real.findings)
+    assert real.physics["derivative_source"] == "given"
     out = capsys.readouterr().out
     assert "Identification: least squares" in out and "P>|t|" in out
 

@@ -42,7 +42,8 @@ def test_the_library_spreads_arms_rates_noises_and_covers_every_class():
     assert len({s.key for s in lib}) == len(lib)
     assert {s.name for s in lib} == set(S.CLASSES)
     assert {s.arm for s in lib} == set(S.ARMS)
-    assert {s.sample_rate for s in lib} == {100.0, 500.0, 1000.0}
+    # 100 Hz to 1 kHz, and the decoupled model at the KUKA logs' 200 Hz
+    assert {s.sample_rate for s in lib} == {100.0, 200.0, 500.0, 1000.0}
     right = [s for s in lib if s.name == "right"]
     assert {s.noise for s in right} >= {"white", "t3", "ar0.9", "ar0.99", "lowpass", "heteroscedastic", "jitter"}
     assert all(s.expected is None for s in right)
@@ -208,8 +209,13 @@ def test_a_deficient_scenario_holds_its_effect_at_the_stated_size(key):
     x = val.regressor[:, :, list(rep.model_columns)].reshape(-1, len(rep.model_columns))
     rest = (val.tau_true - rep.effect).reshape(-1)
     coef, *_ = np.linalg.lstsq(x, rest, rcond=None)
-    assert np.max(np.abs(x @ coef - rest)) < 1e-8
     eff = rep.effect.reshape(-1)
+    if s.filtered:
+        # the user's filtered derivatives hold the physics up to the filter's error (sign flips of
+        # the Coulomb column where q̇ crosses zero): small beside the effect
+        assert np.sqrt(np.mean((x @ coef - rest) ** 2)) < 0.1 * np.sqrt(np.mean(eff**2))
+    else:
+        assert np.max(np.abs(x @ coef - rest)) < 1e-8
     coef, *_ = np.linalg.lstsq(x, eff, rcond=None)
     assert np.linalg.norm(eff - x @ coef) > 0.05 * np.linalg.norm(eff)
 

@@ -611,16 +611,29 @@ def check_signal_like(value, name: str, n: int, m: int) -> np.ndarray:
     return two
 
 
+ESTIMATION_KEYS = ("q", "dq", "ddq", "regressor", "tau", "bandwidth")
+
+
 def check_estimation(value, m: int):
-    """``estimation``: a mapping with any of 'q', 'regressor', 'tau' for the estimation run."""
+    """``estimation``: a mapping with any of 'q', 'dq', 'ddq', 'regressor', 'tau', 'bandwidth' for
+    the estimation run (contract §4: 'dq', 'ddq' need 'q' and its shape; 'bandwidth' Hz > 0)."""
     if value is None:
         return None
-    keys = ("q", "regressor", "tau")
-    if not isinstance(value, dict) or not value or any(k not in keys for k in value):
-        raise parameter_error("estimation", "None or a mapping with any of 'q', 'regressor', 'tau'", value)
-    out = {}
+    requirement = "None or a mapping with any of " + ", ".join(repr(k) for k in ESTIMATION_KEYS)
+    if not isinstance(value, dict) or not value:
+        raise parameter_error("estimation", requirement, value)
+    unknown = [k for k in value if k not in ESTIMATION_KEYS]
+    if unknown:  # name the key, not the arrays
+        raise InvalidParameter(f"estimation must be {requirement}, got a mapping with the key {unknown[0]!r}")
+    out: dict[str, Any] = {}
     for key, arr in value.items():
         name = f"estimation[{format_value(key)}]"
+        if key == "bandwidth":
+            if isinstance(arr, bool) or not isinstance(arr, (int, float, np.floating, np.integer)) \
+                    or not math.isfinite(float(arr)) or not float(arr) > 0:
+                raise parameter_error(name, "a finite number of Hz > 0", arr)
+            out[key] = float(arr)
+            continue
         a = to_float_array(arr, name)
         if key == "regressor":
             if a.ndim == 2 and a.shape[0] % m == 0:
@@ -635,6 +648,13 @@ def check_estimation(value, m: int):
                 raise ShapeMismatch(f"{name} must have m={m} columns, got shape {format_shape(np.shape(arr))}")
             check_finite(a, name)
         out[key] = a
+    for key in ("dq", "ddq"):
+        if key in out and "q" not in out:
+            raise parameter_error(f"estimation[{key!r}]", "given with estimation['q'] (the positions they derive from)",
+                                  "without estimation['q']")
+        if key in out and out[key].shape != out["q"].shape:
+            raise ShapeMismatch(f"estimation[{key!r}] must have the shape of estimation['q'] "
+                                f"{format_shape(out['q'].shape)}, got shape {format_shape(out[key].shape)}")
     return out
 
 

@@ -42,6 +42,16 @@ def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, st
     return e, t
 
 
+_PHYSICS_RELATION = {
+    "missing": "missing",
+    "reweight": "mis-weighted or changed between runs (the model has it):",
+    "coupling": "missing the cross-joint coupling of",
+    "partial": "part of a term the model has, another shape of",
+}
+"""The physics finding relative to the model's columns (``details["relation"]``); without it (the
+columns unknown) a structure of the kind remains."""
+
+
 def finding_reason(f: Finding, report: ReportSections) -> str:
     """One short reason from a finding's own fields: where, what, the effect and its threshold."""
     joints = ", ".join(joint_name(report, j) for j in f.joints)
@@ -55,7 +65,9 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     elif f.kind == "regressor_correlation":
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
-                f"{e} ≥ {t}): a missing or mis-weighted term")
+                f"{e} ≥ {t}): " + ("a mis-weighted term (the model has it)" if f.action.startswith("re-identify")
+                                  else "a missing term" if f.action.startswith("add the term")
+                                  else "a missing or mis-weighted term"))
     elif f.kind == "bias":
         text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
                 + (f", which the missing term {cols[0]} accounts for" if cols else ""))
@@ -71,7 +83,11 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         text = f"worse than a constant (R² = {e} < {t})"
     elif f.kind == "missing_physics":
         label = f.details.get("label") or f.details.get("term") or "a physical term"
-        text = f"missing {label} (the physical terms would remove {e} of the mean square ≥ {t})"
+        what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")
+        text = f"{what} {label} (the physical terms would remove {e} of the mean square ≥ {t})"
+        if f.details.get("relation") == "unsupported":
+            text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
+                    f"terms would remove {e} of the mean square ≥ {t})")
     elif f.kind == "delay":
         d_s = f.details.get("delay_s")
         lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None

@@ -251,6 +251,7 @@ class Sections:
     physics: dict[str, Any] | None = None
     predictive: dict[str, Any] | None = None
     periodic: dict[str, Any] | None = None
+    model_kinds: list[dict[str, bool]] | None = None  # without q: which of offset, drift the model spans
     segment_metrics: dict[str, Any] | None = None
     untested: int = 0  # tests validate would run that this route did not (Holm's family, _findings.holm_family)
 
@@ -314,6 +315,7 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
             "cross_correlation_findings": ("Bartlett variance for two coloured series" if crossed and not s.streaming
                                            else None),
             "decimate": s.decimate,
+            "derivatives": _derivatives(sections.physics),
         },
         "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
                   "torque": "as given", "frequency": "Hz" if s.sample_rate else "cycles/sample"},
@@ -339,6 +341,18 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
     return out
 
 
+def _derivatives(physics: dict[str, Any] | None) -> dict[str, Any] | None:
+    """Where the physics library's q̇, q̈ came from: the validation test's, and the one source both
+    runs' naming refits share (contract §4)."""
+    if physics is None:
+        return None
+    from ._motion import source_text
+
+    return {"validation": physics.get("derivatives"), "both_runs": source_text(physics.get("derivative_source",
+                                                                                                "savgol")),
+            "estimation_bandwidth_hz": physics.get("estimation_bandwidth_hz")}
+
+
 def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m: int, omitted: int) -> ValidationReport:
     """The evidence of every section, the findings, and the :class:`~dynval.ValidationReport`."""
     timing = None if s.timing is None else s.timing.to_dict()
@@ -350,7 +364,7 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested)
+                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested, model_kinds=b.model_kinds)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross

@@ -134,8 +134,11 @@ def pooling(name: str, r2: float, pooled: float) -> Words:
 
 
 def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, n: int, padj: float, big: bool,
-         culprit: tuple[str, float] | None) -> Words:
-    """``culprit``: the missing column that accounts for the mean, and its share."""
+         culprit: tuple[str, float] | None, kinds: Mapping[str, bool | None] | None = None,
+         term: tuple[str, str, str] | None = None) -> Words:
+    """``culprit``: the missing column that accounts for the mean, and its share; ``kinds``: which of
+    an offset, a friction and a gravity term the model has (:func:`bias_action`); ``term``: (group,
+    label, relation) of a physical term the model lacks on the joint, whose mean the bias is."""
     pct = versus(effect, threshold, ".0f", scale=100.0)
     head = (f"{name}: residual mean {mean:+.4g} ({pct[0]} % of the RMSE; coloured-noise t-test N_eff = {n_eff:.0f} "
             f"of {n}, Holm-adjusted p {p_text(padj)})")
@@ -146,9 +149,41 @@ def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, 
     if culprit is not None:
         action = (f"add the term {culprit[0]} on {name}: without it the model leaves this offset "
                   f"({100 * culprit[1]:.1f} % of the mean square is its part outside the model)")
+    elif term is not None:
+        group, label, relation = term
+        tail = f"; the physical term the model lacks on this joint ({label}, see below) accounts for it."
+        action = (f"add the coupling (cross-joint) terms of {label} on {name}: {_coupling_terms(group, name)}"
+                  if relation == "coupling" else
+                  f"complete {label} on {name}: add {_PARTIAL.get(group, 'the form it lacks')}"
+                  if relation == "partial" else f"add {label} on {name}: the bias is its mean on this trajectory")
     else:
-        action = f"add a torque offset (sensor bias), a friction or a gravity term on {name}"
+        action = bias_action(name, kinds)
     return head + ": a systematic bias, e.g. a missing offset, friction or gravity term" + tail, action
+
+
+BIAS_KINDS = (("offset", "a torque offset (sensor bias)"), ("friction", "a friction"), ("gravity", "a gravity term"))
+
+
+def bias_action(name: str, kinds: Mapping[str, bool | None] | None) -> str:
+    """What to do about a bias, relative to the model: add only what it lacks; re-identify what it has.
+
+    ``kinds``: for "offset", "friction", "gravity", True (the model's columns span it on the joint),
+    False (they do not) or None (not known); None when the model's columns are unknown."""
+    if kinds is None:
+        return (f"look for a torque offset (sensor bias), a friction or a gravity term on {name}: a bias of this "
+                "kind remains (the model's columns are unknown, so whether it has them cannot be told)")
+    lacks = [w for k, w in BIAS_KINDS if kinds.get(k) is False]
+    has = [w.replace("a ", "", 1) for k, w in BIAS_KINDS if kinds.get(k) is True]
+    unknown = [w for k, w in BIAS_KINDS if kinds.get(k) is None]
+    parts = []
+    if lacks:
+        parts.append(f"add {' or '.join(lacks)} on {name} (the model lacks it)")
+    if unknown:
+        parts.append(f"look for {' or '.join(unknown)} (with q the report would tell whether the model has it)")
+    if has:
+        parts.append(("re-identify " if not parts else "or re-identify ") + f"the {', '.join(has)} the model has on "
+                     f"{name}: its weight differs on this run (changed between runs, or the sensor's offset moved)")
+    return "; ".join(parts)
 
 
 def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bool, padj: float, big: bool) -> Words:
@@ -165,13 +200,22 @@ def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bo
 
 
 def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], threshold: float, best: float,
-                          padj: float, big: bool) -> Words:
-    """``hits``: (column, lag text, ρ) of the chosen columns, strongest first."""
+                          padj: float, big: bool, in_model: bool | None = None) -> Words:
+    """``hits``: (column, lag text, ρ) of the chosen columns, strongest first; ``in_model``: the
+    first column is one of the model's (True), outside it (False), or not known (None)."""
     listed = "; ".join(f"{c} ({lag}, ρ = {versus(rho, threshold, '+.3f', absolute=True)[0]})"
                        for c, lag, rho in hits[:3])
     head = (f"{name}: the residual correlates with {listed} beyond what the colour of both series explains "
             f"(Holm-adjusted p {p_text(padj)})")
     if big:
+        if in_model:
+            return (head + ": the model has this column but does not use the information in it (a mis-weighted "
+                    "term, or one that changed between runs).",
+                    f"re-identify the term of {hits[0][0]} on {name}: the model has it, its weight does not fit "
+                    "this run")
+        if in_model is False:
+            return (head + ": the model lacks this column and the residual uses its information (a missing term).",
+                    f"add the term {hits[0][0]} on {name}: the model lacks it")
         return (head + ": the model does not use the information in this column (a missing or mis-weighted term).",
                 f"add or re-weight the term of {hits[0][0]} on {name}: the model does not use the information in it")
     return (head + f": significant but negligible (|ρ| below {versus(best, threshold)[1]}).",
@@ -236,13 +280,89 @@ def periodic_error(name: str, effect: float, n_periods: Any, period: Mapping[str
 
 
 def missing_physics(name: str, label: str, others: Sequence[str], together: float, term_share: float,
-                    share: float, padj: float, big: bool) -> Words:
+                    share: float, padj: float, big: bool, advice: Mapping[str, Any] | None = None) -> Words:
+    """``advice``: how the named term's share was measured (``refit_run``, ``effect``, ``derivatives``)
+    and its ``relation`` to the model's columns (None: the columns are unknown)."""
+    advice = advice or {}
     named = label + (f" (with {', '.join(others)})" if others else "")
-    return (f"{name}: the residual follows the motion: {named} removes {100 * together:.0f} % of its mean square "
+    head = (f"{name}: the residual follows the motion: {named} removes {100 * together:.0f} % of its mean square "
             f"({100 * term_share:.0f} % by {label} alone; every physical term together {100 * share:.0f} %, "
-            f"prewhitened Wald test, Holm-adjusted p {p_text(padj)})"
-            + (": a term the model lacks." if big else NEGLIGIBLE),
-            f"add {label} on {name} to the model" if big else "none: the structure is real but too small to matter")
+            f"prewhitened Wald test, Holm-adjusted p {p_text(padj)})")
+    head += _measured(label, advice)
+    if not big:
+        return (head + NEGLIGIBLE, "none: the structure is real but too small to matter")
+    rel: Mapping[str, Any] = advice.get("relation") or {}
+    kind = rel.get("relation")
+    if kind is None:
+        return (head + f": a structure of this kind remains ({label}); the model's columns are unknown, so whether "
+                "it lacks the term or weights it wrongly cannot be told.",
+                f"look for {label} on {name}: a structure of this kind remains (give the regressor to tell a "
+                "missing term from a mis-weighted one)")
+    held = f"{100 * rel['outside_share']:.0f} % of the mean square on held-out rows"
+    if kind == "reweight":
+        return (head + f": the model has this term (its columns span it, each column within "
+                f"{100 * rel['tolerance']:.0f} % of its RMS), so it is mis-weighted or changed between runs: "
+                + _coefficients(advice) + f"; re-identifying the model's columns would remove "
+                f"{100 * rel['reweight_share']:.0f} % of the joint's mean square (cross-fitted on this run).",
+                f"re-identify {label} on {name}: the model has the term, its weight differs on this run (a friction "
+                "or load that changed between runs, or a term the estimation run did not excite)")
+    if kind == "unsupported":
+        return (head + f": the model lacks {label}, but adding it does not carry to held-out rows of this run "
+                f"({100 * rel['outside_share']:.0f} %); re-identifying the model's own columns removes "
+                f"{100 * rel['reweight_share']:.0f} % there (cross-fitted): its terms are mis-weighted.",
+                f"re-identify the model's terms on {name}: what remains is carried by its own columns with other "
+                f"weights, not by {label}")
+    if kind == "coupling":
+        return (head + f": the model has {label} of {name}'s own motion but not its coupling to the other joints: "
+                f"the cross-joint columns lie outside its span and remove {held} (a decoupled model of a coupled "
+                "arm).",
+                f"add the coupling (cross-joint) terms of {label} on {name}: {_coupling_terms(rel['group'], name)}")
+    if kind == "partial":
+        return (head + f": the model has part of this term ({rel['own_in_span']} of its {rel['own_columns']} own "
+                f"columns lie in the span of its columns); what lies outside removes {held}: another shape of it.",
+                f"complete {label} on {name}: the model has part of it; add "
+                + _PARTIAL.get(rel["group"], "the form it lacks"))
+    return (head + f": a term the model lacks (outside the span of its columns on this joint; it removes {held}).",
+            f"add {label} on {name} to the model")
+
+
+_PARTIAL = {"coulomb": "the friction shape it lacks (a smooth sign or a Stribeck term)",
+            "gravity": "the posture terms it lacks (a centre-of-mass component)",
+            "position_harmonic": "the position harmonics it lacks",
+            "inertia": "the acceleration terms it lacks"}
+
+
+def _measured(label: str, advice: Mapping[str, Any]) -> str:
+    """How the named term's own share was measured, and from which derivatives."""
+    run = advice.get("refit_run")
+    effect = advice.get("effect")
+    pct = "" if effect is None or effect != effect else f"{100 * effect:.0f} %"
+    if run == "estimation":
+        return (f"; {label} refitted alone with the model on the estimation run and carried to this run removes "
+                f"{pct} (derivatives: {advice.get('derivatives')})")
+    if run == "validation":
+        return (f"; named by a fallback refit on this run alone (no group refitted on the estimation run helped): "
+                f"added to the model's columns refitted here it removes {pct} of held-out rows (cross-fitted on "
+                "alternate blocks of this run)")
+    return (f"; {label}'s own effect on held-out rows of this run (cross-fitted on alternate blocks) is {pct}"
+            if pct else "")
+
+
+def _coefficients(advice: Mapping[str, Any]) -> str:
+    rel = advice["relation"]
+    where = "estimated on the estimation run" if rel.get("estimated_from") == "estimation" else "in the prediction"
+    names = advice.get("column_names") or [f"column {c + 1}" for c in rel.get("columns", [])]
+    parts = [f"{c} {e:.4g} {where}, {r:.4g} refitted on this run"
+             for c, e, r in zip(names, rel.get("estimated", []), rel.get("refitted", []))]
+    return "; ".join(parts) if parts else "its coefficients differ"
+
+
+def _coupling_terms(group: str, name: str) -> str:
+    if group == "gravity":
+        return f"the posture terms sin/cos(q_i + … + q_k) of the link-angle chains through {name}"
+    if group == "inertia":
+        return "the other joints' accelerations q̈_k (the mass matrix's off-diagonal terms)"
+    return "the other joints' terms"
 
 
 def delay(shift: float, sample_rate: float | None, shares: Sequence[tuple[str, float]], padj: float) -> Words:

@@ -271,6 +271,8 @@ class Evidence:
     joint_motion_ratio: np.ndarray | None = None
     detectable_share: np.ndarray | None = None
     noise_n_eff: np.ndarray | None = None
+    # per joint, which library groups the model's columns span (None: its columns are unknown)
+    model_kinds: list | None = None
     extra_notes: list = field(default_factory=list)
     # tests validate would have run on these inputs and this entry point did not (a stream's spectrum
     # and colour-aware cross-correlation): each counts in Holm's family as a p-value of 1
@@ -294,6 +296,24 @@ def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
         return None
     k = int(ok[np.argmax(share[ok])])
     return int(ev.missing_columns[k]), float(share[k])
+
+
+def _bias_kinds(ev: Evidence, j: int) -> dict[str, bool | None] | None:
+    """Which of an offset, a friction and a gravity term the model's columns span on joint j (None
+    for a kind the evidence cannot tell, e.g. friction without q); None when the columns are unknown."""
+    if ev.model_kinds is None or j >= len(ev.model_kinds):
+        return None
+    k = ev.model_kinds[j]
+    friction = [k[g] for g in ("coulomb", "viscous") if g in k]
+    return {"offset": k.get("offset"), "friction": (any(friction) if friction else None),
+            "gravity": k.get("gravity")}
+
+
+def _column_in_model(ev: Evidence, c: int) -> bool | None:
+    """A regressor column is the model's unless it is one of the columns tested as missing."""
+    if ev.missing_columns is None:
+        return True if ev.model_kinds is not None else None
+    return int(c) not in {int(x) for x in ev.missing_columns}
 
 
 def _tests(ev: Evidence):
@@ -460,15 +480,35 @@ def _bias_rule(r: _Rules) -> list[Finding]:
             r.deficient.add(j)
         culprit = _bias_culprit(ev, j, th)
         named = None if culprit is None else (r.column(culprit[0]), culprit[1])
+        term = None if culprit is not None else _bias_term(r, j)
         out.append(_worded(
             w.bias(r.name(j), float(mean[j]), float(effect[j]), th.bias, float(ev.n_eff[j]), ev.n_samples,
-                   float(padj[j]), big, named),
+                   float(padj[j]), big, named, _bias_kinds(ev, j), term),
             kind="bias", severity="deficiency" if big else "note", joints=(j,),
             columns=() if culprit is None else (culprit[0],),
             statistic=float(ev.bias_statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
             effect=float(effect[j]), effect_unit=w.UNITS["bias"], threshold=th.bias,
-            details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j])}))
+            details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j]),
+                     **({} if term is None else {"term": term[0], "relation": term[2]})}))
     return out
+
+
+def _bias_term(r: _Rules, j: int) -> tuple[str, str, str] | None:
+    """The physical term the library finds on joint j, when the model lacks it (missing, its
+    coupling, or a part of it) and it is a practical deficiency there: (group, label, relation). A
+    term the model lacks shows on a new trajectory as an offset too, and is what to change."""
+    from ..statistics._physics import LABELS
+
+    ev = r.ev
+    if ev.physics is None or "physics" not in r.fam or _delay_explains(ev, j):
+        return None
+    t = ev.physics["tests"][j]
+    rel = (t.get("relation") or {}).get("relation")
+    if t["term"] is None or rel not in ("missing", "coupling", "partial") or not r.fam["physics"][1][j] <= r.alpha:
+        return None
+    if not (t["share"] >= r.th.missing_physics and _term_effect(t) >= r.th.missing_physics):
+        return None
+    return t["term"], LABELS[t["term"]], rel
 
 
 def _missing_term_rule(r: _Rules) -> list[Finding]:
@@ -550,7 +590,7 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
         listed = [(r.column(cc), w.lag_text(ll, ev.sample_rate), float(rho[j, cc, ll])) for _, cc, ll in chosen]
         out.append(_worded(
             w.regressor_correlation(r.name(j), listed, th.regressor_correlation, float(best),
-                                    float(padj[j, c, lag]), big),
+                                    float(padj[j, c, lag]), big, _column_in_model(ev, c)),
             kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
             columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
             pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
@@ -750,23 +790,58 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
         term = t["term"]
         if term is None:
             continue
-        big = bool(t["share"] >= th.missing_physics and t["term_share"] >= th.missing_physics)
+        effect = _term_effect(t)
+        big = bool(t["share"] >= th.missing_physics and effect >= th.missing_physics)
         if big:
             bad.add(j)
         label = LABELS[term]
         others = [LABELS[g] for g, sh in sorted(shares.items(), key=lambda kv: -kv[1]) if g != term and sh >= 0.01]
         together = float(t.get("selected_share", t["term_share"]))
+        rel = t.get("relation")
+        advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel,
+                  "derivatives": _derivative_words(ev.physics),
+                  "column_names": None if rel is None else [w.column_name(ev.column_names, c)
+                                                             for c in rel.get("columns", [])]}
         out.append(_worded(
             w.missing_physics(w.joint_name(ev.joint_names, j), label, others, together, float(t["term_share"]),
-                              float(t["share"]), float(padj[j]), big),
+                              float(t["share"]), float(padj[j]), big, advice),
             kind="missing_physics", severity="deficiency" if big else "note", joints=(j,),
             statistic=float(t["statistic"]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
             effect=float(t["share"]), effect_unit=w.UNITS["missing_physics"], threshold=th.missing_physics,
             details={"term": term, "label": label, "term_share": float(t["term_share"]),
                      "selected_share": together, "selected": list(t["selected"]), "shares": dict(shares),
                      "n_eff": float(t["n_eff"]), "method": ev.physics["method"],
-                     "derivatives": ev.physics["derivatives"]}))
+                     "derivatives": ev.physics["derivatives"], "refit_run": t.get("refit_run"),
+                     "effect_out_of_sample": effect, "heldout_share": t.get("heldout_share"),
+                     "carried_share": t.get("carried_share"),
+                     "relation": None if rel is None else rel.get("relation"),
+                     "model_terms": None if rel is None else dict(rel),
+                     "derivative_source": ev.physics.get("derivative_source")}))
     return out, bad
+
+
+def _term_effect(t: dict[str, Any]) -> float:
+    """The named term's share of the joint's mean square, out of sample: refitted with the model on
+    the estimation run and carried to validation, or (a fallback refit on this run) cross-fitted on
+    it; from the validation test alone, what it adds to the model's columns cross-fitted (what
+    re-identifying them gains when the model spans it), or its own effect alone cross-fitted when
+    the columns are unknown. Coloured noise a term fits by chance does not carry to held-out rows."""
+    if t.get("refit_run") in ("estimation", "validation"):
+        return float(t["term_share"])
+    rel = t.get("relation")
+    if rel is not None:
+        value = (rel["reweight_share"] if rel.get("relation") in ("reweight", "unsupported")
+                 else t.get("carried_share"))
+    else:
+        value = t.get("heldout_share")
+    value = float("nan") if value is None else float(value)
+    return value if value == value else float(t["term_share"])
+
+
+def _derivative_words(physics: dict[str, Any]) -> str:
+    from ._motion import source_text
+
+    return source_text(str(physics.get("derivative_source", "savgol")))
 
 
 def _delay_explains(ev: Evidence, j: int) -> bool:

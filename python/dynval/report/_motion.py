@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
-from ..statistics import _estimation, _periodic, _physics
+from ..statistics import _estimation, _model_terms, _periodic, _physics
 from ._prepared import Memo, compute_now
 from ._regressor_algebra import unit_norm_columns
 
@@ -30,38 +30,124 @@ def delay(meas, pred, sample_rate) -> dict[str, Any]:
 
 
 def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level, est_run=None,
-            meas=None) -> dict[str, Any]:
+            meas=None, practical: float = 0.05, column_names=None) -> dict[str, Any]:
     """Each joint's residual against the physics library (:mod:`dynval.statistics._physics`).
 
     The model's own columns: with the estimation run their estimation error widens the test
     (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
     represent is not missing); with neither, the prediction alone is given and nothing is refitted.
+    The named term is then related to the model's columns (:mod:`dynval.statistics._model_terms`).
     """
     d = _physics.derivatives(q, sample_rate, dq, ddq)
     kwargs: dict[str, Any] = {}
     how = "none (no regressor: the model's own columns are unknown)"
+    cols = None if reg3 is None else (list(est_fit.columns) if est_fit is not None else
+                                      list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
     if est_fit is not None and reg3 is not None:
         kwargs["model_regressor"] = reg3[:, :, list(est_fit.columns)]
         kwargs["parameter_covariance"] = est_fit.covariance
         how = "their estimation error, Cov(π̂) from the estimation run, widens the test"
     elif reg3 is not None:
-        cols = list(range(reg3.shape[2])) if model_columns is None else list(model_columns)
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
         how = "refitted on the validation run (what they represent is not missing)"
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
+    source = derivative_source(q, dq, ddq, est_run)
     if est_fit is not None and reg3 is not None and est_run is not None and "q" in est_run:
-        refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate)
+        refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source)
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
+    declared = declared_groups(reg3, cols, column_names)
+    relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared)
     return {"naming": naming,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
+            "derivative_source": source, "estimation_bandwidth_hz": (est_run or {}).get("bandwidth"),
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
+            "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared),
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
             "n_eff": np.array([t.n_eff for t in tests])}
+
+
+def derivative_source(q, dq, ddq, est_run) -> str:
+    """Where the naming refit's q̇, q̈ come from, one source for both runs: ``"given"`` when the
+    user's derivatives are given for both runs, else ``"savgol"`` (Savitzky–Golay of each run's q)."""
+    est_run = est_run or {}
+    both = dq is not None and ddq is not None and "dq" in est_run and "ddq" in est_run
+    return "given" if both else "savgol"
+
+
+def source_text(source: str) -> str:
+    """The derivative source in words (the provenance's and the findings')."""
+    return ("the user's q̇, q̈ on both runs" if source == "given"
+            else "Savitzky–Golay derivatives of q on both runs (0.1 s window, degree 4)")
+
+
+def declared_groups(reg3, cols, column_names) -> list[set[str]] | None:
+    """Per joint, the groups the names of the model's columns active on it declare."""
+    if reg3 is None or cols is None or not column_names:
+        return None
+    out = []
+    for j in range(reg3.shape[1]):
+        active = np.sqrt(np.mean(reg3[:, j, cols] ** 2, axis=0)) > 0
+        out.append(_model_terms.declared_kinds([column_names[c] for c, a in zip(cols, active) if a]))
+    return out
+
+
+def model_kinds(e, q, d, sample_rate, reg3, cols, declared=None) -> list[dict[str, bool]] | None:
+    """Per joint, which library groups the model's columns span (an own column of each within
+    the tolerance of :mod:`dynval.statistics._model_terms`); None when its columns are unknown."""
+    if reg3 is None or cols is None or e is None:
+        return None
+    n, m = e.shape
+    out = []
+    for j in range(m):
+        lib = _model_terms.library_for(j, q, d.dq if q is not None else None, d.ddq if q is not None else None,
+                                       n, sample_rate)
+        out.append(_model_terms.kinds_present(j, reg3[:, j, cols], lib, m, declared[j] if declared else set()))
+    return out
+
+
+def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared=None) -> None:
+    """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
+    with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
+    with the coefficients of the model's columns closest to it, estimated and refitted on this run."""
+    n, m = e.shape
+    for t in tests:
+        if t.term is None:
+            continue
+        j = t.joint
+        lib = _model_terms.library_for(j, q, d.dq, d.ddq, n, sample_rate)
+        if t.term not in lib:
+            continue
+        ej = e[:, j]
+        total = float(ej @ ej)
+        if not total > 0:
+            continue
+        t.heldout_share = (total - _model_terms.crossfit_sse(ej, lib[t.term])) / total
+        if reg3 is None or cols is None:
+            continue
+        y_j = reg3[:, j, cols]
+        active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+        both = np.hstack([y_j[:, active], lib[t.term]])
+        base = _model_terms.crossfit_sse(ej, y_j[:, active], full=both)
+        t.carried_share = (base - _model_terms.crossfit_sse(ej, both, full=both)) / total
+        rel = _model_terms.relate(j, t.term, ej, y_j, lib, m, practical, declared[j] if declared else set())
+        near = _model_terms.aligned_columns(y_j, lib[t.term])
+        if est_fit is not None:
+            est_coef = np.asarray(est_fit.coefficients, dtype=float)
+        else:
+            est_coef = np.zeros(len(cols))
+            est_coef[active] = _model_terms.coefficients(y_j[:, active], pred[:, j])
+        refit = np.zeros(len(cols))
+        refit[active] = _model_terms.coefficients(y_j[:, active], meas[:, j]) if meas is not None else np.nan
+        rel["columns"] = [int(cols[c]) for c in near]
+        rel["estimated"] = [float(est_coef[c]) for c in near]
+        rel["refitted"] = [float(refit[c]) for c in near]
+        rel["estimated_from"] = "estimation" if est_fit is not None else "prediction"
+        t.relation = rel
 
 
 def predictive(e, est_fit, reg3, n_eff_val, memo: Memo = compute_now) -> dict[str, Any] | None:
@@ -175,7 +261,8 @@ def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
     return {"used": False, "period": period.to_dict(), "note": note}
 
 
-def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05) -> None:
+def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05,
+                source: str = "savgol") -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
     estimation run with one library group added on every flagged joint at once (a friction or an
     offset is usually missing on all joints alike, and the joints' terms interact through the
@@ -184,13 +271,20 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
 
     ``practical``: when no group so refitted removes that share of the joint's validation mean
     square, the term is named from the validation run instead (:func:`_validation_refit_gains`).
+    ``source`` (:func:`derivative_source`): both runs' libraries take their q̇, q̈ from one source,
+    the user's (``"given"``) or Savitzky–Golay of each run's q, never one of each (a "viscous"
+    column of one filter is not the model's F_v of another, and refitting it looks like a gain).
     """
     flagged = [t for t in tests if t.selected]
     if not flagged:
         return
     cols = list(est_fit.columns)
     q_e = est_run["q"]
-    de = _physics.derivatives(q_e, sample_rate)
+    if source == "given":
+        de = _physics.derivatives(q_e, sample_rate, est_run["dq"], est_run["ddq"])
+    else:
+        de = _physics.derivatives(q_e, sample_rate)
+        d = _physics.derivatives(q, sample_rate)
     tau_e = est_run["tau"]
     n_e, m, k = est_run["regressor"][:, :, cols].shape
     # the refits on unit-norm columns (zero ones left out: scale 0), so that their rank decisions do
@@ -231,10 +325,11 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
             # shared parameters) outweighs the term. Name the group that best explains, on the
             # validation run, what the model's own columns cannot represent there.
             gv = _validation_refit_gains(meas[:, t.joint], unit_norm_columns(reg3[:, t.joint, cols]), lib_v[t.joint])
-            if gv and max(gv.values()) > max(list(gj.values()) + [0.0]):
-                gj, how = gv, "validation"
-            if not gj or not max(gj.values()) > 0:
+            if not gv or not max(gv.values()) >= practical:
+                # Neither refit names a group that carries a practical share: keep the validation
+                # test's own naming (the model's columns may span the term: mis-weighted, not missing).
                 continue
+            gj, how = gv, "validation"
         top = max(gj.values())
         near = [g for g, v in gj.items() if v >= 0.8 * top]
         best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
@@ -245,11 +340,13 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
 
 def _validation_refit_gains(tau_j, y_j, groups) -> dict[str, float]:
     """Per group, the share of the residual left by the model's columns refitted on this run that
-    the group removes when added to them."""
-    def sse(x):
-        return float(np.sum((tau_j - x @ np.linalg.lstsq(x, tau_j, rcond=None)[0]) ** 2))
-
-    base = sse(y_j)
-    if not base > 0:
-        return {}
-    return {g: (base - sse(np.hstack([y_j, b]))) / base for g, b in groups.items()}
+    the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
+    (:func:`dynval.statistics._model_terms.crossfit_sse`, the rows near a block's edge unscored), so
+    a group that fits the noise of the rows it sees does not count."""
+    out = {}
+    for g, b in groups.items():
+        both = np.hstack([y_j, b])
+        base = _model_terms.crossfit_sse(tau_j, y_j, full=both)
+        if base > 0:
+            out[g] = (base - _model_terms.crossfit_sse(tau_j, both, full=both)) / base
+    return out

@@ -352,6 +352,9 @@ class Physics(Record):
     model_columns: str = ABSENT
     derivatives: str = ABSENT
     derivative_bandwidth_hz: float | None = ABSENT
+    derivative_source: str = ABSENT
+    estimation_bandwidth_hz: float | None = ABSENT
+    model_kinds: list[dict[str, bool]] | None = ABSENT
     groups: list[str] = ABSENT
     tests: list[dict[str, Any]] = ABSENT
     pvalue: Any = ABSENT

@@ -40,7 +40,7 @@ from . import _consistency, _motion
 from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
-from ._findings import SEVERITIES, Finding, Thresholds
+from ._findings import SEVERITIES, Finding, Thresholds, resolve_thresholds
 from ._json import to_jsonable
 from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for, scan_for
 
@@ -363,7 +363,7 @@ def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
     prepared regressor, where nothing is kept)."""
     if d.memo is compute_now:
         return ()
-    return digest(est.get("regressor"), est.get("tau"), est.get("q"))
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
 
 
 def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
@@ -412,10 +412,18 @@ def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
                           memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}))
     if o.q is not None and d.e is not None and not d.omitted:
         b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
-                                    b.est_fit, o.level, o.estimation, d.meas)
+                                    b.est_fit, o.level, o.estimation, d.meas,
+                                    practical=resolve_thresholds(o.thresholds).missing_physics,
+                                    column_names=o.column_names)
         b.physics["delay"] = _motion.delay(d.meas, d.pred, o.sample_rate)
         band = None if b.white is None else b.white["information_band"]
         b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
+    elif d.reg3 is not None and d.e is not None:
+        # without q the model's columns still tell whether it has an offset (the bias rule's words)
+        cols = (list(b.est_fit.columns) if b.est_fit is not None else
+                list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
+        b.model_kinds = _motion.model_kinds(d.e, None, None, o.sample_rate, d.reg3, cols,
+                                            _motion.declared_groups(d.reg3, cols, o.column_names))
     if b.est_fit is not None and b.n_eff is not None:
         b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff, memo=d.memo)
     b.design = _motion_design(b.design, o, b.physics, d.m)

@@ -515,7 +515,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
              predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None, criteria=None,
-             untested=0) -> Evidence:
+             untested=0, model_kinds=None) -> Evidence:
     """Collect what the findings' rules read (``untested``: tests the entry point left out, which
     count in Holm's family, docs/conventions.md §5)."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
@@ -553,6 +553,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.noise_n_eff = design.get("noise_n_eff")
     ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
     ev.timing, ev.bandwidth, ev.untested = timing, bandwidth, int(untested)
+    ev.model_kinds = physics.get("model_kinds") if physics is not None else model_kinds
     if missing is not None:
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]

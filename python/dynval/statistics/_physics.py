@@ -236,13 +236,17 @@ class PhysicsTest:
     ar_order: int = 0
     refit_shares: dict[str, float] = field(default_factory=dict)  # the refits' shares, when named so
     refit_run: str | None = None  # "estimation" or "validation": the run the naming refits used
+    heldout_share: float = float("nan")  # the named group alone, cross-fitted on the validation run
+    carried_share: float = float("nan")  # the named group beyond the model's columns, cross-fitted there
+    relation: dict[str, Any] | None = None  # the named group relative to the model's columns (_model_terms)
 
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "statistic": self.statistic, "df": list(self.df), "pvalue": self.pvalue,
                 "share": self.share, "term": self.term, "term_share": self.term_share,
                 "selected": list(self.selected), "shares": dict(self.shares),
                 "selected_share": self.selected_share, "refit_shares": dict(self.refit_shares),
-                "refit_run": self.refit_run,
+                "refit_run": self.refit_run, "heldout_share": self.heldout_share,
+                "carried_share": self.carried_share, "relation": None if self.relation is None else dict(self.relation),
                 "n_eff": self.n_eff,
                 "ar_order": self.ar_order}
 

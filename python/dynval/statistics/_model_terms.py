@@ -1,0 +1,252 @@
+"""A named physical term relative to the model: mis-weighted, of another shape, coupling, or missing.
+
+The physics library (:mod:`dynval.statistics._physics`) names the *kind* of structure a joint's
+residual follows. Whether the model lacks that term or has it with another weight depends on the
+model's columns (docs/conventions.md §5.2, "Advice relative to the model"):
+
+* a library column *lies in the model's span* on joint j when, both normalised to unit RMS, less
+  than :data:`SPAN_TOLERANCE` of its RMS stays outside the span of joint j's model columns on the
+  validation run (at least 99 % of its square inside);
+* each column is *own* (a function of joint j's variables only) or *coupling* (of other joints' too:
+  the posture chains sin/cos(q_i + … + q_k) with i < j or k > j, and q̈_k for k ≠ j);
+* what re-identifying and adding would gain is measured out of sample, by cross-fitting on the
+  validation run (:func:`crossfit_sse`: alternate blocks, fit on one half, scored on the other), in
+  shares of the joint's residual mean square: ``reweight`` (the model's own columns refitted),
+  ``outside`` (the group's columns outside the span added to them), ``outside_own`` (its own
+  columns only).
+
+The relation (:func:`relate`): ``reweight`` when what lies outside the span adds less than the
+practical share; otherwise ``partial`` (the model spans some of the kind's own columns, the rest
+remains: another shape of a friction, a centre-of-mass component), ``coupling`` (it spans the
+kind's own columns, the cross-joint columns remain) or ``missing`` (it spans no column of the kind).
+``unsupported``: the model spans no own column of the kind and adding it does not carry to held-out
+rows (what remains is rather the model's own terms mis-weighted, ``reweight_share``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import _physics
+
+__all__ = ["SPAN_TOLERANCE", "CROSSFIT_ROWS", "coupling_mask", "span_basis", "outside_fraction", "crossfit_sse",
+           "relate", "kinds_present", "declared_kinds", "RIGID_BODY_PARAMETERS"]
+
+SPAN_TOLERANCE = 0.1
+"""A column lies in the model's span when less than this fraction of its RMS stays outside."""
+
+CROSSFIT_ROWS = 100
+"""Rows per contiguous block of the cross-fit (at least 8 blocks, at most 64): even blocks and odd
+blocks are the two halves. Short blocks interleave the halves so each sees every posture the other
+does (a position-dependent fit does not extrapolate); each block still spans many samples, so a
+fit of the noise does not carry to the next block unless the noise is slower than a block."""
+
+
+def coupling_mask(group: str, j: int, m: int, width: int) -> np.ndarray:
+    """Which of the group's library columns (in :func:`dynval.statistics._physics.library`'s
+    order) depend on joints other than j."""
+    mask = np.zeros(width, dtype=bool)
+    if group == "gravity":
+        pos = 0
+        for i in range(j + 1):
+            for k in range(j, m):
+                mask[pos:pos + 2] = not (i == j and k == j)
+                pos += 2
+    elif group == "inertia":
+        mask[:] = [k != j for k in range(width)]
+    return mask
+
+
+def span_basis(y_j: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (N, r) of joint j's model columns (each scaled to unit RMS; columns
+    that are zero on the joint dropped)."""
+    rms = np.sqrt(np.mean(y_j * y_j, axis=0)) if y_j.size else np.zeros(0)
+    active = rms > 1e-12 * max(float(rms.max(initial=0.0)), 1e-300)
+    if not np.any(active):
+        return np.zeros((y_j.shape[0], 0))
+    u, s, _ = np.linalg.svd(y_j[:, active] / rms[active], full_matrices=False)
+    return u[:, s > 1e-8 * s[0]]
+
+
+def outside_fraction(basis: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Per column, the fraction of its RMS outside the span of ``basis``."""
+    norm = np.sqrt(np.sum(cols * cols, axis=0))
+    left = cols - basis @ (basis.T @ cols) if basis.shape[1] else cols
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(norm > 0, np.sqrt(np.sum(left * left, axis=0)) / norm, 0.0)
+
+
+def crossfit_sse(y: np.ndarray, x: np.ndarray, blocks: int | None = None, full: np.ndarray | None = None) -> float:
+    """Sum of squares of ``y`` left by least squares on ``x`` out of sample: the run cut into
+    contiguous blocks, fitted on the even ones and scored on the odd ones and the other way round (a
+    term must carry to rows its fit did not see, so noise it fits by chance does not count), scaled
+    to all N rows.
+
+    Coloured noise carries across a block's edge: rows within ``gap`` of an edge are not scored,
+    ``gap`` twice the correlation time of the AR(1) model of what the largest design of the
+    comparison, ``full`` (default ``x``), leaves in sample, at most a quarter of a block; blocks are
+    about :data:`CROSSFIT_ROWS` long (8 to 64 blocks). Every design compared on one ``y``
+    must be given the same ``full``, so the blocks and the rows scored are the same."""
+    n = y.shape[0]
+    if x.shape[1] == 0:
+        return float(y @ y)
+    blocks = blocks or int(np.clip(n // CROSSFIT_ROWS, 8, 64))
+    # at most a quarter of a block: half of each block is scored, and short blocks keep the halves
+    # interleaved (a slow structure's own colour must not stretch them into extrapolation)
+    gap = min(_gap(y, x if full is None else full), n // (4 * blocks))
+    index = np.arange(n) * blocks // max(n, 1)
+    half = index % 2 == 0
+    starts = np.flatnonzero(np.diff(index)) + 1
+    edge = np.full(n, np.inf)
+    for b in starts:
+        edge = np.minimum(edge, np.abs(np.arange(n) - b + 0.5))
+    scored = edge >= gap
+    sse, rows = 0.0, 0
+    for fit_rows in (half, ~half):
+        coef, *_ = np.linalg.lstsq(x[fit_rows], y[fit_rows], rcond=None)
+        test = ~fit_rows & scored
+        r = y[test] - x[test] @ coef
+        sse += float(r @ r)
+        rows += int(test.sum())
+    return float(sse * n / max(rows, 1))
+
+
+def _gap(y: np.ndarray, full: np.ndarray) -> int:
+    """Twice the correlation time (samples) of the AR(1) model of what ``full`` leaves of ``y``."""
+    r = y - full @ np.linalg.lstsq(full, y, rcond=None)[0] if full.shape[1] else y
+    r = r - r.mean()
+    den = float(r[:-1] @ r[:-1])
+    phi = float(r[1:] @ r[:-1]) / den if den > 0 else 0.0
+    if not 0.0 < phi < 1.0:
+        return 0
+    return int(math.ceil(2.0 / -math.log(max(phi, 1e-12)))) if phi < 1.0 - 1e-9 else y.shape[0]
+
+
+def _shares(e_j: np.ndarray, y_j: np.ndarray, out_own: np.ndarray,
+            out_coupling: np.ndarray) -> tuple[float, float, float]:
+    total = float(e_j @ e_j)
+    if not total > 0:
+        return 0.0, 0.0, 0.0
+    y = y_j if y_j.size else np.zeros((e_j.shape[0], 0))
+    full = np.hstack([y, out_own, out_coupling])
+    base = crossfit_sse(e_j, y, full=full) if y.shape[1] else total
+    own = crossfit_sse(e_j, np.hstack([y, out_own]), full=full) if out_own.shape[1] else base
+    both = crossfit_sse(e_j, full, full=full) if out_coupling.shape[1] else own
+    return (total - base) / total, (base - both) / total, (base - own) / total
+
+
+RIGID_BODY_PARAMETERS = frozenset({"m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"})
+"""A column named ``<link>:<parameter>`` (or a combination of such, as base parameters are named)
+is a link's inertial parameter: the model holds the rigid body's gravity and inertia of that link,
+its coupling to the other joints included, in a form the library's planar columns only approximate."""
+
+
+_NAMED_KINDS = (("Fv", "viscous"), ("Fc", "coulomb"), ("off", "offset"))
+"""Column-name prefixes of the friction and offset columns (URDFModel.column_names: ``Fv_<joint>``,
+``Fc_<joint>``, ``off_<joint>``)."""
+
+
+def declared_kinds(names: Any) -> set[str]:
+    """The library groups a model's column names declare: rigid-body inertial parameters declare
+    ``gravity`` and ``inertia`` (coupling included); ``Fv``, ``Fc``, ``off`` columns viscous,
+    Coulomb friction and an offset. A rigid-body model's names also declare what it lacks: the
+    friction and offset kinds it has no column of are marked ``"-viscous"``, ``"-coulomb"``,
+    ``"-offset"`` (on a rich trajectory its many columns can span a friction column numerically,
+    yet re-identifying it would not give it friction)."""
+    names = [str(x) for x in names]
+    out: set[str] = set()
+    rigid = False
+    for name in names:
+        for token in name.replace("+", " ").replace("-", " ").replace("*", " ").split():
+            if ":" in token and token.rsplit(":", 1)[1] in RIGID_BODY_PARAMETERS:
+                rigid = True
+        for prefix, group in _NAMED_KINDS:
+            if name.startswith(prefix) and not name[len(prefix):len(prefix) + 1].isalpha():
+                out.add(group)
+    if rigid:
+        out |= {"gravity", "inertia"}
+        out |= {f"-{g}" for _, g in _NAMED_KINDS if g not in out}
+    return out
+
+
+def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
+           practical: float, declared: set[str] | frozenset[str] = frozenset()) -> dict[str, Any]:
+    """The named ``group`` on joint j relative to the model's columns ``y_j`` (N, k) on the
+    validation run: ``relation`` (module docstring), the shares, which of its columns lie in the
+    span (own and coupling), and the fraction outside of each. ``declared``: the groups the model's
+    column names declare (:func:`declared_kinds`): it has them, coupling included, so what lies
+    outside the span is ``partial`` (a link, a load or a rotor inertia it lacks), never missing."""
+    cols = lib_j[group]
+    mask = coupling_mask(group, j, m, cols.shape[1])
+    basis = span_basis(y_j)
+    frac = outside_fraction(basis, cols)
+    # the names say the model lacks it, whatever the data span
+    inside = (frac <= SPAN_TOLERANCE) & (f"-{group}" not in declared)
+    out_own = cols[:, ~inside & ~mask]
+    out_coupling = cols[:, ~inside & mask]
+    active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0 if y_j.size else np.zeros(0, bool)
+    reweight, outside, outside_own = _shares(e_j, y_j[:, active] if y_j.size else y_j, out_own, out_coupling)
+    has_own = bool(np.any(inside & ~mask)) or group in declared
+    if f"-{group}" in declared:
+        relation = "missing"
+    elif group in declared:
+        relation = "reweight" if outside < practical else "partial"
+    elif outside < practical and has_own:
+        relation = "reweight"
+    elif outside < practical:
+        relation = "unsupported"
+    elif has_own and outside_own < practical and out_coupling.shape[1] and outside - outside_own >= practical:
+        relation = "coupling"
+    elif bool(np.any(inside)):
+        relation = "partial"
+    else:
+        relation = "missing"
+    return {"relation": relation, "group": group, "reweight_share": reweight, "outside_share": outside,
+            "outside_own_share": outside_own, "own_in_span": int(np.sum(inside & ~mask)),
+            "own_columns": int(np.sum(~mask)), "coupling_in_span": int(np.sum(inside & mask)),
+            "coupling_columns": int(np.sum(mask)), "outside_fraction": [float(x) for x in frac],
+            "tolerance": SPAN_TOLERANCE,
+            "declared": True if group in declared else False if f"-{group}" in declared else None}
+
+
+def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
+                  declared: set[str] | frozenset[str] = frozenset()) -> dict[str, bool]:
+    """Per library group, whether the model spans at least one of its own columns on joint j (or
+    its column names declare the group)."""
+    basis = span_basis(y_j)
+    out = {}
+    for g, cols in lib_j.items():
+        mask = coupling_mask(g, j, m, cols.shape[1])
+        spanned = bool(np.any((outside_fraction(basis, cols) <= SPAN_TOLERANCE) & ~mask))
+        out[g] = g in declared or (spanned and f"-{g}" not in declared)
+    return out
+
+
+def coefficients(y_j: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Least squares of ``target`` on joint j's model columns (minimum norm where they are dependent)."""
+    if y_j.shape[1] == 0:
+        return np.zeros(0)
+    return np.asarray(np.linalg.lstsq(y_j, target, rcond=None)[0], dtype=float)
+
+
+def aligned_columns(y_j: np.ndarray, cols: np.ndarray, most: int = 2) -> list[int]:
+    """Indices of joint j's model columns most aligned with the group's columns (|cosine| of the
+    unit-RMS columns), the closest first."""
+    rms_y = np.sqrt(np.mean(y_j * y_j, axis=0))
+    rms_c = np.sqrt(np.mean(cols * cols, axis=0))
+    ok = rms_y > 0
+    if not np.any(ok) or not np.any(rms_c > 0):
+        return []
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.abs((y_j / np.where(ok, rms_y, 1.0)).T @ (cols / np.where(rms_c > 0, rms_c, 1.0))) / y_j.shape[0]
+    best = np.where(ok, np.max(np.nan_to_num(cos), axis=1), -math.inf)
+    order = [int(c) for c in np.argsort(-best) if best[c] > 0]
+    return order[:most]
+
+
+def library_for(j: int, q: Any, dq: Any, ddq: Any, n: int, sample_rate: Any) -> dict[str, np.ndarray]:
+    """Joint j's library (q may be None: offset and drift only)."""
+    return _physics.library(j, q, dq, ddq, np.zeros(n), sample_rate)
