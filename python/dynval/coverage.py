@@ -54,7 +54,8 @@ INPUTS = {
 
 TESTS: tuple[Test, ...] = (
     Test("worse_than_constant", ("worse_than_constant", "pooling"), (), "R² per joint and pooled"),
-    Test("data_notes", ("constant_target", "omitted_rows"), (), "constant joints, omitted rows"),
+    Test("data_notes", ("constant_target", "omitted_rows", "information_criteria"), (),
+         "constant joints, omitted rows, n_params against the observations"),
     Test("bias", ("bias",), ("lags",), "residual mean against its coloured-noise standard error"),
     Test("whiteness", ("whiteness",), ("lags",), "Ljung–Box at the logged rate"),
     Test("information_rate", ("sampling_colour",), ("lags",),
