@@ -76,8 +76,12 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         d_s = f.details.get("delay_s")
         lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
                else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
-        text = (f"torque delayed by {lag} against the encoders (realigning removes {e} of the mean "
-                f"square ≥ {t})")
+        if f.details.get("phase_deg") is not None:
+            e, t = _vs(f, ".3g")
+            size = f"a {e}° phase lag at the information band's edge ≥ {t}°"
+        else:
+            size = f"realigning removes {e} of the mean square ≥ {t}"
+        text = f"torque delayed by {lag} against the encoders ({size})"
     elif f.kind == "predictive_failure":
         text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
     elif f.kind == "low_information":

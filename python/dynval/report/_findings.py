@@ -40,7 +40,9 @@ KINDS = {
                        "its filters and the sampling rate, not the model",
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
-    "delay": "the measured torque lags (or leads) the prediction: realigning removes a practical share of the error",
+    "delay": "the measured torque lags (or leads) the prediction: reported whenever significant, with the phase lag "
+             "at the information band's edge; a deficiency when realigning removes a practical share of the error "
+             "or the phase lag matters for control",
     "periodic_error": "a periodic trajectory: what every period of the residual shares exceeds the noise the "
                       "period-to-period variation measures (no whiteness assumed)",
     "predictive_failure": "the validation error exceeds what the estimation run's noise and parameter "
@@ -83,6 +85,10 @@ class Thresholds:
         explains a twentieth of the error is worth modelling; less is left to the noise.
     delay : float
         Share of a joint's mean square that realigning measured and predicted torque removes (0.05).
+    delay_phase : float
+        Phase lag (degrees) a delay makes at the information band's edge from which it matters for
+        control (10°): it misplaces 2 sin(5°) ≈ 17 % of the torque's amplitude at that frequency
+        and takes a sixth to a third of a torque loop's usual 30–60° phase margin.
     predictive_ratio : float
         Validation mean square over what the estimation run's noise and Cov(π̂) allow (2.0).
     periodic_error : float
@@ -116,6 +122,7 @@ class Thresholds:
     oscillation: float = 0.05
     missing_physics: float = 0.05
     delay: float = 0.05
+    delay_phase: float = 10.0
     predictive_ratio: float = 2.0
     periodic_error: float = 0.05
     joint_motion: float = 0.1
@@ -753,25 +760,51 @@ def _delay_explains(ev: Evidence, j: int) -> bool:
     return bool(share >= (lib if lib == lib else 0.0))
 
 
+def _phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:
+    """The phase lag (degrees) a shift of ``shift`` samples makes at the information band's edge,
+    and that edge in cycles per sample; (None, None) without an information band."""
+    band = ev.information_band
+    if band is None or not math.isfinite(float(band)) or band <= 0:
+        return None, None
+    per_sample = float(band) / float(ev.sample_rate) if ev.frequency_unit == "Hz" and ev.sample_rate else float(band)
+    return 360.0 * per_sample * abs(shift), per_sample
+
+
 def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    """One finding for a common delay: joints whose test rejects and whose realignment removes at
-    least the threshold's share of the mean square."""
+    """One finding for a common delay, whenever its test rejects on some joint (conventions §5.2):
+    a deficiency on the joints whose shift explains at least what the physical terms do there and
+    whose realignment removes the ``delay`` share, or whose phase lag at the information band's edge
+    reaches ``delay_phase`` degrees; a note otherwise (a small lag, or a missing term that explains
+    more of the joint's error than the shift: a missing viscous term looks like a delay)."""
     p, padj = pvalues
     dl = ev.physics["delay"]
     share = np.asarray(dl["share"], dtype=float)
-    joints = [j for j in range(share.size) if padj[j] <= alpha and share[j] >= th.delay and _delay_explains(ev, j)]
-    if not joints:
-        return [], set()
-    fs = ev.sample_rate
     d = float(dl["shift_samples"])
+    significant = [j for j in range(share.size) if padj[j] <= alpha]
+    if not significant or d == 0.0:
+        return [], set()
+    phase, edge = _phase_lag(ev, d)
+    lag_matters = phase is not None and phase >= th.delay_phase
+    explains = [j for j in significant if _delay_explains(ev, j)]
+    big = [j for j in explains if share[j] >= th.delay or lag_matters]
+    joints = big or significant
+    fs = ev.sample_rate
     j0 = max(joints, key=lambda j: share[j])
     shares = [(w.joint_name(ev.joint_names, j), float(share[j])) for j in joints]
+    masked = [] if big else [(w.joint_name(ev.joint_names, j), float(share[j]), float(ev.physics["tests"][j]["share"]))
+                             for j in significant if j not in explains]
+    band = None if edge is None else (edge * fs if fs else edge)
     return [_worded(
-        w.delay(d, fs, shares, float(padj[j0])),
-        kind="delay", severity="deficiency", joints=tuple(joints), statistic=d, pvalue=float(p[j0]),
-        pvalue_adjusted=float(padj[j0]), effect=float(share[j0]), effect_unit=w.UNITS["delay"], threshold=th.delay,
-        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share]})], \
-        set(joints)
+        w.delay(d, fs, shares, float(padj[j0]), phase=phase, band=band, phase_threshold=th.delay_phase,
+                big=bool(big), masked=masked),
+        kind="delay", severity="deficiency" if big else "note", joints=tuple(joints), statistic=d,
+        pvalue=float(p[j0]), pvalue_adjusted=float(padj[j0]),
+        effect=float(share[j0]) if phase is None else float(phase),
+        effect_unit=w.UNITS["delay"] if phase is None else w.UNITS["delay_phase"],
+        threshold=th.delay if phase is None else th.delay_phase,
+        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share],
+                 "phase_deg": phase, "band_edge": band, "band_unit": "Hz" if fs else "cycles/sample",
+                 "significant": significant, "explains": explains})], set(big)
 
 
 def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
