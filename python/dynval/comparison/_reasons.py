@@ -62,6 +62,11 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     elif f.kind == "oscillation":
         text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
                 f"({e} of the residual variance ≥ {t})")
+    elif f.kind == "prediction_artefact":
+        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
+                f"({e} of the residual variance ≥ {t}; the prediction holds "
+                f"{_g(f.details.get('line_power_prediction'), '.2g')} there, the measured torque "
+                f"{_g(f.details.get('line_power_measured'), '.2g')})")
     elif f.kind == "whiteness":
         rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
         text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "

@@ -264,6 +264,7 @@ class Sections:
     white: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     spec_tests: Any = None  # every bin's peak test (dynval.statistics._stats.residual_spectrum), for the findings
+    spec_sides: Any = None  # the measured torque's and the prediction's power on the spectrum's grid
     cross: dict[str, Any] | None = None
     xrho: Any = None
     xsd: Any = None
@@ -366,7 +367,7 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth)
+                      bandwidth=s.bandwidth, spec_sides=b.spec_sides)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross

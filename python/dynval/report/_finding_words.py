@@ -24,6 +24,7 @@ UNITS = {
     "missing_term": "share of the residual's mean square the term would remove",
     "correlation": "|ρ|",
     "oscillation": "share of residual variance",
+    "prediction_artefact": "share of residual variance",
     "sampling_colour": "decimation factor",
     "whiteness": "max |ρ̂(ℓ)|",
     "time_stamps": "irregular steps",
@@ -175,6 +176,19 @@ def oscillation(name: str, frequency: float, unit: str, share: float, ratio: flo
                else NEGLIGIBLE),
             f"an unmodelled mode near {frequency:.3g} {unit}: add joint or link compliance (a spring–damper) or keep "
             "trajectories away from it" if big else "none: the peak is real but small")
+
+
+def prediction_artefact(name: str, frequency: float, unit: str, share: float, ratio: float, padj: float, big: bool,
+                        predicted: float, measured: float) -> Words:
+    """``predicted``, ``measured``: the line's power in the prediction and in the measured torque."""
+    return (f"{name}: the residual's line near {frequency:.3g} {unit} is the prediction's own: the prediction holds "
+            f"{predicted:.2g} (squared torque units) there, the measured torque {measured:.2g} ({100 * share:.0f} % of "
+            f"the residual's variance, {ratio:.0f}× the background; Holm-adjusted p {p_text(padj)})"
+            + (": the model makes a line the robot does not have, not an unmodelled mode (e.g. a friction model's "
+               "sign(q̇) chattering at standstill)." if big else NEGLIGIBLE),
+            f"smooth what makes the model's line near {frequency:.3g} {unit}: e.g. the model's sign(q̇) chatters at "
+            "standstill: smooth the friction model's sign (tanh(q̇/v₀)) or hold it in a stiction band; do not add "
+            "compliance" if big else "none: the line is the model's own, but small")
 
 
 def sampling_colour(name: str, band: float | None, unit: str, decimation: int) -> Words:

@@ -35,6 +35,8 @@ KINDS = {
     "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
     "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
+    "prediction_artefact": "a narrow spectral peak in the residual that the prediction holds more of than the "
+                           "measured torque: the model makes the line (e.g. sign(q̇) chattering at standstill)",
     "whiteness": "the residual is not white (Ljung–Box); a deficiency only together with evidence above",
     "sampling_colour": "the residual's colour lies above the band the motion occupies: it is the sensor, "
                        "its filters and the sampling rate, not the model",
@@ -239,6 +241,8 @@ class Evidence:
     spectrum_ratio: np.ndarray | None = None
     spectrum_share: np.ndarray | None = None  # (F, m): variance share of a peak centred there
     spectrum_is_peak: np.ndarray | None = None  # (F, m) bool: local maxima
+    spectrum_power_measured: np.ndarray | None = None  # (F, m): the measured torque's power, same grid
+    spectrum_power_prediction: np.ndarray | None = None  # (F, m): the prediction's power, same grid
     frequency_unit: str = "cycles/sample"
     # cross-correlation of the residual with regressor columns, colour-aware
     xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
@@ -563,6 +567,10 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
         big = bool(share[b, j] >= th.oscillation)
         if big:
             r.deficient.add(j)
+        sides = _line_sides(ev, b, j)
+        if sides is not None and sides[1] > sides[0]:
+            out.append(_prediction_artefact(r, j, b, f, sides, p, padj, big))
+            continue
         out.append(_worded(
             w.oscillation(r.name(j), f, unit, float(share[b, j]), float(ev.spectrum_ratio[b, j]),
                           float(padj[b, j]), big),
@@ -571,6 +579,36 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
             effect=float(share[b, j]), effect_unit=w.UNITS["oscillation"], threshold=th.oscillation,
             details={"frequency": f, "frequency_unit": unit, "n_peaks": int(sig.size)}))
     return out
+
+
+def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float] | None:
+    """The measured torque's and the prediction's power in the line at bin ``b`` of joint ``j`` (the
+    five bins a Hann-windowed line spreads over, times the bin width): squared torque units."""
+    pm, pp = ev.spectrum_power_measured, ev.spectrum_power_prediction
+    if pm is None or pp is None:
+        return None
+    freq = np.asarray(ev.spectrum_frequency, dtype=float)
+    df = float(freq[1] - freq[0]) if freq.size > 1 else 1.0
+    lo, hi = max(b - 2, 0), b + 3
+    return float(np.sum(pm[lo:hi, j]) * df), float(np.sum(pp[lo:hi, j]) * df)
+
+
+def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float, float], p, padj,
+                         big: bool) -> Finding:
+    """A residual line the prediction holds more of than the measured torque: the model makes it
+    (a friction model's sign(q̇) chattering at standstill), not a mode the robot has."""
+    ev, th = r.ev, r.th
+    share = float(ev.spectrum_share[b, j])
+    ratio = float(ev.spectrum_ratio[b, j])
+    measured, predicted = sides
+    return _worded(
+        w.prediction_artefact(r.name(j), f, ev.frequency_unit, share, ratio, float(padj[b, j]), big, predicted,
+                              measured),
+        kind="prediction_artefact", severity="deficiency" if big else "note", joints=(j,), statistic=ratio,
+        pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]), effect=share,
+        effect_unit=w.UNITS["prediction_artefact"], threshold=th.oscillation,
+        details={"frequency": f, "frequency_unit": ev.frequency_unit, "line_power_prediction": predicted,
+                 "line_power_measured": measured})
 
 
 def _motion_rule(r: _Rules) -> list[Finding]:

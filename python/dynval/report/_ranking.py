@@ -6,7 +6,9 @@ explains** (``explained_share``), taken on held-out data where the finding has s
 term refitted on the estimation run and carried to the validation run) and on the validation run
 otherwise. A finding that names no cause (worse than a constant, a bias no missing column
 accounts for, an error every period shares, a predictive failure) ranks after the findings that
-do on its joint; whiteness only follows from another deficiency on its joint and comes last; a
+do on its joint; on a joint whose residual carries the prediction's own line
+(``prediction_artefact``) the other findings follow that one, since they may read the line;
+whiteness only follows from another deficiency on its joint and comes last; a
 finding without a share on this scale keeps its rule order after those with one. The count of findings is not a measure: a weak model has few large findings, a
 good one many small ones.
 """
@@ -135,10 +137,15 @@ def rank(findings: Sequence[Finding]) -> list[Ranked]:
     take), then whiteness (it only follows from the others). Within a group a finding without a
     share comes after those with one; ties keep the given (rule) order."""
     named = {j for f in findings if _names_cause(f) for j in f.joints}
+    # a joint whose residual carries the prediction's own line: the other findings there may read
+    # that line (a chattering sign(q̇) looks like a friction term the model lacks)
+    artefact = {j for f in findings if f.kind == "prediction_artefact" for j in f.joints}
 
     def group(f: Finding) -> int:
         if f.kind == "whiteness":
             return 2
+        if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
+            return 1
         if _names_cause(f) or not f.joints or not set(f.joints) <= named:
             return 0
         return 1
@@ -179,8 +186,8 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
     top = ranked[0]
     leading = [r for r in ranked if r.leads]
     n, rest = len(leading), len(ranked) - len(leading)
-    behind = (f"; {rest} more say{'s' if rest == 1 else ''} only that a joint's error has structure, on joints where "
-              "a named cause stands" if rest else "")
+    behind = (f"; {rest} more follow{'s' if rest == 1 else ''} on joints where a leading finding stands (structure "
+              "without a named cause, or findings that may read the prediction's own line)" if rest else "")
     if top.share is None:
         return (f"first in rule order: none of the {n} leading findings explains a share of the residual that can "
                 "be compared" if n > 1 else "the only leading finding") + behind
