@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import dynval
-from dynval.report._findings import Evidence, Thresholds, compute_findings
+from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings
 
 NAMES = ["shoulder", "elbow", "wrist"]
 
@@ -96,3 +96,43 @@ def test_a_logged_delay_reaches_the_report_with_its_phase():
     band = r.whiteness["information_band"]
     assert d.details["phase_deg"] == pytest.approx(360 * band * d.details["delay_s"])
     assert f"lags the prediction by {1000 * d.details['delay_s']:.3g} ms" in d.message
+
+
+def test_a_delayed_friction_step_keeps_the_delay_tests_power():
+    """A measured torque 4 samples late whose prediction holds Coulomb steps: realigning removes
+    most of the error. Kills: testing the residual against −τ̂' (np.gradient's 2-sample spike at
+    each step cannot fit the 4-sample error there, and HC1 turns the misfit into lost power: p ≈ 0.03
+    on the calibration's anthro3 row before); and a search over shifts left uncorrected (a white
+    residual must not be called delayed)."""
+    from dynval.statistics._physics import delay_test
+
+    rng = np.random.default_rng(5)
+    fs, n, late = 100.0, 4000, 4
+    t = np.arange(n + late) / fs
+    v = np.cos(2 * np.pi * 0.05 * t) + 0.5 * np.cos(2 * np.pi * 0.15 * t + 1.0)
+    tau = np.c_[2.0 * np.sin(2 * np.pi * 0.05 * t) + 1.0 * np.sign(v), 0.5 * np.sign(v) + 0.2 * v]
+    meas = tau[:n] + 0.05 * rng.normal(size=(n, 2))
+    out = delay_test(meas, tau[late:], sample_rate=fs)
+    assert out["shift_samples"] == pytest.approx(late, abs=0.3)
+    assert np.all(out["pvalue"] < 1e-12) and np.all(out["share"] > 0.5)
+    # no delay, white noise: the search over 21 shifts does not make one
+    white = [delay_test(tau[:n] + 0.05 * np.random.default_rng(s).normal(size=(n, 2)), tau[:n], sample_rate=fs)
+             for s in range(20)]
+    assert sum(float(np.min(w["pvalue"])) <= 0.05 for w in white) <= 2
+
+
+def test_the_delay_rows_ask_for_the_finding_at_any_severity():
+    """dynval.scenarios' delay rows of 1–5 samples: a note counts (``Expected.reported``), a wrong
+    size does not. Kills: ``reported`` ignored (a note missed) or a delay of the wrong size counted."""
+    from types import SimpleNamespace
+
+    import dynval.scenarios as S
+
+    rows = [s for s in S.library() if s.name == "delay" and s.expected is not None and s.expected.reported]
+    assert sorted(s.delay for s in rows) == [1, 2, 3, 4, 5] and len({s.key for s in rows}) == 5
+    exp = rows[0].expected
+    note = Finding(kind="delay", severity="note", joints=(0,), details={"delay_s": 0.011})
+    report = SimpleNamespace(findings=[note], provenance={"column_names": []})
+    assert S.named_right(report, exp, True)
+    far = Finding(kind="delay", severity="note", joints=(0,), details={"delay_s": 0.05})
+    assert not S.named_right(SimpleNamespace(findings=[far], provenance={"column_names": []}), exp, True)

@@ -88,3 +88,29 @@ def test_the_side_with_more_power_in_the_line_owns_it():
     ev = _ev(0.002, 0.72)
     ev.spectrum_power_measured = ev.spectrum_power_prediction = None
     assert compute_findings(ev)[0].kind == "oscillation"
+
+
+def test_the_chatter_scenario_puts_the_line_in_the_prediction_only():
+    """dynval.scenarios' ``chatter`` rows: the measured torque is the robot's (no line), the
+    prediction flips the elbow's Coulomb term at 6.9 Hz where the joint is slow, and ``named_right``
+    asks for a ``prediction_artefact`` there. Kills: a scenario whose line is in the measurement (it
+    would test the mode rule), or one on every joint."""
+    from dataclasses import replace
+
+    import dynval.scenarios as S
+
+    s = replace(next(x for x in S.library() if x.key == "chatter:white:planar2@100"), duration=20.0)
+    rep = S.simulate(s, 0)
+    extra = rep.prediction_extra
+    assert extra is not None and not np.any(extra[:, 0]) and np.any(extra[:, 1])
+    # the flips are ±2 Fc, only where |q̇| is below the limit cycle's amplitude
+    fc = S.ARMS["planar2"].links[1].coulomb
+    assert set(np.unique(np.round(np.abs(extra[:, 1]) / fc, 9))) <= {0.0, 2.0}
+    slow = np.abs(rep.validation.dq[:, 1]) < S.CHATTER_DITHER * np.sqrt(np.mean(rep.validation.dq[:, 1] ** 2))
+    assert not np.any(extra[~slow, 1])
+    # the measured torque is the physics without it; the effect is what the prediction adds, negated
+    assert np.max(np.abs(rep.validation.tau_true - rep.validation.regressor @ rep.truth)) < 1e-9
+    assert np.allclose(rep.effect, -extra)
+    r = S.validate_replicate(rep, False)
+    assert S.named_right(r, s.expected, False)
+    assert not any(f.kind == "oscillation" and f.joints == (1,) for f in r.findings)
