@@ -79,14 +79,15 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         text = f"missing {label} (the physical terms would remove {e} of the mean square ≥ {t})"
     elif f.kind == "delay":
         d_s = f.details.get("delay_s")
-        lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
-               else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
+        samples = float(f.details.get("delay_samples") or 0.0)
+        lag = (f"{_g(abs(1000.0 * d_s), '.3g')} ms" if d_s is not None else f"{_g(abs(samples), '.3g')} samples")
+        side = "lag" if samples >= 0 else "lead"
         if f.details.get("phase_deg") is not None:
             e, t = _vs(f, ".3g")
-            size = f"a {e}° phase lag at the information band's edge ≥ {t}°"
+            size = f"a {e}° phase {side} at the information band's edge ≥ {t}°"
         else:
             size = f"realigning removes {e} of the mean square ≥ {t}"
-        text = f"torque delayed by {lag} against the encoders ({size})"
+        text = (f"torque {'delayed by' if samples >= 0 else 'ahead by'} {lag} against the encoders ({size})")
     elif f.kind == "predictive_failure":
         text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
     elif f.kind == "low_information":

@@ -811,20 +811,23 @@ def _phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:
 def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
     """One finding for a common delay, whenever its test rejects on some joint (conventions §5.2):
     a deficiency on the joints whose shift explains at least what the physical terms do there and
-    whose realignment removes the ``delay`` share, or whose phase lag at the information band's edge
-    reaches ``delay_phase`` degrees; a note otherwise (a small lag, or a missing term that explains
+    whose realignment removes the ``delay`` share, or the ``missing_term`` share with a phase lag at
+    the information band's edge of at least ``delay_phase`` degrees; a note otherwise (a small lag, or a missing term that explains
     more of the joint's error than the shift: a missing viscous term looks like a delay)."""
     p, padj = pvalues
     dl = ev.physics["delay"]
     share = np.asarray(dl["share"], dtype=float)
     d = float(dl["shift_samples"])
-    significant = [j for j in range(share.size) if padj[j] <= alpha]
+    # a joint whose error realigning does not reduce holds no evidence of the delay
+    significant = [j for j in range(share.size) if padj[j] <= alpha and share[j] > 0]
     if not significant or d == 0.0:
         return [], set()
     phase, edge = _phase_lag(ev, d)
     lag_matters = phase is not None and phase >= th.delay_phase
     explains = [j for j in significant if _delay_explains(ev, j)]
-    big = [j for j in explains if share[j] >= th.delay or lag_matters]
+    # the phase decides where realigning moves at least the share a missing term is worth: below
+    # it the lag is not resolved by the data, and the band's edge may be the prediction's own steps
+    big = [j for j in explains if share[j] >= th.delay or (lag_matters and share[j] >= th.missing_term)]
     joints = big or significant
     fs = ev.sample_rate
     j0 = max(joints, key=lambda j: share[j])
