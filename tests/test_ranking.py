@@ -104,9 +104,9 @@ def test_the_summary_block_lists_every_deciding_finding_with_its_share():
 
 
 def _report(*findings: Finding) -> SimpleNamespace:
+    prov = {"joint_names": NAMES, "column_names": ["a", "b", "c", "Fc2"], "conventions": {"level": 0.95}}
     return SimpleNamespace(findings=list(findings), deficiencies=[f for f in findings if f.severity == "deficiency"],
-                           whiteness={"lag": 20}, provenance={"joint_names": NAMES, "column_names": ["a", "b", "c", "Fc2"],
-                                                              "conventions": {"level": 0.95}})
+                           whiteness={"lag": 20}, provenance=prov)
 
 
 def _decide(reports: dict, crit: dict | None = None):

@@ -29,8 +29,8 @@ tuned to one simulator. This module is a library of such scenarios (docs/convent
   (power): ``no_coulomb``, ``no_viscous``, ``no_gravity``, ``coupled_gravity``, ``offset``,
   ``payload``, ``mode``, ``delay`` (1–5 samples), ``unexcited_joint``, ``low_information``,
   ``chatter`` (the prediction's own line: the model's sign(q̇) flips at a limit cycle's rate where the
-  joint is slow), each with its :class:`Expected` cause. Rate (100 Hz, 500 Hz, 1 kHz), length (20–40 s), arm and noise level
-  differ between scenarios.
+  joint is slow), each with its :class:`Expected` cause. Rate (100 Hz, 500 Hz, 1 kHz), length
+  (20–40 s), arm and noise level differ between scenarios.
 * **Offered or not**: every replicate is validated twice. ``offered=True``: the regressor handed
   to ``validate`` holds every column of the robot's structure and a constant ``off<j>`` per joint
   (zero in the robot unless the scenario is ``offset``), ``model_columns=`` the model's.

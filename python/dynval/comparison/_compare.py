@@ -459,11 +459,11 @@ def _verdict(names: list[str], ranking: list[str], reports: dict[str, Validation
             # effective samples the noise leaves depends on what each candidate's residual holds.
             if f.kind == "low_information" and (n != best or _defers(f, reports[n])):
                 continue
-            d = _decisive(n, reports[n], f, shared=shared.get(id(f), False))
-            if f.severity == "design" and (d.kind, d.joints, d.columns) not in seen:
-                seen.add((d.kind, d.joints, d.columns))  # the record, not the words, says it is the same
+            rec = _decisive(n, reports[n], f, shared=shared.get(id(f), False))
+            if f.severity == "design" and (rec.kind, rec.joints, rec.columns) not in seen:
+                seen.add((rec.kind, rec.joints, rec.columns))  # the record, not the words, says it is the same
                 reasons.append(f"{f.message} ({f.action})")
-                decided.append(d)
+                decided.append(rec)
                 first = first or f.action
     if reasons:
         return findings, Verdict("redesign", best, tuple(reasons), tuple(decided), first,

@@ -63,7 +63,8 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
                 f"({e} of the residual variance ≥ {t})")
     elif f.kind == "prediction_artefact":
-        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
+        unit = f.details.get("frequency_unit", "")
+        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {unit} "
                 f"({e} of the residual variance ≥ {t}; the prediction holds "
                 f"{_g(f.details.get('line_power_prediction'), '.2g')} there, the measured torque "
                 f"{_g(f.details.get('line_power_measured'), '.2g')})")

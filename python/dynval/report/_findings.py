@@ -812,8 +812,9 @@ def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tupl
     """One finding for a common delay, whenever its test rejects on some joint (conventions §5.2):
     a deficiency on the joints whose shift explains at least what the physical terms do there and
     whose realignment removes the ``delay`` share, or the ``missing_term`` share with a phase lag at
-    the information band's edge of at least ``delay_phase`` degrees; a note otherwise (a small lag, or a missing term that explains
-    more of the joint's error than the shift: a missing viscous term looks like a delay)."""
+    the information band's edge of at least ``delay_phase`` degrees; a note otherwise (a small lag,
+    or a missing term that explains more of the joint's error than the shift: a missing viscous
+    term looks like a delay)."""
     p, padj = pvalues
     dl = ev.physics["delay"]
     share = np.asarray(dl["share"], dtype=float)

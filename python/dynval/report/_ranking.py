@@ -8,9 +8,9 @@ otherwise. A finding that names no cause (worse than a constant, a bias no missi
 accounts for, an error every period shares, a predictive failure) ranks after the findings that
 do on its joint; on a joint whose residual carries the prediction's own line
 (``prediction_artefact``) the other findings follow that one, since they may read the line;
-whiteness only follows from another deficiency on its joint and comes last; a
-finding without a share on this scale keeps its rule order after those with one. The count of findings is not a measure: a weak model has few large findings, a
-good one many small ones.
+whiteness only follows from another deficiency on its joint and comes last; a finding without a
+share on this scale keeps its rule order after those with one. The count of findings is not a
+measure: a weak model has few large findings, a good one many small ones.
 """
 
 from __future__ import annotations
