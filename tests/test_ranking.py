@@ -171,3 +171,29 @@ def test_design_findings_are_said_once_by_their_record_not_their_words():
     c2 = Finding(kind="excitation", severity="design", columns=(1,), action="excite b", message="never excites.")
     _, v = _decide({"x": _report(c1), "y": _report(c2)})
     assert len(v.reasons) == 2
+
+
+def test_joints_are_compared_by_the_share_of_their_torque():
+    """70 % of a large error before 90 % of a small one: with the joints' R² the effect is the share
+    of each joint's measured-torque variance. Kills: ranking across joints by the share of each
+    joint's own residual (the elbow's tiny error first, the calibration's no_gravity rows)."""
+    shoulder = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.9,
+                       details={"term": "gravity", "term_share": 0.7}, action="add gravity on j1")
+    elbow = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.95,
+                    details={"term": "position_harmonic", "term_share": 0.9}, action="add a harmonic on j2")
+    assert [r.finding.joints for r in deciding([elbow, shoulder])] == [(1,), (0,)]  # shares alone
+    ranked = deciding([elbow, shoulder], r2=[0.95, 0.99])
+    assert [r.finding.joints for r in ranked] == [(0,), (1,)]
+    assert ranked[0].torque_share == pytest.approx(0.035) and ranked[1].torque_share == pytest.approx(0.009)
+    assert "3.5 % of the measured torque's variance there" in first_reason(ranked, NAMES)
+
+
+def test_one_missing_column_is_one_step_over_every_joint_it_helps():
+    """A column whose refit removes 50 % on each of two joints (1 % of each torque) outranks a term
+    that removes 90 % of one joint's residual (1.8 %). Kills: the column's findings ranked one by one."""
+    col = [Finding(kind="regressor_correlation", severity="deficiency", joints=(j,), columns=(3,), effect=0.5,
+                   details={"added_variable": True, "method": "estimation_refit"}, action="add Fc2") for j in (0, 1)]
+    other = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.9,
+                    details={"term": "offset", "term_share": 0.9}, action="add an offset on j2")
+    ranked = deciding([other, *col], r2=[0.98, 0.98])
+    assert [r.finding.kind for r in ranked] == ["regressor_correlation", "regressor_correlation", "missing_physics"]

@@ -425,7 +425,9 @@ def _matter(names: list[str], reports: dict[str, ValidationReport]) -> dict[str,
     out = {}
     for n in names:
         r = reports[n]
-        ranked = rank([f for f in r.findings if f.severity == "deficiency"])
+        per_joint = getattr(r, "per_joint", None)
+        ranked = rank([f for f in r.findings if f.severity == "deficiency"],
+                      None if per_joint is None else per_joint["r2"])
         ranked += [Ranked(f, None, "validation", None) for f in r.findings if f.severity == "design"]
         out[n] = [(x.finding, x, len(names) > 1 and all(_covers(reports[o], x.finding) for o in names if o != n))
                   for x in ranked]

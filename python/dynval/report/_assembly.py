@@ -122,7 +122,7 @@ class ValidationReport:
     def deciding(self) -> list[Ranked]:
         """The deficiencies ranked by the share of the residual each explains, strongest first
         (whiteness only when it is all there is; docs/conventions.md §5.8)."""
-        return deciding(self.findings)
+        return deciding(self.findings, self.per_joint["r2"])
 
     @property
     def first_step(self) -> str:

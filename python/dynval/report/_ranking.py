@@ -42,12 +42,14 @@ class Ranked:
     basis: str
     joint: int | None
     leads: bool = True  # names a cause, or stands on a joint where nothing does
+    torque_share: float | None = None  # share × (1 − R²) of the joint: of its measured torque's variance
 
     def to_dict(self, joint_names: Sequence[str] | None = None) -> dict[str, Any]:
         f = self.finding
         return {"kind": f.kind, "severity": f.severity, "joints": list(f.joints), "columns": list(f.columns),
                 "joint": self.joint, "joint_name": _name(joint_names, self.joint), "share": self.share,
-                "share_basis": self.basis if self.share is not None else None, "leads": self.leads,
+                "share_basis": self.basis if self.share is not None else None, "torque_share": self.torque_share,
+                "leads": self.leads,
                 "action": f.action}
 
 
@@ -82,6 +84,11 @@ def explained_share(f: Finding) -> tuple[float | None, str, int | None]:
     mean square beyond what the estimation run allows: held out by construction); a
     ``physical_consistency`` finding whose effect is a share of the residual, that share. Others None.
     """
+    share, basis, j = _raw_share(f)
+    return (None if share is None else min(max(share, 0.0), 1.0)), basis, j
+
+
+def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
     d = f.details or {}
     j = _joint(f)
     held = _finite(d.get("held_out_share"))
@@ -130,12 +137,35 @@ def _names_cause(f: Finding) -> bool:
     return f.kind not in _UMBRELLA and f.kind != "whiteness"
 
 
-def rank(findings: Sequence[Finding]) -> list[Ranked]:
-    """``findings`` ranked by explained share, largest first, in three groups: the findings that
-    lead (those that name a cause, and those that do not on a joint where nothing does), then the
-    findings that do not name a cause on a joint where another does (its cause is the step to
-    take), then whiteness (it only follows from the others). Within a group a finding without a
-    share comes after those with one; ties keep the given (rule) order."""
+def _missing_column(f: Finding) -> int | None:
+    """The column a finding names as missing (a refit or added variable, or the bias it accounts
+    for); None for any other finding."""
+    added = f.kind == "regressor_correlation" and bool((f.details or {}).get("added_variable"))
+    if f.columns and (f.kind == "bias" or added):
+        return int(f.columns[0])
+    return None
+
+
+def _torque_share(share: float | None, joint: int | None, r2: Sequence[float] | None) -> float | None:
+    """The share of joint ``joint``'s measured-torque variance the finding explains: its share of
+    the residual times the residual's share of the torque, 1 − R² (None without R²)."""
+    if share is None or joint is None or r2 is None or not 0 <= joint < len(r2):
+        return None
+    rest = 1.0 - float(r2[joint])
+    return share * rest if math.isfinite(rest) and rest > 0 else None
+
+
+def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
+    """``findings`` ranked by effect, largest first, in three groups: the findings that lead (those
+    that name a cause, and those that do not on a joint where nothing does), then the findings that
+    do not name a cause on a joint where another does (its cause is the step to take), then
+    whiteness (it only follows from the others). The effect is the share of the joint's residual
+    the finding explains times 1 − R² of the joint (``r2``, per joint): the share of its measured
+    torque's variance, which compares joints whose residuals differ in size (70 % of a large error
+    before 90 % of a small one); the share alone without ``r2``. The findings of one missing column
+    (on every joint its refit helps, and the biases it accounts for) rank by their summed effect.
+    Within a group a finding without a share comes after those with one; ties keep the given (rule)
+    order."""
     named = {j for f in findings if _names_cause(f) for j in f.joints}
     # a joint whose residual carries the prediction's own line: the other findings there may read
     # that line (a chattering sign(q̇) looks like a friction term the model lacks)
@@ -150,21 +180,42 @@ def rank(findings: Sequence[Finding]) -> list[Ranked]:
             return 0
         return 1
 
-    ranked = [Ranked(f, *explained_share(f), leads=group(f) == 0) for f in findings]
+    ranked = []
+    for f in findings:
+        share, basis, joint = explained_share(f)
+        ranked.append(Ranked(f, share, basis, joint, leads=group(f) == 0,
+                             torque_share=_torque_share(share, joint, r2)))
+    with_r2 = r2 is not None and all(r.torque_share is not None for r in ranked if r.share is not None)
 
-    def key(item: tuple[int, Ranked]) -> tuple[int, int, float, int]:
+    def effect(r: Ranked) -> float | None:
+        return r.torque_share if with_r2 else r.share
+
+    # One missing column is one step however many joints it helps: its findings (the refit on each
+    # joint, the bias it accounts for) rank by their sum, the strongest of them first.
+    cause = {}
+    for r in ranked:
+        c = _missing_column(r.finding)
+        if c is not None and effect(r) is not None:
+            cause[c] = cause.get(c, 0.0) + float(effect(r))  # type: ignore[arg-type]
+
+    def key(item: tuple[int, Ranked]) -> tuple[int, int, float, float, int]:
         i, r = item
         g = group(r.finding)
-        return (g, 0, -r.share, i) if r.share is not None else (g, 1, 0.0, i)
+        own = effect(r)
+        if own is None:
+            return (g, 1, 0.0, 0.0, i)
+        c = _missing_column(r.finding)
+        return (g, 0, -(cause[c] if c is not None else own), -own, i)
 
     return [r for _, r in sorted(enumerate(ranked), key=key)]
 
 
-def deciding(findings: Sequence[Finding]) -> list[Ranked]:
-    """The deficiencies of a report, ranked (whiteness only when it is all there is)."""
+def deciding(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
+    """The deficiencies of a report, ranked (whiteness only when it is all there is); ``r2`` the
+    report's per-joint R² (see :func:`rank`)."""
     deficient = [f for f in findings if f.severity == "deficiency"]
     primary = [f for f in deficient if f.kind != "whiteness"] or deficient
-    return rank(primary)
+    return rank(primary, r2)
 
 
 def share_text(share: float | None) -> str:
@@ -193,10 +244,15 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
                 "be compared" if n > 1 else "the only leading finding") + behind
     where = _name(joint_names, top.joint)
     text = (f"first because it explains {share_text(top.share)} of the residual's mean square"
-            + (f" on {where}" if where else "") + f" ({_basis_text(top)})")
+            + (f" on {where}" if where else "") + f" ({_basis_text(top)}"
+            + (f"; {share_text(top.torque_share)} of the measured torque's variance there" if top.torque_share
+               is not None else "") + ")")
     if n == 1:
         return text + ", the only deciding finding that names a cause" + behind if rest else \
             text + ", the only deciding finding"
-    second = next((r.share for r in leading[1:] if r.share is not None), None)
+    by_torque = top.torque_share is not None
+    second = next(((r.torque_share if by_torque else r.share) for r in leading[1:]
+                   if (r.torque_share if by_torque else r.share) is not None), None)
     return (text + f", the largest of {n} deciding findings" + (" that name a cause" if rest else "")
+            + (" by the share of the torque they explain" if by_torque else "")
             + (f" (next: {share_text(second)})" if second is not None else "") + behind)

@@ -36,7 +36,7 @@ def format_summary(report: ReportSections) -> str:
     lines += [""] + _analysis_lines(report, names)
     lines += ["", f"Findings (family-wise error rate α = {alpha:g} over every test of the report, Holm):"]
     lines += format_findings(report.findings)
-    lines += format_deciding(deciding(report.findings), _joint_names(prov))
+    lines += format_deciding(deciding(report.findings, report.per_joint["r2"]), _joint_names(prov))
     return "\n".join(lines)
 
 
@@ -45,14 +45,15 @@ def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> li
     first step with why it is first (nothing without a deficiency)."""
     if not ranked:
         return []
-    lines = ["", "Deciding findings, strongest first (share of the joint's residual mean square each explains; "
-             "the number of findings is not the measure):"]
+    lines = ["", "Deciding findings, strongest first (share of the joint's residual mean square each explains, and "
+             "of its measured torque's variance, which ranks them; the number of findings is not the measure):"]
     for i, r in enumerate(ranked, 1):
         f = r.finding
         where = ", ".join(str(names[j]) if names and j < len(names) else f"joint {j + 1}" for j in f.joints)
         basis = "" if r.share is None else (" carried from the estimation run" if r.basis == "held_out"
                                             else " on the validation run")
-        lines.append(f"  {i}. {f.kind}{' on ' + where if where else ''}: {share_text(r.share)}{basis}")
+        torque = "" if r.torque_share is None else f" ({share_text(r.torque_share)} of the torque's variance)"
+        lines.append(f"  {i}. {f.kind}{' on ' + where if where else ''}: {share_text(r.share)}{basis}{torque}")
     lines.append(f"Do first: {ranked[0].finding.action}")
     lines.append(f"  ({first_reason(ranked, names)})")
     return lines
