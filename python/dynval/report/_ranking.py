@@ -23,7 +23,7 @@ from typing import Any
 from ._findings import Finding
 from ._text import number_text
 
-__all__ = ["Ranked", "explained_share", "rank", "deciding", "first_reason", "share_text"]
+__all__ = ["Ranked", "explained_share", "rank", "deciding", "first_reason", "share_text", "torque_text"]
 
 HELD_OUT = "held_out"
 VALIDATION = "validation"
@@ -226,6 +226,12 @@ def share_text(share: float | None) -> str:
     return f"{number_text(pct, '.2g' if pct < 10 else '.0f')} %"
 
 
+def torque_text(x: float) -> str:
+    """A share of the measured torque's variance: ``3.5 %`` of it, or ``6.5×`` it once the error
+    exceeds the torque (a joint worse than a constant)."""
+    return share_text(x) + " of" if x < 1.0 else f"{number_text(x, '.2g')}×"
+
+
 def _basis_text(r: Ranked) -> str:
     return "carried from the estimation run" if r.basis == HELD_OUT else "on the validation run"
 
@@ -245,7 +251,7 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
     where = _name(joint_names, top.joint)
     text = (f"first because it explains {share_text(top.share)} of the residual's mean square"
             + (f" on {where}" if where else "") + f" ({_basis_text(top)}"
-            + (f"; {share_text(top.torque_share)} of the measured torque's variance there" if top.torque_share
+            + (f"; {torque_text(top.torque_share)} the measured torque's variance there" if top.torque_share
                is not None else "") + ")")
     if n == 1:
         return text + ", the only deciding finding that names a cause" + behind if rest else \
@@ -255,4 +261,5 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
                    if (r.torque_share if by_torque else r.share) is not None), None)
     return (text + f", the largest of {n} deciding findings" + (" that name a cause" if rest else "")
             + (" by the share of the torque they explain" if by_torque else "")
-            + (f" (next: {share_text(second)})" if second is not None else "") + behind)
+            + (f" (next: {torque_text(second).removesuffix(' of') if by_torque else share_text(second)})"
+               if second is not None else "") + behind)

@@ -10,7 +10,7 @@ import math
 from collections.abc import Sequence
 
 from ..checks._typing import ReportSections
-from ._ranking import Ranked, deciding, first_reason, share_text
+from ._ranking import Ranked, deciding, first_reason, share_text, torque_text
 from ._text import pvalue_text
 
 
@@ -52,7 +52,7 @@ def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> li
         where = ", ".join(str(names[j]) if names and j < len(names) else f"joint {j + 1}" for j in f.joints)
         basis = "" if r.share is None else (" carried from the estimation run" if r.basis == "held_out"
                                             else " on the validation run")
-        torque = "" if r.torque_share is None else f" ({share_text(r.torque_share)} of the torque's variance)"
+        torque = "" if r.torque_share is None else f" ({torque_text(r.torque_share)} the torque's variance)"
         lines.append(f"  {i}. {f.kind}{' on ' + where if where else ''}: {share_text(r.share)}{basis}{torque}")
     lines.append(f"Do first: {ranked[0].finding.action}")
     lines.append(f"  ({first_reason(ranked, names)})")
