@@ -192,11 +192,12 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
 
     # One missing column is one step however many joints it helps: its findings (the refit on each
     # joint, the bias it accounts for) rank by their sum, the strongest of them first.
-    cause = {}
+    cause: dict[int, float] = {}
     for r in ranked:
         c = _missing_column(r.finding)
-        if c is not None and effect(r) is not None:
-            cause[c] = cause.get(c, 0.0) + float(effect(r))  # type: ignore[arg-type]
+        e = effect(r)
+        if c is not None and e is not None:
+            cause[c] = cause.get(c, 0.0) + e
 
     def key(item: tuple[int, Ranked]) -> tuple[int, int, float, float, int]:
         i, r = item
