@@ -188,7 +188,17 @@ def test_every_candidate_has_its_reasons_in_summary_json_and_html():
     rep = cmp.reports["rigid+viscous"]
     lost = cmp.reasons["rigid+viscous"]
     assert len(lost) == len(_matter(rep)) >= 2
-    missing = [(f, r) for f, r in zip(_matter(rep), lost) if f.kind == "regressor_correlation"]
+    # the reasons follow the candidate's ranked records: deficiencies by the share of the residual
+    # each explains, strongest first (whiteness last), then the design findings
+    records = cmp.deciding["rigid+viscous"]
+    assert len(records) == len(lost)
+    shares = [d.share for d in records if d.severity == "deficiency" and d.kind != "whiteness"
+              and d.share is not None]
+    assert shares == sorted(shares, reverse=True)
+    by_record = {(f.kind, tuple(JOINTS[j] for j in f.joints), tuple(NAMES[c] for c in f.columns)): f
+                 for f in _matter(rep)}
+    ordered = [by_record[(d.kind, d.joints, d.columns)] for d in records]
+    missing = [(f, r) for f, r in zip(ordered, lost) if f.kind == "regressor_correlation"]
     assert missing
     for f, r in missing:
         term = NAMES[f.columns[0]]
@@ -238,8 +248,13 @@ def test_refine_is_decided_by_the_winners_deficiency():
     v = cmp.verdict
     assert v.decision == "refine" and v.model == "rigid+viscous"
     # every deficiency of the winner but the whiteness ones, which only follow from the others
+    # ranked by the share of the residual each explains (conventions §5.10), strongest first
     primary = [f for f in cmp.reports["rigid+viscous"].deficiencies if f.kind != "whiteness"]
-    assert primary and [(d.kind, d.message) for d in v.decided_by] == [(f.kind, f.message) for f in primary]
+    assert primary and sorted((d.kind, d.message) for d in v.decided_by) == sorted((f.kind, f.message) for f in primary)
+    primary = [next(f for f in primary if f.message == d.message) for d in v.decided_by]
+    shares = [d.share for d in v.decided_by]
+    assert None not in shares and shares == sorted(shares, reverse=True)
+    assert v.first_reason.startswith(f"first because it explains {100 * shares[0]:.0f} %")
     for d, f in zip(v.decided_by, primary):
         assert isinstance(d, dynval.Decisive)
         assert (d.model, d.severity) == ("rigid+viscous", "deficiency")
@@ -262,7 +277,8 @@ def test_refine_is_decided_by_the_winners_deficiency():
     assert repeated and f"(and the {len(repeated)} finding" in full
     got = _strict(cmp)["verdict"]["decided_by"]
     assert got == [{"model": d.model, "kind": d.kind, "severity": d.severity, "joints": list(d.joints),
-                    "columns": list(d.columns), "message": d.message} for d in v.decided_by]
+                    "columns": list(d.columns), "message": d.message, "share": d.share,
+                    "share_basis": d.share_basis, "shared": d.shared} for d in v.decided_by]
 
 
 def test_redesign_is_decided_by_the_design_finding_said_once():
@@ -465,12 +481,13 @@ def test_comparison_serialises_every_part_under_its_documented_key():
     tau = rng.normal(size=400)
     cmp = dynval.compare(tau, {"a": (0.9 * tau, 1), "b": (0.8 * tau, 2)}, sample_rate=100.0)
     d = cmp.to_dict()
-    assert set(d) == {"names", "ranking", "criterion", "table", "verdict", "findings", "reasons", "reports"}
+    assert set(d) == {"names", "ranking", "criterion", "table", "verdict", "findings", "reasons", "deciding",
+                      "reports"}
     assert (d["names"], d["ranking"], d["criterion"]) == (["a", "b"], cmp.ranking, "aic")
     assert set(d["table"]) == {"pooled", "per_joint"} and set(d["reports"]) == {"a", "b"}
     assert d["reports"]["a"] == json.loads(json.dumps(cmp.reports["a"].to_dict()))
     assert d["findings"] == [f.to_dict() for f in cmp.findings]
-    assert set(d["verdict"]) == {"decision", "model", "reasons", "decided_by", "first_step"}
+    assert set(d["verdict"]) == {"decision", "model", "reasons", "decided_by", "first_step", "first_reason"}
     assert (d["verdict"]["model"], d["verdict"]["reasons"]) == (cmp.verdict.model, list(cmp.verdict.reasons))
     assert "reports" not in cmp.to_dict(reports=False)
     # two-space indentation by default, one line on request; strict JSON throughout

@@ -152,6 +152,15 @@ def test_render_block_on_a_small_record():
     assert lines[4] == "| rank | model | p | RMSE (N·m) | VAF % | R² pooled | ΔAIC | deficiencies | R² a | R² b |"
     assert lines[6] == "| 1 | m1 | 2 | 0.123 | 99.12 | 0.9912 | 0 | 1 | 0.50 | -1.25 |"
     assert lines[7] == "| 2 | m2 | 0 | 1.500 | 90.00 | 0.9000 | 12 | 0 | 0.90 | 0.80 |"
+    # with the shares the comparison gives (the count alone reads backwards) and why the first step is first
+    rec["rows"][0]["strongest_share"] = 0.62
+    rec["verdict"]["first_reason"] = "first because it explains 62 % of the residual's mean square on a_joint"
+    lines = run.render_block([rec]).splitlines()
+    assert lines[2].endswith("First step: add a term. (First because it explains 62 % of the residual's mean "
+                             "square on a_joint.)")
+    assert lines[4].startswith("| rank | model | p | RMSE (N·m) | VAF % | R² pooled | ΔAIC | deficiencies "
+                               "(strongest share) | R² a |")
+    assert lines[6] == "| 1 | m1 | 2 | 0.123 | 99.12 | 0.9912 | 0 | 1 (62 %) | 0.50 | -1.25 |"
 
 
 def test_readme_block_is_the_one_the_recorded_run_gives():

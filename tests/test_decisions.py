@@ -430,4 +430,8 @@ def test_accept_states_the_level_it_was_decided_at():
     # the others' reasons count their deficiencies (they rank after every candidate without one)
     _, v = _decide({"a": _report(), "b": _report(BIASED), "c": _report(BIASED, BACKED)},
                    {"a": 10.0, "b": 9.0, "c": 8.0})
-    assert v.reasons[1:] == ("c: Δaic = -2.00, 2 deficiency findings", "b: Δaic = -1.00, 1 deficiency finding")
+    # with the share of the residual the strongest explains (the count alone reads backwards)
+    assert v.reasons[1:] == ("c: Δaic = -2.00, 2 deficiency findings (the strongest, bias, explains 36 % of the "
+                             "residual)",
+                             "b: Δaic = -1.00, 1 deficiency finding (the strongest, bias, explains 36 % of the "
+                             "residual)")

@@ -411,7 +411,9 @@ def test_delay_record_and_when_it_explains_the_structure():
     assert _record(d) == _blank(kind="delay", severity="deficiency", joints=(0,), statistic=3.0, pvalue=1e-9,
                                 pvalue_adjusted=pytest.approx(padj[0]), effect=0.3,
                                 effect_unit="share of the joint's mean square realigning removes", threshold=0.05,
-                                details={"delay_s": 0.015, "delay_samples": 3.0, "share": [0.3, 0.04, 0.3]})
+                                details={"delay_s": 0.015, "delay_samples": 3.0, "share": [0.3, 0.04, 0.3],
+                                         "phase_deg": None, "band_edge": None, "band_unit": "Hz",
+                                         "significant": [0, 1, 2], "explains": [0, 1]})
     _worded(d, w.delay(3.0, 200.0, [("shoulder", 0.3)], padj[0]))
     assert [f.joints for f in _of(found, "missing_physics")] == [(2,)]
     assert not _of(compute_findings(_ev(3, physics=lib)), "delay")[0].details["delay_s"]  # no rate: None
@@ -510,7 +512,7 @@ def test_thresholds_resolve_and_refuse_with_the_contracts_words():
 def test_the_default_thresholds_are_the_documented_ones():
     assert dataclasses.asdict(Thresholds()) == {
         "bias": 0.25, "regressor_correlation": 0.15, "missing_term": 0.01, "oscillation": 0.05,
-        "missing_physics": 0.05, "delay": 0.05, "predictive_ratio": 2.0, "periodic_error": 0.05,
+        "missing_physics": 0.05, "delay": 0.05, "delay_phase": 10.0, "predictive_ratio": 2.0, "periodic_error": 0.05,
         "joint_motion": 0.1, "detectable_share": 0.25, "repeat_distance": 0.1, "repeat_share": 0.5,
         "repeat_tolerance": 0.1, "condition_number": 1e3}
 

@@ -35,7 +35,8 @@ def test_sections_and_provenance(backend):
     tau, pred = _signals()
     report = dynval.validate(tau, pred, n_params=5, backend=backend)
     d = report.to_dict()
-    assert set(d) == SECTIONS
+    # the sections, and the deciding findings ranked with the first step and why (contract §4)
+    assert set(d) == SECTIONS | {"deciding", "first_step", "first_reason"}
     prov = d["provenance"]
     for key in ("profile", "conventions", "units", "n_samples", "n_joints", "n_params", "segments",
                 "omitted_rows", "backend", "dynval_version", "contract_version", "report_schema_version"):

@@ -103,11 +103,13 @@ def record(k: int, cmp) -> dict:
         rows.append({"model": name, "p": int(row["n_params"]), "rmse": float(row["rmse"]), "vaf": float(row["vaf"]),
                      "r2": float(row["r2"]), "delta_aic": float(row[f"delta_{cmp.criterion}"]),
                      "deficiencies": int(row["n_deficiencies"]),
+                     "strongest_share": None if row.get("strongest_share") is None else float(row["strongest_share"]),
                      "r2_per_joint": [float(x) for x in cmp.table["per_joint"][name]["r2"]]})
     v = cmp.verdict
     return {"run": k, "what": RUN_TEXT[k], "criterion": cmp.criterion,
             "joint_names": list(cmp.reports[cmp.names[0]].provenance["joint_names"]), "rows": rows,
             "verdict": {"decision": v.decision, "model": v.model, "first_step": v.first_step,
+                        "first_reason": v.first_reason,
                         "decided_by": [{"kind": d.kind, "severity": d.severity, "model": d.model,
                                         "joints": list(d.joints), "columns": list(d.columns)} for d in v.decided_by]}}
 
@@ -124,6 +126,16 @@ def _decided_by(items: list) -> str:
     return "; ".join(parts) if parts else "no finding (nothing stands against the model)"
 
 
+def _deficiency_cell(row: dict) -> str:
+    """The count, and the share of a joint's residual its strongest deficiency explains: the count
+    alone reads backwards (a weak model has few large findings, a good one many small ones)."""
+    share = row.get("strongest_share")
+    if not row["deficiencies"] or share is None:
+        return f"{row['deficiencies']}"
+    pct = 100.0 * share
+    return f"{row['deficiencies']} ({pct:.0f} %)" if pct >= 10 else f"{row['deficiencies']} ({pct:.2g} %)"
+
+
 def render_block(records: list) -> str:
     """The README block (without its markers) for the records of :func:`record`."""
     out = [f"<!-- Written by `{COMMAND}` from verdicts.json; rerun it instead of editing. -->"]
@@ -131,13 +143,16 @@ def render_block(records: list) -> str:
         v = r["verdict"]
         short = [j.replace("_joint", "") for j in r["joint_names"]]
         out += ["", f"**Run {r['run']}** ({r['what']}): verdict **{v['decision']}** `{v['model']}`, decided by "
-                f"{_decided_by(v['decided_by'])}." + (f" First step: {v['first_step']}." if v["first_step"] else ""),
-                "", f"| rank | model | p | RMSE (N·m) | VAF % | R² pooled | Δ{r['criterion'].upper()} | deficiencies | "
+                f"{_decided_by(v['decided_by'])}." + (f" First step: {v['first_step']}." if v["first_step"] else "")
+                + (f" ({v['first_reason'][0].upper()}{v['first_reason'][1:]}.)" if v.get("first_reason") else ""),
+                "", f"| rank | model | p | RMSE (N·m) | VAF % | R² pooled | Δ{r['criterion'].upper()} | deficiencies "
+                + ("(strongest share) " if any(row.get("strongest_share") is not None for row in r["rows"]) else "")
+                + "| "
                 + " | ".join(f"R² {j}" for j in short) + " |",
                 "|---:|---|---:|---:|---:|---:|---:|---:|" + "---:|" * len(short)]
         for i, row in enumerate(r["rows"]):
             out.append(f"| {i + 1} | {row['model']} | {row['p']} | {row['rmse']:.3f} | {row['vaf']:.2f} | "
-                       f"{row['r2']:.4f} | {row['delta_aic']:.0f} | {row['deficiencies']} | "
+                       f"{row['r2']:.4f} | {row['delta_aic']:.0f} | {_deficiency_cell(row)} | "
                        + " | ".join(f"{x:.2f}" for x in row["r2_per_joint"]) + " |")
     return "\n".join(out)
 

@@ -61,6 +61,8 @@ TESTS: tuple[Test, ...] = (
     Test("information_rate", ("sampling_colour",), ("lags",),
          "whiteness at the information rate (decimated), when the data are oversampled"),
     Test("spectrum", ("oscillation",), ("lags",), "narrow peaks of the residual's Welch spectrum"),
+    Test("prediction_artefact", ("prediction_artefact",), ("lags",),
+         "a residual line the prediction holds more of than the measured torque: the model's own"),
     Test("regressor_correlation", ("regressor_correlation",), ("regressor",),
          "residual × regressor columns against a colour-aware band"),
     Test("missing_term", ("regressor_correlation",), ("regressor", "model_columns"),
@@ -97,6 +99,7 @@ _STREAMED = {
     "regressor_correlation": "the colour-aware band needs each regressor column's autocorrelation, "
                              "which the streamed sums do not keep (the ρ are reported against the white band)",
     "missing_term": f"model_columns is refused: the added-variable fit {_WHOLE}",
+    "prediction_artefact": "the measured and the predicted torque's own spectra are not kept by the streamed sums",
     "excitation": f"the regressor's conditioning {_WHOLE}",
     "missing_physics": f"q is refused: the library fit {_WHOLE}",
     "delay": f"q is refused: the realignment {_WHOLE}",

@@ -288,11 +288,13 @@ def welch(e, sample_rate=None, *, nperseg: int | None = None):
 
 
 def _peaks(report, spec, peaks):
-    """Oscillations to mark: given ones, else the report's oscillation findings, else its peaks."""
+    """Lines to mark: given ones, else the report's oscillation and prediction_artefact findings (a
+    line of the residual either way), else its peaks."""
     if peaks is None and getattr(report, "findings", None) is not None:
         found = []
         for f in report.findings:
-            if getattr(f, "kind", "") == "oscillation" and "frequency" in (getattr(f, "details", None) or {}):
+            if getattr(f, "kind", "") in ("oscillation", "prediction_artefact") \
+                    and "frequency" in (getattr(f, "details", None) or {}):
                 found += [(int(j), float(f.details["frequency"])) for j in f.joints]
         return found
     out = []

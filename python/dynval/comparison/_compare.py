@@ -32,6 +32,7 @@ from ..checks._typing import ArrayLike, FloatArray, Integer
 from ..report._findings import Finding
 from ..report._json import to_frame, to_jsonable
 from ..report._prepared import PreparedRegressor, prepare_regressor
+from ..report._ranking import Ranked, first_reason, rank, share_text
 from ..report._report import ValidationReport, validate
 from ._reasons import candidate_reasons, column_name, joint_name
 
@@ -62,6 +63,13 @@ class Decisive:
         report's ``joint_names``/``column_names``, else "joint 1", "column 1", ...
     message : str
         The finding's message, its evidence in plain words.
+    share, share_basis : float or None, str or None
+        The share of the joint's residual mean square the finding explains and where it was
+        measured (``"held_out"``: carried from the estimation run; ``"validation"``), None for a
+        kind without such a share (conventions §5.10).
+    shared : bool
+        Every candidate's report has a finding of the same kind on the same joints (or, without
+        joints, the same columns): it does not tell the candidates apart.
     """
 
     model: str
@@ -70,16 +78,23 @@ class Decisive:
     joints: tuple[str, ...] = ()
     columns: tuple[str, ...] = ()
     message: str = ""
+    share: float | None = None
+    share_basis: str | None = None
+    shared: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.model, "kind": self.kind, "severity": self.severity, "joints": list(self.joints),
-                "columns": list(self.columns), "message": self.message}
+                "columns": list(self.columns), "message": self.message, "share": self.share,
+                "share_basis": self.share_basis, "shared": self.shared}
 
     def label(self) -> str:
-        """A short name for the text: "oscillation on shoulder (deficiency of friction)"."""
+        """A short name for the text: "oscillation on shoulder (deficiency of friction)", with the
+        share of the residual it explains and "shared by all candidates" when they apply."""
         where = ", ".join(self.joints + self.columns)
         owner = f"{self.severity} of {self.model}" if self.model else f"{self.severity} of the comparison"
-        return f"{self.kind}{' on ' + where if where else ''} ({owner})"
+        extra = "".join([f", explains {share_text(self.share)} of the residual" if self.share is not None else "",
+                         ", shared by all candidates" if self.shared else ""])
+        return f"{self.kind}{' on ' + where if where else ''} ({owner}{extra})"
 
 
 @dataclass(frozen=True)
@@ -90,8 +105,10 @@ class Verdict:
     ``decided_by`` names the finding(s) that decided it: the design finding(s) for a redesign, the
     best model's deficiencies for refine (a whiteness deficiency only follows from another
     deficiency on its joint, so it is left out unless it is all there is), the comparison's own
-    finding when whiteness cannot discriminate, nothing for accept. ``first_step`` is what to do
-    first: the action of the first decisive finding, or "nothing to change" for accept.
+    finding when whiteness cannot discriminate, nothing for accept. For refine they are ranked by
+    the share of the residual each explains, strongest first (conventions §5.10). ``first_step`` is
+    what to do first: the action of the first decisive finding, or "nothing to change" for accept;
+    ``first_reason`` says why it is first.
     """
 
     decision: str
@@ -99,10 +116,12 @@ class Verdict:
     reasons: tuple[str, ...]
     decided_by: tuple[Decisive, ...] = ()
     first_step: str = ""
+    first_reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return {"decision": self.decision, "model": self.model, "reasons": list(self.reasons),
-                "decided_by": [d.to_dict() for d in self.decided_by], "first_step": self.first_step}
+                "decided_by": [d.to_dict() for d in self.decided_by], "first_step": self.first_step,
+                "first_reason": self.first_reason}
 
     def summary(self) -> str:
         """The verdict as text: the decision, what decided it, what to do first, the reasons."""
@@ -137,8 +156,14 @@ class ComparisonReport:
         Findings about the comparison itself (e.g. whiteness cannot discriminate).
     reasons : dict
         Candidate name → tuple of short reasons, in ranking order: one per deficiency or design
-        finding of its report (joint and column names, the effect and its threshold), or, for a
-        candidate with none, one positive reason ("no deficiency: ...", its rank and criterion).
+        finding of its report (joint and column names, the effect and its threshold, the share of
+        the residual it explains, "shared by all candidates"), deficiencies strongest first, or, for
+        a candidate with none, one positive reason ("no deficiency: ...", its rank and criterion).
+    deciding : dict
+        Candidate name → its deficiency and design findings as :class:`Decisive` records, in the
+        order of ``reasons``: deficiencies ranked by the share of the residual each explains
+        (``share``, ``share_basis``), then design findings; ``shared`` marks a finding every
+        candidate has (the same kind on the same joints), which does not tell them apart.
     """
 
     names: list[str]
@@ -149,13 +174,15 @@ class ComparisonReport:
     verdict: Verdict
     findings: list[Finding] = field(default_factory=list)
     reasons: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    deciding: dict[str, tuple[Decisive, ...]] = field(default_factory=dict)
 
     def to_dict(self, *, reports: bool = True) -> dict[str, Any]:
         """JSON-ready dictionary; ``reports=False`` leaves out the candidates' full reports."""
         out = {"names": list(self.names), "ranking": list(self.ranking), "criterion": self.criterion,
                "table": to_jsonable(self.table), "verdict": self.verdict.to_dict(),
                "findings": [f.to_dict() for f in self.findings],
-               "reasons": {k: list(r) for k, r in self.reasons.items()}}
+               "reasons": {k: list(r) for k, r in self.reasons.items()},
+               "deciding": {k: [x.to_dict() for x in d] for k, d in self.deciding.items()}}
         if reports:
             out["reports"] = {k: r.to_dict() for k, r in self.reports.items()}
         return out
@@ -345,10 +372,17 @@ def compare(
         pooled[n] = row
         per_joint[n] = {k: np.asarray(r.per_joint[k]) for k in ("rmse", "vaf", "fit_percent", "r2")}
     table = {"pooled": pooled, "per_joint": per_joint}
-    findings, verdict = _verdict(names, ranking, reports, criterion, crit)
+    matter = _matter(names, reports)
+    for n in names:
+        pooled[n]["strongest_share"] = next((x.share for f, x, _ in matter[n]
+                                             if f.severity == "deficiency" and x.leads and x.share is not None), None)
+        pooled[n]["n_shared"] = sum(1 for f, _, sh in matter[n] if sh and f.severity == "deficiency")
+    findings, verdict = _verdict(names, ranking, reports, criterion, crit, matter)
     return ComparisonReport(names=names, ranking=ranking, criterion=criterion, table=table, reports=reports,
                             verdict=verdict, findings=findings,
-                            reasons=candidate_reasons(ranking, reports, criterion, crit))
+                            reasons=candidate_reasons(ranking, reports, criterion, crit, matter),
+                            deciding={n: tuple(_decisive(n, reports[n], f, x, sh) for f, x, sh in matter[n])
+                                      for n in ranking})
 
 
 def _deltas(values: dict[str, float]) -> dict[str, float]:
@@ -361,10 +395,44 @@ def _deltas(values: dict[str, float]) -> dict[str, float]:
     return {n: 0.0 if x == lo else x - lo for n, x in values.items()}
 
 
-def _decisive(model: str, report: ValidationReport, f: Finding) -> Decisive:
+def _decisive(model: str, report: ValidationReport, f: Finding, ranked: Ranked | None = None,
+              shared: bool = False) -> Decisive:
+    share = None if ranked is None else ranked.share
     return Decisive(model=model, kind=f.kind, severity=f.severity,
                     joints=tuple(joint_name(report, j) for j in f.joints),
-                    columns=tuple(column_name(report, c) for c in f.columns), message=f.message)
+                    columns=tuple(column_name(report, c) for c in f.columns), message=f.message,
+                    share=share, share_basis=None if share is None or ranked is None else ranked.basis,
+                    shared=shared)
+
+
+def _record(f: Finding) -> tuple[str, tuple[int, ...], tuple[int, ...]]:
+    """A finding as its record says it (kind, joints, columns): never its words."""
+    return f.kind, tuple(f.joints), tuple(f.columns)
+
+
+def _covers(report: ValidationReport, f: Finding) -> bool:
+    """``report`` has a deficiency or design finding of ``f``'s kind on each of ``f``'s joints (on
+    the same columns for a finding without joints)."""
+    same = [g for g in report.findings if g.kind == f.kind and g.severity in ("deficiency", "design")]
+    if f.joints:
+        return set(f.joints) <= {j for g in same for j in g.joints}
+    return any(not g.joints and set(g.columns) == set(f.columns) for g in same)
+
+
+def _matter(names: list[str], reports: dict[str, ValidationReport]) -> dict[str, list[tuple[Finding, Ranked, bool]]]:
+    """Every candidate's deficiency and design findings: the deficiencies ranked by the share of the
+    residual each explains (conventions §5.10), then the design findings; each with whether every
+    candidate has it (the same kind on the same joints): a finding all share does not tell them apart."""
+    out = {}
+    for n in names:
+        r = reports[n]
+        per_joint = getattr(r, "per_joint", None)
+        ranked = rank([f for f in r.findings if f.severity == "deficiency"],
+                      None if per_joint is None else per_joint["r2"])
+        ranked += [Ranked(f, None, "validation", None) for f in r.findings if f.severity == "design"]
+        out[n] = [(x.finding, x, len(names) > 1 and all(_covers(reports[o], x.finding) for o in names if o != n))
+                  for x in ranked]
+    return out
 
 
 def _defers(f: Finding, report: ValidationReport) -> bool:
@@ -378,35 +446,44 @@ def _defers(f: Finding, report: ValidationReport) -> bool:
 
 
 def _verdict(names: list[str], ranking: list[str], reports: dict[str, ValidationReport], criterion: str,
-             crit: dict[str, float]) -> tuple[list[Finding], Verdict]:
+             crit: dict[str, float],
+             matter: dict[str, list[tuple[Finding, Ranked, bool]]] | None = None) -> tuple[list[Finding], Verdict]:
     best = ranking[0]
+    matter = _matter(names, reports) if matter is None else matter
     findings: list[Finding] = []
     reasons: list[str] = []
     decided: list[Decisive] = []
     first = ""
     seen = set()
     for n in ranking:
+        shared = {id(f): sh for f, _, sh in matter[n]}
         for f in reports[n].findings:
             # A run that cannot decide is judged on the candidate the decision is about: how few
             # effective samples the noise leaves depends on what each candidate's residual holds.
             if f.kind == "low_information" and (n != best or _defers(f, reports[n])):
                 continue
-            if f.severity == "design" and (f.kind, f.message) not in seen:
-                seen.add((f.kind, f.message))
+            rec = _decisive(n, reports[n], f, shared=shared.get(id(f), False))
+            if f.severity == "design" and (rec.kind, rec.joints, rec.columns) not in seen:
+                seen.add((rec.kind, rec.joints, rec.columns))  # the record, not the words, says it is the same
                 reasons.append(f"{f.message} ({f.action})")
-                decided.append(_decisive(n, reports[n], f))
+                decided.append(rec)
                 first = first or f.action
     if reasons:
-        return findings, Verdict("redesign", best, tuple(reasons), tuple(decided), first)
-    deficiencies = reports[best].deficiencies
+        return findings, Verdict("redesign", best, tuple(reasons), tuple(decided), first,
+                                 "the experiment cannot answer yet: a design finding comes before any model's "
+                                 "deficiency")
+    deficiencies = [(f, x, sh) for f, x, sh in matter[best] if f.severity == "deficiency"]
     if deficiencies:
-        # A whiteness deficiency only follows from another deficiency on its joint (conventions §5):
-        # the other decides.
-        primary = [f for f in deficiencies if f.kind != "whiteness"] or deficiencies
+        # Ranked by the share of the residual each explains; a whiteness deficiency only follows
+        # from another deficiency on its joint (conventions §5): the other decides.
+        primary = [t for t in deficiencies if t[0].kind != "whiteness"] or deficiencies
         deferred = [f for f in reports[best].findings if f.kind == "low_information"]
-        return findings, Verdict("refine", best, tuple(f"{f.message} → {f.action}" for f in deficiencies)
-                                 + tuple(f"{f.message} ({f.action})" for f in deferred),
-                                 tuple(_decisive(best, reports[best], f) for f in primary), primary[0].action)
+        r = reports[best]
+        return findings, Verdict(
+            "refine", best, tuple(f"{f.message} → {f.action}" for f, _, _ in deficiencies)
+            + tuple(f"{f.message} ({f.action})" for f in deferred),
+            tuple(_decisive(best, r, f, x, sh) for f, x, sh in primary), primary[0][0].action,
+            first_reason([x for _, x, _ in primary], r.provenance.get("joint_names")))
     analysed = [n for n in names if reports[n].whiteness is not None]
     if len(analysed) >= 2 and all(_rejects_whiteness(reports[n]) for n in analysed):
         # No deficiency explains the best model's colour, and every candidate has it.
@@ -426,6 +503,9 @@ def _verdict(names: list[str], ranking: list[str], reports: dict[str, Validation
     extra = []
     for n in ranking[1:]:
         d = len(reports[n].deficiencies)
+        top = next((x for f, x, _ in matter[n] if f.severity == "deficiency"), None)
         extra.append(f"{n}: Δ{criterion} = {crit[n] - crit[best]:+.2f}"
-                     + (f", {d} deficiency finding{'s' if d != 1 else ''}" if d else ""))
+                     + (f", {d} deficiency finding{'s' if d != 1 else ''}" if d else "")
+                     + (f" (the strongest, {top.finding.kind}, explains {share_text(top.share)} of the residual)"
+                        if top is not None and top.share is not None else ""))
     return findings, Verdict("accept", best, tuple([reason] + extra), (), f"nothing to change: use {best}")

@@ -6,14 +6,14 @@ Only wording: what decides is in ``_compare.py``.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..checks._typing import ReportSections
 from ..report._findings import Finding
 from ..report._text import number_text, versus
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Mapping, Sequence
 
 __all__ = ["joint_name", "column_name", "finding_reason", "candidate_reasons"]
 
@@ -74,6 +74,12 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     elif f.kind == "oscillation":
         text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
                 f"({e} of the residual variance ≥ {t})")
+    elif f.kind == "prediction_artefact":
+        unit = f.details.get("frequency_unit", "")
+        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {unit} "
+                f"({e} of the residual variance ≥ {t}; the prediction holds "
+                f"{_g(f.details.get('line_power_prediction'), '.2g')} there, the measured torque "
+                f"{_g(f.details.get('line_power_measured'), '.2g')})")
     elif f.kind == "whiteness":
         rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
         text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
@@ -90,10 +96,15 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
                     f"terms would remove {e} of the mean square ≥ {t})")
     elif f.kind == "delay":
         d_s = f.details.get("delay_s")
-        lag = (f"{_g(1000.0 * d_s, '+.3g')} ms" if d_s is not None
-               else f"{_g(f.details.get('delay_samples'), '+.3g')} samples")
-        text = (f"torque delayed by {lag} against the encoders (realigning removes {e} of the mean "
-                f"square ≥ {t})")
+        samples = float(f.details.get("delay_samples") or 0.0)
+        lag = (f"{_g(abs(1000.0 * d_s), '.3g')} ms" if d_s is not None else f"{_g(abs(samples), '.3g')} samples")
+        side = "lag" if samples >= 0 else "lead"
+        if f.details.get("phase_deg") is not None:
+            e, t = _vs(f, ".3g")
+            size = f"a {e}° phase {side} at the information band's edge ≥ {t}°"
+        else:
+            size = f"realigning removes {e} of the mean square ≥ {t}"
+        text = (f"torque {'delayed by' if samples >= 0 else 'ahead by'} {lag} against the encoders ({size})")
     elif f.kind == "predictive_failure":
         text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
     elif f.kind == "low_information":
@@ -136,16 +147,35 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     return prefix + (f"{joints}: " if joints else "") + text
 
 
+def _with_share(text: str, f: Finding, share: float | None, shared: bool) -> str:
+    """A reason with the share of the residual its finding explains (when the reason does not
+    already print that number) and whether every candidate has it."""
+    from ..report._ranking import share_text
+
+    if share is not None and (f.effect is None or abs(share - float(f.effect)) > 1e-12 * max(1.0, abs(share))):
+        text += f"; explains {share_text(share)} of the joint's residual"
+    return text + (" — shared by all candidates" if shared else "")
+
+
 def candidate_reasons(ranking: list[str], reports: Mapping[str, ReportSections], criterion: str,
-                      crit: dict[str, float]) -> dict[str, tuple[str, ...]]:
-    """Every candidate's reasons, in ranking order (see :class:`ComparisonReport`)."""
+                      crit: dict[str, float],
+                      matter: Mapping[str, Sequence[tuple[Finding, Any, bool]]] | None = None
+                      ) -> dict[str, tuple[str, ...]]:
+    """Every candidate's reasons, in ranking order (see :class:`ComparisonReport`).
+
+    ``matter``: per candidate its deficiency and design findings in the order to print them, each
+    with its ranking record (``share``) and whether every candidate has it; the report's order
+    when omitted."""
     out: dict[str, tuple[str, ...]] = {}
     best = ranking[0]
     for rank, n in enumerate(ranking, 1):
         r = reports[n]
-        matter = [f for f in r.findings if f.severity in ("deficiency", "design")]
-        if matter:
-            out[n] = tuple(finding_reason(f, r) for f in matter)
+        if matter is not None:
+            items = [(f, getattr(x, "share", None), sh) for f, x, sh in matter[n]]
+        else:
+            items = [(f, None, False) for f in r.findings if f.severity in ("deficiency", "design")]
+        if items:
+            out[n] = tuple(_with_share(finding_reason(f, r), f, share, sh) for f, share, sh in items)
         elif rank == 1:
             out[n] = (f"no deficiency: rank 1 of {len(ranking)}, the lowest {criterion} "
                       f"({_g(crit[n], '.1f')}) among the candidates without a deficiency",)

@@ -22,6 +22,7 @@ from . import _records as rec
 from . import _sections as sec
 from ._findings import Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
 from ._json import to_frame, to_jsonable
+from ._ranking import Ranked, deciding, first_reason
 from ._summary import format_summary
 
 REPORT_SCHEMA_VERSION = 1
@@ -117,6 +118,23 @@ class ValidationReport:
         """The findings that say the model should change."""
         return [f for f in self.findings if f.severity == "deficiency"]
 
+    @property
+    def deciding(self) -> list[Ranked]:
+        """The deficiencies ranked by the share of the residual each explains, strongest first
+        (whiteness only when it is all there is; docs/conventions.md §5.10)."""
+        return deciding(self.findings, self.per_joint["r2"])
+
+    @property
+    def first_step(self) -> str:
+        """The action of the strongest deciding finding; ``""`` without a deficiency."""
+        ranked = self.deciding
+        return ranked[0].finding.action if ranked else ""
+
+    @property
+    def first_reason(self) -> str:
+        """Why the first step is first: its share of the residual against the other deciding findings'."""
+        return first_reason(self.deciding, self.provenance.get("joint_names"))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary: nested lists, non-finite numbers as strings.
 
@@ -142,6 +160,9 @@ class ValidationReport:
         """
         out = {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name != "findings"}
         out["findings"] = [f.to_dict() for f in self.findings]
+        names = self.provenance.get("joint_names")
+        out["deciding"] = to_jsonable([r.to_dict(names) for r in self.deciding])
+        out["first_step"], out["first_reason"] = self.first_step, self.first_reason
         return out
 
     def to_json(self, *, indent: int | None = 2) -> str:
@@ -243,6 +264,7 @@ class Sections:
     white: dict[str, Any] | None = None
     spec: dict[str, Any] | None = None
     spec_tests: Any = None  # every bin's peak test (dynval.statistics._stats.residual_spectrum), for the findings
+    spec_sides: Any = None  # the measured torque's and the prediction's power on the spectrum's grid
     cross: dict[str, Any] | None = None
     xrho: Any = None
     xsd: Any = None
@@ -364,7 +386,8 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
                       xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
                       design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
                       predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested, model_kinds=b.model_kinds)
+                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested, model_kinds=b.model_kinds,
+                      spec_sides=b.spec_sides)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross

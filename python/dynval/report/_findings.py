@@ -35,12 +35,16 @@ KINDS = {
     "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
     "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
+    "prediction_artefact": "a narrow spectral peak in the residual that the prediction holds more of than the "
+                           "measured torque: the model makes the line (e.g. sign(q̇) chattering at standstill)",
     "whiteness": "the residual is not white (Ljung–Box); a deficiency only together with evidence above",
     "sampling_colour": "the residual's colour lies above the band the motion occupies: it is the sensor, "
                        "its filters and the sampling rate, not the model",
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
-    "delay": "the measured torque lags (or leads) the prediction: realigning removes a practical share of the error",
+    "delay": "the measured torque lags (or leads) the prediction: reported whenever significant, with the phase lag "
+             "at the information band's edge; a deficiency when realigning removes a practical share of the error "
+             "or the phase lag matters for control",
     "periodic_error": "a periodic trajectory: what every period of the residual shares exceeds the noise the "
                       "period-to-period variation measures (no whiteness assumed)",
     "predictive_failure": "the validation error exceeds what the estimation run's noise and parameter "
@@ -85,6 +89,10 @@ class Thresholds:
         explains a twentieth of the error is worth modelling; less is left to the noise.
     delay : float
         Share of a joint's mean square that realigning measured and predicted torque removes (0.05).
+    delay_phase : float
+        Phase lag (degrees) a delay makes at the information band's edge from which it matters for
+        control (10°): it misplaces 2 sin(5°) ≈ 17 % of the torque's amplitude at that frequency
+        and takes a sixth to a third of a torque loop's usual 30–60° phase margin.
     predictive_ratio : float
         Validation mean square over what the estimation run's noise and Cov(π̂) allow (2.0).
     periodic_error : float
@@ -118,6 +126,7 @@ class Thresholds:
     oscillation: float = 0.05
     missing_physics: float = 0.05
     delay: float = 0.05
+    delay_phase: float = 10.0
     predictive_ratio: float = 2.0
     periodic_error: float = 0.05
     joint_motion: float = 0.1
@@ -246,6 +255,8 @@ class Evidence:
     spectrum_ratio: np.ndarray | None = None
     spectrum_share: np.ndarray | None = None  # (F, m): variance share of a peak centred there
     spectrum_is_peak: np.ndarray | None = None  # (F, m) bool: local maxima
+    spectrum_power_measured: np.ndarray | None = None  # (F, m): the measured torque's power, same grid
+    spectrum_power_prediction: np.ndarray | None = None  # (F, m): the prediction's power, same grid
     frequency_unit: str = "cycles/sample"
     # cross-correlation of the residual with regressor columns, colour-aware
     xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
@@ -623,6 +634,10 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
         big = bool(share[b, j] >= th.oscillation)
         if big:
             r.deficient.add(j)
+        sides = _line_sides(ev, b, j)
+        if sides is not None and sides[1] > sides[0]:
+            out.append(_prediction_artefact(r, j, b, f, sides, p, padj, big))
+            continue
         out.append(_worded(
             w.oscillation(r.name(j), f, unit, float(share[b, j]), float(ev.spectrum_ratio[b, j]),
                           float(padj[b, j]), big),
@@ -631,6 +646,36 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
             effect=float(share[b, j]), effect_unit=w.UNITS["oscillation"], threshold=th.oscillation,
             details={"frequency": f, "frequency_unit": unit, "n_peaks": int(sig.size)}))
     return out
+
+
+def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float] | None:
+    """The measured torque's and the prediction's power in the line at bin ``b`` of joint ``j`` (the
+    five bins a Hann-windowed line spreads over, times the bin width): squared torque units."""
+    pm, pp = ev.spectrum_power_measured, ev.spectrum_power_prediction
+    if pm is None or pp is None:
+        return None
+    freq = np.asarray(ev.spectrum_frequency, dtype=float)
+    df = float(freq[1] - freq[0]) if freq.size > 1 else 1.0
+    lo, hi = max(b - 2, 0), b + 3
+    return float(np.sum(pm[lo:hi, j]) * df), float(np.sum(pp[lo:hi, j]) * df)
+
+
+def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float, float], p, padj,
+                         big: bool) -> Finding:
+    """A residual line the prediction holds more of than the measured torque: the model makes it
+    (a friction model's sign(q̇) chattering at standstill), not a mode the robot has."""
+    ev, th = r.ev, r.th
+    share = float(ev.spectrum_share[b, j])
+    ratio = float(ev.spectrum_ratio[b, j])
+    measured, predicted = sides
+    return _worded(
+        w.prediction_artefact(r.name(j), f, ev.frequency_unit, share, ratio, float(padj[b, j]), big, predicted,
+                              measured),
+        kind="prediction_artefact", severity="deficiency" if big else "note", joints=(j,), statistic=ratio,
+        pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]), effect=share,
+        effect_unit=w.UNITS["prediction_artefact"], threshold=th.oscillation,
+        details={"frequency": f, "frequency_unit": ev.frequency_unit, "line_power_prediction": predicted,
+                 "line_power_measured": measured})
 
 
 def _motion_rule(r: _Rules) -> list[Finding]:
@@ -855,25 +900,55 @@ def _delay_explains(ev: Evidence, j: int) -> bool:
     return bool(share >= (lib if lib == lib else 0.0))
 
 
+def _phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:
+    """The phase lag (degrees) a shift of ``shift`` samples makes at the information band's edge,
+    and that edge in cycles per sample; (None, None) without an information band."""
+    band = ev.information_band
+    if band is None or not math.isfinite(float(band)) or band <= 0:
+        return None, None
+    per_sample = float(band) / float(ev.sample_rate) if ev.frequency_unit == "Hz" and ev.sample_rate else float(band)
+    return 360.0 * per_sample * abs(shift), per_sample
+
+
 def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    """One finding for a common delay: joints whose test rejects and whose realignment removes at
-    least the threshold's share of the mean square."""
+    """One finding for a common delay, whenever its test rejects on some joint (conventions §5.2):
+    a deficiency on the joints whose shift explains at least what the physical terms do there and
+    whose realignment removes the ``delay`` share, or the ``missing_term`` share with a phase lag at
+    the information band's edge of at least ``delay_phase`` degrees; a note otherwise (a small lag,
+    or a missing term that explains more of the joint's error than the shift: a missing viscous
+    term looks like a delay)."""
     p, padj = pvalues
     dl = ev.physics["delay"]
     share = np.asarray(dl["share"], dtype=float)
-    joints = [j for j in range(share.size) if padj[j] <= alpha and share[j] >= th.delay and _delay_explains(ev, j)]
-    if not joints:
-        return [], set()
-    fs = ev.sample_rate
     d = float(dl["shift_samples"])
+    # a joint whose error realigning does not reduce holds no evidence of the delay
+    significant = [j for j in range(share.size) if padj[j] <= alpha and share[j] > 0]
+    if not significant or d == 0.0:
+        return [], set()
+    phase, edge = _phase_lag(ev, d)
+    lag_matters = phase is not None and phase >= th.delay_phase
+    explains = [j for j in significant if _delay_explains(ev, j)]
+    # the phase decides where realigning moves at least the share a missing term is worth: below
+    # it the lag is not resolved by the data, and the band's edge may be the prediction's own steps
+    big = [j for j in explains if share[j] >= th.delay or (lag_matters and share[j] >= th.missing_term)]
+    joints = big or significant
+    fs = ev.sample_rate
     j0 = max(joints, key=lambda j: share[j])
     shares = [(w.joint_name(ev.joint_names, j), float(share[j])) for j in joints]
+    masked = [] if big else [(w.joint_name(ev.joint_names, j), float(share[j]), float(ev.physics["tests"][j]["share"]))
+                             for j in significant if j not in explains]
+    band = None if edge is None else (edge * fs if fs else edge)
     return [_worded(
-        w.delay(d, fs, shares, float(padj[j0])),
-        kind="delay", severity="deficiency", joints=tuple(joints), statistic=d, pvalue=float(p[j0]),
-        pvalue_adjusted=float(padj[j0]), effect=float(share[j0]), effect_unit=w.UNITS["delay"], threshold=th.delay,
-        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share]})], \
-        set(joints)
+        w.delay(d, fs, shares, float(padj[j0]), phase=phase, band=band, phase_threshold=th.delay_phase,
+                big=bool(big), masked=masked),
+        kind="delay", severity="deficiency" if big else "note", joints=tuple(joints), statistic=d,
+        pvalue=float(p[j0]), pvalue_adjusted=float(padj[j0]),
+        effect=float(share[j0]) if phase is None else float(phase),
+        effect_unit=w.UNITS["delay"] if phase is None else w.UNITS["delay_phase"],
+        threshold=th.delay if phase is None else th.delay_phase,
+        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share],
+                 "phase_deg": phase, "band_edge": band, "band_unit": "Hz" if fs else "cycles/sample",
+                 "significant": significant, "explains": explains})], set(big)
 
 
 def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:

@@ -378,6 +378,7 @@ def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
         b.white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, b.lb, o.decimate, o.sample_rate, band=lags.band,
                                 bandwidth=o.bandwidth, lag=lags.white_lag)
     b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams, memo=d.memo)
+    b.spec_sides = sec.spectrum_sides(d.meas, d.pred, lags.starts, o.sample_rate, b.spec)
 
 
 def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:

@@ -335,6 +335,15 @@ def spectrum_section(spec, sample_rate, regressor_removed: bool) -> dict:
             "peaks": top}
 
 
+def spectrum_sides(meas, pred, starts, sample_rate, spec: dict | None) -> tuple[Any, Any] | None:
+    """The measured torque's and the prediction's Welch power on the residual spectrum's grid
+    (conventions §5.2, ``prediction_artefact``): a line of the residual that the prediction holds and
+    the measurement does not is the model's own. None without a spectrum."""
+    if spec is None or meas is None or pred is None or len(spec["frequency"]) == 0:
+        return None
+    return _stats.welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec["nperseg"]))
+
+
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
 # (benchmarks/README.md: 0.75 s against 2.7 s for 490 columns of 200,000 rows at 50 lags, about
 # 12 ms more per lag, while the FFT's cost hardly depends on the lags).
@@ -515,7 +524,7 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
 def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
              xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
              predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None, criteria=None,
-             untested=0, model_kinds=None) -> Evidence:
+             untested=0, model_kinds=None, spec_sides=None) -> Evidence:
     """Collect what the findings' rules read (``untested``: tests the entry point left out, which
     count in Holm's family, docs/conventions.md §5)."""
     ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
@@ -544,6 +553,8 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.spectrum_pvalue, ev.spectrum_ratio = spec_tests.pvalue, spec_tests.ratio
         ev.spectrum_share, ev.spectrum_is_peak = spec_tests.share, spec_tests.is_peak
         ev.frequency_unit = spec["frequency_unit"]
+        if spec_sides is not None and spec_sides[0].shape == spec["power"].shape:
+            ev.spectrum_power_measured, ev.spectrum_power_prediction = spec_sides
     if xcorr_rho is not None:
         ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
     if design is not None:

@@ -10,6 +10,7 @@ import math
 from collections.abc import Sequence
 
 from ..checks._typing import ReportSections
+from ._ranking import Ranked, deciding, first_reason, share_text, torque_text
 from ._text import counted, pvalue_text
 
 
@@ -35,7 +36,27 @@ def format_summary(report: ReportSections) -> str:
     lines += [""] + _analysis_lines(report, names)
     lines += ["", f"Findings (family-wise error rate α = {alpha:g} over every test of the report, Holm):"]
     lines += format_findings(report.findings, prov.get("not_tested"))
+    lines += format_deciding(deciding(report.findings, report.per_joint["r2"]), _joint_names(prov))
     return "\n".join(lines)
+
+
+def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> list:
+    """The deficiencies strongest first, each with the share of the residual it explains, and the
+    first step with why it is first (nothing without a deficiency)."""
+    if not ranked:
+        return []
+    lines = ["", "Deciding findings, strongest first (share of the joint's residual mean square each explains, and "
+             "of its measured torque's variance, which ranks them; the number of findings is not the measure):"]
+    for i, r in enumerate(ranked, 1):
+        f = r.finding
+        where = ", ".join(str(names[j]) if names and j < len(names) else f"joint {j + 1}" for j in f.joints)
+        basis = "" if r.share is None else (" carried from the estimation run" if r.basis == "held_out"
+                                            else " on the validation run")
+        torque = "" if r.torque_share is None else f" ({torque_text(r.torque_share)} the torque's variance)"
+        lines.append(f"  {i}. {f.kind}{' on ' + where if where else ''}: {share_text(r.share)}{basis}{torque}")
+    lines.append(f"Do first: {ranked[0].finding.action}")
+    lines.append(f"  ({first_reason(ranked, names)})")
+    return lines
 
 
 def _joint_names(prov) -> list:
@@ -258,7 +279,7 @@ def format_comparison(cmp) -> str:
     extra = [] if crit in ("aic", "bic", "aicc") else [crit]
     head = (f"  {'rank':>4} {'model':<{w}} {'p':>4} {'RMSE':>10} {'VAF' + unit:>8} {'R²':>8} {'AIC':>12} {'ΔAIC':>9} "
             f"{'BIC':>12} {'ΔBIC':>9}" + "".join(f" {'Δ' + c:>12}" for c in extra)
-            + f" {'weight':>7} {'whiteness':>10} {'bias':>10} {'deficient':>9}")
+            + f" {'weight':>7} {'whiteness':>10} {'bias':>10} {'deficient (strongest share)'}")
     lines.append(head)
     for i, n in enumerate(cmp.ranking):
         row = cmp.table["pooled"][n]
@@ -268,7 +289,7 @@ def format_comparison(cmp) -> str:
             f"{_num(row['bic'], '.1f'):>12} {_num(row['delta_bic'], '.1f'):>9}"
             + "".join(f" {_num(row['delta_' + c], '.1f'):>12}" for c in extra)
             + f" {_num(row['akaike_weight'], '.3f'):>7} {row['whiteness']:>10} {row['bias']:>10} "
-            f"{row['n_deficiencies']:>9}")
+            f"{_deficient_cell(row):>9}")
     lines += _format_candidate_reasons(cmp)
     lines += ["", "Per joint (RMSE / R²):"]
     jw = max(len(x) for x in names)
@@ -288,16 +309,30 @@ def format_comparison(cmp) -> str:
     return "\n".join(lines)
 
 
+def _deficient_cell(row) -> str:
+    """The decision table's deficiency cell: the count, and the share of the residual the strongest
+    leading deficiency explains (the count alone reads backwards: a weak model has few large
+    findings, a good one many small ones)."""
+    d = row["n_deficiencies"]
+    top = row.get("strongest_share")
+    return f"{d}" if not d or top is None else f"{d} ({share_text(top)})"
+
+
 def _format_candidate_reasons(cmp) -> list:
     """The "Reasons per candidate" block: every candidate in ranking order with its reasons."""
     reasons = getattr(cmp, "reasons", None) or {}
     if not reasons:
         return []
-    lines = ["", "Reasons per candidate (ranking order; one per deficiency or design finding):"]
+    lines = ["", "Reasons per candidate (ranking order; one per deficiency or design finding, deficiencies strongest "
+             "first):"]
     for i, n in enumerate(cmp.ranking):
         row = cmp.table["pooled"].get(n, {})
         d = row.get("n_deficiencies", 0)
-        lines.append(f"  {i + 1}. {n}" + (f" — {d} deficienc{'y' if d == 1 else 'ies'}" if d else ""))
+        shared, top = row.get("n_shared", 0), row.get("strongest_share")
+        lines.append(f"  {i + 1}. {n}" + (f" — {d} deficienc{'y' if d == 1 else 'ies'}" if d else "")
+                     + (f" ({shared} shared by all candidates)" if d and shared else "")
+                     + (f"; the strongest explains {share_text(top)} of a joint's residual" if d and top is not None
+                        else ""))
         lines += [f"       - {r}" for r in reasons.get(n, ())]
     return lines
 
@@ -322,6 +357,9 @@ def format_verdict(verdict, criterion=None, shown: Sequence[str] = ()) -> list:
     first = getattr(verdict, "first_step", "")
     if first:
         lines.append(f"  do first: {first}")
+        why = getattr(verdict, "first_reason", "")
+        if why:
+            lines.append(f"    ({why})")
     said = tuple(shown)
     repeated = [r for r in verdict.reasons if any(r.startswith(text) for text in said)]
     lines += [f"  - {r}" for r in verdict.reasons if r not in repeated]

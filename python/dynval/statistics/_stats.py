@@ -577,6 +577,26 @@ def _welch(x, starts, fs, nperseg):
     return freq, (None if total is None else total / windows), windows
 
 
+def welch_pair(a, b, starts, *, sample_rate=None, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch power (F, m) of two series of the same shape on the residual spectrum's grid (the same
+    segments, window and ``nperseg``): the measured torque and the prediction, whose powers at a
+    residual's line say which of them carries it. Each joint of both is scaled by one power of two
+    (exact; their ratio does not see it) and scaled back (IEEE where it leaves float64)."""
+    x = np.asarray(a, dtype=np.float64).reshape(len(a), -1)
+    y = np.asarray(b, dtype=np.float64).reshape(len(b), -1)
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    largest = np.fmax(np.max(np.abs(x), axis=0), np.max(np.abs(y), axis=0)) if x.shape[0] else np.zeros(x.shape[1])
+    exps = np.where(np.isfinite(largest) & (largest > 0), np.frexp(largest)[1], 0).astype(np.int64)
+    k = _rate_exponent(fs)
+    _, px, _ = _welch(np.ldexp(x, -exps), starts, math.ldexp(fs, -k), nperseg)
+    _, py, _ = _welch(np.ldexp(y, -exps), starts, math.ldexp(fs, -k), nperseg)
+    if px is None or py is None:
+        empty = np.zeros((0, x.shape[1]))
+        return empty, empty
+    with np.errstate(over="ignore", under="ignore"):
+        return np.ldexp(px, 2 * exps - k), np.ldexp(py, 2 * exps - k)
+
+
 def _default_nperseg(starts, n, nperseg):
     lengths = np.diff(list(np.asarray(starts, dtype=np.int64)) + [n])
     if nperseg is None:

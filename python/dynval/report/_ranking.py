@@ -1,0 +1,266 @@
+"""The deciding findings ranked by effect: what to do first is the strongest evidence, not the
+first rule that ran (docs/conventions.md §5.10, contract §4).
+
+Every deficiency is put on one scale, the **share of the joint's residual mean square it
+explains** (``explained_share``), taken on held-out data where the finding has such a share (a
+term refitted on the estimation run and carried to the validation run) and on the validation run
+otherwise. A finding that names no cause (worse than a constant, a bias no missing column
+accounts for, an error every period shares, a predictive failure) ranks after the findings that
+do on its joint; on a joint whose residual carries the prediction's own line
+(``prediction_artefact``) the other findings follow that one, since they may read the line;
+whiteness only follows from another deficiency on its joint and comes last; a finding without a
+share on this scale keeps its rule order after those with one. The count of findings is not a
+measure: a weak model has few large findings, a good one many small ones.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ._findings import Finding
+from ._text import number_text
+
+__all__ = ["Ranked", "explained_share", "rank", "deciding", "first_reason", "share_text", "torque_text"]
+
+HELD_OUT = "held_out"
+VALIDATION = "validation"
+
+
+@dataclass(frozen=True)
+class Ranked:
+    """A deciding finding with its place on the common scale.
+
+    ``share``: the share of ``joint``'s residual mean square the finding explains (None when the
+    kind has no such share); ``basis``: ``"held_out"`` (carried from the estimation run to the
+    validation run) or ``"validation"`` (measured or fitted on the validation run)."""
+
+    finding: Finding
+    share: float | None
+    basis: str
+    joint: int | None
+    leads: bool = True  # names a cause, or stands on a joint where nothing does
+    torque_share: float | None = None  # share × (1 − R²) of the joint: of its measured torque's variance
+
+    def to_dict(self, joint_names: Sequence[str] | None = None) -> dict[str, Any]:
+        f = self.finding
+        return {"kind": f.kind, "severity": f.severity, "joints": list(f.joints), "columns": list(f.columns),
+                "joint": self.joint, "joint_name": _name(joint_names, self.joint), "share": self.share,
+                "share_basis": self.basis if self.share is not None else None, "torque_share": self.torque_share,
+                "leads": self.leads,
+                "action": f.action}
+
+
+def _name(names: Sequence[str] | None, j: int | None) -> str | None:
+    if j is None:
+        return None
+    return str(names[j]) if names and 0 <= j < len(names) else f"joint {j + 1}"
+
+
+def _finite(x: Any) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _joint(f: Finding) -> int | None:
+    return int(f.joints[0]) if f.joints else None
+
+
+def explained_share(f: Finding) -> tuple[float | None, str, int | None]:
+    """The share of a joint's residual mean square that finding ``f`` explains, its basis and the joint.
+
+    Per kind (conventions §5.10): ``worse_than_constant`` −R²/(1 − R²) (what predicting the mean torque
+    would remove); ``bias`` (|ē|/RMSE)² (what removing the mean would); a missing column refitted in
+    its share (held out with the estimation refit); a correlation ρ² (what the column explains
+    linearly); ``oscillation``, ``prediction_artefact`` and ``periodic_error`` their share of the
+    residual variance; ``missing_physics`` the named term's share (``details["held_out_share"]``,
+    carried from the estimation run, when the rule gives one); ``delay`` the share realigning
+    removes on its strongest joint; ``predictive_failure`` 1 − 1/ratio (the part of the validation
+    mean square beyond what the estimation run allows: held out by construction); a
+    ``physical_consistency`` finding whose effect is a share of the residual, that share. Others None.
+    """
+    share, basis, j = _raw_share(f)
+    return (None if share is None else min(max(share, 0.0), 1.0)), basis, j
+
+
+def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
+    d = f.details or {}
+    j = _joint(f)
+    held = _finite(d.get("held_out_share"))
+    if held is not None:
+        return max(held, 0.0), HELD_OUT, j
+    effect = _finite(f.effect)
+    unit = f.effect_unit or ""
+    if f.kind == "worse_than_constant":
+        r2 = _finite(f.statistic)
+        return (None if r2 is None else -r2 / (1.0 - r2)), VALIDATION, j
+    if f.kind == "bias":
+        return (None if effect is None else effect * effect), VALIDATION, j
+    if f.kind == "regressor_correlation":
+        if effect is None:
+            return None, VALIDATION, j
+        if d.get("added_variable"):
+            return effect, HELD_OUT if d.get("method") == "estimation_refit" else VALIDATION, j
+        return effect * effect, VALIDATION, j
+    if f.kind in ("oscillation", "prediction_artefact", "periodic_error"):
+        return effect, VALIDATION, j
+    if f.kind == "missing_physics":
+        return _finite(d.get("term_share", f.effect)), VALIDATION, j
+    if f.kind == "delay":
+        shares = [_finite(x) for x in d.get("share") or ()]
+        own = [(s, jj) for jj, s in enumerate(shares) if s is not None and jj in f.joints]
+        if not own:
+            return None, VALIDATION, j
+        s, jj = max(own)
+        return s, VALIDATION, jj
+    if f.kind == "predictive_failure":
+        return (None if effect is None or effect <= 0 else max(1.0 - 1.0 / effect, 0.0)), HELD_OUT, j
+    if f.kind == "physical_consistency" and "share" in unit:
+        return effect, HELD_OUT, j
+    return None, VALIDATION, j
+
+
+_UMBRELLA = ("worse_than_constant", "periodic_error", "predictive_failure")
+"""Kinds that say a joint's error has structure without naming what makes it: on a joint where
+another finding names a term, a shift or a line, that finding is the step to take."""
+
+
+def _names_cause(f: Finding) -> bool:
+    """The finding's action names what to change (a term, a column, a shift, a line)."""
+    if f.kind == "bias":
+        return bool(f.columns)
+    return f.kind not in _UMBRELLA and f.kind != "whiteness"
+
+
+def _missing_column(f: Finding) -> int | None:
+    """The column a finding names as missing (a refit or added variable, or the bias it accounts
+    for); None for any other finding."""
+    added = f.kind == "regressor_correlation" and bool((f.details or {}).get("added_variable"))
+    if f.columns and (f.kind == "bias" or added):
+        return int(f.columns[0])
+    return None
+
+
+def _torque_share(share: float | None, joint: int | None, r2: Sequence[float] | None) -> float | None:
+    """The share of joint ``joint``'s measured-torque variance the finding explains: its share of
+    the residual times the residual's share of the torque, 1 − R² (None without R²)."""
+    if share is None or joint is None or r2 is None or not 0 <= joint < len(r2):
+        return None
+    rest = 1.0 - float(r2[joint])
+    return share * rest if math.isfinite(rest) and rest > 0 else None
+
+
+def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
+    """``findings`` ranked by effect, largest first, in three groups: the findings that lead (those
+    that name a cause, and those that do not on a joint where nothing does), then the findings that
+    do not name a cause on a joint where another does (its cause is the step to take), then
+    whiteness (it only follows from the others). The effect is the share of the joint's residual
+    the finding explains times 1 − R² of the joint (``r2``, per joint): the share of its measured
+    torque's variance, which compares joints whose residuals differ in size (70 % of a large error
+    before 90 % of a small one); the share alone without ``r2``. The findings of one missing column
+    (on every joint its refit helps, and the biases it accounts for) rank by their summed effect.
+    Within a group a finding without a share comes after those with one; ties keep the given (rule)
+    order."""
+    named = {j for f in findings if _names_cause(f) for j in f.joints}
+    # a joint whose residual carries the prediction's own line: the other findings there may read
+    # that line (a chattering sign(q̇) looks like a friction term the model lacks)
+    artefact = {j for f in findings if f.kind == "prediction_artefact" for j in f.joints}
+
+    def group(f: Finding) -> int:
+        if f.kind == "whiteness":
+            return 2
+        if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
+            return 1
+        if _names_cause(f) or not f.joints or not set(f.joints) <= named:
+            return 0
+        return 1
+
+    ranked = []
+    for f in findings:
+        share, basis, joint = explained_share(f)
+        ranked.append(Ranked(f, share, basis, joint, leads=group(f) == 0,
+                             torque_share=_torque_share(share, joint, r2)))
+    with_r2 = r2 is not None and all(r.torque_share is not None for r in ranked if r.share is not None)
+
+    def effect(r: Ranked) -> float | None:
+        return r.torque_share if with_r2 else r.share
+
+    # One missing column is one step however many joints it helps: its findings (the refit on each
+    # joint, the bias it accounts for) rank by their sum, the strongest of them first.
+    cause: dict[int, float] = {}
+    for r in ranked:
+        c = _missing_column(r.finding)
+        e = effect(r)
+        if c is not None and e is not None:
+            cause[c] = cause.get(c, 0.0) + e
+
+    def key(item: tuple[int, Ranked]) -> tuple[int, int, float, float, int]:
+        i, r = item
+        g = group(r.finding)
+        own = effect(r)
+        if own is None:
+            return (g, 1, 0.0, 0.0, i)
+        c = _missing_column(r.finding)
+        return (g, 0, -(cause[c] if c is not None else own), -own, i)
+
+    return [r for _, r in sorted(enumerate(ranked), key=key)]
+
+
+def deciding(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
+    """The deficiencies of a report, ranked (whiteness only when it is all there is); ``r2`` the
+    report's per-joint R² (see :func:`rank`)."""
+    deficient = [f for f in findings if f.severity == "deficiency"]
+    primary = [f for f in deficient if f.kind != "whiteness"] or deficient
+    return rank(primary, r2)
+
+
+def share_text(share: float | None) -> str:
+    """A share as a person reads it: ``62 %``, ``0.4 %``, ``n/a``."""
+    if share is None:
+        return "n/a"
+    pct = 100.0 * share
+    return f"{number_text(pct, '.2g' if pct < 10 else '.0f')} %"
+
+
+def torque_text(x: float) -> str:
+    """A share of the measured torque's variance: ``3.5 %`` of it, or ``6.5×`` it once the error
+    exceeds the torque (a joint worse than a constant)."""
+    return share_text(x) + " of" if x < 1.0 else f"{number_text(x, '.2g')}×"
+
+
+def _basis_text(r: Ranked) -> str:
+    return "carried from the estimation run" if r.basis == HELD_OUT else "on the validation run"
+
+
+def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = None) -> str:
+    """Why the first deciding finding is first: its share against the other leading findings'."""
+    if not ranked:
+        return ""
+    top = ranked[0]
+    leading = [r for r in ranked if r.leads]
+    n, rest = len(leading), len(ranked) - len(leading)
+    behind = (f"; {rest} more follow{'s' if rest == 1 else ''} on joints where a leading finding stands (structure "
+              "without a named cause, or findings that may read the prediction's own line)" if rest else "")
+    if top.share is None:
+        return (f"first in rule order: none of the {n} leading findings explains a share of the residual that can "
+                "be compared" if n > 1 else "the only leading finding") + behind
+    where = _name(joint_names, top.joint)
+    text = (f"first because it explains {share_text(top.share)} of the residual's mean square"
+            + (f" on {where}" if where else "") + f" ({_basis_text(top)}"
+            + (f"; {torque_text(top.torque_share)} the measured torque's variance there" if top.torque_share
+               is not None else "") + ")")
+    if n == 1:
+        return text + ", the only deciding finding that names a cause" + behind if rest else \
+            text + ", the only deciding finding"
+    by_torque = top.torque_share is not None
+    second = next(((r.torque_share if by_torque else r.share) for r in leading[1:]
+                   if (r.torque_share if by_torque else r.share) is not None), None)
+    return (text + f", the largest of {n} deciding findings" + (" that name a cause" if rest else "")
+            + (" by the share of the torque they explain" if by_torque else "")
+            + (f" (next: {torque_text(second).removesuffix(' of') if by_torque else share_text(second)})"
+               if second is not None else "") + behind)

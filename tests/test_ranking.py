@@ -1,0 +1,199 @@
+"""The first step is the strongest evidence (conventions §5.10), and compare marks what every
+candidate shares (conventions §6).
+
+Each test names the mutation it kills."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import dynval
+from dynval.comparison._compare import _verdict
+from dynval.report._findings import Finding
+from dynval.report._ranking import deciding, explained_share, first_reason, rank
+from dynval.report._summary import format_deciding
+
+NAMES = ["j1", "j2"]
+
+# In rule order: a bias (|mean| = 0.3 RMSE: 9 % of the mean square), a missing column refitted on
+# the estimation run (12 %), a missing physical term (its own share 62 %), whiteness.
+BIAS = Finding(kind="bias", severity="deficiency", joints=(0,), effect=0.3, threshold=0.25,
+               action="add a torque offset on j1", message="j1: residual mean.")
+REFIT = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(3,), effect=0.12,
+                threshold=0.01, action="add Fc2", message="j2: a term the model lacks: Fc2.",
+                details={"added_variable": True, "method": "estimation_refit"})
+PHYSICS = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.9, threshold=0.05,
+                  action="add viscous friction on j2", message="j2: the residual follows the motion.",
+                  details={"term": "viscous", "term_share": 0.62})
+WHITE = Finding(kind="whiteness", severity="deficiency", joints=(1,), action="see above",
+                message="j2: not white.")
+PERIODIC = Finding(kind="periodic_error", severity="deficiency", joints=(1,), effect=0.8, threshold=0.05,
+                   action="see the physics findings", message="j2: every period shares 80 %.")
+
+
+def test_each_kind_has_its_documented_share():
+    """Kills: a share per kind other than conventions §5.10 says (ρ instead of ρ², |ē|/RMSE instead
+    of its square, the library's share instead of the named term's, the wrong basis)."""
+    assert explained_share(BIAS) == (pytest.approx(0.09), "validation", 0)
+    assert explained_share(REFIT) == (0.12, "held_out", 1)
+    assert explained_share(PHYSICS) == (0.62, "validation", 1)
+    rho = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.5)
+    assert explained_share(rho)[0] == pytest.approx(0.25)
+    worse = Finding(kind="worse_than_constant", severity="deficiency", joints=(0,), statistic=-1.0, effect=1.0)
+    assert explained_share(worse)[0] == pytest.approx(0.5)  # the mean torque leaves half the error
+    chow = Finding(kind="predictive_failure", severity="deficiency", joints=(0,), statistic=4.0, effect=4.0)
+    assert explained_share(chow) == (pytest.approx(0.75), "held_out", 0)
+    delay = Finding(kind="delay", severity="deficiency", joints=(0, 1), effect=30.0,
+                    details={"share": [0.02, 0.07]})
+    assert explained_share(delay) == (0.07, "validation", 1)
+    carried = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.5,
+                      details={"term_share": 0.4, "held_out_share": 0.3})
+    assert explained_share(carried) == (0.3, "held_out", 0)
+    assert explained_share(WHITE)[0] is None
+
+
+def test_the_strongest_deciding_finding_is_first_not_the_first_rule():
+    """Kills: the first step taken from rule order (the bias here), whiteness ranked by its |ρ̂|, a
+    structure-only finding (every period shares 80 %) ranked before the term that names its cause."""
+    ranked = deciding([BIAS, REFIT, PERIODIC, PHYSICS, WHITE])
+    assert [r.finding.kind for r in ranked] == ["missing_physics", "regressor_correlation", "bias",
+                                                "periodic_error"]
+    assert [r.leads for r in ranked] == [True, True, True, False]
+    why = first_reason(ranked, NAMES)
+    assert why.startswith("first because it explains 62 % of the residual's mean square on j2 (on the validation run)")
+    assert "the largest of 3 deciding findings that name a cause (next: 12 %)" in why
+    # whiteness is ranked (last) only when it is all there is
+    assert [r.finding.kind for r in rank([WHITE, BIAS])] == ["bias", "whiteness"]
+    assert [r.finding.kind for r in deciding([WHITE])] == ["whiteness"]
+    # a structure-only finding on a joint where nothing names a cause leads by its share
+    alone = Finding(kind="periodic_error", severity="deficiency", joints=(0,), effect=0.5)
+    assert [r.finding.kind for r in deciding([REFIT, alone])] == ["periodic_error", "regressor_correlation"]
+
+
+def test_validate_summary_and_json_give_the_ranked_list_and_why_first():
+    """Kills: a report whose summary or JSON lacks the ranked list, or whose first step is the first
+    rule's. A real report: joint 1 a small offset, joint 2 a large missing viscous term."""
+    rng = np.random.default_rng(3)
+    t = np.arange(6000) / 100.0
+    q = np.c_[np.sin(2 * np.pi * 0.13 * t), np.sin(2 * np.pi * 0.11 * t + 1.0)]
+    dq = np.gradient(q, t, axis=0)
+    pred = np.c_[3.0 * q[:, 0], 2.0 * q[:, 1]]
+    tau = pred + np.c_[0.05 + 0.1 * rng.normal(size=t.size), 1.5 * dq[:, 1] + 0.1 * rng.normal(size=t.size)]
+    r = dynval.validate(tau, pred, n_params=2, sample_rate=100.0, q=q, joint_names=NAMES)
+    d = json.loads(r.to_json())
+    assert d["deciding"] and d["first_step"] == r.first_step == r.deciding[0].finding.action
+    shares = [x["share"] for x in d["deciding"] if x["leads"] and x["share"] is not None]
+    assert shares == sorted(shares, reverse=True) and d["deciding"][0]["joint_name"] == "j2"
+    text = r.summary()
+    block = text.split("Deciding findings, strongest first", 1)[1]
+    assert f"Do first: {r.first_step}" in block and r.first_reason in block
+    assert r.first_reason.startswith("first because it explains") and "on j2" in r.first_reason
+
+
+def test_the_summary_block_lists_every_deciding_finding_with_its_share():
+    """Kills: a block that drops the shares or the order."""
+    lines = format_deciding(deciding([BIAS, PHYSICS]), NAMES)
+    assert lines[2] == "  1. missing_physics on j2: 62 % on the validation run"
+    assert lines[3] == "  2. bias on j1: 9 % on the validation run"
+    assert lines[4] == "Do first: add viscous friction on j2"
+    assert format_deciding([], NAMES) == []
+
+
+def _report(*findings: Finding) -> SimpleNamespace:
+    prov = {"joint_names": NAMES, "column_names": ["a", "b", "c", "Fc2"], "conventions": {"level": 0.95}}
+    return SimpleNamespace(findings=list(findings), deficiencies=[f for f in findings if f.severity == "deficiency"],
+                           whiteness={"lag": 20}, provenance=prov)
+
+
+def _decide(reports: dict, crit: dict | None = None):
+    names = list(reports)
+    crit = crit or {n: float(k) for k, n in enumerate(names)}
+    ranking = sorted(names, key=lambda n: (len(reports[n].deficiencies) > 0, crit[n], n))
+    return _verdict(names, ranking, reports, "aic", crit)
+
+
+def test_compare_refines_with_the_strongest_deficiency_first():
+    """Kills: compare's first step and decided_by in rule order (the bias first)."""
+    _, v = _decide({"a": _report(BIAS, REFIT, PHYSICS, WHITE)})
+    assert v.decision == "refine"
+    assert [d.kind for d in v.decided_by] == ["missing_physics", "regressor_correlation", "bias"]
+    assert v.first_step == PHYSICS.action
+    assert v.decided_by[0].share == 0.62 and v.decided_by[1].share_basis == "held_out"
+    assert v.reasons[0].startswith(PHYSICS.message) and v.reasons[-1].startswith(WHITE.message)
+    assert v.first_reason.startswith("first because it explains 62 %")
+    assert "do first: add viscous friction on j2" in v.summary() and v.first_reason in v.summary()
+
+
+def test_findings_every_candidate_has_are_marked_shared():
+    """Kills: shared decided from the words (the two biases' messages differ), or marking a finding
+    shared when one candidate has that kind on another joint only."""
+    bias_b = Finding(kind="bias", severity="deficiency", joints=(0,), effect=0.5, threshold=0.25,
+                     action="add an offset", message="j1: a differently worded mean.")
+    other = Finding(kind="bias", severity="deficiency", joints=(1,), effect=0.5, threshold=0.25,
+                    action="add an offset", message="j2: residual mean.")
+    reports = {"good": _report(BIAS, REFIT), "weak": _report(bias_b)}
+    from dynval.comparison._compare import _matter
+    from dynval.comparison._reasons import candidate_reasons
+
+    matter = _matter(list(reports), reports)
+    assert [(f.kind, sh) for f, _, sh in matter["good"]] == [("regressor_correlation", False), ("bias", True)]
+    assert [(f.kind, sh) for f, _, sh in matter["weak"]] == [("bias", True)]
+    reasons = candidate_reasons(["good", "weak"], reports, "aic", {"good": 1.0, "weak": 2.0}, matter)
+    assert reasons["good"][1].endswith("— shared by all candidates")
+    assert not reasons["good"][0].endswith("shared by all candidates")
+    # the bias's reason carries the share it explains (9 %), which its effect (|ē|/RMSE) does not print
+    assert "explains 9 % of the joint's residual" in reasons["good"][1]
+    # on another joint it is not shared
+    matter = _matter(["good", "weak"], {"good": _report(BIAS), "weak": _report(other)})
+    assert [sh for _, _, sh in matter["good"]] == [False]
+    # a single candidate shares nothing with anyone
+    assert [sh for _, _, sh in _matter(["good"], {"good": _report(BIAS)})["good"]] == [False]
+    # the verdict's records carry the mark
+    _, v = _decide({"good": _report(BIAS, REFIT), "weak": _report(bias_b)}, {"good": 1.0, "weak": 2.0})
+    assert [(d.kind, d.shared) for d in v.decided_by] == [("regressor_correlation", False), ("bias", True)]
+    assert "shared by all candidates" in v.decided_by[1].label()
+
+
+def test_design_findings_are_said_once_by_their_record_not_their_words():
+    """Kills: the design findings of several candidates de-duplicated by message: the same repeat
+    worded twice differently is one reason, two different unexcited columns are two."""
+    a = Finding(kind="repeat_trajectory", severity="design", effect=0.9, action="validate elsewhere",
+                message="The validation run repeats the estimation run (0.9).")
+    b = Finding(kind="repeat_trajectory", severity="design", effect=0.8, action="validate elsewhere",
+                message="The validation run repeats the estimation run (0.8).")
+    _, v = _decide({"x": _report(a), "y": _report(b)})
+    assert v.decision == "redesign" and len(v.reasons) == 1
+    c1 = Finding(kind="excitation", severity="design", columns=(0,), action="excite a", message="never excites.")
+    c2 = Finding(kind="excitation", severity="design", columns=(1,), action="excite b", message="never excites.")
+    _, v = _decide({"x": _report(c1), "y": _report(c2)})
+    assert len(v.reasons) == 2
+
+
+def test_joints_are_compared_by_the_share_of_their_torque():
+    """70 % of a large error before 90 % of a small one: with the joints' R² the effect is the share
+    of each joint's measured-torque variance. Kills: ranking across joints by the share of each
+    joint's own residual (the elbow's tiny error first, the calibration's no_gravity rows)."""
+    shoulder = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.9,
+                       details={"term": "gravity", "term_share": 0.7}, action="add gravity on j1")
+    elbow = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.95,
+                    details={"term": "position_harmonic", "term_share": 0.9}, action="add a harmonic on j2")
+    assert [r.finding.joints for r in deciding([elbow, shoulder])] == [(1,), (0,)]  # shares alone
+    ranked = deciding([elbow, shoulder], r2=[0.95, 0.99])
+    assert [r.finding.joints for r in ranked] == [(0,), (1,)]
+    assert ranked[0].torque_share == pytest.approx(0.035) and ranked[1].torque_share == pytest.approx(0.009)
+    assert "3.5 % of the measured torque's variance there" in first_reason(ranked, NAMES)
+
+
+def test_one_missing_column_is_one_step_over_every_joint_it_helps():
+    """A column whose refit removes 50 % on each of two joints (1 % of each torque) outranks a term
+    that removes 90 % of one joint's residual (1.8 %). Kills: the column's findings ranked one by one."""
+    col = [Finding(kind="regressor_correlation", severity="deficiency", joints=(j,), columns=(3,), effect=0.5,
+                   details={"added_variable": True, "method": "estimation_refit"}, action="add Fc2") for j in (0, 1)]
+    other = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.9,
+                    details={"term": "offset", "term_share": 0.9}, action="add an offset on j2")
+    ranked = deciding([other, *col], r2=[0.98, 0.98])
+    assert [r.finding.kind for r in ranked] == ["regressor_correlation", "regressor_correlation", "missing_physics"]
