@@ -112,7 +112,8 @@ def test_findings_are_one_line_each_and_every_section_is_linked(browser, which, 
     assert got["open_findings"] == 0
     assert got["findings"] == sum(len(r.findings) for r in cmp.reports.values())
     anchors = [h[1:] for h in got["toc"]]
-    assert anchors[0] == "verdict" and "decision-table" in anchors and "provenance" in anchors
+    assert anchors[0] == "verdict" and any(a.startswith("decision-table") for a in anchors)
+    assert any(a.startswith("provenance") for a in anchors)
     assert set(anchors) <= set(got["ids"])
     assert sum(a.startswith("model-") for a in anchors) == len(cmp.reports)
 

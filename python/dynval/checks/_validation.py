@@ -66,6 +66,7 @@ def format_shape(shape) -> str:
 _LISTED_ITEMS = 8
 _LISTED_DEPTH = 3
 _SHOWN_CHARS = 80
+_SHOWN_STR = 1000  # a string is shown whole up to this: a file's path is what the reader must see
 _LISTED_CHARS = 400
 
 
@@ -76,8 +77,8 @@ def format_value(value) -> str:
     sees plain numbers, writes the same text (its bindings call this function). A data array is
     never written out: ``<float64 array of shape (1000000,)>``. A list, tuple, dict or 1-D numeric
     array of at most eight items is written item by item (``[500, 300]``); a longer, deeper (three
-    levels) or wordier (400 characters) one as ``<list of length 1000000>``; a long string is cut
-    (``'abc...' (a str of 5000 characters)``); any other object whose repr is long as
+    levels) or wordier (400 characters) one as ``<list of length 1000000>``; a string longer than 1000 characters
+    is cut (``'abc...' (a str of 5000 characters)``); any other object whose repr is long as
     ``<DataFrame of shape (3, 2)>`` if it has a shape, else as its repr cut (``1000...
     (401 characters)`` for 10**400).
 
@@ -104,7 +105,7 @@ def _shown(value, depth: int) -> str:
     if isinstance(value, (list, tuple, dict)):
         return _shown_container(value, depth)
     if isinstance(value, (str, bytes)):
-        if len(value) <= _SHOWN_CHARS:
+        if len(value) <= _SHOWN_STR:
             return repr(value)
         return f"{value[:_SHOWN_CHARS]!r}... (a {type(value).__name__} of {len(value)} characters)"
     text = repr(value)
