@@ -61,8 +61,8 @@ from typing import Any
 
 import numpy as np
 
-from .checks._errors import InvalidParameter, ShapeMismatch
-from .checks._validation import check_finite, parameter_error, promote_signal, to_float_array
+from .checks._errors import InvalidParameter
+from .checks._validation import motion_arrays, parameter_error
 
 __all__ = ["TERMS", "ATTRIBUTES", "MJCFModel", "Retune", "have_mujoco"]
 
@@ -141,21 +141,6 @@ def _branches(m: Any) -> list[str]:
             return [f"joints on several branches ('{m.body(prev).name}' and '{m.body(body).name}'; several trees "
                     "or a branching tree)"]
     return []
-
-
-def _motion_arrays(n: int, q: Any, dq: Any, ddq: Any) -> list[np.ndarray]:
-    """q, dq, ddq checked as (N, n) finite arrays of one shape."""
-    arrays = []
-    for name, x in (("q", q), ("dq", dq), ("ddq", ddq)):
-        a = promote_signal(to_float_array(x, name), name)
-        if a.shape[1] != n:
-            raise parameter_error(name, f"an array of shape (N, {n})", f"shape {a.shape}")
-        check_finite(a, name)
-        arrays.append(np.ascontiguousarray(a))
-    if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
-        raise ShapeMismatch(f"q, dq and ddq must have the same shape, got "
-                            f"{arrays[0].shape}, {arrays[1].shape} and {arrays[2].shape}")
-    return arrays
 
 
 @dataclass(frozen=True)
@@ -282,25 +267,25 @@ class MJCFModel:
 
     def predict(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """Joint torques ``(N, n)``: MuJoCo's ``mj_inverse`` (``qfrc_inverse``) of the model as written."""
-        q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
+        q, dq, ddq = motion_arrays(self.n_joints, q, dq, ddq)
         return self._inverse(q, dq, ddq)[0]
 
     def terms(self, q: Any, dq: Any, ddq: Any) -> dict[str, np.ndarray]:
         """Each term's torque ``(N, n)``, keyed by :data:`TERMS`; they sum to :meth:`predict`."""
-        q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
+        q, dq, ddq = motion_arrays(self.n_joints, q, dq, ddq)
         _, friction, rigid = self._inverse(q, dq, ddq)
         return {"rigid_body": rigid, "armature": self.armature * ddq, "damping": self.damping * dq,
                 "frictionloss": friction}
 
     def saturated(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """Where MuJoCo's frictionloss force is ``frictionloss·sign(q̇)`` (to 1e-9 of it): bool ``(N, n)``."""
-        q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
+        q, dq, ddq = motion_arrays(self.n_joints, q, dq, ddq)
         friction = self._inverse(q, dq, ddq)[1]
         return _close(friction, self.frictionloss * np.sign(dq), self.frictionloss)
 
     def regressor(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """The regressor ``(N, n, 4n)`` of :attr:`column_names`: each column on its own joint only."""
-        q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
+        q, dq, ddq = motion_arrays(self.n_joints, q, dq, ddq)
         _, friction, rigid = self._inverse(q, dq, ddq)
         shape = np.sign(dq)
         own = self.frictionloss > 0
@@ -322,7 +307,7 @@ class MJCFModel:
         """
         from .comparison._compare import compare
 
-        q, dq, ddq = _motion_arrays(self.n_joints, q, dq, ddq)
+        q, dq, ddq = motion_arrays(self.n_joints, q, dq, ddq)
         if estimation is not None:
             eq, edq, eddq, etau = estimation
             keywords["estimation"] = {"q": eq, "regressor": self.regressor(eq, edq, eddq), "tau": etau}

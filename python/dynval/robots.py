@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks._validation import check_finite, parameter_error, promote_signal, to_float_array
+from .checks._validation import motion_arrays, parameter_error
 from .report import _consistency
 from .report._consistency import PARAM_NAMES, BaseConsistency, base_consistency
 from .report._findings import Finding
@@ -170,18 +170,7 @@ class URDFModel:
         return np.concatenate(parts)
 
     def _motion(self, q, dq, ddq):
-        arrays = []
-        for name, x in (("q", q), ("dq", dq), ("ddq", ddq)):
-            a = promote_signal(to_float_array(x, name), name)
-            if a.shape[1] != self.n_joints:
-                raise parameter_error(name, f"an array of shape (N, {self.n_joints})", f"shape {a.shape}")
-            check_finite(a, name)
-            arrays.append(np.ascontiguousarray(a))
-        if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
-            from .checks._errors import ShapeMismatch
-            raise ShapeMismatch(f"q, dq and ddq must have the same shape, got "
-                                f"{arrays[0].shape}, {arrays[1].shape} and {arrays[2].shape}")
-        return arrays
+        return motion_arrays(self.n_joints, q, dq, ddq)
 
     def regressor(self, q, dq, ddq, *, friction: bool = True, offset: bool = True) -> np.ndarray:
         """Joint-torque regressor ``(N, n, p)`` with the columns of :meth:`column_names`."""

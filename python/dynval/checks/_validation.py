@@ -676,3 +676,18 @@ def check_model_columns(value, p: int | None, column_names):
         else:
             raise parameter_error("model_columns", requirement, value)
     return sorted(set(out))
+
+
+def motion_arrays(n: int, q: Any, dq: Any, ddq: Any) -> list[np.ndarray]:
+    """q, dq, ddq checked as (N, n) finite arrays of one shape (a robot model's motion: URDF, MJCF)."""
+    arrays = []
+    for name, x in (("q", q), ("dq", dq), ("ddq", ddq)):
+        a = promote_signal(to_float_array(x, name), name)
+        if a.shape[1] != n:
+            raise parameter_error(name, f"an array of shape (N, {n})", f"shape {a.shape}")
+        check_finite(a, name)
+        arrays.append(np.ascontiguousarray(a))
+    if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
+        raise ShapeMismatch(f"q, dq and ddq must have the same shape, got "
+                            f"{arrays[0].shape}, {arrays[1].shape} and {arrays[2].shape}")
+    return arrays
