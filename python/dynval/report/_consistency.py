@@ -274,7 +274,10 @@ def _far_centre_finding(lay: Layout, k: int, p10: FloatArray, columns: tuple[int
 def _com_finding(lay: Layout, k: int, p10: FloatArray, box: tuple[FloatArray, FloatArray], tolerance: float,
                  columns: tuple[int, ...]) -> Finding | None:
     lower, upper = box
-    c = p10[1:4] / p10[0]
+    with np.errstate(over="ignore"):
+        c = p10[1:4] / p10[0]
+    if not np.all(np.isfinite(c)):  # a centre beyond float64: the far-centre finding of this link says it
+        return None
     outside = float(np.max(np.concatenate([lower - c, c - upper, [0.0]])))
     if outside <= tolerance * max(float(np.max(np.abs(np.concatenate([lower, upper])))), 1e-300):
         return None
@@ -705,10 +708,14 @@ def resolve(source: Any, column_names: Sequence[str] | None = None,
     with ``full_parameters``, or a vector (with ``column_names``, or ten per link)."""
     if _is_urdf_model(source):
         names = source.column_names(friction=True, offset=False)
-        return (np.asarray(source.parameters(friction=True, offset=False), dtype=float),
-                layout(names, source.joint_names if joint_names is None else joint_names))
+        values = np.asarray(source.parameters(friction=True, offset=False), dtype=float)
+        # a URDF's numbers are data as a vector's are: beyond 1e144 the pseudo-inertia overflows
+        check_finite(values.reshape(1, -1), "parameters")
+        return values, layout(names, source.joint_names if joint_names is None else joint_names)
     if getattr(source, "full_parameters", None) is not None:
-        return np.asarray(source.full_parameters, dtype=float), layout(source.column_names, joint_names)
+        values = np.asarray(source.full_parameters, dtype=float)
+        check_finite(values.reshape(1, -1), "parameters")
+        return values, layout(source.column_names, joint_names)
     values = to_float_array(source, "parameters")
     if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
         values = values.reshape(-1)
