@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Builds dynval._core with AddressSanitizer + UndefinedBehaviorSanitizer and runs the fuzz suites
 # against it: tests/test_fuzz.py (every public function on both backends, every _core kernel
-# against the reference) and tests/test_fuzz_readers.py (mutated CSV, .npy, .npz, HDF5 and Parquet
-# files read whole and in blocks: an array or a FileInputError, never another exception or a hang).
+# against the reference), tests/test_fuzz_readers.py (mutated CSV, .npy, .npz, HDF5 and Parquet
+# files read whole and in blocks: an array or a FileInputError, never another exception or a hang)
+# and tests/test_fuzz_surfaces.py (fleet manifests and settings, physical_consistency on vectors and
+# URDF files, any names on the HTML pages and figures: a result or an InputError).
 # Any sanitizer report aborts the run with a non-zero exit.
 #
 #   scripts/sanitize.sh            bounded run for CI: 40 examples per test (about 2,600 in all)
@@ -43,7 +45,8 @@ LD_PRELOAD="$preload" \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
   ARROW_DEFAULT_MEMORY_POOL=system \
   DYNVAL_FUZZ_EXAMPLES="$EXAMPLES" PYTHONPATH="$stage:$site" \
-  "$PY" -S -m pytest -q -p no:cacheprovider tests/test_fuzz.py tests/test_fuzz_readers.py "$@" 2>&1 | tee "$log"
+  "$PY" -S -m pytest -q -p no:cacheprovider tests/test_fuzz.py tests/test_fuzz_readers.py \
+  tests/test_fuzz_surfaces.py "$@" 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
 if grep -qE "ERROR: AddressSanitizer|runtime error:|UndefinedBehaviorSanitizer" "$log"; then
