@@ -37,7 +37,10 @@ cp "$(find "$build" -name '_core*.so' | head -n1)" "$stage/dynval/"
 
 # The sanitizer runtimes must be loaded before the interpreter's own allocations.
 preload="$(${CXX:-c++} -print-file-name=libasan.so) $(${CXX:-c++} -print-file-name=libubsan.so)"
-site=$("$PY" -c 'import sysconfig; p = sysconfig.get_paths(); print(p["purelib"] + ":" + p["platlib"])')
+# The interpreter's package directories, and those its .pth files add (python -S skips them): pinocchio's
+# cmeel prefix, which physical_consistency needs.
+site=$("$PY" -c 'import sys, sysconfig; p = sysconfig.get_paths()
+print(":".join([p["purelib"], p["platlib"]] + [d for d in sys.path if "cmeel.prefix" in d]))')
 log=$(mktemp)
 set +e
 LD_PRELOAD="$preload" \
