@@ -515,6 +515,11 @@ def test_physical_consistency_checks_level_and_tolerance():
         physical_consistency(body(1.0), level=1.5)
     with pytest.raises(dynval.InvalidParameter, match=r"^tolerance must be a finite number >= 0, got -1.0$"):
         physical_consistency(body(1.0), tolerance=-1.0)
+    # an integer beyond float64 was a raw OverflowError
+    with pytest.raises(dynval.InvalidParameter, match=r"^tolerance must be a finite number >= 0"):
+        physical_consistency(body(1.0), tolerance=10**400)
+    with pytest.raises(dynval.InvalidParameter, match=r"^level must be a number with 0 < level < 1"):
+        physical_consistency(body(1.0), level=10**400)
 
 
 @needs_pin

@@ -45,6 +45,7 @@ then clipped at zero and the friction at zero, so that the returned parameters p
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -741,9 +742,10 @@ def findings(source: Any, *, column_names: Sequence[str] | None = None, joint_na
              tolerance: float = TOLERANCE) -> list[Finding]:
     """:func:`dynval.robots.physical_consistency` (its documentation): the check of full
     parameters, or the distance of an unconstrained identification's base parameters."""
-    if not is_real_number(level) or not 0 < float(level) < 1:
+    # compared as given: float() of an integer beyond float64 (10**400) would be a raw OverflowError
+    if not is_real_number(level) or not 0 < level < 1:
         raise parameter_error("level", "a number with 0 < level < 1", level)
-    if not is_real_number(tolerance) or not 0 <= float(tolerance) < np.inf:
+    if not is_real_number(tolerance) or not 0 <= tolerance <= sys.float_info.max:
         raise parameter_error("tolerance", "a finite number >= 0", tolerance)
     source = urdf_from_path(source)
     if getattr(source, "full_parameters", 0) is None:
