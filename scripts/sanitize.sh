@@ -2,9 +2,11 @@
 # Builds dynval._core with AddressSanitizer + UndefinedBehaviorSanitizer and runs the fuzz suites
 # against it: tests/test_fuzz.py (every public function on both backends, every _core kernel
 # against the reference), tests/test_fuzz_readers.py (mutated CSV, .npy, .npz, HDF5 and Parquet
-# files read whole and in blocks: an array or a FileInputError, never another exception or a hang)
-# and tests/test_fuzz_time.py (time stamps, bandwidths and joint positions q on validate and the
-# streamed accumulator: a report or an InputError).
+# files read whole and in blocks: an array or a FileInputError, never another exception or a hang),
+# tests/test_fuzz_time.py (time stamps, bandwidths and joint positions q on validate and the
+# streamed accumulator: a report or an InputError) and tests/test_fuzz_surfaces.py (fleet manifests
+# and settings, physical_consistency on vectors and URDF files, any names on the HTML pages and
+# figures: a result or an InputError).
 # Any sanitizer report aborts the run with a non-zero exit.
 #
 #   scripts/sanitize.sh            bounded run for CI: 40 examples per test (about 2,600 in all)
@@ -37,7 +39,10 @@ cp "$(find "$build" -name '_core*.so' | head -n1)" "$stage/dynval/"
 
 # The sanitizer runtimes must be loaded before the interpreter's own allocations.
 preload="$(${CXX:-c++} -print-file-name=libasan.so) $(${CXX:-c++} -print-file-name=libubsan.so)"
-site=$("$PY" -c 'import sysconfig; p = sysconfig.get_paths(); print(p["purelib"] + ":" + p["platlib"])')
+# The interpreter's package directories, and those its .pth files add (python -S skips them): pinocchio's
+# cmeel prefix, which physical_consistency needs.
+site=$("$PY" -c 'import sys, sysconfig; p = sysconfig.get_paths()
+print(":".join([p["purelib"], p["platlib"]] + [d for d in sys.path if "cmeel.prefix" in d]))')
 log=$(mktemp)
 set +e
 LD_PRELOAD="$preload" \
@@ -45,7 +50,8 @@ LD_PRELOAD="$preload" \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
   ARROW_DEFAULT_MEMORY_POOL=system \
   DYNVAL_FUZZ_EXAMPLES="$EXAMPLES" PYTHONPATH="$stage:$site" \
-  "$PY" -S -m pytest -q -p no:cacheprovider tests/test_fuzz.py tests/test_fuzz_readers.py tests/test_fuzz_time.py "$@" 2>&1 | tee "$log"
+  "$PY" -S -m pytest -q -p no:cacheprovider tests/test_fuzz.py tests/test_fuzz_readers.py \
+  tests/test_fuzz_time.py tests/test_fuzz_surfaces.py "$@" 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
 if grep -qE "ERROR: AddressSanitizer|runtime error:|UndefinedBehaviorSanitizer" "$log"; then

@@ -301,3 +301,16 @@ def test_the_command_line_prints_the_fleet_with_its_error_row_and_exits_1(logs, 
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and len(out["logs"]) == 6
     assert [row["decision"] == "error" for row in out["logs"]] == [False] * 5 + [True]
+
+
+def test_a_robot_named_with_a_byte_that_is_not_utf8_is_tested_for_drift(logs, tmp_path):
+    """A log path with byte 0xff in its robot's name (Python keeps it as U+DCFF) stopped the drift test with
+    UnicodeEncodeError (exit 3 on the command line) once the robot had enough logs to be tested."""
+    _, specs = logs
+    for spec in specs:
+        name = os.path.basename(spec.tau_meas.rsplit(os.sep, 1)[0])  # ROBOT__TIME of its directory
+        os.symlink(os.path.dirname(spec.tau_meas), tmp_path / os.fsdecode(b"r\xff" + name.encode()[name.index("__"):]))
+    paths = sorted(str(p) for p in tmp_path.iterdir())
+    report = fleet.validate_many(paths, n_params=1, scheduler="single", progress=False, max_lag=5)
+    assert [d.robot for d in report.drift] == ["r\udcff"] and report.drift[0].tested
+    assert all(r.error is None for r in report.logs)

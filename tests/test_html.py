@@ -303,3 +303,30 @@ def test_joint_and_model_names_are_drawn_and_written_literally(tmp_path):
         drawn = _svg_text(fig)
         for shown in SHOWN:
             assert shown in drawn
+
+
+def test_names_with_characters_xml_does_not_allow_keep_the_page_well_formed(tmp_path):
+    """A joint named 'a\\x01b' (a control character) or holding U+FFFE left the page not well-formed
+    XML; such a character is written as its escape."""
+    rng = np.random.default_rng(1)
+    tau = rng.normal(size=(200, 3))
+    report = dynval.validate(tau, tau + 0.1 * rng.normal(size=tau.shape), n_params=1,
+                             joint_names=["a\x01b", "c\x1bd", "e\ufffef"])
+    page = render_report(report, title="t\x00")
+    _check_self_contained(page)
+    for shown in ("a\\x01b", "c\\x1bd", "e\\ufffef", "t\\x00"):
+        assert shown in page
+
+
+def test_names_the_fonts_cannot_draw_are_drawn_as_escapes():
+    """A joint named with a control character or a script the figures' fonts lack drew boxes with
+    matplotlib's 'Glyph ... missing from font(s)' warning on standard error."""
+    from dynval import plot
+
+    rng = np.random.default_rng(2)
+    tau = rng.normal(size=(200, 2))
+    pred = tau + 0.1 * rng.normal(size=tau.shape)
+    names = ["a\x1fb", "j\U000f0000"]  # a control character, a private-use character no font has
+    report = dynval.validate(tau, pred, n_params=1, joint_names=names)
+    drawn = _svg_text(plot.residuals(tau, pred, report=report))  # warnings are errors in this suite
+    assert "a\\x1fb" in drawn and "j\\U000f0000" in drawn

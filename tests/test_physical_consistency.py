@@ -515,6 +515,11 @@ def test_physical_consistency_checks_level_and_tolerance():
         physical_consistency(body(1.0), level=1.5)
     with pytest.raises(dynval.InvalidParameter, match=r"^tolerance must be a finite number >= 0, got -1.0$"):
         physical_consistency(body(1.0), tolerance=-1.0)
+    # an integer beyond float64 was a raw OverflowError
+    with pytest.raises(dynval.InvalidParameter, match=r"^tolerance must be a finite number >= 0"):
+        physical_consistency(body(1.0), tolerance=10**400)
+    with pytest.raises(dynval.InvalidParameter, match=r"^level must be a number with 0 < level < 1"):
+        physical_consistency(body(1.0), level=10**400)
 
 
 @needs_pin
@@ -559,6 +564,30 @@ def test_a_subnormal_mass_with_no_first_moment_is_a_point_body():
     p = body(1.0, moments=(1.0, 1.0, 1.0))
     p[0] = 5e-324
     assert physical_consistency(p) == []
+
+
+@pytest.mark.parametrize("mass", [5e-324, 1e-310])
+def test_a_centre_of_mass_beyond_float64_is_not_checked_against_its_box(mass):
+    """With a box given, h/m overflowed (numpy's RuntimeWarning): the far-centre finding alone says it."""
+    p = body(1.0, c=(0.1, 0.0, 0.2), moments=(0.01, 0.02, 0.02))
+    p[0] = mass
+    found = physical_consistency(p, com_bounds=((-1, -1, -1), (1, 1, 1)))
+    assert [f.details["condition"] for f in found] == ["pseudo-inertia positive semidefinite"]
+    assert found[0].details["centre_of_mass"] is None
+
+
+@needs_pin
+@pytest.mark.parametrize("attribute, value", [("mass value", "1e308"), ("ixx", "1e300"), ("mass value", "1e145")])
+def test_a_urdf_number_beyond_the_data_range_is_non_finite_input(tmp_path, attribute, value):
+    """A URDF mass of 1e308 read as 'too small for its first moment': its numbers are data (|x| <= 1e144)."""
+    import re
+
+    from dynval.robots import planar_arm_urdf
+
+    path = tmp_path / "arm.urdf"
+    path.write_text(re.sub(f'{attribute}="[^"]*"', f'{attribute}="{value}"', planar_arm_urdf(), count=1))
+    with pytest.raises(dynval.NonFiniteInput, match="parameters has a value out of range"):
+        physical_consistency(str(path))
 
 
 @pytest.mark.parametrize("scale", [1e-143, 1e-30, 1.0, 1e30, 1e143])

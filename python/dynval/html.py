@@ -77,10 +77,20 @@ h4.joint { margin: 0.9em 0 0.2em 0; font-size: 0.98em; }
 """
 
 
+# Characters XML 1.0 does not allow (C0 controls but tab, newline and carriage return; U+FFFE, U+FFFF):
+# a name holding one would leave the page not well-formed, so it is written as its escape (``\x01``).
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+def _xml_text(text) -> str:
+    return _NOT_XML.sub(lambda m: m.group(0).encode("unicode_escape").decode("ascii"), printable(text))
+
+
 def _e(text) -> str:
     """Escape text content (quotes may stay: they need escaping in attributes only); a byte that was
-    not UTF-8 (a lone surrogate) is written as ``\\xff``, so that the page can be written as UTF-8."""
-    return _html.escape(printable(text), quote=False)
+    not UTF-8 (a lone surrogate) is written as ``\\xff``, so that the page can be written as UTF-8, and a
+    character XML does not allow (``\\x01``) as its escape."""
+    return _html.escape(_xml_text(text), quote=False)
 
 
 _SCI = re.compile(r"[-+−]?\d+(?:\.\d+)?e[-+−]?\d+|[-+−]?\d+(?:\.\d+)?\s?%")
@@ -97,8 +107,8 @@ def _whole_numbers(cell: str) -> str:
 
 
 def _a(text) -> str:
-    """Escape an attribute value (lone surrogates as :func:`_e`)."""
-    return _html.escape(printable(text), quote=True)
+    """Escape an attribute value (lone surrogates and characters XML does not allow as :func:`_e`)."""
+    return _html.escape(_xml_text(text), quote=True)
 
 
 def _num(x, digits=4) -> str:

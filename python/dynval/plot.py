@@ -21,6 +21,7 @@ falls back to the names and sample rate recorded in a report's provenance.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 
@@ -59,7 +60,29 @@ def _literal(text) -> str:
     not UTF-8 written as ``\\xff`` (a lone surrogate stops the font's text layout)."""
     from .report._text import printable
 
-    return printable(text).replace("$", r"\$")
+    chars = _font_chars()
+    drawn = "".join(c if c == "\n" or ord(c) in chars else c.encode("unicode_escape").decode("ascii")
+                    for c in printable(text))
+    return drawn.replace("$", r"\$")
+
+
+def _font_chars() -> frozenset:
+    """The characters the figures' fonts have a glyph for: any other character of a name (a control
+    character, a script the fonts lack) is written as its escape (``\\x1f``, ``\\u6f22``) rather than
+    drawn as a box with a warning on standard error."""
+    from matplotlib import font_manager
+
+    props = font_manager.FontProperties()
+    find = getattr(font_manager.fontManager, "_find_fonts_by_props", None)  # the fallback fonts, matplotlib >= 3.6
+    paths = find(props) if find is not None else [font_manager.findfont(props)]
+    return frozenset().union(*(_charmap(str(path)) for path in paths))
+
+
+@functools.lru_cache(maxsize=16)
+def _charmap(path: str) -> frozenset:
+    from matplotlib.ft2font import FT2Font
+
+    return frozenset(FT2Font(path).get_charmap())
 
 
 def _finite_min(values, default: float) -> float:

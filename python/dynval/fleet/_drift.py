@@ -118,7 +118,9 @@ def change_point(x: Sequence[float] | np.ndarray, *, min_baseline: int = MIN_BAS
 
 
 def _robot_rng(seed: int, robot: str) -> np.random.Generator:
-    return np.random.default_rng([seed, zlib.crc32(robot.encode("utf-8"))])
+    # surrogatepass: a robot named from a path with a byte that is not UTF-8 (kept as U+DCFF) has a stream
+    # too; any other name encodes as plain UTF-8, so its stream is unchanged
+    return np.random.default_rng([seed, zlib.crc32(robot.encode("utf-8", "surrogatepass"))])
 
 
 def drift_per_robot(rows: Sequence[LogSummary], *, level: float, min_baseline: int = MIN_BASELINE,

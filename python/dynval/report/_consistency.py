@@ -48,6 +48,7 @@ then clipped at zero and the friction at zero, so that the returned parameters p
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -277,7 +278,10 @@ def _far_centre_finding(lay: Layout, k: int, p10: FloatArray, columns: tuple[int
 def _com_finding(lay: Layout, k: int, p10: FloatArray, box: tuple[FloatArray, FloatArray], tolerance: float,
                  columns: tuple[int, ...]) -> Finding | None:
     lower, upper = box
-    c = p10[1:4] / p10[0]
+    with np.errstate(over="ignore"):
+        c = p10[1:4] / p10[0]
+    if not np.all(np.isfinite(c)):  # a centre beyond float64: the far-centre finding of this link says it
+        return None
     outside = float(np.max(np.concatenate([lower - c, c - upper, [0.0]])))
     if outside <= tolerance * max(float(np.max(np.abs(np.concatenate([lower, upper])))), 1e-300):
         return None
@@ -824,10 +828,14 @@ def resolve(source: Any, column_names: Sequence[str] | None = None,
     with ``full_parameters``, or a vector (with ``column_names``, or ten per link)."""
     if _is_urdf_model(source):
         names = source.column_names(friction=True, offset=False)
-        return (np.asarray(source.parameters(friction=True, offset=False), dtype=float),
-                layout(names, source.joint_names if joint_names is None else joint_names))
+        values = np.asarray(source.parameters(friction=True, offset=False), dtype=float)
+        # a URDF's numbers are data as a vector's are: beyond 1e144 the pseudo-inertia overflows
+        check_finite(values.reshape(1, -1), "parameters")
+        return values, layout(names, source.joint_names if joint_names is None else joint_names)
     if getattr(source, "full_parameters", None) is not None:
-        return np.asarray(source.full_parameters, dtype=float), layout(source.column_names, joint_names)
+        values = np.asarray(source.full_parameters, dtype=float)
+        check_finite(values.reshape(1, -1), "parameters")
+        return values, layout(source.column_names, joint_names)
     values = to_float_array(source, "parameters")
     if values.ndim == 2 and values.shape[1:] == (10,) and column_names is None:
         values = values.reshape(-1)
@@ -853,9 +861,10 @@ def findings(source: Any, *, column_names: Sequence[str] | None = None, joint_na
              tolerance: float = TOLERANCE) -> list[Finding]:
     """:func:`dynval.robots.physical_consistency` (its documentation): the check of full
     parameters, or the distance of an unconstrained identification's base parameters."""
-    if not is_real_number(level) or not 0 < float(level) < 1:
+    # compared as given: float() of an integer beyond float64 (10**400) would be a raw OverflowError
+    if not is_real_number(level) or not 0 < level < 1:
         raise parameter_error("level", "a number with 0 < level < 1", level)
-    if not is_real_number(tolerance) or not 0 <= float(tolerance) < np.inf:
+    if not is_real_number(tolerance) or not 0 <= tolerance <= sys.float_info.max:
         raise parameter_error("tolerance", "a finite number >= 0", tolerance)
     source = urdf_from_path(source)
     if getattr(source, "full_parameters", 0) is None:
