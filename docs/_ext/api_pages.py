@@ -20,7 +20,7 @@ PUBLIC_MODULES = {
     "dynval.io": "A robot's own logs: joint states of ROS bags and MCAP files",
     "dynval.logs": "From a robot's log and its model files to a verdict",
     "dynval.robots": "Robots: URDF regressors, derivatives, physical consistency",
-    "dynval.mjcf": "Simulator models: MuJoCo MJCF arms, their terms, the regressor of armature, damping and frictionloss",
+    "dynval.mjcf": "Simulator models: MuJoCo MJCF arms, their terms, the regressor of their joint parameters",
     "dynval.datasets": "Shipped data sets",
     "dynval.plot": "Figures",
     "dynval.html": "HTML reports",
