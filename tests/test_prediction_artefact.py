@@ -60,8 +60,9 @@ def test_a_mode_in_the_measured_torque_is_still_a_mode():
     assert mode.joints == (1,) and mode.severity == "deficiency" and "compliance" in mode.action
 
 
-def _ev(measured: float, predicted: float) -> Evidence:
-    """One joint, one significant peak at bin 20, the two sides' power there."""
+def _ev(measured: float, predicted: float, residual: float | None = None) -> Evidence:
+    """One joint, one significant peak at bin 20, the two sides' and the residual's power there (the
+    residual's: the sides' difference unless given)."""
     f = np.arange(64) * 0.5
     pv = np.full((64, 1), np.nan)
     pv[20, 0] = 1e-12
@@ -70,10 +71,13 @@ def _ev(measured: float, predicted: float) -> Evidence:
     share = np.full((64, 1), 0.3)
     pm, pp = np.full((64, 1), 1e-3), np.full((64, 1), 1e-3)
     pm[18:23, 0], pp[18:23, 0] = measured, predicted
+    pr = np.full((64, 1), 1e-3)
+    pr[18:23, 0] = abs(predicted - measured) if residual is None else residual
     return Evidence(n_samples=4000, level=0.95, joint_names=["wrist"], r2=np.array([0.9]), pooled_r2=0.9,
                     constant_target=np.zeros(1, bool), spectrum_frequency=f, spectrum_pvalue=pv,
                     spectrum_ratio=np.full((64, 1), 20.0), spectrum_share=share, spectrum_is_peak=peak,
-                    frequency_unit="Hz", spectrum_power_measured=pm, spectrum_power_prediction=pp)
+                    frequency_unit="Hz", spectrum_power=pr, spectrum_power_measured=pm,
+                    spectrum_power_prediction=pp)
 
 
 def test_the_side_with_more_power_in_the_line_owns_it():
@@ -84,6 +88,11 @@ def test_the_side_with_more_power_in_the_line_owns_it():
     assert f.details["line_power_measured"] == pytest.approx(5 * 0.002 * 0.5)
     assert compute_findings(_ev(0.72, 0.002))[0].kind == "oscillation"
     assert compute_findings(_ev(0.5, 0.5))[0].kind == "oscillation"
+    # a difference of sides below half the residual's line cannot say which side holds it: the
+    # robot's own torque at that frequency moves both by its cross term with the line
+    assert compute_findings(_ev(0.5, 0.6, residual=0.7))[0].kind == "oscillation"
+    assert compute_findings(_ev(0.5, 0.86, residual=0.7))[0].kind == "prediction_artefact"
+    assert compute_findings(_ev(0.5, 0.84, residual=0.7))[0].kind == "oscillation"
     # without the sides (a streamed report) the rule is the oscillation rule
     ev = _ev(0.002, 0.72)
     ev.spectrum_power_measured = ev.spectrum_power_prediction = None
@@ -114,3 +123,20 @@ def test_the_chatter_scenario_puts_the_line_in_the_prediction_only():
     r = S.validate_replicate(rep, False)
     assert S.named_right(r, s.expected, False)
     assert not any(f.kind == "oscillation" and f.joints == (1,) for f in r.findings)
+
+
+def test_a_line_in_the_measured_torque_over_a_large_torque_is_not_the_predictions():
+    """A 7 Hz line in the measured torque of a joint whose own torque is broad and large (white, 20
+    times the line's power in its five bins): the sides' powers differ by the cross term of the two,
+    which here makes the prediction's side the larger by chance. Kills: the sides compared without
+    the residual's line as the yardstick (the line called the model's own, "smooth the friction
+    model's sign" to a model with no friction)."""
+    rng = np.random.default_rng(0)
+    n = 5000
+    t = np.arange(n) / 100.0
+    tau = rng.standard_normal((n, 2))
+    pred = tau - 0.1 * rng.standard_normal((n, 2))
+    tau[:, 1] += 0.05 * np.sin(2 * np.pi * 7.0 * t)
+    r = dynval.validate(tau, pred, n_params=2, max_lag=20, sample_rate=100.0)
+    assert [(f.kind, f.joints) for f in r.findings if "oscillation" in f.kind or "artefact" in f.kind] == [
+        ("oscillation", (1,))]

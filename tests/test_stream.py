@@ -407,7 +407,7 @@ def test_sections_left_out_and_findings(backend):
     assert report.bias is not None and report.spectrum is None and report.design is None
     assert report.segment_metrics is None and report.provenance["streaming"] is True
     assert [t["test"] for t in report.provenance["not_tested"]] == [
-        "information_rate", "spectrum", "regressor_correlation", "excitation"]
+        "information_rate", "spectrum", "prediction_artefact", "regressor_correlation", "excitation"]
     assert report.whiteness["decimation"] == 1 and report.whiteness["pvalue_decimated"] is None
     assert set(report.cross_correlation) == {"max_lag", "adjusted", "constant_mask", "band", "level",
                                              "n_outside_white_band", "rho", "outside"}

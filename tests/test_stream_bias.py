@@ -87,10 +87,10 @@ def test_the_readme_example_on_the_command_line(tmp_path, capsys):
         assert main(["validate", *files, *extra, "--json"]) in (0, 1)
         report = json.loads(capsys.readouterr().out)
         assert sorted((f["kind"], f["severity"]) for f in report["findings"]) == [("bias", "deficiency")] * 7
-    assert [t["test"] for t in report["provenance"]["not_tested"]] == ["information_rate"]
+    assert [t["test"] for t in report["provenance"]["not_tested"]] == ["information_rate", "prediction_artefact"]
     main(["validate", *files, "--stream"])
     text = capsys.readouterr().out
-    assert "nothing to note" not in text and "not tested (1;" in text and "information_rate (sampling_colour):" in text
+    assert "nothing to note" not in text and "not tested (2;" in text and "information_rate (sampling_colour):" in text
 
 
 def test_a_clean_stream_names_what_it_did_not_test(backend):
@@ -101,11 +101,13 @@ def test_a_clean_stream_names_what_it_did_not_test(backend):
     assert report.findings == []
     lines = report.summary().splitlines()
     at = lines.index("  - none from the tests this report ran: no deficiency, no design problem at this level.")
-    assert lines[at + 1] == "  - not tested (1; a finding of these kinds cannot show here):"
+    assert lines[at + 1] == "  - not tested (2; a finding of these kinds cannot show here):"
     assert lines[at + 2].startswith("      information_rate (sampling_colour): the decimation filter needs")
+    assert lines[at + 3].startswith("      prediction_artefact (prediction_artefact): the measured and the predicted")
     assert not any("nothing to note" in line for line in lines)
     not_tested = json.loads(report.to_json())["provenance"]["not_tested"]
-    assert [(t["test"], t["kinds"]) for t in not_tested] == [("information_rate", ["sampling_colour"])]
+    assert [(t["test"], t["kinds"]) for t in not_tested] == [("information_rate", ["sampling_colour"]),
+                                                             ("prediction_artefact", ["prediction_artefact"])]
 
 
 def test_a_bandwidth_past_the_lags_held_is_named_and_a_larger_max_lag_runs_it(backend):
@@ -166,7 +168,7 @@ def test_the_html_of_a_stream_names_what_it_did_not_test(backend):
     report = _streamed(tau, tau - 0.1 * rng.standard_normal((5000, 2)), backend=backend, n_params=2)
     page = render_fragment(report)
     assert "nothing in the residuals calls for a change" not in page
-    assert "No findings from the tests this report ran." in page and "Not tested (1;" in page
+    assert "No findings from the tests this report ran." in page and "Not tested (2;" in page
     assert "information_rate" in page
 
 

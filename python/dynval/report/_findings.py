@@ -255,6 +255,7 @@ class Evidence:
     spectrum_ratio: np.ndarray | None = None
     spectrum_share: np.ndarray | None = None  # (F, m): variance share of a peak centred there
     spectrum_is_peak: np.ndarray | None = None  # (F, m) bool: local maxima
+    spectrum_power: np.ndarray | None = None  # (F, m): the residual's power the peaks are tested on
     spectrum_power_measured: np.ndarray | None = None  # (F, m): the measured torque's power, same grid
     spectrum_power_prediction: np.ndarray | None = None  # (F, m): the prediction's power, same grid
     frequency_unit: str = "cycles/sample"
@@ -635,7 +636,7 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
         if big:
             r.deficient.add(j)
         sides = _line_sides(ev, b, j)
-        if sides is not None and sides[1] > sides[0]:
+        if sides is not None and sides[1] - sides[0] > 0.5 * sides[2]:
             out.append(_prediction_artefact(r, j, b, f, sides, p, padj, big))
             continue
         out.append(_worded(
@@ -648,26 +649,34 @@ def _oscillation_rule(r: _Rules) -> list[Finding]:
     return out
 
 
-def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float] | None:
-    """The measured torque's and the prediction's power in the line at bin ``b`` of joint ``j`` (the
-    five bins a Hann-windowed line spreads over, times the bin width): squared torque units."""
-    pm, pp = ev.spectrum_power_measured, ev.spectrum_power_prediction
-    if pm is None or pp is None:
+def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float, float] | None:
+    """The measured torque's, the prediction's and the residual's power in the line at bin ``b`` of
+    joint ``j`` (the five bins a Hann-windowed line spreads over, times the bin width): squared torque
+    units.
+
+    The rule reads the difference of the first two against the third (conventions §5.2): a line S
+    in one side moves that side's power by |S|² ≈ the residual's, give or take the cross term
+    2 Re(B̄S) with the torque B both sides share, which Welch's averaging shrinks but does not remove
+    where the robot's own torque is large at the line. Half the residual's line is the midpoint of
+    the two answers; nearer zero (or all three underflowed to 0) the sides cannot tell, and the line
+    stays an oscillation."""
+    pm, pp, pr = ev.spectrum_power_measured, ev.spectrum_power_prediction, ev.spectrum_power
+    if pm is None or pp is None or pr is None:
         return None
     freq = np.asarray(ev.spectrum_frequency, dtype=float)
     df = float(freq[1] - freq[0]) if freq.size > 1 else 1.0
     lo, hi = max(b - 2, 0), b + 3
-    return float(np.sum(pm[lo:hi, j]) * df), float(np.sum(pp[lo:hi, j]) * df)
+    return tuple(float(np.sum(x[lo:hi, j]) * df) for x in (pm, pp, pr))  # type: ignore[return-value]
 
 
-def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float, float], p, padj,
+def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float, float, float], p, padj,
                          big: bool) -> Finding:
     """A residual line the prediction holds more of than the measured torque: the model makes it
     (a friction model's sign(q̇) chattering at standstill), not a mode the robot has."""
     ev, th = r.ev, r.th
     share = float(ev.spectrum_share[b, j])
     ratio = float(ev.spectrum_ratio[b, j])
-    measured, predicted = sides
+    measured, predicted, _ = sides
     return _worded(
         w.prediction_artefact(r.name(j), f, ev.frequency_unit, share, ratio, float(padj[b, j]), big, predicted,
                               measured),

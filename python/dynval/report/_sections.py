@@ -554,6 +554,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.spectrum_share, ev.spectrum_is_peak = spec_tests.share, spec_tests.is_peak
         ev.frequency_unit = spec["frequency_unit"]
         if spec_sides is not None and spec_sides[0].shape == spec["power"].shape:
+            ev.spectrum_power = spec["power"]
             ev.spectrum_power_measured, ev.spectrum_power_prediction = spec_sides
     if xcorr_rho is not None:
         ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
