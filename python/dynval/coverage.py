@@ -15,9 +15,9 @@ Examples
 --------
 >>> from dynval.coverage import not_tested
 >>> [t["test"] for t in not_tested("stream", {"lags"})]
-['information_rate']
+['information_rate', 'prediction_artefact']
 >>> [t["test"] for t in not_tested("stream", {"lags", "regressor"})]
-['information_rate', 'spectrum', 'regressor_correlation', 'excitation']
+['information_rate', 'spectrum', 'prediction_artefact', 'regressor_correlation', 'excitation']
 """
 
 from __future__ import annotations
