@@ -566,3 +566,39 @@ def test_the_criteria_note_changes_no_decision():
     many = dynval.compare(tau, {"a": (pred, 500)})
     assert few.verdict.decision == many.verdict.decision
     assert any(f.kind == "information_criteria" for f in many.reports["a"].findings)
+
+
+def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
+    """A shoulder offset the model lacks, on a two-joint regressor whose first column is shared (it
+    enters both joints' rows, as a link's inertial parameter does): refitting with the offset moves
+    the shared parameter and so the elbow's validation error too. Kills: the offset named as the
+    elbow's missing term ("add the term off_0 to the model" on the elbow, as the KUKA run 3 report
+    said of lwr_3 and lwr_6 for lwr_0's offset); the shoulder's own finding dropped with it."""
+    from dynval.statistics import _estimation
+
+    rng = np.random.default_rng(21)
+    n = 3000
+
+    def run(shift):
+        t = np.arange(n) / 100.0 + shift
+        y = np.zeros((n, 2, 4))
+        y[:, 0, 0], y[:, 1, 0] = np.sin(t), 0.7 * np.cos(1.3 * t)  # shared
+        y[:, 0, 1] = np.sin(2.1 * t)  # shoulder only
+        y[:, 1, 2] = np.cos(0.9 * t)  # elbow only
+        y[:, 0, 3] = 1.0  # the shoulder's offset
+        return y
+
+    est, val = run(0.0), run(11.0)
+    truth = np.array([1.0, 0.5, 0.8, 0.6])
+    noise = 0.05
+    est_tau = est @ truth + noise * rng.standard_normal((n, 2))
+    val_tau = val @ truth + noise * rng.standard_normal((n, 2))
+    out = _estimation.missing_terms(est, est_tau, val, val_tau, [0, 1, 2])
+    assert out["columns"] == [3] and out["pvalue"][0] < 1e-10
+    assert out["share"][0, 0] > 0.5 and np.isnan(out["share"][1, 0]) and not out["explains_bias"][1, 0]
+    model = [0, 1, 2]
+    coef = np.linalg.lstsq(est[:, :, model].reshape(-1, 3), est_tau.reshape(-1), rcond=None)[0]
+    r = dynval.validate(val_tau, val[:, :, model] @ coef, n_params=3, regressor=val, model_columns=model,
+                        estimation={"regressor": est, "tau": est_tau}, joint_names=["shoulder", "elbow"])
+    named = [(f.joints, f.columns) for f in r.findings if f.kind == "regressor_correlation"]
+    assert named == [((0,), (3,))]
