@@ -263,3 +263,37 @@ def test_rigid_body_column_names_declare_what_the_model_holds_and_lacks():
     assert _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05)["relation"] == "reweight"
     lacks = _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05, declared={"-viscous"})
     assert lacks["relation"] == "missing" and lacks["declared"] is False
+
+
+def _words_for(relation: str, reweight: float):
+    from dynval.report import _finding_words as w
+
+    rel = {"relation": relation, "group": "viscous", "reweight_share": reweight, "outside_share": 0.02,
+           "outside_own_share": 0.02, "own_in_span": 1, "own_columns": 1, "coupling_in_span": 0,
+           "coupling_columns": 0, "tolerance": 0.1, "columns": [], "estimated": [], "refitted": []}
+    advice = {"refit_run": "estimation", "effect": 0.2, "relation": rel, "practical": 0.05,
+              "derivatives": "the user's q̇, q̈ on both runs", "column_names": []}
+    return w.missing_physics("j3", "viscous friction", [], 0.7, 0.2, 0.7, 1e-30, True, advice)
+
+
+@pytest.mark.parametrize("reweight", [-0.85, 0.0, 0.049])
+def test_re_identifying_is_advised_only_where_it_carries_to_held_out_rows(reweight):
+    """The KUKA run 3 report told lwr_1 "its terms are mis-weighted: re-identify the model's terms"
+    while re-identifying removed -23 % of held-out rows, and lwr_3 "re-identify viscous friction: its
+    weight differs on this run" at -85 %. Kills: the re-identify advice kept where the cross-fitted
+    refit does not carry (the share compared with the wrong sign, or not at all)."""
+    message, action = _words_for("unsupported", reweight)
+    assert "its terms are mis-weighted" not in message and "nor does re-identifying" in message
+    assert action.startswith("no change of the model's terms carries to held-out rows on j3")
+    message, action = _words_for("reweight", reweight)
+    assert action.startswith("re-identify viscous friction on j3 with this run and the estimation run together")
+    assert f"({100 * reweight:.0f} %)" in action
+
+
+def test_re_identifying_is_advised_where_it_carries():
+    """Kills: the carrying case moved to the new words (the threshold reached counts as carrying)."""
+    message, action = _words_for("unsupported", 0.05)
+    assert "its terms are mis-weighted" in message
+    assert action.startswith("re-identify the model's terms on j3: what remains is carried by its own columns")
+    _, action = _words_for("reweight", 0.6)
+    assert action.startswith("re-identify viscous friction on j3: the model has the term, its weight differs")

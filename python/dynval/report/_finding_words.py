@@ -314,19 +314,33 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
                 f"look for {label} on {name}: a structure of this kind remains (give the regressor to tell a "
                 "missing term from a mis-weighted one)")
     held = f"{100 * rel['outside_share']:.0f} % of the mean square on held-out rows"
+    # re-identifying is advice only where the refit carries to rows it did not see (a refit that
+    # makes held-out rows worse is a weight this run does not pin down)
+    carries = rel["reweight_share"] >= advice.get("practical", 0.0)
     if kind == "reweight":
         return (head + f": the model has this term (its columns span it, each column within "
                 f"{100 * rel['tolerance']:.0f} % of its RMS), so it is mis-weighted or changed between runs: "
                 + _coefficients(advice) + f"; re-identifying the model's columns would remove "
                 f"{100 * rel['reweight_share']:.0f} % of the joint's mean square (cross-fitted on this run).",
                 f"re-identify {label} on {name}: the model has the term, its weight differs on this run (a friction "
-                "or load that changed between runs, or a term the estimation run did not excite)")
-    if kind == "unsupported":
+                "or load that changed between runs, or a term the estimation run did not excite)" if carries else
+                f"re-identify {label} on {name} with this run and the estimation run together: the model has the "
+                f"term, and refitted on this run alone its weight does not carry to held-out rows "
+                f"({100 * rel['reweight_share']:.0f} %), so neither run pins it down by itself")
+    if kind == "unsupported" and carries:
         return (head + f": the model lacks {label}, but adding it does not carry to held-out rows of this run "
                 f"({100 * rel['outside_share']:.0f} %); re-identifying the model's own columns removes "
                 f"{100 * rel['reweight_share']:.0f} % there (cross-fitted): its terms are mis-weighted.",
                 f"re-identify the model's terms on {name}: what remains is carried by its own columns with other "
                 f"weights, not by {label}")
+    if kind == "unsupported":
+        return (head + f": the model lacks {label}, but adding it does not carry to held-out rows of this run "
+                f"({100 * rel['outside_share']:.0f} %), nor does re-identifying the model's own columns "
+                f"({100 * rel['reweight_share']:.0f} %, cross-fitted): what remains is no fixed term this run can "
+                "pin down (it changes within the run, or its noise is slower than the cross-fit's blocks).",
+                f"no change of the model's terms carries to held-out rows on {name}: look for what changes within "
+                "the run (temperature, a load, the logs' alignment), or validate on a longer run, before changing "
+                "the model")
     if kind == "coupling":
         return (head + f": the model has {label} of {name}'s own motion but not its coupling to the other joints: "
                 f"the cross-joint columns lie outside its span and remove {held} (a decoupled model of a coupled "

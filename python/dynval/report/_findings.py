@@ -852,7 +852,7 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
         others = [LABELS[g] for g, sh in sorted(shares.items(), key=lambda kv: -kv[1]) if g != term and sh >= 0.01]
         together = float(t.get("selected_share", t["term_share"]))
         rel = t.get("relation")
-        advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel,
+        advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel, "practical": th.missing_physics,
                   "derivatives": _derivative_words(ev.physics),
                   "column_names": None if rel is None else [w.column_name(ev.column_names, c)
                                                              for c in rel.get("columns", [])]}
