@@ -563,10 +563,10 @@ def test_excitation_records_structural_unexcited_and_ill_conditioned():
     _worded(note, w.structural_columns(cols, [3], 4, 3))
     assert _record(design) == _blank(kind="excitation", severity="design", columns=(1, 2), effect=2.0,
                                      effect_unit="columns", details=x)
-    _worded(design, w.unexcited_columns(cols, [1], [2], True))
+    _worded(design, w.unexcited_columns(cols, [1], [2], "estimation"))
     # without the estimation run's regressor the structure is unknown
     (f,) = _of(compute_findings(_ev(1, excitation=_excitation(unexcited=[0]))), "excitation")
-    _worded(f, w.unexcited_columns(None, [0], [], False))
+    _worded(f, w.unexcited_columns(None, [0], [], None))
     # ill-conditioned only above the threshold, and over the reduced combinations when reduced
     x = _excitation(condition_scaled=1000.5, structural=[3], identifiable_rank=3, validation_rank=3)
     found = _of(compute_findings(_ev(1, excitation=x)), "excitation")

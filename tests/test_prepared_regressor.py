@@ -256,3 +256,26 @@ def test_compare_computes_the_kernels_regressor_moments_once(runs, monkeypatch):
     cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, max_lag=10, backend="cpp")
     assert len(calls) == 1
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+
+
+def test_a_structure_is_checked_against_the_regressor():
+    """Kills: a structure of another width accepted (the excitation section would compare columns
+    that are not the same), a nan in it accepted, the structure dropped on a second preparation."""
+    rng = np.random.default_rng(5)
+    y = rng.normal(size=(50, 2, 3))
+    with pytest.raises(dynval.ShapeMismatch, match=r"structure must be \(K, m, p\) or \(K\*m, p\) with the "
+                                                   r"regressor's p = 3 columns, got shape \(10, 2, 4\)"):
+        dynval.prepare_regressor(y, structure=rng.normal(size=(10, 2, 4)))
+    with pytest.raises(dynval.ShapeMismatch, match="got shape"):
+        dynval.prepare_regressor(y, structure=rng.normal(size=3))
+    bad = rng.normal(size=(10, 3))
+    bad[4, 1] = np.nan
+    with pytest.raises(dynval.NonFiniteInput, match="structure has a non-finite value .* at row 4, column 1"):
+        dynval.prepare_regressor(y, structure=bad)
+    with pytest.raises(dynval.InvalidType, match="structure"):
+        dynval.prepare_regressor(y, structure="abc")
+    plain = dynval.prepare_regressor(y)
+    assert plain.structure is None and dynval.prepare_regressor(plain) is plain
+    again = dynval.prepare_regressor(plain, structure=rng.normal(size=(20, 2, 3)))
+    assert again is not plain and np.shares_memory(again.array, plain.array) and again.structure.shape == (40, 3)
+    assert not again.structure.flags.writeable

@@ -250,3 +250,58 @@ def test_input_bandwidth_is_the_narrowest_band_of_q_dq_ddq():
         assert d.input_bandwidth_hz == min(bands) < max(bands)
     d = differentiate(np.sin(t)[:, None], 200.0, window=0.505)
     assert d.input_bandwidth_hz == pytest.approx(2.47, abs=0.01)   # the 101-sample window of a real log
+
+
+@pytest.fixture(scope="module")
+def kuka_raw():
+    """The KUKA LWR4+ URDF's raw 91-column regressor: the model identified on run 1, validated on run 3."""
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import URDFModel
+
+    r1, r3 = load_kuka_lwr4(1), load_kuka_lwr4(3)
+    model = URDFModel(r1.urdf)
+    y1 = model.regressor(r1.q, r1.dq, r1.ddq)
+    fit = identify(y1, r1.tau)
+    return model, r1, r3, y1, fit
+
+
+def _excitation_findings(report):
+    return [f for f in report.findings if f.kind == "excitation" and f.effect_unit in ("columns", "structural columns")]
+
+
+@needs_pin
+def test_the_models_structure_tells_structural_columns_without_the_estimation_run(kuka_raw):
+    """A raw URDF regressor validated without the estimation run's regressor used to get REDESIGN:
+    "never excites lwr_1_link:m, …", parameters no fixed-base motion can excite. Prepared with the
+    model's structure (its regressor at random states) the same 27 columns are structural, as the
+    estimation run's regressor tells them (an independent source). Kills: the structure ignored (the
+    design finding back), or used as the estimation run for the motion ratios."""
+    model, r1, r3, y1, fit = kuka_raw
+    names = list(model.column_names())
+    y3 = model.regressor(r3.q, r3.dq, r3.ddq)
+    pred = fit.predict(y3)
+    kw = dict(n_params=fit.rank, column_names=names, sample_rate=r3.sample_rate)
+    plain = dynval.validate(r3.tau, pred, regressor=y3, **kw)
+    assert [f.severity for f in _excitation_findings(plain)] == ["design"]
+    assert "never excites lwr_1_link:m" in _excitation_findings(plain)[0].message
+    prepared = dynval.validate(r3.tau, pred, regressor=model.prepared_regressor(r3.q, r3.dq, r3.ddq), **kw)
+    with_est = dynval.validate(r3.tau, pred, regressor=y3, estimation={"regressor": y1, "tau": r1.tau}, **kw)
+    (note,) = _excitation_findings(prepared)
+    assert note.severity == "note" and "at every state of the model's structure" in note.message
+    x, x_est = prepared.design["excitation"], with_est.design["excitation"]
+    assert x["structural_source"] == "model" and x_est["structural_source"] == "estimation"
+    assert x["structural"] == x_est["structural"] and len(x["structural"]) == 27
+    assert x["identifiable_rank"] == x_est["identifiable_rank"] == 64
+    assert "column_motion_ratio" not in x and "column_motion_ratio" in x_est
+    assert plain.design["excitation"]["structural_source"] is None
+
+
+@needs_pin
+def test_structure_states_lie_within_the_joint_limits(kuka_raw):
+    model = kuka_raw[0]
+    q, dq, ddq = model.structure_states(500, seed=3)
+    lo, hi = np.asarray(model.model.lowerPositionLimit), np.asarray(model.model.upperPositionLimit)
+    assert q.shape == dq.shape == ddq.shape == (500, 7)
+    assert np.all(q >= np.maximum(lo, -np.pi)) and np.all(q <= np.minimum(hi, np.pi))
+    again = model.structure_states(500, seed=3)
+    assert all(np.array_equal(a, b) for a, b in zip((q, dq, ddq), again))

@@ -188,6 +188,30 @@ class URDFModel:
             parts.append(np.broadcast_to(eye, (n_samples, n, n)))
         return np.concatenate(parts, axis=2)
 
+    def structure_states(self, states: int = 256, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``states`` random (q, q̇, q̈), each ``(states, n)``: positions uniform within the joint limits
+        (over a turn where a limit is absent or wider), velocities and accelerations standard normal.
+        At such states every combination of columns the structure allows is excited: what stays zero
+        or dependent there is structural (the base-parameter computation's own device)."""
+        rng = np.random.default_rng(seed)
+        lo = np.maximum(np.asarray(self.model.lowerPositionLimit, dtype=float), -np.pi)
+        hi = np.minimum(np.asarray(self.model.upperPositionLimit, dtype=float), np.pi)
+        lo, hi = np.where(hi > lo, lo, -np.pi), np.where(hi > lo, hi, np.pi)
+        n = self.n_joints
+        return (rng.uniform(lo, hi, size=(states, n)), rng.standard_normal((states, n)),
+                rng.standard_normal((states, n)))
+
+    def prepared_regressor(self, q, dq, ddq, *, friction: bool = True, offset: bool = True, states: int = 256,
+                           seed: int = 0):
+        """:meth:`regressor` prepared for :func:`dynval.validate` with the model's structure
+        (:func:`dynval.prepare_regressor`'s ``structure``: the regressor at :meth:`structure_states`),
+        so a report on it tells the columns no trajectory excites (structural) from those this one
+        leaves unexcited, without the estimation run's regressor."""
+        from .report._prepared import prepare_regressor
+
+        structure = self.regressor(*self.structure_states(states, seed), friction=friction, offset=offset)
+        return prepare_regressor(self.regressor(q, dq, ddq, friction=friction, offset=offset), structure=structure)
+
     def predict(self, q, dq, ddq, *, friction: bool = True) -> np.ndarray:
         """The URDF's a-priori torques ``(N, n)``: RNEA on its inertials (+ its friction)."""
         q, dq, ddq = self._motion(q, dq, ddq)

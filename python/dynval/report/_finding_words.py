@@ -460,31 +460,42 @@ def repeat_by_distance(distance: float, threshold: float, measure: str) -> Words
             REPEAT_ACTION)
 
 
+_WHERE_STRUCTURAL = {"estimation": "in both runs",
+                     "model": "in this run and at every state of the model's structure it was prepared with"}
+
+
 def structural_columns(cols: Sequence[str] | None, structural: Sequence[int], p: int | None,
-                       rank: int | None) -> Words:
-    return (f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the others in both "
-            f"runs ({listed_columns(cols, structural)}): no trajectory of this structure excites them apart, so they "
+                       rank: int | None, source: str = "estimation") -> Words:
+    """``source``: what told them structural: the estimation run's regressor, or the model's
+    structure a prepared regressor carries."""
+    return (f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the others "
+            f"{_WHERE_STRUCTURAL[source]} ({listed_columns(cols, structural)}): no trajectory of this structure excites them apart, so they "
             f"were reduced to {rank} identifiable combinations (the base parameters), on which the excitation "
             "checks ran.", "none: no trajectory of this structure can excite them apart")
 
 
 def unexcited_columns(cols: Sequence[str] | None, zero: Sequence[int], dependent: Sequence[int],
-                      estimation_known: bool) -> Words:
-    """``estimation_known``: the estimation run's regressor was given (structural columns are known)."""
+                      source: str | None) -> Words:
+    """``source``: what tells the structural columns: "estimation" (the estimation run's
+    regressor), "model" (the model's structure a prepared regressor carries), or None (unknown)."""
     parts = []
     if zero:
         parts.append(f"never excites {listed_columns(cols, zero)}")
     if dependent:
         parts.append(f"cannot separate {listed_columns(cols, dependent)} from the other columns (in this run they "
                      "are combinations of them)")
-    if estimation_known:
+    if source == "estimation":
         tail = ": the estimation run excites them apart, so the validation cannot test these terms."
+    elif source == "model":
+        tail = (": the model's structure excites them apart (they are not structural), so this trajectory "
+                "cannot test these terms.")
     else:
         tail = (": the validation cannot test these terms. Without the estimation run's regressor "
                 "(estimation={'regressor': ...}) it is not known whether they are structural (zero or "
                 "combinations of other columns for every trajectory of this structure, as some parameters "
                 "of a fixed-base arm's first links are) or a flaw of this trajectory; reduce the regressor to "
-                "its base columns, or give the estimation run's regressor.")
+                "its base columns, give the estimation run's regressor, or prepare the regressor with the "
+                "model's structure (URDFModel.prepared_regressor).")
     return ("The validation regressor " + " and ".join(parts) + tail,
             "add motion that excites these columns to the validation trajectory")
 

@@ -1016,7 +1016,7 @@ def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
     rank = x.get("identifiable_rank")
     if structural:
         out.append(_worded(
-            w.structural_columns(cols, structural, p, rank),
+            w.structural_columns(cols, structural, p, rank, _structural_source(x) or "estimation"),
             kind="excitation", severity="note", columns=tuple(structural), effect=float(len(structural)),
             effect_unit=w.UNITS["structural"],
             details={"structural": structural, "identifiable_rank": rank,
@@ -1025,7 +1025,7 @@ def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
     dependent = [int(c) for c in x.get("inseparable") or []]
     if zero or dependent:
         out.append(_worded(
-            w.unexcited_columns(cols, zero, dependent, x.get("structural") is not None),
+            w.unexcited_columns(cols, zero, dependent, _structural_source(x)),
             kind="excitation", severity="design", columns=tuple(zero + dependent),
             effect=float(len(zero) + len(dependent)), effect_unit=w.UNITS["columns"], details=dict(x)))
     elif x["condition_scaled"] > th.condition_number:
@@ -1034,6 +1034,14 @@ def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
             kind="excitation", severity="design", effect=float(x["condition_scaled"]),
             effect_unit=w.UNITS["condition"], threshold=th.condition_number, details=dict(x)))
     return out
+
+
+def _structural_source(x: dict[str, Any]) -> str | None:
+    """What told the structural columns: the section's ``structural_source``; a section without the
+    key (from before it) had them from the estimation run when it has them at all."""
+    if x.get("structural") is None:
+        return None
+    return x.get("structural_source") or "estimation"
 
 
 def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset(),

@@ -21,6 +21,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 
 from ..checks import _validation as v
+from ..checks._errors import ShapeMismatch
 from ..checks._typing import ArrayLike, FloatArray
 
 __all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "memo_for", "scan_for", "digest"]
@@ -43,14 +44,22 @@ class PreparedRegressor:
     ``compare``'s ``regressor``, a candidate's own). ``array`` is the regressor as float64,
     C-contiguous and read-only. The results kept are tied to its values: do not modify the array
     it was prepared from while the prepared regressor is in use (prepare it again instead).
+    ``structure`` is the model's regressor at states that excite every combination its structure
+    allows (stacked (K*m, p), read-only), or None: with it the report knows the structural columns
+    without the estimation run's regressor.
     """
 
-    __slots__ = ("_cache", "array")
+    __slots__ = ("_cache", "array", "structure")
 
-    def __init__(self, array: FloatArray) -> None:
+    def __init__(self, array: FloatArray, structure: FloatArray | None = None) -> None:
         view = array.view()
         view.flags.writeable = False
         self.array: FloatArray = view
+        self.structure: FloatArray | None = None
+        if structure is not None:
+            kept = structure.view()
+            kept.flags.writeable = False
+            self.structure = kept
         self._cache: dict[tuple[Hashable, ...], Any] = {}
 
     @property
@@ -84,7 +93,8 @@ def _frozen(value: T) -> T:
     return value
 
 
-def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegressor:
+def prepare_regressor(regressor: ArrayLike | PreparedRegressor, *,
+                      structure: ArrayLike | None = None) -> PreparedRegressor:
     """Prepare a regressor for repeated :func:`dynval.validate` calls (and :func:`dynval.compare`).
 
     Parameters
@@ -94,6 +104,14 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegre
         needs ``n_joints`` in each call). It is converted to float64 and made C-contiguous once (a
         copy only when it is not already); its shape and values are checked by each call as a
         plain regressor's are.
+    structure : array_like, (K, m, p) or (K*m, p), optional
+        The same model's regressor at states chosen to excite every combination of columns its
+        structure allows (random positions, velocities and accelerations, as base-parameter
+        computation uses; :meth:`dynval.robots.URDFModel.prepared_regressor` makes it). The report
+        then tells the structural columns (zero or combinations of the others for every motion: the
+        parameters of a fixed-base arm's first links no trajectory excites) from columns this
+        trajectory leaves unexcited, without the estimation run's regressor (contract §4,
+        excitation). Finite real numbers with the regressor's number of columns p.
 
     Returns
     -------
@@ -104,7 +122,11 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegre
     Raises
     ------
     InvalidType
-        ``regressor`` is not an array of real numbers.
+        ``regressor`` or ``structure`` is not an array of real numbers.
+    ShapeMismatch
+        ``structure`` is not 2-D or 3-D with the regressor's number of columns.
+    NonFiniteInput
+        ``structure`` holds a nan or an infinity.
 
     Examples
     --------
@@ -127,9 +149,23 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor) -> PreparedRegre
     ...                                nan_policy="omit").to_json()
     True
     """
-    if isinstance(regressor, PreparedRegressor):
+    if isinstance(regressor, PreparedRegressor) and structure is None:
         return regressor
-    return PreparedRegressor(np.ascontiguousarray(v.to_float_array(regressor, "regressor")))
+    array = regressor.array if isinstance(regressor, PreparedRegressor) else \
+        np.ascontiguousarray(v.to_float_array(regressor, "regressor"))
+    return PreparedRegressor(array, None if structure is None else _structure(structure, array))
+
+
+def _structure(structure: ArrayLike, array: FloatArray) -> FloatArray:
+    """The structure's regressor checked against the regressor's columns, stacked (K*m, p)."""
+    s = v.to_float_array(structure, "structure")
+    p = int(array.shape[-1]) if array.ndim in (2, 3) else -1
+    if s.ndim not in (2, 3) or s.shape[-1] != p or s.size == 0:
+        raise ShapeMismatch(f"structure must be (K, m, p) or (K*m, p) with the regressor's p = {p} columns, "
+                            f"got shape {v.format_shape(s.shape)}")
+    stacked = np.ascontiguousarray(s.reshape(-1, p))
+    v.check_finite(stacked, "structure")
+    return stacked
 
 
 def _is_prepared(prepared: PreparedRegressor | None, a: FloatArray | None) -> bool:

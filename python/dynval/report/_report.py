@@ -245,7 +245,7 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
                  allow_wide=allow_wide)
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
     d, o = _checked(tau_meas, tau_pred, regressor, k)
-    d = replace(d, memo=memo_for(prepared, d.reg2))
+    d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
     b = Sections()
@@ -284,6 +284,8 @@ class _Data:
     lags: Lags
     # the prepared regressor's store of residual-independent results; compute_now keeps nothing
     memo: Memo[Any] = compute_now
+    # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
+    structure: FloatArray | None = None
 
     @property
     def n(self) -> int:
@@ -410,7 +412,7 @@ def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
     """The validation design, and what the motion says: physics library, delay, periodic noise,
     predictive test, each joint's motion and the smallest detectable effect."""
     b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate,
-                          memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}))
+                          memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}), structure=d.structure)
     if o.q is not None and d.e is not None and not d.omitted:
         b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
                                     b.est_fit, o.level, o.estimation, d.meas,

@@ -582,14 +582,22 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
-def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
+def _excitation(r_factor, n_rows: int, norms, gram, est, structure=None) -> dict[str, Any]:
     """The excitation section (contract §4): the columns that are structural (zero or exact
     combinations of others in both runs: reduced to the identifiable combinations), those the
     validation run leaves unexcited or inseparable while the estimation run excites them, and the
     condition number over the combinations the validation run excites. ``r_factor(k)`` is R of the
-    stacked validation regressor (``n_rows`` rows) scaled by 2^-k."""
+    stacked validation regressor (``n_rows`` rows) scaled by 2^-k. Without the estimation run's
+    regressor, the model's ``structure`` (its regressor at states its structure allows) stands for
+    it in telling the structural columns (``structural_source``: "estimation", "model" or None);
+    the motion ratios stay the estimation run's only."""
     p = norms.shape[0]
     with_est = est is not None and est.shape[1] == p
+    source = "estimation" if with_est else "model" if structure is not None and structure.shape[1] == p else None
+    motion_ref = est if with_est else None
+    if source == "model":
+        est = structure
+    with_est = source is not None
     est_norms = _column_norms(est) if with_est else None
     fast = _gram_singular_values(gram, norms) if gram is not None else None
     if fast is not None:  # full column rank in the validation run: nothing is structural or unexcited
@@ -638,7 +646,8 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
         out["condition_scaled"] = float(sv_s[0] / sv_s[-1]) if sv_s[-1] > 0 else float("inf")
     out["rank_tolerance"] = _RANK_TOL
     out["column_norms"] = norms
-    if with_est:
+    out["structural_source"] = source
+    if motion_ref is not None:
         # each column's RMS per row on the validation run over the estimation run's
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             out["column_motion_ratio"] = np.where(
@@ -647,7 +656,8 @@ def _excitation(r_factor, n_rows: int, norms, gram, est) -> dict[str, Any]:
 
 
 def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | None = None,
-           sample_rate=None, memo: Memo = compute_now, estimation_key=()) -> dict[str, Any] | None:
+           sample_rate=None, memo: Memo = compute_now, estimation_key=(),
+           structure=None) -> dict[str, Any] | None:
     """Whether the validation run repeats the estimation run, and how well it excites the model.
 
     Repeat (conventions §5.6): the share of the validation run whose state (q, q̇, q̈ from ``q``,
@@ -658,7 +668,8 @@ def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | N
     regressor distance ‖Y_val − Y_est‖/‖Y_est‖, the joint-space distance ‖q_val − q_est‖/‖q_est −
     q̄_est‖ (and its RMS in the units of q) and the torque distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖
     on the rows both runs have; ``measure`` and ``distance`` are the first of them available.
-    Excitation: :func:`_excitation`.
+    Excitation: :func:`_excitation` (``structure``: the model's regressor at states its structure
+    allows, from a prepared regressor, which tells structural columns without the estimation run).
     """
     from ..statistics import _repeat
     from ._findings import Thresholds
@@ -697,16 +708,18 @@ def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | N
     if reg3 is not None:
         # the regressors' alone (``estimation_key`` names the estimation run's)
         out["excitation"] = memo(("excitation", reg3.shape, estimation_key),
-                                 lambda: _regressor_excitation(reg3, grams, estimation, memo))
+                                 lambda: _regressor_excitation(reg3, grams, estimation, memo, structure))
     return out or None
 
 
-def _regressor_excitation(reg3, grams: JointGrams | None, estimation, memo: Memo = compute_now) -> dict[str, Any]:
-    """:func:`_excitation` of the stacked validation regressor (and the estimation run's)."""
+def _regressor_excitation(reg3, grams: JointGrams | None, estimation, memo: Memo = compute_now,
+                          structure=None) -> dict[str, Any]:
+    """:func:`_excitation` of the stacked validation regressor (and the estimation run's, else the
+    model's structure)."""
     stacked = reg3.reshape(-1, reg3.shape[2])
     gram = grams.stacked() if grams is not None and grams.usable else None
     norms = np.sqrt(np.diag(gram).copy()) if gram is not None else _column_norms(stacked)
     est = None
     if estimation is not None and "regressor" in estimation:
         est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
-    return _excitation(partial(_stacked_r, reg3, memo=memo), stacked.shape[0], norms, gram, est)
+    return _excitation(partial(_stacked_r, reg3, memo=memo), stacked.shape[0], norms, gram, est, structure)
