@@ -270,7 +270,7 @@ def test_a_structure_is_checked_against_the_regressor():
         dynval.prepare_regressor(y, structure=rng.normal(size=3))
     bad = rng.normal(size=(10, 3))
     bad[4, 1] = np.nan
-    with pytest.raises(dynval.NonFiniteInput, match="structure has a non-finite value .* at row 4, column 1"):
+    with pytest.raises(dynval.NonFiniteInput, match=r"structure has a non-finite value .* at row 4, column 1"):
         dynval.prepare_regressor(y, structure=bad)
     with pytest.raises(dynval.InvalidType, match="structure"):
         dynval.prepare_regressor(y, structure="abc")

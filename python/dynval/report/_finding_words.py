@@ -469,7 +469,8 @@ def structural_columns(cols: Sequence[str] | None, structural: Sequence[int], p:
     """``source``: what told them structural: the estimation run's regressor, or the model's
     structure a prepared regressor carries."""
     return (f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the others "
-            f"{_WHERE_STRUCTURAL[source]} ({listed_columns(cols, structural)}): no trajectory of this structure excites them apart, so they "
+            f"{_WHERE_STRUCTURAL[source]} ({listed_columns(cols, structural)}): no trajectory of this structure "
+            "excites them apart, so they "
             f"were reduced to {rank} identifiable combinations (the base parameters), on which the excitation "
             "checks ran.", "none: no trajectory of this structure can excite them apart")
 
