@@ -69,6 +69,24 @@ def _motion_state(q: np.ndarray) -> np.ndarray:
     return np.hstack([q, *d])
 
 
+def _state_noise(q: np.ndarray, w: int) -> np.ndarray:
+    """Per coordinate of :func:`_motion_state` on blocks of ``w`` samples, the standard deviation
+    white sensor noise on q gives it: the noise of the logged q from its third differences at the
+    logged rate (robustly: 1.4826 MAD / √20; there the motion adds almost nothing, where on the
+    blocks it would pass for noise), over √w for a block mean, carried through the state's filters
+    (the identity for q, the Savitzky–Golay coefficients' norm for q̇ and q̈). Coloured noise shows
+    less at the logged rate: the estimate errs towards no correction."""
+    m = q.shape[1]
+    if q.shape[0] < 4 or q.shape[0] // max(w, 1) < _SG_BLOCKS + 2:
+        return np.zeros(3 * m)
+    import scipy.signal
+
+    d3 = np.diff(np.asarray(q, dtype=float), n=3, axis=0)
+    sd = 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20.0 * w)
+    gains = [1.0] + [float(np.linalg.norm(scipy.signal.savgol_coeffs(_SG_BLOCKS, 4, deriv=k))) for k in (1, 2)]
+    return np.concatenate([g * sd for g in gains])
+
+
 def _smooth(x: np.ndarray) -> np.ndarray:
     """Savitzky–Golay smoothing of degree 2 over 7 blocks (the regressor's noisy differentiated
     columns); series shorter than that as they are."""
@@ -79,14 +97,20 @@ def _smooth(x: np.ndarray) -> np.ndarray:
     return np.asarray(scipy.signal.savgol_filter(x, _SG_BLOCKS, 2, axis=0), dtype=float)
 
 
-def _standardise(est: np.ndarray, val: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _standardise(est: np.ndarray, val: np.ndarray, noise: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Both runs' coordinates about the estimation run's mean, over its standard deviation floored
-    at 1 % of the validation run's; coordinates constant in both runs are left out."""
+    at 1 % of the validation run's; coordinates constant in both runs are left out. The third value:
+    the mean square per coordinate, in these units, that ``noise`` (each coordinate's noise SD, the
+    same sensor in both runs) adds to the squared distance between two noisy states (0 without)."""
     mean = est.mean(axis=0)
     sd_e, sd_v = est.std(axis=0), val.std(axis=0)
     scale = np.maximum(sd_e, _FLOOR * sd_v)
     live = scale > 1e-9 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny)
-    return (est[:, live] - mean[live]) / scale[live], (val[:, live] - mean[live]) / scale[live]
+    floor = 0.0
+    if noise is not None and np.any(live):
+        floor = float(np.mean(2.0 * (noise[live] / scale[live]) ** 2))
+    return (est[:, live] - mean[live]) / scale[live], (val[:, live] - mean[live]) / scale[live], floor
 
 
 def _principal_state(fe: np.ndarray, fv: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -146,14 +170,18 @@ def repeat_share(q_val: np.ndarray | None, q_est: np.ndarray | None, reg_val: np
     window = block_length(sample_rate)
     if q_val is not None and q_est is not None and q_val.shape[1] == q_est.shape[1]:
         w = _block(q_est.shape[0], q_val.shape[0], window)
-        ze, zv = _standardise(_motion_state(_block_means(q_est, w)), _motion_state(_block_means(q_val, w)))
+        qe, qv = _block_means(q_est, w), _block_means(q_val, w)
+        # the same sensor in both runs: the smaller of the two runs' estimates, so a fast
+        # trajectory's own third differences cannot pass for noise and make runs look alike
+        noise = np.minimum(_state_noise(q_est, w), _state_noise(q_val, w)) if qe.shape[0] and qv.shape[0] else None
+        ze, zv, floor = _standardise(_motion_state(qe), _motion_state(qv), noise)
         state = "q"
     elif reg_val is not None and reg_est is not None and reg_val.shape[1:] == reg_est.shape[1:]:
         m = reg_val.shape[1]
         w = _block(reg_est.shape[0], reg_val.shape[0], window)
         fe = _smooth(_block_means(reg_est.reshape(reg_est.shape[0], -1), w))
         fv = _smooth(_block_means(reg_val.reshape(reg_val.shape[0], -1), w))
-        ze, zv = _standardise(fe, fv)
+        ze, zv, floor = _standardise(fe, fv)
         if ze.shape[1]:
             ze, zv = _principal_state(ze, zv, 3 * m)
         state = "regressor"
@@ -164,8 +192,12 @@ def repeat_share(q_val: np.ndarray | None, q_est: np.ndarray | None, reg_val: np
     if ze.shape[1] == 0:  # nothing moves in either run: the same (still) state
         dist = np.zeros(zv.shape[0])
     else:
-        dist = near_distances(ze, zv, tolerance)
+        # the noise's part of each squared distance taken out (the near test is on the states,
+        # not on their sensor noise), searched within the tolerance widened by it
+        raw = near_distances(ze, zv, math.sqrt(tolerance ** 2 + floor))
+        dist = np.sqrt(np.maximum(raw ** 2 - floor, 0.0))
     return {"share": float(np.mean(dist <= tolerance)), "tolerance": float(tolerance), "state": state,
+            "noise_floor": math.sqrt(floor),
             "dimension": int(ze.shape[1]), "block": int(w), "n_compared": int(zv.shape[0]),
             "median_distance": float(np.median(dist)),
             "method": "nearest neighbour at any time (KD-tree), distance to the estimation trajectory as an "
