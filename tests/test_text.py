@@ -281,3 +281,17 @@ def test_a_count_of_one_takes_the_singular():
     assert any("1 row with non-finite values was omitted" in f.message for f in report.findings)
     cmp = dynval.compare(tau[1:], {"only": {"prediction": pred[1:], "n_params": 2}}, nan_policy="omit")
     assert "— 1 candidate," in cmp.summary()
+
+
+@pytest.mark.parametrize("in_model, reason", [(True, "a mis-weighted term (the model has it)"),
+                                              (False, "a missing term"), (None, "a missing or mis-weighted term")])
+def test_comparison_reason_tells_a_correlated_column_from_the_record_not_the_words(in_model, reason):
+    """Rewording a finding's action once changed compare's reason silently. Kills: the reason read
+    from the action's words (each action here says the opposite of the record)."""
+    rep = dynval.validate(np.arange(10.0), np.arange(10.0) + 0.1, n_params=1, max_lag=0)
+    contrary = {True: "add the term c on j: the model lacks it", False: "re-identify the term of c on j",
+                None: "re-identify the term of c on j"}
+    f = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(0,), effect=0.4,
+                effect_unit="correlation |ρ|", threshold=0.1, action=contrary[in_model],
+                details={"lag": 0, "rho": 0.4, "n_significant_columns": 1, "in_model": in_model})
+    assert finding_reason(f, rep).endswith("): " + reason)

@@ -65,9 +65,7 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     elif f.kind == "regressor_correlation":
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
-                f"{e} ≥ {t}): " + ("a mis-weighted term (the model has it)" if f.action.startswith("re-identify")
-                                  else "a missing term" if f.action.startswith("add the term")
-                                  else "a missing or mis-weighted term"))
+                f"{e} ≥ {t}): " + _column_relation(f))
     elif f.kind == "bias":
         text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
                 + (f", which the missing term {cols[0]} accounts for" if cols else ""))
@@ -183,3 +181,14 @@ def candidate_reasons(ranking: list[str], reports: Mapping[str, ReportSections],
             out[n] = (f"no deficiency: rank {rank} of {len(ranking)}, {criterion} {_g(crit[n], '.1f')} "
                       f"(Δ{criterion} = {_g(crit[n] - crit[best], '+.1f')} to {best})",)
     return out
+
+
+def _column_relation(f: Finding) -> str:
+    """What a correlated column is to the model, from the finding's record (``details["in_model"]``:
+    the model has it, lacks it, or its columns are unknown), never from its words."""
+    in_model = (f.details or {}).get("in_model")
+    if in_model is True:
+        return "a mis-weighted term (the model has it)"
+    if in_model is False:
+        return "a missing term"
+    return "a missing or mis-weighted term"

@@ -607,7 +607,8 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
             columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
             pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
             effect_unit=w.UNITS["correlation"], threshold=th.regressor_correlation,
-            details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits)}))
+            details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits),
+                     "in_model": _column_in_model(ev, c)}))
     return out
 
 
