@@ -213,7 +213,8 @@ def test_regressor_correlation_record_names_the_earliest_lag_near_the_strongest(
                                 statistic=pytest.approx(0.30 / 0.02),
                                 pvalue=pytest.approx(float(correlation_pvalue(0.30, 0.02))),
                                 pvalue_adjusted=pytest.approx(padj[0, 0, 2]), effect=0.30, effect_unit="|ρ|",
-                                threshold=0.15, details={"lag": 2, "rho": 0.30, "n_significant_columns": 2})
+                                threshold=0.15, details={"lag": 2, "rho": 0.30, "n_significant_columns": 2,
+                                                                  "in_model": None})
     _worded(f, w.regressor_correlation("shoulder", [("a", "lag 2 (20 ms)", 0.30), ("b", "lag 2 (20 ms)", 0.16)],
                                        0.15, 0.30, padj[0, 0, 2], True))
 
