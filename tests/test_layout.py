@@ -92,3 +92,66 @@ def test_no_import_circles():
         if n not in colour:
             visit(n, [n])
     assert circles == []
+
+
+# The layers of docs/architecture.md, bottom first: a package (or a top-level module) imports only
+# from its own layer and the layers below it, lazy imports included. The apps and robotics modules
+# at the top may import one another (no circles: test_no_import_circles).
+LAYERS = (
+    ("_version", "_lazy", "_environ", "_startup", "checks"),
+    ("kernels",),
+    ("statistics",),
+    ("metrics",),
+    ("report",),
+    ("comparison",),
+)
+
+
+def _package_of(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "dynval"
+
+
+def _layer(package: str) -> int:
+    """The package's layer: its index in LAYERS, or one above them all (the public modules)."""
+    return next((i for i, names in enumerate(LAYERS) if package in names), len(LAYERS))
+
+
+def test_packages_import_only_their_own_layer_and_those_below():
+    """Kills: the settings' checker back in checks/ (it imports kernels, metrics, report and
+    statistics), a statistic that reads report/'s column algebra or JSON converter, a record's
+    notebook view importing dynval.html: each an arrow up a layer, a package-level circle."""
+    modules = _modules()
+    known = set(modules)
+    up = sorted({(_package_of(n), _package_of(d)) for n, tree in modules.items() for d in _imports(n, tree, known)
+                 if _layer(_package_of(d)) > _layer(_package_of(n))})
+    assert up == []
+
+
+def test_no_package_level_circles():
+    """The packages' graph (every import, lazy ones too, folded onto its package) has no circle
+    among the internal layers and the public modules below the package root."""
+    modules = _modules()
+    known = set(modules)
+    graph: dict[str, set[str]] = {}
+    for n, tree in modules.items():
+        for d in _imports(n, tree, known):
+            a, b = _package_of(n), _package_of(d)
+            if a != b and "dynval" not in (a, b):
+                graph.setdefault(a, set()).add(b)
+    colour: dict[str, int] = {}
+    circles: list[list[str]] = []
+
+    def visit(n: str, path: list[str]) -> None:
+        colour[n] = 1
+        for d in sorted(graph.get(n, ())):
+            if colour.get(d) == 1:
+                circles.append(path[path.index(d):] + [d])
+            elif d not in colour:
+                visit(d, path + [d])
+        colour[n] = 2
+
+    for n in sorted(graph):
+        if n not in colour:
+            visit(n, [n])
+    assert circles == []

@@ -50,6 +50,7 @@ from .metrics._api import (
     zero_mean_test,
 )
 from .metrics._results import CrossCorrelation, InformationCriteria, PortmanteauTest, ZeroMeanTest
+from .report import _display
 from .report._findings import KINDS as FINDING_KINDS
 from .report._findings import Finding, Thresholds
 from .report._prepared import PreparedRegressor, prepare_regressor
@@ -108,3 +109,13 @@ __all__ = [
     "ERROR_KINDS",
     "error_class",
 ]
+
+
+def _render_html(obj: object) -> str:
+    """A report's or a comparison's HTML fragment (dynval.html, imported when a notebook first asks)."""
+    from .html import render_fragment
+
+    return render_fragment(obj)
+
+
+_display.use(_render_html)

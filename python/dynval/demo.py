@@ -98,7 +98,7 @@ class DemoResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary: the scenario, every identification and report, the comparison."""
-        from .report._json import to_jsonable
+        from .checks._json import to_jsonable
 
         d = self.data
         out = {

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .report._json import to_jsonable
+from .checks._json import to_jsonable
 from .report._text import printable, pvalue_text
 
 __all__ = ["write_report", "render_report", "render_fragment", "write_fleet_report", "render_fleet_report"]

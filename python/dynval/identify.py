@@ -20,7 +20,7 @@ The numerical rank ``r`` is the number of diagonal entries with::
 diagonal, which bounds the singular values from above and below within a factor of the matrix size.
 Columns that are identically zero, or whose norm is at most 1e-13 of the median norm of the
 nonzero columns (roundoff of a structurally zero column; the rule of the report's design section,
-``dynval.report._regressor_algebra.zero_columns``), are never identifiable and are removed before
+``dynval.statistics._columns.zero_columns``), are never identifiable and are removed before
 the factorization. Compared with the median, not the largest, no column's unit changes another
 column's status (contract §4). The first ``r`` pivoted columns are the *base columns*; every other column is a
 linear combination of them, ``Y_d = Y_b β``, and the quantity that the data determine is the base
@@ -82,8 +82,8 @@ from .checks._validation import (
 )
 from .kernels._blas import one_blas_thread
 from .report import _consistency
-from .report._regressor_algebra import zero_columns
 from .statistics import _coverage
+from .statistics._columns import zero_columns
 from .statistics._coverage import CoverageTest
 
 __all__ = ["CoverageTest", "IdentificationResult", "PredictionInterval", "identify", "default_rcond"]
@@ -336,7 +336,7 @@ class IdentificationResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan and inf as strings as in reports)."""
-        from .report._json import to_jsonable
+        from .checks._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable({
             "method": "pivoted QR (column-scaled), rank tolerance rcond * |R_00|"
@@ -415,7 +415,7 @@ class IdentificationResult:
 
     def to_frame(self, *, level: float = 0.95, std: Literal["auto", "white", "colour"] = "auto") -> Any:
         """The coefficient table of :meth:`summary` as a pandas DataFrame, one row per base parameter."""
-        from .report._json import to_frame
+        from .checks._json import to_frame
 
         c = self.coefficients(level=level, std=std)
         return to_frame({k: c[k] for k in ("estimate", "std_err", "t", "pvalue", "lower", "upper")}, c["name"],
@@ -636,7 +636,7 @@ def base_set(a: FloatArray, rcond: float) -> dict[str, Any]:
 
     The reduction :func:`identify` makes, without solving: ``rank``, ``base`` (ascending),
     ``dependent`` (nonzero columns that are combinations of the base ones), ``zero`` (zero
-    columns: norm 0 or roundoff, ``_regressor_algebra.zero_columns``), ``combination`` (rank × p: each base
+    columns: norm 0 or roundoff, ``statistics._columns.zero_columns``), ``combination`` (rank × p: each base
     parameter as a combination of the columns) and ``pivots`` (``|R_kk|`` relative to ``|R_00|``).
     """
     p = a.shape[1]

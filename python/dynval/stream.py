@@ -62,16 +62,6 @@ from .checks import _timing
 from .checks import _validation as v
 from .checks._checks import Array, CheckedCall
 from .checks._errors import InputError, InvalidParameter, ShapeMismatch
-from .checks._options import (
-    UNSUPPORTED,
-    Keywords,
-    Options,
-    check_column_names,
-    check_joint_names,
-    check_options,
-    plan_lags,
-    to_setting,
-)
 from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
@@ -82,6 +72,16 @@ from .metrics._results import ZeroMeanTest
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
+from .report._options import (
+    UNSUPPORTED,
+    Keywords,
+    Options,
+    check_column_names,
+    check_joint_names,
+    check_options,
+    plan_lags,
+    to_setting,
+)
 from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from .streaming._edges import SegmentEdges

@@ -22,7 +22,6 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..kernels import _backend
 from ._errors import InputError, NonFiniteInput
 from ._segments import longest_segment, omit_nonfinite, parse_segments
 from ._typing import BackendName, FloatArray, IntArray, Kernels
@@ -138,9 +137,10 @@ class CheckedCall:
         self.omitting = policy == "omit"
         return policy
 
-    def resolve_backend(self, value: object) -> Kernels:
-        """Check ``backend`` (deferred) and keep its name and kernels."""
-        self.backend, self._kernel = self.check(_backend.resolve, value)
+    def resolve_backend(self, value: object, resolve: Callable[[object], tuple[BackendName, Kernels]]) -> Kernels:
+        """Check ``backend`` (deferred) with ``resolve`` (:func:`dynval.kernels._backend.resolve`,
+        given by the caller: the kernels are a layer above the checks) and keep its name and kernels."""
+        self.backend, self._kernel = self.check(resolve, value)
         return self._kernel
 
     def segments(self, value: object) -> IntArray:

@@ -28,9 +28,9 @@ from typing import Any, Literal
 import numpy as np
 
 from ..checks import _validation as v
+from ..checks._json import to_frame, to_jsonable
 from ..checks._typing import ArrayLike, FloatArray, Integer
 from ..report._findings import Finding
-from ..report._json import to_frame, to_jsonable
 from ..report._prepared import PreparedRegressor, prepare_regressor
 from ..report._ranking import Ranked, first_reason, rank, share_text
 from ..report._report import ValidationReport, validate
@@ -198,12 +198,12 @@ class ComparisonReport:
         columns = {k: [rows[name].get(k) for name in self.ranking] for k in keys}
         return to_frame(columns, list(self.ranking), "model", "ComparisonReport.to_frame")
 
-    def _repr_html_(self) -> str:
+    def _repr_html_(self) -> str | None:
         """The comparison as a notebook shows it: verdict, decision table, reasons, each candidate's
         tables and findings (dynval.html)."""
-        from ..html import render_fragment
+        from ..report import _display
 
-        return render_fragment(self)
+        return _display.render(self)
 
     def summary(self) -> str:
         from ..report._summary import format_comparison

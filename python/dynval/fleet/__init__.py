@@ -140,7 +140,7 @@ def _check_validate_keywords(keywords: dict[str, Any]) -> None:
     """Unknown names (TypeError) and bad data-free settings (InvalidParameter) fail here, not in every task."""
     from dataclasses import fields
 
-    from ..checks._options import Keywords, check_options
+    from ..report._options import Keywords, check_options
 
     known = {f.name for f in fields(Keywords)} - {"n_params", "level"}
     for name in keywords:

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..report._json import to_jsonable
+from ..checks._json import to_jsonable
 from ..report._text import p_clause
 from ._drift import Drift
 from ._run import LogSummary

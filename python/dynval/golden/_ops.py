@@ -162,13 +162,14 @@ def _checked_data(inputs: Mapping[str, Any], nan_policy: object) -> tuple[np.nda
     then finiteness), then the regressor as ``cross_correlation`` checks it against ``e``."""
     from ..checks._checks import CheckedCall
     from ..checks._validation import check_min_samples, regressor_shape, regressor_to_2d, to_float_array, torque_pair
+    from ..kernels._backend import resolve
 
     t = torque_pair(inputs["tau_meas"], inputs["tau_pred"])
     n, m = t.meas.shape
     check_min_samples("criteria", n)
     call = CheckedCall("criteria", [("tau_meas", t.meas, None), ("tau_pred", t.pred, None)])
     call.nan_policy(nan_policy)
-    call.resolve_backend(None)
+    call.resolve_backend(None, resolve)
     call.require_finite()
     if inputs.get("regressor") is None:
         return t.meas, t.pred, None

@@ -106,7 +106,7 @@ def _call(function: str, arrays: list[tuple[str, FloatArray, int | None]], nan_p
     function's own parameters follow through ``call.check``."""
     call = CheckedCall(function, arrays)
     call.nan_policy(nan_policy)
-    call.resolve_backend(backend)
+    call.resolve_backend(backend, _backend.resolve)
     if segments is not _NO_SEGMENTS:
         call.segments(segments)
     if call.omitting:

@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from .._version import CONTRACT_VERSION, __version__
+from ..checks._json import to_frame, to_jsonable
 from ..checks._timing import Timing
 from ..metrics._profiles import Profile
 from . import _records as rec
 from . import _sections as sec
 from ._findings import Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
-from ._json import to_frame, to_jsonable
 from ._ranking import Ranked, deciding, first_reason
 from ._summary import format_summary
 
@@ -209,11 +209,11 @@ class ValidationReport:
         columns = {**dict(self.per_joint), "mean": self.residuals["mean"], "variance": self.residuals["variance"]}
         return to_frame(columns, list(names), "joint", "ValidationReport.to_frame")
 
-    def _repr_html_(self) -> str:
+    def _repr_html_(self) -> str | None:
         """The report as a notebook shows it: the HTML page's tables and findings (dynval.html)."""
-        from ..html import render_fragment
+        from . import _display
 
-        return render_fragment(self)
+        return _display.render(self)
 
     def summary(self) -> str:
         """Readable text: per-joint table first, then pooled values, criteria and findings.

@@ -198,7 +198,7 @@ class Finding:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (non-finite numbers as strings, like the report)."""
-        from ._json import to_jsonable
+        from ..checks._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable(asdict(self))
         return out

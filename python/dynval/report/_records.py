@@ -18,7 +18,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar, TypeVar
 
-from ._json import to_jsonable
+from ..checks._json import to_jsonable
 
 __all__ = ["ABSENT", "Record", "Provenance", "PerJoint", "Pooled", "Aggregates", "Residuals", "Autocorrelation",
            "LjungBox", "CrossCorrelation", "InformationCriteria", "Bias", "Whiteness", "Spectrum", "Design",

@@ -19,10 +19,13 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
+from ..statistics._columns import ROW_BLOCK, zero_columns
+from ..statistics._columns import column_norms as _column_norms
+from ..statistics._columns import exponents as _exponents
+from ..statistics._columns import largest_abs as _column_largest
+from ..statistics._columns import pow2_exponents as _pow2_exponents
+from ..statistics._columns import scale_pow2 as _scale_pow2
 from ._prepared import Memo, compute_now
-
-# Rows per block where a pass over the stacked regressor would otherwise copy it whole.
-ROW_BLOCK = 1 << 16
 
 
 def column_largest(reg3: np.ndarray, memo: Memo = compute_now) -> np.ndarray:
@@ -224,29 +227,6 @@ def _least_squares(y, b):
     return beta if beta is not None else np.linalg.lstsq(y, b, rcond=None)[0]
 
 
-def _column_largest(x):
-    """Per column, its largest |x|, without a copy of x."""
-    return np.maximum(np.max(x, axis=0), -np.min(x, axis=0))
-
-
-def _exponents(largest):
-    """The exponent k (np.frexp) of each largest |x|, 0 for a zero column."""
-    return np.where(largest > 0, np.frexp(largest)[1], 0).astype(np.int64)
-
-
-def _pow2_exponents(x):
-    """Per column, the exponent k of its largest |x| (0 for a zero column)."""
-    return _exponents(_column_largest(x))
-
-
-def _scale_pow2(x, k):
-    """x·2^-k per column, exactly (as np.ldexp)."""
-    if np.all(np.abs(k) < 1000):
-        # 2^-k is a normal number: multiplying by it is the same exact scaling, and much faster
-        return x * np.ldexp(1.0, -k)
-    return np.ldexp(x, -k)
-
-
 def _pow2_columns(x):
     """(x·2^-k, k) per column, k the exponent of the column's largest |x| (0 for zeros)."""
     k = _pow2_exponents(x)
@@ -319,24 +299,6 @@ identifiable combination stands at 1e-2); a real column this weak would mean a c
 1e9."""
 
 
-_ROUNDOFF_COLUMN = 1e-13
-"""A column is zero (conventions §5.6, contract §4) when its norm is 0 or at most 1e-13 of the median
-norm of the nonzero columns: roundoff of a structurally zero column (cos(π/2) = 6e-17 in a kinematic
-chain; KUKA LWR4+: 1.3e-16 and 3.9e-16 of the median in runs 3 and 1). The median, not the largest:
-a column in another unit (×1e9) then moves no other column's decision, and columns scaled each by
-any factor in [1e-6, 1e6] keep theirs while their norms are within 10 of each other."""
-
-
-def zero_columns(norms: np.ndarray, tol: float = _ROUNDOFF_COLUMN) -> np.ndarray:
-    """Which columns are zero (:data:`_ROUNDOFF_COLUMN`): norm 0, or at most ``tol`` of the median
-    norm of the nonzero columns. The only place a column's size is judged against the others'."""
-    norms = np.asarray(norms, dtype=float)
-    nonzero = norms[norms > 0]
-    if nonzero.size == 0:
-        return np.ones(norms.shape, dtype=bool)
-    return norms <= tol * float(np.median(nonzero))
-
-
 def unit_norm_columns(x: np.ndarray) -> np.ndarray:
     """The columns of x (rows × k) divided by their norms, zero columns (:func:`zero_columns`) left
     out: what a least squares whose coefficients are not reported (the model's own columns as
@@ -357,14 +319,6 @@ def _gram_singular_values(gram, norms):
     if raw[-1] > 0 and scaled[-1] > 0 and raw[0] / raw[-1] < limit and scaled[0] / scaled[-1] < limit:
         return raw, scaled
     return None
-
-
-def _column_norms(x):
-    """Column norms, each column scaled by the power of two of its largest |x| (exact), so that the
-    squares of 1e-170 or 1e150 data neither underflow nor overflow."""
-    k = _pow2_exponents(x)
-    return np.ldexp(np.sqrt(sum(np.linalg.norm(_scale_pow2(x[i:i + ROW_BLOCK], k), axis=0) ** 2
-                                for i in range(0, x.shape[0], ROW_BLOCK))), k)
 
 
 def _stacked_r(reg3, k, memo: Memo = compute_now) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..checks import _validation as v
 from ..checks._checks import Array, CheckedCall
-from ..checks._options import Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
+from ..checks._json import to_jsonable
 from ..checks._segments import parse_segments, segment_lengths
 from ..checks._typing import (
     ArrayLike,
@@ -41,7 +41,7 @@ from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds, resolve_thresholds
-from ._json import to_jsonable
+from ._options import Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
 from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]

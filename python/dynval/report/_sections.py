@@ -13,19 +13,19 @@ from typing import Any
 import numpy as np
 
 from ..statistics import _estimation, _stats
+from ..statistics._columns import column_norms as _column_norms
+from ..statistics._columns import zero_columns
 from ._findings import Evidence
 from ._prepared import Memo, compute_now
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
-    _column_norms,
     _gram_singular_values,
     _leading_base,
     _project_out,
     _r_factor,
     _stacked_r,
     column_largest,
-    zero_columns,
 )
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0

@@ -112,7 +112,7 @@ class CoverageTest:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (arrays as lists; nan as a string as in reports)."""
-        from ..report._json import to_jsonable
+        from ..checks._json import to_jsonable
 
         out: dict[str, Any] = to_jsonable({
             "decision": self.decision,

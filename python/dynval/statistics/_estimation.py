@@ -50,9 +50,9 @@ def _column_scales(stacked):
     dependent columns do not depend on the columns' units (columns 1e6 apart put a direction of the
     Gram matrix below pinv's 1e-15), and a column the run does not excite gets no coefficient and no
     variance."""
-    from ..report._regressor_algebra import _column_norms, zero_columns
+    from ._columns import column_norms, zero_columns
 
-    norms = _column_norms(stacked)
+    norms = column_norms(stacked)
     zero = zero_columns(norms)
     return np.where(zero, 0.0, 1.0 / np.where(zero, 1.0, norms))
 

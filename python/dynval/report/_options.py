@@ -25,15 +25,15 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..checks import _timing
+from ..checks import _validation as v
+from ..checks._errors import InvalidParameter, ShapeMismatch
+from ..checks._segments import longest_segment, parse_segments
+from ..checks._typing import BackendName, FloatArray, IntArray, Kernels
 from ..kernels._backend import resolve
 from ..metrics._profiles import Profile, get_profile
-from ..report._assembly import Setting
-from ..report._findings import Thresholds, resolve_thresholds
-from . import _timing
-from . import _validation as v
-from ._errors import InvalidParameter, ShapeMismatch
-from ._segments import longest_segment, parse_segments
-from ._typing import BackendName, FloatArray, IntArray, Kernels
+from ._assembly import Setting
+from ._findings import Thresholds, resolve_thresholds
 
 __all__ = ["Keywords", "Data", "Options", "Lags", "UNSUPPORTED", "check_options", "plan_lags", "to_setting"]
 
