@@ -48,23 +48,25 @@ class LogMotion:
 
 
 def log_motion(path: str | os.PathLike[str], joints: Sequence[str], *, topic: str | None = None,
-               derivatives: str = "positions", effort_unit: str = "N·m",
-               torque_constant: float | Sequence[float] | None = None) -> LogMotion:
+               derivatives: str = "positions", effort_unit: str | None = None,
+               torque_constant: float | Sequence[float] | None = None, mapping: Any = None) -> LogMotion:
     """The joint states of ``path`` in ``joints``' order, with velocities and accelerations.
 
-    The derivatives come from the positions through :func:`dynval.robots.differentiate`
-    (Savitzky–Golay, 0.1 s, degree 4, zero phase) at the stamps' median rate; with
-    ``derivatives="logged"`` the log's velocities are used and only the acceleration is
-    differentiated. Either way the report's ``bandwidth`` is the filter's band.
+    ``path`` is a bag or MCAP file (:func:`dynval.io.read_joint_states`), or with ``mapping`` a
+    vendor's CSV log (:func:`dynval.io.read_csv_log`: a preset's name, a JSON file or a
+    :class:`dynval.io.CSVMapping`); a ``.csv`` file without a mapping is refused (columns are
+    never guessed). The derivatives come from the positions through
+    :func:`dynval.robots.differentiate` (Savitzky–Golay, 0.1 s, degree 4, zero phase) at the
+    stamps' median rate; with ``derivatives="logged"`` the log's velocities are used and only the
+    acceleration is differentiated. Either way the report's ``bandwidth`` is the filter's band.
     """
     from .checks._validation import parameter_error
-    from .io._ros import read_joint_states
     from .robots import differentiate
 
     if derivatives not in DERIVATIVES:
         raise parameter_error("derivatives", "'positions' or 'logged'", derivatives)
-    log = read_joint_states(path, joints=joints, topic=topic, effort_unit=effort_unit,
-                            torque_constant=torque_constant)
+    log = _read_log(path, joints, topic=topic, effort_unit=effort_unit, torque_constant=torque_constant,
+                    mapping=mapping)
     if log.tau is None:
         raise parameter_error("log", "joint states with an effort field (the measured torque)", os.fspath(path))
     rate = log.sample_rate
@@ -84,6 +86,29 @@ def log_motion(path: str | os.PathLike[str], joints: Sequence[str], *, topic: st
     return LogMotion(time=log.time, q=log.q, dq=np.ascontiguousarray(dq), ddq=d.ddq, tau=log.tau,
                      joint_names=log.joint_names, sample_rate=rate, bandwidth_hz=d.input_bandwidth_hz,
                      source=source, notes=tuple(notes))
+
+
+def _read_log(path: str | os.PathLike[str], joints: Sequence[str], *, topic: str | None, effort_unit: str | None,
+              torque_constant: Any, mapping: Any) -> Any:
+    """A bag or MCAP file's joint states, or a CSV log's by its mapping (whose effort unit rules)."""
+    from .checks._validation import parameter_error
+    from .io import read_csv_log, read_joint_states
+    from .io._csvlog import load_mapping
+
+    if mapping is None:
+        if os.fspath(path).lower().endswith((".csv", ".tsv", ".txt")):
+            raise parameter_error("mapping", "a CSV mapping for a CSV log (a preset such as 'ur_rtde', or a JSON "
+                                  "file of CSVMapping's fields): dynval does not guess which column is what",
+                                  None)
+        return read_joint_states(path, joints=joints, topic=topic, effort_unit=effort_unit or "N·m",
+                                 torque_constant=torque_constant)
+    chosen = load_mapping(mapping)
+    if topic is not None:
+        raise parameter_error("topic", "None for a CSV log (a topic is a bag's)", topic)
+    if effort_unit is not None and ("N·m" if effort_unit == "Nm" else effort_unit) != chosen.effort_unit:
+        raise parameter_error("effort_unit", f"the mapping's own ({chosen.effort_unit!r}, mapping {chosen.name}) or "
+                              "None: a CSV log's effort unit is declared by its mapping", effort_unit)
+    return read_csv_log(path, chosen, joints=joints, torque_constant=torque_constant)
 
 
 def _load_model(path: str) -> Any:
@@ -111,15 +136,16 @@ def _load_model(path: str) -> Any:
 
 def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[str, str], *,
                  estimation: str | os.PathLike[str] | None = None, topic: str | None = None,
-                 derivatives: str = "positions", effort_unit: str = "N·m",
-                 torque_constant: float | Sequence[float] | None = None,
+                 derivatives: str = "positions", effort_unit: str | None = None,
+                 torque_constant: float | Sequence[float] | None = None, mapping: Any = None,
                  progress: Callable[[str], None] | bool | None = None, **keywords: Any) -> Any:
     """Compare model files on a robot's log: the verdict, as :func:`dynval.compare` gives it.
 
     Parameters
     ----------
     log : str or path
-        The validation log (a bag or MCAP file: :func:`dynval.io.read_joint_states`).
+        The validation log (a bag or MCAP file: :func:`dynval.io.read_joint_states`; a vendor's
+        CSV log with ``mapping``: :func:`dynval.io.read_csv_log`).
     models : sequence of str, or mapping name → path
         URDF (and, with ``dynval[mujoco]``, MJCF) files; the first one's joint order is the
         columns' order, and every model must name the same joints. Each is a candidate as it is
@@ -129,8 +155,9 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
         Coulomb friction, offset) of the first URDF model are identified on it by least squares
         and the fit is a candidate too (``"NAME identified"``); the comparison then has the
         regressor (the fit's base columns), their names and the estimation run.
-    topic, effort_unit, torque_constant, derivatives
-        How to read the logs (:func:`log_motion`; the same for both logs).
+    topic, effort_unit, torque_constant, derivatives, mapping
+        How to read the logs (:func:`log_motion`; the same for both logs). ``effort_unit`` None is
+        ``"N·m"`` for a bag and the mapping's own for a CSV log (another value is refused there).
     progress : callable, bool or None
         Where to say what is being done (a function of one line; True: stderr; None/False: quiet).
     **keywords
@@ -160,7 +187,7 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
                                   f"{list(joints)})", f"{name}: {list(model.joint_names)}")
     say(f"reading {os.fspath(log)}")
     val = log_motion(log, joints, topic=topic, derivatives=derivatives, effort_unit=effort_unit,
-                     torque_constant=torque_constant)
+                     torque_constant=torque_constant, mapping=mapping)
     candidates: dict[str, Any] = {}
     for name, model in loaded.items():
         say(f"predicting {name} on {val.q.shape[0]} samples")
@@ -169,7 +196,7 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
     if estimation is not None:
         say(f"reading the estimation log {os.fspath(estimation)}")
         est = log_motion(estimation, joints, topic=topic, derivatives=derivatives, effort_unit=effort_unit,
-                         torque_constant=torque_constant)
+                         torque_constant=torque_constant, mapping=mapping)
         options.update(_identified(loaded, est, val, candidates, say))
     say(f"comparing {len(candidates)} candidates")
     cmp = compare(val.tau, candidates, time=val.time, bandwidth=val.bandwidth_hz, q=val.q, dq=val.dq,
@@ -177,6 +204,7 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
     object.__setattr__(cmp, "log_provenance", {
         "log": os.fspath(log), "estimation": None if estimation is None else os.fspath(estimation),
         "models": {n: os.fspath(p) for n, p in named.items()}, "derivatives": val.source,
+        "mapping": None if mapping is None else _mapping_name(mapping),
         "notes": list(val.notes)})
     return cmp
 
@@ -202,6 +230,12 @@ def _identified(loaded: Mapping[str, Any], est: LogMotion, val: LogMotion, candi
         return {"regressor": np.ascontiguousarray(y_val[:, :, keep]), "column_names": [names[c] for c in keep],
                 "estimation": {"q": est.q, "regressor": np.ascontiguousarray(y_est[:, :, keep]), "tau": est.tau}}
     return options
+
+
+def _mapping_name(mapping: Any) -> str:
+    from .io._csvlog import load_mapping
+
+    return load_mapping(mapping).name
 
 
 def _stem(path: str | os.PathLike[str]) -> str:
