@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 import dynval
+from csv_logs import kuka_csv
 from dynval.datasets import load_kuka_lwr4
 from dynval.io import MAPPINGS, CSVMapping, FileInputError, load_mapping, read_csv_log
 
 N = 2000
-SHUFFLED = [3, 1, 0, 2, 6, 5, 4]
 
 
 @pytest.fixture(scope="module")
@@ -28,23 +28,7 @@ def run3():
 
 
 def _kuka_csv(path, run, rows=None, *, delimiter=";"):
-    """Time in ms, columns ``J{i}_pos`` / ``J{i}_vel`` / ``J{i}_trq`` numbered from 1 in SHUFFLED's
-    joint order, every column shuffled in the file, an unmapped column first; and its mapping."""
-    rows = np.arange(N) if rows is None else np.asarray(rows)
-    names, values = ["status"], [np.ones(len(rows))]
-    for k, j in enumerate(SHUFFLED):
-        for kind, arr in (("pos", run.q), ("vel", run.dq), ("trq", run.tau)):
-            names.append(f"J{k + 1}_{kind}")
-            values.append(arr[rows, j])
-    names.append("t_ms")
-    values.append(run.time[rows] * 1000.0)
-    order = np.random.default_rng(1).permutation(len(names))
-    table = np.column_stack([values[c] for c in order])
-    np.savetxt(path, table, fmt="%.17g", delimiter=delimiter, header=delimiter.join(names[c] for c in order),
-               comments="")
-    mapping = {"time": "t_ms", "time_unit": "ms", "q": "J{i}_pos", "dq": "J{i}_vel", "effort": "J{i}_trq",
-               "first_index": 1, "joints": [run.joint_names[j] for j in SHUFFLED], "name": "kuka"}
-    return path, mapping
+    return kuka_csv(path, run, np.arange(N) if rows is None else rows, delimiter=delimiter)
 
 
 def test_a_renamed_kuka_csv_reads_back_the_arrays_in_the_models_joint_order(tmp_path, run3):

@@ -26,6 +26,9 @@ def add_validate_log(sub: Any, exit_codes: str) -> None:
                           "JSON file of dynval.io.CSVMapping's fields")
     cmd.add_argument("--model", action="append", required=True, metavar="[NAME=]FILE",
                      help="a URDF file (repeat for several; NAME= names the candidate, else the file's stem)")
+    cmd.add_argument("--identified", action="append", default=[], metavar="NAME=FILE",
+                     help="your own identified parameters of the model NAME (.npy, .csv or .json, one value per "
+                          "column of its regressor), a candidate predicting regressor·parameters (repeatable)")
     cmd.add_argument("--estimation", metavar="LOG2", help="a second log of the same robot to identify the model on")
     cmd.add_argument("--topic", help="the JointState topic (needed when the log has several)")
     cmd.add_argument("--derivatives", choices=("positions", "logged"), default="positions",
@@ -59,6 +62,19 @@ def _models(values: list[str]) -> dict[str, str]:
     return out
 
 
+def _identified(values: list[str]) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for value in values:
+        name, sep, path = value.partition("=")
+        if not sep or not name or not path:
+            raise argparse.ArgumentTypeError(f"--identified: expected NAME=FILE (NAME one of the --model names), "
+                                             f"got {value!r}")
+        if name in out:
+            raise argparse.ArgumentTypeError(f"--identified: two parameter files for the model {name!r}")
+        out[name] = path
+    return out
+
+
 def _torque_constant(text: str | None) -> Any:
     if text is None:
         return None
@@ -78,13 +94,15 @@ def run_validate_log(args: Any, error: Any, emit: Any, write_html: Any) -> int:
     try:
         models = _models(args.model)
         constant = _torque_constant(args.torque_constant)
+        identified = _identified(args.identified)
     except argparse.ArgumentTypeError as exc:
         return int(error("validate-log", str(exc)))
     unit = None if args.effort_unit is None else "N·m" if args.effort_unit in ("N·m", "Nm") else "A"
     try:
         cmp = validate_log(args.log, models, estimation=args.estimation, topic=args.topic,
                            derivatives=args.derivatives, effort_unit=unit, torque_constant=constant,
-                           mapping=args.mapping, level=args.level, progress=args.progress)
+                           mapping=args.mapping, identified=identified, level=args.level,
+                           progress=args.progress)
     except InputError as exc:
         return int(error("validate-log", f"{type(exc).__name__}: {exc}"))
     except ImportError as exc:

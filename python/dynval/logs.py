@@ -138,6 +138,7 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
                  estimation: str | os.PathLike[str] | None = None, topic: str | None = None,
                  derivatives: str = "positions", effort_unit: str | None = None,
                  torque_constant: float | Sequence[float] | None = None, mapping: Any = None,
+                 identified: Mapping[str, Any] | None = None,
                  progress: Callable[[str], None] | bool | None = None, **keywords: Any) -> Any:
     """Compare model files on a robot's log: the verdict, as :func:`dynval.compare` gives it.
 
@@ -158,6 +159,14 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
     topic, effort_unit, torque_constant, derivatives, mapping
         How to read the logs (:func:`log_motion`; the same for both logs). ``effort_unit`` None is
         ``"N·m"`` for a bag and the mapping's own for a CSV log (another value is refused there).
+    identified : mapping name → parameter vector, optional
+        The user's own identified parameters of a model (``name`` one of ``models``' names): a
+        ``.npy``, ``.csv`` or ``.json`` file (a list of numbers, or an object of every column name
+        to its value) or an array, one value per column of the model's regressor (a URDF model's
+        ``column_names()``: 10 inertial parameters per link, then ``Fv_``, ``Fc_``, ``off_`` per
+        joint; an MJCF model's ``column_names``). The candidate ``"NAME identified (STEM)"``
+        predicts ``regressor(q, q̇, q̈) @ π̂`` with ``n_params`` the regressor's rank on the run
+        (its base parameters, as :func:`dynval.identify.identify` counts them).
     progress : callable, bool or None
         Where to say what is being done (a function of one line; True: stderr; None/False: quiet).
     **keywords
@@ -192,6 +201,9 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
     for name, model in loaded.items():
         say(f"predicting {name} on {val.q.shape[0]} samples")
         candidates[name] = {"prediction": model.predict(val.q, val.dq, val.ddq), "n_params": 0}
+    for name, value in (identified or {}).items():
+        say(f"predicting the identified parameters of {name}")
+        candidates.update(_user_identified(loaded, name, value, val))
     options: dict[str, Any] = {}
     if estimation is not None:
         say(f"reading the estimation log {os.fspath(estimation)}")
@@ -207,6 +219,91 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
         "mapping": None if mapping is None else _mapping_name(mapping),
         "notes": list(val.notes)})
     return cmp
+
+
+def _user_identified(loaded: Mapping[str, Any], name: str, value: Any, val: LogMotion) -> dict[str, Any]:
+    """The candidate of a user's identified parameter vector for the model ``name``."""
+    from .checks._validation import parameter_error
+    from .identify import base_set, default_rcond
+
+    if name not in loaded:
+        raise parameter_error("identified", f"parameters of one of the models ({', '.join(map(repr, loaded))})",
+                              name)
+    model = loaded[name]
+    names = _column_names(model)
+    source, pi = _parameter_vector(value, names)
+    if pi.size != len(names):
+        raise parameter_error("identified", f"one value per column of the model {name}'s regressor: {len(names)} "
+                              f"columns ({_columns_source(model)}), and {source} holds {pi.size}", name)
+    if not np.all(np.isfinite(pi)):
+        raise parameter_error("identified", f"finite values ({source} holds {int(np.sum(~np.isfinite(pi)))} that "
+                              "are not)", name)
+    y = model.regressor(val.q, val.dq, val.ddq)
+    n, m, p = y.shape
+    rank = base_set(y.reshape(n * m, p), default_rcond(n * m, p))["rank"]
+    stem = _stem(source) if source != "the array" else "array"
+    return {f"{name} identified ({stem})": {"prediction": y @ pi, "n_params": int(rank)}}
+
+
+def _column_names(model: Any) -> tuple[str, ...]:
+    names = model.column_names
+    return tuple(names() if callable(names) else names)
+
+
+def _columns_source(model: Any) -> str:
+    """Where a model's column names come from, for a message about a parameter vector's length."""
+    if callable(model.column_names):
+        return ("URDFModel.column_names(): 10 inertial parameters per link, then Fv_, Fc_ and off_ per joint, "
+                f"of {len(model.joint_names)} joints")
+    return f"MJCFModel.column_names: rigid_body_, armature_, damping_, frictionloss_ of {len(model.joint_names)} joints"
+
+
+def _parameter_vector(value: Any, names: Sequence[str]) -> tuple[str, np.ndarray]:
+    """(what names it in messages, the values as a 1-D float array) from an array or a file."""
+    from .checks._validation import parameter_error
+    from .io._fileopen import FileInputError, _open_regular
+    from .io._files import load_array
+
+    if not isinstance(value, (str, os.PathLike)):
+        arr = np.asarray(value, dtype=float)
+        source = "the array"
+    else:
+        source = os.fspath(value)
+        if source.lower().endswith(".json"):
+            arr = _json_vector(source, names, _open_regular, FileInputError)
+        elif source.lower().endswith((".npy", ".csv")):
+            arr = np.asarray(load_array(source), dtype=float)
+        else:
+            raise parameter_error("identified", "a .npy, .csv or .json file of the parameters", source)
+    if arr.ndim == 2 and 1 in arr.shape:
+        arr = arr.reshape(-1)
+    if arr.ndim != 1:
+        raise parameter_error("identified", "one parameter vector (p,)", f"{source}: shape {arr.shape}")
+    return source, arr
+
+
+def _json_vector(path: str, names: Sequence[str], open_regular: Any, error: Any) -> np.ndarray:
+    """A JSON list of numbers, or an object of every column name to its value."""
+    import json
+
+    handle, _ = open_regular(path)
+    with handle:
+        try:
+            values = json.loads(handle.read(1 << 24).decode("utf-8-sig"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise error(f"{path}: not a JSON list or object of numbers ({exc})") from None
+    if isinstance(values, dict):
+        unknown = [k for k in values if k not in names]
+        missing = [k for k in names if k not in values]
+        if unknown or missing:
+            raise error(f"{path}: the keys must be the model's column names: "
+                        + (f"{unknown[0]!r} is none of them" if unknown else f"{missing[0]!r} has no value")
+                        + f" ({len(missing)} of {len(names)} columns missing, {len(unknown)} unknown keys)")
+        values = [values[k] for k in names]
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{path}: holds values that are not numbers") from None
 
 
 def _identified(loaded: Mapping[str, Any], est: LogMotion, val: LogMotion, candidates: dict[str, Any],

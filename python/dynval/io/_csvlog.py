@@ -290,14 +290,13 @@ def read_csv_log(path: str | os.PathLike[str], mapping: str | os.PathLike[str] |
     data = _parse(where, header_line, delimiter, columns, len(header), plan)
     stamps = _stamps_ns(where, data[:, 0], chosen, columns[0])
     rows = data[:, 1:]
-    del data
     stamps, rows, notes = _ordered_stamps(stamps, rows, "row")
     m = plan.n
     has = [getattr(chosen, f) is not None for f in ("dq", "effort")]
-    q = np.ascontiguousarray(rows[:, :m])
-    dq = np.ascontiguousarray(rows[:, m:2 * m]) if has[0] else None
-    tau = np.ascontiguousarray(rows[:, (1 + has[0]) * m:]) if has[1] else None
-    del rows
+    # views of the one array numpy parsed (no second copy of a long log); the columns are strided
+    q = rows[:, :m]
+    dq = rows[:, m:2 * m] if has[0] else None
+    tau = rows[:, (1 + has[0]) * m:(2 + has[0]) * m] if has[1] else None
     if tau is not None and scale is not None:
         tau *= scale
     return JointStateLog(time=(stamps - stamps[0]) / 1e9, q=q, dq=dq, tau=tau, joint_names=plan.joints, path=where,
