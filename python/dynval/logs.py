@@ -205,11 +205,14 @@ def validate_log(log: str | os.PathLike[str], models: Sequence[str] | Mapping[st
         say(f"predicting the identified parameters of {name}")
         candidates.update(_user_identified(loaded, name, value, val))
     options: dict[str, Any] = {}
+    est = None
     if estimation is not None:
         say(f"reading the estimation log {os.fspath(estimation)}")
         est = log_motion(estimation, joints, topic=topic, derivatives=derivatives, effort_unit=effort_unit,
                          torque_constant=torque_constant, mapping=mapping)
         options.update(_identified(loaded, est, val, candidates, say))
+    if all(hasattr(model, "retune") for model in loaded.values()):
+        options.update(_simulator_columns(loaded, est, val, candidates, say))
     say(f"comparing {len(candidates)} candidates")
     cmp = compare(val.tau, candidates, time=val.time, bandwidth=val.bandwidth_hz, q=val.q, dq=val.dq,
                   ddq=val.ddq, joint_names=list(joints), **options, **keywords)
@@ -333,6 +336,22 @@ def _mapping_name(mapping: Any) -> str:
     from .io._csvlog import load_mapping
 
     return load_mapping(mapping).name
+
+
+def _simulator_columns(loaded: Mapping[str, Any], est: LogMotion | None, val: LogMotion, candidates: dict[str, Any],
+                       say: Callable[[str], None]) -> dict[str, Any]:
+    """Models that are all MJCF: the first one's regressor (and its estimation run's), its column
+    names, and each candidate's non-zero parameters as its model columns, as MJCFModel.compare
+    passes them, so that the findings name the simulator parameters to retune."""
+    first = next(iter(loaded.values()))
+    say(f"the simulator regressor of {next(iter(loaded))} ({len(first.column_names)} columns)")
+    for name, model in loaded.items():
+        candidates[name]["model_columns"] = model.model_columns()
+    options: dict[str, Any] = {"regressor": first.regressor(val.q, val.dq, val.ddq),
+                               "column_names": list(first.column_names)}
+    if est is not None:
+        options["estimation"] = {"q": est.q, "regressor": first.regressor(est.q, est.dq, est.ddq), "tau": est.tau}
+    return options
 
 
 def _stem(path: str | os.PathLike[str]) -> str:
