@@ -194,3 +194,85 @@ def test_mappings_from_json_and_their_errors(tmp_path):
         CSVMapping(time="t", q="q{i}", time_unit="min")
     with pytest.raises(dynval.InvalidParameter, match=r"mapping\.torque_constant must be None when effort_unit"):
         CSVMapping(time="t", q="q{i}", torque_constant=2.0)
+
+
+ARM6 = """<mujoco><option gravity="0 0 -9.81"/><worldbody>
+<body name="base_link"><joint name="shoulder_pan_joint" axis="0 0 1" damping="0.8" armature="0.1" frictionloss="0.4"/>
+<inertial pos="0 0 0.05" mass="3.7" diaginertia="0.010 0.010 0.007"/>
+<body name="upper_arm" pos="0 0.13 0.09"><joint name="shoulder_lift_joint" axis="0 1 0" damping="0.8" armature="0.1"/>
+<inertial pos="0.21 0 0" mass="8.4" diaginertia="0.02 0.13 0.13"/>
+<body name="forearm" pos="0.42 -0.12 0"><joint name="elbow_joint" axis="0 1 0" damping="0.5" armature="0.05"/>
+<inertial pos="0.2 0 0" mass="2.3" diaginertia="0.005 0.03 0.03"/>
+<body name="wrist_1" pos="0.39 0 0"><joint name="wrist_1_joint" axis="0 1 0" damping="0.2"/>
+<inertial pos="0 0.1 0" mass="1.2" diaginertia="0.002 0.002 0.002"/>
+<body name="wrist_2" pos="0 0.1 0"><joint name="wrist_2_joint" axis="0 0 1" damping="0.2"/>
+<inertial pos="0 0 0.1" mass="1.2" diaginertia="0.002 0.002 0.002"/>
+<body name="wrist_3" pos="0 0 0.1"><joint name="wrist_3_joint" axis="0 1 0" damping="0.1"/>
+<inertial pos="0 0.02 0" mass="0.25" diaginertia="0.0002 0.0002 0.0002"/>
+</body></body></body></body></body></body></worldbody></mujoco>"""
+
+
+def test_an_rtde_log_of_a_six_joint_arm_gives_the_array_paths_report(tmp_path):
+    """An RTDE-layout CSV (currents in A) of a simulated 6-joint arm, its MJCF with a wrong damping
+    as the model: validate-log --mapping ur_rtde --torque-constant gives the report of the array path."""
+    pytest.importorskip("mujoco")
+    from dynval.logs import validate_log
+    from dynval.mjcf import MJCFModel
+    from dynval.robots import differentiate
+
+    model = MJCFModel(ARM6)
+    rate, rows = 500.0, 6000
+    t = np.arange(rows) / rate
+    f = np.array([0.11, 0.17, 0.23, 0.29, 0.31, 0.37])
+    a = np.array([1.0, 0.8, 0.9, 1.2, 1.1, 1.5])
+    w = 2 * np.pi * f
+    q, dq, ddq = a * np.sin(w * t[:, None]), a * w * np.cos(w * t[:, None]), -a * w**2 * np.sin(w * t[:, None])
+    robot = MJCFModel(ARM6.replace('damping="0.8" armature="0.1" frictionloss', 'damping="1.6" armature="0.1" '
+                                   'frictionloss'))  # the robot's shoulder pan damping is twice the model's
+    tau = robot.predict(q, dq, ddq) + 0.05 * np.random.default_rng(3).standard_normal(q.shape)
+    k = np.array([13.0, 13.0, 13.0, 9.3, 9.3, 9.3])
+    names = ["timestamp"] + [f"{x}_{i}" for x in ("target_q", "actual_q", "actual_qd", "actual_current")
+                             for i in range(6)]
+    table = np.column_stack([1234.5 + t, q, q, dq, tau / k])
+    path = tmp_path / "rtde.csv"
+    np.savetxt(path, table, fmt="%.17g", delimiter=" ", header=" ".join(names), comments="")
+    arm = tmp_path / "arm.xml"
+    arm.write_text(ARM6, encoding="utf-8")
+    cmp = validate_log(path, {"arm": arm}, mapping="ur_rtde", torque_constant=k)
+    # by hand: the arrays the file holds, the stamps from 0 in integer ns, the model's own regressor
+    ns = np.round((1234.5 + t) * 1e9)
+    stamps = (ns - ns[0]) / 1e9
+    log_q, log_tau = table[:, 7:13], table[:, 19:25] * k
+    d = differentiate(log_q, 1.0 / np.median(np.diff(stamps)))
+    by_hand = dynval.compare(
+        log_tau, {"arm": {"prediction": model.predict(log_q, d.dq, d.ddq), "n_params": 0,
+                          "model_columns": [c for c, v in enumerate(model.parameters()) if v != 0]}},
+        regressor=model.regressor(log_q, d.dq, d.ddq), column_names=list(model.column_names), time=stamps,
+        bandwidth=d.input_bandwidth_hz, q=log_q, dq=d.dq, ddq=d.ddq, joint_names=list(model.joint_names))
+    assert cmp.verdict.decision == by_hand.verdict.decision
+    assert [f.message for f in cmp.reports["arm"].findings] == [f.message for f in by_hand.reports["arm"].findings]
+    np.testing.assert_array_equal(cmp.reports["arm"].per_joint.rmse, by_hand.reports["arm"].per_joint.rmse)
+    out = subprocess.run([sys.executable, "-m", "dynval", "validate-log", str(path), "--mapping", "ur_rtde",
+                          "--torque-constant", "13,13,13,9.3,9.3,9.3", "--model", f"arm={arm}", "--no-progress"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == by_hand.summary().strip()
+    assert cmp.verdict.decision == "refine" and "damping on shoulder_pan_joint is too low" in out.stdout
+
+
+@pytest.mark.parametrize("delimiter", ["\t", ";", ",", " "])
+def test_every_delimiter_of_contract_7_and_a_declared_one(tmp_path, run3, delimiter):
+    path, mapping = _kuka_csv(tmp_path / "run3.csv", run3, np.arange(50), delimiter=delimiter)
+    sniffed = read_csv_log(path, mapping, joints=run3.joint_names)
+    declared = read_csv_log(path, {**mapping, "delimiter": delimiter}, joints=run3.joint_names)
+    for log in (sniffed, declared):
+        np.testing.assert_array_equal(log.q, run3.q[:50])
+        np.testing.assert_array_equal(log.tau, run3.tau[:50])
+    if delimiter == "\t":  # a tab is one separator: an empty cell is refused, not skipped
+        text = path.read_text().splitlines()
+        cells = text[3].split("\t")
+        cells[1] = ""
+        text[3] = "\t".join(cells)
+        path.write_text("\n".join(text) + "\n")
+        with pytest.raises(FileInputError, match="line 4, column 2"):
+            read_csv_log(path, mapping, joints=run3.joint_names)

@@ -314,8 +314,8 @@ def _header(where: str, mapping: CSVMapping) -> tuple[int, list[str], str | None
             if not stripped or stripped.startswith("#"):
                 continue
             delimiter = mapping.delimiter if mapping.delimiter is not None else _delimiter(stripped)
-            if delimiter is not None and delimiter.isspace():
-                delimiter = None  # runs of spaces (or tabs) are one separator, as numpy reads them
+            if delimiter == " ":
+                delimiter = None  # runs of spaces are one separator, as contract §7 reads a file without one
             return number, _cells(stripped, delimiter, where, number), delimiter
     raise FileInputError(f"{where}: no header line (the file holds no line but blank lines and comments)")
 
