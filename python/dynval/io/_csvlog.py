@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks._errors import InvalidParameter
 from ._fileopen import FileInputError, _open_regular
 from ._files import _cells, _delimiter, _lines, _shown
 from ._ros import EFFORT_UNITS, JointStateLog, _listed, _ordered_stamps, _torque_scale
@@ -111,7 +112,7 @@ class CSVMapping:
         if isinstance(self.torque_constant, list):
             object.__setattr__(self, "torque_constant", tuple(self.torque_constant))
         if self.joints is not None:
-            names = tuple(self.joints)
+            names = tuple(self.joints) if isinstance(self.joints, (list, tuple)) else ()
             if not names or not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
                 raise parameter_error("mapping.joints", "distinct non-empty joint names", self.joints)
             object.__setattr__(self, "joints", names)
@@ -187,12 +188,10 @@ def _from_fields(values: dict[str, Any], where: str) -> CSVMapping:
                              "pattern)")
     try:
         return CSVMapping(**values)
-    except TypeError as exc:  # a value of a type no field takes (a list for a name, ...)
-        raise FileInputError(f"{where}: {exc}") from None
-    except Exception as exc:
+    except InvalidParameter as exc:
         if where == "the mapping":
             raise
-        raise type(exc)(f"{where}: {exc}") from None
+        raise InvalidParameter(f"{where}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -262,6 +261,7 @@ def read_csv_log(path: str | os.PathLike[str], mapping: str | os.PathLike[str] |
     JointStateLog
         ``topic`` is ``""``, ``msgtype`` ``"CSV (mapping NAME)"``, ``n_messages`` the data rows; the
         stamps are sorted, rows sharing a stamp merged and gaps counted as the bag reader does (notes).
+        ``q``, ``dq`` and ``tau`` are views of the one array numpy parsed (strided columns).
 
     Raises
     ------
