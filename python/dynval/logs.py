@@ -1,8 +1,9 @@
 """From a robot's own log and its model files to a verdict (contract §7.3).
 
 :func:`validate_log` reads the joint states of a log (:func:`dynval.io.read_joint_states`: ROS 2
-bags, ROS 1 bags, MCAP files), takes the joint order from the first model, differentiates the
-positions with a stated filter, predicts every model (URDF through pinocchio), identifies each
+bags, ROS 1 bags, MCAP files; :func:`dynval.io.read_csv_log`: a vendor's CSV by a declared
+mapping), takes the joint order from the first model, differentiates the positions with a stated
+filter, predicts every model (URDF through pinocchio, MJCF through MuJoCo), identifies each
 model's parameters on an estimation log when one is given, and compares the candidates with the
 positions, the time stamps, the regressor and the estimation run: what ``dynval validate-log`` runs.
 
@@ -264,7 +265,6 @@ def _columns_source(model: Any) -> str:
 def _parameter_vector(value: Any, names: Sequence[str]) -> tuple[str, np.ndarray]:
     """(what names it in messages, the values as a 1-D float array) from an array or a file."""
     from .checks._validation import parameter_error
-    from .io._fileopen import FileInputError, _open_regular
     from .io._files import load_array
 
     if not isinstance(value, (str, os.PathLike)):
@@ -273,7 +273,7 @@ def _parameter_vector(value: Any, names: Sequence[str]) -> tuple[str, np.ndarray
     else:
         source = os.fspath(value)
         if source.lower().endswith(".json"):
-            arr = _json_vector(source, names, _open_regular, FileInputError)
+            arr = _json_vector(source, names)
         elif source.lower().endswith((".npy", ".csv")):
             arr = np.asarray(load_array(source), dtype=float)
         else:
@@ -285,11 +285,14 @@ def _parameter_vector(value: Any, names: Sequence[str]) -> tuple[str, np.ndarray
     return source, arr
 
 
-def _json_vector(path: str, names: Sequence[str], open_regular: Any, error: Any) -> np.ndarray:
+def _json_vector(path: str, names: Sequence[str]) -> np.ndarray:
     """A JSON list of numbers, or an object of every column name to its value."""
     import json
 
-    handle, _ = open_regular(path)
+    from .io._fileopen import FileInputError as error
+    from .io._fileopen import _open_regular
+
+    handle, _ = _open_regular(path)
     with handle:
         try:
             values = json.loads(handle.read(1 << 24).decode("utf-8-sig"))
