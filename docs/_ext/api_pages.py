@@ -17,7 +17,7 @@ PUBLIC_MODULES = {
     "dynval.coverage": "Which test each entry point runs (memory, stream, fleet, dask)",
     "dynval.fleet": "Fleets: many logs of many robots and the drift test",
     "dynval.identify": "Identification and prediction intervals",
-    "dynval.io": "A robot's own logs: joint states of ROS bags and MCAP files",
+    "dynval.io": "A robot's own logs: joint states of ROS bags, MCAP files and vendor CSV logs",
     "dynval.logs": "From a robot's log and its model files to a verdict",
     "dynval.robots": "Robots: URDF regressors, derivatives, physical consistency",
     "dynval.mjcf": "Simulator models: MuJoCo MJCF arms, their terms, the regressor of their joint parameters",

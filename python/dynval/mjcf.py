@@ -250,6 +250,11 @@ class MJCFModel:
         """The model's own values in the order of :attr:`column_names` (1 for each rigid-body column)."""
         return np.concatenate([np.ones(self.n_joints), self.armature, self.damping, self.frictionloss])
 
+    def model_columns(self) -> list[int]:
+        """The regressor's columns whose parameter is non-zero: the terms the model has (the others
+        are tested as terms it lacks when it is validated with its regressor)."""
+        return [k for k, value in enumerate(self.parameters()) if value != 0]
+
     def _inverse(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, ...]:
         """Per sample: the full model's qfrc_inverse, its frictionloss force, and the rigid model's."""
         mj = self._mujoco
@@ -311,9 +316,8 @@ class MJCFModel:
         if estimation is not None:
             eq, edq, eddq, etau = estimation
             keywords["estimation"] = {"q": eq, "regressor": self.regressor(eq, edq, eddq), "tau": etau}
-        # the model has a term where its parameter is non-zero: the other columns are tested as missing terms
-        has = [k for k, value in enumerate(self.parameters()) if value != 0]
-        candidate = {"prediction": self.predict(q, dq, ddq), "n_params": len(self.column_names), "model_columns": has}
+        candidate = {"prediction": self.predict(q, dq, ddq), "n_params": len(self.column_names),
+                     "model_columns": self.model_columns()}
         return compare(tau_meas, {name: candidate}, regressor=self.regressor(q, dq, ddq), q=q, dq=dq, ddq=ddq,
                        joint_names=list(self.joint_names), column_names=list(self.column_names), **keywords)
 

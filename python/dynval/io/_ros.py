@@ -351,16 +351,7 @@ class _Rows:
         m = len(self.joints)
         stamps = np.concatenate(self.stamps)
         rows = np.vstack(self.blocks)
-        notes: list[str] = []
-        order = np.argsort(stamps, kind="stable")
-        late = int(np.sum(np.diff(stamps) < 0))
-        if late:
-            notes.append(f"{late} message(s) arrived out of stamp order; they were put in order")
-        stamps, rows = stamps[order], rows[order]
-        stamps, rows, merged = _merge_equal_stamps(stamps, rows)
-        if merged:
-            notes.append(f"{merged} message(s) shared a stamp with another and were merged into its row "
-                         "(a later message's value wins)")
+        stamps, rows, notes = _ordered_stamps(stamps, rows, "message")
         missing = [self.joints[j] for j in range(m) if np.all(np.isnan(rows[:, j]))]
         if missing:
             seen = sorted({n for names in self._order for n in names})
@@ -371,7 +362,6 @@ class _Rows:
             raise FileInputError(f"{self.where}: topic {self.topic!r}: the stamp {stamps[incomplete[0]] / 1e9:.9f} s "
                                  f"has no position for some joint ({incomplete.size} stamp(s) so); the joints asked "
                                  f"for must be in every stamp")
-        notes += _gap_notes(stamps)
         q = rows[:, :m]
         dq = rows[:, m:2 * m] if self.has_velocity else None
         tau = rows[:, 2 * m:] if self.has_effort else None
@@ -389,6 +379,23 @@ class _Rows:
                              tau=None if tau is None else np.ascontiguousarray(tau), joint_names=tuple(self.joints),
                              path=self.where, topic=self.topic, msgtype=msgtype, start_time=stamps[0] / 1e9,
                              effort_unit=effort_unit, torque_constant=scale, n_messages=self.count, notes=tuple(notes))
+
+
+def _ordered_stamps(stamps: np.ndarray, rows: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Rows in stamp order, one per stamp, and the notes on what that took (``what``: "message" for a
+    bag's messages, "row" for a CSV file's rows): late ones put in order, ones sharing a stamp merged
+    (a later one's value wins), gaps longer than 1.5 median steps counted as dropped."""
+    notes: list[str] = []
+    late = int(np.sum(np.diff(stamps) < 0))
+    if late:
+        notes.append(f"{late} {what}(s) arrived out of stamp order; they were put in order")
+        order = np.argsort(stamps, kind="stable")
+        stamps, rows = stamps[order], rows[order]
+    stamps, rows, merged = _merge_equal_stamps(stamps, rows)
+    if merged:
+        notes.append(f"{merged} {what}(s) shared a stamp with another and were merged into its row "
+                     f"(a later {what}'s value wins)")
+    return stamps, rows, notes + _gap_notes(stamps, what)
 
 
 def _merge_equal_stamps(stamps: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -409,7 +416,7 @@ def _merge_equal_stamps(stamps: np.ndarray, rows: np.ndarray) -> tuple[np.ndarra
     return stamps[starts], out, stamps.size - starts.size
 
 
-def _gap_notes(stamps: np.ndarray) -> list[str]:
+def _gap_notes(stamps: np.ndarray, what: str = "message") -> list[str]:
     steps = np.diff(stamps)
     if steps.size < 2:
         return []
@@ -419,4 +426,4 @@ def _gap_notes(stamps: np.ndarray) -> list[str]:
         return []
     dropped = int(np.sum(np.round(steps[gaps] / median) - 1))
     return [f"{int(gaps.sum())} gap(s) in the stamps longer than {_GAP:g} median steps ({median / 1e6:.4g} ms): "
-            f"about {dropped} message(s) dropped; validate splits the run there when given time="]
+            f"about {dropped} {what}(s) dropped; validate splits the run there when given time="]

@@ -8,10 +8,11 @@ Only wording: what decides (which joint, which column, deficiency or note) is in
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ._text import counted, p_clause, versus
+from ._text import counted, number_text, p_clause, versus
 
 Words = tuple[str, str]
 """``(message, action)`` of one finding."""
@@ -202,14 +203,21 @@ def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bo
 
 
 def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], threshold: float, best: float,
-                          padj: float, big: bool, in_model: bool | None = None) -> Words:
+                          padj: float, big: bool, in_model: bool | None = None,
+                          simulator: tuple[float, float] | None = None) -> Words:
     """``hits``: (column, lag text, ρ) of the chosen columns, strongest first; ``in_model``: the
-    first column is one of the model's (True), outside it (False), or not known (None)."""
+    first column is one of the model's (True), outside it (False), or not known (None);
+    ``simulator``: the first column's (value in the prediction, value refitted on this run) when it
+    is a simulator parameter's at lag 0 (:func:`simulator_words`)."""
     listed = "; ".join(f"{c} ({lag}, ρ = {versus(rho, threshold, '+.3f', absolute=True)[0]})"
                        for c, lag, rho in hits[:3])
     head = (f"{name}: the residual correlates with {listed} beyond what the colour of both series explains "
             f"(Holm-adjusted p {p_text(padj)})")
     if big:
+        sim = simulator_words(name, hits[0][0], *simulator) if in_model and simulator else None
+        if sim:
+            return (head + ": the model has this column but does not use the information in it (a mis-weighted "
+                    f"term, or one that changed between runs): {sim[0]}.", sim[1])
         if in_model:
             return (head + ": the model has this column but does not use the information in it (a mis-weighted "
                     "term, or one that changed between runs).",
@@ -318,10 +326,13 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
     # makes held-out rows worse is a weight this run does not pin down)
     carries = rel["reweight_share"] >= advice.get("practical", 0.0)
     if kind == "reweight":
+        simulator = _simulator_parameter(name, advice)
         return (head + f": the model has this term (its columns span it, each column within "
                 f"{100 * rel['tolerance']:.0f} % of its RMS), so it is mis-weighted or changed between runs: "
-                + _coefficients(advice) + f"; re-identifying the model's columns would remove "
+                + (simulator[0] if simulator else _coefficients(advice))
+                + f"; re-identifying the model's columns would remove "
                 f"{100 * rel['reweight_share']:.0f} % of the joint's mean square (cross-fitted on this run).",
+                simulator[1] if simulator else
                 f"re-identify {label} on {name}: the model has the term, its weight differs on this run (a friction "
                 "or load that changed between runs, or a term the estimation run did not excite)" if carries else
                 f"re-identify {label} on {name} with this run and the estimation run together: the model has the "
@@ -375,6 +386,34 @@ def _measured(label: str, advice: Mapping[str, Any]) -> str:
                 "alternate blocks of this run)")
     return (f"; {label}'s own effect on held-out rows of this run (cross-fitted on alternate blocks) is {pct}"
             if pct else "")
+
+
+def _simulator_parameter(name: str, advice: Mapping[str, Any]) -> Words | None:
+    """:func:`simulator_words` for the model column closest to the named term (``advice["simulator"]``:
+    its value in the prediction and refitted on this run, when it is a simulator parameter's)."""
+    names, values = advice.get("column_names") or [], advice.get("simulator")
+    return simulator_words(name, names[0], *values) if names and values else None
+
+
+def simulator_words(name: str, column: str, given: float, refit: float) -> Words | None:
+    """When ``column`` is a simulator parameter of joint ``name`` (an MJCF model's ``damping_<joint>``,
+    ...): what the residual follows, in that parameter's unit (the column's coefficient refitted on
+    this run, as ``MJCFModel.retune`` refits it, minus its value in the prediction), and the value
+    to retune it to. None for another column, or one the run could not refit."""
+    from ..statistics._model_terms import SIMULATOR_PARAMETERS, simulator_attribute
+
+    parsed = simulator_attribute(column)
+    delta = refit - given
+    if parsed is None or parsed[1] != name or math.isnan(delta):
+        return None
+    attribute = parsed[0]
+    motion, unit = SIMULATOR_PARAMETERS[attribute]
+    side = "low" if delta > 0 else "high"
+    return (f"{attribute} on {name} is too {side}: the residual follows {motion} with {delta:+.2g} {unit} "
+            f"({number_text(given, '.4g')} in the model, {number_text(refit, '.4g')} refitted on this run)",
+            f"retune {attribute} on {name} in the simulator model: {number_text(given, '.4g')} → "
+            f"{number_text(refit, '.4g')} {unit} (refitted on this run; MJCFModel.retune gives its standard "
+            "deviation)")
 
 
 def _coefficients(advice: Mapping[str, Any]) -> str:

@@ -602,7 +602,8 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
         listed = [(r.column(cc), w.lag_text(ll, ev.sample_rate), float(rho[j, cc, ll])) for _, cc, ll in chosen]
         out.append(_worded(
             w.regressor_correlation(r.name(j), listed, th.regressor_correlation, float(best),
-                                    float(padj[j, c, lag]), big, _column_in_model(ev, c)),
+                                    float(padj[j, c, lag]), big, _column_in_model(ev, c),
+                                    _simulator_values(ev, j, c) if lag == 0 else None),
             kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
             columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
             pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
@@ -610,6 +611,16 @@ def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
             details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits),
                      "in_model": _column_in_model(ev, c)}))
     return out
+
+
+def _simulator_values(ev: Evidence, j: int, c: int) -> tuple[float, float] | None:
+    """Column c's (value in the prediction, value refitted on this run) on joint j when it is a
+    simulator parameter's (``physics["simulator_parameters"]``), else None."""
+    per_joint = (ev.physics or {}).get("simulator_parameters") or []
+    for entry in per_joint[j] if j < len(per_joint) else []:
+        if entry["column"] == c:
+            return float(entry["predicted"]), float(entry["refitted"])
+    return None
 
 
 def _oscillation_rule(r: _Rules) -> list[Finding]:
@@ -856,7 +867,8 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
         advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel, "practical": th.missing_physics,
                   "derivatives": _derivative_words(ev.physics),
                   "column_names": None if rel is None else [w.column_name(ev.column_names, c)
-                                                             for c in rel.get("columns", [])]}
+                                                             for c in rel.get("columns", [])],
+                  "simulator": _simulator_values(ev, j, rel["columns"][0]) if rel and rel.get("columns") else None}
         out.append(_worded(
             w.missing_physics(w.joint_name(ev.joint_names, j), label, others, together, float(t["term_share"]),
                               float(t["share"]), float(padj[j]), big, advice),

@@ -67,6 +67,7 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
             "derivative_source": source, "estimation_bandwidth_hz": (est_run or {}).get("bandwidth"),
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
             "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared),
+            "simulator_parameters": simulator_parameters(pred, meas, reg3, column_names),
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
             "n_eff": np.array([t.n_eff for t in tests])}
 
@@ -136,18 +137,48 @@ def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, p
         t.carried_share = (base - _model_terms.crossfit_sse(ej, both, full=both)) / total
         rel = _model_terms.relate(j, t.term, ej, y_j, lib, m, practical, declared[j] if declared else set())
         near = _model_terms.aligned_columns(y_j, lib[t.term])
-        if est_fit is not None:
-            est_coef = np.asarray(est_fit.coefficients, dtype=float)
-        else:
-            est_coef = np.zeros(len(cols))
-            est_coef[active] = _model_terms.coefficients(y_j[:, active], pred[:, j])
-        refit = np.zeros(len(cols))
-        refit[active] = _model_terms.coefficients(y_j[:, active], meas[:, j]) if meas is not None else np.nan
+        in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
+        est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred
         rel["columns"] = [int(cols[c]) for c in near]
         rel["estimated"] = [float(est_coef[c]) for c in near]
         rel["refitted"] = [float(refit[c]) for c in near]
         rel["estimated_from"] = "estimation" if est_fit is not None else "prediction"
         t.relation = rel
+
+
+def _joint_coefficients(y_j, active, pred_j, meas_j) -> tuple[np.ndarray, np.ndarray]:
+    """Joint j's model columns' coefficients in the prediction and refitted on the measured torque
+    (least squares on the columns active on the joint; nan refitted without the measurement)."""
+    in_pred = np.zeros(y_j.shape[1])
+    in_pred[active] = _model_terms.coefficients(y_j[:, active], pred_j)
+    refit = np.zeros(y_j.shape[1])
+    refit[active] = _model_terms.coefficients(y_j[:, active], meas_j) if meas_j is not None else np.nan
+    return in_pred, refit
+
+
+def simulator_parameters(pred, meas, reg3, column_names) -> list[list[dict[str, Any]]] | None:
+    """Per joint, the simulator columns active on it (an MJCF model's ``armature_``, ``damping_``,
+    ``frictionloss_<joint>``, contract §11) with their coefficient in the prediction (the model's own
+    value) and refitted on this run, by least squares on every regressor column active on the joint:
+    an MJCF regressor's columns are each on one joint, so this is the joint's share of
+    :func:`dynval.identify.identify` of the whole regressor, the value ``MJCFModel.retune`` refits.
+    None when the regressor has no such column."""
+    if reg3 is None or not column_names or meas is None or pred is None:
+        return None
+    if not any(_model_terms.simulator_attribute(name) for name in column_names):
+        return None
+    out: list[list[dict[str, Any]]] = []
+    for j in range(reg3.shape[1]):
+        y_j = reg3[:, j, :]
+        active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+        named = [c for c in range(y_j.shape[1]) if active[c] and _model_terms.simulator_attribute(column_names[c])]
+        if not named:
+            out.append([])
+            continue
+        in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], meas[:, j])
+        out.append([{"column": c, "name": str(column_names[c]), "predicted": float(in_pred[c]),
+                     "refitted": float(refit[c])} for c in named])
+    return out if any(out) else None
 
 
 def predictive(e, est_fit, reg3, n_eff_val, memo: Memo = compute_now) -> dict[str, Any] | None:

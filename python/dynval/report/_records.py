@@ -355,6 +355,7 @@ class Physics(Record):
     derivative_source: str = ABSENT
     estimation_bandwidth_hz: float | None = ABSENT
     model_kinds: list[dict[str, bool]] | None = ABSENT
+    simulator_parameters: list[list[dict[str, Any]]] | None = ABSENT
     groups: list[str] = ABSENT
     tests: list[dict[str, Any]] = ABSENT
     pvalue: Any = ABSENT

@@ -33,7 +33,8 @@ import numpy as np
 from . import _physics
 
 __all__ = ["SPAN_TOLERANCE", "CROSSFIT_ROWS", "coupling_mask", "span_basis", "outside_fraction", "crossfit_sse",
-           "relate", "kinds_present", "declared_kinds", "RIGID_BODY_PARAMETERS"]
+           "relate", "kinds_present", "declared_kinds", "RIGID_BODY_PARAMETERS", "SIMULATOR_PARAMETERS",
+           "simulator_attribute"]
 
 SPAN_TOLERANCE = 0.1
 """A column lies in the model's span when less than this fraction of its RMS stays outside."""
@@ -147,6 +148,18 @@ its coupling to the other joints included, in a form the library's planar column
 _NAMED_KINDS = (("Fv", "viscous"), ("Fc", "coulomb"), ("off", "offset"))
 """Column-name prefixes of the friction and offset columns (URDFModel.column_names: ``Fv_<joint>``,
 ``Fc_<joint>``, ``off_<joint>``)."""
+
+
+SIMULATOR_PARAMETERS = {"armature": ("q̈", "N·m·s²/rad"), "damping": ("q̇", "N·m·s/rad"),
+                        "frictionloss": ("sign q̇", "N·m")}
+"""A simulator model's joint parameters, as ``dynval.mjcf`` names their columns (``<attribute>_<joint>``,
+contract §11): the motion each multiplies and its unit."""
+
+
+def simulator_attribute(name: Any) -> tuple[str, str] | None:
+    """``(attribute, joint)`` of a simulator parameter's column name (``damping_lwr_3_joint``), else None."""
+    attribute, _, joint = str(name).partition("_")
+    return (attribute, joint) if attribute in SIMULATOR_PARAMETERS and joint else None
 
 
 def declared_kinds(names: Any) -> set[str]:
