@@ -147,11 +147,13 @@ def _plain(value):
     return value
 
 
-def _close(a, b, path=""):
+def _close(a, b, path="", floor=0.0):
+    """``floor``: the least scale of the values compared (a residual mean's is its RMS: a mean of
+    values of ±1e6 that nearly cancel is known to rounding of 1e6, not of itself)."""
     if isinstance(a, dict):
         assert a.keys() == b.keys(), path
         for k in a:
-            _close(a[k], b[k], f"{path}.{k}")
+            _close(a[k], b[k], f"{path}.{k}", _mean_floor(a, b) if k == "mean" else 0.0)
         return
     if isinstance(a, list) and a and isinstance(a[0], (dict, list, str)):
         assert len(a) == len(b), path
@@ -168,7 +170,19 @@ def _close(a, b, path=""):
     scale = max(np.max(np.abs(x[finite]), initial=0.0), np.max(np.abs(y[finite]), initial=0.0), 1e-300)
     if any(name in path for name in ("vaf", "fit", "r2", "cross_correlation", "autocorrelation")):
         scale = max(scale, 1.0)  # fractions of 1 (or 100): their natural size, not their value
+    scale = max(scale, floor)
     np.testing.assert_allclose(x[finite], y[finite], rtol=1e-6, atol=1e-6 * scale, err_msg=path)
+
+
+def _mean_floor(a: dict, b: dict) -> float:
+    """The RMS beside a mean in the same record (``variance`` with ``mean``), else 0."""
+    if "variance" not in a:
+        return 0.0
+    values = [np.asarray(d[k], dtype=np.float64) for d in (a, b) for k in ("variance", "mean")
+              if d.get(k) is not None and not isinstance(d[k], str)]
+    squares = [np.abs(v) if i % 2 == 0 else v * v for i, v in enumerate(values)]
+    finite = [x[np.isfinite(x)] for x in squares]
+    return float(np.sqrt(max((float(np.max(x, initial=0.0)) for x in finite), default=0.0)))
 
 
 def _agree(f, check_values: bool, name: str = ""):
