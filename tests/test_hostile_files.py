@@ -260,10 +260,10 @@ def test_automatic_streaming_looks_at_the_decoded_size_not_the_size_on_disk(tmp_
     assert 4 * os.path.getsize(tmp_path / "meas.npz") < meas.nbytes
     assert _readers.decoded_size(str(tmp_path / "meas.npz")) == meas.nbytes
     argv = ["validate", str(tmp_path / "meas.npz"), str(tmp_path / "pred.npz"), "--n-params", "2"]
-    monkeypatch.setattr(cli, "_physical_memory", lambda: 4 * decoded - 4096)
+    monkeypatch.setattr(cli, "physical_memory", lambda: 4 * decoded - 4096)
     assert cli.main(argv) == 0
     assert "Streamed from the files in blocks" in capsys.readouterr().out
-    monkeypatch.setattr(cli, "_physical_memory", lambda: 4 * decoded + 4096)
+    monkeypatch.setattr(cli, "physical_memory", lambda: 4 * decoded + 4096)
     assert cli.main(argv) == 0
     assert "Streamed from the files" not in capsys.readouterr().out
 

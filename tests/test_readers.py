@@ -264,11 +264,11 @@ def test_stream_is_chosen_when_the_inputs_exceed_a_quarter_of_memory(arrays, mon
     tmp, meas, pred, _ = arrays
     np.save(tmp / "meas.npy", meas)
     np.save(tmp / "pred.npy", pred)
-    monkeypatch.setattr(cli, "_physical_memory", lambda: 4 * (meas.nbytes + pred.nbytes) - 4096)
+    monkeypatch.setattr(cli, "physical_memory", lambda: 4 * (meas.nbytes + pred.nbytes) - 4096)
     assert cli.main(["validate", str(tmp / "meas.npy"), str(tmp / "pred.npy"), "--n-params", "2"]) == 0
     out = capsys.readouterr().out
     assert "Streamed from the files in blocks" in out
-    monkeypatch.setattr(cli, "_physical_memory", lambda: 4 * (meas.nbytes + pred.nbytes) + 4096)
+    monkeypatch.setattr(cli, "physical_memory", lambda: 4 * (meas.nbytes + pred.nbytes) + 4096)
     assert cli.main(["validate", str(tmp / "meas.npy"), str(tmp / "pred.npy"), "--n-params", "2"]) == 0
     assert "Streamed from the files" not in capsys.readouterr().out
 

@@ -30,10 +30,10 @@ from .checks._errors import InputError
 from .checks._validation import format_value
 from .io._files import (
     FileInputError,
-    _physical_memory,
     csv_header,
     file_path,
     load_array,
+    physical_memory,
     read_column,
     read_table,
     split_column,
@@ -530,7 +530,7 @@ def _run_validate(args) -> int:
 def _too_large_for_memory(args) -> bool:
     """Whether the input arrays, decoded, together exceed a quarter of the machine's memory (the
     size on disk of a compressed or sparse file says nothing about it)."""
-    memory = _physical_memory()
+    memory = physical_memory()
     if memory is None:
         return False
     total = 0

@@ -290,9 +290,9 @@ def _json_vector(path: str, names: Sequence[str]) -> np.ndarray:
     import json
 
     from .io._fileopen import FileInputError as error
-    from .io._fileopen import _open_regular
+    from .io._fileopen import open_regular
 
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     with handle:
         try:
             values = json.loads(handle.read(1 << 24).decode("utf-8-sig"))

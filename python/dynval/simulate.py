@@ -248,7 +248,7 @@ def fourier_trajectory(t, offsets, amplitudes, phases, base_frequency: float):
     return q, qd, qdd
 
 
-def _trajectory_coefficients(rng, n_harmonics=5):
+def trajectory_coefficients(rng, n_harmonics=5):
     # Amplitudes fall as 1/k so the accelerations stay moderate (a few rad/s²). Wide swings of
     # joint 1 (about ±2 rad) keep the gravity columns g·cos q1 and g·sin q1 apart from a constant
     # offset column: with ±1 rad the three are nearly collinear and the offset candidate
@@ -432,8 +432,8 @@ def simulate(scenario: str = "friction", *, seed: int = 0, n_samples: int = 2000
     if scenario == "rigid":
         pi[6:] = 0.0
     bias = np.asarray(offsets, dtype=float) if scenario == "offset" else np.zeros(2)
-    coefs_est = _trajectory_coefficients(rng)
-    coefs_val = coefs_est if scenario == "repeat" else _trajectory_coefficients(rng)
+    coefs_est = trajectory_coefficients(rng)
+    coefs_val = coefs_est if scenario == "repeat" else trajectory_coefficients(rng)
 
     elastic = None
     f_damped = None

@@ -65,7 +65,7 @@ from .checks._errors import InputError, InvalidParameter, ShapeMismatch
 from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
 from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from .kernels._reference.information import _pooled_sum, assemble, fit_term_from_sums
+from .kernels._reference.information import assemble, fit_term_from_sums, pooled_sum
 from .kernels._reference.portmanteau import chi2_logsf
 from .metrics._profiles import Profile
 from .metrics._results import ZeroMeanTest
@@ -85,7 +85,7 @@ from .report._options import (
 from .statistics import _stats
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from .streaming._edges import SegmentEdges
-from .streaming._stream import CoreState, Layout, Stamps, State, _Snapshot, state_too_large
+from .streaming._stream import CoreState, Layout, Snapshot, Stamps, State, state_too_large
 from .streaming._welch import SIZES, WelchSums
 
 __all__ = ["ValidationAccumulator", "UNSUPPORTED", "ZERO_MEAN_MAX_SAMPLES"]
@@ -844,7 +844,7 @@ class _Moments:
     lag1: np.ndarray | None = None  # (m,) and over their lagged elements
 
 
-def _moments(st: State | _Snapshot) -> _Moments:
+def _moments(st: State | Snapshot) -> _Moments:
     """Centre every sum on the overall means (contract §1.1: means are overall)."""
     n, m = st.n, st.layout.m
     cur, lag, pairs = st.cur_e.value(), st.lag_e.value(), st.pairs
@@ -896,14 +896,14 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.
     return float(np.sum(np.ldexp(ss, 2 * shift)) + n * np.sum((d - np.mean(d)) ** 2)), top
 
 
-def _fused_metrics(mo: _Moments, st: State | _Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
+def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
     # Scaled sums (value s·4^k, k the columns' exponents, contract §4.1), as validate's kernels give them.
     exp_e, exp_t = mo.exp_e, mo.exp_t
     sse_s = ssc_e + n * mo.mean_e * mo.mean_e  # both terms ≥ 0: nothing cancels
-    total_s, total_k = _pooled_sum(sse_s, exp_e)
+    total_s, total_k = pooled_sum(sse_s, exp_e)
     sse_total = float(np.ldexp(total_s, 2 * total_k))
     parts = {"sse": sse_s, "tss": mo.tss, "ssc_e": ssc_e, "constant": mo.t_constant, "e_constant": mo.e_constant,
              "sse_exp": exp_e, "tss_exp": exp_t, "ssc_e_exp": exp_e}
@@ -986,7 +986,7 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
     return {f: getattr(zmt, f) for f in zmt.__dataclass_fields__}
 
 
-def _bias_test(mo: _Moments, st: State | _Snapshot, rmse: np.ndarray, longest: int,
+def _bias_test(mo: _Moments, st: State | Snapshot, rmse: np.ndarray, longest: int,
                edges: SegmentEdges | None = None) -> tuple[dict[str, Any] | None, str | None]:
     """``validate``'s bias test (contract §3.3, docs/conventions.md §5.4) from the lagged sums: the
     same prewhitened Bartlett long-run variance, its autocovariances the stream's, corrected at the
@@ -1082,7 +1082,7 @@ def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
     return (sec.spectrum_section(spec, sample_rate, False), spec), None
 
 
-def _report(st: State | _Snapshot, cfg: Options, omitted: int,
+def _report(st: State | Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None, welch: WelchSums | None = None,
             entry: str = "stream", edges: SegmentEdges | None = None) -> ValidationReport:
     """The sections mergeable sums allow (no design or motion, no spectrum with a regressor: they

@@ -24,7 +24,7 @@ from typing import Any
 
 from ..checks._errors import InvalidParameter
 from ..checks._validation import format_value
-from ..io._fileopen import HDF5_SUFFIXES, FileInputError, _open_regular
+from ..io._fileopen import HDF5_SUFFIXES, FileInputError, open_regular
 from ..io._files import MAX_LINE_BYTES
 
 __all__ = ["LogSpec", "read_manifest", "manifest_logs", "log_from_path", "log_specs", "time_key", "MANIFEST_COLUMNS",
@@ -168,7 +168,7 @@ def check_unique(logs: Iterable[tuple[str, LogSpec]]) -> None:
 
 def _manifest_text(path: str) -> str:
     """The manifest's text, refused before it is read whole when it is not a bounded UTF-8 text file."""
-    handle, size = _open_regular(path)
+    handle, size = open_regular(path)
     with handle:
         if size > MAX_MANIFEST_BYTES:
             raise _too_large(path, size)

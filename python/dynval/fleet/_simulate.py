@@ -18,7 +18,7 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from ..simulate import DEFAULT_ARM, ArmParameters, _trajectory_coefficients, base_parameters, fourier_trajectory
+from ..simulate import DEFAULT_ARM, ArmParameters, base_parameters, fourier_trajectory, trajectory_coefficients
 from ..simulate import regressor as arm_regressor
 from ._logs import DATA_COLUMNS, LogSpec
 
@@ -109,7 +109,7 @@ def _identified(arm: ArmParameters, seed: np.random.SeedSequence, t: np.ndarray,
     """The model least squares gives on an estimation run of the robot (its own stream, so that the
     logs' trajectories and noise are those of the earlier simulator)."""
     rng = np.random.default_rng(seed)
-    offsets, amplitudes, phases = _trajectory_coefficients(rng)
+    offsets, amplitudes, phases = trajectory_coefficients(rng)
     q, dq, ddq = fourier_trajectory(t, offsets, amplitudes, phases, 0.1)
     y = arm_regressor(q, dq, ddq, l1=arm.l1)
     tau = y @ base_parameters(arm) + _ar1(rng, (t.size, 2), noise, colour)
@@ -145,7 +145,7 @@ def simulate_fleet(*, n_robots: int = 6, n_logs: int = 12, n_samples: int = 1000
         change = changes.get(robot)
         for k in range(n_logs):
             truth = _degraded(arm, change) if change is not None and k >= change.from_log else arm
-            offsets, amplitudes, phases = _trajectory_coefficients(rng)
+            offsets, amplitudes, phases = trajectory_coefficients(rng)
             q, dq, ddq = fourier_trajectory(t, offsets, amplitudes, phases, 0.1)
             y = arm_regressor(q, dq, ddq, l1=arm.l1)
             tau = y @ base_parameters(truth) + _ar1(rng, (n_samples, 2), noise, colour)

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _open_regular
+from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, open_regular
 from ._limits import check_decoded
 
 __all__ = ["Columnar", "HDF5_SUFFIXES", "PARQUET_SUFFIXES", "hdf5_dataset", "parquet_table"]
@@ -78,7 +78,7 @@ def _corrupt_as_input_error(what: str) -> Iterator[None]:
 
 def _check_regular(path: str) -> None:
     # The libraries open the path themselves: refuse FIFOs and devices first, as for every file.
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     handle.close()
 
 

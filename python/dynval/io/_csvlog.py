@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..checks._errors import InvalidParameter
-from ._fileopen import FileInputError, _open_regular
+from ._fileopen import FileInputError, open_regular
 from ._files import _cells, _delimiter, _lines, _shown
 from ._ros import EFFORT_UNITS, JointStateLog, _listed, _ordered_stamps, _torque_scale
 
@@ -161,7 +161,7 @@ def load_mapping(spec: str | os.PathLike[str] | CSVMapping | Mapping[str, Any]) 
     if not text.lower().endswith(".json"):
         raise parameter_error("mapping", f"one of {', '.join(repr(k) for k in MAPPINGS)} or a .json file of a "
                               "CSVMapping's fields", text)
-    handle, _ = _open_regular(text)
+    handle, _ = open_regular(text)
     with handle:
         raw = handle.read(1 << 20)
     try:
@@ -307,7 +307,7 @@ def read_csv_log(path: str | os.PathLike[str], mapping: str | os.PathLike[str] |
 
 def _header(where: str, mapping: CSVMapping) -> tuple[int, list[str], str | None]:
     """The header line's number, its names and the delimiter (the mapping's, or sniffed from it)."""
-    handle, _ = _open_regular(where)
+    handle, _ = open_regular(where)
     with handle:
         for number, line in _lines(handle, where):
             stripped = line.strip()
@@ -358,7 +358,7 @@ def _parse(where: str, header_line: int, delimiter: str | None, columns: list[in
 
 
 def _loadtxt(where: str, header_line: int, delimiter: str | None, usecols: list[int]) -> np.ndarray:
-    handle, _ = _open_regular(where)
+    handle, _ = open_regular(where)
     with handle, io.TextIOWrapper(handle, encoding="utf-8-sig", newline=None) as text, warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # no data rows: said by the caller
         return np.loadtxt(text, delimiter=delimiter, usecols=usecols, skiprows=header_line, comments="#",
@@ -369,7 +369,7 @@ def _locate(where: str, header_line: int, delimiter: str | None, columns: list[i
             row: int | None) -> None:
     """Read the file again line by line (contract §7's rules) and raise at the first bad line: a row
     of another width, a mapped cell that is not a number, or (up to data row ``row``) not finite."""
-    handle, _ = _open_regular(where)
+    handle, _ = open_regular(where)
     seen = 0
     with handle:
         for number, line in _lines(handle, where):

@@ -47,7 +47,7 @@ def _not_regular(path: str, mode: int) -> FileInputError:
                           "dynval reads only regular files")
 
 
-def _open_regular(path: str) -> tuple[BinaryIO, int]:
+def open_regular(path: str) -> tuple[BinaryIO, int]:
     """Open ``path`` for binary reading if it is a regular file; returns (file, size).
 
     ``stat`` first, so that a FIFO or a device is refused without opening it; then open without

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _not_regular, _open_regular
+from ._fileopen import HDF5_SUFFIXES, PARQUET_SUFFIXES, FileInputError, _not_regular, open_regular
 from ._limits import check_decoded
 
 __all__ = ["FileInputError", "Table", "load_array", "read_table", "MAX_LINE_BYTES", "SNIFF_BYTES"]
@@ -98,7 +98,7 @@ def read_table(spec: str) -> Table:
             raise _not_regular(path, mode)
         raise FileInputError(f"{path}: unsupported file type; use .npy, .npz (file.npz:key), .csv, "
                              ".parquet (file.parquet:a,b,c) or .h5 (file.h5:/dataset)")
-    handle, size = _open_regular(path)
+    handle, size = open_regular(path)
     with handle:
         try:
             if lower.endswith(".npy"):
@@ -143,7 +143,7 @@ def split_column(spec: str) -> tuple[str, str | None]:
 def csv_header(path: str) -> list[str] | None:
     """The names of a CSV file's header line (None without a header: §7's rule, a first line
     without any number)."""
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     with handle:
         for number, line in _lines(handle, path):
             stripped = line.strip()
@@ -224,7 +224,7 @@ def _binary_hint(head: bytes) -> str:
 # --------------------------------------------------------------------------- .npy and .npz
 
 
-def _physical_memory() -> int | None:
+def physical_memory() -> int | None:
     try:
         return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, OSError, ValueError):
@@ -281,7 +281,7 @@ def _read_npy(handle, where: str, size: int, streamable: bool = True) -> np.ndar
     rows_scattered = not streamable and fortran and math.prod(shape[1:]) > 1
     check_decoded(where, tuple(shape), dtype.itemsize, hint="save it in C order or without compression "
                   "(numpy.savez), then read it in blocks with dynval validate --stream" if rows_scattered else None)
-    memory = _physical_memory()
+    memory = physical_memory()
     if memory is not None and declared > memory:
         raise FileInputError(f"{where}: shape {tuple(shape)} of {dtype} needs {declared} bytes, more than this "
                              f"machine's memory ({memory} bytes)")

@@ -28,7 +28,7 @@ from typing import BinaryIO, cast
 
 import numpy as np
 
-from ._fileopen import PARQUET_SUFFIXES, _open_regular
+from ._fileopen import PARQUET_SUFFIXES, open_regular
 from ._files import (
     _COLUMNAR_SUFFIXES,
     _NPY_MAGIC,
@@ -83,14 +83,14 @@ class RowSource:
             yield from self._blocks(rows)
             return
         if self._csv:
-            handle, _ = _open_regular(self.path)
+            handle, _ = open_regular(self.path)
             with handle:
                 for block, _lines in _csv_blocks(handle, self.path, rows):
                     yield block[:, 0] if len(self.shape) == 1 else block
             return
         assert self._dtype is not None
         inner = math.prod(self.shape[1:])
-        handle, _ = _open_regular(self.path)
+        handle, _ = open_regular(self.path)
         with handle:
             for start in range(0, self.n_rows, rows):
                 count = min(rows, self.n_rows - start)
@@ -128,7 +128,7 @@ def open_rows(spec: str) -> RowSource:
         if source is not None:
             return source
     if lower.endswith((".csv", ".txt", ".tsv")):
-        handle, _ = _open_regular(path)
+        handle, _ = open_regular(path)
         with handle:
             n, width = csv_layout(handle, path)
         return RowSource(path=path, shape=(n,) if width == 1 else (n, width), streamed=True, _csv=True)
@@ -157,7 +157,7 @@ def decoded_size(spec: str) -> int:
     if lower.endswith((".npy", *_COLUMNAR_SUFFIXES)):
         return open_rows(spec).nbytes
     # CSV text: its size (a value takes at least 2 bytes of text, so it decodes to at most 4 times that)
-    handle, size = _open_regular(path)
+    handle, size = open_regular(path)
     handle.close()
     return size
 
@@ -165,7 +165,7 @@ def decoded_size(spec: str) -> int:
 def _npz_member_decoded_size(path: str, key: str | None) -> int | None:
     """The decoded size of a .npz member from the .npy header inside it (only the header is
     inflated), or None when the file is no archive or has no such member (the reader says so)."""
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     with handle:
         try:
             with zipfile.ZipFile(handle) as archive:
@@ -217,7 +217,7 @@ def _checked_header(handle: BinaryIO, where: str, available: int) -> tuple[tuple
 
 
 def _npy_source(path: str) -> RowSource:
-    handle, size = _open_regular(path)
+    handle, size = open_regular(path)
     with handle:
         head = handle.read(len(_NPY_MAGIC))
         if not head:
@@ -233,7 +233,7 @@ def _npy_source(path: str) -> RowSource:
 def _npz_member_source(path: str, key: str | None) -> RowSource | None:
     """A source on an uncompressed member, or None when the member is compressed (or the file is
     not a zip archive: read_table then gives its message)."""
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     with handle:
         try:
             archive = zipfile.ZipFile(handle)
@@ -302,7 +302,7 @@ def _npz_compressed_source(path: str, key: str | None) -> RowSource | None:
 
 def _open_member(path: str, key: str | None) -> tuple[BinaryIO, zipfile.ZipFile, BinaryIO, zipfile.ZipInfo, str] | None:
     """(file, archive, member stream, ZipInfo, name for messages) of a compressed .npz member, or None."""
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     try:
         archive = zipfile.ZipFile(handle)
         names = [n for n in archive.namelist() if n.endswith(".npy")]

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..checks._errors import ShapeMismatch
 from ..checks._validation import format_shape, format_value, regressor_shape, torque_pair
-from ._fileopen import FileInputError, _open_regular
+from ._fileopen import FileInputError, open_regular
 from ._files import _COLUMNAR_SUFFIXES, _csv_blocks, _split_key, column_index, split_column
 
 __all__ = ["declared_shape", "check_declared"]
@@ -46,7 +46,7 @@ def _declared(spec: str) -> tuple[int | None, ...] | None:
     path, key = _split_key(spec)
     lower = path.lower()
     if lower.endswith(_CSV):
-        handle, _ = _open_regular(path)
+        handle, _ = open_regular(path)
         with handle:
             for block, _lines in _csv_blocks(handle, path, rows=1):
                 return (None,) if block.shape[1] == 1 else (None, int(block.shape[1]))
@@ -65,7 +65,7 @@ def _npz_declared(path: str, key: str | None) -> tuple[int, ...] | None:
     read), or None when the archive or the member cannot be found this way."""
     from ._readers import _checked_header
 
-    handle, _ = _open_regular(path)
+    handle, _ = open_regular(path)
     with handle:
         try:
             with zipfile.ZipFile(handle) as archive:

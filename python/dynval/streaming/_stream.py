@@ -537,11 +537,11 @@ class CoreState:
     def __deepcopy__(self, memo: dict) -> CoreState:
         return self.copy()
 
-    def snapshot(self) -> _Snapshot:
-        return _Snapshot(self.layout, self.n, self.lengths, self._core.sums())
+    def snapshot(self) -> Snapshot:
+        return Snapshot(self.layout, self.n, self.lengths, self._core.sums())
 
 
-class _Snapshot:
+class Snapshot:
     """The sums of a :class:`CoreState` under the attribute names of :class:`State` (for the report)."""
 
     _COMPENSATED = ("prod_e", "cur_e", "lag_e", "sum_t", "sq_t", "sq_y", "lag_y", "prod_ey")

@@ -43,7 +43,7 @@ def information_criteria(rss, n_obs, n_params) -> dict:
     return assemble(_n_log(n, variance), n, n, variance, p)
 
 
-def _pooled_sum(s: np.ndarray, k: np.ndarray) -> tuple[float, int]:
+def pooled_sum(s: np.ndarray, k: np.ndarray) -> tuple[float, int]:
     """Σ_j s_j·4^k_j as (total, K) with the value total·4^K, K the largest joint's exponent."""
     live = s > 0
     top = int(k[live].max()) if live.any() else 0
@@ -81,7 +81,7 @@ def fit_term_from_sums(noise_model: str, n_samples: int, m: int, sse, sigma=None
     """
     if noise_model == "pooled":
         n = n_samples * m
-        total, k = _pooled_sum(*sse)
+        total, k = pooled_sum(*sse)
         if total == 0:
             return -math.inf, n, n, 0.0
         log_variance = math.log(total / n) + 2 * k * _LN2

@@ -14,7 +14,7 @@ import numpy as np
 from ...checks._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
 from .fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
-from .information import _pooled_sum, assemble, fit_term
+from .information import assemble, fit_term, pooled_sum
 from .norms import joint_major, moments_scaled, pooled, sumsq
 
 
@@ -42,7 +42,7 @@ def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
     sse_s = ssc_e + n * scaled_mean * scaled_mean
     for i in np.flatnonzero(e_exp):  # a tiny joint: Σe² of the scaled data, not of its rounded mean
         sse_s[i] = sumsq(np.ldexp(error[i : i + 1], -e_exp[i]))[0]
-    total_s, total_exp = _pooled_sum(sse_s, e_exp)
+    total_s, total_exp = pooled_sum(sse_s, e_exp)
     sse = np.ldexp(sse_s, 2 * e_exp)
     sse_total = float(np.ldexp(total_s, 2 * total_exp))
     f, n_ic, n_vec, size = fit_term(error.T, noise_model, (sse_s, e_exp))
