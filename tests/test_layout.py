@@ -155,3 +155,33 @@ def test_no_package_level_circles():
         if n not in colour:
             visit(n, [n])
     assert circles == []
+
+
+def _cross_package_private_names() -> list[tuple[str, str, str]]:
+    """(module, imported from, name) for every underscore name (not a module: the private modules
+    are each package's internal API) a module imports from another package."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        own = rel.parts[0] if len(rel.parts) > 1 else None
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.ImportFrom) and node.level):
+                continue
+            base = list(rel.parts[:-1])
+            base = base[:len(base) - (node.level - 1)]
+            target = base + (node.module.split(".") if node.module else [])
+            theirs = target[0] if target and (PACKAGE / target[0]).is_dir() else None
+            if theirs == own:
+                continue
+            for alias in node.names:
+                module = PACKAGE.joinpath(*target, alias.name)
+                if alias.name.startswith("_") and alias.name not in ("__version__", "_core") \
+                        and not module.is_dir() and not module.with_suffix(".py").exists():
+                    out.append((str(rel), ".".join(target), alias.name))
+    return out
+
+
+def test_no_private_name_is_imported_across_packages():
+    """Kills: a helper of another package's private module reached by its underscore name (the
+    column norms, a file opener, a stream's snapshot) instead of a name that says it is shared."""
+    assert _cross_package_private_names() == []
