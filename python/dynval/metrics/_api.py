@@ -22,7 +22,9 @@ from ..checks._typing import (
     BackendName,
     Convention,
     FloatArray,
+    IntArray,
     Integer,
+    Kernels,
     LagsLike,
     MultiOutput,
     NanPolicy,
@@ -551,18 +553,24 @@ def zero_mean_test(e: ArrayLike, *, segments: SegmentsLike = None, nan_policy: N
     array([nan])
     """
     call, _ = _residual_call("zero_mean_test", e, nan_policy, backend, segments)
-    e2 = call.data[0]
-    n = call.n
+    return checked_zero_mean_test(call.data[0], call.kernel, call.starts, call.limit)
+
+
+def checked_zero_mean_test(e2: FloatArray, kernel: Kernels, starts: IntArray, longest: int) -> ZeroMeanTest:
+    """:func:`zero_mean_test` of a residual already checked: (N, m) finite float64, the backend's
+    kernels, the segments' starts and the longest segment's length (``validate`` has checked them
+    once for all its sections)."""
+    n = int(e2.shape[0])
     # The t statistics are ratios: they are computed on e scaled by a power of two per joint
     # (exact), so a residual near 1e-160, whose variance underflows, keeps them (contract §1.3).
     exps = _tiny_exponents(e2)
     scaled = np.ldexp(e2, -exps) if exps.any() else e2
-    mean = _vec(call.kernel.residual_mean(scaled))
-    std = np.sqrt(_vec(call.kernel.residual_variance(scaled, 1)))
+    mean = _vec(kernel.residual_mean(scaled))
+    std = np.sqrt(_vec(kernel.residual_variance(scaled, 1)))
     k = newey_west_bandwidth(n)
     # Lags past the longest segment have no products: their ρ̂ is 0 and adds nothing.
-    k_used = min(k, call.limit - 1)
-    rho = np.asarray(call.kernel.autocorrelation(e2, k_used, False, call.starts), dtype=np.float64)
+    k_used = min(k, longest - 1)
+    rho = np.asarray(kernel.autocorrelation(e2, k_used, False, starts), dtype=np.float64)
     n_eff = newey_west_n_eff(rho, k, n)
     t_iid, p_iid = iid_t_test(mean, std, n)
     t_eff, p_eff = iid_t_test(mean, std, n_eff)

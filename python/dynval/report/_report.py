@@ -327,13 +327,13 @@ def _assemble(d: _Data, o: Options, b: Sections, seg_names: list[str] | None) ->
 
 def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
     """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
-    from ..metrics._api import zero_mean_test
+    from ..metrics._api import checked_zero_mean_test
 
     prof = o.profile
     b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
     b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
     lagged = d.lags.max_lag > 0
-    zmt = (_as_dict(zero_mean_test(d.e, segments=d.lags.starts, backend=o.backend)) if lagged and d.e is not None
+    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
            else sec.iid_zero_mean_test(b.km, d.n, prof.ddof))
     b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
                    "variance": np.asarray(b.km["residual_variance"], dtype=np.float64),
