@@ -137,6 +137,17 @@ ARMS: dict[str, ArmDesign] = {
         (0.12, 0.0, 0.0), ("base", "shoulder", "elbow", "wrist"),
         "4-joint arm (axes z, y, y, x; column 0.32 m, links 0.45, 0.35, 0.12 m; 4.5, 3.5, 2.5, 1.2 kg; "
         "the wrist's centre of mass 3 cm off the roll axis)"),
+    "arm6": ArmDesign(
+        "arm6",
+        (Link("z", (0.0, 0.0, 0.0), 8.0, (0.0, 0.0, 0.15), (0.08, 0.08, 0.04), 1.5, 2.0, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.35), 6.0, (0.25, 0.0, 0.01), (0.01, 0.12, 0.12), 1.2, 1.8, 0.8, -0.4),
+         Link("y", (0.5, 0.0, 0.0), 4.0, (0.2, 0.0, 0.0), (0.006, 0.06, 0.06), 0.9, 1.2, 1.0, 0.8),
+         Link("x", (0.4, 0.0, 0.0), 1.5, (0.05, 0.0, 0.01), (0.003, 0.004, 0.004), 0.3, 0.4, 1.8, 0.0),
+         Link("y", (0.1, 0.0, 0.0), 1.0, (0.04, 0.0, 0.0), (0.002, 0.002, 0.002), 0.2, 0.3, 1.2, 0.3),
+         Link("x", (0.08, 0.0, 0.0), 0.5, (0.03, 0.01, 0.0), (0.001, 0.001, 0.001), 0.1, 0.15, 2.0, 0.0)),
+        (0.05, 0.0, 0.0), ("base", "shoulder", "elbow", "wrist1", "wrist2", "wrist3"),
+        "6-joint industrial arm (axes z, y, y, x, y, x; column 0.35 m, links 0.50, 0.40 m and a 0.23 m wrist; "
+        "8, 6, 4, 1.5, 1.0, 0.5 kg; the last wrist's centre of mass off its roll axis)"),
 }
 """The arm designs, by name."""
 
@@ -475,7 +486,7 @@ def library() -> tuple[Scenario, ...]:
     (1–5 % of each joint's torque RMS) are spread over the rows so that no single setting decides.
     """
     r = Scenario
-    p2, a3, a4 = "planar2", "anthro3", "arm4"
+    p2, a3, a4, a6 = "planar2", "anthro3", "arm4", "arm6"
     rows = [
         r("right", "white", p2, 100.0, 40.0, 0.1, 0.02),
         r("right", "white", a3, 500.0, 30.0, 0.1, 0.01),
@@ -564,6 +575,13 @@ def library() -> tuple[Scenario, ...]:
           Expected(("missing_physics", "bias"), term=("gravity", "inertia", "position_harmonic", "velocity_squared"))),
         r("right", "white", a3, 500.0, 30.0, 0.1, 0.02, filtered=True),
         r("no_viscous", "white", p2, 500.0, 30.0, 0.15, 0.03, viscous, filtered=True),
+        # A 6-joint arm (the wrist's three joints carry little torque): the right model, a missing
+        # Coulomb friction, and a friction that changed between runs on the elbow.
+        r("right", "white", a6, 200.0, 30.0, 0.1, 0.02),
+        r("no_coulomb", "white", a6, 200.0, 30.0, 0.1, 0.02, coulomb),
+        r("changed_friction", "white", a6, 200.0, 30.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, joint=2, term=("coulomb",), column_prefix="Fc3", model_column=True),
+          size=2.0, joint=2),
     ]
     return tuple(rows)
 
@@ -990,14 +1008,15 @@ def adds_what_it_has(report: Any, s: Scenario, offered: bool, model_columns: Seq
 
 
 def advice_right(report: Any, s: Scenario, offered: bool, model_columns: Sequence[int]) -> bool | None:
-    """The first step is right: the first deficiency (whiteness aside, as ``compare``'s verdict takes
-    it) names the expected cause, and no deficiency tells the model to add a term it has. None for a
-    scenario without an expected deficiency."""
+    """The first step is right: the first deciding finding (the report's ``first_step``: the
+    deficiencies ranked by the share of the torque each explains, docs/conventions.md §5.10) names the
+    expected cause, and no deficiency tells the model to add a term it has. None for a scenario
+    without an expected deficiency."""
     if s.expected is None or s.expected.severity != "deficiency":
         return None
-    primary = [f for f in report.deficiencies if f.kind != "whiteness"]
+    ranked = report.deciding
     names = report.provenance["column_names"] or ()
-    first = bool(primary) and _names_cause(primary[0], s.expected, offered, names)
+    first = bool(ranked) and _names_cause(ranked[0].finding, s.expected, offered, names)
     return bool(first) and not adds_what_it_has(report, s, offered, model_columns)
 
 
