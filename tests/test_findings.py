@@ -573,7 +573,9 @@ def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
     enters both joints' rows, as a link's inertial parameter does): refitting with the offset moves
     the shared parameter and so the elbow's validation error too. Kills: the offset named as the
     elbow's missing term ("add the term off_0 to the model" on the elbow, as the KUKA run 3 report
-    said of lwr_3 and lwr_6 for lwr_0's offset); the shoulder's own finding dropped with it."""
+    said of lwr_3 and lwr_6 for lwr_0's offset); the shoulder's own finding dropped with it; what it
+    does for the elbow lost (it counts in the step's rank: a planar arm's missing L1:mz bends the
+    fitted L2:mz and so the elbow's error, which adding L1:mz removes)."""
     from dynval.statistics import _estimation
 
     rng = np.random.default_rng(21)
@@ -595,10 +597,15 @@ def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
     val_tau = val @ truth + noise * rng.standard_normal((n, 2))
     out = _estimation.missing_terms(est, est_tau, val, val_tau, [0, 1, 2])
     assert out["columns"] == [3] and out["pvalue"][0] < 1e-10
-    assert out["share"][0, 0] > 0.5 and np.isnan(out["share"][1, 0]) and not out["explains_bias"][1, 0]
+    assert out["share"][0, 0] > 0.5 and out["share"][1, 0] > 0.01 and not out["explains_bias"][1, 0]
+    assert out["enters"][:, 0].tolist() == [True, False]
     model = [0, 1, 2]
     coef = np.linalg.lstsq(est[:, :, model].reshape(-1, 3), est_tau.reshape(-1), rcond=None)[0]
     r = dynval.validate(val_tau, val[:, :, model] @ coef, n_params=3, regressor=val, model_columns=model,
                         estimation={"regressor": est, "tau": est_tau}, joint_names=["shoulder", "elbow"])
-    named = [(f.joints, f.columns) for f in r.findings if f.kind == "regressor_correlation"]
-    assert named == [((0,), (3,))]
+    named = [f for f in r.findings if f.kind == "regressor_correlation"]
+    assert [(f.joints, f.columns) for f in named] == [((0,), (3,))]
+    # what the refit with it removes on the elbow is said on the shoulder's finding, and counts in its rank
+    (share,) = named[0].details["indirect"].values()
+    assert list(named[0].details["indirect"]) == [1] and share == pytest.approx(out["share"][1, 0], rel=1e-6)
+    assert f"also remove {100 * share:.1f} % on elbow" in named[0].message

@@ -5,6 +5,7 @@ Each test names the mutation it kills."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from types import SimpleNamespace
 
@@ -197,3 +198,16 @@ def test_one_missing_column_is_one_step_over_every_joint_it_helps():
                     details={"term": "offset", "term_share": 0.9}, action="add an offset on j2")
     ranked = deciding([other, *col], r2=[0.98, 0.98])
     assert [r.finding.kind for r in ranked] == ["regressor_correlation", "regressor_correlation", "missing_physics"]
+
+
+def test_a_missing_column_ranks_with_what_it_removes_on_the_joints_it_does_not_act_on():
+    """The planar arm without L1:mz: the estimation fit bends L2:mz to make up for it, so the elbow
+    carries most of the error, which adding L1:mz (a shoulder column) removes through the refit.
+    Kills: the indirect effect left out of the column's rank (the elbow's own finding first, 62 %
+    against the column's 12 % + 55 %), or counted twice."""
+    col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(3,), effect=0.12,
+                  threshold=0.01, action="add the term L1:mz", message="j1: a term the model lacks: L1:mz.",
+                  details={"added_variable": True, "method": "estimation_refit", "indirect": {1: 0.55}})
+    assert [r.finding.kind for r in deciding([PHYSICS, col])] == ["regressor_correlation", "missing_physics"]
+    less = dataclasses.replace(col, details={**col.details, "indirect": {1: 0.4}})
+    assert [r.finding.kind for r in deciding([PHYSICS, less])] == ["missing_physics", "regressor_correlation"]

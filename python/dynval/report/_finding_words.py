@@ -189,14 +189,21 @@ def bias_action(name: str, kinds: Mapping[str, bool | None] | None) -> str:
     return "; ".join(parts)
 
 
-def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bool, padj: float, big: bool) -> Words:
-    """``terms``: (column, statistic, share) of the chosen columns, strongest first."""
+def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bool, padj: float, big: bool,
+                 indirect: Sequence[tuple[str, float]] = ()) -> Words:
+    """``terms``: (column, statistic, share) of the chosen columns, strongest first; ``indirect``:
+    (joint, share) of the joints the first column does not enter whose error the refit with it
+    removes too (through the parameters refitted with it)."""
     symbol = "t" if refit else "ρ"
     listed = "; ".join(f"{c} ({symbol} = {stat:+.3g}, would remove {100 * share:.1f} % of the mean square)"
                        for c, stat, share in terms[:3])
     how = ("refitted on the estimation run with the term added (Wald t with the coloured-noise covariance; the "
            "share is measured on the validation run)" if refit
            else "after removing what the model's own columns represent")
+    if indirect:
+        how += (f"; the parameters refitted with {terms[0][0]} also remove "
+                + ", ".join(f"{100 * s:.1f} % on {joint}" for joint, s in indirect)
+                + " (joints it does not act on: the estimation run's fit made up for it there)")
     return (f"{name}: a term the model lacks explains part of the residual: {listed}; {how} (Holm-adjusted p "
             f"{p_text(padj)})" + (": a missing term." if big else NEGLIGIBLE),
             f"add the term {terms[0][0]} to the model" if big else "none: the term would explain too little to matter")

@@ -272,6 +272,7 @@ class Evidence:
     missing_pvalue: np.ndarray | None = None  # (m, q) or (q,)
     missing_share: np.ndarray | None = None  # (m, q): share of the validation mean square it removes
     missing_explains_bias: np.ndarray | None = None  # (m, q) bool: the term accounts for the joint's mean
+    missing_enters: np.ndarray | None = None  # (m, q) bool: the column enters the joint's rows (the refit's)
     # the motion: physics library (with q), predictive test (with the estimation run)
     physics: dict | None = None
     predictive: dict | None = None
@@ -537,9 +538,13 @@ def _missing_term_rule(r: _Rules) -> list[Finding]:
     def at(a, j, k):
         return a[k] if a.ndim == 1 else a[j, k]
 
+    enters = (np.ones(share.shape, dtype=bool) if ev.missing_enters is None or not per_column
+              else np.asarray(ev.missing_enters, dtype=bool))
     out: list[Finding] = []
     for j in range(share.shape[0]):
-        sig = [k for k in range(share.shape[1]) if at(padj, j, k) <= r.alpha]
+        # a column that does not enter this joint's rows is the step of the joints it enters; what
+        # it moves here (through the parameters refitted with it) is said there
+        sig = [k for k in range(share.shape[1]) if at(padj, j, k) <= r.alpha and enters[j, k]]
         if not sig:
             continue
         sig.sort(key=lambda k: -np.nan_to_num(share[j, k], nan=-np.inf))
@@ -553,14 +558,17 @@ def _missing_term_rule(r: _Rules) -> list[Finding]:
             r.deficient.add(j)
             r.missing.add(j)
         terms = [(r.column(ev.missing_columns[kk]), float(at(stat, j, kk)), float(share[j, kk])) for kk in chosen]
+        indirect = {jj: float(share[jj, k]) for jj in range(share.shape[0])
+                    if not enters[jj, k] and share[jj, k] >= th.missing_term}
         out.append(_worded(
-            w.missing_term(r.name(j), terms, refit, float(at(padj, j, k)), big),
+            w.missing_term(r.name(j), terms, refit, float(at(padj, j, k)), big,
+                           [(r.name(jj), s) for jj, s in indirect.items()]),
             kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
             columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
             pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(share[j, k]),
             effect_unit=w.UNITS["missing_term"], threshold=th.missing_term,
             details={"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
-                     "method": ev.missing_method}))
+                     "method": ev.missing_method, "indirect": indirect}))
     return out
 
 

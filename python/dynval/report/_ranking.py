@@ -197,7 +197,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
         c = _missing_column(r.finding)
         e = effect(r)
         if c is not None and e is not None:
-            cause[c] = cause.get(c, 0.0) + e
+            cause[c] = cause.get(c, 0.0) + e + _indirect(r.finding, r2 if with_r2 else None)
 
     def key(item: tuple[int, Ranked]) -> tuple[int, int, float, float, int]:
         i, r = item
@@ -209,6 +209,16 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
         return (g, 0, -(cause[c] if c is not None else own), -own, i)
 
     return [r for _, r in sorted(enumerate(ranked), key=key)]
+
+
+def _indirect(f: Finding, r2: Sequence[float] | None) -> float:
+    """What a missing column's refit removes on the joints it does not act on (``details["indirect"]``:
+    joint → share of its residual), on the scale :func:`rank` compares (of the torque with ``r2``)."""
+    total = 0.0
+    for joint, share in ((f.details or {}).get("indirect") or {}).items():
+        scaled = share if r2 is None else _torque_share(share, int(joint), r2)
+        total += scaled if scaled is not None else 0.0
+    return total
 
 
 def deciding(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:

@@ -105,10 +105,11 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     joint refit, ``pvalue`` (q,) from Student t with N_eff − 1 degrees of freedom (N_eff the
     smallest effective sample size of the estimation residual's joints), ``share`` (m, q) the share
     of each joint's validation mean square column c removes from the refit without it (negative when
-    it makes the validation worse; nan on a joint whose rows c enters in neither run: an offset of the
-    shoulder moves the wrist only through the shared parameters refitted with it, and adding it is
-    the shoulder's step), and ``explains_bias`` (m, q): adding c at least halves the joint's
-    validation mean. None when every column is in the model.
+    it makes the validation worse; on a joint whose rows c enters in neither run, what it moves
+    through the shared parameters refitted with it), ``enters`` (m, q): c enters the joint's rows in
+    one of the runs (an offset of the shoulder does not enter the wrist's: adding it is the
+    shoulder's step, which also helps the wrist), and ``explains_bias`` (m, q): c enters the joint
+    and adding it at least halves the joint's validation mean. None when every column is in the model.
     """
     p = est_reg3.shape[2]
     inside = [int(c) for c in model_columns]
@@ -155,7 +156,6 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
             share[:, i] = (mse_wo - mse_all) / mse0
         explains[:, i] = np.abs(mean_all) <= 0.5 * np.abs(mean_wo)
     enters = np.any(val_reg3[:, :, outside] != 0, axis=0) | np.any(est_reg3[:, :, outside] != 0, axis=0)
-    share = np.where(enters, share, np.nan)
     explains &= enters
-    return {"columns": outside, "statistic": stat, "pvalue": pval, "share": share, "explains_bias": explains,
-            "method": "estimation_refit"}
+    return {"enters": enters, "columns": outside, "statistic": stat, "pvalue": pval, "share": share,
+            "explains_bias": explains, "method": "estimation_refit"}
