@@ -158,7 +158,7 @@ def test_missing_term_added_variable_record_orders_columns_by_share():
                                 statistic=0.2, pvalue=1e-8, pvalue_adjusted=pytest.approx(padj[0, 0]), effect=0.05,
                                 effect_unit="share of the residual's mean square the term would remove",
                                 threshold=0.01, details={"lag": 0, "ρ": 0.2, "added_variable": True,
-                                                         "method": "added_variable"})
+                                                         "method": "added_variable", "indirect": {}})
     _worded(f, w.missing_term("shoulder", [("b", 0.2, 0.05), ("c", 0.1, 0.01)], False, padj[0, 0], True))
 
 
@@ -181,7 +181,7 @@ def test_missing_term_refit_tests_per_column_and_skips_joints_it_does_not_matter
     found = _of(compute_findings(ev), "regressor_correlation")
     assert [f.joints for f in found] == [(0,)]  # joint 1: the column removes too little there
     (f,) = found
-    assert f.details == {"lag": 0, "t": 6.0, "added_variable": True, "method": "estimation_refit"}
+    assert f.details == {"lag": 0, "t": 6.0, "added_variable": True, "method": "estimation_refit", "indirect": {}}
     assert (f.statistic, f.pvalue, f.effect, f.columns) == (6.0, 1e-8, 0.2, (1,))
     _worded(f, w.missing_term("shoulder", [("b", 6.0, 0.2)], True, f.pvalue_adjusted, True))
 
