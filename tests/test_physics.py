@@ -461,8 +461,13 @@ def test_the_forward_selections_tests_from_the_compressed_rows_equal_the_row_bas
         cols = np.concatenate([np.arange(edges[i], edges[i + 1]) for i in order])
         idx = np.arange(cols.size - (edges[order[-1] + 1] - edges[order[-1]]), cols.size)
         direct = _physics._wald(x[:, cols], yw, idx, gw, cov_p)
-        assert tests.wald([(cols, idx)])[0] == pytest.approx(direct[0], rel=1e-10)
-        assert tests.wald([(cols, idx)])[0] != pytest.approx(_physics._wald(x[:, cols], yw, idx)[0], rel=1e-3)
+        w = tests.step(cols[:idx[0]], [cols[idx]])[0]
+        assert w == pytest.approx(direct[0], rel=1e-10)
+        assert w != pytest.approx(_physics._wald(x[:, cols], yw, idx)[0], rel=1e-3)
+    # every candidate of a step at once: each as if alone
+    base, cands = np.arange(1), [np.arange(1, 4), np.arange(4, 6)]
+    both = tests.step(base, cands)
+    assert both == [pytest.approx(tests.step(base, [c])[0], rel=1e-12) for c in cands]
 
 
 # --------------------------------------------------------------------------- dithering, quantised q, standstill

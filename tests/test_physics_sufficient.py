@@ -188,7 +188,8 @@ def _compare_call(args, kwargs):
     return checked
 
 
-SCENARIOS = ["right:jitter:arm4@500", "no_coulomb:white:anthro3@500", "decoupled:white:arm4@100"]
+SCENARIOS = ["right:jitter:arm4@500", "no_coulomb:white:anthro3@500", "no_coulomb:ar0.9:planar2@100",
+             "decoupled:white:arm4@100"]
 
 
 @pytest.mark.parametrize("key", SCENARIOS)

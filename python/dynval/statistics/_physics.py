@@ -352,16 +352,16 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
 
 
 class _Stack:
-    """One joint's raw columns side by side, once: the residual ``e``, the nuisance columns ``nz``,
-    the library's groups by name and the model's columns ``g`` (when Cov(π̂) is known)."""
+    """One joint's raw columns side by side, once: the residual ``e``, the nuisance columns ``nz``
+    and the library's groups by name; beside them the model's columns ``g`` (when Cov(π̂) is known)."""
 
     def __init__(self, ej, nz, lib, g=None):
         parts = [("e", ej[:, None]), ("nz", nz)] + list(lib.items())
-        if g is not None:
-            parts.append(("g", np.asarray(g, float).reshape(ej.shape[0], -1)))
+        # the model's columns enter through XᵀG alone: a product of the rows, not part of the QR
+        self.g = None if g is None else np.asarray(g, float).reshape(ej.shape[0], -1)
         edges = np.cumsum([0] + [x.shape[1] for _, x in parts])
         self.index = {name: np.arange(edges[i], edges[i + 1]) for i, (name, _) in enumerate(parts)}
-        self.groups = [name for name, _ in parts if name not in ("e", "nz", "g")]
+        self.groups = [name for name, _ in parts if name not in ("e", "nz")]
         self.raw = np.empty((ej.shape[0], int(edges[-1])))
         for (_, x), lo, hi in zip(parts, edges[:-1], edges[1:]):
             self.raw[:, lo:hi] = x
@@ -383,6 +383,7 @@ class _Compressed:
     def __init__(self, stack, a):
         self.stack = stack
         self.rows = _whiten(stack.raw, a)
+        self.g_rows = None if stack.g is None else _whiten(stack.g, a)
         self.n = self.rows.shape[0]
         self.r = np.linalg.qr(self.rows, mode="r")
 
@@ -447,11 +448,10 @@ def _whitened_fit(problem, alpha, cov_p=None):
     edges = np.cumsum([0] + sizes)
     x_r = np.hstack(blocks)
     rows = problem.rows @ np.hstack(maps + [y_map])  # the blocks' and the residual's whitened rows
-    g_i = stack_index.get("g")
-    xg = None if g_i is None or cov_p is None else x_r.T @ r[:, g_i]
+    xg = None if problem.g_rows is None or cov_p is None else rows[:, :-1].T @ problem.g_rows
     tests = _Tests(x_r, yw[:, 0], rows[:, :-1], rows[:, -1], problem.n, xg, cov_p)
     k = int(edges[-1])
-    w = tests.wald([(np.arange(k), np.arange(k))])[0]
+    w = tests.step(np.zeros(0, dtype=int), [np.arange(k)])[0]
     df2 = max(problem.n - k - basis.shape[1], 1)
     columns = [np.arange(edges[i], edges[i + 1]) for i in range(len(blocks))]
     return {"names": names, "f": w / k, "k": k, "df2": df2,
@@ -460,55 +460,51 @@ def _whitened_fit(problem, alpha, cov_p=None):
 
 
 class _Tests:
-    """Wald tests of any columns of the blocks side by side: coefficients from the compressed rows
-    (``x_r``, ``y_r``), the HC1 meat from the whitened rows (``x_rows``, ``y_rows``) of the one
-    residual each fit leaves, and the model's parameter error through XᵀG (``xg``) and Cov(π̂).
-    Several tests are scored together: their maps on the rows are one product."""
+    """Wald tests of the blocks' columns (HC1, as :func:`_wald`): coefficients from the compressed
+    rows (``x_r``, ``y_r``: R-space), the HC1 meat from the whitened rows (``x_rows``, ``y_rows``),
+    and the model's parameter error through XᵀG (``xg``) and Cov(π̂)."""
 
     def __init__(self, x_r, y_r, x_rows, y_rows, n, xg=None, cov_p=None):
         self.x_r, self.y_r, self.x_rows, self.y_rows, self.n = x_r, y_r, x_rows, y_rows, n
-        self.gram = x_r.T @ x_r
         self.xg, self.cov_p = xg, cov_p
 
-    def wald(self, tests):
-        """The Wald statistics of (cols, idx) pairs: the columns ``idx`` (positions within ``cols``)
-        in the fit of all ``cols`` (numpy.linalg.lstsq's solution), HC1 covariance as :func:`_wald`.
+    def step(self, base, candidates):
+        """Each candidate's Wald statistic in the fit of the ``base`` columns and its own.
 
-        In the score form: with X̃ the tested columns outside the others' span (X̃ = X_idx − X_o C),
-        b_idx = (X̃ᵀX̃)⁻¹X̃ᵀy and its covariance (X̃ᵀX̃)⁻¹ M (X̃ᵀX̃)⁻¹, M = X̃ᵀΩX̃ (+ X̃ᵀG Cov(π̂) GᵀX̃),
-        so W = (X̃ᵀy)ᵀ M⁻¹ (X̃ᵀy): one inverse of a matrix conditioned as X̃ᵀX̃, where the product
-        (XᵀX)⁻¹ M (XᵀX)⁻¹ squares it again (W then moved by percents under a 1e-13 change of y)."""
-        width = self.x_r.shape[1]
+        By Frisch–Waugh–Lovell, with X̃ the candidate's columns outside the base's span and ỹ the
+        residual of the base alone: the fit's residual is ỹ − X̃β, the tested coefficients are
+        (X̃ᵀX̃)⁻¹X̃ᵀy with covariance (X̃ᵀX̃)⁻¹ M (X̃ᵀX̃)⁻¹, M = X̃ᵀΩX̃ (+ X̃ᵀG Cov(π̂) GᵀX̃), so
+        W = (X̃ᵀy)ᵀ M⁻¹ (X̃ᵀy): one inverse of a matrix conditioned as X̃ᵀX̃ (the product
+        (XᵀX)⁻¹ M (XᵀX)⁻¹ squares it again: the statistic then moved by percents under a 1e-13 change
+        of y). The rows are read once per candidate for its residual and its meat."""
         eps = np.finfo(float).eps
-        parts, maps = [], []
-        for cols, idx in tests:
-            k = cols.size
-            b = np.linalg.lstsq(self.x_r[:, cols], self.y_r, rcond=eps * max(self.n, k))[0]
-            tested, other = cols[idx], np.delete(cols, idx)
-            # the map on the blocks' columns of the residual (first column) and of X̃
-            m = np.zeros((width, 1 + idx.size))
-            m[cols, 0] = b
-            m[tested, 1:] = np.eye(idx.size)
-            if other.size:
-                c = np.linalg.lstsq(self.x_r[:, other], self.x_r[:, tested], rcond=eps * max(self.n, other.size))[0]
-                m[other, 1:] = -c
-            maps.append(m)
-            score = m[:, 1:].T @ (self.x_r.T @ self.y_r)
-            extra = None
-            if self.xg is not None and self.cov_p is not None:
-                p = m[:, 1:].T @ self.xg
-                extra = p @ self.cov_p @ p.T
-            parts.append((k, score, extra))
-        rows = self.x_rows @ np.hstack(maps)
-        out, at = [], 0
-        for (k, score, extra), m in zip(parts, maps):
-            r = self.y_rows - rows[:, at]
-            h = rows[:, at + 1:at + m.shape[1]] * r[:, None]
-            at += m.shape[1]
+        y_r, y_rows = self.y_r, self.y_rows
+        if base.size:
+            x_base = self.x_r[:, base]
+            rcond = eps * max(self.n, base.size)
+            c_y = np.linalg.lstsq(x_base, y_r, rcond=rcond)[0]
+            y_r, y_rows = y_r - x_base @ c_y, y_rows - self.x_rows[:, base] @ c_y
+            rows_base = self.x_rows[:, base]
+        out = []
+        for cand in candidates:
+            ki = cand.size
+            k = base.size + ki
+            # a group's columns are contiguous: a view of the rows, not a copy
+            cols = slice(int(cand[0]), int(cand[-1]) + 1) if ki and cand[-1] - cand[0] == ki - 1 else cand
+            x_r, x_rows = self.x_r[:, cols], self.x_rows[:, cols]
+            xg = None if self.xg is None or self.cov_p is None else self.xg[cols]
+            if base.size:
+                c = np.linalg.lstsq(x_base, x_r, rcond=rcond)[0]
+                x_r, x_rows = x_r - x_base @ c, x_rows - rows_base @ c
+                xg = None if xg is None else xg - c.T @ self.xg[base]
+            beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
+            r = y_rows - x_rows @ beta
+            h = x_rows * r[:, None]
             meat = h.T @ h * (self.n / max(self.n - k, 1))
-            if extra is not None:
-                meat = meat + extra
-            out.append(float(score @ np.linalg.pinv(meat) @ score) if score.size else 0.0)
+            if xg is not None:
+                meat = meat + xg @ self.cov_p @ xg.T
+            score = x_r.T @ y_r
+            out.append(float(score @ np.linalg.pinv(meat) @ score) if ki else 0.0)
         return out
 
 
@@ -517,12 +513,9 @@ def _forward_selection(columns, tests, alpha):
     selected: list[int] = []
     while len(selected) < len(columns):
         candidates = [i for i in range(len(columns)) if i not in selected]
-        pairs = []
-        for i in candidates:
-            cols = np.concatenate([columns[s] for s in selected + [i]])
-            pairs.append((cols, np.arange(cols.size - columns[i].size, cols.size)))
+        base = np.concatenate([columns[s] for s in selected]) if selected else np.zeros(0, dtype=int)
         best = None
-        for i, wi in zip(candidates, tests.wald(pairs)):
+        for i, wi in zip(candidates, tests.step(base, [columns[i] for i in candidates])):
             ki = columns[i].size
             pi = float(scipy.stats.chi2.sf(wi, ki))
             if best is None or pi < best[1] or (pi == best[1] and wi / ki > best[2]):
