@@ -28,7 +28,8 @@ import dynval
 from dynval import scenarios
 from dynval.statistics import _physics
 
-RTOL = 1e-4  # statistics and shares; conventions §5.2
+STAT_RTOL = 1e-5  # statistics and p-values (measured at most 1.1e-6 and 4e-6); conventions §5.2
+SHARE_RTOL = 1e-7  # shares and N_eff (measured at most 8e-9)
 P_FLOOR = 1e-12  # p-values below it are compared on their statistics only
 
 
@@ -149,8 +150,8 @@ def _captured(monkeypatch, run):
     return calls
 
 
-def _close(new, ref, what):
-    assert math.isclose(new, ref, rel_tol=RTOL, abs_tol=1e-12), f"{what}: {new} against {ref} from the rows"
+def _close(new, ref, what, rtol=SHARE_RTOL):
+    assert math.isclose(new, ref, rel_tol=rtol, abs_tol=1e-12), f"{what}: {new} against {ref} from the rows"
 
 
 def _compare_call(args, kwargs):
@@ -169,9 +170,9 @@ def _compare_call(args, kwargs):
         where = f"joint {j}"
         assert t.selected == [ref["names"][s] for s in ref["selected"]], where
         assert t.df == (ref["k"], ref["df2"]) and t.ar_order == ref["ar_order"], where
-        _close(t.statistic, ref["f"], f"{where} F")
+        _close(t.statistic, ref["f"], f"{where} F", STAT_RTOL)
         if ref["pvalue"] > P_FLOOR:
-            _close(t.pvalue, ref["pvalue"], f"{where} p-value")
+            _close(t.pvalue, ref["pvalue"], f"{where} p-value", STAT_RTOL)
         else:
             assert t.pvalue <= 10 * P_FLOOR, where
         _close(t.share, ref["share"], f"{where} share")

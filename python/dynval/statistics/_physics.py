@@ -31,6 +31,8 @@ once the others are in.
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -64,6 +66,7 @@ LABELS = {
 _MAX_AR = 2
 _OUTSIDE = 0.01
 _PARSIMONY = 0.8
+_THREADED_CELLS = 50_000  # N·m from which the joints are tested in threads
 _MAX_ROWS = 40_000  # longer runs are decimated by a whole factor (anti-aliased) before the test
 
 
@@ -265,9 +268,8 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
     """
     n, m = e.shape
     dec = _decimation(n)
-    1.0 if sample_rate is None else float(sample_rate)
-    out = []
-    for j in range(m):
+
+    def joint(j):
         lib = library(j, q, dq, ddq, pred[:, j], sample_rate) if libraries is None else libraries[j]
         if groups is not None:
             lib = {g: x for g, x in lib.items() if g in groups}
@@ -279,8 +281,15 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
             ej = _down(ej, dec)
             nz = None if nz is None else _down(nz, dec)
             gj = None if gj is None else _down(gj, dec)
-        out.append(_joint_test(j, ej, lib, nz, alpha, gj, parameter_covariance))
-    return out
+        return _joint_test(j, ej, lib, nz, alpha, gj, parameter_covariance)
+
+    # The joints are independent and their work is BLAS, LAPACK and filters, which release the GIL:
+    # threads for joints on long runs (each joint's result is the same as computed alone).
+    workers = min(m, os.cpu_count() or 1) if n * m >= _THREADED_CELLS else 1
+    if workers <= 1:
+        return [joint(j) for j in range(m)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(joint, range(m)))
 
 
 def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
@@ -317,13 +326,13 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
         if cols.size == 0:
             return total, np.zeros(0)
         coef = problem.lstsq(cols, stack.index["e"])
-        return float(np.sum((ej - stack.raw[:, cols] @ coef) ** 2)), coef
+        return float(np.sum((ej - stack.times(cols, coef)) ** 2)), coef
 
     base, _ = sse([])
     every = list(range(len(names)))
     full, coef_full = sse(every)
     # the noise's N_eff (what the model's columns and the library leave), for the design rule
-    left = ej - stack.raw[:, stack.columns(["nz"] + names)] @ coef_full
+    left = ej - stack.times(stack.columns(["nz"] + names), coef_full)
     _, n_eff = _ar_prewhitener(left, min(_MAX_AR, n // 50))
     share = max(0.0, (base - full) / total)
     shares: dict[str, float] = {}
@@ -365,6 +374,12 @@ class _Stack:
         self.raw = np.empty((ej.shape[0], int(edges[-1])))
         for (_, x), lo, hi in zip(parts, edges[:-1], edges[1:]):
             self.raw[:, lo:hi] = x
+
+    def times(self, cols, coef):
+        """raw[:, cols] @ coef without copying the columns out (one pass over the stack)."""
+        full = np.zeros(self.raw.shape[1])
+        full[cols] = coef
+        return self.raw @ full
 
     def columns(self, names):
         """The stacked indices of the named parts, in order."""
