@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import math
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -288,6 +287,8 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
     workers = min(m, os.cpu_count() or 1) if n * m >= _THREADED_CELLS else 1
     if workers <= 1:
         return [joint(j) for j in range(m)]
+    from concurrent.futures import ThreadPoolExecutor
+
     with ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(joint, range(m)))
 
