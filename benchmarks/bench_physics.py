@@ -11,8 +11,9 @@ Rows printed (seconds, best of ``--repeat`` calls; the ratio with its goal ≤ 3
   URDF's torques on a multi-sine trajectory plus viscous and Coulomb friction the prediction
   lacks and white noise; the prediction and q alone (derivatives by dynval), no regressor.
 
-``--before DIR``: also time a checkout's ``python/`` (e.g. ``git worktree add /tmp/main main``) in a
-subprocess on the same data, printed beside as "before". Without pinocchio the KUKA rows are left out.
+``--before DIR``: also time a checkout's ``python/`` (e.g. ``git worktree add /tmp/main main``) on the
+same data, printed beside as "before" (both then in fresh interpreters, one after the other).
+Without pinocchio the KUKA rows are left out.
 Run: ``PYTHONPATH=python python3 benchmarks/bench_physics.py [--repeat 3 --before /tmp/main]``.
 This is a benchmark, not a test: nothing here asserts a time.
 """
@@ -140,8 +141,9 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3, help="best of this many calls")
     parser.add_argument("--before", type=Path, default=None, help="a checkout whose python/ is timed as 'before'")
     args = parser.parse_args(argv)
-    before = measure_elsewhere(args.before, 1) if args.before is not None else {}
-    after = measure(args.repeat)
+    # before and after alike: each in a fresh interpreter, one after the other, best of the same count
+    before = measure_elsewhere(args.before, args.repeat) if args.before is not None else {}
+    after = measure_elsewhere(ROOT, args.repeat) if args.before is not None else measure(args.repeat)
     print(f"validate with q ÷ without q (goal ≤ {GOAL:g}×, bar {BAR:g}×)")
     print(f"{'case':<52} {'with q':>9} {'without':>9} {'ratio':>7}" + ("   before: with q, ratio" if before else ""))
     for name, (wq, wo) in after.items():

@@ -390,7 +390,7 @@ class _Stack:
 
 class _Compressed:
     """The whitened columns' sufficient statistics for least squares: R of a Householder QR of the
-    whitened stack Z_w = Q R. Every product Z_w[:, c]ᵀ Z_w[:, d] is R[:, c]ᵀ R[:, d], so every fit,
+    whitened stack Z_w = Q R (:func:`_tall_r`). Every product Z_w[:, c]ᵀ Z_w[:, d] is R[:, c]ᵀ R[:, d], so every fit,
     projection and singular value of the whitened problem is computed on R's few rows, to the
     accuracy of the rows themselves (a Gram matrix squares the library's condition number, up to
     3e7 on the KUKA runs). The whitened rows are kept for the heteroscedasticity-robust covariance,
@@ -401,7 +401,7 @@ class _Compressed:
         self.rows = _whiten(stack.raw, a)
         self.g_rows = None if stack.g is None else _whiten(stack.g, a)
         self.n = self.rows.shape[0]
-        self.r = np.linalg.qr(self.rows, mode="r")
+        self.r = _tall_r(self.rows)
 
     def lstsq(self, cols, target):
         """numpy.linalg.lstsq of the whitened column ``target`` on the whitened ``cols``, with its
@@ -409,6 +409,20 @@ class _Compressed:
         equations alone, which R holds)."""
         x = self.r[:, cols]
         return np.linalg.lstsq(x, self.r[:, int(target[0])], rcond=np.finfo(float).eps * max(self.n, x.shape[1]))[0]
+
+
+_QR_ROWS = 2048
+
+
+def _tall_r(x):
+    """R of a QR of a tall x, by pieces of about _QR_ROWS rows (the R of their stacked Rs): each
+    piece's Householder QR stays in cache, twice as fast on 20,000 rows as one QR of all of them,
+    and as accurate (a product of orthogonal transforms). R is unique up to the signs of its rows,
+    which no product RᵀR, fit or singular value depends on."""
+    pieces = x.shape[0] // _QR_ROWS
+    if pieces < 2:
+        return np.linalg.qr(x, mode="r")
+    return np.linalg.qr(np.vstack([np.linalg.qr(p, mode="r") for p in np.array_split(x, pieces)]), mode="r")
 
 
 def _orthonormal(x, rel=1e-7, floor=0.0):
@@ -463,7 +477,9 @@ def _whitened_fit(problem, alpha, cov_p=None):
     sizes = [b.shape[1] for b in blocks]
     edges = np.cumsum([0] + sizes)
     x_r = np.hstack(blocks)
-    rows = problem.rows @ np.hstack(maps + [y_map])  # the blocks' and the residual's whitened rows
+    # the blocks' and the residual's whitened rows, column-major: each group's columns are then one
+    # contiguous piece of memory for its residual and meat
+    rows = (np.hstack(maps + [y_map]).T @ problem.rows.T).T
     xg = None if problem.g_rows is None or cov_p is None else rows[:, :-1].T @ problem.g_rows
     tests = _Tests(x_r, yw[:, 0], rows[:, :-1], rows[:, -1], problem.n, xg, cov_p)
     k = int(edges[-1])
