@@ -40,6 +40,7 @@ import numpy as np
 if TYPE_CHECKING:
     import scipy.linalg
     import scipy.signal
+    import scipy.special
     import scipy.stats
 else:
     from .._lazy import scipy
@@ -549,7 +550,9 @@ def _forward_selection(columns, tests, alpha):
         best = None
         for i, wi in zip(candidates, tests.step(base, [columns[i] for i in candidates])):
             ki = columns[i].size
-            pi = float(scipy.stats.chi2.sf(wi, ki))
+            # scipy.stats.chi2.sf's own function, without its per-call argument handling (355 calls
+            # took 0.1 s of a 2 s validate on the simulated 1 kHz log)
+            pi = float(scipy.special.chdtrc(ki, wi))
             if best is None or pi < best[1] or (pi == best[1] and wi / ki > best[2]):
                 best = (i, pi, wi / ki)
         if best is None or best[1] > alpha / len(columns):
