@@ -31,7 +31,6 @@ once the others are in.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -66,7 +65,6 @@ LABELS = {
 _MAX_AR = 2
 _OUTSIDE = 0.01
 _PARSIMONY = 0.8
-_THREADED_CELLS = 50_000  # N·m from which the joints are tested in threads
 _MAX_ROWS = 40_000  # longer runs are decimated by a whole factor (anti-aliased) before the test
 
 
@@ -283,15 +281,7 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
             gj = None if gj is None else _down(gj, dec)
         return _joint_test(j, ej, lib, nz, alpha, gj, parameter_covariance)
 
-    # The joints are independent and their work is BLAS, LAPACK and filters, which release the GIL:
-    # threads for joints on long runs (each joint's result is the same as computed alone).
-    workers = min(m, os.cpu_count() or 1) if n * m >= _THREADED_CELLS else 1
-    if workers <= 1:
-        return [joint(j) for j in range(m)]
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(joint, range(m)))
+    return [joint(j) for j in range(m)]
 
 
 def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
