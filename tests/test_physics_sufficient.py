@@ -268,3 +268,27 @@ def test_one_wald_statistic_equals_statsmodels_hc1():
     wald = res.wald_test(np.eye(x.shape[1]), scalar=True, use_f=False).statistic
     assert fit["k"] == x.shape[1]
     assert fit["f"] * fit["k"] == pytest.approx(float(wald), rel=1e-6)
+
+
+@pytest.mark.parametrize("case", ["plain", "zero column", "dependent columns", "no model columns"])
+def test_the_kinds_outside_the_models_span_from_one_qr_equal_the_svd_of_the_rows(case):
+    # outside_fractions (R of one QR of the model's and the groups' columns) against span_basis's
+    # SVD of the rows and outside_fraction on them; zero and repeated columns as a serial arm has
+    from dynval.statistics import _model_terms
+
+    rng = np.random.default_rng(5)
+    n = 5000  # more than one piece of the QR
+    y = rng.normal(size=(n, 8)) * rng.uniform(0.01, 100.0, 8)
+    if case == "zero column":
+        y[:, 3] = 0.0
+    elif case == "dependent columns":
+        y[:, 5] = 3.0 * y[:, 1] + y[:, 2]
+    elif case == "no model columns":
+        y = np.zeros((n, 0))
+    inside = y[:, 0] if y.size else np.ones(n)
+    groups = {"in": np.column_stack([inside, rng.normal(size=n)]), "offset": np.ones((n, 1)),
+              "half": np.column_stack([inside + rng.normal(size=n), np.zeros(n)])}
+    got = _model_terms.outside_fractions(y, groups)
+    basis = _model_terms.span_basis(y)
+    for g, cols in groups.items():
+        np.testing.assert_allclose(got[g], _model_terms.outside_fraction(basis, cols), rtol=0, atol=1e-12)
