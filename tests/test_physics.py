@@ -444,26 +444,30 @@ def test_a_missing_column_below_what_the_run_detects_leaves_the_joint_unresolved
     assert _unresolved(ev, [missing(0, 0.3)], set()) == {}
 
 
-def test_the_forward_selection_assembles_each_sets_products_from_per_block_ones():
-    # Any set of the groups' blocks, in any order: its XᵀX (exactly symmetric) and XᵀG from the
-    # per-block products equal the products of the stacked blocks, and the Wald test is unchanged.
+def test_the_forward_selections_tests_from_the_compressed_rows_equal_the_row_based_wald():
+    # Any set of the groups' blocks, in any order, its last block tested: the Wald statistic from R
+    # of the stacked blocks (coefficients) and the rows' residual (HC1 meat), with the model's
+    # parameter error, equals _wald's on the rows (well conditioned blocks: the two forms agree).
     rng = np.random.default_rng(7)
     n = 300
     blocks = [np.linalg.qr(rng.normal(size=(n, k)))[0] for k in (1, 3, 2)]
     gw, cov_p = rng.normal(size=(n, 4)), np.diag([0.5, 0.1, 0.2, 0.3])
-    yw = blocks[1] @ np.array([0.3, -0.2, 0.1]) + rng.normal(size=n)
-    products = _physics._BlockProducts(blocks, gw)
+    yw = blocks[1] @ np.array([0.3, -0.2, 0.1]) + rng.normal(size=n) * (1 + np.abs(blocks[0][:, 0]) * 5)
+    x = np.hstack(blocks)
+    r = np.linalg.qr(np.column_stack([x, yw, gw]), mode="r")
+    tests = _physics._Tests(r[:, :6], r[:, 6], x, yw, n, r[:, :6].T @ r[:, 7:], cov_p)
+    edges = [0, 1, 4, 6]
     for order in ([0], [2, 0], [1, 2, 0], [0, 1, 2]):
-        x = np.hstack([blocks[i] for i in order])
-        gram, xg = products.of(order)
-        assert np.array_equal(gram, gram.T)
-        np.testing.assert_allclose(gram, x.T @ x, rtol=0, atol=1e-13)
-        np.testing.assert_allclose(xg, x.T @ gw, rtol=1e-13, atol=1e-13)
-        idx = np.arange(x.shape[1] - blocks[order[-1]].shape[1], x.shape[1])
-        direct = _physics._wald(x, yw, idx, gw, cov_p)
-        assembled = _physics._wald(x, yw, idx, gw, cov_p, gram=gram, xg=xg)
-        assert assembled[0] == pytest.approx(direct[0], rel=1e-10) and assembled[1] == direct[1]
-    assert _physics._BlockProducts(blocks).of([1, 0])[1] is None  # without the model's columns: no XᵀG
+        cols = np.concatenate([np.arange(edges[i], edges[i + 1]) for i in order])
+        idx = np.arange(cols.size - (edges[order[-1] + 1] - edges[order[-1]]), cols.size)
+        direct = _physics._wald(x[:, cols], yw, idx, gw, cov_p)
+        w = tests.step(cols[:idx[0]], [cols[idx]])[0]
+        assert w == pytest.approx(direct[0], rel=1e-10)
+        assert w != pytest.approx(_physics._wald(x[:, cols], yw, idx)[0], rel=1e-3)
+    # every candidate of a step at once: each as if alone
+    base, cands = np.arange(1), [np.arange(1, 4), np.arange(4, 6)]
+    both = tests.step(base, cands)
+    assert both == [pytest.approx(tests.step(base, [c])[0], rel=1e-12) for c in cands]
 
 
 # --------------------------------------------------------------------------- dithering, quantised q, standstill

@@ -279,3 +279,22 @@ def test_a_structure_is_checked_against_the_regressor():
     again = dynval.prepare_regressor(plain, structure=rng.normal(size=(20, 2, 3)))
     assert again is not plain and np.shares_memory(again.array, plain.array) and again.structure.shape == (40, 3)
     assert not again.structure.flags.writeable
+
+
+def test_compare_without_q_finds_the_kinds_the_model_spans_once(runs, monkeypatch):
+    # Without q the model's columns still say whether it spans an offset: each joint's span of the
+    # regressor (an SVD of N × k) depends on the regressor and the model's columns alone, so the
+    # candidates of one compare with the same columns compute it once, and the reports are those of
+    # validate on the plain array.
+    _, (_, y_v, tau_v) = runs
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, max_lag=10) for n, p in preds.items()}
+    kinds = _count_calls(monkeypatch, _motion, "model_kinds")
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, max_lag=10)
+    assert len(kinds) == 1
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+    # other model columns are another span
+    kinds.clear()
+    dynval.compare(tau_v, {n: {"prediction": p, "n_params": 10, "model_columns": NO_FC} if n == "half" else (p, 10)
+                           for n, p in preds.items()}, regressor=y_v, max_lag=10)
+    assert len(kinds) == 2

@@ -51,7 +51,10 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
         how = "refitted on the validation run (what they represent is not missing)"
-    tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level, **kwargs)
+    # each joint's library once: the test, the relation to the model and its kinds read the same columns
+    libs = [_physics.library(j, q, d.dq, d.ddq, np.zeros(e.shape[0]), sample_rate) for j in range(e.shape[1])]
+    tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level,
+                                  libraries=libs, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
     source = derivative_source(q, dq, ddq, est_run)
     if est_fit is not None and reg3 is not None and est_run is not None and "q" in est_run:
@@ -60,13 +63,13 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
     declared = declared_groups(reg3, cols, column_names)
-    relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared)
+    relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs)
     return {"naming": naming,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
             "derivative_source": source, "estimation_bandwidth_hz": (est_run or {}).get("bandwidth"),
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
-            "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared),
+            "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared, libs),
             "simulator_parameters": simulator_parameters(pred, meas, reg3, column_names),
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
             "n_eff": np.array([t.n_eff for t in tests])}
@@ -97,30 +100,33 @@ def declared_groups(reg3, cols, column_names) -> list[set[str]] | None:
     return out
 
 
-def model_kinds(e, q, d, sample_rate, reg3, cols, declared=None) -> list[dict[str, bool]] | None:
+def model_kinds(e, q, d, sample_rate, reg3, cols, declared=None, libraries=None) -> list[dict[str, bool]] | None:
     """Per joint, which library groups the model's columns span (an own column of each within
-    the tolerance of :mod:`dynval.statistics._model_terms`); None when its columns are unknown."""
+    the tolerance of :mod:`dynval.statistics._model_terms`); None when its columns are unknown.
+    ``libraries``: each joint's library when built already."""
     if reg3 is None or cols is None or e is None:
         return None
     n, m = e.shape
     out = []
     for j in range(m):
-        lib = _model_terms.library_for(j, q, d.dq if q is not None else None, d.ddq if q is not None else None,
-                                       n, sample_rate)
+        lib = libraries[j] if libraries is not None else _model_terms.library_for(
+            j, q, d.dq if q is not None else None, d.ddq if q is not None else None, n, sample_rate)
         out.append(_model_terms.kinds_present(j, reg3[:, j, cols], lib, m, declared[j] if declared else set()))
     return out
 
 
-def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared=None) -> None:
+def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared=None,
+                 libraries=None) -> None:
     """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
     with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
-    with the coefficients of the model's columns closest to it, estimated and refitted on this run."""
+    with the coefficients of the model's columns closest to it, estimated and refitted on this run.
+    ``libraries``: each joint's library when built already."""
     n, m = e.shape
     for t in tests:
         if t.term is None:
             continue
         j = t.joint
-        lib = _model_terms.library_for(j, q, d.dq, d.ddq, n, sample_rate)
+        lib = libraries[j] if libraries is not None else _model_terms.library_for(j, q, d.dq, d.ddq, n, sample_rate)
         if t.term not in lib:
             continue
         ej = e[:, j]

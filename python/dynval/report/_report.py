@@ -425,8 +425,13 @@ def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
         # without q the model's columns still tell whether it has an offset (the bias rule's words)
         cols = (list(b.est_fit.columns) if b.est_fit is not None else
                 list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
-        b.model_kinds = _motion.model_kinds(d.e, None, None, o.sample_rate, d.reg3, cols,
-                                            _motion.declared_groups(d.reg3, cols, o.column_names))
+        declared = _motion.declared_groups(d.reg3, cols, o.column_names)
+        # the regressor's work alone (each joint's span of the model's columns, an SVD of N × k):
+        # kept by a prepared regressor, so compare's candidates with the same columns do it once
+        key = ("model_kinds", d.reg3.shape, tuple(int(c) for c in cols),
+               None if declared is None else tuple(frozenset(x) for x in declared))
+        kinds = d.memo(key, lambda: _motion.model_kinds(d.e, None, None, o.sample_rate, d.reg3, cols, declared))
+        b.model_kinds = None if kinds is None else [dict(x) for x in kinds]
     if b.est_fit is not None and b.n_eff is not None:
         b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff, memo=d.memo)
     b.design = _motion_design(b.design, o, b.physics, d.m)

@@ -229,12 +229,32 @@ def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
                   declared: set[str] | frozenset[str] = frozenset()) -> dict[str, bool]:
     """Per library group, whether the model spans at least one of its own columns on joint j (or
     its column names declare the group)."""
-    basis = span_basis(y_j)
+    fractions = outside_fractions(y_j, lib_j)
     out = {}
     for g, cols in lib_j.items():
         mask = coupling_mask(g, j, m, cols.shape[1])
-        spanned = bool(np.any((outside_fraction(basis, cols) <= SPAN_TOLERANCE) & ~mask))
+        spanned = bool(np.any((fractions[g] <= SPAN_TOLERANCE) & ~mask))
         out[g] = g in declared or (spanned and f"-{g}" not in declared)
+    return out
+
+
+def outside_fractions(y_j: np.ndarray, groups: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Per group, :func:`outside_fraction` of its columns and :func:`span_basis` of ``y_j``, from R
+    of one QR of the unit-RMS model columns and the groups' columns side by side: the span's basis
+    and every projection are taken on R's rows (norms and inner products are R's), so the N rows
+    are factored once rather than decomposed by an SVD of N × k."""
+    rms = np.sqrt(np.mean(y_j * y_j, axis=0)) if y_j.size else np.zeros(0)
+    active = rms > 1e-12 * max(float(rms.max(initial=0.0)), 1e-300)
+    ka = int(active.sum())
+    r = _physics._tall_r(np.column_stack([y_j[:, active] / rms[active]] + list(groups.values())))
+    basis = np.zeros((r.shape[0], 0))
+    if ka:
+        u, sv, _ = np.linalg.svd(r[:, :ka], full_matrices=False)
+        basis = u[:, sv > 1e-8 * sv[0]]
+    out, at = {}, ka
+    for g, cols in groups.items():
+        out[g] = outside_fraction(basis, r[:, at:at + cols.shape[1]])
+        at += cols.shape[1]
     return out
 
 
