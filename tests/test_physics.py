@@ -547,3 +547,19 @@ def test_quantised_q_and_long_standstills_give_a_report(kind):
                              sample_rate=1000.0)
     assert report.physics is not None and report.design is not None
     report.summary()
+
+
+def test_the_term_named_is_the_fewest_columns_near_the_best_by_share_and_by_what_is_left():
+    """Kills: the left-over condition dropped (q̇|q̇|'s one column named for a wrist's missing Coulomb
+    friction, which removes 99.7 % against 95.7 %), the share condition dropped (a group removing
+    10 % named beside one removing 30 %), fewest columns dropped (the 24-column posture group named
+    for a friction it mimics), or the ratio read the other way."""
+    from dynval.statistics._physics import name_group
+
+    widths = {"coulomb": 5, "velocity_squared": 1, "gravity": 24, "offset": 1}
+    assert name_group({"coulomb": 0.997, "velocity_squared": 0.957}, widths) == "coulomb"
+    assert name_group({"coulomb": 0.997, "velocity_squared": 0.9925}, widths) == "velocity_squared"
+    assert name_group({"coulomb": 0.85, "gravity": 0.90}, widths) == "coulomb"
+    assert name_group({"coulomb": 0.30, "offset": 0.10}, widths) == "coulomb"
+    assert name_group({"coulomb": 0.30, "offset": 0.25}, widths) == "offset"
+    assert name_group({"gravity": 0.9, "coulomb": 0.5}, widths) == "gravity"

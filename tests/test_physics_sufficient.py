@@ -182,7 +182,8 @@ def _compare_call(args, kwargs):
             _close(t.shares[name], v, f"{where} share of {name}")
         if ref["alone"]:
             top = max(ref["alone"].values())
-            near = [x for x, v in ref["alone"].items() if v >= 0.8 * top]
+            # conventions §5.2: at least 80 % of the best share, leaving at most 1.5× what it leaves + 0.01
+            near = [x for x, v in ref["alone"].items() if v >= 0.8 * top and 1 - v <= 1.5 * (1 - top) + 0.01]
             named = min(near, key=lambda x: (lib[x].shape[1], -ref["alone"][x]))
             assert t.term == named or t.refit_run is not None, where
         checked += 1

@@ -304,7 +304,7 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
     estimation run with one library group added on every flagged joint at once (a friction or an
     offset is usually missing on all joints alike, and the joints' terms interact through the
     shared parameters), and name per joint the group whose refit removes the most of its validation
-    mean square (of the groups within 80 % of the best, the one with the fewest columns).
+    mean square (of the groups near the best, the one with the fewest columns: :func:`_physics.name_group`).
 
     ``practical``: when no group so refitted removes that share of the joint's validation mean
     square, the term is named from the validation run instead (:func:`_validation_refit_gains`).
@@ -367,9 +367,7 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
                 # test's own naming (the model's columns may span the term: mis-weighted, not missing).
                 continue
             gj, how = gv, "validation"
-        top = max(gj.values())
-        near = [g for g, v in gj.items() if v >= 0.8 * top]
-        best = min(near, key=lambda g: (lib_e[t.joint][g].shape[1], -gj[g]))
+        best = _physics.name_group(gj, {g: lib_e[t.joint][g].shape[1] for g in gj})
         t.term, t.term_share = best, max(0.0, gj[best])
         t.refit_shares = {g: float(v) for g, v in gj.items()}
         t.refit_run = how
