@@ -486,7 +486,7 @@ def library() -> tuple[Scenario, ...]:
     (1–5 % of each joint's torque RMS) are spread over the rows so that no single setting decides.
     """
     r = Scenario
-    p2, a3, a4, a6 = "planar2", "anthro3", "arm4", "arm6"
+    p2, a3, a4 = "planar2", "anthro3", "arm4"
     rows = [
         r("right", "white", p2, 100.0, 40.0, 0.1, 0.02),
         r("right", "white", a3, 500.0, 30.0, 0.1, 0.01),
@@ -565,30 +565,8 @@ def library() -> tuple[Scenario, ...]:
           Expected(("low_information",), severity="design"), size=1.0, missing=("Fv1", "Fv2", "L2:mz")),
         r("low_information", "ar0.999", a4, 500.0, 30.0, 0.05, 0.02,
           Expected(("low_information",), severity="design"), size=1.0, missing=("Fv1", "Fv2", "Fv3")),
-        # Scenarios built like real logs (issue 34): a friction that changed between the runs (the
-        # model has the term: re-identify, never add), a decoupled per-joint model of a coupled arm
-        # (its coupling named), and the user's own filtered derivatives on both runs.
-        r("changed_friction", "white", a3, 500.0, 30.0, 0.1, 0.02,
-          Expected(_MISSING_PHYSICS, joint=1, term=("coulomb",), column_prefix="Fc2", model_column=True),
-          size=2.0, joint=1),
-        r("changed_friction", "ar0.9", p2, 100.0, 40.0, 0.1, 0.02,
-          Expected(_MISSING_PHYSICS, joint=0, term=("coulomb",), column_prefix="Fc1", model_column=True),
-          size=2.0, joint=0),
-        r("decoupled", "white", a3, 200.0, 30.0, 0.1, 0.02,
-          Expected(("missing_physics", "bias"), term=("gravity", "inertia", "position_harmonic", "velocity_squared"))),
-        r("decoupled", "white", a4, 100.0, 40.0, 0.1, 0.02,
-          Expected(("missing_physics", "bias"), term=("gravity", "inertia", "position_harmonic", "velocity_squared"))),
-        r("right", "white", a3, 500.0, 30.0, 0.1, 0.02, filtered=True),
-        r("no_viscous", "white", p2, 500.0, 30.0, 0.15, 0.03, viscous, filtered=True),
-        # A 6-joint arm (the wrist's three joints carry little torque): the right model, a missing
-        # Coulomb friction, and a friction that changed between runs on the elbow.
-        r("right", "white", a6, 200.0, 30.0, 0.1, 0.02),
-        r("no_coulomb", "white", a6, 200.0, 30.0, 0.1, 0.02, coulomb),
-        r("changed_friction", "white", a6, 200.0, 30.0, 0.1, 0.02,
-          Expected(_MISSING_PHYSICS, joint=2, term=("coulomb",), column_prefix="Fc3", model_column=True),
-          size=2.0, joint=2),
     ]
-    return tuple(rows)
+    return tuple(rows) + _rows_like_real_logs(coulomb, viscous)
 
 
 # --------------------------------------------------------------------------- setup of a scenario
@@ -609,6 +587,35 @@ class _Setup:
     names: tuple[str, ...]   # offered columns: base inertial, Fc, Fv, off
     truth: FloatArray        # the robot's parameters in those columns
     model: tuple[int, ...]   # the model's columns (indices into names)
+
+
+def _rows_like_real_logs(coulomb: Expected, viscous: Expected) -> tuple[Scenario, ...]:
+    """Scenarios built like real logs (issue 34): a friction that changed between the runs (the
+    model has every term: re-identify, never add), a decoupled per-joint model of a coupled arm
+    (its coupling named), the user's own filtered derivatives on both runs, and a 6-joint arm."""
+    r = Scenario
+    p2, a3, a4, a6 = "planar2", "anthro3", "arm4", "arm6"
+    return (
+        r("changed_friction", "white", a3, 500.0, 30.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, joint=1, term=("coulomb",), column_prefix="Fc2", model_column=True),
+          size=2.0, joint=1),
+        r("changed_friction", "ar0.9", p2, 100.0, 40.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, joint=0, term=("coulomb",), column_prefix="Fc1", model_column=True),
+          size=2.0, joint=0),
+        r("decoupled", "white", a3, 200.0, 30.0, 0.1, 0.02,
+          Expected(("missing_physics", "bias"), term=("gravity", "inertia", "position_harmonic", "velocity_squared"))),
+        r("decoupled", "white", a4, 100.0, 40.0, 0.1, 0.02,
+          Expected(("missing_physics", "bias"), term=("gravity", "inertia", "position_harmonic", "velocity_squared"))),
+        r("right", "white", a3, 500.0, 30.0, 0.1, 0.02, filtered=True),
+        r("no_viscous", "white", p2, 500.0, 30.0, 0.15, 0.03, viscous, filtered=True),
+        # A 6-joint arm (the wrist's three joints carry little torque): the right model, a missing
+        # Coulomb friction, and a friction that changed between runs on the elbow.
+        r("right", "white", a6, 200.0, 30.0, 0.1, 0.02),
+        r("no_coulomb", "white", a6, 200.0, 30.0, 0.1, 0.02, coulomb),
+        r("changed_friction", "white", a6, 200.0, 30.0, 0.1, 0.02,
+          Expected(_MISSING_PHYSICS, joint=2, term=("coulomb",), column_prefix="Fc3", model_column=True),
+          size=2.0, joint=2),
+    )
 
 
 def _structure_names(design: ArmDesign, keep: Sequence[int]) -> list[str]:
