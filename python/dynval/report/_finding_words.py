@@ -344,7 +344,8 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
                 "or load that changed between runs, or a term the estimation run did not excite)" if carries else
                 f"re-identify {label} on {name} with this run and the estimation run together: the model has the "
                 f"term, and refitted on this run alone its weight does not carry to held-out rows "
-                f"({100 * rel['reweight_share']:.0f} %), so neither run pins it down by itself")
+                f"({100 * rel['reweight_share']:.0f} %), so neither run pins it down by itself (then validate on a "
+                "third run)")
     if kind == "unsupported" and carries:
         return (head + f": the model lacks {label}, but adding it does not carry to held-out rows of this run "
                 f"({100 * rel['outside_share']:.0f} %); re-identifying the model's own columns removes "
