@@ -211,3 +211,29 @@ def test_a_missing_column_ranks_with_what_it_removes_on_the_joints_it_does_not_a
     assert [r.finding.kind for r in deciding([PHYSICS, col])] == ["regressor_correlation", "missing_physics"]
     less = dataclasses.replace(col, details={**col.details, "indirect": {1: 0.4}})
     assert [r.finding.kind for r in deciding([PHYSICS, less])] == ["missing_physics", "regressor_correlation"]
+
+
+def test_a_model_columns_correlation_follows_the_structure_the_model_lacks_on_its_joint():
+    """A decoupled model of a coupled arm: the residual correlates with the joint's own sin q_j (the
+    missing coupling's trace on it) beside the physics finding that names the coupling. Kills:
+    "re-identify the term of sin2" taken as the first step there (re-identifying the column does not
+    add the coupling); the rule applied where the model has the term (a friction changed between
+    runs: "re-identify the term of Fc2" stays the step), to a missing column's refit, or to a column
+    the lacking structure is not aligned with."""
+    trace = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(13,), effect=0.8,
+                    threshold=0.1, action="re-identify the term of sin2 on j2", message="j2: correlates with sin2.",
+                    details={"lag": 0, "rho": 0.8, "in_model": True})
+    coupling = dataclasses.replace(PHYSICS, details={**PHYSICS.details, "relation": "coupling",
+                                                       "model_terms": {"columns": [13, 12]}})
+    assert [r.finding.kind for r in deciding([trace, coupling])] == ["missing_physics", "regressor_correlation"]
+    assert [r.leads for r in deciding([trace, coupling])] == [True, False]
+    changed = dataclasses.replace(PHYSICS, details={**PHYSICS.details, "relation": "reweight"})
+    assert [r.finding.kind for r in deciding([trace, changed])] == ["regressor_correlation", "missing_physics"]
+    lacks = dataclasses.replace(trace, details={**trace.details, "in_model": False})
+    assert [r.finding.kind for r in deciding([lacks, coupling])] == ["regressor_correlation", "missing_physics"]
+    elsewhere = dataclasses.replace(trace, joints=(0,))
+    assert deciding([elsewhere, coupling])[0].finding is elsewhere
+    # another column than the ones the lacking structure is aligned with (a changed Coulomb column
+    # beside an offset the model lacks): the correlation keeps its place
+    other = dataclasses.replace(trace, columns=(6,))
+    assert deciding([other, coupling])[0].finding is other

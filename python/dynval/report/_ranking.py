@@ -155,6 +155,17 @@ def _torque_share(share: float | None, joint: int | None, r2: Sequence[float] | 
     return share * rest if math.isfinite(rest) and rest > 0 else None
 
 
+_LACKS = ("missing", "partial", "coupling")
+"""Relations of a physical term to the model's columns (:mod:`dynval.statistics._model_terms`)
+in which the model lacks a structure."""
+
+
+def _own_column_trace(f: Finding) -> bool:
+    """A lag correlation of the residual with one of the model's own columns."""
+    d = f.details or {}
+    return f.kind == "regressor_correlation" and not d.get("added_variable") and d.get("in_model") is True
+
+
 def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
     """``findings`` ranked by effect, largest first, in three groups: the findings that lead (those
     that name a cause, and those that do not on a joint where nothing does), then the findings that
@@ -170,11 +181,19 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     # a joint whose residual carries the prediction's own line: the other findings there may read
     # that line (a chattering sign(q̇) looks like a friction term the model lacks)
     artefact = {j for f in findings if f.kind == "prediction_artefact" for j in f.joints}
+    # a structure the model lacks on a joint leaves its trace on the model's columns most aligned
+    # with it (a decoupled model's sin q_j carries some of the missing coupling): the residual's
+    # correlation with such a column is that trace, and re-identifying the column does not add it
+    lacking = {(j, int(c)) for f in findings if f.kind == "missing_physics"
+               and (f.details or {}).get("relation") in _LACKS
+               for j in f.joints for c in ((f.details or {}).get("model_terms") or {}).get("columns", ())}
 
     def group(f: Finding) -> int:
         if f.kind == "whiteness":
             return 2
         if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
+            return 1
+        if _own_column_trace(f) and f.columns and f.joints and {(j, int(f.columns[0])) for j in f.joints} <= lacking:
             return 1
         if _names_cause(f) or not f.joints or not set(f.joints) <= named:
             return 0
@@ -255,7 +274,8 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
     leading = [r for r in ranked if r.leads]
     n, rest = len(leading), len(ranked) - len(leading)
     behind = (f"; {rest} more follow{'s' if rest == 1 else ''} on joints where a leading finding stands (structure "
-              "without a named cause, or findings that may read the prediction's own line)" if rest else "")
+              "without a named cause, a model column's correlation that a structure the model lacks explains, or "
+              "findings that may read the prediction's own line)" if rest else "")
     if top.share is None:
         return (f"first in rule order: none of the {n} leading findings explains a share of the residual that can "
                 "be compared" if n > 1 else "the only leading finding") + behind
