@@ -65,19 +65,10 @@ def _is_package(name: str) -> bool:
     return (PACKAGE.parent / pathlib.Path(*name.split(".")) / "__init__.py").exists()
 
 
-def test_no_import_circles():
-    """Following every import inside the package (lazy ones too) never leads back to the start;
-    the package root is imported by nobody inside it but the entry points of the apps layer."""
-    modules = _modules()
-    known = set(modules)
-    graph = {name: _imports(name, tree, known) for name, tree in modules.items()}
-    # the calibration scenarios and the corpus drivers call the public API as a user does, by design
-    roots_allowed = {"dynval.scenarios", "dynval.golden._ops"}
-    importing_root = sorted(n for n, deps in graph.items() if "dynval" in deps and n not in roots_allowed)
-    assert importing_root == []
-    graph = {n: deps - {"dynval"} for n, deps in graph.items() if n != "dynval"}
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every circle a depth-first walk of ``graph`` meets (each as the path that closes it)."""
     colour: dict[str, int] = {}
-    circles = []
+    circles: list[list[str]] = []
 
     def visit(n: str, path: list[str]) -> None:
         colour[n] = 1
@@ -91,7 +82,21 @@ def test_no_import_circles():
     for n in sorted(graph):
         if n not in colour:
             visit(n, [n])
-    assert circles == []
+    return circles
+
+
+def test_no_import_circles():
+    """Following every import inside the package (lazy ones too) never leads back to the start;
+    the package root is imported by nobody inside it but the entry points of the apps layer."""
+    modules = _modules()
+    known = set(modules)
+    graph = {name: _imports(name, tree, known) for name, tree in modules.items()}
+    # the calibration scenarios and the corpus drivers call the public API as a user does, by design
+    roots_allowed = {"dynval.scenarios", "dynval.golden._ops"}
+    importing_root = sorted(n for n, deps in graph.items() if "dynval" in deps and n not in roots_allowed)
+    assert importing_root == []
+    graph = {n: deps - {"dynval"} for n, deps in graph.items() if n != "dynval"}
+    assert _circles(graph) == []
 
 
 # The layers of docs/architecture.md, bottom first: a package (or a top-level module) imports only
@@ -139,22 +144,7 @@ def test_no_package_level_circles():
             a, b = _package_of(n), _package_of(d)
             if a != b and "dynval" not in (a, b):
                 graph.setdefault(a, set()).add(b)
-    colour: dict[str, int] = {}
-    circles: list[list[str]] = []
-
-    def visit(n: str, path: list[str]) -> None:
-        colour[n] = 1
-        for d in sorted(graph.get(n, ())):
-            if colour.get(d) == 1:
-                circles.append(path[path.index(d):] + [d])
-            elif d not in colour:
-                visit(d, path + [d])
-        colour[n] = 2
-
-    for n in sorted(graph):
-        if n not in colour:
-            visit(n, [n])
-    assert circles == []
+    assert _circles(graph) == []
 
 
 def _cross_package_private_names() -> list[tuple[str, str, str]]:

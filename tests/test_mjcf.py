@@ -16,6 +16,7 @@ import pytest
 import dynval
 from dynval.datasets import load_kuka_lwr4
 from dynval.mjcf import MJCFModel, have_mujoco
+from mjcf_cases import simulated_kuka
 from port_checks import require_toolchain
 
 
@@ -241,12 +242,7 @@ def _variant(xml: str, joint: str, attribute: str, value: float) -> str:
 
 @pytest.fixture(scope="module")
 def simulated():
-    """The packaged model's torque on runs 1 (estimation) and 3 (validation) plus 0.3 N·m white noise."""
-    est, val = load_kuka_lwr4(1), load_kuka_lwr4(3)
-    right = MJCFModel(est.mjcf)
-    rng = np.random.default_rng(20261207)
-    taus = [right.predict(r.q, r.dq, r.ddq) + 0.3 * rng.standard_normal(r.q.shape) for r in (est, val)]
-    return est, val, est.mjcf.read_text(encoding="utf-8"), taus
+    return simulated_kuka()
 
 
 @pytest.mark.parametrize(("joint", "attribute", "wrong", "right"),

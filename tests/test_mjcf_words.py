@@ -14,9 +14,9 @@ import types
 import numpy as np
 import pytest
 
-from dynval.datasets import load_kuka_lwr4
 from dynval.mjcf import MJCFModel, have_mujoco
 from dynval.report._finding_words import simulator_words
+from mjcf_cases import simulated_kuka
 from port_checks import require_toolchain
 
 
@@ -27,11 +27,7 @@ def _mujoco():
 
 @pytest.fixture(scope="module")
 def simulated():
-    est, val = load_kuka_lwr4(1), load_kuka_lwr4(3)
-    right = MJCFModel(est.mjcf)
-    rng = np.random.default_rng(20261207)
-    taus = [right.predict(r.q, r.dq, r.ddq) + 0.3 * rng.standard_normal(r.q.shape) for r in (est, val)]
-    return est, val, est.mjcf.read_text(encoding="utf-8"), taus
+    return simulated_kuka()
 
 
 def _variant(xml: str, joint: str, attribute: str, value: float) -> str:
