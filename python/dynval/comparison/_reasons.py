@@ -11,9 +11,11 @@ from typing import TYPE_CHECKING, Any
 from ..checks._typing import ReportSections
 from ..report._findings import Finding
 from ..report._text import number_text, versus
+from ..report.kinds import KINDS
+from ..report.kinds._base import effect_versus_threshold
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Callable, Mapping, Sequence
 
 __all__ = ["joint_name", "column_name", "finding_reason", "candidate_reasons"]
 
@@ -33,13 +35,7 @@ def _g(x: float | None, fmt: str = ".3g") -> str:
     return number_text(x, fmt)
 
 
-def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, str]:
-    """A finding's effect and its threshold, with the digits that keep them in the order the rule
-    found (:func:`dynval.report._text.versus`): 0.2496 against 0.25 → "24.96 %", "25 %" with ``percent``."""
-    e, t = versus(f.effect, f.threshold, fmt, scale=100.0 if percent else 1.0)
-    if percent:
-        e, t = (s if s in ("n/a", "nan") else f"{s} %" for s in (e, t))
-    return e, t
+_vs = effect_versus_threshold
 
 
 _PHYSICS_RELATION = {
@@ -55,8 +51,11 @@ columns unknown) a structure of the kind remains."""
 def finding_reason(f: Finding, report: ReportSections) -> str:
     """One short reason from a finding's own fields: where, what, the effect and its threshold."""
     joints = ", ".join(joint_name(report, j) for j in f.joints)
+    prefix = ("design: " if f.severity == "design" else "") + (f"{joints}: " if joints else "")
+    declared = KINDS.get(f.kind)
+    if declared is not None:
+        return prefix + (declared.reason or _generic_reason)(f, lambda c: column_name(report, c))
     cols = [column_name(report, c) for c in f.columns]
-    th = f.threshold
     e, t = _vs(f, percent="share" in (f.effect_unit or "") or f.kind in ("bias", "low_information")
                or (f.kind == "excitation" and "motion" in (f.effect_unit or "")))
     if f.kind == "regressor_correlation" and "share" in f.effect_unit:
@@ -136,13 +135,20 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     elif f.kind == "physical_consistency":
         text = (f"no physically consistent robot has these base parameters (the nearest adds {e} to the "
                 f"estimation run's residual mean square ≥ {t})")
-    else:  # a kind this wording does not know yet: its name, effect and threshold
-        text = f.kind.replace("_", " ")
-        if f.effect is not None:
-            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
-                     + (f", threshold {t}" if th is not None else "") + ")")
-    prefix = "design: " if f.severity == "design" else ""
-    return prefix + (f"{joints}: " if joints else "") + text
+    else:  # a kind this wording does not know: its name, effect and threshold
+        text = _generic_reason(f, lambda c: column_name(report, c))
+    return prefix + text
+
+
+def _generic_reason(f: Finding, column: Callable[[int], str]) -> str:
+    """A kind's name, effect and threshold: the reason of a kind that declares none."""
+    declared = KINDS.get(f.kind)
+    e, t = _vs(f, percent=declared.percent if declared is not None else "share" in (f.effect_unit or ""))
+    text = f.kind.replace("_", " ")
+    if f.effect is not None:
+        text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
+                 + (f", threshold {t}" if f.threshold is not None else "") + ")")
+    return text
 
 
 def _with_share(text: str, f: Finding, share: float | None, shared: bool) -> str:

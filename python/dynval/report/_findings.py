@@ -15,13 +15,15 @@ decide, and ``_finding_words.py`` words what they decided (each finding's messag
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
 
 from ..statistics._stats import correlation_pvalue, holm
 from . import _finding_words as w
+from .kinds import KINDS as _DECLARED_KINDS
+from .kinds._base import Context, Evidence, Finding, Thresholds, declared_thresholds, worded
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -30,7 +32,7 @@ SEVERITIES = ("deficiency", "design", "note")
 """``deficiency``: the model should change; ``design``: the experiment should change;
 ``note``: information, including significant but negligible effects."""
 
-KINDS = {
+_LISTED = {
     "worse_than_constant": "a joint's prediction is worse than its mean torque (R² < 0)",
     "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
@@ -64,77 +66,7 @@ KINDS = {
                        "(``bandwidth``): the processing, not the model",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
-"""The documented vocabulary of ``Finding.kind``."""
-
-
-@dataclass(frozen=True)
-class Thresholds:
-    """Practical effect sizes a deficiency must reach (all configurable through ``thresholds=``).
-
-    Attributes
-    ----------
-    bias : float
-        ``|ē_j| / RMSE_j`` (0.25: the offset is a quarter of the joint's RMS error, 6 % of its mean
-        square). Estimation error alone leaves a smaller mean on a new trajectory (calibrated).
-    regressor_correlation : float
-        ``|ρ̂_eY(ℓ)|``, the correlation of the residual with a regressor column; ρ² is the share of
-        residual variance that column explains linearly (0.15, i.e. 2.25 %).
-    missing_term : float
-        For a column outside ``model_columns``: the share of the residual's mean square that
-        adding the term would remove (0.01).
-    oscillation : float
-        Share of the residual variance in a spectral peak above the background (0.05).
-    missing_physics : float
-        Share of a joint's mean square the library of physical terms removes (0.05): a term that
-        explains a twentieth of the error is worth modelling; less is left to the noise.
-    delay : float
-        Share of a joint's mean square that realigning measured and predicted torque removes (0.05).
-    delay_phase : float
-        Phase lag (degrees) a delay makes at the information band's edge from which it matters for
-        control (10°): it misplaces 2 sin(5°) ≈ 17 % of the torque's amplitude at that frequency
-        and takes a sixth to a third of a torque loop's usual 30–60° phase margin.
-    predictive_ratio : float
-        Validation mean square over what the estimation run's noise and Cov(π̂) allow (2.0).
-    periodic_error : float
-        Share of the residual's variance common to every period of a periodic trajectory, beyond the
-        noise and the parameters' expected error (0.05).
-    joint_motion : float
-        A joint whose validation motion (RMS about its mean) is below this fraction of its
-        estimation motion is not validated (0.1).
-    detectable_share : float
-        A run whose smallest detectable term (90 % power, per joint) must remove more than this
-        share of the mean square cannot decide (0.25).
-    repeat_distance : float
-        Time-aligned relative distance ‖τ_val − τ_est‖/‖τ_est − τ̄_est‖ below which the validation
-        run counts as a repeat when neither ``q`` nor the regressor is given for both runs (0.1);
-        otherwise the share below decides.
-    repeat_share : float
-        Share of the validation run whose state lies near the estimation trajectory at any time
-        (within ``repeat_tolerance``) above which the validation run counts as a repeat (0.5).
-    repeat_tolerance : float
-        Distance to the estimation trajectory within which a validation state is near: an RMS over
-        the state's coordinates, each in units of the estimation run's standard deviation (0.1).
-    condition_number : float
-        Column-scaled condition number of the validation regressor (over the identifiable
-        combinations it excites) above which the validation data cannot separate the parameters'
-        effects (1e3).
-    """
-
-    bias: float = 0.25
-    regressor_correlation: float = 0.15
-    missing_term: float = 0.01
-    oscillation: float = 0.05
-    missing_physics: float = 0.05
-    delay: float = 0.05
-    delay_phase: float = 10.0
-    predictive_ratio: float = 2.0
-    periodic_error: float = 0.05
-    joint_motion: float = 0.1
-    detectable_share: float = 0.25
-    repeat_distance: float = 0.1
-    repeat_share: float = 0.5
-    repeat_tolerance: float = 0.1
-    condition_number: float = 1e3
+"""The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
 
 
 def resolve_thresholds(value: object) -> Thresholds:
@@ -146,150 +78,17 @@ def resolve_thresholds(value: object) -> Thresholds:
     if isinstance(value, Thresholds):
         return value
     if isinstance(value, dict):
-        names = {f.name for f in fields(Thresholds)}
+        own = {f.name for f in fields(Thresholds)} - {"declared"}
+        declared = declared_thresholds()
         for key, x in value.items():
-            if key not in names:
+            if key not in own and key not in declared:
                 raise parameter_error("thresholds", "a mapping with keys among "
-                                      + ", ".join(repr(n) for n in sorted(names)), value)
+                                      + ", ".join(repr(n) for n in sorted(own | set(declared))), value)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
                 raise parameter_error(f"thresholds[{format_value(key)}]", "a finite number >= 0", x)
-        return replace(Thresholds(), **{k: float(x) for k, x in value.items()})
+        given = tuple((k, float(x)) for k, x in value.items() if k in declared)
+        return replace(Thresholds(), **{k: float(x) for k, x in value.items() if k in own}, declared=given)
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
-
-
-@dataclass(frozen=True, repr=False)
-class Finding:
-    """One finding of a report.
-
-    Attributes
-    ----------
-    kind : str
-        One of :data:`KINDS`.
-    severity : str
-        One of :data:`SEVERITIES`.
-    joints, columns : tuple of int
-        0-based joint and regressor-column indices it concerns (strongest first).
-    statistic, pvalue, pvalue_adjusted : float or None
-        The test statistic, its p-value and the Holm-adjusted p-value over every test of the
-        report (None for rules that are not tests).
-    effect : float or None
-        The practical effect size, in ``effect_unit``; ``threshold`` is the rule's threshold.
-    action : str
-        What to do (the lesson's flowchart: which term to add, or what to change in the data).
-    message : str
-        The finding in plain words.
-    details : dict
-        Rule-specific numbers (a frequency, a lag, distances, ...).
-    """
-
-    kind: str
-    severity: str
-    joints: tuple[int, ...] = ()
-    columns: tuple[int, ...] = ()
-    statistic: float | None = None
-    pvalue: float | None = None
-    pvalue_adjusted: float | None = None
-    effect: float | None = None
-    effect_unit: str = ""
-    threshold: float | None = None
-    action: str = ""
-    message: str = ""
-    details: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (non-finite numbers as strings, like the report)."""
-        from ..checks._json import to_jsonable
-
-        out: dict[str, Any] = to_jsonable(asdict(self))
-        return out
-
-    def __repr__(self) -> str:
-        # one line a reader can scan in a list of findings; every field stays an attribute
-        where = "".join(f" {name}={list(value)}" for name, value in (("joints", self.joints), ("columns", self.columns))
-                        if value)
-        p = "" if self.pvalue_adjusted is None else f" p_adj={self.pvalue_adjusted:.3g}"
-        message = self.message if len(self.message) <= 100 else self.message[:99] + "…"
-        return f"<Finding {self.severity} {self.kind}{where}{p}: {message}>"
-
-
-@dataclass
-class Evidence:
-    """Everything the rules read; the report pipeline fills it (arrays are per joint ``(m,)``).
-
-    Optional parts are None when the report did not compute them (no lags, no regressor, ...).
-    """
-
-    n_samples: int
-    level: float
-    joint_names: list
-    r2: np.ndarray
-    pooled_r2: float
-    constant_target: np.ndarray
-    column_names: list | None = None
-    omitted_rows: int = 0
-    force_finite: bool = False
-    # the information criteria's parameter and observation counts (n: N·m pooled, N otherwise)
-    n_params: int | None = None
-    criteria_n_obs: int | None = None
-    noise_model: str = "pooled"
-    # bias: the residual mean against its coloured-noise standard error
-    mean: np.ndarray | None = None
-    rmse: np.ndarray | None = None
-    bias_statistic: np.ndarray | None = None
-    bias_pvalue: np.ndarray | None = None
-    n_eff: np.ndarray | None = None
-    # whiteness: Ljung–Box at the raw rate and, if decimated, at the information rate
-    whiteness_lag: int | None = None
-    whiteness_pvalue_raw: np.ndarray | None = None
-    whiteness_log_pvalue_raw: np.ndarray | None = None
-    whiteness_pvalue_decimated: np.ndarray | None = None
-    decimation: int = 1
-    information_band: float | None = None
-    whiteness_above_bandwidth: bool = False  # the test still sees frequencies above ``bandwidth``
-    bandwidth: float | None = None  # Hz: the inputs are trustworthy below it only
-    timing: dict | None = None  # what the time stamps say (dynval.checks._timing.Timing.to_dict)
-    max_abs_acf: np.ndarray | None = None
-    # spectrum of the residual (after projecting out the regressor when one is given)
-    spectrum_frequency: np.ndarray | None = None
-    spectrum_pvalue: np.ndarray | None = None  # (F, m), nan where not tested
-    spectrum_ratio: np.ndarray | None = None
-    spectrum_share: np.ndarray | None = None  # (F, m): variance share of a peak centred there
-    spectrum_is_peak: np.ndarray | None = None  # (F, m) bool: local maxima
-    spectrum_power: np.ndarray | None = None  # (F, m): the residual's power the peaks are tested on
-    spectrum_power_measured: np.ndarray | None = None  # (F, m): the measured torque's power, same grid
-    spectrum_power_prediction: np.ndarray | None = None  # (F, m): the prediction's power, same grid
-    frequency_unit: str = "cycles/sample"
-    # cross-correlation of the residual with regressor columns, colour-aware
-    xcorr_rho: np.ndarray | None = None  # (m, p, L+1)
-    xcorr_sd: np.ndarray | None = None  # (m, p, L+1)
-    xcorr_mask: np.ndarray | None = None  # (m, p)
-    # the columns the model lacks: added-variable correlations on the validation run (statistic ρ,
-    # one test per joint and column, (m, q)) or, with the estimation run, the refit with each added
-    # (statistic the Wald t of its coefficient, one test per column, (q,))
-    missing_columns: list | None = None
-    missing_method: str = "added_variable"
-    missing_statistic: np.ndarray | None = None  # (m, q) or (q,)
-    missing_pvalue: np.ndarray | None = None  # (m, q) or (q,)
-    missing_share: np.ndarray | None = None  # (m, q): share of the validation mean square it removes
-    missing_explains_bias: np.ndarray | None = None  # (m, q) bool: the term accounts for the joint's mean
-    missing_enters: np.ndarray | None = None  # (m, q) bool: the column enters the joint's rows (the refit's)
-    # the motion: physics library (with q), predictive test (with the estimation run)
-    physics: dict | None = None
-    predictive: dict | None = None
-    periodic: dict | None = None
-    sample_rate: float | None = None
-    # validation design
-    repeat: dict | None = None
-    excitation: dict | None = None
-    joint_motion_ratio: np.ndarray | None = None
-    detectable_share: np.ndarray | None = None
-    noise_n_eff: np.ndarray | None = None
-    # per joint, which library groups the model's columns span (None: its columns are unknown)
-    model_kinds: list | None = None
-    extra_notes: list = field(default_factory=list)
-    # tests validate would have run on these inputs and this entry point did not (a stream's spectrum
-    # and colour-aware cross-correlation): each counts in Holm's family as a p-value of 1
-    untested: int = 0
 
 
 def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
@@ -391,63 +190,49 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
     """Apply every rule to the evidence; returns a list of :class:`Finding`, deficiencies first.
 
     ``family`` is :func:`holm_family` of the same evidence when the caller already has it."""
-    r = _Rules(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev) if family is None else family)
+    r = Context(ev, thresholds or Thresholds(), 1.0 - ev.level, holm_family(ev) if family is None else family)
     out = r.found
-    for rule in _RULES:
+    for rule in _ALL_RULES:
         out.extend(rule(r))
     order = {s: i for i, s in enumerate(SEVERITIES)}
     out.sort(key=lambda f: order[f.severity])
     return out
 
 
-@dataclass
-class _Rules:
-    """What every rule reads, and what earlier rules found: rules run in the order of ``_RULES``
-    (a joint's whiteness is a deficiency only when an earlier rule found that joint deficient, and
-    the correlations of a joint whose missing term was named are not repeated)."""
-
-    ev: Evidence
-    th: Thresholds
-    alpha: float
-    fam: dict[str, Any]
-    deficient: set[int] = field(default_factory=set)
-    missing: set[int] = field(default_factory=set)
-    found: list[Finding] = field(default_factory=list)  # the findings of the rules that ran
-
-    def name(self, j: int) -> str:
-        return w.joint_name(self.ev.joint_names, j)
-
-    def column(self, c: int) -> str:
-        return w.column_name(self.ev.column_names, c)
-
-
 def _worded(words: w.Words, **record: Any) -> Finding:
     """A finding with its message and action."""
-    message, action = words
-    return Finding(message=message, action=action, **record)
+    return worded(words, **record)
+
+def _time_stamps_rule(r: Context) -> list[Finding]:
+    return _timing_findings(r.ev)
 
 
-def _data_notes(r: _Rules) -> list[Finding]:
-    """Notes on the data themselves: time stamps, omitted rows, constant joints."""
+def _omitted_rows_rule(r: Context) -> list[Finding]:
     ev = r.ev
-    out: list[Finding] = []
-    out.extend(_timing_findings(ev))
-    if ev.omitted_rows:
-        out.append(_worded(w.omitted_rows(ev.omitted_rows), kind="omitted_rows", severity="note",
-                           effect=float(ev.omitted_rows), effect_unit=w.UNITS["omitted_rows"]))
+    if not ev.omitted_rows:
+        return []
+    return [_worded(w.omitted_rows(ev.omitted_rows), kind="omitted_rows", severity="note",
+                    effect=float(ev.omitted_rows), effect_unit=w.UNITS["omitted_rows"])]
+
+
+def _constant_target_rule(r: Context) -> list[Finding]:
+    ev = r.ev
     constant = np.asarray(ev.constant_target, dtype=bool)
-    for j in np.flatnonzero(constant):
-        out.append(_worded(w.constant_target(r.name(int(j)), ev.force_finite), kind="constant_target", severity="note",
-                           joints=(int(j),)))
+    return [_worded(w.constant_target(r.name(int(j)), ev.force_finite), kind="constant_target", severity="note",
+                    joints=(int(j),)) for j in np.flatnonzero(constant)]
+
+
+def _information_criteria_rule(r: Context) -> list[Finding]:
+    ev = r.ev
     if ev.n_params is not None and ev.criteria_n_obs is not None and ev.n_params >= ev.criteria_n_obs - 1:
         # the rule of contract §3.7 that makes aicc and fpe nan, said where the reader looks
-        out.append(_worded(w.information_criteria(ev.n_params, ev.criteria_n_obs, ev.noise_model),
-                           kind="information_criteria", severity="note", effect=float(ev.n_params),
-                           effect_unit=w.UNITS["information_criteria"], threshold=float(ev.criteria_n_obs - 1)))
-    return out
+        return [_worded(w.information_criteria(ev.n_params, ev.criteria_n_obs, ev.noise_model),
+                        kind="information_criteria", severity="note", effect=float(ev.n_params),
+                        effect_unit=w.UNITS["information_criteria"], threshold=float(ev.criteria_n_obs - 1))]
+    return []
 
 
-def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
+def _worse_than_constant_rule(r: Context) -> list[Finding]:
     """A joint predicted worse than its mean torque (no test: the effect is the decision), and the
     joints the pooled R² hides."""
     ev = r.ev
@@ -474,7 +259,7 @@ def _worse_than_constant_rule(r: _Rules) -> list[Finding]:
     return out
 
 
-def _bias_rule(r: _Rules) -> list[Finding]:
+def _bias_rule(r: Context) -> list[Finding]:
     """A residual mean beyond its coloured-noise standard error, and the missing term it comes from."""
     ev, th = r.ev, r.th
     if "bias" not in r.fam:
@@ -506,7 +291,7 @@ def _bias_rule(r: _Rules) -> list[Finding]:
     return out
 
 
-def _bias_term(r: _Rules, j: int) -> tuple[str, str, str] | None:
+def _bias_term(r: Context, j: int) -> tuple[str, str, str] | None:
     """The physical term the library finds on joint j, when the model lacks it (missing, its
     coupling, or a part of it) and it is a practical deficiency there: (group, label, relation). A
     term the model lacks shows on a new trajectory as an offset too, and is what to change."""
@@ -524,7 +309,7 @@ def _bias_term(r: _Rules, j: int) -> tuple[str, str, str] | None:
     return t["term"], LABELS[t["term"]], rel
 
 
-def _missing_term_rule(r: _Rules) -> list[Finding]:
+def _missing_term_rule(r: Context) -> list[Finding]:
     """A column the model lacks: the residual against the part of it the model cannot represent."""
     ev, th = r.ev, r.th
     if "missing" not in r.fam:
@@ -579,7 +364,7 @@ def _strongest_lag(rho: np.ndarray, sig: np.ndarray) -> int:
     return int(sig[np.flatnonzero(size >= 0.9 * size.max())[0]])
 
 
-def _regressor_correlation_rule(r: _Rules) -> list[Finding]:
+def _regressor_correlation_rule(r: Context) -> list[Finding]:
     """The residual correlating with a regressor column beyond both series' colour."""
     ev, th = r.ev, r.th
     if "xcorr" not in r.fam:
@@ -631,7 +416,7 @@ def _simulator_values(ev: Evidence, j: int, c: int) -> tuple[float, float] | Non
     return None
 
 
-def _oscillation_rule(r: _Rules) -> list[Finding]:
+def _oscillation_rule(r: Context) -> list[Finding]:
     """A spectral peak standing above the smooth background (a mode), or above the inputs' bandwidth."""
     ev, th = r.ev, r.th
     if "spectrum" not in r.fam:
@@ -689,7 +474,7 @@ def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float, float] | No
     return tuple(float(np.sum(x[lo:hi, j]) * df) for x in (pm, pp, pr))  # type: ignore[return-value]
 
 
-def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float, float, float], p, padj,
+def _prediction_artefact(r: Context, j: int, b: int, f: float, sides: tuple[float, float, float], p, padj,
                          big: bool) -> Finding:
     """A residual line the prediction holds more of than the measured torque: the model makes it
     (a friction model's sign(q̇) chattering at standstill), not a mode the robot has."""
@@ -707,11 +492,18 @@ def _prediction_artefact(r: _Rules, j: int, b: int, f: float, sides: tuple[float
                  "line_power_measured": measured})
 
 
-def _motion_rule(r: _Rules) -> list[Finding]:
-    """The rules that read the motion: missing physics, delay, predictive failure, periodic error."""
-    found, joints = _motion_findings(r.ev, r.fam, r.th, r.alpha)
-    r.deficient |= joints
-    return found
+def _motion_rule(family: str, rule: Any) -> Any:
+    """A rule that reads the motion (missing physics, delay, predictive failure, periodic error):
+    its findings, and the joints it calls deficient."""
+
+    def run(r: Context) -> list[Finding]:
+        if family not in r.fam:
+            return []
+        found, joints = rule(r.ev, r.fam[family], r.th, r.alpha)
+        r.deficient |= joints
+        return found
+
+    return run
 
 
 def _named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
@@ -742,7 +534,7 @@ def _unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[in
     return out
 
 
-def _whiteness_rule(r: _Rules) -> list[Finding]:
+def _whiteness_rule(r: Context) -> list[Finding]:
     """Whiteness at the information rate: a deficiency only on a joint an earlier rule found deficient."""
     ev = r.ev
     if "whiteness" not in r.fam:
@@ -777,15 +569,10 @@ def _whiteness_rule(r: _Rules) -> list[Finding]:
     return out
 
 
-def _validation_design_rule(r: _Rules) -> list[Finding]:
+def _validation_design_rule(r: Context) -> list[Finding]:
     """The validation run's design: repeat, excitation, information."""
     return [*_repeat_findings(r.ev, r.th), *_excitation_findings(r.ev, r.th),
             *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
-
-
-_RULES = (_data_notes, _worse_than_constant_rule, _bias_rule, _missing_term_rule, _regressor_correlation_rule,
-          _oscillation_rule, _motion_rule, _whiteness_rule, _validation_design_rule)
-"""The rules, in the order they run."""
 
 
 def _timing_findings(ev: Evidence) -> list[Finding]:
@@ -811,20 +598,6 @@ def _processing_note(ev: Evidence, j: int, what: str, frequency: float | None, p
         kind="processing_band", severity="note", joints=(j,), pvalue=p, pvalue_adjusted=padj,
         effect=share, effect_unit=w.UNITS["processing_band"] if share is not None else None,
         threshold=ev.bandwidth, details={"evidence": what, "bandwidth": ev.bandwidth, "frequency": frequency})
-
-
-def _motion_findings(ev: Evidence, fam, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    """The rules that read the motion: missing physics, delay, predictive failure, periodic error."""
-    rules = (("physics", _physics_findings), ("delay", _delay_findings), ("predictive", _predictive_findings),
-             ("periodic", _periodic_findings))
-    out: list[Finding] = []
-    joints: set[int] = set()
-    for family, rule in rules:
-        if family in fam:
-            found, bad = rule(ev, fam[family], th, alpha)
-            out += found
-            joints |= bad
-    return out, joints
 
 
 def _periodic_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
@@ -1123,3 +896,33 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
         effect_unit=w.UNITS["low_information"], threshold=th.detectable_share,
         details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff],
                  "unresolved": sorted(int(j) for j in unresolved if j in low)})]
+
+
+_RULES = ((10, _time_stamps_rule), (20, _omitted_rows_rule), (30, _constant_target_rule),
+          (40, _information_criteria_rule), (100, _worse_than_constant_rule), (200, _bias_rule),
+          (300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
+          (600, _motion_rule("physics", _physics_findings)), (610, _motion_rule("delay", _delay_findings)),
+          (620, _motion_rule("predictive", _predictive_findings)),
+          (630, _motion_rule("periodic", _periodic_findings)), (700, _whiteness_rule),
+          (800, _validation_design_rule))
+"""The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
+take their places among these): the notes on the data (10–40), the fit (100), bias (200), missing
+columns (300), correlations (400), the spectrum (500), the motion (600–630), whiteness (700), the
+validation design (800)."""
+
+ORDER = {"time_stamps": 10, "omitted_rows": 20, "constant_target": 30, "information_criteria": 40,
+         "worse_than_constant": 100, "pooling": 100, "bias": 200, "regressor_correlation": 300,
+         "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
+         "delay": 610, "predictive_failure": 620, "periodic_error": 630, "sampling_colour": 700, "whiteness": 700,
+         "repeat_trajectory": 800, "excitation": 800, "low_information": 800, "physical_consistency": 900}
+"""The place of each kind of this module's rules (``physical_consistency``'s findings come from the
+model's parameters, outside the rules: last)."""
+
+_ALL_RULES = tuple(rule for _, rule in sorted(
+    [*_RULES, *((k.order, k.rule) for k in _DECLARED_KINDS.values())], key=lambda t: t[0]))
+"""Every rule, in the order they run."""
+
+KINDS = {name: description for name, description, _ in sorted(
+    [*((n, d, ORDER[n]) for n, d in _LISTED.items()),
+     *((k.name, k.description, k.order) for k in _DECLARED_KINDS.values())], key=lambda t: t[2])}
+"""The documented vocabulary of ``Finding.kind``, in the order of the rules."""
