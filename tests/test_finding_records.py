@@ -22,6 +22,9 @@ from statsmodels.stats.multitest import multipletests
 from dynval.checks._validation import InvalidParameter
 from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
+from dynval.report.kinds import constant_target as constant_target_kind
+from dynval.report.kinds import omitted_rows as omitted_rows_kind
+from dynval.report.kinds import time_stamps as time_stamps_kind
 from dynval.statistics._physics import LABELS
 from dynval.statistics._stats import correlation_pvalue
 
@@ -75,10 +78,10 @@ def test_data_notes_omitted_rows_and_constant_joints(force):
     found = compute_findings(ev)
     (om,) = _of(found, "omitted_rows")
     assert _record(om) == _blank(kind="omitted_rows", severity="note", effect=7.0, effect_unit="rows")
-    _worded(om, w.omitted_rows(7))
+    _worded(om, omitted_rows_kind.words(7))
     (ct,) = _of(found, "constant_target")
     assert _record(ct) == _blank(kind="constant_target", severity="note", joints=(1,))
-    _worded(ct, w.constant_target("elbow", force))
+    _worded(ct, constant_target_kind.words("elbow", force))
     assert not _of(compute_findings(_ev(3)), "omitted_rows") and not _of(compute_findings(_ev(3)), "constant_target")
 
 
@@ -660,7 +663,7 @@ def test_time_stamps_note_counts_the_irregular_steps():
     (f,) = _of(compute_findings(_ev(1, timing=t)), "time_stamps")
     assert _record(f) == _blank(kind="time_stamps", severity="note", effect=10.0, effect_unit="irregular steps",
                                 details=t)
-    _worded(f, w.time_stamps(t))
+    _worded(f, time_stamps_kind.words(t))
     assert not _of(compute_findings(_ev(1, timing={**t, "regular": True})), "time_stamps")
 
 

@@ -12,14 +12,12 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ._text import counted, number_text, p_clause, versus
+from ._text import number_text, p_clause, versus
 
 Words = tuple[str, str]
 """``(message, action)`` of one finding."""
 
 UNITS = {
-    "omitted_rows": "rows",
-    "information_criteria": "parameters",
     "worse_than_constant": "1 − R² beyond 1 (fraction of TSS)",
     "pooling": "R² below pooled",
     "bias": "|mean| / RMSE",
@@ -29,7 +27,6 @@ UNITS = {
     "prediction_artefact": "share of residual variance",
     "sampling_colour": "decimation factor",
     "whiteness": "max |ρ̂(ℓ)|",
-    "time_stamps": "irregular steps",
     "processing_band": "share of residual variance",
     "periodic_error": "share of the residual's variance common to every period",
     "missing_physics": "share of the joint's mean square the physical terms remove",
@@ -76,50 +73,6 @@ def listed_columns(cols: Sequence[str] | None, columns: Sequence[int], most: int
 
 
 # -- the data -----------------------------------------------------------------------------------
-
-def omitted_rows(count: int) -> Words:
-    were = "was" if count == 1 else "were"
-    return (f"{counted(count, 'row')} with non-finite values {were} omitted; segment breaks were inserted so no lag "
-            "joins samples that were not adjacent.", "check the logger for dropped or invalid samples")
-
-
-def information_criteria(n_params: int, n_obs: int, noise_model: str) -> Words:
-    counted = "N·m samples × joints" if noise_model == "pooled" else f"N samples ({noise_model} noise model)"
-    return (f"n_params = {n_params} is not below n − 1 = {n_obs - 1}, where n = {n_obs} is the observations the "
-            f"information criteria count ({counted}): AICc and FPE are nan, undefined there (AICc's correction "
-            f"2p(p+1)/(n − p − 1) divides by a number that is not positive, and FPE's (1 + p/n)/(1 − p/n) has no "
-            f"finite value at p = n), and AIC and BIC are mostly the penalty 2p or p·ln n, "
-            f"so they rank models by their size, not by their fit. The tests of the residual do not depend on "
-            f"n_params.",
-            "compare models on a validation run with more observations than parameters, or by the tests of the "
-            "residual; check that n_params counts the identified parameters")
-
-
-def constant_target(name: str, force_finite: bool) -> Words:
-    how = "0 or 1 by scikit-learn's force_finite rule" if force_finite else "-inf, or nan for an exact prediction"
-    return (f"{name}: the measured torque is constant, so R², fit and VAF compare against nothing "
-            f"(reported as {how}).", "validate this joint on a trajectory that moves it")
-
-
-def time_stamps(t: Mapping[str, Any]) -> Words:
-    """The irregular steps of a time-stamp record (``dynval.checks._timing.Timing.to_dict``)."""
-
-    parts = []
-    if t["duplicated_stamps"]:
-        parts.append(counted(t["duplicated_stamps"], "duplicated stamp"))
-    if t["repeated_rows"]:
-        parts.append(f"{counted(t['repeated_rows'], 'row')} repeating the previous row's torques exactly "
-                     f"({100 * t['repeated_rows'] / max(t['n_steps'], 1):.2g} %)")
-    if t["gaps"]:
-        parts.append(f"{counted(t['gaps'], 'gap')} (largest {1e3 * t['largest_gap']:.4g} ms at "
-                     f"t = {t['largest_gap_time']:.4g} s)")
-    if t["irregular_steps"]:
-        parts.append(f"{counted(t['irregular_steps'], 'step')} more than 10 % off the nominal one (jitter RMS "
-                     f"{1e3 * t['jitter_rms']:.3g} ms, largest deviation {1e3 * t['largest_step_deviation']:.3g} ms)")
-    return (f"Time stamps on a {1e3 * t['nominal_step']:.4g} ms nominal step: " + "; ".join(parts)
-            + f". The lag and spectral analyses use {t['grid']}.",
-            "check the logger's clock and buffering; lags and frequencies assume the stated grid")
-
 
 # -- the fit ------------------------------------------------------------------------------------
 

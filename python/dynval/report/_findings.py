@@ -56,12 +56,6 @@ _LISTED = {
                   "far less than in the estimation run",
     "low_information": "the run has too few effective samples to detect a term of practical size",
     "pooling": "the pooled value hides a joint that does much worse",
-    "constant_target": "a joint's measured torque is constant",
-    "omitted_rows": "rows with non-finite values were omitted",
-    "information_criteria": "n_params leaves the criteria no degree of freedom (p >= n - 1): AICc and FPE are "
-                            "undefined and AIC and BIC are mostly penalty",
-    "time_stamps": "the time stamps are not a uniform grid: duplicated stamps, repeated rows, gaps or "
-                   "irregular steps (the grid the analyses used is stated)",
     "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
                        "(``bandwidth``): the processing, not the model",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
@@ -202,35 +196,6 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
 def _worded(words: w.Words, **record: Any) -> Finding:
     """A finding with its message and action."""
     return worded(words, **record)
-
-def _time_stamps_rule(r: Context) -> list[Finding]:
-    return _timing_findings(r.ev)
-
-
-def _omitted_rows_rule(r: Context) -> list[Finding]:
-    ev = r.ev
-    if not ev.omitted_rows:
-        return []
-    return [_worded(w.omitted_rows(ev.omitted_rows), kind="omitted_rows", severity="note",
-                    effect=float(ev.omitted_rows), effect_unit=w.UNITS["omitted_rows"])]
-
-
-def _constant_target_rule(r: Context) -> list[Finding]:
-    ev = r.ev
-    constant = np.asarray(ev.constant_target, dtype=bool)
-    return [_worded(w.constant_target(r.name(int(j)), ev.force_finite), kind="constant_target", severity="note",
-                    joints=(int(j),)) for j in np.flatnonzero(constant)]
-
-
-def _information_criteria_rule(r: Context) -> list[Finding]:
-    ev = r.ev
-    if ev.n_params is not None and ev.criteria_n_obs is not None and ev.n_params >= ev.criteria_n_obs - 1:
-        # the rule of contract §3.7 that makes aicc and fpe nan, said where the reader looks
-        return [_worded(w.information_criteria(ev.n_params, ev.criteria_n_obs, ev.noise_model),
-                        kind="information_criteria", severity="note", effect=float(ev.n_params),
-                        effect_unit=w.UNITS["information_criteria"], threshold=float(ev.criteria_n_obs - 1))]
-    return []
-
 
 def _worse_than_constant_rule(r: Context) -> list[Finding]:
     """A joint predicted worse than its mean torque (no test: the effect is the decision), and the
@@ -575,17 +540,6 @@ def _validation_design_rule(r: Context) -> list[Finding]:
             *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
 
 
-def _timing_findings(ev: Evidence) -> list[Finding]:
-    """A note on time stamps that are not a uniform grid, with the counts and the grid used."""
-    t = ev.timing
-    if t is None or t["regular"]:
-        return []
-    return [_worded(
-        w.time_stamps(t), kind="time_stamps", severity="note",
-        effect=float(t["gaps"] + t["duplicated_stamps"] + t["irregular_steps"]),
-        effect_unit=w.UNITS["time_stamps"], details=dict(t))]
-
-
 def _processing_note(ev: Evidence, j: int, what: str, frequency: float | None, p: float, padj: float,
                      share: float | None) -> Finding:
     """Evidence above ``bandwidth`` Hz: the inputs' processing (a differentiating or sensor filter).
@@ -898,20 +852,18 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
                  "unresolved": sorted(int(j) for j in unresolved if j in low)})]
 
 
-_RULES = ((10, _time_stamps_rule), (20, _omitted_rows_rule), (30, _constant_target_rule),
-          (40, _information_criteria_rule), (100, _worse_than_constant_rule), (200, _bias_rule),
+_RULES = ((100, _worse_than_constant_rule), (200, _bias_rule),
           (300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
           (600, _motion_rule("physics", _physics_findings)), (610, _motion_rule("delay", _delay_findings)),
           (620, _motion_rule("predictive", _predictive_findings)),
           (630, _motion_rule("periodic", _periodic_findings)), (700, _whiteness_rule),
           (800, _validation_design_rule))
 """The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
-take their places among these): the notes on the data (10–40), the fit (100), bias (200), missing
+take their places among these): after the notes on the data (10–40), the fit (100), bias (200), missing
 columns (300), correlations (400), the spectrum (500), the motion (600–630), whiteness (700), the
 validation design (800)."""
 
-ORDER = {"time_stamps": 10, "omitted_rows": 20, "constant_target": 30, "information_criteria": 40,
-         "worse_than_constant": 100, "pooling": 100, "bias": 200, "regressor_correlation": 300,
+ORDER = {"worse_than_constant": 100, "pooling": 100, "bias": 200, "regressor_correlation": 300,
          "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
          "delay": 610, "predictive_failure": 620, "periodic_error": 630, "sampling_colour": 700, "whiteness": 700,
          "repeat_trajectory": 800, "excitation": 800, "low_information": 800, "physical_consistency": 900}
