@@ -24,7 +24,12 @@ from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
 from dynval.report.kinds import constant_target as constant_target_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
+from dynval.report.kinds import periodic_error as periodic_error_kind
+from dynval.report.kinds import pooling as pooling_kind
+from dynval.report.kinds import predictive_failure as predictive_failure_kind
+from dynval.report.kinds import repeat_trajectory as repeat_trajectory_kind
 from dynval.report.kinds import time_stamps as time_stamps_kind
+from dynval.report.kinds import worse_than_constant as worse_than_constant_kind
 from dynval.statistics._physics import LABELS
 from dynval.statistics._stats import correlation_pvalue
 
@@ -97,13 +102,13 @@ def test_worse_than_constant_and_pooling_records_and_their_boundaries():
     (wc,) = _of(found, "worse_than_constant")
     assert _record(wc) == _blank(kind="worse_than_constant", severity="deficiency", joints=(0,), statistic=-0.5,
                                  effect=0.5, effect_unit="1 − R² beyond 1 (fraction of TSS)", threshold=0.0)
-    _worded(wc, w.worse_than_constant("a", -0.5, 0.6))
+    _worded(wc, worse_than_constant_kind.words("a", -0.5, 0.6))
     pooling = _of(found, "pooling")
     assert [f.joints for f in pooling] == [(1,), (3,)]
     assert _record(pooling[1]) == _blank(kind="pooling", severity="note", joints=(3,), statistic=0.5499,
                                          effect=pytest.approx(0.6 - 0.5499), effect_unit="R² below pooled",
                                          threshold=0.05)
-    _worded(pooling[1], w.pooling("d", 0.5499, 0.6))
+    _worded(pooling[1], pooling_kind.words("d", 0.5499, 0.6))
     # whiteness is a deficiency on a joint worse than a constant: it was found deficient
     ev_w = _ev(2, r2=np.array([-0.5, 0.9]), pooled_r2=0.6, whiteness_lag=5,
                whiteness_pvalue_raw=np.array([1e-6, 1e-6]), whiteness_log_pvalue_raw=np.log([1e-6, 1e-6]))
@@ -114,7 +119,7 @@ def test_worse_than_constant_and_pooling_records_and_their_boundaries():
 def test_worse_than_constant_names_the_pooled_value_only_when_it_looks_good(pooled, m, hidden):
     r2 = np.array([-0.5, 0.9])[:m]
     (wc,) = _of(compute_findings(_ev(m, r2=r2, pooled_r2=pooled)), "worse_than_constant")
-    _worded(wc, w.worse_than_constant("shoulder", -0.5, hidden))
+    _worded(wc, worse_than_constant_kind.words("shoulder", -0.5, hidden))
     assert not _of(compute_findings(_ev(1, r2=np.array([0.1]), pooled_r2=0.9)), "pooling")  # one joint: no pooling
 
 
@@ -443,7 +448,7 @@ def test_predictive_failure_record_at_the_ratio():
                                 pvalue=1e-9, pvalue_adjusted=pytest.approx(padj[0]), effect=2.0,
                                 effect_unit="validation mean square / what the estimation run allows",
                                 threshold=2.0, details={"expected_mse": 1.0, "validation_mse": 2.0})
-    _worded(f, w.predictive_failure("shoulder", 2.0, padj[0]))
+    _worded(f, predictive_failure_kind.words("shoulder", 2.0, padj[0]))
 
 
 def test_periodic_error_record_at_and_below_the_threshold():
@@ -459,8 +464,8 @@ def test_periodic_error_record_at_and_below_the_threshold():
                                        threshold=0.05, details={"n_periods": 5, "period": per["period"],
                                                                 "noise_variance": 0.1,
                                                                 "model_columns_removed": True})
-    _worded(found[0], w.periodic_error("shoulder", 0.05, 5, per["period"], padj[0], True))
-    _worded(found[1], w.periodic_error("elbow", 0.0499, 5, per["period"], padj[1], False))
+    _worded(found[0], periodic_error_kind.words("shoulder", 0.05, 5, per["period"], padj[0], True))
+    _worded(found[1], periodic_error_kind.words("elbow", 0.0499, 5, per["period"], padj[1], False))
     del per["model_columns_removed"]
     assert _of(compute_findings(_ev(3, periodic=per)), "periodic_error")[0].details["model_columns_removed"] is False
 
@@ -531,10 +536,10 @@ def test_repeat_by_state_record_above_the_share_only():
     assert _record(f) == _blank(kind="repeat_trajectory", severity="design", effect=0.8,
                                 effect_unit="share of the validation run near the estimation trajectory (q)",
                                 threshold=0.5, details=rep)
-    _worded(f, w.repeat_by_state(0.8, 0.5, "q", 0.2))
+    _worded(f, repeat_trajectory_kind.words_by_state(0.8, 0.5, "q", 0.2))
     assert not _of(compute_findings(_ev(1, repeat={**rep, "share": 0.5})), "repeat_trajectory")  # not above
     (f,) = _of(compute_findings(_ev(1, repeat={"share": 0.6, "state": "regressor"})), "repeat_trajectory")
-    _worded(f, w.repeat_by_state(0.6, 0.5, "regressor", 0.1))  # the default tolerance
+    _worded(f, repeat_trajectory_kind.words_by_state(0.6, 0.5, "regressor", 0.1))  # the default tolerance
 
 
 def test_repeat_by_distance_record_below_the_distance_or_as_decided():
@@ -542,7 +547,7 @@ def test_repeat_by_distance_record_below_the_distance_or_as_decided():
     (f,) = _of(compute_findings(_ev(1, repeat=rep)), "repeat_trajectory")
     assert _record(f) == _blank(kind="repeat_trajectory", severity="design", effect=0.05,
                                 effect_unit="relative distance (tau)", threshold=0.1, details=rep)
-    _worded(f, w.repeat_by_distance(0.05, 0.1, "tau"))
+    _worded(f, repeat_trajectory_kind.words_by_distance(0.05, 0.1, "tau"))
     assert not _of(compute_findings(_ev(1, repeat={**rep, "distance": 0.1})), "repeat_trajectory")
     assert not _of(compute_findings(_ev(1, repeat={**rep, "distance": None})), "repeat_trajectory")
     # the section's own decision wins over the threshold

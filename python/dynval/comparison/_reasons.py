@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..checks._typing import ReportSections
 from ..report._findings import Finding
-from ..report._text import number_text, versus
+from ..report._text import number_text
 from ..report.kinds import KINDS
 from ..report.kinds._base import effect_versus_threshold
 
@@ -81,9 +81,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
         text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
                 "findings above on this joint")
-    elif f.kind == "worse_than_constant":
-        e, t = versus(f.statistic, 0.0, ".3f")
-        text = f"worse than a constant (R² = {e} < {t})"
     elif f.kind == "missing_physics":
         label = f.details.get("label") or f.details.get("term") or "a physical term"
         what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")
@@ -102,17 +99,8 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         else:
             size = f"realigning removes {e} of the mean square ≥ {t}"
         text = (f"torque {'delayed by' if samples >= 0 else 'ahead by'} {lag} against the encoders ({size})")
-    elif f.kind == "predictive_failure":
-        text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
     elif f.kind == "low_information":
         text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
-    elif f.kind == "repeat_trajectory" and f.details.get("share") is not None:
-        text = (f"the validation run repeats the estimation run ({e} of it lies near the estimation trajectory "
-                f"at some time > {t})")
-    elif f.kind == "repeat_trajectory":
-        measure = f.details.get("measure", "")
-        text = (f"the validation run repeats the estimation run (relative {measure + ' ' if measure else ''}"
-                f"distance {e} < {t})")
     elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):
         e, t = _vs(f, ".1f", percent=True)
         text = f"the validation run excites {', '.join(cols)} far less than the estimation run ({e} < {t})"

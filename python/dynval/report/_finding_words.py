@@ -18,8 +18,6 @@ Words = tuple[str, str]
 """``(message, action)`` of one finding."""
 
 UNITS = {
-    "worse_than_constant": "1 − R² beyond 1 (fraction of TSS)",
-    "pooling": "R² below pooled",
     "bias": "|mean| / RMSE",
     "missing_term": "share of the residual's mean square the term would remove",
     "correlation": "|ρ|",
@@ -28,11 +26,9 @@ UNITS = {
     "sampling_colour": "decimation factor",
     "whiteness": "max |ρ̂(ℓ)|",
     "processing_band": "share of residual variance",
-    "periodic_error": "share of the residual's variance common to every period",
     "missing_physics": "share of the joint's mean square the physical terms remove",
     "delay": "share of the joint's mean square realigning removes",
     "delay_phase": "degrees of phase lag at the information band's edge",
-    "predictive_failure": "validation mean square / what the estimation run allows",
     "structural": "structural columns",
     "columns": "columns",
     "condition": "column-scaled condition number",
@@ -75,19 +71,6 @@ def listed_columns(cols: Sequence[str] | None, columns: Sequence[int], most: int
 # -- the data -----------------------------------------------------------------------------------
 
 # -- the fit ------------------------------------------------------------------------------------
-
-def worse_than_constant(name: str, r2: float, hidden_by: float | None) -> Words:
-    """``hidden_by``: the pooled R² when it looks good (> 0) over several joints."""
-    return (f"{name} does worse than a constant: R² = {versus(r2, 0.0, '.3f')[0]}"
-            + (f", yet the pooled R² is {hidden_by:.3f} (pooling flattens all joints with one mean, so the "
-               "high-torque joints dominate it; read the per-joint values)." if hidden_by is not None else "."),
-            f"check {name}'s terms, signs and units: predicting its mean torque does better")
-
-
-def pooling(name: str, r2: float, pooled: float) -> Words:
-    return (f"{name}: R² = {r2:.3f}, well below the pooled {pooled:.3f}, which the larger torques of other "
-            "joints dominate.", "read the per-joint values")
-
 
 def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, n: int, padj: float, big: bool,
          culprit: tuple[str, float] | None, kinds: Mapping[str, bool | None] | None = None,
@@ -249,18 +232,6 @@ def processing_band(name: str, frequency: float | None, bandwidth: float, padj: 
 
 
 # -- the motion ---------------------------------------------------------------------------------
-
-def periodic_error(name: str, effect: float, n_periods: Any, period: Mapping[str, Any], padj: float,
-                   big: bool) -> Words:
-    seconds = period["seconds"]
-    length = f"{seconds:.4g} s" if seconds else f"{period['samples']:.4g} samples"
-    return (f"{name}: {100 * effect:.0f} % of the residual's variance repeats in every one of the {n_periods} "
-            f"periods ({length}) beyond what the period-to-period variation allows (noise measured from the "
-            f"periods themselves, no whiteness assumed; Holm-adjusted p {p_text(padj)})"
-            + (": model error." if big else NEGLIGIBLE),
-            "the model misses something the trajectory repeats: see the physics and correlation findings for "
-            "which term" if big else "none: the periodic part is real but small")
-
 
 def missing_physics(name: str, label: str, others: Sequence[str], together: float, term_share: float,
                     share: float, padj: float, big: bool, advice: Mapping[str, Any] | None = None) -> Words:
@@ -432,33 +403,7 @@ def delay(shift: float, sample_rate: float | None, shares: Sequence[tuple[str, f
             "share that matters for the error.", "none: the delay is real but small")
 
 
-def predictive_failure(name: str, ratio: float, padj: float) -> Words:
-    return (f"{name}: the validation mean square is {ratio:.3g}× what the estimation run's noise and parameter "
-            f"uncertainty allow (Chow-type F test, Holm-adjusted p {p_text(padj)}).",
-            f"the model does not carry over to new motion on {name}: look for a term the estimation trajectory did "
-            "not need (a payload, a changed friction) or refit on richer data")
-
-
 # -- the design ---------------------------------------------------------------------------------
-
-REPEAT_ACTION = "validate on a different trajectory: a repeat rewards over-fitting"
-_REPEAT_TAIL = "Metrics on it measure the fit, not the prediction of new motion."
-
-
-def repeat_by_state(share: float, threshold: float, state: str | None, tolerance: float) -> Words:
-    sh, sh_th = versus(share, threshold, ".0f", scale=100.0)
-    states = "q, q̇, q̈" if state == "q" else "the regressor's leading principal components"
-    return (f"The validation run repeats the estimation run: {sh} % of its states (> {sh_th} %) lie within "
-            f"{tolerance:g} of the estimation trajectory at some time (state: {states}, each coordinate in "
-            f"estimation-run standard deviations, the distance an RMS over them). {_REPEAT_TAIL}", REPEAT_ACTION)
-
-
-def repeat_by_distance(distance: float, threshold: float, measure: str) -> Words:
-    dist, dist_th = versus(distance, threshold)
-    return (f"The validation run repeats the estimation run: relative {measure} distance {dist} < {dist_th} "
-            f"(time-aligned; give q or the regressor of both runs to compare states at any time). {_REPEAT_TAIL}",
-            REPEAT_ACTION)
-
 
 _WHERE_STRUCTURAL = {"estimation": "in both runs",
                      "model": "in this run and at every state of the model's structure it was prepared with"}

@@ -33,7 +33,6 @@ SEVERITIES = ("deficiency", "design", "note")
 ``note``: information, including significant but negligible effects."""
 
 _LISTED = {
-    "worse_than_constant": "a joint's prediction is worse than its mean torque (R² < 0)",
     "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
     "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
@@ -47,15 +46,9 @@ _LISTED = {
     "delay": "the measured torque lags (or leads) the prediction: reported whenever significant, with the phase lag "
              "at the information band's edge; a deficiency when realigning removes a practical share of the error "
              "or the phase lag matters for control",
-    "periodic_error": "a periodic trajectory: what every period of the residual shares exceeds the noise the "
-                      "period-to-period variation measures (no whiteness assumed)",
-    "predictive_failure": "the validation error exceeds what the estimation run's noise and parameter "
-                          "uncertainty allow (Chow-type test)",
-    "repeat_trajectory": "the validation trajectory repeats the estimation trajectory",
     "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned, or a joint moves "
                   "far less than in the estimation run",
     "low_information": "the run has too few effective samples to detect a term of practical size",
-    "pooling": "the pooled value hides a joint that does much worse",
     "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
                        "(``bandwidth``): the processing, not the model",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
@@ -196,33 +189,6 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
 def _worded(words: w.Words, **record: Any) -> Finding:
     """A finding with its message and action."""
     return worded(words, **record)
-
-def _worse_than_constant_rule(r: Context) -> list[Finding]:
-    """A joint predicted worse than its mean torque (no test: the effect is the decision), and the
-    joints the pooled R² hides."""
-    ev = r.ev
-    m = len(ev.r2)
-    constant = np.asarray(ev.constant_target, dtype=bool)
-    out: list[Finding] = []
-    r2 = np.asarray(ev.r2, dtype=float)
-    pooled_good = m > 1 and np.isfinite(ev.pooled_r2) and ev.pooled_r2 > 0
-    for j in range(m):
-        if constant[j] or not np.isfinite(r2[j]) or r2[j] >= 0:
-            continue
-        r.deficient.add(j)
-        out.append(_worded(
-            w.worse_than_constant(r.name(j), float(r2[j]), float(ev.pooled_r2) if pooled_good else None),
-            kind="worse_than_constant", severity="deficiency", joints=(j,), statistic=float(r2[j]),
-            effect=float(-r2[j]), effect_unit=w.UNITS["worse_than_constant"], threshold=0.0))
-    if m > 1 and np.isfinite(ev.pooled_r2):
-        for j in range(m):
-            if not constant[j] and np.isfinite(r2[j]) and 0 <= r2[j] < ev.pooled_r2 - 0.05:
-                out.append(_worded(w.pooling(r.name(j), float(r2[j]), float(ev.pooled_r2)), kind="pooling",
-                                   severity="note", joints=(j,), statistic=float(r2[j]),
-                                   effect=float(ev.pooled_r2 - r2[j]), effect_unit=w.UNITS["pooling"],
-                                   threshold=0.05))
-    return out
-
 
 def _bias_rule(r: Context) -> list[Finding]:
     """A residual mean beyond its coloured-noise standard error, and the missing term it comes from."""
@@ -535,8 +501,8 @@ def _whiteness_rule(r: Context) -> list[Finding]:
 
 
 def _validation_design_rule(r: Context) -> list[Finding]:
-    """The validation run's design: repeat, excitation, information."""
-    return [*_repeat_findings(r.ev, r.th), *_excitation_findings(r.ev, r.th),
+    """The validation run's design: excitation, information."""
+    return [*_excitation_findings(r.ev, r.th),
             *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
 
 
@@ -552,30 +518,6 @@ def _processing_note(ev: Evidence, j: int, what: str, frequency: float | None, p
         kind="processing_band", severity="note", joints=(j,), pvalue=p, pvalue_adjusted=padj,
         effect=share, effect_unit=w.UNITS["processing_band"] if share is not None else None,
         threshold=ev.bandwidth, details={"evidence": what, "bandwidth": ev.bandwidth, "frequency": frequency})
-
-
-def _periodic_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    p, padj = pvalues
-    per = ev.periodic
-    effect = np.asarray(per["effect_net"], dtype=float)
-    out: list[Finding] = []
-    bad: set[int] = set()
-    for j in range(effect.size):
-        if not (padj[j] <= alpha):
-            continue
-        big = bool(effect[j] >= th.periodic_error)
-        if big:
-            bad.add(j)
-        out.append(_worded(
-            w.periodic_error(w.joint_name(ev.joint_names, j), float(effect[j]), per["n_periods"], per["period"],
-                             float(padj[j]), big),
-            kind="periodic_error", severity="deficiency" if big else "note", joints=(j,),
-            statistic=float(per["statistic"][j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
-            effect=float(effect[j]), effect_unit=w.UNITS["periodic_error"], threshold=th.periodic_error,
-            details={"n_periods": int(per["n_periods"]), "period": per["period"],
-                     "noise_variance": float(per["noise_variance"][j]),
-                     "model_columns_removed": bool(per.get("model_columns_removed", False))}))
-    return out, bad
 
 
 def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
@@ -708,49 +650,6 @@ def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tupl
                  "significant": significant, "explains": explains})], set(big)
 
 
-def _predictive_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    p, padj = pvalues
-    ratio = np.asarray(ev.predictive["ratio"], dtype=float)
-    out: list[Finding] = []
-    bad: set[int] = set()
-    for j in range(ratio.size):
-        if not (padj[j] <= alpha) or not ratio[j] >= th.predictive_ratio:
-            continue
-        bad.add(j)
-        out.append(_worded(
-            w.predictive_failure(w.joint_name(ev.joint_names, j), float(ratio[j]), float(padj[j])),
-            kind="predictive_failure", severity="deficiency", joints=(j,), statistic=float(ratio[j]),
-            pvalue=float(p[j]), pvalue_adjusted=float(padj[j]), effect=float(ratio[j]),
-            effect_unit=w.UNITS["predictive_failure"], threshold=th.predictive_ratio,
-            details={"expected_mse": float(ev.predictive["expected_mse"][j]),
-                     "validation_mse": float(ev.predictive["validation_mse"][j])}))
-    return out, bad
-
-
-def _repeat_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
-    """``repeat_trajectory``: a share of the validation run near the estimation trajectory at any
-    time above ``repeat_share`` (conventions §5.6); without a state in both runs, a time-aligned
-    distance below ``repeat_distance``."""
-    d = ev.repeat
-    if d is None:
-        return []
-    share = d.get("share")
-    if share is not None:
-        if not share > th.repeat_share:
-            return []
-        return [_worded(
-            w.repeat_by_state(share, th.repeat_share, d.get("state"), d.get("tolerance", th.repeat_tolerance)),
-            kind="repeat_trajectory", severity="design", effect=float(share),
-            effect_unit=f"share of the validation run near the estimation trajectory ({d.get('state')})",
-            threshold=th.repeat_share, details=dict(d))]
-    if d.get("distance") is None or not d.get("is_repeat", d["distance"] < th.repeat_distance):
-        return []
-    return [_worded(
-        w.repeat_by_distance(d["distance"], th.repeat_distance, d["measure"]),
-        kind="repeat_trajectory", severity="design", effect=float(d["distance"]),
-        effect_unit=f"relative distance ({d['measure']})", threshold=th.repeat_distance, details=dict(d))]
-
-
 def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
     """The validation regressor: structural columns reduced (a note), combinations the estimation
     run excites and the validation run does not, an ill-conditioned validation regressor."""
@@ -852,21 +751,19 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
                  "unresolved": sorted(int(j) for j in unresolved if j in low)})]
 
 
-_RULES = ((100, _worse_than_constant_rule), (200, _bias_rule),
+_RULES = ((200, _bias_rule),
           (300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
           (600, _motion_rule("physics", _physics_findings)), (610, _motion_rule("delay", _delay_findings)),
-          (620, _motion_rule("predictive", _predictive_findings)),
-          (630, _motion_rule("periodic", _periodic_findings)), (700, _whiteness_rule),
-          (800, _validation_design_rule))
+          (700, _whiteness_rule), (810, _validation_design_rule))
 """The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
-take their places among these): after the notes on the data (10–40), the fit (100), bias (200), missing
-columns (300), correlations (400), the spectrum (500), the motion (600–630), whiteness (700), the
-validation design (800)."""
+take their places among these): after the notes on the data (10–40) and the fit (100, 110), bias (200),
+missing columns (300), correlations (400), the spectrum (500), the motion (600, 610; then 620, 630),
+whiteness (700), and after the repeat (800) the validation design (810)."""
 
-ORDER = {"worse_than_constant": 100, "pooling": 100, "bias": 200, "regressor_correlation": 300,
+ORDER = {"bias": 200, "regressor_correlation": 300,
          "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
-         "delay": 610, "predictive_failure": 620, "periodic_error": 630, "sampling_colour": 700, "whiteness": 700,
-         "repeat_trajectory": 800, "excitation": 800, "low_information": 800, "physical_consistency": 900}
+         "delay": 610, "sampling_colour": 700, "whiteness": 700,
+         "excitation": 810, "low_information": 810, "physical_consistency": 900}
 """The place of each kind of this module's rules (``physical_consistency``'s findings come from the
 model's parameters, outside the rules: last)."""
 
