@@ -326,6 +326,9 @@ class Kind:
         The practical effect sizes it declares beyond :class:`Thresholds`' fields.
     percent : bool
         The generic reason and ``compare`` write its effect and threshold as percentages.
+    test : str or None
+        The test of :data:`dynval.coverage.TESTS` whose evidence it reads (what the entry points leave
+        out, contract §4.1), when not listed there.
     """
 
     name: str
@@ -335,6 +338,7 @@ class Kind:
     reason: Reason | None = None
     thresholds: tuple[Threshold, ...] = ()
     percent: bool = False
+    test: str | None = None
 
 
 def declare(kind: Kind) -> None:
