@@ -23,6 +23,7 @@ from dynval.checks._validation import InvalidParameter
 from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
 from dynval.report.kinds import constant_target as constant_target_kind
+from dynval.report.kinds import delay as delay_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
 from dynval.report.kinds import periodic_error as periodic_error_kind
 from dynval.report.kinds import pooling as pooling_kind
@@ -423,7 +424,7 @@ def test_delay_record_and_when_it_explains_the_structure():
                                 details={"delay_s": 0.015, "delay_samples": 3.0, "share": [0.3, 0.04, 0.3],
                                          "phase_deg": None, "band_edge": None, "band_unit": "Hz",
                                          "significant": [0, 1, 2], "explains": [0, 1]})
-    _worded(d, w.delay(3.0, 200.0, [("shoulder", 0.3)], padj[0]))
+    _worded(d, delay_kind.words(3.0, 200.0, [("shoulder", 0.3)], padj[0]))
     assert [f.joints for f in _of(found, "missing_physics")] == [(2,)]
     assert not _of(compute_findings(_ev(3, physics=lib)), "delay")[0].details["delay_s"]  # no rate: None
 
@@ -433,7 +434,8 @@ def test_delay_equal_to_the_library_share_is_the_delay():
     lib = _library([1e-9], [0.2], ["viscous"], delay=delay)
     found = compute_findings(_ev(1, physics=lib))
     assert _of(found, "delay") and not _of(found, "missing_physics")
-    _worded(_of(found, "delay")[0], w.delay(-2.0, None, [("shoulder", 0.2)], _of(found, "delay")[0].pvalue_adjusted))
+    (dl,) = _of(found, "delay")
+    _worded(dl, delay_kind.words(-2.0, None, [("shoulder", 0.2)], dl.pvalue_adjusted))
     lib["tests"][0]["share"] = math.nan  # no library share: realigning alone decides
     assert _of(compute_findings(_ev(1, physics=lib)), "delay")
 

@@ -88,17 +88,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         if f.details.get("relation") == "unsupported":
             text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
                     f"terms would remove {e} of the mean square ≥ {t})")
-    elif f.kind == "delay":
-        d_s = f.details.get("delay_s")
-        samples = float(f.details.get("delay_samples") or 0.0)
-        lag = (f"{_g(abs(1000.0 * d_s), '.3g')} ms" if d_s is not None else f"{_g(abs(samples), '.3g')} samples")
-        side = "lag" if samples >= 0 else "lead"
-        if f.details.get("phase_deg") is not None:
-            e, t = _vs(f, ".3g")
-            size = f"a {e}° phase {side} at the information band's edge ≥ {t}°"
-        else:
-            size = f"realigning removes {e} of the mean square ≥ {t}"
-        text = (f"torque {'delayed by' if samples >= 0 else 'ahead by'} {lag} against the encoders ({size})")
     elif f.kind == "low_information":
         text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
     elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):

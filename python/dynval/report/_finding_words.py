@@ -27,8 +27,6 @@ UNITS = {
     "whiteness": "max |ρ̂(ℓ)|",
     "processing_band": "share of residual variance",
     "missing_physics": "share of the joint's mean square the physical terms remove",
-    "delay": "share of the joint's mean square realigning removes",
-    "delay_phase": "degrees of phase lag at the information band's edge",
     "structural": "structural columns",
     "columns": "columns",
     "condition": "column-scaled condition number",
@@ -365,42 +363,10 @@ def _coupling_terms(group: str, name: str) -> str:
     return "the other joints' terms"
 
 
-def _pct(share: float) -> str:
+def percent(share: float) -> str:
     """A share in per cent with the digits a reader needs: ``98 %``, ``4.2 %``, ``0.56 %``."""
     x = 100.0 * share
     return f"{x:.0f} %" if abs(x) >= 10 else f"{x:.2g} %"
-
-
-def delay(shift: float, sample_rate: float | None, shares: Sequence[tuple[str, float]], padj: float, *,
-          phase: float | None = None, band: float | None = None, phase_threshold: float = 10.0, big: bool = True,
-          masked: Sequence[tuple[str, float, float]] = ()) -> Words:
-    """``shift`` in samples; ``shares``: (joint, share of its mean square realigning removes);
-    ``phase``: the lag in degrees at the information band's edge ``band`` (Hz with a rate, else
-    cycles/sample); ``masked``: (joint, realigning's share, the physical terms' share) where a
-    missing term explains more than the shift."""
-    unit, value = ("ms", 1000.0 * shift / sample_rate) if sample_rate else ("samples", shift)
-    # > 0: the torque sensor lags the encoders; < 0: the encoders lag the torque
-    verb, side = ("lags", "lag") if shift > 0 else ("leads", "lead")
-    size = f"{abs(value):.3g} {unit}" + (f" ({abs(shift):.3g} samples)" if sample_rate else "")
-    lag = ("" if phase is None else
-           f", a {phase:.3g}° phase {side} at the information band's edge "
-           f"({band:.3g} {'Hz' if sample_rate else 'cycles/sample'})")
-    each = "; ".join(f"{name} {_pct(share)}" for name, share in shares)
-    head = (f"The measured torque {verb} the prediction by {size}{lag} (realigning removes {each} of the mean square; "
-            f"Holm-adjusted p {p_text(padj)})")
-    if big:
-        why = (f"large for control (at least {phase_threshold:g}° at the band's edge)" if phase is not None
-               and phase >= phase_threshold else "it removes a practical share of the error")
-        return (head + f": a delay between the torque sensor and the encoders, not a missing term; {why}.",
-                f"realign the measured torque with the encoders (shift it by {value:+.3g} {unit}), or model the "
-                "sensor's filter")
-    if masked:
-        terms = "; ".join(f"{name} {_pct(lib)} against {_pct(sh)}" for name, sh, lib in masked)
-        return (head + f". The physical terms explain more of these joints' error than the shift ({terms}): the "
-                "shift may be the missing term's (a missing viscous term looks like a delay); check the logs' "
-                "alignment once the term is in the model.", "none on this evidence: see the missing terms first")
-    return (head + f": real, but below the {phase_threshold:g}° at the band's edge that matters for control and the "
-            "share that matters for the error.", "none: the delay is real but small")
 
 
 # -- the design ---------------------------------------------------------------------------------

@@ -24,6 +24,8 @@ from ..statistics._stats import correlation_pvalue, holm
 from . import _finding_words as w
 from .kinds import KINDS as _DECLARED_KINDS
 from .kinds._base import Context, Evidence, Finding, Thresholds, declared_thresholds, worded
+from .kinds._evidence import delay_explains as _delay_explains
+from .kinds._evidence import term_effect as _term_effect
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -43,9 +45,6 @@ _LISTED = {
                        "its filters and the sampling rate, not the model",
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
-    "delay": "the measured torque lags (or leads) the prediction: reported whenever significant, with the phase lag "
-             "at the information band's edge; a deficiency when realigning removes a practical share of the error "
-             "or the phase lag matters for control",
     "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned, or a joint moves "
                   "far less than in the estimation run",
     "low_information": "the run has too few effective samples to detect a term of practical size",
@@ -564,90 +563,10 @@ def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tu
     return out, bad
 
 
-def _term_effect(t: dict[str, Any]) -> float:
-    """The named term's share of the joint's mean square, out of sample: refitted with the model on
-    the estimation run and carried to validation, or (a fallback refit on this run) cross-fitted on
-    it; from the validation test alone, what it adds to the model's columns cross-fitted (what
-    re-identifying them gains when the model spans it), or its own effect alone cross-fitted when
-    the columns are unknown. Coloured noise a term fits by chance does not carry to held-out rows."""
-    if t.get("refit_run") in ("estimation", "validation"):
-        return float(t["term_share"])
-    rel = t.get("relation")
-    if rel is not None:
-        value = (rel["reweight_share"] if rel.get("relation") in ("reweight", "unsupported")
-                 else t.get("carried_share"))
-    else:
-        value = t.get("heldout_share")
-    value = float("nan") if value is None else float(value)
-    return value if value == value else float(t["term_share"])
-
-
 def _derivative_words(physics: dict[str, Any]) -> str:
     from ._motion import source_text
 
     return source_text(str(physics.get("derivative_source", "savgol")))
-
-
-def _delay_explains(ev: Evidence, j: int) -> bool:
-    """Realigning removes at least as much of joint j's mean square as the physical terms: the
-    structure is a time shift, not a missing term (a missing viscous term looks like a small shift)."""
-    dl = ev.physics.get("delay") if ev.physics else None
-    if dl is None:
-        return False
-    share = float(dl["share"][j])
-    lib = ev.physics["tests"][j]["share"]
-    return bool(share >= (lib if lib == lib else 0.0))
-
-
-def _phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:
-    """The phase lag (degrees) a shift of ``shift`` samples makes at the information band's edge,
-    and that edge in cycles per sample; (None, None) without an information band."""
-    band = ev.information_band
-    if band is None or not math.isfinite(float(band)) or band <= 0:
-        return None, None
-    per_sample = float(band) / float(ev.sample_rate) if ev.frequency_unit == "Hz" and ev.sample_rate else float(band)
-    return 360.0 * per_sample * abs(shift), per_sample
-
-
-def _delay_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    """One finding for a common delay, whenever its test rejects on some joint (conventions §5.2):
-    a deficiency on the joints whose shift explains at least what the physical terms do there and
-    whose realignment removes the ``delay`` share, or the ``missing_term`` share with a phase lag at
-    the information band's edge of at least ``delay_phase`` degrees; a note otherwise (a small lag,
-    or a missing term that explains more of the joint's error than the shift: a missing viscous
-    term looks like a delay)."""
-    p, padj = pvalues
-    dl = ev.physics["delay"]
-    share = np.asarray(dl["share"], dtype=float)
-    d = float(dl["shift_samples"])
-    # a joint whose error realigning does not reduce holds no evidence of the delay
-    significant = [j for j in range(share.size) if padj[j] <= alpha and share[j] > 0]
-    if not significant or d == 0.0:
-        return [], set()
-    phase, edge = _phase_lag(ev, d)
-    lag_matters = phase is not None and phase >= th.delay_phase
-    explains = [j for j in significant if _delay_explains(ev, j)]
-    # the phase decides where realigning moves at least the share a missing term is worth: below
-    # it the lag is not resolved by the data, and the band's edge may be the prediction's own steps
-    big = [j for j in explains if share[j] >= th.delay or (lag_matters and share[j] >= th.missing_term)]
-    joints = big or significant
-    fs = ev.sample_rate
-    j0 = max(joints, key=lambda j: share[j])
-    shares = [(w.joint_name(ev.joint_names, j), float(share[j])) for j in joints]
-    masked = [] if big else [(w.joint_name(ev.joint_names, j), float(share[j]), float(ev.physics["tests"][j]["share"]))
-                             for j in significant if j not in explains]
-    band = None if edge is None else (edge * fs if fs else edge)
-    return [_worded(
-        w.delay(d, fs, shares, float(padj[j0]), phase=phase, band=band, phase_threshold=th.delay_phase,
-                big=bool(big), masked=masked),
-        kind="delay", severity="deficiency" if big else "note", joints=tuple(joints), statistic=d,
-        pvalue=float(p[j0]), pvalue_adjusted=float(padj[j0]),
-        effect=float(share[j0]) if phase is None else float(phase),
-        effect_unit=w.UNITS["delay"] if phase is None else w.UNITS["delay_phase"],
-        threshold=th.delay if phase is None else th.delay_phase,
-        details={"delay_s": d / fs if fs else None, "delay_samples": d, "share": [float(x) for x in share],
-                 "phase_deg": phase, "band_edge": band, "band_unit": "Hz" if fs else "cycles/sample",
-                 "significant": significant, "explains": explains})], set(big)
 
 
 def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
@@ -753,7 +672,7 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
 
 _RULES = ((200, _bias_rule),
           (300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
-          (600, _motion_rule("physics", _physics_findings)), (610, _motion_rule("delay", _delay_findings)),
+          (600, _motion_rule("physics", _physics_findings)),
           (700, _whiteness_rule), (810, _validation_design_rule))
 """The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
 take their places among these): after the notes on the data (10–40) and the fit (100, 110), bias (200),
@@ -762,7 +681,7 @@ whiteness (700), and after the repeat (800) the validation design (810)."""
 
 ORDER = {"bias": 200, "regressor_correlation": 300,
          "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
-         "delay": 610, "sampling_colour": 700, "whiteness": 700,
+         "sampling_colour": 700, "whiteness": 700,
          "excitation": 810, "low_information": 810, "physical_consistency": 900}
 """The place of each kind of this module's rules (``physical_consistency``'s findings come from the
 model's parameters, outside the rules: last)."""
