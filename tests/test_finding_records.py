@@ -22,6 +22,7 @@ from statsmodels.stats.multitest import multipletests
 from dynval.checks._validation import InvalidParameter
 from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
+from dynval.report.kinds import bias as bias_kind
 from dynval.report.kinds import constant_target as constant_target_kind
 from dynval.report.kinds import delay as delay_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
@@ -136,9 +137,9 @@ def test_bias_records_deficiency_at_the_threshold_and_note_below():
     assert _record(at) == _blank(kind="bias", severity="deficiency", joints=(0,), statistic=5.0, pvalue=1e-6,
                                  pvalue_adjusted=pytest.approx(padj[0]), effect=0.25, effect_unit="|mean| / RMSE",
                                  threshold=0.25, details={"mean": 0.25, "n_eff": 400.0})
-    _worded(at, w.bias("shoulder", 0.25, 0.25, 0.25, 400.0, 1000, padj[0], True, None))
+    _worded(at, bias_kind.words("shoulder", 0.25, 0.25, 0.25, 400.0, 1000, padj[0], True, None))
     assert _record(below)["severity"] == "note" and below.statistic == -4.0 and below.effect == pytest.approx(0.2)
-    _worded(below, w.bias("elbow", -0.2, 0.2, 0.25, 300.0, 1000, padj[1], False, None))
+    _worded(below, bias_kind.words("elbow", -0.2, 0.2, 0.25, 300.0, 1000, padj[1], False, None))
 
 
 def test_bias_culprit_named_in_columns_and_words():
@@ -149,7 +150,7 @@ def test_bias_culprit_named_in_columns_and_words():
              missing_pvalue=np.array([[0.9, 0.9]]))
     (b,) = _of(compute_findings(ev), "bias")
     assert b.columns == (2,)  # the larger share of the two that account for the mean
-    _worded(b, w.bias("shoulder", 0.5, 0.5, 0.25, 400.0, 1000, b.pvalue_adjusted, True, ("c", 0.04)))
+    _worded(b, bias_kind.words("shoulder", 0.5, 0.5, 0.25, 400.0, 1000, b.pvalue_adjusted, True, ("c", 0.04)))
 
 
 # ----------------------------------------------------------------------------- the missing terms

@@ -65,9 +65,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
                 f"{e} ≥ {t}): " + _column_relation(f))
-    elif f.kind == "bias":
-        text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
-                + (f", which the missing term {cols[0]} accounts for" if cols else ""))
     elif f.kind == "oscillation":
         text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
                 f"({e} of the residual variance ≥ {t})")

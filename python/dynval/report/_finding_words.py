@@ -18,7 +18,6 @@ Words = tuple[str, str]
 """``(message, action)`` of one finding."""
 
 UNITS = {
-    "bias": "|mean| / RMSE",
     "missing_term": "share of the residual's mean square the term would remove",
     "correlation": "|ρ|",
     "oscillation": "share of residual variance",
@@ -69,34 +68,6 @@ def listed_columns(cols: Sequence[str] | None, columns: Sequence[int], most: int
 # -- the data -----------------------------------------------------------------------------------
 
 # -- the fit ------------------------------------------------------------------------------------
-
-def bias(name: str, mean: float, effect: float, threshold: float, n_eff: float, n: int, padj: float, big: bool,
-         culprit: tuple[str, float] | None, kinds: Mapping[str, bool | None] | None = None,
-         term: tuple[str, str, str] | None = None) -> Words:
-    """``culprit``: the missing column that accounts for the mean, and its share; ``kinds``: which of
-    an offset, a friction and a gravity term the model has (:func:`bias_action`); ``term``: (group,
-    label, relation) of a physical term the model lacks on the joint, whose mean the bias is."""
-    pct = versus(effect, threshold, ".0f", scale=100.0)
-    head = (f"{name}: residual mean {mean:+.4g} ({pct[0]} % of the RMSE; coloured-noise t-test N_eff = {n_eff:.0f} "
-            f"of {n}, Holm-adjusted p {p_text(padj)})")
-    if not big:
-        return (head + f": significant but negligible (below {pct[1]} % of the RMSE).",
-                "none: the bias is real but too small to matter")
-    tail = f"; the missing term {culprit[0]} accounts for it." if culprit else "."
-    if culprit is not None:
-        action = (f"add the term {culprit[0]} on {name}: without it the model leaves this offset "
-                  f"({100 * culprit[1]:.1f} % of the mean square is its part outside the model)")
-    elif term is not None:
-        group, label, relation = term
-        tail = f"; the physical term the model lacks on this joint ({label}, see below) accounts for it."
-        action = (f"add the coupling (cross-joint) terms of {label} on {name}: {_coupling_terms(group, name)}"
-                  if relation == "coupling" else
-                  f"complete {label} on {name}: add {_PARTIAL.get(group, 'the form it lacks')}"
-                  if relation == "partial" else f"add {label} on {name}: the bias is its mean on this trajectory")
-    else:
-        action = bias_action(name, kinds)
-    return head + ": a systematic bias, e.g. a missing offset, friction or gravity term" + tail, action
-
 
 BIAS_KINDS = (("offset", "a torque offset (sensor bias)"), ("friction", "a friction"), ("gravity", "a gravity term"))
 
@@ -286,17 +257,17 @@ def missing_physics(name: str, label: str, others: Sequence[str], together: floa
         return (head + f": the model has {label} of {name}'s own motion but not its coupling to the other joints: "
                 f"the cross-joint columns lie outside its span and remove {held} (a decoupled model of a coupled "
                 "arm).",
-                f"add the coupling (cross-joint) terms of {label} on {name}: {_coupling_terms(rel['group'], name)}")
+                f"add the coupling (cross-joint) terms of {label} on {name}: {coupling_terms(rel['group'], name)}")
     if kind == "partial":
         return (head + f": the model has part of this term ({rel['own_in_span']} of its {rel['own_columns']} own "
                 f"columns lie in the span of its columns); what lies outside removes {held}: another shape of it.",
                 f"complete {label} on {name}: the model has part of it; add "
-                + _PARTIAL.get(rel["group"], "the form it lacks"))
+                + PARTIAL_FORMS.get(rel["group"], "the form it lacks"))
     return (head + f": a term the model lacks (outside the span of its columns on this joint; it removes {held}).",
             f"add {label} on {name} to the model")
 
 
-_PARTIAL = {"coulomb": "the friction shape it lacks (a smooth sign or a Stribeck term)",
+PARTIAL_FORMS = {"coulomb": "the friction shape it lacks (a smooth sign or a Stribeck term)",
             "gravity": "the posture terms it lacks (a centre-of-mass component)",
             "position_harmonic": "the position harmonics it lacks",
             "inertia": "the acceleration terms it lacks"}
@@ -355,7 +326,7 @@ def _coefficients(advice: Mapping[str, Any]) -> str:
     return "; ".join(parts) if parts else "its coefficients differ"
 
 
-def _coupling_terms(group: str, name: str) -> str:
+def coupling_terms(group: str, name: str) -> str:
     if group == "gravity":
         return f"the posture terms sin/cos(q_i + … + q_k) of the link-angle chains through {name}"
     if group == "inertia":

@@ -35,7 +35,6 @@ SEVERITIES = ("deficiency", "design", "note")
 ``note``: information, including significant but negligible effects."""
 
 _LISTED = {
-    "bias": "a residual mean that is significant (coloured-noise t-test) and large relative to the RMSE",
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
     "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
     "prediction_artefact": "a narrow spectral peak in the residual that the prediction holds more of than the "
@@ -75,36 +74,6 @@ def resolve_thresholds(value: object) -> Thresholds:
         given = tuple((k, float(x)) for k, x in value.items() if k in declared)
         return replace(Thresholds(), **{k: float(x) for k, x in value.items() if k in own}, declared=given)
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
-
-
-def _bias_culprit(ev: Evidence, j: int, th: Thresholds):
-    """The column outside the model whose absence best explains joint j's bias, if any.
-
-    A term the model lacks shows as an offset on a new trajectory: the column must account for the
-    joint's mean (``missing_explains_bias``) and remove at least the missing-term share of its mean
-    square. Descriptive: the bias itself is the tested quantity.
-    """
-    if ev.missing_share is None or ev.missing_explains_bias is None:
-        return None
-    share = np.asarray(ev.missing_share[j], dtype=float)
-    agree = np.asarray(ev.missing_explains_bias[j], dtype=bool)
-    with np.errstate(invalid="ignore"):
-        ok = np.flatnonzero(agree & (share >= th.missing_term))
-    if ok.size == 0:
-        return None
-    k = int(ok[np.argmax(share[ok])])
-    return int(ev.missing_columns[k]), float(share[k])
-
-
-def _bias_kinds(ev: Evidence, j: int) -> dict[str, bool | None] | None:
-    """Which of an offset, a friction and a gravity term the model's columns span on joint j (None
-    for a kind the evidence cannot tell, e.g. friction without q); None when the columns are unknown."""
-    if ev.model_kinds is None or j >= len(ev.model_kinds):
-        return None
-    k = ev.model_kinds[j]
-    friction = [k[g] for g in ("coulomb", "viscous") if g in k]
-    return {"offset": k.get("offset"), "friction": (any(friction) if friction else None),
-            "gravity": k.get("gravity")}
 
 
 def _column_in_model(ev: Evidence, c: int) -> bool | None:
@@ -188,56 +157,6 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
 def _worded(words: w.Words, **record: Any) -> Finding:
     """A finding with its message and action."""
     return worded(words, **record)
-
-def _bias_rule(r: Context) -> list[Finding]:
-    """A residual mean beyond its coloured-noise standard error, and the missing term it comes from."""
-    ev, th = r.ev, r.th
-    if "bias" not in r.fam:
-        return []
-    p, padj = r.fam["bias"]
-    mean = np.asarray(ev.mean, dtype=float)
-    rmse = np.asarray(ev.rmse, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        effect = np.abs(mean) / rmse
-    out: list[Finding] = []
-    for j in range(len(ev.r2)):
-        if not (padj[j] <= r.alpha):
-            continue
-        big = bool(effect[j] >= th.bias)
-        if big:
-            r.deficient.add(j)
-        culprit = _bias_culprit(ev, j, th)
-        named = None if culprit is None else (r.column(culprit[0]), culprit[1])
-        term = None if culprit is not None else _bias_term(r, j)
-        out.append(_worded(
-            w.bias(r.name(j), float(mean[j]), float(effect[j]), th.bias, float(ev.n_eff[j]), ev.n_samples,
-                   float(padj[j]), big, named, _bias_kinds(ev, j), term),
-            kind="bias", severity="deficiency" if big else "note", joints=(j,),
-            columns=() if culprit is None else (culprit[0],),
-            statistic=float(ev.bias_statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
-            effect=float(effect[j]), effect_unit=w.UNITS["bias"], threshold=th.bias,
-            details={"mean": float(mean[j]), "n_eff": float(ev.n_eff[j]),
-                     **({} if term is None else {"term": term[0], "relation": term[2]})}))
-    return out
-
-
-def _bias_term(r: Context, j: int) -> tuple[str, str, str] | None:
-    """The physical term the library finds on joint j, when the model lacks it (missing, its
-    coupling, or a part of it) and it is a practical deficiency there: (group, label, relation). A
-    term the model lacks shows on a new trajectory as an offset too, and is what to change."""
-    from ..statistics._physics import LABELS
-
-    ev = r.ev
-    if ev.physics is None or "physics" not in r.fam or _delay_explains(ev, j):
-        return None
-    t = ev.physics["tests"][j]
-    rel = (t.get("relation") or {}).get("relation")
-    if t["term"] is None or rel not in ("missing", "coupling", "partial") or not r.fam["physics"][1][j] <= r.alpha:
-        return None
-    if not (t["share"] >= r.th.missing_physics and _term_effect(t) >= r.th.missing_physics):
-        return None
-    return t["term"], LABELS[t["term"]], rel
-
 
 def _missing_term_rule(r: Context) -> list[Finding]:
     """A column the model lacks: the residual against the part of it the model cannot represent."""
@@ -670,8 +589,7 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
                  "unresolved": sorted(int(j) for j in unresolved if j in low)})]
 
 
-_RULES = ((200, _bias_rule),
-          (300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
+_RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
           (600, _motion_rule("physics", _physics_findings)),
           (700, _whiteness_rule), (810, _validation_design_rule))
 """The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
@@ -679,7 +597,7 @@ take their places among these): after the notes on the data (10–40) and the fi
 missing columns (300), correlations (400), the spectrum (500), the motion (600, 610; then 620, 630),
 whiteness (700), and after the repeat (800) the validation design (810)."""
 
-ORDER = {"bias": 200, "regressor_correlation": 300,
+ORDER = {"regressor_correlation": 300,
          "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
          "sampling_colour": 700, "whiteness": 700,
          "excitation": 810, "low_information": 810, "physical_consistency": 900}
