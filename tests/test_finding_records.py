@@ -26,11 +26,15 @@ from dynval.report.kinds import bias as bias_kind
 from dynval.report.kinds import constant_target as constant_target_kind
 from dynval.report.kinds import delay as delay_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
+from dynval.report.kinds import oscillation as oscillation_kind
 from dynval.report.kinds import periodic_error as periodic_error_kind
 from dynval.report.kinds import pooling as pooling_kind
 from dynval.report.kinds import predictive_failure as predictive_failure_kind
+from dynval.report.kinds import processing_band as processing_band_kind
 from dynval.report.kinds import repeat_trajectory as repeat_trajectory_kind
+from dynval.report.kinds import sampling_colour as sampling_colour_kind
 from dynval.report.kinds import time_stamps as time_stamps_kind
+from dynval.report.kinds import whiteness as whiteness_kind
 from dynval.report.kinds import worse_than_constant as worse_than_constant_kind
 from dynval.statistics._physics import LABELS
 from dynval.statistics._stats import correlation_pvalue
@@ -265,9 +269,9 @@ def test_oscillation_record_at_and_below_the_threshold():
                                        pvalue=1e-9, pvalue_adjusted=pytest.approx(padj[10, 0]), effect=0.05,
                                        effect_unit="share of residual variance", threshold=0.05,
                                        details={"frequency": 5.0, "frequency_unit": "Hz", "n_peaks": 1})
-    _worded(found[0], w.oscillation("shoulder", 5.0, "Hz", 0.05, 12.0, padj[10, 0], True))
+    _worded(found[0], oscillation_kind.words("shoulder", 5.0, "Hz", 0.05, 12.0, padj[10, 0], True))
     assert found[1].severity == "note"
-    _worded(found[1], w.oscillation("elbow", 5.0, "Hz", 0.0499, 12.0, padj[10, 1], False))
+    _worded(found[1], oscillation_kind.words("elbow", 5.0, "Hz", 0.0499, 12.0, padj[10, 1], False))
 
 
 def test_oscillation_needs_a_local_maximum_and_names_the_largest_share():
@@ -290,7 +294,7 @@ def test_a_peak_above_the_bandwidth_is_a_processing_note():
                                 pvalue_adjusted=pytest.approx(padj), effect=0.3,
                                 effect_unit="share of residual variance", threshold=4.0,
                                 details={"evidence": "oscillation", "bandwidth": 4.0, "frequency": 5.0})
-    _worded(f, w.processing_band("shoulder", 5.0, 4.0, padj))
+    _worded(f, processing_band_kind.words("shoulder", 5.0, 4.0, padj))
     ev.bandwidth = 5.0  # at the bandwidth: still the model's
     assert _of(compute_findings(ev), "oscillation")
 
@@ -314,7 +318,7 @@ def test_whiteness_record_at_the_logged_rate():
     assert _record(f) == _blank(kind="whiteness", severity="note", joints=(0,), pvalue=1e-6,
                                 pvalue_adjusted=pytest.approx(padj[0]), effect=0.3, effect_unit="max |ρ̂(ℓ)|",
                                 details={"lag": 20, "decimation": 1})
-    _worded(f, w.whiteness("shoulder", False, 20, padj[0], False))
+    _worded(f, whiteness_kind.words("shoulder", False, 20, padj[0], False))
     ev.max_abs_acf = None
     assert _of(compute_findings(ev), "whiteness")[0].effect is None
 
@@ -331,13 +335,13 @@ def test_whiteness_at_the_information_rate_and_sampling_colour():
     padj = fam["whiteness"][1]
     assert (wh.joints, wh.pvalue, wh.severity) == ((0,), 1e-7, "note")
     assert wh.details == {"lag": 20, "decimation": 4}
-    _worded(wh, w.whiteness("shoulder", True, 20, padj[0], False))
+    _worded(wh, whiteness_kind.words("shoulder", True, 20, padj[0], False))
     (sc,) = _of(found, "sampling_colour")
     assert _record(sc) == _blank(kind="sampling_colour", severity="note", joints=(1,), pvalue=0.5,
                                  pvalue_adjusted=pytest.approx(padj[1]), effect=4.0,
                                  effect_unit="decimation factor",
                                  details={"information_band": 0.1, "frequency_unit": "cycles/sample"})
-    _worded(sc, w.sampling_colour("elbow", 0.1, "cycles/sample", 4))
+    _worded(sc, sampling_colour_kind.words("elbow", 0.1, "cycles/sample", 4))
     # the whiteness family is the decimated test when there is one
     np.testing.assert_array_equal(fam["whiteness"][0], [1e-7, 0.5, 0.5])
 
@@ -351,10 +355,10 @@ def test_whiteness_above_the_bandwidth_is_a_processing_note_unless_the_joint_is_
     assert _record(pb) == _blank(kind="processing_band", severity="note", joints=(0,), pvalue=1e-6,
                                  pvalue_adjusted=pytest.approx(padj[0]), threshold=10.0, effect_unit=None,
                                  details={"evidence": "whiteness", "bandwidth": 10.0, "frequency": None})
-    _worded(pb, w.processing_band("shoulder", None, 10.0, padj[0]))
+    _worded(pb, processing_band_kind.words("shoulder", None, 10.0, padj[0]))
     (wh,) = _of(found, "whiteness")
     assert (wh.joints, wh.severity) == ((1,), "deficiency")
-    _worded(wh, w.whiteness("elbow", False, 20, padj[1], True))
+    _worded(wh, whiteness_kind.words("elbow", False, 20, padj[1], True))
 
 
 # -------------------------------------------------------------------------------------- the motion

@@ -65,19 +65,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
                 f"{e} ≥ {t}): " + _column_relation(f))
-    elif f.kind == "oscillation":
-        text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
-                f"({e} of the residual variance ≥ {t})")
-    elif f.kind == "prediction_artefact":
-        unit = f.details.get("frequency_unit", "")
-        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {unit} "
-                f"({e} of the residual variance ≥ {t}; the prediction holds "
-                f"{_g(f.details.get('line_power_prediction'), '.2g')} there, the measured torque "
-                f"{_g(f.details.get('line_power_measured'), '.2g')})")
-    elif f.kind == "whiteness":
-        rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
-        text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
-                "findings above on this joint")
     elif f.kind == "missing_physics":
         label = f.details.get("label") or f.details.get("term") or "a physical term"
         what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")

@@ -20,11 +20,6 @@ Words = tuple[str, str]
 UNITS = {
     "missing_term": "share of the residual's mean square the term would remove",
     "correlation": "|ρ|",
-    "oscillation": "share of residual variance",
-    "prediction_artefact": "share of residual variance",
-    "sampling_colour": "decimation factor",
-    "whiteness": "max |ρ̂(ℓ)|",
-    "processing_band": "share of residual variance",
     "missing_physics": "share of the joint's mean square the physical terms remove",
     "structural": "structural columns",
     "columns": "columns",
@@ -142,62 +137,6 @@ def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], thr
                 f"add or re-weight the term of {hits[0][0]} on {name}: the model does not use the information in it")
     return (head + f": significant but negligible (|ρ| below {versus(best, threshold)[1]}).",
             "none: the correlation is real but too small to matter")
-
-
-def oscillation(name: str, frequency: float, unit: str, share: float, ratio: float, padj: float, big: bool) -> Words:
-    return (f"{name}: the residual oscillates near {frequency:.3g} {unit} ({100 * share:.0f} % of its variance, "
-            f"{ratio:.0f}× the background; Holm-adjusted p {p_text(padj)})"
-            + (": dynamics the model lacks, e.g. a flexible joint or link (an unmodelled mode)." if big
-               else NEGLIGIBLE),
-            f"an unmodelled mode near {frequency:.3g} {unit}: add joint or link compliance (a spring–damper) or keep "
-            "trajectories away from it" if big else "none: the peak is real but small")
-
-
-def prediction_artefact(name: str, frequency: float, unit: str, share: float, ratio: float, padj: float, big: bool,
-                        predicted: float, measured: float) -> Words:
-    """``predicted``, ``measured``: the line's power in the prediction and in the measured torque."""
-    return (f"{name}: the residual's line near {frequency:.3g} {unit} is the prediction's own: the prediction holds "
-            f"{predicted:.2g} (squared torque units) there, the measured torque {measured:.2g} ({100 * share:.0f} % of "
-            f"the residual's variance, {ratio:.0f}× the background; Holm-adjusted p {p_text(padj)})"
-            + (": the model makes a line the robot does not have, not an unmodelled mode (e.g. a friction model's "
-               "sign(q̇) chattering at standstill)." if big else NEGLIGIBLE),
-            f"smooth what makes the model's line near {frequency:.3g} {unit}: e.g. the model's sign(q̇) chatters at "
-            "standstill: smooth the friction model's sign (tanh(q̇/v₀)) or hold it in a stiction band; do not add "
-            "compliance" if big else "none: the line is the model's own, but small")
-
-
-def sampling_colour(name: str, band: float | None, unit: str, decimation: int) -> Words:
-    """``band``: the information band the decimation came from; None for a factor given as is."""
-    reduced = (f"reduced to the band the motion occupies (below {band:.3g} {unit}, decimated by {decimation})"
-               if band is not None else f"decimated by {decimation} (the factor given)")
-    return (f"{name}: the residual is coloured at the logged rate but white once {reduced}: the colour is what the "
-            "sensor, its filters and the sampling make, not the model.",
-            "none for the model; test at the rate the motion needs (decimate=) or log less filtered data")
-
-
-def whiteness(name: str, decimated: bool, lag: int | None, padj: float, backed: bool) -> Words:
-    """``backed``: an earlier rule found the joint deficient."""
-    rate = ("at the rate the motion needs (the information rate)" if decimated
-            else "at the logged rate")
-    return (f"{name}: the residuals are correlated in time (not white) {rate} (Ljung–Box up to lag {lag}, "
-            f"Holm-adjusted p {p_text(padj)})"
-            + (", and the findings above show the structure is the model's." if backed
-               else "; colour alone is not evidence against the model (sensor filtering, oversampling and "
-                    "estimation error colour residuals too)."),
-            "see the findings above for the structure's source" if backed
-            else "none on this evidence: colour alone does not show the model is wrong")
-
-
-def processing_band(name: str, frequency: float | None, bandwidth: float, padj: float) -> Words:
-    """Evidence above the inputs' bandwidth: a spectral peak at ``frequency`` Hz, or (None) whiteness."""
-    if frequency is not None:
-        f_text, bw_text = versus(frequency, bandwidth)
-        evidence = f"a spectral peak near {f_text} Hz lies above the inputs' {bw_text} Hz bandwidth"
-    else:
-        evidence = (f"the residual's colour, tested at a rate whose band reaches above the inputs' "
-                    f"{bandwidth:.3g} Hz bandwidth,")
-    return (f"{name}: {evidence} (Holm-adjusted p {p_text(padj)}): what the differentiating or sensor filter makes "
-            "there is processing, not the model.", "none for the model: the inputs are not trustworthy there")
 
 
 # -- the motion ---------------------------------------------------------------------------------

@@ -36,19 +36,11 @@ SEVERITIES = ("deficiency", "design", "note")
 
 _LISTED = {
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
-    "oscillation": "a narrow spectral peak in the residual (after removing what the regressor explains)",
-    "prediction_artefact": "a narrow spectral peak in the residual that the prediction holds more of than the "
-                           "measured torque: the model makes the line (e.g. sign(q̇) chattering at standstill)",
-    "whiteness": "the residual is not white (Ljung–Box); a deficiency only together with evidence above",
-    "sampling_colour": "the residual's colour lies above the band the motion occupies: it is the sensor, "
-                       "its filters and the sampling rate, not the model",
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
     "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned, or a joint moves "
                   "far less than in the estimation run",
     "low_information": "the run has too few effective samples to detect a term of practical size",
-    "processing_band": "spectral or whiteness evidence above the band in which the inputs are trustworthy "
-                       "(``bandwidth``): the processing, not the model",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
 """The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
@@ -265,82 +257,6 @@ def _simulator_values(ev: Evidence, j: int, c: int) -> tuple[float, float] | Non
     return None
 
 
-def _oscillation_rule(r: Context) -> list[Finding]:
-    """A spectral peak standing above the smooth background (a mode), or above the inputs' bandwidth."""
-    ev, th = r.ev, r.th
-    if "spectrum" not in r.fam:
-        return []
-    p, padj = r.fam["spectrum"]
-    freq = np.asarray(ev.spectrum_frequency, dtype=float)
-    share = np.asarray(ev.spectrum_share, dtype=float)
-    is_peak = np.asarray(ev.spectrum_is_peak, dtype=bool)
-    unit = ev.frequency_unit
-    out: list[Finding] = []
-    for j in range(p.shape[1]):
-        sig = np.flatnonzero((padj[:, j] <= r.alpha) & is_peak[:, j])
-        if sig.size == 0:
-            continue
-        b = int(sig[np.argmax(share[sig, j])])
-        f = float(freq[b])
-        if ev.bandwidth is not None and f > ev.bandwidth:
-            out.append(_processing_note(ev, j, "oscillation", f, float(p[b, j]), float(padj[b, j]),
-                                        float(share[b, j])))
-            continue
-        big = bool(share[b, j] >= th.oscillation)
-        if big:
-            r.deficient.add(j)
-        sides = _line_sides(ev, b, j)
-        if sides is not None and sides[1] - sides[0] > 0.5 * sides[2]:
-            out.append(_prediction_artefact(r, j, b, f, sides, p, padj, big))
-            continue
-        out.append(_worded(
-            w.oscillation(r.name(j), f, unit, float(share[b, j]), float(ev.spectrum_ratio[b, j]),
-                          float(padj[b, j]), big),
-            kind="oscillation", severity="deficiency" if big else "note", joints=(j,),
-            statistic=float(ev.spectrum_ratio[b, j]), pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]),
-            effect=float(share[b, j]), effect_unit=w.UNITS["oscillation"], threshold=th.oscillation,
-            details={"frequency": f, "frequency_unit": unit, "n_peaks": int(sig.size)}))
-    return out
-
-
-def _line_sides(ev: Evidence, b: int, j: int) -> tuple[float, float, float] | None:
-    """The measured torque's, the prediction's and the residual's power in the line at bin ``b`` of
-    joint ``j`` (the five bins a Hann-windowed line spreads over, times the bin width): squared torque
-    units.
-
-    The rule reads the difference of the first two against the third (conventions §5.2): a line S
-    in one side moves that side's power by |S|² ≈ the residual's, give or take the cross term
-    2 Re(B̄S) with the torque B both sides share, which Welch's averaging shrinks but does not remove
-    where the robot's own torque is large at the line. Half the residual's line is the midpoint of
-    the two answers; nearer zero (or all three underflowed to 0) the sides cannot tell, and the line
-    stays an oscillation."""
-    pm, pp, pr = ev.spectrum_power_measured, ev.spectrum_power_prediction, ev.spectrum_power
-    if pm is None or pp is None or pr is None:
-        return None
-    freq = np.asarray(ev.spectrum_frequency, dtype=float)
-    df = float(freq[1] - freq[0]) if freq.size > 1 else 1.0
-    lo, hi = max(b - 2, 0), b + 3
-    return tuple(float(np.sum(x[lo:hi, j]) * df) for x in (pm, pp, pr))  # type: ignore[return-value]
-
-
-def _prediction_artefact(r: Context, j: int, b: int, f: float, sides: tuple[float, float, float], p, padj,
-                         big: bool) -> Finding:
-    """A residual line the prediction holds more of than the measured torque: the model makes it
-    (a friction model's sign(q̇) chattering at standstill), not a mode the robot has."""
-    ev, th = r.ev, r.th
-    share = float(ev.spectrum_share[b, j])
-    ratio = float(ev.spectrum_ratio[b, j])
-    measured, predicted, _ = sides
-    return _worded(
-        w.prediction_artefact(r.name(j), f, ev.frequency_unit, share, ratio, float(padj[b, j]), big, predicted,
-                              measured),
-        kind="prediction_artefact", severity="deficiency" if big else "note", joints=(j,), statistic=ratio,
-        pvalue=float(p[b, j]), pvalue_adjusted=float(padj[b, j]), effect=share,
-        effect_unit=w.UNITS["prediction_artefact"], threshold=th.oscillation,
-        details={"frequency": f, "frequency_unit": ev.frequency_unit, "line_power_prediction": predicted,
-                 "line_power_measured": measured})
-
-
 def _motion_rule(family: str, rule: Any) -> Any:
     """A rule that reads the motion (missing physics, delay, predictive failure, periodic error):
     its findings, and the joints it calls deficient."""
@@ -383,59 +299,10 @@ def _unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[in
     return out
 
 
-def _whiteness_rule(r: Context) -> list[Finding]:
-    """Whiteness at the information rate: a deficiency only on a joint an earlier rule found deficient."""
-    ev = r.ev
-    if "whiteness" not in r.fam:
-        return []
-    _, padj = r.fam["whiteness"]
-    raw = np.asarray(ev.whiteness_pvalue_raw, dtype=float)
-    dec = ev.whiteness_pvalue_decimated
-    out: list[Finding] = []
-    for j in range(len(ev.r2)):
-        backed = j in r.deficient
-        if dec is not None and raw[j] <= r.alpha and not (padj[j] <= r.alpha):
-            if not backed:  # a joint shown deficient above: its colour is not the sensor's
-                out.append(_worded(
-                    w.sampling_colour(r.name(j), ev.information_band, ev.frequency_unit, ev.decimation),
-                    kind="sampling_colour", severity="note", joints=(j,), pvalue=float(dec[j]),
-                    pvalue_adjusted=float(padj[j]), effect=float(ev.decimation),
-                    effect_unit=w.UNITS["sampling_colour"],
-                    details={"information_band": ev.information_band, "frequency_unit": ev.frequency_unit}))
-            continue
-        if not (padj[j] <= r.alpha):
-            continue
-        tested = float(dec[j] if dec is not None else raw[j])
-        if ev.whiteness_above_bandwidth and not backed:
-            out.append(_processing_note(ev, j, "whiteness", None, tested, float(padj[j]), None))
-            continue
-        out.append(_worded(
-            w.whiteness(r.name(j), dec is not None, ev.whiteness_lag, float(padj[j]), backed),
-            kind="whiteness", severity="deficiency" if backed else "note", joints=(j,),
-            pvalue=tested, pvalue_adjusted=float(padj[j]),
-            effect=None if ev.max_abs_acf is None else float(ev.max_abs_acf[j]), effect_unit=w.UNITS["whiteness"],
-            details={"lag": ev.whiteness_lag, "decimation": ev.decimation}))
-    return out
-
-
 def _validation_design_rule(r: Context) -> list[Finding]:
     """The validation run's design: excitation, information."""
     return [*_excitation_findings(r.ev, r.th),
             *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
-
-
-def _processing_note(ev: Evidence, j: int, what: str, frequency: float | None, p: float, padj: float,
-                     share: float | None) -> Finding:
-    """Evidence above ``bandwidth`` Hz: the inputs' processing (a differentiating or sensor filter).
-
-    ``frequency``: the spectral peak's (Hz); None for whiteness tested at a rate that still sees
-    above the bandwidth."""
-    assert ev.bandwidth is not None
-    return _worded(
-        w.processing_band(w.joint_name(ev.joint_names, j), frequency, ev.bandwidth, padj),
-        kind="processing_band", severity="note", joints=(j,), pvalue=p, pvalue_adjusted=padj,
-        effect=share, effect_unit=w.UNITS["processing_band"] if share is not None else None,
-        threshold=ev.bandwidth, details={"evidence": what, "bandwidth": ev.bandwidth, "frequency": frequency})
 
 
 def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
@@ -589,23 +456,21 @@ def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[i
                  "unresolved": sorted(int(j) for j in unresolved if j in low)})]
 
 
-_RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule), (500, _oscillation_rule),
+_RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule),
           (600, _motion_rule("physics", _physics_findings)),
-          (700, _whiteness_rule), (810, _validation_design_rule))
-"""The rules still in this module, each with its place (``Kind.order`` of the kinds in ``report/kinds/``
-take their places among these): after the notes on the data (10–40) and the fit (100, 110), bias (200),
-missing columns (300), correlations (400), the spectrum (500), the motion (600, 610; then 620, 630),
-whiteness (700), and after the repeat (800) the validation design (810)."""
+          (810, _validation_design_rule))
+"""The rules still in this module, each with its place; the kinds of ``report/kinds/`` take their places
+among these (``Kind.order``): the data notes (10–40), the fit (100–120), bias (200), missing columns
+(300, here), correlations (400, here), the spectrum (500), the motion (600 here; 610–630), whiteness
+(700), the repeat (800) and the validation design (810, here)."""
 
-ORDER = {"regressor_correlation": 300,
-         "oscillation": 500, "prediction_artefact": 500, "processing_band": 500, "missing_physics": 600,
-         "sampling_colour": 700, "whiteness": 700,
-         "excitation": 810, "low_information": 810, "physical_consistency": 900}
+ORDER = {"regressor_correlation": 300, "missing_physics": 600, "excitation": 810, "low_information": 810,
+         "physical_consistency": 900}
 """The place of each kind of this module's rules (``physical_consistency``'s findings come from the
 model's parameters, outside the rules: last)."""
 
 _ALL_RULES = tuple(rule for _, rule in sorted(
-    [*_RULES, *((k.order, k.rule) for k in _DECLARED_KINDS.values())], key=lambda t: t[0]))
+    [*_RULES, *((k.order, k.rule) for k in _DECLARED_KINDS.values() if k.rule is not None)], key=lambda t: t[0]))
 """Every rule, in the order they run."""
 
 KINDS = {name: description for name, description, _ in sorted(

@@ -317,8 +317,10 @@ class Kind:
     order : int
         Its rule's place among the rules (:data:`dynval.report._findings.ORDER` lists the others'):
         a rule sees what the rules before it found (``Context.deficient``, ``Context.found``).
-    rule : callable
-        ``rule(context) -> list[Finding]``.
+    rule : callable or None
+        ``rule(context) -> list[Finding]``; None for a kind another kind's rule gives (in place of its
+        own finding: ``prediction_artefact`` and ``processing_band`` from ``oscillation``'s,
+        ``sampling_colour`` from ``whiteness``'), whose ``order`` is then that rule's.
     reason : callable or None
         ``reason(finding, column_name) -> str``: its line in ``compare``'s reasons (None: the
         generic line of its name, effect and threshold).
@@ -334,7 +336,7 @@ class Kind:
     name: str
     description: str
     order: int
-    rule: Rule
+    rule: Rule | None
     reason: Reason | None = None
     thresholds: tuple[Threshold, ...] = ()
     percent: bool = False
