@@ -25,6 +25,8 @@ from dynval.report._findings import Evidence, Finding, Thresholds, compute_findi
 from dynval.report.kinds import bias as bias_kind
 from dynval.report.kinds import constant_target as constant_target_kind
 from dynval.report.kinds import delay as delay_kind
+from dynval.report.kinds import excitation as excitation_kind
+from dynval.report.kinds import low_information as low_information_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
 from dynval.report.kinds import oscillation as oscillation_kind
 from dynval.report.kinds import periodic_error as periodic_error_kind
@@ -578,22 +580,22 @@ def test_excitation_records_structural_unexcited_and_ill_conditioned():
                                    effect_unit="structural columns",
                                    details={"structural": [3], "identifiable_rank": 3,
                                             "identifiable_columns": [0, 1, 2]})
-    _worded(note, w.structural_columns(cols, [3], 4, 3))
+    _worded(note, excitation_kind.structural_columns(cols, [3], 4, 3))
     assert _record(design) == _blank(kind="excitation", severity="design", columns=(1, 2), effect=2.0,
                                      effect_unit="columns", details=x)
-    _worded(design, w.unexcited_columns(cols, [1], [2], "estimation"))
+    _worded(design, excitation_kind.unexcited_columns(cols, [1], [2], "estimation"))
     # without the estimation run's regressor the structure is unknown
     (f,) = _of(compute_findings(_ev(1, excitation=_excitation(unexcited=[0]))), "excitation")
-    _worded(f, w.unexcited_columns(None, [0], [], None))
+    _worded(f, excitation_kind.unexcited_columns(None, [0], [], None))
     # ill-conditioned only above the threshold, and over the reduced combinations when reduced
     x = _excitation(condition_scaled=1000.5, structural=[3], identifiable_rank=3, validation_rank=3)
     found = _of(compute_findings(_ev(1, excitation=x)), "excitation")
     (ill,) = [f for f in found if f.severity == "design"]
     assert _record(ill) == _blank(kind="excitation", severity="design", effect=1000.5,
                                   effect_unit="column-scaled condition number", threshold=1000.0, details=x)
-    _worded(ill, w.ill_conditioned(1000.5, 1000.0, True, 3))
+    _worded(ill, excitation_kind.ill_conditioned(1000.5, 1000.0, True, 3))
     (ill,) = _of(compute_findings(_ev(1, excitation=_excitation(condition_scaled=2e3))), "excitation")
-    _worded(ill, w.ill_conditioned(2e3, 1e3, False, None))
+    _worded(ill, excitation_kind.ill_conditioned(2e3, 1e3, False, None))
     assert not _of(compute_findings(_ev(1, excitation=_excitation(condition_scaled=1e3))), "excitation")
 
 
@@ -607,12 +609,12 @@ def test_joint_and_column_motion_records_below_the_threshold():
     assert _record(j) == _blank(kind="excitation", severity="design", joints=(0,), effect=0.0999,
                                 effect_unit="joint motion (RMS) relative to the estimation run", threshold=0.1,
                                 details={"joint_motion_ratio": 0.0999})
-    _worded(j, w.joint_motion("shoulder", 0.0999, 0.1))
+    _worded(j, excitation_kind.joint_motion("shoulder", 0.0999, 0.1))
     (c,) = [f for f in found if f.columns]
     assert _record(c) == _blank(kind="excitation", severity="design", columns=(0, 2), effect=0.02,
                                 effect_unit="column RMS relative to the estimation run", threshold=0.1,
                                 details={"column_motion_ratio": {0: 0.05, 2: 0.02}})
-    _worded(c, w.column_motion([("column 1", 0.05), ("column 3", 0.02)], 0.1))
+    _worded(c, excitation_kind.column_motion([("column 1", 0.05), ("column 3", 0.02)], 0.1))
     # columns already reported as unexcited, inseparable or structural are not repeated
     ev.excitation = _excitation(column_motion_ratio=[0.05, 0.5, 0.02, 0.01], unexcited=[0], unidentifiable=[3],
                                 inseparable=[2], structural=[1])
@@ -629,7 +631,7 @@ def test_low_information_record_on_undecided_joints_only():
                                 effect_unit="smallest detectable share of the mean square (90 % power)",
                                 threshold=0.25, details={"detectable_share": [0.3, 0.25, 0.6],
                                                          "noise_n_eff": [40.0, 50.0, 8.0], "unresolved": []})
-    _worded(f, w.low_information([("shoulder", 40.0, 0.3, None)], 0.25))
+    _worded(f, low_information_kind.words([("shoulder", 40.0, 0.3, None)], 0.25))
     assert not _of(compute_findings(_ev(1, detectable_share=np.array([0.25]), noise_n_eff=np.array([9.0]))),
                    "low_information")
 
@@ -640,11 +642,12 @@ def test_low_information_on_a_joint_whose_named_term_removes_less_than_the_run_d
     found = compute_findings(ev)
     (f,) = _of(found, "low_information")
     assert f.joints == (0,) and f.effect == 0.5 and f.details["unresolved"] == [0]
-    _worded(f, w.low_information([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
+    _worded(f, low_information_kind.words([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
-    from dynval.report._findings import _named_term, _unresolved
+    from dynval.report.kinds.low_information import named_term as _named_term
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.3]), noise_n_eff=np.array([20.0]))
     phys = Finding(kind="missing_physics", severity="deficiency", joints=(0,),
@@ -828,7 +831,7 @@ def test_column_motion_threshold_is_strict_and_structural_columns_are_skipped():
              if f.effect_unit == "column RMS relative to the estimation run"]
     (f,) = found
     assert f.columns == (1,)
-    _worded(f, w.column_motion([("b", 0.05)], 0.1))
+    _worded(f, excitation_kind.column_motion([("b", 0.05)], 0.1))
 
 
 def test_thresholds_errors_name_the_bad_value():
@@ -839,7 +842,7 @@ def test_thresholds_errors_name_the_bad_value():
 
 
 def test_only_whiteness_is_set_aside_when_asking_what_a_joint_names():
-    from dynval.report._findings import _unresolved
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
@@ -884,7 +887,7 @@ def test_sampling_colour_at_alpha_exactly():
 
 
 def test_whiteness_does_not_resolve_a_joint_whose_named_term_is_below_what_the_run_detects():
-    from dynval.report._findings import _unresolved
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.2,

@@ -72,22 +72,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         if f.details.get("relation") == "unsupported":
             text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
                     f"terms would remove {e} of the mean square ≥ {t})")
-    elif f.kind == "low_information":
-        text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
-    elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):
-        e, t = _vs(f, ".1f", percent=True)
-        text = f"the validation run excites {', '.join(cols)} far less than the estimation run ({e} < {t})"
-    elif f.kind == "excitation" and cols:
-        zero = set(f.details.get("unexcited") or ())
-        never = [column_name(report, c) for c in f.columns if c in zero]
-        apart = [column_name(report, c) for c in f.columns if c not in zero]
-        text = "the validation run " + " and ".join(
-            ([f"never excites {', '.join(never)}"] if never else [])
-            + ([f"cannot separate {', '.join(apart)} from the other columns"] if apart else []))
-    elif f.kind == "excitation" and "condition" in f.effect_unit:
-        text = f"ill-conditioned validation regressor (column-scaled condition number {e} > {t})"
-    elif f.kind == "excitation" and "motion" in f.effect_unit:
-        text = f"hardly moves ({e} of its estimation-run motion < {t})"
     elif f.kind == "physical_consistency" and f.details.get("link"):
         text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
                 f"{f.effect_unit}")

@@ -21,12 +21,6 @@ UNITS = {
     "missing_term": "share of the residual's mean square the term would remove",
     "correlation": "|ρ|",
     "missing_physics": "share of the joint's mean square the physical terms remove",
-    "structural": "structural columns",
-    "columns": "columns",
-    "condition": "column-scaled condition number",
-    "joint_motion": "joint motion (RMS) relative to the estimation run",
-    "column_motion": "column RMS relative to the estimation run",
-    "low_information": "smallest detectable share of the mean square (90 % power)",
 }
 """``Finding.effect_unit`` by rule (the repeat finding's names its state or measure)."""
 
@@ -277,89 +271,3 @@ def percent(share: float) -> str:
     """A share in per cent with the digits a reader needs: ``98 %``, ``4.2 %``, ``0.56 %``."""
     x = 100.0 * share
     return f"{x:.0f} %" if abs(x) >= 10 else f"{x:.2g} %"
-
-
-# -- the design ---------------------------------------------------------------------------------
-
-_WHERE_STRUCTURAL = {"estimation": "in both runs",
-                     "model": "in this run and at every state of the model's structure it was prepared with"}
-
-
-def structural_columns(cols: Sequence[str] | None, structural: Sequence[int], p: int | None,
-                       rank: int | None, source: str = "estimation") -> Words:
-    """``source``: what told them structural: the estimation run's regressor, or the model's
-    structure a prepared regressor carries."""
-    return (f"{len(structural)} of the regressor's {p} columns are zero or exact combinations of the others "
-            f"{_WHERE_STRUCTURAL[source]} ({listed_columns(cols, structural)}): no trajectory of this structure "
-            "excites them apart, so they "
-            f"were reduced to {rank} identifiable combinations (the base parameters), on which the excitation "
-            "checks ran.", "none: no trajectory of this structure can excite them apart")
-
-
-def unexcited_columns(cols: Sequence[str] | None, zero: Sequence[int], dependent: Sequence[int],
-                      source: str | None) -> Words:
-    """``source``: what tells the structural columns: "estimation" (the estimation run's
-    regressor), "model" (the model's structure a prepared regressor carries), or None (unknown)."""
-    parts = []
-    if zero:
-        parts.append(f"never excites {listed_columns(cols, zero)}")
-    if dependent:
-        parts.append(f"cannot separate {listed_columns(cols, dependent)} from the other columns (in this run they "
-                     "are combinations of them)")
-    if source == "estimation":
-        tail = ": the estimation run excites them apart, so the validation cannot test these terms."
-    elif source == "model":
-        tail = (": the model's structure excites them apart (they are not structural), so this trajectory "
-                "cannot test these terms.")
-    else:
-        tail = (": the validation cannot test these terms. Without the estimation run's regressor "
-                "(estimation={'regressor': ...}) it is not known whether they are structural (zero or "
-                "combinations of other columns for every trajectory of this structure, as some parameters "
-                "of a fixed-base arm's first links are) or a flaw of this trajectory; reduce the regressor to "
-                "its base columns, give the estimation run's regressor, or prepare the regressor with the "
-                "model's structure (URDFModel.prepared_regressor).")
-    return ("The validation regressor " + " and ".join(parts) + tail,
-            "add motion that excites these columns to the validation trajectory")
-
-
-def ill_conditioned(condition: float, threshold: float, reduced: bool, rank: int | None) -> Words:
-    """``reduced``: structural columns were reduced, and the number was computed over the validation
-    run's ``rank`` identifiable combinations."""
-    cond, cond_th = versus(condition, threshold)
-    over = f" over its {rank} identifiable combinations" if reduced else ""
-    return (f"The validation regressor is ill-conditioned (column-scaled condition number{over} {cond} > {cond_th}): "
-            "it cannot separate the effects of the parameters.", "use a richer validation trajectory")
-
-
-def joint_motion(name: str, ratio: float, threshold: float) -> Words:
-    return (f"{name} moves {versus(ratio, threshold, '.1f', scale=100.0)[0]} % of its estimation-run motion: the "
-            "validation cannot test the terms of this joint.",
-            f"move {name} in the validation run as much as in the estimation run")
-
-
-def column_motion(weak: Sequence[tuple[str, float]], threshold: float) -> Words:
-    """``weak``: (column, its RMS relative to the estimation run)."""
-    listed = ", ".join(f"{c} ({versus(ratio, threshold, '.1f', scale=100.0)[0]} %)" for c, ratio in weak)
-    return (f"The validation run excites {listed} far less than the estimation run did: it cannot test these terms.",
-            "excite these columns in the validation run as much as in the estimation run")
-
-
-def low_information(joints: Sequence[tuple[str, float, float, Sequence[tuple[str, float]] | None]],
-                    threshold: float) -> Words:
-    """``joints``: (name, N_eff, smallest detectable share, the terms found there that remove less, or None)."""
-    each = []
-    threshold_pct = ""
-    for name, n_eff, share, unresolved in joints:
-        pct, threshold_pct_j = versus(share, threshold, ".0f", scale=100.0)
-        threshold_pct = threshold_pct or threshold_pct_j
-        tail = "" if unresolved is None else _unresolved(unresolved)
-        each.append(f"{name}: N_eff = {n_eff:.0f}, {pct} %" + tail)
-    return (f"This run cannot decide: its noise leaves so few effective samples that a missing term must remove more "
-            f"than {threshold_pct} % of the mean square to be found ({'; '.join(each)}).",
-            "validate on a longer or faster-varying run (more effective samples)")
-
-
-def _unresolved(terms: Sequence[tuple[str, float]]) -> str:
-    named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
-    return (f" — found deficient, but what is named there removes less: {named}, so which term is missing this run "
-            "cannot tell")

@@ -38,9 +38,6 @@ _LISTED = {
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
     "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
                        "inertia, offset, drift), named from q without its column",
-    "excitation": "the validation regressor leaves columns unexcited or is ill-conditioned, or a joint moves "
-                  "far less than in the estimation run",
-    "low_information": "the run has too few effective samples to detect a term of practical size",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
 """The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
@@ -271,38 +268,9 @@ def _motion_rule(family: str, rule: Any) -> Any:
     return run
 
 
-def _named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
-    """The term a deficiency names and the share of the mean square it removes (a missing physical
-    term, a missing column refitted in), or None for a deficiency that is not a named term."""
-    d = f.details or {}
-    if f.kind == "missing_physics":
-        return str(d.get("label") or d.get("term")), float(d.get("term_share", math.nan))
-    if f.kind == "regressor_correlation" and d.get("added_variable") and f.effect is not None:
-        return w.column_name(ev.column_names, f.columns[0]) if f.columns else "a column", float(f.effect)
-    return None
-
-
-def _unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[tuple[str, float]]]:
-    """Of the deficient ``joints``, those whose every deficiency (whiteness, which follows from the
-    others, aside) names a term that removes less than the run's smallest detectable share, with
-    those terms: the structure is certain (its test is significant), which term it is the run
-    cannot resolve."""
-    if ev.detectable_share is None:
-        return {}
-    mde = np.asarray(ev.detectable_share, dtype=float)
-    out = {}
-    for j in sorted(joints):
-        named = [_named_term(ev, f) for f in found
-                 if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
-        if named and all(t is not None and t[1] < mde[j] for t in named):
-            out[j] = [t for t in named if t is not None]
-    return out
-
-
-def _validation_design_rule(r: Context) -> list[Finding]:
-    """The validation run's design: excitation, information."""
-    return [*_excitation_findings(r.ev, r.th),
-            *_design_findings(r.ev, r.th, r.deficient, _unresolved(r.ev, r.found, r.deficient)), *r.ev.extra_notes]
+def _extra_notes_rule(r: Context) -> list[Finding]:
+    """The findings the caller hands in with the evidence (``Evidence.extra_notes``), after the rules'."""
+    return list(r.ev.extra_notes)
 
 
 def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
@@ -355,117 +323,15 @@ def _derivative_words(physics: dict[str, Any]) -> str:
     return source_text(str(physics.get("derivative_source", "savgol")))
 
 
-def _excitation_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
-    """The validation regressor: structural columns reduced (a note), combinations the estimation
-    run excites and the validation run does not, an ill-conditioned validation regressor."""
-    x = ev.excitation
-    if x is None:
-        return []
-    cols = ev.column_names
-    out: list[Finding] = []
-    structural = list(x.get("structural") or [])
-    p = len(x["column_norms"]) if x.get("column_norms") is not None else None
-    rank = x.get("identifiable_rank")
-    if structural:
-        out.append(_worded(
-            w.structural_columns(cols, structural, p, rank, _structural_source(x) or "estimation"),
-            kind="excitation", severity="note", columns=tuple(structural), effect=float(len(structural)),
-            effect_unit=w.UNITS["structural"],
-            details={"structural": structural, "identifiable_rank": rank,
-                     "identifiable_columns": list(x.get("identifiable_columns") or [])}))
-    zero = [int(c) for c in x["unexcited"]]
-    dependent = [int(c) for c in x.get("inseparable") or []]
-    if zero or dependent:
-        out.append(_worded(
-            w.unexcited_columns(cols, zero, dependent, _structural_source(x)),
-            kind="excitation", severity="design", columns=tuple(zero + dependent),
-            effect=float(len(zero) + len(dependent)), effect_unit=w.UNITS["columns"], details=dict(x)))
-    elif x["condition_scaled"] > th.condition_number:
-        out.append(_worded(
-            w.ill_conditioned(x["condition_scaled"], th.condition_number, bool(structural), x.get("validation_rank")),
-            kind="excitation", severity="design", effect=float(x["condition_scaled"]),
-            effect_unit=w.UNITS["condition"], threshold=th.condition_number, details=dict(x)))
-    return out
-
-
-def _structural_source(x: dict[str, Any]) -> str | None:
-    """What told the structural columns: the section's ``structural_source``; a section without the
-    key (from before it) had them from the estimation run when it has them at all."""
-    if x.get("structural") is None:
-        return None
-    return x.get("structural_source") or "estimation"
-
-
-def _design_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int] = frozenset(),
-                     unresolved: dict[int, list[tuple[str, float]]] | None = None) -> list[Finding]:
-    """Runs that cannot decide: a joint that hardly moves, a column the run hardly excites, too few
-    effective samples."""
-    return [*_joint_motion_findings(ev, th), *_column_motion_findings(ev, th),
-            *_low_information_findings(ev, th, decided, unresolved or {})]
-
-
-def _joint_motion_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
-    """A joint whose validation motion is below ``joint_motion`` of its estimation-run motion."""
-    if ev.joint_motion_ratio is None:
-        return []
-    ratio = np.asarray(ev.joint_motion_ratio, dtype=float)
-    return [_worded(
-        w.joint_motion(w.joint_name(ev.joint_names, int(j)), float(ratio[j]), th.joint_motion),
-        kind="excitation", severity="design", joints=(int(j),), effect=float(ratio[j]),
-        effect_unit=w.UNITS["joint_motion"], threshold=th.joint_motion,
-        details={"joint_motion_ratio": float(ratio[j])}) for j in np.flatnonzero(ratio < th.joint_motion)]
-
-
-def _column_motion_findings(ev: Evidence, th: Thresholds) -> list[Finding]:
-    """Columns (not already unexcited, unidentifiable, inseparable or structural) the validation run
-    excites below ``joint_motion`` of the estimation run."""
-    x = ev.excitation
-    ratio_c = None if x is None else x.get("column_motion_ratio")
-    if ratio_c is None:
-        return []
-    skip = (set(x["unexcited"]) | set(x["unidentifiable"]) | set(x.get("inseparable") or [])
-            | set(x.get("structural") or []))
-    weak = [int(c) for c in np.flatnonzero(np.asarray(ratio_c, dtype=float) < th.joint_motion) if c not in skip]
-    if not weak:
-        return []
-    return [_worded(
-        w.column_motion([(w.column_name(ev.column_names, c), float(ratio_c[c])) for c in weak], th.joint_motion),
-        kind="excitation", severity="design", columns=tuple(weak), effect=float(np.min(np.asarray(ratio_c)[weak])),
-        effect_unit=w.UNITS["column_motion"], threshold=th.joint_motion,
-        details={"column_motion_ratio": {int(c): float(ratio_c[c]) for c in weak}})]
-
-
-def _low_information_findings(ev: Evidence, th: Thresholds, decided: frozenset[int] | set[int],
-                              unresolved: dict[int, list[tuple[str, float]]]) -> list[Finding]:
-    """Too few effective samples: on a joint where no deficiency was found, or where the terms
-    named remove less than the run can detect (``unresolved``, named in the message): where a term
-    above that was found, the run did decide."""
-    if ev.detectable_share is None:
-        return []
-    mde = np.asarray(ev.detectable_share, dtype=float)
-    low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in decided or int(j) in unresolved]
-    if not low:
-        return []
-    n_eff = np.asarray(ev.noise_n_eff, dtype=float)
-    each = [(w.joint_name(ev.joint_names, j), float(n_eff[j]), float(mde[j]), unresolved.get(j)) for j in low]
-    return [_worded(
-        w.low_information(each, th.detectable_share),
-        kind="low_information", severity="design", joints=tuple(low), effect=float(mde[low].max()),
-        effect_unit=w.UNITS["low_information"], threshold=th.detectable_share,
-        details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff],
-                 "unresolved": sorted(int(j) for j in unresolved if j in low)})]
-
-
 _RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule),
           (600, _motion_rule("physics", _physics_findings)),
-          (810, _validation_design_rule))
+          (830, _extra_notes_rule))
 """The rules still in this module, each with its place; the kinds of ``report/kinds/`` take their places
 among these (``Kind.order``): the data notes (10–40), the fit (100–120), bias (200), missing columns
 (300, here), correlations (400, here), the spectrum (500), the motion (600 here; 610–630), whiteness
-(700), the repeat (800) and the validation design (810, here)."""
+(700), the repeat (800), the validation design (810, 820) and the notes handed in (830, here)."""
 
-ORDER = {"regressor_correlation": 300, "missing_physics": 600, "excitation": 810, "low_information": 810,
-         "physical_consistency": 900}
+ORDER = {"regressor_correlation": 300, "missing_physics": 600, "physical_consistency": 900}
 """The place of each kind of this module's rules (``physical_consistency``'s findings come from the
 model's parameters, outside the rules: last)."""
 
