@@ -27,6 +27,7 @@ from dynval.report.kinds import constant_target as constant_target_kind
 from dynval.report.kinds import delay as delay_kind
 from dynval.report.kinds import excitation as excitation_kind
 from dynval.report.kinds import low_information as low_information_kind
+from dynval.report.kinds import missing_physics as physics_kind
 from dynval.report.kinds import omitted_rows as omitted_rows_kind
 from dynval.report.kinds import oscillation as oscillation_kind
 from dynval.report.kinds import periodic_error as periodic_error_kind
@@ -405,9 +406,10 @@ def test_missing_physics_record_needs_both_shares_at_the_threshold():
                  "refit_run": None, "effect_out_of_sample": 0.05, "heldout_share": None, "carried_share": None,
                  "relation": None, "model_terms": None, "derivative_source": None})
     # the other groups that remove at least 1 % are named with it, largest first
-    _worded(found[0], w.missing_physics("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0], True,
-                                        _advice(0.05)))
-    _worded(found[1], w.missing_physics("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False, _advice(0.04)))
+    _worded(found[0], physics_kind.words("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0],
+                                         True, _advice(0.05)))
+    _worded(found[1], physics_kind.words("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False,
+                                         _advice(0.04)))
 
 
 def test_missing_physics_without_a_term_names_nothing():
@@ -799,8 +801,8 @@ def test_missing_terms_sort_nan_shares_last_and_every_joint_is_judged():
 def test_missing_physics_names_the_other_groups_by_share_from_one_percent():
     lib = _library([1e-9], [0.3], ["coulomb"], others={0: {"offset": 0.01, "viscous": 0.05, "drift": 0.0099}})
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
-    _worded(f, w.missing_physics("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3, 0.3,
-                                 f.pvalue_adjusted, True, _advice(0.3)))
+    _worded(f, physics_kind.words("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3,
+                                  0.3, f.pvalue_adjusted, True, _advice(0.3)))
     del lib["tests"][0]["selected_share"]  # without a selection, the term's own share is what it removes
     lib["tests"][0]["term_share"] = 0.2
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")

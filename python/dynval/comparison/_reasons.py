@@ -38,16 +38,6 @@ def _g(x: float | None, fmt: str = ".3g") -> str:
 _vs = effect_versus_threshold
 
 
-_PHYSICS_RELATION = {
-    "missing": "missing",
-    "reweight": "mis-weighted or changed between runs (the model has it):",
-    "coupling": "missing the cross-joint coupling of",
-    "partial": "part of a term the model has, another shape of",
-}
-"""The physics finding relative to the model's columns (``details["relation"]``); without it (the
-columns unknown) a structure of the kind remains."""
-
-
 def finding_reason(f: Finding, report: ReportSections) -> str:
     """One short reason from a finding's own fields: where, what, the effect and its threshold."""
     joints = ", ".join(joint_name(report, j) for j in f.joints)
@@ -65,13 +55,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
                 f"{e} ≥ {t}): " + _column_relation(f))
-    elif f.kind == "missing_physics":
-        label = f.details.get("label") or f.details.get("term") or "a physical term"
-        what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")
-        text = f"{what} {label} (the physical terms would remove {e} of the mean square ≥ {t})"
-        if f.details.get("relation") == "unsupported":
-            text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
-                    f"terms would remove {e} of the mean square ≥ {t})")
     elif f.kind == "physical_consistency" and f.details.get("link"):
         text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
                 f"{f.effect_unit}")

@@ -24,8 +24,7 @@ from ..statistics._stats import correlation_pvalue, holm
 from . import _finding_words as w
 from .kinds import KINDS as _DECLARED_KINDS
 from .kinds._base import Context, Evidence, Finding, Thresholds, declared_thresholds, worded
-from .kinds._evidence import delay_explains as _delay_explains
-from .kinds._evidence import term_effect as _term_effect
+from .kinds._evidence import simulator_values as _simulator_values
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -36,8 +35,6 @@ SEVERITIES = ("deficiency", "design", "note")
 
 _LISTED = {
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
-    "missing_physics": "the residual follows the motion: a physical term the model lacks (friction, gravity, "
-                       "inertia, offset, drift), named from q without its column",
     "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
 """The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
@@ -244,94 +241,19 @@ def _regressor_correlation_rule(r: Context) -> list[Finding]:
     return out
 
 
-def _simulator_values(ev: Evidence, j: int, c: int) -> tuple[float, float] | None:
-    """Column c's (value in the prediction, value refitted on this run) on joint j when it is a
-    simulator parameter's (``physics["simulator_parameters"]``), else None."""
-    per_joint = (ev.physics or {}).get("simulator_parameters") or []
-    for entry in per_joint[j] if j < len(per_joint) else []:
-        if entry["column"] == c:
-            return float(entry["predicted"]), float(entry["refitted"])
-    return None
-
-
-def _motion_rule(family: str, rule: Any) -> Any:
-    """A rule that reads the motion (missing physics, delay, predictive failure, periodic error):
-    its findings, and the joints it calls deficient."""
-
-    def run(r: Context) -> list[Finding]:
-        if family not in r.fam:
-            return []
-        found, joints = rule(r.ev, r.fam[family], r.th, r.alpha)
-        r.deficient |= joints
-        return found
-
-    return run
-
-
 def _extra_notes_rule(r: Context) -> list[Finding]:
     """The findings the caller hands in with the evidence (``Evidence.extra_notes``), after the rules'."""
     return list(r.ev.extra_notes)
 
 
-def _physics_findings(ev: Evidence, pvalues, th: Thresholds, alpha: float) -> tuple[list[Finding], set[int]]:
-    from ..statistics._physics import LABELS
-
-    p, padj = pvalues
-    out: list[Finding] = []
-    bad: set[int] = set()
-    for j, t in enumerate(ev.physics["tests"]):
-        if not (padj[j] <= alpha) or _delay_explains(ev, j):
-            continue
-        shares = t["shares"]
-        term = t["term"]
-        if term is None:
-            continue
-        effect = _term_effect(t)
-        big = bool(t["share"] >= th.missing_physics and effect >= th.missing_physics)
-        if big:
-            bad.add(j)
-        label = LABELS[term]
-        others = [LABELS[g] for g, sh in sorted(shares.items(), key=lambda kv: -kv[1]) if g != term and sh >= 0.01]
-        together = float(t.get("selected_share", t["term_share"]))
-        rel = t.get("relation")
-        advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel, "practical": th.missing_physics,
-                  "derivatives": _derivative_words(ev.physics),
-                  "column_names": None if rel is None else [w.column_name(ev.column_names, c)
-                                                             for c in rel.get("columns", [])],
-                  "simulator": _simulator_values(ev, j, rel["columns"][0]) if rel and rel.get("columns") else None}
-        out.append(_worded(
-            w.missing_physics(w.joint_name(ev.joint_names, j), label, others, together, float(t["term_share"]),
-                              float(t["share"]), float(padj[j]), big, advice),
-            kind="missing_physics", severity="deficiency" if big else "note", joints=(j,),
-            statistic=float(t["statistic"]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
-            effect=float(t["share"]), effect_unit=w.UNITS["missing_physics"], threshold=th.missing_physics,
-            details={"term": term, "label": label, "term_share": float(t["term_share"]),
-                     "selected_share": together, "selected": list(t["selected"]), "shares": dict(shares),
-                     "n_eff": float(t["n_eff"]), "method": ev.physics["method"],
-                     "derivatives": ev.physics["derivatives"], "refit_run": t.get("refit_run"),
-                     "effect_out_of_sample": effect, "heldout_share": t.get("heldout_share"),
-                     "carried_share": t.get("carried_share"),
-                     "relation": None if rel is None else rel.get("relation"),
-                     "model_terms": None if rel is None else dict(rel),
-                     "derivative_source": ev.physics.get("derivative_source")}))
-    return out, bad
-
-
-def _derivative_words(physics: dict[str, Any]) -> str:
-    from ._motion import source_text
-
-    return source_text(str(physics.get("derivative_source", "savgol")))
-
-
 _RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule),
-          (600, _motion_rule("physics", _physics_findings)),
           (830, _extra_notes_rule))
 """The rules still in this module, each with its place; the kinds of ``report/kinds/`` take their places
 among these (``Kind.order``): the data notes (10–40), the fit (100–120), bias (200), missing columns
-(300, here), correlations (400, here), the spectrum (500), the motion (600 here; 610–630), whiteness
+(300, here), correlations (400, here), the spectrum (500), the motion (600–630), whiteness
 (700), the repeat (800), the validation design (810, 820) and the notes handed in (830, here)."""
 
-ORDER = {"regressor_correlation": 300, "missing_physics": 600, "physical_consistency": 900}
+ORDER = {"regressor_correlation": 300, "physical_consistency": 900}
 """The place of each kind of this module's rules (``physical_consistency``'s findings come from the
 model's parameters, outside the rules: last)."""
 

@@ -9,7 +9,7 @@ from typing import Any
 
 from ._base import Evidence
 
-__all__ = ["delay_explains", "term_effect", "phase_lag"]
+__all__ = ["delay_explains", "term_effect", "phase_lag", "simulator_values"]
 
 
 def delay_explains(ev: Evidence, j: int) -> bool:
@@ -49,3 +49,13 @@ def phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:
         return None, None
     per_sample = float(band) / float(ev.sample_rate) if ev.frequency_unit == "Hz" and ev.sample_rate else float(band)
     return 360.0 * per_sample * abs(shift), per_sample
+
+
+def simulator_values(ev: Evidence, j: int, c: int) -> tuple[float, float] | None:
+    """Column c's (value in the prediction, value refitted on this run) on joint j when it is a
+    simulator parameter's (``physics["simulator_parameters"]``), else None."""
+    per_joint = (ev.physics or {}).get("simulator_parameters") or []
+    for entry in per_joint[j] if j < len(per_joint) else []:
+        if entry["column"] == c:
+            return float(entry["predicted"]), float(entry["refitted"])
+    return None
