@@ -46,8 +46,7 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     if declared is not None:
         return prefix + (declared.reason or _generic_reason)(f, lambda c: column_name(report, c))
     cols = [column_name(report, c) for c in f.columns]
-    e, t = _vs(f, percent="share" in (f.effect_unit or "") or f.kind in ("bias", "low_information")
-               or (f.kind == "excitation" and "motion" in (f.effect_unit or "")))
+    e, t = _vs(f, percent="share" in (f.effect_unit or ""))
     if f.kind == "regressor_correlation" and "share" in f.effect_unit:
         text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {e} of the residual's "
                 f"mean square ≥ {t})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
@@ -55,14 +54,6 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
                 f"{e} ≥ {t}): " + _column_relation(f))
-    elif f.kind == "physical_consistency" and f.details.get("link"):
-        text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
-                f"{f.effect_unit}")
-    elif f.kind == "physical_consistency" and f.details.get("joint"):
-        text = f"not a robot: {f.details.get('condition')} broken by {_g(f.effect)} {f.effect_unit}"
-    elif f.kind == "physical_consistency":
-        text = (f"no physically consistent robot has these base parameters (the nearest adds {e} to the "
-                f"estimation run's residual mean square ≥ {t})")
     else:  # a kind this wording does not know: its name, effect and threshold
         text = _generic_reason(f, lambda c: column_name(report, c))
     return prefix + text

@@ -35,7 +35,6 @@ SEVERITIES = ("deficiency", "design", "note")
 
 _LISTED = {
     "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
-    "physical_consistency": "no physical robot has the parameters (a link's mass, pseudo-inertia, CoM; friction < 0)",
 }
 """The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
 
@@ -253,9 +252,9 @@ among these (``Kind.order``): the data notes (10–40), the fit (100–120), bia
 (300, here), correlations (400, here), the spectrum (500), the motion (600–630), whiteness
 (700), the repeat (800), the validation design (810, 820) and the notes handed in (830, here)."""
 
-ORDER = {"regressor_correlation": 300, "physical_consistency": 900}
-"""The place of each kind of this module's rules (``physical_consistency``'s findings come from the
-model's parameters, outside the rules: last)."""
+ORDER = {"regressor_correlation": 300}
+"""The place of each kind of this module's rules (the first of its two: the missing columns, 300, then the
+correlations, 400)."""
 
 _ALL_RULES = tuple(rule for _, rule in sorted(
     [*_RULES, *((k.order, k.rule) for k in _DECLARED_KINDS.values() if k.rule is not None)], key=lambda t: t[0]))
