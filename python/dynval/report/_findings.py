@@ -68,9 +68,9 @@ def _column_in_model(ev: Evidence, c: int) -> bool | None:
     return int(c) not in {int(x) for x in ev.missing_columns}
 
 
-def _tests(ev: Evidence):
+def _tests(ev: Evidence) -> list[tuple[str, np.ndarray]]:
     """Every p-value of the report as (family, index, p) blocks for one Holm correction."""
-    blocks = []
+    blocks: list[tuple[str, np.ndarray]] = []
     if ev.bias_pvalue is not None:
         blocks.append(("bias", np.asarray(ev.bias_pvalue, dtype=float)))
     if ev.whiteness_pvalue_raw is not None:
@@ -153,9 +153,10 @@ def _missing_term_rule(r: Context) -> list[Finding]:
     share = np.asarray(ev.missing_share, dtype=float)
     per_column = p.ndim == 1  # the estimation refit: one test per column, its effect per joint
     refit = ev.missing_method == "estimation_refit"
+    missing = [] if ev.missing_columns is None else ev.missing_columns
 
-    def at(a, j, k):
-        return a[k] if a.ndim == 1 else a[j, k]
+    def at(a: np.ndarray, j: int, k: int) -> float:
+        return float(a[k] if a.ndim == 1 else a[j, k])
 
     enters = (np.ones(share.shape, dtype=bool) if ev.missing_enters is None or not per_column
               else np.asarray(ev.missing_enters, dtype=bool))
@@ -176,14 +177,14 @@ def _missing_term_rule(r: Context) -> list[Finding]:
         if big:
             r.deficient.add(j)
             r.missing.add(j)
-        terms = [(r.column(ev.missing_columns[kk]), float(at(stat, j, kk)), float(share[j, kk])) for kk in chosen]
+        terms = [(r.column(missing[kk]), float(at(stat, j, kk)), float(share[j, kk])) for kk in chosen]
         indirect = {jj: float(share[jj, k]) for jj in range(share.shape[0])
                     if not enters[jj, k] and share[jj, k] >= th.missing_term}
         out.append(_worded(
             w.missing_term(r.name(j), terms, refit, float(at(padj, j, k)), big,
                            [(r.name(jj), s) for jj, s in indirect.items()]),
             kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
-            columns=tuple(int(ev.missing_columns[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
+            columns=tuple(int(missing[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
             pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(share[j, k]),
             effect_unit=w.UNITS["missing_term"], threshold=th.missing_term,
             details={"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
