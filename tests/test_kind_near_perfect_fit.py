@@ -12,6 +12,7 @@ import pytest
 
 import dynval
 from dynval.coverage import TESTS
+from dynval.report._findings import Evidence, Thresholds, compute_findings
 from dynval.stream import ValidationAccumulator
 
 RNG_SEED = 7
@@ -38,6 +39,7 @@ def test_a_prediction_equal_to_the_torque_up_to_rounding_is_noted_on_each_joint(
     e = tau - pred
     share = (e ** 2).sum(axis=0) / ((tau - tau.mean(axis=0)) ** 2).sum(axis=0)
     np.testing.assert_allclose([f.effect for f in notes], share, rtol=1e-6, atol=1e-15)
+    np.testing.assert_allclose([f.statistic for f in notes], 1.0 - share, rtol=0, atol=1e-15)  # R²
     assert "computed from these torques" in notes[0].message and "joint 1" in notes[0].message
     assert not report.deficiencies  # a note: the verdict does not change
 
@@ -82,3 +84,33 @@ def test_the_stream_and_compare_find_the_kind_in_its_module():
 def test_the_kind_is_declared_with_its_test_and_description():
     assert "near_perfect_fit" in dynval.FINDING_KINDS
     assert "near_perfect_fit" in next(t for t in TESTS if t.name == "worse_than_constant").kinds
+
+
+def _evidence(r2: list[float], constant: list[bool] | None = None, pooled: float = 0.9) -> Evidence:
+    m = len(r2)
+    return Evidence(n_samples=1000, level=0.95, joint_names=[f"j{j}" for j in range(m)], r2=np.array(r2),
+                    pooled_r2=pooled, constant_target=np.array(constant or [False] * m))
+
+
+def test_the_threshold_itself_is_not_below_it():
+    share = 1.0 - (1.0 - 3e-7)  # the share the rule computes from this R², exactly
+    th = Thresholds(declared=(("near_perfect_fit", share),))
+    assert [f.kind for f in compute_findings(_evidence([1.0 - 3e-7]), th)] == []
+    th = Thresholds(declared=(("near_perfect_fit", share * (1 + 1e-9)),))
+    assert [f.kind for f in compute_findings(_evidence([1.0 - 3e-7]), th)] == ["near_perfect_fit"]
+
+
+def test_a_constant_joint_predicted_exactly_is_not_noted():
+    # scikit-learn's force_finite rule reports R² = 1 for an exact prediction of a constant torque
+    found = compute_findings(_evidence([1.0, 1.0], constant=[True, False], pooled=1.0))
+    assert [(f.kind, f.joints) for f in found if f.kind == "near_perfect_fit"] == [("near_perfect_fit", (1,))]
+
+
+def test_an_undefined_r2_is_not_noted():
+    assert [f for f in compute_findings(_evidence([np.nan, -np.inf])) if f.kind == "near_perfect_fit"] == []
+
+
+def test_the_note_follows_the_fit_s_notes_in_the_rules_order():
+    # joint 0 near perfect, joint 1 hidden by the pooled R² (a pooling note, place 110): the kind's place is 120
+    found = compute_findings(_evidence([1.0 - 1e-9, 0.5], pooled=0.9))
+    assert [f.kind for f in found] == ["pooling", "near_perfect_fit"]

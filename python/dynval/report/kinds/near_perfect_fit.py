@@ -29,7 +29,8 @@ def words(name: str, share: float, threshold: float) -> Words:
 
 
 def rule(r: Context) -> list[Finding]:
-    """A note on each joint (not constant, R² finite) whose 1 − R² is below the threshold."""
+    """A note on each joint (not constant) whose 1 − R² is below the threshold (a nan or infinite R²
+    is never below it)."""
     ev = r.ev
     threshold = r.th.value(THRESHOLD)
     share = 1.0 - np.asarray(ev.r2, dtype=float)
@@ -37,7 +38,7 @@ def rule(r: Context) -> list[Finding]:
     return [worded(words(r.name(j), float(share[j]), threshold), kind="near_perfect_fit", severity="note",
                    joints=(j,), statistic=float(ev.r2[j]), effect=float(share[j]), effect_unit=UNIT,
                    threshold=threshold)
-            for j in range(share.size) if not constant[j] and np.isfinite(share[j]) and share[j] < threshold]
+            for j in range(share.size) if not constant[j] and share[j] < threshold]
 
 
 KIND = Kind(name="near_perfect_fit",
