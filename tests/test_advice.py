@@ -266,14 +266,14 @@ def test_rigid_body_column_names_declare_what_the_model_holds_and_lacks():
 
 
 def _words_for(relation: str, reweight: float):
-    from dynval.report import _finding_words as w
+    from dynval.report.kinds import missing_physics
 
     rel = {"relation": relation, "group": "viscous", "reweight_share": reweight, "outside_share": 0.02,
            "outside_own_share": 0.02, "own_in_span": 1, "own_columns": 1, "coupling_in_span": 0,
            "coupling_columns": 0, "tolerance": 0.1, "columns": [], "estimated": [], "refitted": []}
     advice = {"refit_run": "estimation", "effect": 0.2, "relation": rel, "practical": 0.05,
               "derivatives": "the user's q̇, q̈ on both runs", "column_names": []}
-    return w.missing_physics("j3", "viscous friction", [], 0.7, 0.2, 0.7, 1e-30, True, advice)
+    return missing_physics.words("j3", "viscous friction", [], 0.7, 0.2, 0.7, 1e-30, True, advice)
 
 
 @pytest.mark.parametrize("reweight", [-0.85, 0.0, 0.049])

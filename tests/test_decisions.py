@@ -172,7 +172,7 @@ def _biased(shares, explains, missing_term=None) -> list[Finding]:
 
 
 def test_bias_culprit_needs_the_missing_term_share():
-    """Rule (conventions §5.2, ``_findings._bias_culprit``): a column is named as the cause of a
+    """Rule (conventions §5.2, ``report/kinds/bias.py: culprit``): a column is named as the cause of a
     bias only when it accounts for the joint's mean (``explains_bias``) *and* removes at least the
     ``missing_term`` share (0.01) of its mean square; the largest such share is named.
 

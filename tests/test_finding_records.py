@@ -22,6 +22,23 @@ from statsmodels.stats.multitest import multipletests
 from dynval.checks._validation import InvalidParameter
 from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
+from dynval.report.kinds import bias as bias_kind
+from dynval.report.kinds import constant_target as constant_target_kind
+from dynval.report.kinds import delay as delay_kind
+from dynval.report.kinds import excitation as excitation_kind
+from dynval.report.kinds import low_information as low_information_kind
+from dynval.report.kinds import missing_physics as physics_kind
+from dynval.report.kinds import omitted_rows as omitted_rows_kind
+from dynval.report.kinds import oscillation as oscillation_kind
+from dynval.report.kinds import periodic_error as periodic_error_kind
+from dynval.report.kinds import pooling as pooling_kind
+from dynval.report.kinds import predictive_failure as predictive_failure_kind
+from dynval.report.kinds import processing_band as processing_band_kind
+from dynval.report.kinds import repeat_trajectory as repeat_trajectory_kind
+from dynval.report.kinds import sampling_colour as sampling_colour_kind
+from dynval.report.kinds import time_stamps as time_stamps_kind
+from dynval.report.kinds import whiteness as whiteness_kind
+from dynval.report.kinds import worse_than_constant as worse_than_constant_kind
 from dynval.statistics._physics import LABELS
 from dynval.statistics._stats import correlation_pvalue
 
@@ -75,10 +92,10 @@ def test_data_notes_omitted_rows_and_constant_joints(force):
     found = compute_findings(ev)
     (om,) = _of(found, "omitted_rows")
     assert _record(om) == _blank(kind="omitted_rows", severity="note", effect=7.0, effect_unit="rows")
-    _worded(om, w.omitted_rows(7))
+    _worded(om, omitted_rows_kind.words(7))
     (ct,) = _of(found, "constant_target")
     assert _record(ct) == _blank(kind="constant_target", severity="note", joints=(1,))
-    _worded(ct, w.constant_target("elbow", force))
+    _worded(ct, constant_target_kind.words("elbow", force))
     assert not _of(compute_findings(_ev(3)), "omitted_rows") and not _of(compute_findings(_ev(3)), "constant_target")
 
 
@@ -94,13 +111,13 @@ def test_worse_than_constant_and_pooling_records_and_their_boundaries():
     (wc,) = _of(found, "worse_than_constant")
     assert _record(wc) == _blank(kind="worse_than_constant", severity="deficiency", joints=(0,), statistic=-0.5,
                                  effect=0.5, effect_unit="1 − R² beyond 1 (fraction of TSS)", threshold=0.0)
-    _worded(wc, w.worse_than_constant("a", -0.5, 0.6))
+    _worded(wc, worse_than_constant_kind.words("a", -0.5, 0.6))
     pooling = _of(found, "pooling")
     assert [f.joints for f in pooling] == [(1,), (3,)]
     assert _record(pooling[1]) == _blank(kind="pooling", severity="note", joints=(3,), statistic=0.5499,
                                          effect=pytest.approx(0.6 - 0.5499), effect_unit="R² below pooled",
                                          threshold=0.05)
-    _worded(pooling[1], w.pooling("d", 0.5499, 0.6))
+    _worded(pooling[1], pooling_kind.words("d", 0.5499, 0.6))
     # whiteness is a deficiency on a joint worse than a constant: it was found deficient
     ev_w = _ev(2, r2=np.array([-0.5, 0.9]), pooled_r2=0.6, whiteness_lag=5,
                whiteness_pvalue_raw=np.array([1e-6, 1e-6]), whiteness_log_pvalue_raw=np.log([1e-6, 1e-6]))
@@ -111,7 +128,7 @@ def test_worse_than_constant_and_pooling_records_and_their_boundaries():
 def test_worse_than_constant_names_the_pooled_value_only_when_it_looks_good(pooled, m, hidden):
     r2 = np.array([-0.5, 0.9])[:m]
     (wc,) = _of(compute_findings(_ev(m, r2=r2, pooled_r2=pooled)), "worse_than_constant")
-    _worded(wc, w.worse_than_constant("shoulder", -0.5, hidden))
+    _worded(wc, worse_than_constant_kind.words("shoulder", -0.5, hidden))
     assert not _of(compute_findings(_ev(1, r2=np.array([0.1]), pooled_r2=0.9)), "pooling")  # one joint: no pooling
 
 
@@ -127,9 +144,9 @@ def test_bias_records_deficiency_at_the_threshold_and_note_below():
     assert _record(at) == _blank(kind="bias", severity="deficiency", joints=(0,), statistic=5.0, pvalue=1e-6,
                                  pvalue_adjusted=pytest.approx(padj[0]), effect=0.25, effect_unit="|mean| / RMSE",
                                  threshold=0.25, details={"mean": 0.25, "n_eff": 400.0})
-    _worded(at, w.bias("shoulder", 0.25, 0.25, 0.25, 400.0, 1000, padj[0], True, None))
+    _worded(at, bias_kind.words("shoulder", 0.25, 0.25, 0.25, 400.0, 1000, padj[0], True, None))
     assert _record(below)["severity"] == "note" and below.statistic == -4.0 and below.effect == pytest.approx(0.2)
-    _worded(below, w.bias("elbow", -0.2, 0.2, 0.25, 300.0, 1000, padj[1], False, None))
+    _worded(below, bias_kind.words("elbow", -0.2, 0.2, 0.25, 300.0, 1000, padj[1], False, None))
 
 
 def test_bias_culprit_named_in_columns_and_words():
@@ -140,7 +157,7 @@ def test_bias_culprit_named_in_columns_and_words():
              missing_pvalue=np.array([[0.9, 0.9]]))
     (b,) = _of(compute_findings(ev), "bias")
     assert b.columns == (2,)  # the larger share of the two that account for the mean
-    _worded(b, w.bias("shoulder", 0.5, 0.5, 0.25, 400.0, 1000, b.pvalue_adjusted, True, ("c", 0.04)))
+    _worded(b, bias_kind.words("shoulder", 0.5, 0.5, 0.25, 400.0, 1000, b.pvalue_adjusted, True, ("c", 0.04)))
 
 
 # ----------------------------------------------------------------------------- the missing terms
@@ -255,9 +272,9 @@ def test_oscillation_record_at_and_below_the_threshold():
                                        pvalue=1e-9, pvalue_adjusted=pytest.approx(padj[10, 0]), effect=0.05,
                                        effect_unit="share of residual variance", threshold=0.05,
                                        details={"frequency": 5.0, "frequency_unit": "Hz", "n_peaks": 1})
-    _worded(found[0], w.oscillation("shoulder", 5.0, "Hz", 0.05, 12.0, padj[10, 0], True))
+    _worded(found[0], oscillation_kind.words("shoulder", 5.0, "Hz", 0.05, 12.0, padj[10, 0], True))
     assert found[1].severity == "note"
-    _worded(found[1], w.oscillation("elbow", 5.0, "Hz", 0.0499, 12.0, padj[10, 1], False))
+    _worded(found[1], oscillation_kind.words("elbow", 5.0, "Hz", 0.0499, 12.0, padj[10, 1], False))
 
 
 def test_oscillation_needs_a_local_maximum_and_names_the_largest_share():
@@ -280,7 +297,7 @@ def test_a_peak_above_the_bandwidth_is_a_processing_note():
                                 pvalue_adjusted=pytest.approx(padj), effect=0.3,
                                 effect_unit="share of residual variance", threshold=4.0,
                                 details={"evidence": "oscillation", "bandwidth": 4.0, "frequency": 5.0})
-    _worded(f, w.processing_band("shoulder", 5.0, 4.0, padj))
+    _worded(f, processing_band_kind.words("shoulder", 5.0, 4.0, padj))
     ev.bandwidth = 5.0  # at the bandwidth: still the model's
     assert _of(compute_findings(ev), "oscillation")
 
@@ -304,7 +321,7 @@ def test_whiteness_record_at_the_logged_rate():
     assert _record(f) == _blank(kind="whiteness", severity="note", joints=(0,), pvalue=1e-6,
                                 pvalue_adjusted=pytest.approx(padj[0]), effect=0.3, effect_unit="max |ρ̂(ℓ)|",
                                 details={"lag": 20, "decimation": 1})
-    _worded(f, w.whiteness("shoulder", False, 20, padj[0], False))
+    _worded(f, whiteness_kind.words("shoulder", False, 20, padj[0], False))
     ev.max_abs_acf = None
     assert _of(compute_findings(ev), "whiteness")[0].effect is None
 
@@ -321,13 +338,13 @@ def test_whiteness_at_the_information_rate_and_sampling_colour():
     padj = fam["whiteness"][1]
     assert (wh.joints, wh.pvalue, wh.severity) == ((0,), 1e-7, "note")
     assert wh.details == {"lag": 20, "decimation": 4}
-    _worded(wh, w.whiteness("shoulder", True, 20, padj[0], False))
+    _worded(wh, whiteness_kind.words("shoulder", True, 20, padj[0], False))
     (sc,) = _of(found, "sampling_colour")
     assert _record(sc) == _blank(kind="sampling_colour", severity="note", joints=(1,), pvalue=0.5,
                                  pvalue_adjusted=pytest.approx(padj[1]), effect=4.0,
                                  effect_unit="decimation factor",
                                  details={"information_band": 0.1, "frequency_unit": "cycles/sample"})
-    _worded(sc, w.sampling_colour("elbow", 0.1, "cycles/sample", 4))
+    _worded(sc, sampling_colour_kind.words("elbow", 0.1, "cycles/sample", 4))
     # the whiteness family is the decimated test when there is one
     np.testing.assert_array_equal(fam["whiteness"][0], [1e-7, 0.5, 0.5])
 
@@ -341,10 +358,10 @@ def test_whiteness_above_the_bandwidth_is_a_processing_note_unless_the_joint_is_
     assert _record(pb) == _blank(kind="processing_band", severity="note", joints=(0,), pvalue=1e-6,
                                  pvalue_adjusted=pytest.approx(padj[0]), threshold=10.0, effect_unit=None,
                                  details={"evidence": "whiteness", "bandwidth": 10.0, "frequency": None})
-    _worded(pb, w.processing_band("shoulder", None, 10.0, padj[0]))
+    _worded(pb, processing_band_kind.words("shoulder", None, 10.0, padj[0]))
     (wh,) = _of(found, "whiteness")
     assert (wh.joints, wh.severity) == ((1,), "deficiency")
-    _worded(wh, w.whiteness("elbow", False, 20, padj[1], True))
+    _worded(wh, whiteness_kind.words("elbow", False, 20, padj[1], True))
 
 
 # -------------------------------------------------------------------------------------- the motion
@@ -389,9 +406,10 @@ def test_missing_physics_record_needs_both_shares_at_the_threshold():
                  "refit_run": None, "effect_out_of_sample": 0.05, "heldout_share": None, "carried_share": None,
                  "relation": None, "model_terms": None, "derivative_source": None})
     # the other groups that remove at least 1 % are named with it, largest first
-    _worded(found[0], w.missing_physics("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0], True,
-                                        _advice(0.05)))
-    _worded(found[1], w.missing_physics("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False, _advice(0.04)))
+    _worded(found[0], physics_kind.words("a", LABELS["coulomb"], [LABELS["viscous"]], 0.05, 0.05, 0.05, padj[0],
+                                         True, _advice(0.05)))
+    _worded(found[1], physics_kind.words("b", LABELS["viscous"], [], 0.2, 0.04, 0.2, padj[1], False,
+                                         _advice(0.04)))
 
 
 def test_missing_physics_without_a_term_names_nothing():
@@ -415,7 +433,7 @@ def test_delay_record_and_when_it_explains_the_structure():
                                 details={"delay_s": 0.015, "delay_samples": 3.0, "share": [0.3, 0.04, 0.3],
                                          "phase_deg": None, "band_edge": None, "band_unit": "Hz",
                                          "significant": [0, 1, 2], "explains": [0, 1]})
-    _worded(d, w.delay(3.0, 200.0, [("shoulder", 0.3)], padj[0]))
+    _worded(d, delay_kind.words(3.0, 200.0, [("shoulder", 0.3)], padj[0]))
     assert [f.joints for f in _of(found, "missing_physics")] == [(2,)]
     assert not _of(compute_findings(_ev(3, physics=lib)), "delay")[0].details["delay_s"]  # no rate: None
 
@@ -425,7 +443,8 @@ def test_delay_equal_to_the_library_share_is_the_delay():
     lib = _library([1e-9], [0.2], ["viscous"], delay=delay)
     found = compute_findings(_ev(1, physics=lib))
     assert _of(found, "delay") and not _of(found, "missing_physics")
-    _worded(_of(found, "delay")[0], w.delay(-2.0, None, [("shoulder", 0.2)], _of(found, "delay")[0].pvalue_adjusted))
+    (dl,) = _of(found, "delay")
+    _worded(dl, delay_kind.words(-2.0, None, [("shoulder", 0.2)], dl.pvalue_adjusted))
     lib["tests"][0]["share"] = math.nan  # no library share: realigning alone decides
     assert _of(compute_findings(_ev(1, physics=lib)), "delay")
 
@@ -440,7 +459,7 @@ def test_predictive_failure_record_at_the_ratio():
                                 pvalue=1e-9, pvalue_adjusted=pytest.approx(padj[0]), effect=2.0,
                                 effect_unit="validation mean square / what the estimation run allows",
                                 threshold=2.0, details={"expected_mse": 1.0, "validation_mse": 2.0})
-    _worded(f, w.predictive_failure("shoulder", 2.0, padj[0]))
+    _worded(f, predictive_failure_kind.words("shoulder", 2.0, padj[0]))
 
 
 def test_periodic_error_record_at_and_below_the_threshold():
@@ -456,8 +475,8 @@ def test_periodic_error_record_at_and_below_the_threshold():
                                        threshold=0.05, details={"n_periods": 5, "period": per["period"],
                                                                 "noise_variance": 0.1,
                                                                 "model_columns_removed": True})
-    _worded(found[0], w.periodic_error("shoulder", 0.05, 5, per["period"], padj[0], True))
-    _worded(found[1], w.periodic_error("elbow", 0.0499, 5, per["period"], padj[1], False))
+    _worded(found[0], periodic_error_kind.words("shoulder", 0.05, 5, per["period"], padj[0], True))
+    _worded(found[1], periodic_error_kind.words("elbow", 0.0499, 5, per["period"], padj[1], False))
     del per["model_columns_removed"]
     assert _of(compute_findings(_ev(3, periodic=per)), "periodic_error")[0].details["model_columns_removed"] is False
 
@@ -511,7 +530,9 @@ def test_thresholds_resolve_and_refuse_with_the_contracts_words():
 
 
 def test_the_default_thresholds_are_the_documented_ones():
-    assert dataclasses.asdict(Thresholds()) == {
+    # the fields of Thresholds; a kind's module documents the thresholds it declares (its own tests)
+    th = Thresholds()
+    assert {f.name: getattr(th, f.name) for f in dataclasses.fields(th) if f.name != "declared"} == {
         "bias": 0.25, "regressor_correlation": 0.15, "missing_term": 0.01, "oscillation": 0.05,
         "missing_physics": 0.05, "delay": 0.05, "delay_phase": 10.0, "predictive_ratio": 2.0, "periodic_error": 0.05,
         "joint_motion": 0.1, "detectable_share": 0.25, "repeat_distance": 0.1, "repeat_share": 0.5,
@@ -526,10 +547,10 @@ def test_repeat_by_state_record_above_the_share_only():
     assert _record(f) == _blank(kind="repeat_trajectory", severity="design", effect=0.8,
                                 effect_unit="share of the validation run near the estimation trajectory (q)",
                                 threshold=0.5, details=rep)
-    _worded(f, w.repeat_by_state(0.8, 0.5, "q", 0.2))
+    _worded(f, repeat_trajectory_kind.words_by_state(0.8, 0.5, "q", 0.2))
     assert not _of(compute_findings(_ev(1, repeat={**rep, "share": 0.5})), "repeat_trajectory")  # not above
     (f,) = _of(compute_findings(_ev(1, repeat={"share": 0.6, "state": "regressor"})), "repeat_trajectory")
-    _worded(f, w.repeat_by_state(0.6, 0.5, "regressor", 0.1))  # the default tolerance
+    _worded(f, repeat_trajectory_kind.words_by_state(0.6, 0.5, "regressor", 0.1))  # the default tolerance
 
 
 def test_repeat_by_distance_record_below_the_distance_or_as_decided():
@@ -537,7 +558,7 @@ def test_repeat_by_distance_record_below_the_distance_or_as_decided():
     (f,) = _of(compute_findings(_ev(1, repeat=rep)), "repeat_trajectory")
     assert _record(f) == _blank(kind="repeat_trajectory", severity="design", effect=0.05,
                                 effect_unit="relative distance (tau)", threshold=0.1, details=rep)
-    _worded(f, w.repeat_by_distance(0.05, 0.1, "tau"))
+    _worded(f, repeat_trajectory_kind.words_by_distance(0.05, 0.1, "tau"))
     assert not _of(compute_findings(_ev(1, repeat={**rep, "distance": 0.1})), "repeat_trajectory")
     assert not _of(compute_findings(_ev(1, repeat={**rep, "distance": None})), "repeat_trajectory")
     # the section's own decision wins over the threshold
@@ -561,22 +582,22 @@ def test_excitation_records_structural_unexcited_and_ill_conditioned():
                                    effect_unit="structural columns",
                                    details={"structural": [3], "identifiable_rank": 3,
                                             "identifiable_columns": [0, 1, 2]})
-    _worded(note, w.structural_columns(cols, [3], 4, 3))
+    _worded(note, excitation_kind.structural_columns(cols, [3], 4, 3))
     assert _record(design) == _blank(kind="excitation", severity="design", columns=(1, 2), effect=2.0,
                                      effect_unit="columns", details=x)
-    _worded(design, w.unexcited_columns(cols, [1], [2], "estimation"))
+    _worded(design, excitation_kind.unexcited_columns(cols, [1], [2], "estimation"))
     # without the estimation run's regressor the structure is unknown
     (f,) = _of(compute_findings(_ev(1, excitation=_excitation(unexcited=[0]))), "excitation")
-    _worded(f, w.unexcited_columns(None, [0], [], None))
+    _worded(f, excitation_kind.unexcited_columns(None, [0], [], None))
     # ill-conditioned only above the threshold, and over the reduced combinations when reduced
     x = _excitation(condition_scaled=1000.5, structural=[3], identifiable_rank=3, validation_rank=3)
     found = _of(compute_findings(_ev(1, excitation=x)), "excitation")
     (ill,) = [f for f in found if f.severity == "design"]
     assert _record(ill) == _blank(kind="excitation", severity="design", effect=1000.5,
                                   effect_unit="column-scaled condition number", threshold=1000.0, details=x)
-    _worded(ill, w.ill_conditioned(1000.5, 1000.0, True, 3))
+    _worded(ill, excitation_kind.ill_conditioned(1000.5, 1000.0, True, 3))
     (ill,) = _of(compute_findings(_ev(1, excitation=_excitation(condition_scaled=2e3))), "excitation")
-    _worded(ill, w.ill_conditioned(2e3, 1e3, False, None))
+    _worded(ill, excitation_kind.ill_conditioned(2e3, 1e3, False, None))
     assert not _of(compute_findings(_ev(1, excitation=_excitation(condition_scaled=1e3))), "excitation")
 
 
@@ -590,12 +611,12 @@ def test_joint_and_column_motion_records_below_the_threshold():
     assert _record(j) == _blank(kind="excitation", severity="design", joints=(0,), effect=0.0999,
                                 effect_unit="joint motion (RMS) relative to the estimation run", threshold=0.1,
                                 details={"joint_motion_ratio": 0.0999})
-    _worded(j, w.joint_motion("shoulder", 0.0999, 0.1))
+    _worded(j, excitation_kind.joint_motion("shoulder", 0.0999, 0.1))
     (c,) = [f for f in found if f.columns]
     assert _record(c) == _blank(kind="excitation", severity="design", columns=(0, 2), effect=0.02,
                                 effect_unit="column RMS relative to the estimation run", threshold=0.1,
                                 details={"column_motion_ratio": {0: 0.05, 2: 0.02}})
-    _worded(c, w.column_motion([("column 1", 0.05), ("column 3", 0.02)], 0.1))
+    _worded(c, excitation_kind.column_motion([("column 1", 0.05), ("column 3", 0.02)], 0.1))
     # columns already reported as unexcited, inseparable or structural are not repeated
     ev.excitation = _excitation(column_motion_ratio=[0.05, 0.5, 0.02, 0.01], unexcited=[0], unidentifiable=[3],
                                 inseparable=[2], structural=[1])
@@ -612,7 +633,7 @@ def test_low_information_record_on_undecided_joints_only():
                                 effect_unit="smallest detectable share of the mean square (90 % power)",
                                 threshold=0.25, details={"detectable_share": [0.3, 0.25, 0.6],
                                                          "noise_n_eff": [40.0, 50.0, 8.0], "unresolved": []})
-    _worded(f, w.low_information([("shoulder", 40.0, 0.3, None)], 0.25))
+    _worded(f, low_information_kind.words([("shoulder", 40.0, 0.3, None)], 0.25))
     assert not _of(compute_findings(_ev(1, detectable_share=np.array([0.25]), noise_n_eff=np.array([9.0]))),
                    "low_information")
 
@@ -623,11 +644,12 @@ def test_low_information_on_a_joint_whose_named_term_removes_less_than_the_run_d
     found = compute_findings(ev)
     (f,) = _of(found, "low_information")
     assert f.joints == (0,) and f.effect == 0.5 and f.details["unresolved"] == [0]
-    _worded(f, w.low_information([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
+    _worded(f, low_information_kind.words([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
-    from dynval.report._findings import _named_term, _unresolved
+    from dynval.report.kinds.low_information import named_term as _named_term
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.3]), noise_n_eff=np.array([20.0]))
     phys = Finding(kind="missing_physics", severity="deficiency", joints=(0,),
@@ -658,7 +680,7 @@ def test_time_stamps_note_counts_the_irregular_steps():
     (f,) = _of(compute_findings(_ev(1, timing=t)), "time_stamps")
     assert _record(f) == _blank(kind="time_stamps", severity="note", effect=10.0, effect_unit="irregular steps",
                                 details=t)
-    _worded(f, w.time_stamps(t))
+    _worded(f, time_stamps_kind.words(t))
     assert not _of(compute_findings(_ev(1, timing={**t, "regular": True})), "time_stamps")
 
 
@@ -779,8 +801,8 @@ def test_missing_terms_sort_nan_shares_last_and_every_joint_is_judged():
 def test_missing_physics_names_the_other_groups_by_share_from_one_percent():
     lib = _library([1e-9], [0.3], ["coulomb"], others={0: {"offset": 0.01, "viscous": 0.05, "drift": 0.0099}})
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
-    _worded(f, w.missing_physics("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3, 0.3,
-                                 f.pvalue_adjusted, True, _advice(0.3)))
+    _worded(f, physics_kind.words("shoulder", LABELS["coulomb"], [LABELS["viscous"], LABELS["offset"]], 0.3, 0.3,
+                                  0.3, f.pvalue_adjusted, True, _advice(0.3)))
     del lib["tests"][0]["selected_share"]  # without a selection, the term's own share is what it removes
     lib["tests"][0]["term_share"] = 0.2
     (f,) = _of(compute_findings(_ev(1, physics=lib)), "missing_physics")
@@ -811,7 +833,7 @@ def test_column_motion_threshold_is_strict_and_structural_columns_are_skipped():
              if f.effect_unit == "column RMS relative to the estimation run"]
     (f,) = found
     assert f.columns == (1,)
-    _worded(f, w.column_motion([("b", 0.05)], 0.1))
+    _worded(f, excitation_kind.column_motion([("b", 0.05)], 0.1))
 
 
 def test_thresholds_errors_name_the_bad_value():
@@ -822,7 +844,7 @@ def test_thresholds_errors_name_the_bad_value():
 
 
 def test_only_whiteness_is_set_aside_when_asking_what_a_joint_names():
-    from dynval.report._findings import _unresolved
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
@@ -867,7 +889,7 @@ def test_sampling_colour_at_alpha_exactly():
 
 
 def test_whiteness_does_not_resolve_a_joint_whose_named_term_is_below_what_the_run_detects():
-    from dynval.report._findings import _unresolved
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _ev(1, column_names=["a", "b"], detectable_share=np.array([0.5]), noise_n_eff=np.array([9.0]))
     col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.2,

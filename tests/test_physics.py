@@ -419,7 +419,8 @@ def test_a_term_no_estimation_refit_helps_is_named_from_the_validation_run():
 def test_a_missing_column_below_what_the_run_detects_leaves_the_joint_unresolved():
     """The same rule for a column offered and refitted in (regressor_correlation with a share): a
     joint is unresolved when every deficiency names a term below the smallest detectable share."""
-    from dynval.report._findings import Finding, _unresolved
+    from dynval.report._findings import Finding
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     ev = _evidence(detectable_share=np.array([0.5, 0.5]), noise_n_eff=np.array([10.0, 10.0]),
                    column_names=["Fv1", "Fv2"])

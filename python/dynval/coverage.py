@@ -23,8 +23,9 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from .report.kinds import KINDS as _DECLARED_KINDS
 from .streaming._welch import OFF_GRID  # why a merged stream has no spectrum, as dask's blocks are merged
 
 __all__ = ["Test", "TESTS", "INPUTS", "ENTRY_POINTS", "CAVEATS", "NOT_RUN", "NOT_RUN_WITH", "OFF_GRID", "RUNTIME",
@@ -52,7 +53,7 @@ INPUTS = {
 }
 """What a caller gives that a test needs, and how it is given to :func:`dynval.validate`."""
 
-TESTS: tuple[Test, ...] = (
+_LISTED_TESTS: tuple[Test, ...] = (
     Test("worse_than_constant", ("worse_than_constant", "pooling"), (), "R² per joint and pooled"),
     Test("data_notes", ("constant_target", "omitted_rows", "information_criteria"), (),
          "constant joints, omitted rows, n_params against the observations"),
@@ -77,6 +78,20 @@ TESTS: tuple[Test, ...] = (
     Test("repeat_trajectory", ("repeat_trajectory",), ("estimation",), "the validation run repeats the estimation run"),
     Test("time_stamps", ("time_stamps",), ("time",), "the time stamps' grid"),
 )
+"""The tests, with the kinds listed here."""
+
+
+def _with_declared_kinds(tests: tuple[Test, ...]) -> tuple[Test, ...]:
+    """The tests with the kinds whose modules (``report/kinds/``) name them (``Kind.test``) added."""
+    added: dict[str, list[str]] = {}
+    for kind in _DECLARED_KINDS.values():
+        if kind.test is not None:
+            added.setdefault(kind.test, []).append(kind.name)
+    return tuple(replace(t, kinds=t.kinds + tuple(k for k in added.get(t.name, ()) if k not in t.kinds))
+                 for t in tests)
+
+
+TESTS = _with_declared_kinds(_LISTED_TESTS)
 """Every test of a report, in the order of the findings' rules."""
 
 ENTRY_POINTS = {

@@ -10,10 +10,12 @@ from typing import TYPE_CHECKING, Any
 
 from ..checks._typing import ReportSections
 from ..report._findings import Finding
-from ..report._text import number_text, versus
+from ..report._text import number_text
+from ..report.kinds import KINDS
+from ..report.kinds._base import effect_versus_threshold
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Callable, Mapping, Sequence
 
 __all__ = ["joint_name", "column_name", "finding_reason", "candidate_reasons"]
 
@@ -33,32 +35,18 @@ def _g(x: float | None, fmt: str = ".3g") -> str:
     return number_text(x, fmt)
 
 
-def _vs(f: Finding, fmt: str = ".3g", *, percent: bool = False) -> tuple[str, str]:
-    """A finding's effect and its threshold, with the digits that keep them in the order the rule
-    found (:func:`dynval.report._text.versus`): 0.2496 against 0.25 → "24.96 %", "25 %" with ``percent``."""
-    e, t = versus(f.effect, f.threshold, fmt, scale=100.0 if percent else 1.0)
-    if percent:
-        e, t = (s if s in ("n/a", "nan") else f"{s} %" for s in (e, t))
-    return e, t
-
-
-_PHYSICS_RELATION = {
-    "missing": "missing",
-    "reweight": "mis-weighted or changed between runs (the model has it):",
-    "coupling": "missing the cross-joint coupling of",
-    "partial": "part of a term the model has, another shape of",
-}
-"""The physics finding relative to the model's columns (``details["relation"]``); without it (the
-columns unknown) a structure of the kind remains."""
+_vs = effect_versus_threshold
 
 
 def finding_reason(f: Finding, report: ReportSections) -> str:
     """One short reason from a finding's own fields: where, what, the effect and its threshold."""
     joints = ", ".join(joint_name(report, j) for j in f.joints)
+    prefix = ("design: " if f.severity == "design" else "") + (f"{joints}: " if joints else "")
+    declared = KINDS.get(f.kind)
+    if declared is not None:
+        return prefix + (declared.reason or _generic_reason)(f, lambda c: column_name(report, c))
     cols = [column_name(report, c) for c in f.columns]
-    th = f.threshold
-    e, t = _vs(f, percent="share" in (f.effect_unit or "") or f.kind in ("bias", "low_information")
-               or (f.kind == "excitation" and "motion" in (f.effect_unit or "")))
+    e, t = _vs(f, percent="share" in (f.effect_unit or ""))
     if f.kind == "regressor_correlation" and "share" in f.effect_unit:
         text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {e} of the residual's "
                 f"mean square ≥ {t})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
@@ -66,83 +54,20 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
         e, t = _vs(f, ".2f")
         text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
                 f"{e} ≥ {t}): " + _column_relation(f))
-    elif f.kind == "bias":
-        text = (f"residual bias (|mean| = {e} of the RMSE ≥ {t})"
-                + (f", which the missing term {cols[0]} accounts for" if cols else ""))
-    elif f.kind == "oscillation":
-        text = (f"oscillation near {_g(f.details.get('frequency'))} {f.details.get('frequency_unit', '')} "
-                f"({e} of the residual variance ≥ {t})")
-    elif f.kind == "prediction_artefact":
-        unit = f.details.get("frequency_unit", "")
-        text = (f"the prediction's own line near {_g(f.details.get('frequency'))} {unit} "
-                f"({e} of the residual variance ≥ {t}; the prediction holds "
-                f"{_g(f.details.get('line_power_prediction'), '.2g')} there, the measured torque "
-                f"{_g(f.details.get('line_power_measured'), '.2g')})")
-    elif f.kind == "whiteness":
-        rate = "at the information rate" if (f.details.get("decimation") or 1) > 1 else "at the logged rate"
-        text = (f"residual not white {rate} (max |ρ̂(ℓ)| = {_g(f.effect, '.2f')}), explained by the "
-                "findings above on this joint")
-    elif f.kind == "worse_than_constant":
-        e, t = versus(f.statistic, 0.0, ".3f")
-        text = f"worse than a constant (R² = {e} < {t})"
-    elif f.kind == "missing_physics":
-        label = f.details.get("label") or f.details.get("term") or "a physical term"
-        what = _PHYSICS_RELATION.get(str(f.details.get("relation")), "a structure of this kind remains:")
-        text = f"{what} {label} (the physical terms would remove {e} of the mean square ≥ {t})"
-        if f.details.get("relation") == "unsupported":
-            text = (f"mis-weighted terms, not {label} (adding it does not carry to held-out rows; the physical "
-                    f"terms would remove {e} of the mean square ≥ {t})")
-    elif f.kind == "delay":
-        d_s = f.details.get("delay_s")
-        samples = float(f.details.get("delay_samples") or 0.0)
-        lag = (f"{_g(abs(1000.0 * d_s), '.3g')} ms" if d_s is not None else f"{_g(abs(samples), '.3g')} samples")
-        side = "lag" if samples >= 0 else "lead"
-        if f.details.get("phase_deg") is not None:
-            e, t = _vs(f, ".3g")
-            size = f"a {e}° phase {side} at the information band's edge ≥ {t}°"
-        else:
-            size = f"realigning removes {e} of the mean square ≥ {t}"
-        text = (f"torque {'delayed by' if samples >= 0 else 'ahead by'} {lag} against the encoders ({size})")
-    elif f.kind == "predictive_failure":
-        text = f"predictive failure (validation mean square {e}× what the estimation run allows ≥ {t}×)"
-    elif f.kind == "low_information":
-        text = f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
-    elif f.kind == "repeat_trajectory" and f.details.get("share") is not None:
-        text = (f"the validation run repeats the estimation run ({e} of it lies near the estimation trajectory "
-                f"at some time > {t})")
-    elif f.kind == "repeat_trajectory":
-        measure = f.details.get("measure", "")
-        text = (f"the validation run repeats the estimation run (relative {measure + ' ' if measure else ''}"
-                f"distance {e} < {t})")
-    elif f.kind == "excitation" and cols and "estimation run" in (f.effect_unit or ""):
-        e, t = _vs(f, ".1f", percent=True)
-        text = f"the validation run excites {', '.join(cols)} far less than the estimation run ({e} < {t})"
-    elif f.kind == "excitation" and cols:
-        zero = set(f.details.get("unexcited") or ())
-        never = [column_name(report, c) for c in f.columns if c in zero]
-        apart = [column_name(report, c) for c in f.columns if c not in zero]
-        text = "the validation run " + " and ".join(
-            ([f"never excites {', '.join(never)}"] if never else [])
-            + ([f"cannot separate {', '.join(apart)} from the other columns"] if apart else []))
-    elif f.kind == "excitation" and "condition" in f.effect_unit:
-        text = f"ill-conditioned validation regressor (column-scaled condition number {e} > {t})"
-    elif f.kind == "excitation" and "motion" in f.effect_unit:
-        text = f"hardly moves ({e} of its estimation-run motion < {t})"
-    elif f.kind == "physical_consistency" and f.details.get("link"):
-        text = (f"not a robot: {f.details['link']} breaks {f.details.get('condition')} by {_g(f.effect)} "
-                f"{f.effect_unit}")
-    elif f.kind == "physical_consistency" and f.details.get("joint"):
-        text = f"not a robot: {f.details.get('condition')} broken by {_g(f.effect)} {f.effect_unit}"
-    elif f.kind == "physical_consistency":
-        text = (f"no physically consistent robot has these base parameters (the nearest adds {e} to the "
-                f"estimation run's residual mean square ≥ {t})")
-    else:  # a kind this wording does not know yet: its name, effect and threshold
-        text = f.kind.replace("_", " ")
-        if f.effect is not None:
-            text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
-                     + (f", threshold {t}" if th is not None else "") + ")")
-    prefix = "design: " if f.severity == "design" else ""
-    return prefix + (f"{joints}: " if joints else "") + text
+    else:  # a kind this wording does not know: its name, effect and threshold
+        text = _generic_reason(f, lambda c: column_name(report, c))
+    return prefix + text
+
+
+def _generic_reason(f: Finding, column: Callable[[int], str]) -> str:
+    """A kind's name, effect and threshold: the reason of a kind that declares none."""
+    declared = KINDS.get(f.kind)
+    e, t = _vs(f, percent=declared.percent if declared is not None else "share" in (f.effect_unit or ""))
+    text = f.kind.replace("_", " ")
+    if f.effect is not None:
+        text += (f" ({f.effect_unit + ' = ' if f.effect_unit else ''}{e}"
+                 + (f", threshold {t}" if f.threshold is not None else "") + ")")
+    return text
 
 
 def _with_share(text: str, f: Finding, share: float | None, shared: bool) -> str:

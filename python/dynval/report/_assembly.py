@@ -352,7 +352,7 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
         "column_names": s.column_names,
         "model_columns": s.model_columns,
         "sample_rate": s.sample_rate,
-        "thresholds": dict(vars(s.thresholds)) if hasattr(s.thresholds, "__dict__") else None,
+        "thresholds": s.thresholds.as_dict() if isinstance(s.thresholds, Thresholds) else None,
         "backend": s.backend,
     }
     if s.streaming:

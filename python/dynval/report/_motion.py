@@ -8,6 +8,7 @@ They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or th
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -18,19 +19,24 @@ else:
     from .._lazy import scipy
 
 from ..statistics import _estimation, _model_terms, _periodic, _physics
+from ..statistics._estimation import EstimationFit
+from ..statistics._physics import Derivatives, PhysicsTest
 from ._prepared import Memo, compute_now
 from ._regressor_algebra import unit_norm_columns
 
 __all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
 
 
-def delay(meas, pred, sample_rate) -> dict[str, Any]:
+def delay(meas: np.ndarray, pred: np.ndarray, sample_rate: float | None) -> dict[str, Any]:
     """The time shift between measured and predicted torque (:func:`dynval.statistics._physics.delay_test`)."""
     return _physics.delay_test(meas, pred, sample_rate=sample_rate)
 
 
-def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level, est_run=None,
-            meas=None, practical: float = 0.05, column_names=None) -> dict[str, Any]:
+def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | None, ddq: np.ndarray | None,
+            sample_rate: float | None,
+            reg3: np.ndarray | None, model_columns: Sequence[int] | None, est_fit: EstimationFit | None, level: float,
+            est_run: Mapping[str, Any] | None = None, meas: np.ndarray | None = None, practical: float = 0.05,
+            column_names: Sequence[str] | None = None) -> dict[str, Any]:
     """Each joint's residual against the physics library (:mod:`dynval.statistics._physics`).
 
     The model's own columns: with the estimation run their estimation error widens the test
@@ -57,7 +63,7 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
                                   libraries=libs, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
     source = derivative_source(q, dq, ddq, est_run)
-    if est_fit is not None and reg3 is not None and est_run is not None and "q" in est_run:
+    if est_fit is not None and reg3 is not None and meas is not None and est_run is not None and "q" in est_run:
         refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source)
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
@@ -75,7 +81,8 @@ def physics(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, leve
             "n_eff": np.array([t.n_eff for t in tests])}
 
 
-def derivative_source(q, dq, ddq, est_run) -> str:
+def derivative_source(q: np.ndarray | None, dq: np.ndarray | None, ddq: np.ndarray | None,
+                      est_run: Mapping[str, Any] | None) -> str:
     """Where the naming refit's q̇, q̈ come from, one source for both runs: ``"given"`` when the
     user's derivatives are given for both runs, else ``"savgol"`` (Savitzky–Golay of each run's q)."""
     est_run = est_run or {}
@@ -89,7 +96,8 @@ def source_text(source: str) -> str:
             else "Savitzky–Golay derivatives of q on both runs (0.1 s window, degree 4)")
 
 
-def declared_groups(reg3, cols, column_names) -> list[set[str]] | None:
+def declared_groups(reg3: np.ndarray | None, cols: Sequence[int] | None,
+                    column_names: Sequence[str] | None) -> list[set[str]] | None:
     """Per joint, the groups the names of the model's columns active on it declare."""
     if reg3 is None or cols is None or not column_names:
         return None
@@ -100,7 +108,11 @@ def declared_groups(reg3, cols, column_names) -> list[set[str]] | None:
     return out
 
 
-def model_kinds(e, q, d, sample_rate, reg3, cols, declared=None, libraries=None) -> list[dict[str, bool]] | None:
+def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | None, sample_rate: float | None,
+                reg3: np.ndarray | None,
+                cols: Sequence[int] | None,
+                declared: list[set[str]] | None = None,
+                libraries: list[dict[str, np.ndarray]] | None = None) -> list[dict[str, bool]] | None:
     """Per joint, which library groups the model's columns span (an own column of each within
     the tolerance of :mod:`dynval.statistics._model_terms`); None when its columns are unknown.
     ``libraries``: each joint's library when built already."""
@@ -110,13 +122,16 @@ def model_kinds(e, q, d, sample_rate, reg3, cols, declared=None, libraries=None)
     out = []
     for j in range(m):
         lib = libraries[j] if libraries is not None else _model_terms.library_for(
-            j, q, d.dq if q is not None else None, d.ddq if q is not None else None, n, sample_rate)
+            j, q, None if q is None or d is None else d.dq, None if q is None or d is None else d.ddq, n, sample_rate)
         out.append(_model_terms.kinds_present(j, reg3[:, j, cols], lib, m, declared[j] if declared else set()))
     return out
 
 
-def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared=None,
-                 libraries=None) -> None:
+def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, meas: np.ndarray | None, q: np.ndarray,
+                 d: Derivatives, sample_rate: float | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
+                 est_fit: EstimationFit | None,
+                 practical: float, declared: list[set[str]] | None = None,
+                 libraries: list[dict[str, np.ndarray]] | None = None) -> None:
     """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
     with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
     with the coefficients of the model's columns closest to it, estimated and refitted on this run.
@@ -152,7 +167,8 @@ def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, p
         t.relation = rel
 
 
-def _joint_coefficients(y_j, active, pred_j, meas_j) -> tuple[np.ndarray, np.ndarray]:
+def _joint_coefficients(y_j: np.ndarray, active: np.ndarray, pred_j: np.ndarray,
+                        meas_j: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """Joint j's model columns' coefficients in the prediction and refitted on the measured torque
     (least squares on the columns active on the joint; nan refitted without the measurement)."""
     in_pred = np.zeros(y_j.shape[1])
@@ -162,7 +178,8 @@ def _joint_coefficients(y_j, active, pred_j, meas_j) -> tuple[np.ndarray, np.nda
     return in_pred, refit
 
 
-def simulator_parameters(pred, meas, reg3, column_names) -> list[list[dict[str, Any]]] | None:
+def simulator_parameters(pred: np.ndarray | None, meas: np.ndarray | None, reg3: np.ndarray | None,
+                         column_names: Sequence[str] | None) -> list[list[dict[str, Any]]] | None:
     """Per joint, the simulator columns active on it (an MJCF model's ``armature_``, ``damping_``,
     ``frictionloss_<joint>``, contract §11) with their coefficient in the prediction (the model's own
     value) and refitted on this run, by least squares on every regressor column active on the joint:
@@ -187,7 +204,8 @@ def simulator_parameters(pred, meas, reg3, column_names) -> list[list[dict[str, 
     return out if any(out) else None
 
 
-def predictive(e, est_fit, reg3, n_eff_val, memo: Memo = compute_now) -> dict[str, Any] | None:
+def predictive(e: np.ndarray | None, est_fit: EstimationFit | None, reg3: np.ndarray | None, n_eff_val: np.ndarray,
+               memo: Memo[Any] = compute_now) -> dict[str, Any] | None:
     """Does the validation error exceed what the estimation run's noise and Cov(π̂) allow?
 
     A Chow-type predictive test per joint: the validation mean square against s²_est (the
@@ -221,18 +239,20 @@ def predictive(e, est_fit, reg3, n_eff_val, memo: Memo = compute_now) -> dict[st
             "parameter_variance": param, "df": np.column_stack([df1, df2]), "pvalue": p}
 
 
-def model_gram(reg3, cols) -> np.ndarray:
+def model_gram(reg3: np.ndarray, cols: Sequence[int]) -> np.ndarray:
     """Each joint's mean Gram matrix of the model's columns, Y_{j,S}ᵀY_{j,S}/N, (m, k, k)."""
-    return np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / reg3.shape[0]
+    gram: np.ndarray = np.einsum("nmk,nml->mkl", reg3[:, :, cols], reg3[:, :, cols]) / reg3.shape[0]
+    return gram
 
 
-def _kurtosis_factor(x) -> np.ndarray:
+def _kurtosis_factor(x: np.ndarray) -> np.ndarray:
     """2/(2 + κ) per column, κ the excess kurtosis (0 for Gaussian data; at most 1)."""
     kappa = scipy.stats.kurtosis(np.asarray(x, dtype=float), axis=0, fisher=True, bias=False)
-    return 2.0 / (2.0 + np.clip(np.nan_to_num(kappa), 0.0, None))
+    factor: np.ndarray = 2.0 / (2.0 + np.clip(np.nan_to_num(kappa), 0.0, None))
+    return factor
 
 
-def joint_excitation(q_val, q_est) -> np.ndarray | None:
+def joint_excitation(q_val: np.ndarray | None, q_est: np.ndarray | None) -> np.ndarray | None:
     """Each joint's motion on the validation run relative to the estimation run (RMS about the mean)."""
     if q_val is None or q_est is None or q_val.shape[1] != q_est.shape[1]:
         return None
@@ -242,7 +262,7 @@ def joint_excitation(q_val, q_est) -> np.ndarray | None:
         return np.where(se > 0, sv / se, np.nan)
 
 
-def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> np.ndarray:
+def detectable_share(n_eff: np.ndarray, n_tests: int, level: float, power: float = 0.9) -> np.ndarray:
     """The smallest share of a joint's mean square that one added term must remove to be found with
     probability ``power`` at the Holm-corrected level: s = c/(N_eff + c), c = (z₁₋α/(2T) + z_power)²
     (the t statistic of a term that removes s is about √(N_eff s/(1 − s)))."""
@@ -252,7 +272,9 @@ def detectable_share(n_eff, n_tests: int, level: float, power: float = 0.9) -> n
     return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)
 
 
-def periodic(e, q, sample_rate, band, est_fit=None, reg3=None, model_columns=None) -> dict[str, Any] | None:
+def periodic(e: np.ndarray, q: np.ndarray, sample_rate: float | None, band: float | None,
+             est_fit: EstimationFit | None = None, reg3: np.ndarray | None = None,
+             model_columns: Sequence[int] | None = None) -> dict[str, Any] | None:
     """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
     part common to every period against the noise the period-to-period variation measures
     (:func:`dynval.statistics._periodic.periodic_noise_test`, no whiteness assumed).
@@ -298,7 +320,9 @@ def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
     return {"used": False, "period": period.to_dict(), "note": note}
 
 
-def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical: float = 0.05,
+def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fit: EstimationFit,
+                reg3: np.ndarray, meas: np.ndarray, q: np.ndarray, d: Derivatives, sample_rate: float | None,
+                practical: float = 0.05,
                 source: str = "savgol") -> None:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
     estimation run with one library group added on every flagged joint at once (a friction or an
@@ -373,7 +397,7 @@ def refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practica
         t.refit_run = how
 
 
-def _validation_refit_gains(tau_j, y_j, groups) -> dict[str, float]:
+def _validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, float]:
     """Per group, the share of the residual left by the model's columns refitted on this run that
     the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
     (:func:`dynval.statistics._model_terms.crossfit_sse`, the rows near a block's edge unscored), so

@@ -19,6 +19,7 @@ from dataclasses import dataclass, fields
 from typing import Any, ClassVar, TypeVar
 
 from ..checks._json import to_jsonable
+from ..checks._typing import BoolArray, FloatArray, IntArray
 
 __all__ = ["ABSENT", "Record", "Provenance", "PerJoint", "Pooled", "Aggregates", "Residuals", "Autocorrelation",
            "LjungBox", "CrossCorrelation", "InformationCriteria", "Bias", "Whiteness", "Spectrum", "Design",
@@ -125,6 +126,7 @@ class Provenance(Record):
     the sizes, the names, the thresholds, the backend and the versions."""
 
     profile: str = ABSENT
+    # Any: the settings by name (numbers, names, None), as the provenance states them
     conventions: dict[str, Any] = ABSENT
     units: dict[str, str] = ABSENT
     n_samples: int = ABSENT
@@ -152,13 +154,13 @@ class PerJoint(Record):
     """Per-joint point metrics, arrays (m,): ``sse``, ``rmse``, ``max_abs_error``, ``vaf``,
     ``fit_percent``, ``r2``, and ``nrmse`` = √(SSE_j/TSS_j) (a fraction)."""
 
-    sse: Any = ABSENT
-    rmse: Any = ABSENT
-    max_abs_error: Any = ABSENT
-    vaf: Any = ABSENT
-    fit_percent: Any = ABSENT
-    r2: Any = ABSENT
-    nrmse: Any = ABSENT
+    sse: FloatArray = ABSENT
+    rmse: FloatArray = ABSENT
+    max_abs_error: FloatArray = ABSENT
+    vaf: FloatArray = ABSENT
+    fit_percent: FloatArray = ABSENT
+    r2: FloatArray = ABSENT
+    nrmse: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -189,9 +191,10 @@ class Residuals(Record):
     """The residual's ``mean`` and ``variance`` (m,), the variance's ``ddof`` and the
     ``zero_mean_test`` (contract §3.3)."""
 
-    mean: Any = ABSENT
-    variance: Any = ABSENT
+    mean: FloatArray = ABSENT
+    variance: FloatArray = ABSENT
     ddof: int = ABSENT
+    # Any: contract §3.3's test result as a mapping (statistic, p-value arrays and the test's name)
     zero_mean_test: dict[str, Any] = ABSENT
 
 
@@ -202,12 +205,13 @@ class Autocorrelation(Record):
 
     max_lag: int = ABSENT
     adjusted: bool = ABSENT
-    rho: Any = ABSENT
+    rho: FloatArray = ABSENT
     band_type: str = ABSENT
     level: float = ABSENT
-    band: Any = ABSENT
+    band: FloatArray = ABSENT
+    # Any: (joint, lag, ρ) triples
     outside: list[Any] = ABSENT
-    fraction_outside: Any = ABSENT
+    fraction_outside: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -216,12 +220,12 @@ class LjungBox(Record):
     ``log_pvalue``, ``df``, each (len(lags), m)."""
 
     test: str = ABSENT
-    lags: Any = ABSENT
+    lags: IntArray = ABSENT
     model_df: int = ABSENT
-    statistic: Any = ABSENT
-    pvalue: Any = ABSENT
-    log_pvalue: Any = ABSENT
-    df: Any = ABSENT
+    statistic: FloatArray = ABSENT
+    pvalue: FloatArray = ABSENT
+    log_pvalue: FloatArray = ABSENT
+    df: IntArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -234,23 +238,26 @@ class CrossCorrelation(Record):
 
     max_lag: int = ABSENT
     adjusted: bool = ABSENT
-    constant_mask: Any = ABSENT
+    constant_mask: BoolArray = ABSENT
     band: float = ABSENT
     level: float = ABSENT
     n_outside_white_band: int = ABSENT
     colour_lags: int = ABSENT
-    colour_factor: Any = ABSENT
-    max_abs_rho: Any = ABSENT
-    lag_of_max: Any = ABSENT
-    z_max: Any = ABSENT
+    colour_factor: FloatArray = ABSENT
+    max_abs_rho: FloatArray = ABSENT
+    lag_of_max: IntArray = ABSENT
+    z_max: FloatArray = ABSENT
+    # Any: (joint, column, lag, ρ, z) rows, JSON-ready
     top_cells: list[Any] = ABSENT
     detail: str = ABSENT
+    # Any: (joint, column, lag, ρ) cells outside the white band
     outside: list[Any] = ABSENT
-    rho: Any = ABSENT
-    sd: Any = ABSENT
+    rho: FloatArray = ABSENT
+    sd: FloatArray = ABSENT
     parameter_error: bool = ABSENT
+    # Any: the added-variable section (columns, statistics, p-values, shares), contract §4
     missing_terms: dict[str, Any] = ABSENT
-    pvalue_adjusted: Any = ABSENT
+    pvalue_adjusted: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -281,18 +288,18 @@ class Bias(Record):
 
     method: str = ABSENT
     long_run_variance_method: str = ABSENT
-    mean: Any = ABSENT
-    std: Any = ABSENT
-    n_eff: Any = ABSENT
-    phi: Any = ABSENT
-    bandwidth: Any = ABSENT
-    statistic: Any = ABSENT
-    pvalue: Any = ABSENT
-    df: Any = ABSENT
-    effect: Any = ABSENT
+    mean: FloatArray = ABSENT
+    std: FloatArray = ABSENT
+    n_eff: FloatArray = ABSENT
+    phi: FloatArray = ABSENT
+    bandwidth: IntArray = ABSENT
+    statistic: FloatArray = ABSENT
+    pvalue: FloatArray = ABSENT
+    df: FloatArray = ABSENT
+    effect: FloatArray = ABSENT
     effect_unit: str = ABSENT
-    standard_error: Any = ABSENT
-    parameter_standard_error: Any = ABSENT
+    standard_error: FloatArray = ABSENT
+    parameter_standard_error: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -303,12 +310,12 @@ class Whiteness(Record):
 
     test: str = ABSENT
     lag: int = ABSENT
-    pvalue_raw: Any = ABSENT
-    log_pvalue_raw: Any = ABSENT
+    pvalue_raw: FloatArray = ABSENT
+    log_pvalue_raw: FloatArray = ABSENT
     decimation: int = ABSENT
     information_band: float | None = ABSENT
     information_band_source: str | None = ABSENT
-    pvalue_decimated: Any = ABSENT
+    pvalue_decimated: FloatArray | None = ABSENT
     lag_decimated: int | None = ABSENT
     n_decimated: int | None = ABSENT
     bandwidth: float | None = ABSENT
@@ -320,9 +327,9 @@ class Spectrum(Record):
     """Welch spectrum of the residual (less what the regressor explains, ``regressor_removed``):
     ``frequency`` (F,), ``power`` (F, m), ``dof``, ``nperseg`` and the strongest tested ``peaks``."""
 
-    frequency: Any = ABSENT
+    frequency: FloatArray = ABSENT
     frequency_unit: str = ABSENT
-    power: Any = ABSENT
+    power: FloatArray = ABSENT
     dof: float = ABSENT
     nperseg: int = ABSENT
     regressor_removed: bool = ABSENT
@@ -335,11 +342,12 @@ class Design(Record):
     the estimation run), ``excitation`` (the validation regressor), ``joint_motion_ratio`` (m,),
     ``noise_n_eff`` and ``detectable_share`` (m,)."""
 
+    # Any: the repeat and excitation sections' mappings (conventions §5.6), numbers and column lists
     repeat: dict[str, Any] = ABSENT
     excitation: dict[str, Any] = ABSENT
-    joint_motion_ratio: Any = ABSENT
-    noise_n_eff: Any = ABSENT
-    detectable_share: Any = ABSENT
+    joint_motion_ratio: FloatArray = ABSENT
+    noise_n_eff: FloatArray = ABSENT
+    detectable_share: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -358,9 +366,10 @@ class Physics(Record):
     simulator_parameters: list[list[dict[str, Any]]] | None = ABSENT
     groups: list[str] = ABSENT
     tests: list[dict[str, Any]] = ABSENT
-    pvalue: Any = ABSENT
-    share: Any = ABSENT
-    n_eff: Any = ABSENT
+    pvalue: FloatArray = ABSENT
+    share: FloatArray = ABSENT
+    n_eff: FloatArray = ABSENT
+    # Any: the delay test's mapping (shift, per-joint shares and p-values)
     delay: dict[str, Any] = ABSENT
 
 
@@ -371,13 +380,13 @@ class Predictive(Record):
     ``parameter_variance``, ``df`` (m, 2), ``pvalue``."""
 
     method: str = ABSENT
-    ratio: Any = ABSENT
-    expected_mse: Any = ABSENT
-    validation_mse: Any = ABSENT
-    noise_variance_estimation: Any = ABSENT
-    parameter_variance: Any = ABSENT
-    df: Any = ABSENT
-    pvalue: Any = ABSENT
+    ratio: FloatArray = ABSENT
+    expected_mse: FloatArray = ABSENT
+    validation_mse: FloatArray = ABSENT
+    noise_variance_estimation: FloatArray = ABSENT
+    parameter_variance: FloatArray = ABSENT
+    df: FloatArray = ABSENT
+    pvalue: FloatArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -386,19 +395,22 @@ class Periodic(Record):
     and, per joint, the test of what every period shares (contract §4)."""
 
     used: bool = ABSENT
+    # Any: the period in samples and seconds (None without a rate)
     period: dict[str, Any] = ABSENT
-    pvalue: Any = ABSENT
-    statistic: Any = ABSENT
+    # list[Any]: per joint, the values as statistics/_periodic.py gives them, JSON-ready (floats, or
+    # per-harmonic lists for the spectra and the harmonic tests); effect_net is an array (m,)
+    pvalue: list[Any] = ABSENT
+    statistic: list[Any] = ABSENT
     dof: int = ABSENT
-    phi: Any = ABSENT
-    effect: Any = ABSENT
-    error_power: Any = ABSENT
-    noise_variance: Any = ABSENT
-    total_variance: Any = ABSENT
-    noise_spectrum: Any = ABSENT
-    harmonic_statistic: Any = ABSENT
-    harmonic_pvalue: Any = ABSENT
-    frequency: Any = ABSENT
+    phi: list[Any] = ABSENT
+    effect: list[Any] = ABSENT
+    error_power: list[Any] = ABSENT
+    noise_variance: list[Any] = ABSENT
+    total_variance: list[Any] = ABSENT
+    noise_spectrum: list[Any] = ABSENT
+    harmonic_statistic: list[Any] = ABSENT
+    harmonic_pvalue: list[Any] = ABSENT
+    frequency: list[Any] = ABSENT
     n_periods: int = ABSENT
     samples_per_period: int = ABSENT
     n_harmonics: int = ABSENT
@@ -406,7 +418,7 @@ class Periodic(Record):
     start: int = ABSENT
     method: str = ABSENT
     model_columns_removed: bool = ABSENT
-    effect_net: Any = ABSENT
+    effect_net: FloatArray = ABSENT
     note: str = ABSENT  # why a period found was not tested (``used`` False)
 
 
@@ -440,6 +452,7 @@ class Segment(Record):
 
     n_samples: int = ABSENT
     start: int = ABSENT
+    # Any: the segment's per-joint and pooled metrics by name (arrays and floats)
     per_joint: dict[str, Any] = ABSENT
-    mean: Any = ABSENT
+    mean: FloatArray = ABSENT
     pooled: dict[str, Any] = ABSENT

@@ -9,7 +9,7 @@ alone but for the residual's projection itself, so a prepared regressor keeps it
 from __future__ import annotations
 
 from functools import partial
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,14 +27,19 @@ from ..statistics._columns import pow2_exponents as _pow2_exponents
 from ..statistics._columns import scale_pow2 as _scale_pow2
 from ._prepared import Memo, compute_now
 
+Factor = tuple[np.ndarray, np.ndarray]
+"""The column-scaled normal equations' matrix and the columns' norms (:func:`_normal_factor`)."""
 
-def column_largest(reg3: np.ndarray, memo: Memo = compute_now) -> np.ndarray:
+
+def column_largest(reg3: np.ndarray, memo: Memo[Any] = compute_now) -> np.ndarray:
     """Each joint column's largest |x|, (m, p): zero exactly for a column of zeros (common: a
     link's parameters do not act on the joints before it). One contiguous pass, kept by a
     prepared regressor; the Gram matrices, the projection's blocks, the columns'
     autocorrelations and the excitation's factor all leave the zero columns out."""
     n, m, p = reg3.shape
-    return memo(("column_largest", reg3.shape), lambda: _column_largest(reg3.reshape(n, m * p)).reshape(m, p))
+    largest: np.ndarray = memo(("column_largest", reg3.shape),
+                               lambda: _column_largest(reg3.reshape(n, m * p)).reshape(m, p))
+    return largest
 
 
 class JointGrams:
@@ -70,10 +75,12 @@ class JointGrams:
 
     def stacked(self) -> np.ndarray:
         """The Gram matrix of the regressor stacked over joints, (p, p)."""
-        return self.gram.sum(axis=0)
+        total: np.ndarray = self.gram.sum(axis=0)
+        return total
 
 
-def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_now):
+def _project_out(e: np.ndarray, reg3: np.ndarray, grams: JointGrams | None = None,
+                 memo: Memo[Any] = compute_now) -> np.ndarray:
     """The residual less its least-squares projection on each joint's regressor columns.
 
     What depends on the regressor alone (each joint's live columns, the solve's factor, the
@@ -105,7 +112,7 @@ def _project_out(e, reg3, grams: JointGrams | None = None, memo: Memo = compute_
             with np.errstate(over="ignore", under="ignore", invalid="ignore"):
                 fitted = np.einsum("njp,jp->nj", reg3, beta)  # one pass again, for every joint
             out[:, fast] = e[:, fast] - fitted[:, fast]
-    for j in np.flatnonzero(~fast):
+    for j in np.flatnonzero(~fast).tolist():
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
         # 1e140 data do not overflow the normal equations.
@@ -126,12 +133,13 @@ def _live_columns(grams: JointGrams, j: int) -> np.ndarray:
     return np.flatnonzero(np.diagonal(grams.gram[j]) > 0)
 
 
-def _live_factor(grams: JointGrams, j: int, live):
+def _live_factor(grams: JointGrams, j: int, live: np.ndarray) -> Factor | None:
     """:func:`_normal_factor` of joint j's live columns (None without any)."""
     return _normal_factor(grams.gram[j][np.ix_(live, live)]) if live.size else None
 
 
-def _scaled_block(reg3, j: int, memo: Memo):
+def _scaled_block(reg3: np.ndarray, j: int,
+                  memo: Memo[Any]) -> tuple[np.ndarray, Factor] | tuple[None, RangeProjection]:
     """Joint j's nonzero columns scaled exactly by powers of two and how to solve on them: (the
     block, the factor of its normal equations) when they are well conditioned, else (None, the
     projection on its numerical range), which no longer needs the block. A zero column adds
@@ -143,7 +151,7 @@ def _scaled_block(reg3, j: int, memo: Memo):
     return (y, factor) if factor is not None else (None, RangeProjection(y))
 
 
-def _scaled_live_block(reg3, j: int, largest) -> np.ndarray:
+def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
     """Joint j's nonzero columns, each scaled by the power of two of its largest |x| (exact)."""
     live = np.flatnonzero(largest[j] > 0)
     return _scale_pow2(reg3[:, j, :] if live.size == reg3.shape[2] else reg3[:, j, live], _exponents(largest[j, live]))
@@ -178,9 +186,8 @@ class RangeProjection:
 
     def residual(self, b: np.ndarray) -> np.ndarray:
         """b less its least-squares fit on the block, (N,)."""
-        if self.rank == 0:
-            return b.copy()
-        return b - self.basis @ (self.basis.T @ b)
+        rest: np.ndarray = b.copy() if self.rank == 0 else b - self.basis @ (self.basis.T @ b)
+        return rest
 
 
 # Below this condition number the normal equations lose at most about 1e-8 of the fit
@@ -188,12 +195,12 @@ class RangeProjection:
 _NORMAL_EQUATIONS_COND = 1e4
 
 
-def _sum_squares(x):
+def _sum_squares(x: np.ndarray) -> float:
     with np.errstate(over="ignore", under="ignore"):
         return float(x @ x)
 
 
-def _normal_factor(g):
+def _normal_factor(g: np.ndarray) -> Factor | None:
     """(gs, d) of the column-scaled normal equations gs = g/(d dᵀ), d = √diag g, when their
     condition number is below _NORMAL_EQUATIONS_COND (and no column is zero); else None. It depends
     on the regressor alone: a prepared regressor keeps it."""
@@ -207,7 +214,7 @@ def _normal_factor(g):
     return None
 
 
-def _solve_factored(factor, yb):
+def _solve_factored(factor: Factor | None, yb: np.ndarray) -> np.ndarray | None:
     """β from the normal equations of :func:`_normal_factor`, or None without a factor."""
     if factor is None:
         return None
@@ -215,19 +222,19 @@ def _solve_factored(factor, yb):
     return np.linalg.solve(gs, yb / d) / d
 
 
-def _solve_normal_equations(g, yb):
+def _solve_normal_equations(g: np.ndarray, yb: np.ndarray) -> np.ndarray | None:
     """β from the normal equations gβ = yb of the column-scaled problem, or None when the scaled
     condition number reaches _NORMAL_EQUATIONS_COND (or a column is zero)."""
     return _solve_factored(_normal_factor(g), yb)
 
 
-def _least_squares(y, b):
+def _least_squares(y: np.ndarray, b: np.ndarray) -> np.ndarray:
     """argmin ‖yβ − b‖: by the normal equations (one BLAS pass) when y is well conditioned."""
     beta = _solve_normal_equations(y.T @ y, y.T @ b)
     return beta if beta is not None else np.linalg.lstsq(y, b, rcond=None)[0]
 
 
-def _pow2_columns(x):
+def _pow2_columns(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(x·2^-k, k) per column, k the exponent of the column's largest |x| (0 for zeros)."""
     k = _pow2_exponents(x)
     return _scale_pow2(x, k), k
@@ -263,7 +270,8 @@ def _r_factor(x: np.ndarray, columns: np.ndarray, k: np.ndarray | None = None, b
     return np.array(buf[:top])
 
 
-def _singular_values(x, live, norms, gram=None):
+def _singular_values(x: np.ndarray, live: np.ndarray, norms: np.ndarray,
+                     gram: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Singular values of x[:, live], raw and with unit-norm columns, without copying x.
 
     From the Gram matrix (one BLAS pass) while both condition numbers stay below
@@ -308,7 +316,7 @@ def unit_norm_columns(x: np.ndarray) -> np.ndarray:
     return np.asarray(x[:, keep] / norms[keep])
 
 
-def _gram_singular_values(gram, norms):
+def _gram_singular_values(gram: np.ndarray | None, norms: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """Raw and column-scaled singular values from the Gram matrix when it decides them (every
     column nonzero, both condition numbers below _NORMAL_EQUATIONS_COND²/100 = 1e6), else None."""
     if gram is None or not np.all(np.isfinite(gram)) or not np.all((norms > 1e-140) & (norms < 1e140)):
@@ -321,7 +329,7 @@ def _gram_singular_values(gram, norms):
     return None
 
 
-def _stacked_r(reg3, k, memo: Memo = compute_now) -> np.ndarray:
+def _stacked_r(reg3: np.ndarray, k: np.ndarray, memo: Memo[Any] = compute_now) -> np.ndarray:
     """R of the regressor stacked over joints, Y·2^-k ((N·m) × p, k an exact column scaling), p × p
     at most: each joint's nonzero columns are factored alone (Y_j·2^-k_j = Q_j R_j, k_j from
     :func:`column_largest`; kept by a prepared regressor), their R_j·2^(k_j − k) stacked and
@@ -344,13 +352,13 @@ def _stacked_r(reg3, k, memo: Memo = compute_now) -> np.ndarray:
     return np.array(r[:min(stacked.shape[0], p)])
 
 
-def _joint_r(reg3, j: int, largest) -> np.ndarray:
+def _joint_r(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
     """R of joint j's nonzero columns scaled by powers of two (:func:`_scaled_live_block`)."""
     y = _scaled_live_block(reg3, j, largest)
     return _r_factor(y, np.arange(y.shape[1]))
 
 
-def _leading_base(a, tol: float) -> np.ndarray:
+def _leading_base(a: np.ndarray, tol: float) -> np.ndarray:
     """The columns of ``a`` (rows × q, or any matrix with its R factor) that are independent of
     the columns kept before them, in index order: with every column scaled to unit norm, column
     k is kept when its distance from the span of the kept columns exceeds ``tol``; a column whose

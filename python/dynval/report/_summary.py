@@ -7,14 +7,16 @@ change independently.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ..checks._typing import ReportSections
 from ._ranking import Ranked, deciding, first_reason, share_text, torque_text
 from ._text import counted, pvalue_text
+from .kinds._base import Finding
 
 
-def _num(x, fmt=".4g") -> str:
+def _num(x: float, fmt: str = ".4g") -> str:
     """Format a number; nan and infinities as words a reader recognises."""
     x = float(x)
     if math.isnan(x):
@@ -40,7 +42,7 @@ def format_summary(report: ReportSections) -> str:
     return "\n".join(lines)
 
 
-def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> list:
+def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> list[str]:
     """The deficiencies strongest first, each with the share of the residual it explains, and the
     first step with why it is first (nothing without a deficiency)."""
     if not ranked:
@@ -59,18 +61,18 @@ def format_deciding(ranked: Sequence[Ranked], names: Sequence[str] | None) -> li
     return lines
 
 
-def _joint_names(prov) -> list:
+def _joint_names(prov: Mapping[str, Any]) -> list[str]:
     """The joints' names as given, else "joint 1", "joint 2", ..."""
     return prov.get("joint_names") or [f"joint {j + 1}" for j in range(prov["n_joints"])]
 
 
-def _fraction_style(prov) -> tuple[str, str]:
+def _fraction_style(prov: Mapping[str, Any]) -> tuple[str, str]:
     """The unit suffix and the number format of VAF and fit: per cent or a fraction of 1."""
     percent = prov["conventions"]["units"] == "percent"
     return (" %" if percent else ""), (".2f" if percent else ".4f")
 
 
-def _heading_lines(prov) -> list:
+def _heading_lines(prov: Mapping[str, Any]) -> list[str]:
     """The title and the run's size: samples, joints, parameters, segments, omitted rows, backend."""
     seg = prov["segments"]
     return [
@@ -83,7 +85,7 @@ def _heading_lines(prov) -> list:
     ]
 
 
-def _per_joint_lines(report: ReportSections, names: list) -> list:
+def _per_joint_lines(report: ReportSections, names: list[str]) -> list[str]:
     """The per-joint table: error sizes, VAF, fit, R², mean residual and the Ljung–Box p-value."""
     unit, vfmt = _fraction_style(report.provenance)
     pj = report.per_joint
@@ -103,7 +105,7 @@ def _per_joint_lines(report: ReportSections, names: list) -> list:
     return lines
 
 
-def _pooled_lines(report: ReportSections) -> list:
+def _pooled_lines(report: ReportSections) -> list[str]:
     """The pooled metrics, then the uniform and the variance-weighted averages over joints."""
     unit, vfmt = _fraction_style(report.provenance)
     pooled, agg = report.pooled, report.aggregates
@@ -125,7 +127,7 @@ def _pooled_lines(report: ReportSections) -> list:
     ]
 
 
-def _criteria_lines(ic) -> list:
+def _criteria_lines(ic: Mapping[str, Any]) -> list[str]:
     """AIC, BIC, AICc, FPE and nAIC, and their N_eff-based variants when the report has them."""
     lines = [
         "",
@@ -144,13 +146,13 @@ def _criteria_lines(ic) -> list:
     return lines
 
 
-def _analysis_lines(report: ReportSections, names: list) -> list:
+def _analysis_lines(report: ReportSections, names: list[str]) -> list[str]:
     """One line per analysis beyond the metrics, for those the report holds."""
     return (_whiteness_lines(report, names) + _cross_correlation_lines(report) + _information_rate_lines(report)
             + _physics_lines(report) + _design_lines(report) + _periodic_lines(report) + _bias_lines(report))
 
 
-def _whiteness_lines(report: ReportSections, names: list) -> list:
+def _whiteness_lines(report: ReportSections, names: list[str]) -> list[str]:
     """The autocorrelation's lags, band and the share of lags outside it per joint."""
     acf = report.autocorrelation
     if acf is None:
@@ -164,7 +166,7 @@ def _whiteness_lines(report: ReportSections, names: list) -> list:
             f"findings correct over the whole report); lags outside: {frac}"]
 
 
-def _cross_correlation_lines(report: ReportSections) -> list:
+def _cross_correlation_lines(report: ReportSections) -> list[str]:
     """The cells of the residual × regressor cross-correlation outside the white band."""
     xc = report.cross_correlation
     if xc is None:
@@ -177,7 +179,7 @@ def _cross_correlation_lines(report: ReportSections) -> list:
             f"±{xc['band']:.4f} ({100 * xc['level']:g} % per cell, uncorrected); {colour}"]
 
 
-def _information_rate_lines(report: ReportSections) -> list:
+def _information_rate_lines(report: ReportSections) -> list[str]:
     """The decimation to the information rate and the information band, when there are any."""
     white = report.whiteness
     if white is None:
@@ -196,7 +198,7 @@ def _information_rate_lines(report: ReportSections) -> list:
     return lines
 
 
-def _physics_lines(report: ReportSections) -> list:
+def _physics_lines(report: ReportSections) -> list[str]:
     """How the physical terms were tested, when q was given."""
     phys = getattr(report, "physics", None)
     if phys is None:
@@ -205,7 +207,7 @@ def _physics_lines(report: ReportSections) -> list:
             f"{phys['derivatives']}; the model's own columns: {phys['model_columns']})."]
 
 
-def _design_lines(report: ReportSections) -> list:
+def _design_lines(report: ReportSections) -> list[str]:
     """The smallest term the data could detect, per joint."""
     design = report.design or {}
     if design.get("detectable_share") is None:
@@ -215,7 +217,7 @@ def _design_lines(report: ReportSections) -> list:
             f"(N_eff of the noise {', '.join(f'{x:.0f}' for x in design['noise_n_eff'])})."]
 
 
-def _periodic_lines(report: ReportSections) -> list:
+def _periodic_lines(report: ReportSections) -> list[str]:
     """The whole periods of a periodic trajectory and the noise they measure."""
     per = getattr(report, "periodic", None)
     if per is None:
@@ -230,7 +232,7 @@ def _periodic_lines(report: ReportSections) -> list:
             f"standard deviation {noise} per joint."]
 
 
-def _bias_lines(report: ReportSections) -> list:
+def _bias_lines(report: ReportSections) -> list[str]:
     """Why the findings do not use the residual mean, when the coloured-noise bias test is missing."""
     if report.bias is not None:
         return []
@@ -244,7 +246,7 @@ def _bias_lines(report: ReportSections) -> list:
 _SEVERITY_LABEL = {"deficiency": "DEFICIENCY", "design": "DESIGN", "note": "note"}
 
 
-def format_findings(findings, not_tested=None) -> list:
+def format_findings(findings: Sequence[Finding], not_tested: Sequence[Mapping[str, Any]] | None = None) -> list[str]:
     """One line per finding, deficiencies first, each with its action; then one line per test the
     report left out (``not_tested``: a streamed report's, :func:`dynval.coverage.not_tested`), so
     that a report which tested less never reads as a clean bill."""
@@ -262,7 +264,7 @@ def format_findings(findings, not_tested=None) -> list:
     return lines
 
 
-def format_comparison(cmp) -> str:
+def format_comparison(cmp: Any) -> str:
     """The text of :meth:`ComparisonReport.summary`: decision table, per-joint table, verdict."""
     crit = cmp.criterion
     first = cmp.reports[cmp.names[0]]
@@ -309,7 +311,7 @@ def format_comparison(cmp) -> str:
     return "\n".join(lines)
 
 
-def _deficient_cell(row) -> str:
+def _deficient_cell(row: Mapping[str, Any]) -> str:
     """The decision table's deficiency cell: the count, and the share of the residual the strongest
     leading deficiency explains (the count alone reads backwards: a weak model has few large
     findings, a good one many small ones)."""
@@ -318,7 +320,7 @@ def _deficient_cell(row) -> str:
     return f"{d}" if not d or top is None else f"{d} ({share_text(top)})"
 
 
-def _format_candidate_reasons(cmp) -> list:
+def _format_candidate_reasons(cmp: Any) -> list[str]:
     """The "Reasons per candidate" block: every candidate in ranking order with its reasons."""
     reasons = getattr(cmp, "reasons", None) or {}
     if not reasons:
@@ -337,7 +339,7 @@ def _format_candidate_reasons(cmp) -> list:
     return lines
 
 
-def format_verdict(verdict, criterion=None, shown: Sequence[str] = ()) -> list:
+def format_verdict(verdict: Any, criterion: str | None = None, shown: Sequence[str] = ()) -> list[str]:
     """The verdict's lines: decision and model, what decided it, what to do first, the reasons.
 
     ``shown``: finding messages the text already printed; a reason that repeats one is not

@@ -1,0 +1,97 @@
+"""``low_information``: the run has too few effective samples to detect a term of practical size (a
+design finding, conventions §5.2): on a joint where no deficiency was found, or where the terms named
+remove less than the run can detect."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from .._finding_words import Words, column_name
+from .._text import versus
+from ._base import Context, Evidence, Finding, Kind, effect_versus_threshold, worded
+
+UNIT = "smallest detectable share of the mean square (90 % power)"
+
+
+def words(joints: Sequence[tuple[str, float, float, Sequence[tuple[str, float]] | None]],
+                    threshold: float) -> Words:
+    """``joints``: (name, N_eff, smallest detectable share, the terms found there that remove less, or None)."""
+    each = []
+    threshold_pct = ""
+    for name, n_eff, share, unresolved in joints:
+        pct, threshold_pct_j = versus(share, threshold, ".0f", scale=100.0)
+        threshold_pct = threshold_pct or threshold_pct_j
+        tail = "" if unresolved is None else _unresolved_words(unresolved)
+        each.append(f"{name}: N_eff = {n_eff:.0f}, {pct} %" + tail)
+    return (f"This run cannot decide: its noise leaves so few effective samples that a missing term must remove more "
+            f"than {threshold_pct} % of the mean square to be found ({'; '.join(each)}).",
+            "validate on a longer or faster-varying run (more effective samples)")
+
+
+def _unresolved_words(terms: Sequence[tuple[str, float]]) -> str:
+    named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
+    return (f" — found deficient, but what is named there removes less: {named}, so which term is missing this run "
+            "cannot tell")
+
+
+def named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
+    """The term a deficiency names and the share of the mean square it removes (a missing physical
+    term, a missing column refitted in), or None for a deficiency that is not a named term."""
+    d = f.details or {}
+    if f.kind == "missing_physics":
+        return str(d.get("label") or d.get("term")), float(d.get("term_share", math.nan))
+    if f.kind == "regressor_correlation" and d.get("added_variable") and f.effect is not None:
+        return column_name(ev.column_names, f.columns[0]) if f.columns else "a column", float(f.effect)
+    return None
+
+
+def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[tuple[str, float]]]:
+    """Of the deficient ``joints``, those whose every deficiency (whiteness, which follows from the
+    others, aside) names a term that removes less than the run's smallest detectable share, with
+    those terms: the structure is certain (its test is significant), which term it is the run
+    cannot resolve."""
+    if ev.detectable_share is None:
+        return {}
+    mde = np.asarray(ev.detectable_share, dtype=float)
+    out = {}
+    for j in sorted(joints):
+        named = [named_term(ev, f) for f in found
+                 if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
+        if named and all(t is not None and t[1] < mde[j] for t in named):
+            out[j] = [t for t in named if t is not None]
+    return out
+
+
+def rule(r: Context) -> list[Finding]:
+    """Too few effective samples: on a joint where no deficiency was found, or where the terms
+    named remove less than the run can detect (named in the message): where a term above that was
+    found, the run did decide."""
+    ev, th = r.ev, r.th
+    if ev.detectable_share is None:
+        return []
+    left = unresolved(ev, r.found, r.deficient)
+    mde = np.asarray(ev.detectable_share, dtype=float)
+    low = [int(j) for j in np.flatnonzero(mde > th.detectable_share) if int(j) not in r.deficient or int(j) in left]
+    if not low:
+        return []
+    n_eff = np.asarray(ev.noise_n_eff, dtype=float)
+    each = [(r.name(j), float(n_eff[j]), float(mde[j]), left.get(j)) for j in low]
+    return [worded(
+        words(each, th.detectable_share),
+        kind="low_information", severity="design", joints=tuple(low), effect=float(mde[low].max()),
+        effect_unit=UNIT, threshold=th.detectable_share,
+        details={"detectable_share": [float(x) for x in mde], "noise_n_eff": [float(x) for x in n_eff],
+                 "unresolved": sorted(int(j) for j in left if j in low)})]
+
+
+def reason(f: Finding, column: Callable[[int], str]) -> str:
+    e, t = effect_versus_threshold(f, percent=True)
+    return f"too few effective samples (the smallest detectable term removes {e} of the mean square > {t})"
+
+
+KIND = Kind(name="low_information",
+            description="the run has too few effective samples to detect a term of practical size",
+            order=820, rule=rule, reason=reason, percent=True)
