@@ -123,3 +123,63 @@ def test_what_a_stream_keeps_does_not_grow_with_the_log():
         assert js.kept == [] and js.n_w == e.shape[0] - js.a.size
     diff = acc._diff
     assert sum(p["q"].shape[0] for p in diff.pending) <= diff.length and diff.context.shape[0] <= diff.length
+
+
+# --------------------------------------------------------------------------- the accumulator
+
+def _physics_of(report):
+    return report.to_dict()["physics"]["tests"]
+
+
+@pytest.mark.parametrize("timed", [False, True])
+def test_the_accumulator_given_q_reports_validates_physics_test(timed):
+    # with time stamps and no sample_rate the derivatives take the stamps' rate, as validate does
+    import dynval
+    from dynval.stream import ValidationAccumulator
+
+    fs, e, pred, q, _ = _case("no_coulomb:white:anthro3@500")
+    tau = e + pred
+    t = np.arange(e.shape[0]) / fs
+    rate = {"time": t} if timed else {"sample_rate": fs}
+    want = dynval.validate(tau, pred, n_params=5, q=q, max_lag=20, **rate)
+    acc = ValidationAccumulator(n_params=5, max_lag=20, **({} if timed else rate))
+    for k in range(0, e.shape[0], 1500):
+        acc.update(tau[k:k + 1500], pred[k:k + 1500], q=q[k:k + 1500], **({"time": t[k:k + 1500]} if timed else {}))
+    got = acc.result()
+    for a, b in zip(_physics_of(got), _physics_of(want)):
+        assert (a["term"], a["selected"], a["df"]) == (b["term"], b["selected"], b["df"])
+        _close(a["statistic"], b["statistic"], EXACT_RTOL, "F")
+        assert a["refit_run"] == "stream"
+    kinds = {(f.kind, f.joints) for f in got.findings if f.kind == "missing_physics"}
+    assert kinds == {(f.kind, f.joints) for f in want.findings if f.kind == "missing_physics"} and kinds
+    assert "missing_physics" not in [x["test"] for x in got.provenance["not_tested"]]
+    assert got.design["noise_n_eff"] == pytest.approx(want.design["noise_n_eff"], rel=SHARE_RTOL)
+
+
+def test_the_accumulator_refuses_q_given_unlike_before_and_merging():
+    import dynval
+    from dynval.stream import ValidationAccumulator
+
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(100, 2))
+    acc = ValidationAccumulator(n_params=1, max_lag=3, sample_rate=100.0)
+    acc.update(x, x + 0.1, q=x)
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 1: q must be given with every chunk or with none; "
+                                                      r"the chunks before it had it$"):
+        acc.update(x, x + 0.1)
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 1: dq must be given with every chunk or with none"):
+        acc.update(x, x + 0.1, q=x, dq=x)
+    with pytest.raises(dynval.ShapeMismatch, match=r"^chunk 1: tau_meas and q must have the same shape"):
+        acc.update(x, x + 0.1, q=x[:, :1])
+    assert acc.n_samples == 100  # the refused chunks were not taken
+    plain = ValidationAccumulator(n_params=1, max_lag=3, sample_rate=100.0)
+    plain.update(x, x + 0.1)
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 1: q must be given with every chunk or with none; "
+                                                      r"the chunks before it had none$"):
+        plain.update(x, x + 0.1, q=x)
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 0: dq must be None without q"):
+        ValidationAccumulator(n_params=1).update(x, x, dq=x)
+    with pytest.raises(dynval.InvalidParameter, match=r"^chunk 0: sample_rate must be given \(or time stamps"):
+        ValidationAccumulator(n_params=1).update(x, x, q=x)
+    with pytest.raises(dynval.InvalidParameter, match=r"^other cannot be merged: an accumulator updated with q"):
+        plain.merge(acc)
