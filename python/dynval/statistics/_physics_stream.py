@@ -65,7 +65,12 @@ def _r_update(r, x):
     if x.shape[0] == 0:
         return r
     if r is None:
-        return ph._tall_r(x) if x.shape[0] >= x.shape[1] else np.linalg.qr(x, mode="r")
+        # one Householder QR of the first rows, the rest by the update: a QR of many rows is slow
+        head = 4 * x.shape[1]
+        r = np.linalg.qr(x[:head], mode="r")
+        x = x[head:]
+        if x.shape[0] == 0:
+            return r
     w = r.shape[1]
     if r.shape[0] == w and w:
         # columns zero so far and in the chunk (a model column inactive on the joint) stay out of the
@@ -239,9 +244,10 @@ class PhysicsSums:
         assert self._joints is not None
         c = rows["e"].shape[0]
         u = (start + np.arange(c)) * _INDEX_SCALE
+        chains: dict = {}
         for j, js in enumerate(self._joints):
             lib = ph.library(j, rows["q"], rows["dq"], rows["ddq"], np.zeros(c), self.sample_rate,
-                             velocity_scale=js.velocity_scale, row_index=u)
+                             velocity_scale=js.velocity_scale, row_index=u, chains=chains)
             parts = [rows["e"][:, j:j + 1]] + ([rows["nz"][:, j, :]] if "nz" in rows else []) + list(lib.values())
             js.add(np.hstack(parts))
 
@@ -346,8 +352,7 @@ class _JointSums:
             return
         self.r_w = _r_update(self.r_w, w)
         self.n_w += w.shape[0]
-        r0 = w @ self.null
-        h = w * r0[:, None]
+        h = w * (w @ self.null)[:, None]
         self.omega = h.T @ h if self.omega is None else self.omega + h.T @ h
         if self.kept_rows <= self.meat_rows:
             self.kept.append(w)
