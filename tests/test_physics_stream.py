@@ -153,6 +153,8 @@ def test_the_accumulator_given_q_reports_validates_physics_test(timed):
     kinds = {(f.kind, f.joints) for f in got.findings if f.kind == "missing_physics"}
     assert kinds == {(f.kind, f.joints) for f in want.findings if f.kind == "missing_physics"} and kinds
     assert "missing_physics" not in [x["test"] for x in got.provenance["not_tested"]]
+    assert "filter" in got.provenance["conventions"]["physics_stream"] and "first 40000 rows" in \
+        got.provenance["conventions"]["physics_stream"]
     assert got.design["noise_n_eff"] == pytest.approx(want.design["noise_n_eff"], rel=SHARE_RTOL)
 
 

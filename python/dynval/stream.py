@@ -1256,4 +1256,6 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
     s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True,
                    not_tested=not_tested(entry, given, skipped))
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
+    if physics is not None:  # what the streamed physics test fixed on its first rows (conventions §5.2)
+        prov["conventions"]["physics_stream"] = physics["method"].split("; ", 1)[1]
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)
