@@ -7,7 +7,8 @@ process that reports its time and its peak resident memory (VmHWM); printed besi
 issue 38 (≤ 60 s, ≤ 300 MB) with their ratios. With ``--rows`` below the goal's 3,600,000 the time
 is also scaled to it: the first block's cost once, the sums' per row (the memory does not grow with
 the rows: tests/test_physics_stream.py).
-Run: ``PYTHONPATH=python python3 benchmarks/bench_stream_physics.py [--rows 3600000 --chunk 65536]``.
+Run: ``PYTHONPATH=python python3 benchmarks/bench_stream_physics.py [--rows 3600000 --chunk 65536
+--blas-threads 1]``.
 This is a benchmark, not a test: nothing here asserts a time.
 """
 
@@ -58,8 +59,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", type=int, default=GOAL_ROWS)
     ap.add_argument("--chunk", type=int, default=65536)
+    ap.add_argument("--blas-threads", default="1",
+                    help="OPENBLAS_NUM_THREADS and OMP_NUM_THREADS of the timed process ('' leaves them as set): on "
+                         "the shared 2-core machine two threads competing with other jobs made 120,000 rows take "
+                         "68 s instead of 2.7 s")
     args = ap.parse_args()
     env = dict(os.environ)
+    if args.blas_threads:
+        env.update(OPENBLAS_NUM_THREADS=args.blas_threads, OMP_NUM_THREADS=args.blas_threads)
     out = subprocess.run([sys.executable, "-c", CHILD, str(args.rows), str(args.chunk)], env=env, check=True,
                          capture_output=True, text=True).stdout
     got = json.loads(out.strip().splitlines()[-1])
@@ -67,7 +74,9 @@ def main() -> None:
     # the first block's fixed cost once, the sums' per-row cost scaled to the goal's rows
     t0, r0 = got["first"] or (0.0, 0)
     scaled = t0 + (got["seconds"] - t0) * (GOAL_ROWS - r0) / max(args.rows - r0, 1)
-    print(f"streamed physics, {args.rows:,} x 7 at 1 kHz in blocks of {args.chunk:,} rows (q, dq, ddq given):")
+    threads = f"{args.blas_threads} BLAS thread(s)" if args.blas_threads else "BLAS threads as set"
+    print(f"streamed physics, {args.rows:,} x 7 at 1 kHz in blocks of {args.chunk:,} rows (q, dq, ddq given; "
+          f"{threads}):")
     print(f"  time   {got['seconds']:8.1f} s, of which {t0:.1f} s the first {r0:,} rows"
           + (f"  (scaled to {GOAL_ROWS:,} rows: {scaled:.0f} s)"
                                                    if args.rows != GOAL_ROWS else "")

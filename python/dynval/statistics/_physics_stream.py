@@ -59,8 +59,8 @@ def _r_update(r, x):
 
     Once r is square and not near singular, x is expressed in r's basis, y = x r⁻¹, and the new R is
     chol(I + yᵀy)·r: [r; x] = [I; y]·r, whose Gram matrix I + yᵀy is conditioned as 1 + ‖y‖² (near
-    1 when the chunk is like the rows before it), so no condition number is squared; a triangular
-    solve and a product instead of a Householder QR of the chunk (25 times faster on 54 columns).
+    1 when the chunk is like the rows before it), so no condition number is squared; a product with
+    r⁻¹ and a Gram matrix instead of a Householder QR of the chunk (25 times faster on 54 columns).
     Otherwise, or when the Cholesky factorisation fails, the QR of the stacked rows."""
     if x.shape[0] == 0:
         return r
@@ -79,7 +79,10 @@ def _r_update(r, x):
         sub = r if live.all() else np.linalg.qr(r[:, live], mode="r")
         d = np.abs(np.diag(sub)) if sub.shape[0] == sub.shape[1] else np.zeros(1)
         if d.size and d.min() > _PRECONDITIONED * np.sqrt(np.sum(sub * sub, axis=0)).max():
-            y = scipy.linalg.solve_triangular(sub, x[:, live].T, trans="T", check_finite=False).T
+            # x r⁻¹ as a product with r's inverse (w³ once a chunk): twice as fast as a triangular solve
+            # with a right-hand side per row, and as accurate where r passes the test above
+            inverse = scipy.linalg.solve_triangular(sub, np.eye(sub.shape[0]), check_finite=False)
+            y = (x if live.all() else x[:, live]) @ inverse
             try:
                 new = np.linalg.cholesky(y.T @ y + np.eye(y.shape[1])).T @ sub
             except np.linalg.LinAlgError:
