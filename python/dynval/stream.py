@@ -72,6 +72,7 @@ from .metrics._results import ZeroMeanTest
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
+from .report._motion import detectable_share
 from .report._options import (
     UNSUPPORTED,
     Keywords,
@@ -82,7 +83,6 @@ from .report._options import (
     plan_lags,
     to_setting,
 )
-from .report._report import _motion_design
 from .statistics import _physics, _stats
 from .statistics._physics_stream import PhysicsSums
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
@@ -486,8 +486,9 @@ class ValidationAccumulator:
             rows = tuple(None if x is None else x[keep] for x in rows)
         self._physics_waiting.append(rows)
         rate = self._physics_rate()
-        if rate is None and self._timed:
-            return
+        assert self._motion is not None
+        if rate is None and self._timed and not (self._motion[1] and self._motion[2]):
+            return  # derived q̇, q̈ wait for the stamps' rate (given ones need none)
         if self._physics is None:
             self._physics = PhysicsSums(meas.shape[1], sample_rate=rate, alpha=1.0 - self._settings.level)
         for e, q, dq, ddq, r in self._physics_waiting:
@@ -1249,7 +1250,9 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
     b.untested = _untested_count(mo, b, starts)
     if physics is not None:
         b.physics = physics
-        b.design = _motion_design(None, cfg, physics, m)
+        # validate's design section of a run without an estimation run: what the physical terms leave
+        b.design = {"noise_n_eff": np.asarray(physics["n_eff"], dtype=float),
+                    "detectable_share": detectable_share(physics["n_eff"], m, cfg.level)}
     given = {"lags"} if lagged else set()
     given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
     given |= {"q"} if physics is not None else set()
