@@ -35,15 +35,21 @@ class Case:
     n_params: int
     regressor: np.ndarray | None = None
     sample_rate: float | None = None
+    q: np.ndarray | None = None  # the streams take it with each chunk, dask not at all
 
     @property
     def given(self) -> set[str]:
-        return {"lags"} | ({"regressor"} if self.regressor is not None else set())
+        return {"lags"} | ({"regressor"} if self.regressor is not None else set()) | (
+            {"q"} if self.q is not None else set())
 
     def keywords(self) -> dict:
         # with a rate, validate's default max_lag follows the motion's band, which a stream does not
         # know (contract §4.1): every entry point gets the same explicit max_lag
         return {"max_lag": 50} | ({} if self.sample_rate is None else {"sample_rate": self.sample_rate})
+
+    def whole(self) -> dict:
+        """The keywords of the entry points that take whole series (q among them)."""
+        return self.keywords() | ({} if self.q is None else {"q": self.q})
 
 
 def _cases() -> list[Case]:
@@ -58,6 +64,12 @@ def _cases() -> list[Case]:
         fit = identify(est.regressors[name], est.tau_meas)
         demo.append(Case(f"demo {scenario}, {name} model", val.tau_meas, fit.predict(val.regressors[name]), fit.rank,
                          val.full_regressor, d.sample_rate))
+    # the physics test on every door that takes q: the demo's rigid model lacks the friction
+    d = simulate("friction", seed=1, n_samples=3000)
+    fit = identify(d.estimation.regressors["rigid"], d.estimation.tau_meas)
+    val = d.validation
+    demo.append(Case("demo friction, rigid model, with q", val.tau_meas, fit.predict(val.regressors["rigid"]),
+                     fit.rank, None, d.sample_rate, val.q))
     return [
         Case("README offset (pred = tau + 0.01)", tau, tau + 0.01, 10),
         Case("a good model, white noise", tau, tau + 0.1 * rng.standard_normal((4000, 3)), 3),
@@ -86,12 +98,13 @@ def _streamed(case: Case):
     acc = ValidationAccumulator(n_params=case.n_params, **case.keywords())
     for a in range(0, case.tau.shape[0], 777):
         acc.update(case.tau[a:a + 777], case.pred[a:a + 777],
-                   None if case.regressor is None else case.regressor[a:a + 777])
+                   None if case.regressor is None else case.regressor[a:a + 777],
+                   q=None if case.q is None else case.q[a:a + 777])
     return acc.result()
 
 
 def _cli(case: Case, tmp_path: Path, capsys) -> dict:
-    files = {"tau": case.tau, "pred": case.pred, "reg": case.regressor}
+    files = {"tau": case.tau, "pred": case.pred, "reg": case.regressor, "q": case.q}
     for name, array in files.items():
         if array is not None:
             np.save(tmp_path / f"{name}.npy", array)
@@ -99,6 +112,8 @@ def _cli(case: Case, tmp_path: Path, capsys) -> dict:
             "--stream", "--json", "--chunk-rows", "777", "--max-lag", "50"]
     if case.regressor is not None:
         argv += ["--regressor", str(tmp_path / "reg.npy")]
+    if case.q is not None:
+        argv += ["--q", str(tmp_path / "q.npy")]
     if case.sample_rate is not None:
         argv += ["--sample-rate", str(case.sample_rate)]
     assert main(argv) in (0, 1)
@@ -108,11 +123,11 @@ def _cli(case: Case, tmp_path: Path, capsys) -> dict:
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_every_entry_point_finds_what_validate_finds(case, tmp_path, capsys):
     reference = dynval.validate(case.tau, case.pred, n_params=case.n_params, regressor=case.regressor,
-                                **case.keywords())
+                                **case.whole())
     got: dict[str, set] = {}
     not_tested: dict[str, list] = {}
 
-    cmp = dynval.compare(case.tau, {"m": (case.pred, case.n_params, case.regressor)}, **case.keywords())
+    cmp = dynval.compare(case.tau, {"m": (case.pred, case.n_params, case.regressor)}, **case.whole())
     got["compare"] = _pairs(cmp.reports["m"].findings)
 
     streamed = _streamed(case)
@@ -141,9 +156,11 @@ def test_every_entry_point_finds_what_validate_finds(case, tmp_path, capsys):
         # a test the entry point does not run gives no finding (whiteness runs, at the logged rate)
         assert not {kind for kind, _ in pairs} & (excused - {"whiteness"}), entry
     for entry, listed in not_tested.items():
-        # what the declaration says, and the tests left out for a reason of the data (dynval.coverage.RUNTIME)
+        # what the declaration says, and the tests left out for a reason of the data (dynval.coverage.RUNTIME);
+        # dask takes no q (its blocks' physics sums do not merge), so its report is of the inputs without it
         runtime = {t["test"]: t["why"] for t in listed if t["test"] in coverage.RUNTIME}
-        assert listed == coverage.not_tested(entry, case.given, runtime), entry
+        given = case.given - {"q"} if entry == "dask" else case.given
+        assert listed == coverage.not_tested(entry, given, runtime), entry
     if "dask" in not_tested and case.regressor is None:  # blocks of 1000 rows merged without breaks
         assert {"test": "spectrum", "kinds": ["oscillation"], "why": coverage.OFF_GRID} in not_tested["dask"]
 
@@ -151,7 +168,8 @@ def test_every_entry_point_finds_what_validate_finds(case, tmp_path, capsys):
     from dynval.fleet import validate_many
 
     paths = {}
-    for name, array in (("tau_meas", case.tau), ("tau_pred", case.pred), ("regressor", case.regressor)):
+    for name, array in (("tau_meas", case.tau), ("tau_pred", case.pred), ("regressor", case.regressor),
+                        ("q", case.q)):
         if array is not None:
             paths[name] = str(tmp_path / f"fleet_{name}.npy")
             np.save(paths[name], array)
@@ -177,8 +195,10 @@ def test_the_cases_exercise_what_they_excuse():
     kinds = set()
     for case in CASES:
         kinds |= {f.kind for f in dynval.validate(case.tau, case.pred, n_params=case.n_params,
-                                                    regressor=case.regressor, **case.keywords()).findings}
-    assert {"bias", "worse_than_constant", "whiteness", "oscillation", "regressor_correlation"} <= kinds
+                                                    regressor=case.regressor, **case.whole()).findings}
+    # missing_physics: what the streams now test from q (conventions §5.2, "On a stream")
+    assert {"bias", "worse_than_constant", "whiteness", "oscillation", "regressor_correlation",
+            "missing_physics"} <= kinds
 
 
 def test_the_contract_table_is_the_declaration():

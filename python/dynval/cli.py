@@ -116,8 +116,10 @@ def build_parser() -> argparse.ArgumentParser:
         "DYNVAL_MAX_DECODED_BYTES=BYTES raises the limit); larger ones need --stream. A "
         "streamed report runs the bias test from its lag sums and, without --regressor, the spectrum window by "
         "window, and names under its findings what it leaves out (decimated whiteness; with --regressor the "
-        "spectrum and the colour-aware cross-correlation; contract §4.1); --segments, --q, --estimation and "
-        "--decimate are refused with it.")
+        "spectrum and the colour-aware cross-correlation; contract §4.1). With --q it runs the missing-physics "
+        "test from sums of the library's columns (its prewhitening filter fixed on the first 40,000 rows; "
+        "conventions §5.2), not the delay and periodic tests; --segments, --estimation and --decimate are "
+        "refused with it.")
     stream.add_argument("--stream", action="store_true", help="validate block by block (see above)")
     stream.add_argument("--chunk-rows", type=int, default=None, metavar="R",
                         help=f"rows per block when streaming (default {DEFAULT_CHUNK_ROWS})")
@@ -546,8 +548,7 @@ def _too_large_for_memory(args) -> bool:
 def _run_validate_streamed(args) -> int:
     from .stream import ValidationAccumulator
 
-    refused = [flag for flag, value in (("--segments", args.segments), ("--q", args.q),
-                                        ("--estimation", args.estimation)) if value]
+    refused = [flag for flag, value in (("--segments", args.segments), ("--estimation", args.estimation)) if value]
     if args.decimate != "auto":
         refused.append("--decimate")
     if refused:
@@ -560,6 +561,7 @@ def _run_validate_streamed(args) -> int:
         meas, pred = open_rows(args.meas), open_rows(args.pred)
         reg = open_rows(args.regressor) if args.regressor else None
         stamps = open_column(args.time) if args.time else None
+        q = open_rows(args.q) if args.q else None
     except FileInputError as exc:
         return _error("validate", str(exc))
     if meas.shape != pred.shape:
@@ -569,6 +571,9 @@ def _run_validate_streamed(args) -> int:
     if stamps is not None and stamps.n_rows != n:
         return _error("validate", f"ShapeMismatch: time must have one stamp per sample, shape ({n},), got "
                                   f"({stamps.n_rows},) (time from {args.time})")
+    if q is not None and q.shape != meas.shape:
+        return _error("validate", f"ShapeMismatch: q must have the shape of tau_meas, {meas.shape}, got {q.shape} "
+                                  f"(q from {args.q})")
     # a stacked (N·m, p) regressor gives m rows per sample
     per_sample = 1 if reg is None or reg.n_rows == n else max(reg.n_rows // max(n, 1), 1)
     if reg is not None and reg.n_rows != n * per_sample:
@@ -586,11 +591,12 @@ def _run_validate_streamed(args) -> int:
 
         blocks = zip(meas.chunks(rows), pred.chunks(rows),
                      reg.chunks(rows * per_sample) if reg is not None else iter(lambda: None, 0),
-                     stamps.chunks(rows) if stamps is not None else iter(lambda: None, 0))
+                     stamps.chunks(rows) if stamps is not None else iter(lambda: None, 0),
+                     q.chunks(rows) if q is not None else iter(lambda: None, 0))
         with tqdm(total=n, unit=" rows", unit_scale=True, disable=not show, file=sys.stderr,
                   delay=0.0 if args.progress else 2.0, desc="dynval validate") as bar:
-            for m_block, p_block, y_block, t_block in blocks:
-                acc.update(m_block, p_block, y_block, time=t_block)
+            for m_block, p_block, y_block, t_block, q_block in blocks:
+                acc.update(m_block, p_block, y_block, time=t_block, q=q_block)
                 bar.update(m_block.shape[0])
         acc._entry = "cli_stream"  # the tests it leaves out are the command line's (dynval.coverage)
         report = acc.result()

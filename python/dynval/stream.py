@@ -72,6 +72,7 @@ from .metrics._results import ZeroMeanTest
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
+from .report._motion import detectable_share
 from .report._options import (
     UNSUPPORTED,
     Keywords,
@@ -82,7 +83,8 @@ from .report._options import (
     plan_lags,
     to_setting,
 )
-from .statistics import _stats
+from .statistics import _physics, _stats
+from .statistics._physics_stream import PhysicsSums
 from .statistics._stats import iid_t_test, newey_west_bandwidth, newey_west_n_eff, z_two_sided
 from .streaming._edges import SegmentEdges
 from .streaming._stream import CoreState, Layout, Snapshot, Stamps, State, state_too_large
@@ -201,6 +203,11 @@ class ValidationAccumulator:
         self._frozen_rows = 0  # waiting rows summed because their stamps never advanced (_sum_frozen)
         self._first_seen: float | None = None  # the first and the last stamp of any row (omitted too)
         self._last_seen: float | None = None
+        # the physics test's sums, with q given with the chunks: which of q, dq, ddq (decided by the
+        # first update), and the rows waiting for the sample rate the stamps will give
+        self._motion: tuple[bool, bool, bool] | None = None
+        self._physics: PhysicsSums | None = None
+        self._physics_waiting: list[tuple[FloatArray | None, ...]] = []
 
     # ----------------------------------------------------------------------- public
 
@@ -210,7 +217,8 @@ class ValidationAccumulator:
         return (0 if self._state is None else self._state.n) + self._pending_rows + self._waiting_rows
 
     def update(self, tau_meas_chunk: ArrayLike, tau_pred_chunk: ArrayLike,
-               regressor_chunk: ArrayLike | None = None, *, time: ArrayLike | None = None) -> None:
+               regressor_chunk: ArrayLike | None = None, *, time: ArrayLike | None = None,
+               q: ArrayLike | None = None, dq: ArrayLike | None = None, ddq: ArrayLike | None = None) -> None:
         """Add the next rows.
 
         Every chunk must have the same m (and p, and a regressor either always or never); errors
@@ -233,6 +241,11 @@ class ValidationAccumulator:
         time : array_like, (c,), optional
             The rows' time stamps in seconds, never decreasing (across chunks too). Given with
             the first update, needed with every update; not given, refused with every later one.
+        q, dq, ddq : array_like, (c, m), optional
+            The rows' joint positions (and velocities, accelerations; derived from q with
+            ``validate``'s Savitzky–Golay filter when not given), for the missing-physics test
+            (contract §4.1): like ``time``, given with every update or with none. Needs
+            ``sample_rate`` or ``time`` for derived ones.
 
         Returns
         -------
@@ -255,14 +268,23 @@ class ValidationAccumulator:
         >>> acc.n_samples
         3
         """
-        self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, (), time)
+        self._update(tau_meas_chunk, tau_pred_chunk, regressor_chunk, (), time, (q, dq, ddq))
 
     def _update(self, tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | None,
-                breaks: Sequence[int], time: ArrayLike | None = None) -> None:
+                breaks: Sequence[int], time: ArrayLike | None = None,
+                motion: tuple[ArrayLike | None, ...] = (None, None, None)) -> None:
         """:meth:`update` with segment breaks before the chunk's rows ``breaks`` (sorted; 0 is a
         break before its first row): ``dynval.dask`` hands each block its part of ``segments``."""
         meas, pred, reg = self._checked_chunk(tau_meas, tau_pred, regressor)
         stamps = self._checked_time(time, meas.shape[0])
+        moving = self._checked_motion(motion, meas.shape, stamps is not None)
+        self._take_update(meas, pred, reg, breaks, stamps)
+        if moving is not None:
+            self._feed_physics(meas, pred, reg, moving)
+
+    def _take_update(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None, breaks: Sequence[int],
+                     stamps: FloatArray | None) -> None:
+        """Sum a checked chunk, or keep it until its stamps set the grid."""
         # what the chunk changes before its stamps may settle the grid (and be refused there)
         before = {name: getattr(self, name) for name in _WAITING_FIELDS}
         if self._layout is None:
@@ -424,6 +446,63 @@ class ValidationAccumulator:
             raise type(exc)(f"chunk {index}: {exc}") from None
         return t
 
+    def _checked_motion(self, motion: tuple[ArrayLike | None, ...], shape: tuple[int, ...], timed: bool
+                        ) -> tuple[FloatArray, FloatArray | None, FloatArray | None] | None:
+        """A chunk's q, dq, ddq: (c, m) finite, given like the chunks before (q with every chunk
+        or none; dq, ddq likewise, and only with q); the errors name the chunk."""
+        q, dq, ddq = motion
+        given = (q is not None, dq is not None, ddq is not None)
+        try:
+            if q is None and (dq is not None or ddq is not None):
+                raise v.parameter_error("dq" if dq is not None else "ddq", "None without q",
+                                        dq if dq is not None else ddq)
+            if self._motion is not None and self._motion != given:
+                name = ("q", "dq", "ddq")[[a != b for a, b in zip(self._motion, given)].index(True)]
+                had = "it" if self._motion[("q", "dq", "ddq").index(name)] else "none"
+                raise InvalidParameter(f"{name} must be given with every chunk or with none; the chunks before it "
+                                       f"had {had}")
+            if self._motion is None and self._chunks and given[0]:
+                raise InvalidParameter("q must be given with every chunk or with none; the chunks before it had none")
+            if q is None:
+                return None
+            if self._settings.sample_rate is None and not timed and not (given[1] and given[2]):
+                raise InvalidParameter("sample_rate must be given (or time stamps with the chunks) to derive dq and "
+                                       "ddq from q on a stream")
+            c, m = shape[0], shape[1]
+            arrays = tuple(None if x is None else v.check_signal_like(x, name, c, m)
+                           for x, name in ((q, "q"), (dq, "dq"), (ddq, "ddq")))
+        except InputError as exc:
+            raise type(exc)(f"chunk {self._chunks}: {exc}") from None
+        self._motion = given
+        return cast(tuple[FloatArray, FloatArray | None, FloatArray | None], arrays)
+
+    def _feed_physics(self, meas: FloatArray, pred: FloatArray, reg: FloatArray | None,
+                      moving: tuple[FloatArray, FloatArray | None, FloatArray | None]) -> None:
+        """Add the chunk's rows to the physics test's sums (the rows nan_policy keeps), once the
+        sample rate is known (``sample_rate``, or the nominal step of the stamps)."""
+        keep = self._kept(meas, pred, reg)
+        rows: tuple[FloatArray | None, ...] = (meas - pred, *moving, reg)
+        if keep is not None:
+            rows = tuple(None if x is None else x[keep] for x in rows)
+        self._physics_waiting.append(rows)
+        rate = self._physics_rate()
+        assert self._motion is not None
+        if rate is None and self._timed and not (self._motion[1] and self._motion[2]):
+            return  # derived q̇, q̈ wait for the stamps' rate (given ones need none)
+        if self._physics is None:
+            self._physics = PhysicsSums(meas.shape[1], sample_rate=rate, alpha=1.0 - self._settings.level)
+        for e, q, dq, ddq, r in self._physics_waiting:
+            self._physics.update(e, q, dq, ddq, r)
+        self._physics_waiting = []
+
+    def _physics_rate(self) -> float | None:
+        """The physics test's sample rate: ``sample_rate``, else the stamps' nominal step's once known."""
+        if self._settings.sample_rate is not None:
+            return float(self._settings.sample_rate)
+        if self._stamps is not None and self._stamps.nominal == self._stamps.nominal and self._stamps.nominal > 0:
+            return 1.0 / float(self._stamps.nominal)
+        return None
+
     def break_segment(self) -> None:
         """End the current segment: no lagged product joins the rows before and after this call
         (contract §1.1; means stay overall).
@@ -503,6 +582,10 @@ class ValidationAccumulator:
         self._check_same_settings(other)
         self._check_same_layout(other)
         self._check_same_timing(other)
+        if any(acc._motion is not None and acc._motion[0] for acc in (self, other)):
+            raise InvalidParameter("other cannot be merged: an accumulator updated with q holds the physics test's "
+                                   "sums, which do not merge (each fixes its prewhitening filter on its own first "
+                                   "rows)")
         later = other.copy()
         self._layout = self._layout or later._layout
         if self._timed is None and later._timed is not None:  # nothing given here yet: the other's way
@@ -656,7 +739,45 @@ class ValidationAccumulator:
                 v.check_nyquist(cfg.bandwidth, timing.sample_rate)
         elif cfg.bandwidth is not None and cfg.sample_rate is None:
             v.check_bandwidth(cfg.bandwidth, None)
-        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry, acc._edges)
+        return _report(st.snapshot(), cfg, acc._omitted, timing, acc._welch, self._entry, acc._edges,
+                       acc._physics_section())
+
+    def _physics_section(self) -> dict[str, Any] | None:
+        """The report's physics section from the sums (on a copy: the stream goes on), as
+        ``validate``'s (:func:`dynval.report._motion.physics`) without what needs the rows again: the
+        naming refits on the estimation run, the cross-fitted shares and the relation to the model's
+        columns. None without q, or when rows were omitted (``validate`` then has none either)."""
+        if self._motion is None or not self._motion[0] or self._omitted:
+            return None
+        sums = copy.deepcopy(self._physics)
+        if self._physics_waiting:
+            if sums is None:
+                assert self._layout is not None
+                sums = PhysicsSums(self._layout.m, sample_rate=self._physics_rate(),
+                                   alpha=1.0 - self._settings.level)
+            for rows in self._physics_waiting:
+                sums.update(*rows)
+        if sums is None:
+            return None
+        tests = sums.tests()
+        for t in tests:  # the named term's effect is its share in sample (nothing to cross-fit on)
+            t.refit_run = "stream" if t.term is not None else None
+        method, band = sums.derivative_method()
+        regressor = self._layout is not None and self._layout.p > 0
+        return {"naming": "the group that alone removes nearly the most of the validation residual, fewest columns "
+                          "first",
+                "method": ("prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint; "
+                           f"from chunks: the prewhitening filter, the Coulomb velocity scale and N_eff/N fixed on "
+                           f"the first {sums.first_block} rows, the HC1 meat from the rows up to {sums.meat_rows}, "
+                           f"past them weighted by the residual of the first rows' fit; every row tested "
+                           f"(no decimation); conventions §5.2"),
+                "model_columns": ("refitted on the validation run (what they represent is not missing)" if regressor
+                                  else "none (no regressor: the model's own columns are unknown)"),
+                "derivatives": method, "derivative_bandwidth_hz": band, "derivative_source": "savgol",
+                "estimation_bandwidth_hz": None, "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
+                "model_kinds": None, "simulator_parameters": None,
+                "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
+                "n_eff": np.array([t.n_eff for t in tests])}
 
     # ----------------------------------------------------------------------- chunks
 
@@ -1084,7 +1205,8 @@ def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
 
 def _report(st: State | Snapshot, cfg: Options, omitted: int,
             timing: _timing.Timing | None = None, welch: WelchSums | None = None,
-            entry: str = "stream", edges: SegmentEdges | None = None) -> ValidationReport:
+            entry: str = "stream", edges: SegmentEdges | None = None,
+            physics: dict[str, Any] | None = None) -> ValidationReport:
     """The sections mergeable sums allow (no design or motion, no spectrum with a regressor: they
     need the whole series, contract §4.1; the tests left out named in ``not_tested``), then the
     assembler every report goes through."""
@@ -1126,9 +1248,17 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
         elif why is not None:
             skipped["spectrum"] = why
     b.untested = _untested_count(mo, b, starts)
+    if physics is not None:
+        b.physics = physics
+        # validate's design section of a run without an estimation run: what the physical terms leave
+        b.design = {"noise_n_eff": np.asarray(physics["n_eff"], dtype=float),
+                    "detectable_share": detectable_share(physics["n_eff"], m, cfg.level)}
     given = {"lags"} if lagged else set()
     given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
+    given |= {"q"} if physics is not None else set()
     s = to_setting(cfg, lags, m, sample_rate=sample_rate, timing=timing, streaming=True,
                    not_tested=not_tested(entry, given, skipped))
     prov = provenance(s, b, n=n, m=m, p_cols=p, lengths=st.lengths, seg_names=None, omitted=omitted)
+    if physics is not None:  # what the streamed physics test fixed on its first rows (conventions §5.2)
+        prov["conventions"]["physics_stream"] = physics["method"].split("; ", 1)[1]
     return assemble_report(s, b, prov, n=n, m=m, omitted=omitted)

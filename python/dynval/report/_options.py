@@ -40,7 +40,7 @@ __all__ = ["Keywords", "Data", "Options", "Lags", "UNSUPPORTED", "check_options"
 UNSUPPORTED = {
     "segments": "call break_segment() between records instead",
     "decimate": "whiteness at the information rate needs the whole series",
-    "q": "the repeat check compares whole trajectories",
+    "q": "give q (and dq, ddq) with each chunk: update(..., q=...)",
     "estimation": "the estimation run's refit and repeat check need whole series",
     "cross_correlation_detail": "the colour-aware cross-correlation needs the whole series; rho is always given",
     "model_columns": "the added-variable test projects whole columns",

@@ -119,25 +119,42 @@ def _scale(x):
     return s if s > 0 and math.isfinite(s) else 1.0
 
 
-def library(j: int, q, dq, ddq, pred_j, sample_rate) -> dict[str, np.ndarray]:
-    """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None."""
+def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
+            row_index=None, chains=None) -> dict[str, np.ndarray]:
+    """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None.
+
+    A stream's chunk (:mod:`._physics_stream`) gives ``velocity_scale`` (the Coulomb shapes' scale,
+    fixed on its first block) and ``row_index`` (the rows' place in the log, scaled): the columns are
+    then left unscaled and the drift is (u, u²) of that index, which the stream maps linearly to
+    the in-memory columns once the log's length and each column's RMS are known. ``chains``: a dict
+    shared by the joints' calls on the same rows, which keeps each chain's sin and cos (a chain
+    i ≤ j ≤ k is in every joint j between: 28 chains of 7 joints computed once, not 84 times)."""
     n = pred_j.shape[0]
-    1.0 if sample_rate is None else float(sample_rate)
-    t = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)
-    groups: dict[str, list[np.ndarray]] = {"offset": [np.ones(n)], "drift": [t, t * t - np.mean(t * t)]}
+    if row_index is None:
+        t = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)
+        drift = [t, t * t - np.mean(t * t)]
+    else:
+        u = np.asarray(row_index, float)
+        drift = [u, u * u]
+    groups: dict[str, list[np.ndarray]] = {"offset": [np.ones(n)], "drift": drift}
     if q is not None:
         m = q.shape[1]
         v = dq[:, j]
-        vs = _scale(v)
+        vs = _scale(v) if velocity_scale is None else float(velocity_scale)
         groups["coulomb"] = [np.sign(v)] + [np.tanh(v / (c * vs)) for c in (0.02, 0.1, 0.3)] + \
             [np.sign(v) * np.exp(-(v / (0.1 * vs)) ** 2)]
         groups["viscous"] = [v]
         groups["velocity_squared"] = [v * np.abs(v)]
-        grav = []
+        grav: list[np.ndarray] = []
         for i in range(j + 1):
             for k in range(j, m):
-                s = q[:, i:k + 1].sum(axis=1)
-                grav += [np.sin(s), np.cos(s)]
+                pair = None if chains is None else chains.get((i, k))
+                if pair is None:
+                    s = q[:, i:k + 1].sum(axis=1)
+                    pair = [np.sin(s), np.cos(s)]
+                    if chains is not None:
+                        chains[(i, k)] = pair
+                grav += pair
         groups["gravity"] = grav
         groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
         groups["inertia"] = [ddq[:, k] for k in range(m)]
@@ -145,7 +162,7 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate) -> dict[str, np.ndarray]:
     for g in GROUPS:
         if g in groups:
             cols = np.column_stack(groups[g])
-            out[g] = cols / np.array([_scale(c) for c in cols.T])
+            out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
     return out
 
 
@@ -306,51 +323,77 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
     Cov(π̂) is unknown), or None; ``g``, ``cov_p``: the model's columns and Cov(π̂) when known."""
     n = ej.shape[0]
     total = float(ej @ ej)
-    nan_result = PhysicsTest(j, float("nan"), (0, 0), float("nan"), float("nan"), None, float("nan"))
     if not total > 0 or n < 50:
-        return nan_result
+        return _nan_result(j)
     nz = np.zeros((n, 0)) if nz is None else np.asarray(nz, float).reshape(n, -1)
     stack = _Stack(ej, nz, lib, g)
+    a, problem, fit = _filtered_fit(stack, alpha, cov_p)
+    if fit is None:
+        return _nan_result(j)
+
+    def raw_sse(cols, coef):
+        return float(np.sum((ej - stack.times(cols, coef)) ** 2))
+
+    def n_eff(cols, coef):
+        # the noise's N_eff (what the model's columns and the library leave), for the design rule
+        return _ar_prewhitener(ej - stack.times(cols, coef), min(_MAX_AR, n // 50))[1]
+
+    return _conclude(j, problem, fit, total, raw_sse, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size))
+
+
+def _nan_result(j):
+    return PhysicsTest(j, float("nan"), (0, 0), float("nan"), float("nan"), None, float("nan"))
+
+
+def _filtered_fit(stack, alpha, cov_p=None):
+    """The prewhitening filter, the compressed whitened problem and its fit (None: no group keeps
+    a direction of its own) of one joint's stacked columns."""
+    ej = stack.raw[:, 0]
+    n = ej.shape[0]
     # Feasible GLS with the AR(≤ 2) model of the residual as given (see _MAX_AR); when groups enter,
     # the AR model is fitted again to what those few groups leave (a large missing term would
     # otherwise be taken for colour and whitened away), and the test is repeated once.
     a, _ = _ar_prewhitener(ej, min(_MAX_AR, n // 50))
     problem = _Compressed(stack, a)
     fit = _whitened_fit(problem, alpha, cov_p)
-    if fit is None:
-        return nan_result
-    if fit["selected"]:
+    if fit is not None and fit["selected"]:
         chosen = stack.raw[:, stack.columns(["nz"] + [fit["names"][s] for s in fit["selected"]])]
         c1, *_ = np.linalg.lstsq(chosen, ej, rcond=None)
         a, _ = _ar_prewhitener(ej - chosen @ c1, min(_MAX_AR, n // 50))
         problem = _Compressed(stack, a)
         fit = _whitened_fit(problem, alpha, cov_p) or fit
+    return a, problem, fit
+
+
+def _conclude(j, problem, fit, total, raw_sse, n_eff_of, widths, ar_order):
+    """The shares, N_eff and the term named, from the whitened fit: ``raw_sse(cols, coef)`` is the
+    raw residual's sum of squares after the GLS coefficients ``coef`` of the stacked ``cols``,
+    ``n_eff_of(cols, coef)`` the N_eff of what they leave; ``widths`` each group's columns."""
     names, selected = fit["names"], fit["selected"]
     f_stat, k, df2, pvalue = fit["f"], fit["k"], fit["df2"], fit["pvalue"]
+    stack = problem.stack
 
     def sse(groups):
         """SSE on the raw residual of the GLS fit of the nuisance columns and ``groups``: the fit from
         the compressed whitened problem, the residual of the raw rows (one product)."""
         cols = stack.columns(["nz"] + [names[i] for i in groups])
         if cols.size == 0:
-            return total, np.zeros(0)
+            return total, np.zeros(0), cols
         coef = problem.lstsq(cols, stack.index["e"])
-        return float(np.sum((ej - stack.times(cols, coef)) ** 2)), coef
+        return raw_sse(cols, coef), coef, cols
 
-    base, _ = sse([])
+    base, _, _ = sse([])
     every = list(range(len(names)))
-    full, coef_full = sse(every)
-    # the noise's N_eff (what the model's columns and the library leave), for the design rule
-    left = ej - stack.times(stack.columns(["nz"] + names), coef_full)
-    _, n_eff = _ar_prewhitener(left, min(_MAX_AR, n // 50))
+    full, coef_full, cols_full = sse(every)
+    n_eff = n_eff_of(cols_full, coef_full)
     share = max(0.0, (base - full) / total)
     shares: dict[str, float] = {}
     selected_share = 0.0
     if selected:
-        fit_all, _ = sse(selected)
+        fit_all = sse(selected)[0]
         selected_share = max(0.0, (base - fit_all) / total)
         for s in selected:
-            without, _ = sse([t for t in selected if t != s])
+            without = sse([t for t in selected if t != s])[0]
             shares[names[s]] = max(0.0, (without - fit_all) / total)
     # The term named: of the groups that alone remove nearly as much as the best one (within
     # _PARSIMONY of it), the one with the fewest columns. A joint's own friction or offset (one to
@@ -361,11 +404,10 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
     term = None
     alone = 0.0
     if alone_by:
-        named = name_group({names[i]: a for i, a in alone_by.items()},
-                           {names[i]: lib[names[i]].shape[1] for i in every})
+        named = name_group({names[i]: a for i, a in alone_by.items()}, {names[i]: widths[names[i]] for i in every})
         term, alone = named, alone_by[names.index(named)]
     return PhysicsTest(j, float(f_stat), (k, df2), pvalue, share, term, alone, [names[s] for s in selected], shares,
-                       selected_share, n_eff, int(a.size))
+                       selected_share, n_eff, ar_order)
 
 
 class _Stack:
@@ -409,6 +451,15 @@ class _Compressed:
         self.g_rows = None if stack.g is None else _whiten(stack.g, a)
         self.n = self.rows.shape[0]
         self.r = _tall_r(self.rows)
+
+    def tests(self, x_r, y_r, row_map, cov_p=None):
+        """The Wald tests of the R-space blocks ``x_r`` against ``y_r``, whose rows are the stacked
+        rows times ``row_map`` (the blocks' columns, then the residual's)."""
+        # the blocks' and the residual's whitened rows, column-major: each group's columns are then one
+        # contiguous piece of memory for its residual and meat
+        rows = (row_map.T @ self.rows.T).T
+        xg = None if self.g_rows is None or cov_p is None else rows[:, :-1].T @ self.g_rows
+        return _Tests(x_r, y_r, rows[:, :-1], rows[:, -1], self.n, xg, cov_p)
 
     def lstsq(self, cols, target):
         """numpy.linalg.lstsq of the whitened column ``target`` on the whitened ``cols``, with its
@@ -486,9 +537,7 @@ def _whitened_fit(problem, alpha, cov_p=None):
     x_r = np.hstack(blocks)
     # the blocks' and the residual's whitened rows, column-major: each group's columns are then one
     # contiguous piece of memory for its residual and meat
-    rows = (np.hstack(maps + [y_map]).T @ problem.rows.T).T
-    xg = None if problem.g_rows is None or cov_p is None else rows[:, :-1].T @ problem.g_rows
-    tests = _Tests(x_r, yw[:, 0], rows[:, :-1], rows[:, -1], problem.n, xg, cov_p)
+    tests = problem.tests(x_r, yw[:, 0], np.hstack(maps + [y_map]), cov_p)
     k = int(edges[-1])
     w = tests.step(np.zeros(0, dtype=int), [np.arange(k)])[0]
     df2 = max(problem.n - k - basis.shape[1], 1)
@@ -517,34 +566,50 @@ class _Tests:
         (XᵀX)⁻¹ M (XᵀX)⁻¹ squares it again: the statistic then moved by percents under a 1e-13 change
         of y). The rows are read once per candidate for its residual and its meat."""
         eps = np.finfo(float).eps
-        y_r, y_rows = self.y_r, self.y_rows
+        y_r = self.y_r
         if base.size:
             x_base = self.x_r[:, base]
             rcond = eps * max(self.n, base.size)
             c_y = np.linalg.lstsq(x_base, y_r, rcond=rcond)[0]
-            y_r, y_rows = y_r - x_base @ c_y, y_rows - self.x_rows[:, base] @ c_y
-            rows_base = self.x_rows[:, base]
+            y_r = y_r - x_base @ c_y
+            self._base(base, c_y)
+        else:
+            self._base(base, None)
         out = []
         for cand in candidates:
             ki = cand.size
             k = base.size + ki
             # a group's columns are contiguous: a view of the rows, not a copy
             cols = slice(int(cand[0]), int(cand[-1]) + 1) if ki and cand[-1] - cand[0] == ki - 1 else cand
-            x_r, x_rows = self.x_r[:, cols], self.x_rows[:, cols]
+            x_r = self.x_r[:, cols]
             xg = None if self.xg is None or self.cov_p is None else self.xg[cols]
+            c = None
             if base.size:
                 c = np.linalg.lstsq(x_base, x_r, rcond=rcond)[0]
-                x_r, x_rows = x_r - x_base @ c, x_rows - rows_base @ c
+                x_r = x_r - x_base @ c
                 xg = None if xg is None else xg - c.T @ self.xg[base]
             beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
-            r = y_rows - x_rows @ beta
-            h = x_rows * r[:, None]
-            meat = h.T @ h * (self.n / max(self.n - k, 1))
+            meat = self._scores(cols, c, beta) * (self.n / max(self.n - k, 1))
             if xg is not None:
                 meat = meat + xg @ self.cov_p @ xg.T
             score = x_r.T @ y_r
             out.append(float(score @ np.linalg.pinv(meat) @ score) if ki else 0.0)
         return out
+
+    def _base(self, base, c_y):
+        """The step's base columns and the residual's coefficients on them (None: no base)."""
+        self._rows_base = None if c_y is None else self.x_rows[:, base]
+        self._y_rows = self.y_rows if c_y is None else self.y_rows - self._rows_base @ c_y
+
+    def _scores(self, cols, c, beta):
+        """Σ h hᵀ of the rows' scores h = x̃ r: the candidate's columns ``cols`` outside the base
+        (``c`` their coefficients on it) and the residual after ``beta``."""
+        x_rows = self.x_rows[:, cols]
+        if c is not None:
+            x_rows = x_rows - self._rows_base @ c
+        r = self._y_rows - x_rows @ beta
+        h = x_rows * r[:, None]
+        return h.T @ h
 
 
 def _forward_selection(columns, tests, alpha):

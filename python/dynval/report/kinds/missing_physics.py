@@ -91,6 +91,9 @@ def _measured(label: str, advice: Mapping[str, Any]) -> str:
         return (f"; named by a fallback refit on this run alone (no group refitted on the estimation run helped): "
                 f"added to the model's columns refitted here it removes {pct} of held-out rows (cross-fitted on "
                 "alternate blocks of this run)")
+    if run == "stream":
+        return (f"; {label} alone removes {pct} of this run's mean square (in sample: a stream keeps no rows to "
+                "cross-fit on)" if pct else "")
     return (f"; {label}'s own effect on held-out rows of this run (cross-fitted on alternate blocks) is {pct}"
             if pct else "")
 
