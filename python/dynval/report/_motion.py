@@ -146,6 +146,9 @@ def relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, p
         in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
         est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred
         rel["columns"] = [int(cols[c]) for c in near]
+        # the other joints whose rows these columns enter: a structure the model lacks there bends
+        # their shared parameters in the fit, and the error this leaves here is its trace
+        rel["shared_with"] = [k for k in range(m) if k != j and any(np.any(reg3[:, k, cols[c]] != 0) for c in near)]
         rel["estimated"] = [float(est_coef[c]) for c in near]
         rel["refitted"] = [float(refit[c]) for c in near]
         rel["estimated_from"] = "estimation" if est_fit is not None else "prediction"
