@@ -274,3 +274,20 @@ def test_a_joints_reweighting_follows_a_structure_missing_where_its_columns_are_
     outside = dataclasses.replace(offset, details={**offset.details, "model_terms": {
         **offset.details["model_terms"], "outside_share": 0.9}})
     assert deciding([outside, shoulder], r2)[0].finding is outside
+
+
+def test_a_model_columns_correlation_follows_any_group_the_lacking_structure_took_in():
+    """A decoupled arm's shoulder: inertia coupling is the term named, gravity coupling entered with
+    it, and the residual correlates with the joint's own sin2 (gravity's trace) or with ddq3 first and
+    sin3 after it. Kills: only the named group's aligned columns counted (sin2 first: "re-identify the
+    term of sin2"), or only the correlation's first column looked at."""
+    coupling = dataclasses.replace(PHYSICS, details={**PHYSICS.details, "term": "inertia", "relation": "coupling",
+                                                       "model_terms": {"columns": [1, 2], "trace_columns": [1, 2, 13]}})
+    sin2 = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(13,), effect=0.9,
+                   threshold=0.1, action="re-identify the term of sin2 on j2", message="j2: correlates with sin2.",
+                   details={"lag": 0, "rho": 0.9, "in_model": True})
+    assert deciding([sin2, coupling])[0].finding is coupling
+    named_only = dataclasses.replace(coupling, details={**coupling.details, "model_terms": {"columns": [1, 2]}})
+    assert deciding([sin2, named_only])[0].finding is sin2
+    ddq_first = dataclasses.replace(sin2, columns=(5, 13))
+    assert deciding([ddq_first, coupling])[0].finding is coupling

@@ -165,6 +165,12 @@ _LACKS = ("missing", "partial", "coupling")
 in which the model lacks a structure."""
 
 
+def _trace_columns(terms: dict[str, Any]) -> list[int]:
+    """The model's columns a lacking structure leaves its trace on: those most aligned with each
+    group selected with the named one (``trace_columns``), or with the named one (``columns``)."""
+    return [int(c) for c in terms.get("trace_columns", terms.get("columns", ())) or ()]
+
+
 def _own_column_trace(f: Finding) -> bool:
     """A lag correlation of the residual with one of the model's own columns."""
     d = f.details or {}
@@ -240,7 +246,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     # correlation with such a column is that trace, and re-identifying the column does not add it
     lacking = {(j, int(c)) for f in findings if f.kind == "missing_physics"
                and (f.details or {}).get("relation") in _LACKS
-               for j in f.joints for c in ((f.details or {}).get("model_terms") or {}).get("columns", ())}
+               for j in f.joints for c in _trace_columns((f.details or {}).get("model_terms") or {})}
 
     bent = _bent_joints(findings)
 
@@ -251,7 +257,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
             return 1
         if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
             return 1
-        if _own_column_trace(f) and f.columns and f.joints and {(j, int(f.columns[0])) for j in f.joints} <= lacking:
+        if _own_column_trace(f) and f.joints and any((j, int(c)) in lacking for j in f.joints for c in f.columns):
             return 1
         if _names_cause(f) or not f.joints or not set(f.joints) <= named:
             return 0
