@@ -658,7 +658,7 @@ def _rows_like_real_logs(coulomb: Expected, viscous: Expected) -> tuple[Scenario
         r("rotor_inertia", "white", a3, 500.0, 30.0, 0.1, 0.02,
           Expected(("missing_physics",), joint=2, term=("inertia",)), size=2.0, joint=2),
         r("rotor_inertia", "white", a6, 200.0, 30.0, 0.1, 0.02,
-          Expected(("missing_physics",), joint=3, term=("inertia",)), size=2.0, joint=3),
+          Expected(("missing_physics",), joint=2, term=("inertia",)), size=2.0, joint=2),
         # The estimation trajectory run again, q logged with an encoder's noise: a repeat, not new data.
         r("repeat", "white", a3, 200.0, 30.0, 0.1, 0.02, Expected(("repeat_trajectory",), severity="design")),
     )

@@ -247,6 +247,9 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     lacking = {(j, int(c)) for f in findings if f.kind == "missing_physics"
                and (f.details or {}).get("relation") in _LACKS
                for j in f.joints for c in _trace_columns((f.details or {}).get("model_terms") or {})}
+    # the column is the model's on the correlation's joint and on the lacking structure's: on the same
+    # joint it carries the structure's trace, on another the bend least squares gave the shared parameter
+    lacking_columns = {c for _, c in lacking}
 
     bent = _bent_joints(findings)
 
@@ -257,7 +260,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
             return 1
         if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
             return 1
-        if _own_column_trace(f) and f.joints and any((j, int(c)) in lacking for j in f.joints for c in f.columns):
+        if _own_column_trace(f) and f.joints and any(int(c) in lacking_columns for c in f.columns):
             return 1
         if _names_cause(f) or not f.joints or not set(f.joints) <= named:
             return 0
