@@ -155,6 +155,18 @@ ARMS: dict[str, ArmDesign] = {
         (0.05, 0.0, 0.0), ("base", "shoulder", "elbow", "wrist1", "wrist2", "wrist3"),
         "6-joint industrial arm (axes z, y, y, x, y, x; column 0.35 m, links 0.50, 0.40 m and a 0.23 m wrist; "
         "8, 6, 4, 1.5, 1.0, 0.5 kg; the last wrist's centre of mass off its roll axis)"),
+    "arm7": ArmDesign(
+        "arm7",
+        (Link("z", (0.0, 0.0, 0.0), 4.0, (0.0, -0.03, 0.12), (0.03, 0.03, 0.01), 1.2, 1.5, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.11), 4.0, (0.0, 0.03, 0.15), (0.04, 0.04, 0.01), 1.0, 1.4, 1.0, 0.6),
+         Link("z", (0.0, 0.0, 0.2), 3.0, (0.0, 0.02, 0.1), (0.03, 0.03, 0.008), 0.8, 1.0, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.2), 2.7, (0.0, -0.02, 0.12), (0.02, 0.02, 0.005), 0.8, 1.0, 1.0, -0.8),
+         Link("z", (0.0, 0.0, 0.19), 1.7, (0.0, 0.01, 0.08), (0.01, 0.01, 0.003), 0.3, 0.5, 1.5, 0.0),
+         Link("y", (0.0, 0.0, 0.2), 1.6, (0.0, 0.0, 0.03), (0.005, 0.005, 0.003), 0.3, 0.4, 1.0, 0.4),
+         Link("z", (0.0, 0.0, 0.08), 0.3, (0.01, 0.0, 0.02), (0.001, 0.001, 0.001), 0.1, 0.15, 2.0, 0.0)),
+        (0.0, 0.0, 0.05), tuple(f"a{j + 1}" for j in range(7)),
+        "7-joint arm of the LWR kind (axes z, y, z, y, z, y, z; links 0.31, 0.40, 0.39, 0.08 m along the "
+        "arm; 4.0, 4.0, 3.0, 2.7, 1.7, 1.6, 0.3 kg)"),
 }
 """The arm designs, by name."""
 
@@ -411,7 +423,7 @@ class Expected:
 
 CLASSES = ("right", "no_coulomb", "no_viscous", "no_gravity", "coupled_gravity", "offset", "payload", "mode",
            "delay", "unexcited_joint", "low_information", "changed_friction", "decoupled", "chatter", "stribeck",
-           "rotor_inertia", "repeat")
+           "rotor_inertia", "repeat", "gravity_only")
 """Scenario classes: ``right`` (size) and the deficient ones (power)."""
 
 
@@ -452,6 +464,8 @@ class Scenario:
         tell it to add one of these."""
         if self.name == "decoupled":
             return frozenset({"coulomb", "viscous", "offset"})
+        if self.name == "gravity_only":
+            return frozenset({"coulomb", "viscous", "gravity"})
         has = {"gravity", "inertia", "coulomb", "viscous"}
         if self.name == "no_coulomb":
             has.discard("coulomb")
@@ -487,6 +501,7 @@ class Scenario:
                  "stribeck": lambda: (f"a Stribeck peak sign(q̇)·exp(−(q̇/v_s)²) of RMS {self.size}σ on {_joint(self)}, "
                                       f"v_s {STRIBECK_SPEED:g} × its RMS velocity"),
                  "rotor_inertia": lambda: f"a rotor inertia J_a q̈ of RMS {self.size}σ on {_joint(self)}",
+                 "gravity_only": lambda: "a gravity and friction model (the base columns at q̇ = q̈ = 0, Fc, Fv)",
                  "repeat": lambda: f"the validation run retraces the estimation run; q logged with "
                                    f"{1e3 * REPEAT_NOISE:g} mrad of white noise",
                  }.get(self.name, lambda: "")()
@@ -661,6 +676,10 @@ def _rows_like_real_logs(coulomb: Expected, viscous: Expected) -> tuple[Scenario
           Expected(("missing_physics",), joint=2, term=("inertia",)), size=2.0, joint=2),
         # The estimation trajectory run again, q logged with an encoder's noise: a repeat, not new data.
         r("repeat", "white", a3, 200.0, 30.0, 0.1, 0.02, Expected(("repeat_trajectory",), severity="design")),
+        r("repeat", "ar0.9", p2, 100.0, 40.0, 0.1, 0.02, Expected(("repeat_trajectory",), severity="design")),
+        # A gravity and friction model of a 7-joint and a 6-joint arm: the inertial terms it lacks are named.
+        r("gravity_only", "white", "arm7", 100.0, 30.0, 0.15, 0.02, Expected(("missing_physics",), term=("inertia",))),
+        r("gravity_only", "white", a6, 200.0, 30.0, 0.1, 0.02, Expected(("missing_physics",), term=("inertia",))),
     )
 
 
@@ -721,6 +740,14 @@ def _setup(s: Scenario) -> _Setup:
         names = _decoupled_names(n)
         truth = np.zeros(len(names))
         model = tuple(range(len(names)))
+    elif s.name == "gravity_only":
+        # the static model (the base columns that gravity excites, evaluated at rest) with friction;
+        # named without the rigid-body parameter syntax: its columns declare no inertia
+        gravity = _gravity_columns(s.arm)
+        names = [f"g_{n_.replace(':', '_')}" for n_ in (names[c] for c in gravity)] + \
+            [f"Fc{j + 1}" for j in range(n)] + [f"Fv{j + 1}" for j in range(n)]
+        truth = np.zeros(len(names))
+        model = tuple(range(len(names)))
     return _Setup(robot, payload_arm, sigma, viscous, coulomb, offset, keep, regroup, tuple(names), truth, model,
                   joint_term, float(np.sqrt(np.mean(dq[:, s.joint] ** 2))) if s.joint is not None else 1.0)
 
@@ -733,6 +760,27 @@ def _joint_term(s: Scenario, dq: FloatArray, ddq: FloatArray, speed: float) -> F
         v = dq[:, j]
         return np.sign(v) * np.exp(-((v / (STRIBECK_SPEED * speed)) ** 2))
     return ddq[:, j]
+
+
+@functools.lru_cache(maxsize=8)
+def _gravity_columns(name: str) -> tuple[int, ...]:
+    """The base columns of design ``name`` that gravity excites (nonzero at rest on random postures)."""
+    keep, _ = base_structure(name)
+    design = ARMS[name]
+    rng = np.random.default_rng(REFERENCE_SEED)
+    q = rng.uniform(-2.0, 2.0, (64, design.n_joints))
+    y = arm(name).inertial_regressor(q, np.zeros_like(q), np.zeros_like(q))[:, :, list(keep)]
+    size = np.sqrt(np.mean(y**2, axis=(0, 1)))
+    return tuple(int(c) for c in np.flatnonzero(size > 1e-9 * size.max()))
+
+
+def _gravity_regressor(st: _Setup, name: str, q: FloatArray, dq: FloatArray) -> FloatArray:
+    """A ``gravity_only`` model's regressor (N, m, P): the gravity columns at rest, Fc, Fv."""
+    n_s, n = q.shape
+    static = st.arm.inertial_regressor(q, np.zeros_like(q), np.zeros_like(q))[:, :, list(st.keep)]
+    eye = np.eye(n)
+    return np.concatenate([static[:, :, list(_gravity_columns(name))], np.sign(dq)[:, :, None] * eye,
+                           dq[:, :, None] * eye], axis=2)
 
 
 def _decoupled_names(n: int) -> list[str]:
@@ -882,7 +930,8 @@ def simulate(s: Scenario, replicate: int) -> Replicate:
             tau_true = _physical_torque(st, robot, q, dq, ddq)
         if s.filtered:  # the user's logged positions and filtered derivatives, in the regressor too
             q, dq, ddq = _filtered_motion(rng, traj, stamps, s.sample_rate)
-        reg = _decoupled_regressor(q, dq, ddq) if s.name == "decoupled" else _regressor(st, q, dq, ddq)
+        reg = (_decoupled_regressor(q, dq, ddq) if s.name == "decoupled"
+               else _gravity_regressor(st, s.arm, q, dq) if s.name == "gravity_only" else _regressor(st, q, dq, ddq))
         extra = np.zeros((n, m))
         if s.name == "changed_friction" and which == "validation" and s.joint is not None:
             # the joint's Coulomb friction grew between the runs (wear, temperature): the model has the term
@@ -898,7 +947,7 @@ def simulate(s: Scenario, replicate: int) -> Replicate:
             # the positions as logged: an encoder's noise on the retraced run
             q = q + REPEAT_NOISE * rng.standard_normal(q.shape)
             reg = _regressor(st, q, dq, ddq)
-        if which == "validation" and s.name == "decoupled":
+        if which == "validation" and s.name in ("decoupled", "gravity_only"):
             # what the decoupled structure cannot hold of the noise-free torque, joint by joint
             effect = np.column_stack([tau_true[:, j] - reg[:, j] @ np.linalg.lstsq(reg[:, j], tau_true[:, j],
                                                                                      rcond=None)[0] for j in range(m)])
