@@ -140,10 +140,7 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate) -> dict[str, np.ndarray]:
                 grav += [np.sin(s), np.cos(s)]
         groups["gravity"] = grav
         groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
-        # the joint's own acceleration through the posture of the joints beyond it too: its diagonal
-        # inertia changes with them (a base joint's with the arm's reach), which constant columns miss
-        groups["inertia"] = [ddq[:, k] for k in range(m)] + [f(q[:, i]) * ddq[:, j] for i in range(j + 1, m)
-                                                          for f in (np.cos, np.sin)]
+        groups["inertia"] = [ddq[:, k] for k in range(m)]
     out = {}
     for g in GROUPS:
         if g in groups:
