@@ -402,9 +402,9 @@ class Expected:
 
     A finding names it when its severity is ``severity``, its kind one of ``kinds``, it names
     ``joint`` (when given) and: for ``missing_physics``, ``details["term"]`` in ``term`` (when
-    given) and ``details["relation"]`` in ``relation`` (when given); for ``regressor_correlation`` and
-    ``bias``, the name of ``columns[0]`` starts with ``column_prefix`` (one of them, for a tuple) (only when the column was offered; a bias names an ``offset`` by itself);
-    for ``oscillation``, ``details["frequency"]`` within 10 % of ``frequency``; for ``delay``,
+    given) and ``details["relation"]`` in ``relation`` (when given); for ``regressor_correlation``
+    and ``bias``, the name of ``columns[0]`` starts with ``column_prefix`` (one of them, for a
+    tuple; only when the column was offered; a bias names an ``offset`` by itself); for ``oscillation``, ``details["frequency"]`` within 10 % of ``frequency``; for ``delay``,
     ``details["delay_s"]`` (when present) within a factor 2 of ``delay_s``; ``reported``: a note
     counts too (a significant delay is always reported, at least as a note).
     """
@@ -776,7 +776,7 @@ def _gravity_columns(name: str) -> tuple[int, ...]:
 
 def _gravity_regressor(st: _Setup, name: str, q: FloatArray, dq: FloatArray) -> FloatArray:
     """A ``gravity_only`` model's regressor (N, m, P): the gravity columns at rest, Fc, Fv."""
-    n_s, n = q.shape
+    n = q.shape[1]
     static = st.arm.inertial_regressor(q, np.zeros_like(q), np.zeros_like(q))[:, :, list(st.keep)]
     eye = np.eye(n)
     return np.concatenate([static[:, :, list(_gravity_columns(name))], np.sign(dq)[:, :, None] * eye,

@@ -565,9 +565,9 @@ def _missing_term_rule(r: _Rules) -> list[Finding]:
                   _alone(ev, j, kk)) for kk in chosen]
         # what the column moves on the joints it does not enter: its own effect when known (the
         # leave-one-out share there can be taken by another absent column of the joint refit)
-        effect_on = (lambda jj: _alone(ev, jj, k) if ev.missing_alone is not None else float(share[jj, k]))
-        indirect = {jj: effect_on(jj) for jj in range(share.shape[0])
-                    if not enters[jj, k] and effect_on(jj) >= th.missing_term}
+        moved = {jj: (_alone(ev, jj, k) if ev.missing_alone is not None else float(share[jj, k]))
+                 for jj in range(share.shape[0]) if not enters[jj, k]}
+        indirect = {jj: s for jj, s in moved.items() if s >= th.missing_term}
         details = {"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
                    "method": ev.missing_method, "indirect": indirect}
         if ev.missing_alone is not None:

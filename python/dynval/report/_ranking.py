@@ -216,7 +216,7 @@ def _bent_joints(findings: Sequence[Finding]) -> set[int]:
     (a planar arm without the shoulder's L1:mz fits the elbow's L2:mz wrong). Re-identifying the
     shared columns alone does not help; adding the missing structure and refitting does."""
     lacking = {j for f in findings if f.severity == "deficiency" and _lacks(f) for j in f.joints}
-    bent = set()
+    bent: set[int] = set()
     for f in findings:
         d = f.details or {}
         if f.kind == "missing_physics" and _reweights(f):
