@@ -404,7 +404,8 @@ class Expected:
     ``joint`` (when given) and: for ``missing_physics``, ``details["term"]`` in ``term`` (when
     given) and ``details["relation"]`` in ``relation`` (when given); for ``regressor_correlation``
     and ``bias``, the name of ``columns[0]`` starts with ``column_prefix`` (one of them, for a
-    tuple; only when the column was offered; a bias names an ``offset`` by itself); for ``oscillation``, ``details["frequency"]`` within 10 % of ``frequency``; for ``delay``,
+    tuple; only when the column was offered; a bias names an ``offset`` by itself); for
+    ``oscillation``, ``details["frequency"]`` within 10 % of ``frequency``; for ``delay``,
     ``details["delay_s"]`` (when present) within a factor 2 of ``delay_s``; ``reported``: a note
     counts too (a significant delay is always reported, at least as a note).
     """
