@@ -670,6 +670,9 @@ def _rows_like_real_logs(coulomb: Expected, viscous: Expected) -> tuple[Scenario
           Expected(("missing_physics",), joint=2, term=("coulomb",), relation=("partial",)), size=2.0, joint=2),
         r("stribeck", "ar0.9", a6, 200.0, 30.0, 0.1, 0.02,
           Expected(("missing_physics",), joint=1, term=("coulomb",), relation=("partial",)), size=2.0, joint=1),
+        # A real but negligible Stribeck term on a wrist under strongly coloured noise: nothing to fix
+        # (no deficiency: chance fits of the noise must not make it practical).
+        r("stribeck", "ar0.99", a6, 200.0, 30.0, 0.1, 0.02, None, size=0.1, joint=4, tag="negligible"),
         # A motor's reflected inertia on one joint, which no rigid-body column holds alone.
         r("rotor_inertia", "white", a3, 500.0, 30.0, 0.1, 0.02,
           Expected(("missing_physics",), joint=2, term=("inertia",)), size=2.0, joint=2),
