@@ -608,4 +608,50 @@ def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
     # what the refit with it removes on the elbow is said on the shoulder's finding, and counts in its rank
     (share,) = named[0].details["indirect"].values()
     assert list(named[0].details["indirect"]) == [1] and share == pytest.approx(out["share"][1, 0], rel=1e-6)
-    assert f"also remove {100 * share:.1f} % on elbow" in named[0].message
+    assert f"also removes {100 * share:.1f} % on elbow" in named[0].message
+    # one absent column: its share added alone is its leave-one-out share
+    assert out["alone"][:, 0] == pytest.approx(out["share"][:, 0], rel=1e-9)
+
+
+def test_a_missing_column_s_own_effect_is_measured_added_alone():
+    """Two absent columns that stand in for each other (an offset and a slow gravity column): in the
+    joint refit each one's leave-one-out share is small, though adding the true one alone removes
+    nearly all of the error. The share added alone is measured, said, carried to the joints the
+    column does not enter and used in the ranking. Catches: the leave-one-out share used for the
+    indirect effect or the rank (the planar arm without L1:mz had its elbow first, at 5 % indirect)."""
+    from dynval.report._ranking import explained_share
+    from dynval.statistics import _estimation
+
+    rng = np.random.default_rng(5)
+    n = 3000
+
+    def run(shift):
+        t = np.arange(n) / 100.0 + shift
+        y = np.zeros((n, 2, 5))
+        y[:, 0, 0], y[:, 1, 0] = np.sin(t), 0.7 * np.cos(1.3 * t)  # shared
+        y[:, 0, 1] = np.sin(2.1 * t)  # shoulder only
+        y[:, 1, 2] = np.cos(0.9 * t)  # elbow only
+        y[:, 0, 3] = 1.0 + 0.05 * np.cos(0.2 * t)  # a slow posture column: nearly an offset
+        y[:, 0, 4] = 1.0  # the shoulder's offset
+        return y
+
+    est, val = run(0.0), run(11.0)
+    truth = np.array([1.0, 0.5, 0.8, 2.0, 0.0])
+    est_tau = est @ truth + 0.02 * rng.standard_normal((n, 2))
+    val_tau = val @ truth + 0.02 * rng.standard_normal((n, 2))
+    out = _estimation.missing_terms(est, est_tau, val, val_tau, [0, 1, 2])
+    k = out["columns"].index(3)
+    # the joint refit with the offset in takes most of it: a small leave-one-out share ...
+    assert out["share"][0, k] < 0.5
+    # ... while adding it alone removes nearly everything, on the elbow too (the shared column's bend)
+    assert out["alone"][0, k] > 0.9 and out["alone"][1, k] > 0.5
+    model = [0, 1, 2]
+    coef = np.linalg.lstsq(est[:, :, model].reshape(-1, 3), est_tau.reshape(-1), rcond=None)[0]
+    r = dynval.validate(val_tau, val[:, :, model] @ coef, n_params=3, regressor=val, model_columns=model,
+                        estimation={"regressor": est, "tau": est_tau}, joint_names=["shoulder", "elbow"])
+    f = next(f for f in r.findings if f.kind == "regressor_correlation" and 3 in f.columns)
+    assert f.details["alone_share"] == pytest.approx(out["alone"][0, k], rel=1e-6)
+    assert f.details["indirect"][1] == pytest.approx(out["alone"][1, k], rel=1e-6)
+    assert f"{100 * out['alone'][0, k]:.1f} % added alone" in f.message
+    share, basis, _ = explained_share(f)
+    assert share == pytest.approx(min(out["alone"][0, k], 1.0), rel=1e-6) and basis == "held_out"

@@ -231,9 +231,66 @@ def test_a_model_columns_correlation_follows_the_structure_the_model_lacks_on_it
     assert [r.finding.kind for r in deciding([trace, changed])] == ["regressor_correlation", "missing_physics"]
     lacks = dataclasses.replace(trace, details={**trace.details, "in_model": False})
     assert [r.finding.kind for r in deciding([lacks, coupling])] == ["regressor_correlation", "missing_physics"]
+    # the same column on another joint: a parameter the joints share, which the fit bent to make up
+    # for the structure the model lacks (an elbow's rotor inertia bends L3:Iyy, which the shoulder's
+    # residual then correlates with): it follows too
     elsewhere = dataclasses.replace(trace, joints=(0,))
-    assert deciding([elsewhere, coupling])[0].finding is elsewhere
+    assert deciding([elsewhere, coupling])[0].finding is coupling
     # another column than the ones the lacking structure is aligned with (a changed Coulomb column
     # beside an offset the model lacks): the correlation keeps its place
     other = dataclasses.replace(trace, columns=(6,))
     assert deciding([other, coupling])[0].finding is other
+
+
+def test_a_joints_reweighting_follows_a_structure_missing_where_its_columns_are_shared():
+    """The planar arm without L1:mz, the column not offered: the elbow's error (its own L2:* columns
+    with other weights) is the bend the missing shoulder term leaves in the shared parameters; the
+    shoulder's lacking posture term is the step. Kills: the rule dropped (the elbow's 97 % first);
+    applied when the re-weighted columns do not enter the lacking joint (a changed friction Fc2 on
+    the elbow beside a shoulder term: the friction stays first); applied when nothing lacks; an
+    offset the names say the model lacks but that lies in the span of the re-weighted columns
+    (outside share ≈ 0) counted as a lacking structure or left leading."""
+    elbow = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.97, threshold=0.05,
+                    action="re-identify the model's terms on j2", message="j2: follows the motion.",
+                    details={"term": "position_harmonic", "term_share": 0.97, "relation": "unsupported",
+                             "model_terms": {"relation": "unsupported", "reweight_share": 0.97,
+                                             "outside_share": 0.0, "columns": [3, 4], "shared_with": [0]}})
+    shoulder = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.43, threshold=0.05,
+                       action="complete a gravity term on j1", message="j1: follows the motion.",
+                       details={"term": "gravity", "term_share": 0.43, "relation": "partial",
+                                "model_terms": {"relation": "partial", "reweight_share": -0.3,
+                                                "outside_share": 1.0, "columns": [0, 3], "shared_with": [1]}})
+    trace = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(4,), effect=0.8,
+                    threshold=0.1, action="re-identify the term of L2:mz on j2", message="j2: correlates.",
+                    details={"lag": 0, "rho": 0.8, "in_model": True})
+    r2 = [0.97, 0.91]
+    assert [r.finding for r in deciding([elbow, trace, shoulder], r2)] == [shoulder, elbow, trace]
+    own = dataclasses.replace(elbow, details={**elbow.details, "model_terms": {
+        **elbow.details["model_terms"], "shared_with": []}})
+    assert deciding([own, trace, shoulder], r2)[0].finding is own
+    assert deciding([elbow, trace], r2)[0].finding is elbow
+    # an elbow offset the names say the model lacks, in the span of L2:mx on this slow run
+    offset = dataclasses.replace(elbow, details={**elbow.details, "term": "offset", "relation": "missing",
+                                                 "model_terms": {**elbow.details["model_terms"],
+                                                                 "relation": "missing", "outside_share": 1e-6}})
+    assert deciding([offset, shoulder], r2)[0].finding is shoulder
+    outside = dataclasses.replace(offset, details={**offset.details, "model_terms": {
+        **offset.details["model_terms"], "outside_share": 0.9}})
+    assert deciding([outside, shoulder], r2)[0].finding is outside
+
+
+def test_a_model_columns_correlation_follows_any_group_the_lacking_structure_took_in():
+    """A decoupled arm's shoulder: inertia coupling is the term named, gravity coupling entered with
+    it, and the residual correlates with the joint's own sin2 (gravity's trace) or with ddq3 first and
+    sin3 after it. Kills: only the named group's aligned columns counted (sin2 first: "re-identify the
+    term of sin2"), or only the correlation's first column looked at."""
+    coupling = dataclasses.replace(PHYSICS, details={**PHYSICS.details, "term": "inertia", "relation": "coupling",
+                                                       "model_terms": {"columns": [1, 2], "trace_columns": [1, 2, 13]}})
+    sin2 = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(13,), effect=0.9,
+                   threshold=0.1, action="re-identify the term of sin2 on j2", message="j2: correlates with sin2.",
+                   details={"lag": 0, "rho": 0.9, "in_model": True})
+    assert deciding([sin2, coupling])[0].finding is coupling
+    named_only = dataclasses.replace(coupling, details={**coupling.details, "model_terms": {"columns": [1, 2]}})
+    assert deciding([sin2, named_only])[0].finding is sin2
+    ddq_first = dataclasses.replace(sin2, columns=(5, 13))
+    assert deciding([ddq_first, coupling])[0].finding is coupling

@@ -82,19 +82,26 @@ def bias_action(name: str, kinds: Mapping[str, bool | None] | None) -> str:
     return "; ".join(parts)
 
 
-def missing_term(name: str, terms: Sequence[tuple[str, float, float]], refit: bool, padj: float, big: bool,
+def missing_term(name: str, terms: Sequence[tuple[str, float, float] | tuple[str, float, float, float]], refit: bool,
+                 padj: float, big: bool,
                  indirect: Sequence[tuple[str, float]] = ()) -> Words:
-    """``terms``: (column, statistic, share) of the chosen columns, strongest first; ``indirect``:
-    (joint, share) of the joints the first column does not enter whose error the refit with it
-    removes too (through the parameters refitted with it)."""
+    """``terms``: (column, statistic, share, share added alone or nan) of the chosen columns,
+    strongest first; ``indirect``: (joint, share) of the joints the first column does not enter
+    whose error adding it removes too (through the parameters refitted with it)."""
     symbol = "t" if refit else "ρ"
-    listed = "; ".join(f"{c} ({symbol} = {stat:+.3g}, would remove {100 * share:.1f} % of the mean square)"
-                       for c, stat, share in terms[:3])
+
+    def alone_text(share: float, alone: float) -> str:
+        # said only where it differs: another absent column of the joint refit can stand in for this one
+        return (f"; {100 * alone:.1f} % added alone" if math.isfinite(alone) and abs(alone - share) >= 0.01
+                else "")
+
+    listed = "; ".join(f"{t[0]} ({symbol} = {t[1]:+.3g}, would remove {100 * t[2]:.1f} % of the mean square"
+                       f"{alone_text(t[2], t[3] if len(t) > 3 else math.nan)})" for t in terms[:3])
     how = ("refitted on the estimation run with the term added (Wald t with the coloured-noise covariance; the "
            "share is measured on the validation run)" if refit
            else "after removing what the model's own columns represent")
     if indirect:
-        how += (f"; the parameters refitted with {terms[0][0]} also remove "
+        how += (f"; adding {terms[0][0]} alone (the model's parameters refitted with it) also removes "
                 + ", ".join(f"{100 * s:.1f} % on {joint}" for joint, s in indirect)
                 + " (joints it does not act on: the estimation run's fit made up for it there)")
     return (f"{name}: a term the model lacks explains part of the residual: {listed}; {how} (Holm-adjusted p "

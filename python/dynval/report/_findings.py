@@ -160,6 +160,9 @@ def _missing_term_rule(r: Context) -> list[Finding]:
 
     enters = (np.ones(share.shape, dtype=bool) if ev.missing_enters is None or not per_column
               else np.asarray(ev.missing_enters, dtype=bool))
+    # a column's effect: the larger of what it removes beside the other absent columns and added
+    # alone (two absent columns that stand in for each other each have a small leave-one-out share)
+    size = share if ev.missing_alone is None else np.fmax(share, np.asarray(ev.missing_alone, dtype=float))
     out: list[Finding] = []
     for j in range(share.shape[0]):
         # a column that does not enter this joint's rows is the step of the joints it enters; what
@@ -167,8 +170,8 @@ def _missing_term_rule(r: Context) -> list[Finding]:
         sig = [k for k in range(share.shape[1]) if at(padj, j, k) <= r.alpha and enters[j, k]]
         if not sig:
             continue
-        sig.sort(key=lambda k: -np.nan_to_num(share[j, k], nan=-np.inf))
-        strong = [k for k in sig if share[j, k] >= th.missing_term]
+        sig.sort(key=lambda k: -np.nan_to_num(size[j, k], nan=-np.inf))
+        strong = [k for k in sig if size[j, k] >= th.missing_term]
         if per_column and not strong:
             continue  # a column that matters on another joint only says nothing about this one
         chosen = strong or sig
@@ -177,19 +180,34 @@ def _missing_term_rule(r: Context) -> list[Finding]:
         if big:
             r.deficient.add(j)
             r.missing.add(j)
-        terms = [(r.column(missing[kk]), float(at(stat, j, kk)), float(share[j, kk])) for kk in chosen]
-        indirect = {jj: float(share[jj, k]) for jj in range(share.shape[0])
-                    if not enters[jj, k] and share[jj, k] >= th.missing_term}
+        terms = [(r.column(missing[kk]), float(at(stat, j, kk)), float(share[j, kk]),
+                  _alone(ev, j, kk)) for kk in chosen]
+        # what the column moves on the joints it does not enter: its own effect when known (the
+        # leave-one-out share there can be taken by another absent column of the joint refit)
+        moved = {jj: (_alone(ev, jj, k) if ev.missing_alone is not None else float(share[jj, k]))
+                 for jj in range(share.shape[0]) if not enters[jj, k]}
+        indirect = {jj: s for jj, s in moved.items() if s >= th.missing_term}
+        details: dict[str, Any] = {"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
+                   "method": ev.missing_method, "indirect": indirect}
+        if ev.missing_alone is not None:
+            details["alone_share"] = _alone(ev, j, k)
         out.append(_worded(
             w.missing_term(r.name(j), terms, refit, float(at(padj, j, k)), big,
                            [(r.name(jj), s) for jj, s in indirect.items()]),
             kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
             columns=tuple(int(missing[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
-            pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(share[j, k]),
+            pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(size[j, k]),
             effect_unit=w.UNITS["missing_term"], threshold=th.missing_term,
-            details={"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
-                     "method": ev.missing_method, "indirect": indirect}))
+            details=details))
     return out
+
+
+def _alone(ev: Evidence, j: int, k: int) -> float:
+    """The share of joint j's validation mean square absent column k removes added alone (nan unknown)."""
+    if ev.missing_alone is None:
+        return math.nan
+    x = float(np.asarray(ev.missing_alone)[j, k])
+    return x if math.isfinite(x) else math.nan
 
 
 def _strongest_lag(rho: np.ndarray, sig: np.ndarray) -> int:

@@ -161,6 +161,14 @@ def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, 
         in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
         est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred
         rel["columns"] = [int(cols[c]) for c in near]
+        # the model's columns most aligned with each group the selection took in with the named one:
+        # a structure the model lacks leaves its trace on them (a decoupled model's sin q_j carries
+        # part of the missing gravity coupling when inertia is the term named)
+        rel["trace_columns"] = sorted({int(cols[c]) for g in t.selected if g in lib
+                                       for c in _model_terms.aligned_columns(y_j, lib[g])} | set(rel["columns"]))
+        # the other joints whose rows these columns enter: a structure the model lacks there bends
+        # their shared parameters in the fit, and the error this leaves here is its trace
+        rel["shared_with"] = [k for k in range(m) if k != j and any(np.any(reg3[:, k, cols[c]] != 0) for c in near)]
         rel["estimated"] = [float(est_coef[c]) for c in near]
         rel["refitted"] = [float(refit[c]) for c in near]
         rel["estimated_from"] = "estimation" if est_fit is not None else "prediction"

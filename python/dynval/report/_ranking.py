@@ -77,7 +77,8 @@ def explained_share(f: Finding) -> tuple[float | None, str, int | None]:
     Per kind (conventions §5.10): ``worse_than_constant`` −R²/(1 − R²) (what predicting the mean torque
     would remove); ``bias`` (|ē|/RMSE)² (what removing the mean would); a missing column refitted in
     its share (held out with the estimation refit); a correlation ρ² (what the column explains
-    linearly); ``oscillation``, ``prediction_artefact`` and ``periodic_error`` their share of the
+    linearly; a refitted column the larger of its leave-one-out share and its share added alone,
+    ``details["alone_share"]``); ``oscillation``, ``prediction_artefact`` and ``periodic_error`` their share of the
     residual variance; ``missing_physics`` the named term's share (``details["held_out_share"]``,
     carried from the estimation run, when the rule gives one); ``delay`` the share realigning
     removes on its strongest joint; ``predictive_failure`` 1 − 1/ratio (the part of the validation
@@ -105,7 +106,11 @@ def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
         if effect is None:
             return None, VALIDATION, j
         if d.get("added_variable"):
-            return effect, HELD_OUT if d.get("method") == "estimation_refit" else VALIDATION, j
+            # the larger of what it removes beside the other absent columns and added alone: another
+            # absent column can stand in for it in the joint refit, which does not make it weaker
+            alone = _finite(d.get("alone_share"))
+            return (effect if alone is None else max(effect, alone),
+                    HELD_OUT if d.get("method") == "estimation_refit" else VALIDATION, j)
         return effect * effect, VALIDATION, j
     if f.kind in ("oscillation", "prediction_artefact", "periodic_error"):
         return effect, VALIDATION, j
@@ -160,10 +165,65 @@ _LACKS = ("missing", "partial", "coupling")
 in which the model lacks a structure."""
 
 
+def _trace_columns(terms: dict[str, Any]) -> list[int]:
+    """The model's columns a lacking structure leaves its trace on: those most aligned with each
+    group selected with the named one (``trace_columns``), or with the named one (``columns``)."""
+    return [int(c) for c in terms.get("trace_columns", terms.get("columns", ())) or ()]
+
+
 def _own_column_trace(f: Finding) -> bool:
     """A lag correlation of the residual with one of the model's own columns."""
     d = f.details or {}
     return f.kind == "regressor_correlation" and not d.get("added_variable") and d.get("in_model") is True
+
+
+_REWEIGHT = ("reweight", "unsupported")
+"""Relations in which what remains on a joint is carried by the model's own columns with other weights."""
+
+
+_SPANNED = 0.1
+"""A term whose part outside the model's span removes at most this fraction of what re-weighting the
+model's own columns removes is, on this run, a re-weighting (a slowly moving elbow's gravity column
+is nearly constant: an offset the names say the model lacks is, in the data, that column's weight)."""
+
+
+def _reweights(f: Finding) -> bool:
+    """The finding's step is to re-weight the model's own columns on its joint, or its term is
+    spanned by them on this run (:data:`_SPANNED`)."""
+    if _own_column_trace(f):
+        return True
+    if f.kind != "missing_physics":
+        return False
+    d = f.details or {}
+    terms = d.get("model_terms") or {}
+    outside, reweight = _finite(terms.get("outside_share")), _finite(terms.get("reweight_share"))
+    spanned = outside is not None and reweight is not None and reweight > 0 and outside <= _SPANNED * reweight
+    return d.get("relation") in _REWEIGHT or spanned
+
+
+def _lacks(f: Finding) -> bool:
+    """The finding names a structure the model lacks (a missing column, or a physical term outside
+    its span that the model's own columns do not make up)."""
+    d = f.details or {}
+    return ((f.kind == "missing_physics" and d.get("relation") in _LACKS and not _reweights(f))
+            or _missing_column(f) is not None)
+
+
+def _bent_joints(findings: Sequence[Finding]) -> set[int]:
+    """Joints whose own columns, re-weighted, would remove their error, where those columns also enter
+    a joint on which the model lacks a structure: least squares over every joint bends the shared
+    parameters to make up for the missing structure there, and the error left here is that bend
+    (a planar arm without the shoulder's L1:mz fits the elbow's L2:mz wrong). Re-identifying the
+    shared columns alone does not help; adding the missing structure and refitting does."""
+    lacking = {j for f in findings if f.severity == "deficiency" and _lacks(f) for j in f.joints}
+    bent: set[int] = set()
+    for f in findings:
+        d = f.details or {}
+        if f.kind == "missing_physics" and _reweights(f):
+            shared = set(((d.get("model_terms") or {}).get("shared_with")) or ())
+            if shared & (lacking - set(f.joints)):
+                bent.update(f.joints)
+    return bent
 
 
 def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list[Ranked]:
@@ -186,14 +246,21 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     # correlation with such a column is that trace, and re-identifying the column does not add it
     lacking = {(j, int(c)) for f in findings if f.kind == "missing_physics"
                and (f.details or {}).get("relation") in _LACKS
-               for j in f.joints for c in ((f.details or {}).get("model_terms") or {}).get("columns", ())}
+               for j in f.joints for c in _trace_columns((f.details or {}).get("model_terms") or {})}
+    # the column is the model's on the correlation's joint and on the lacking structure's: on the same
+    # joint it carries the structure's trace, on another the bend least squares gave the shared parameter
+    lacking_columns = {c for _, c in lacking}
+
+    bent = _bent_joints(findings)
 
     def group(f: Finding) -> int:
         if f.kind == "whiteness":
             return 2
+        if f.joints and set(f.joints) <= bent and _reweights(f):
+            return 1
         if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
             return 1
-        if _own_column_trace(f) and f.columns and f.joints and {(j, int(f.columns[0])) for j in f.joints} <= lacking:
+        if _own_column_trace(f) and f.joints and any(int(c) in lacking_columns for c in f.columns):
             return 1
         if _names_cause(f) or not f.joints or not set(f.joints) <= named:
             return 0
@@ -274,8 +341,9 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
     leading = [r for r in ranked if r.leads]
     n, rest = len(leading), len(ranked) - len(leading)
     behind = (f"; {rest} more follow{'s' if rest == 1 else ''} on joints where a leading finding stands (structure "
-              "without a named cause, a model column's correlation that a structure the model lacks explains, or "
-              "findings that may read the prediction's own line)" if rest else "")
+              "without a named cause, a model column's correlation that a structure the model lacks explains, the "
+              "error shared parameters carry for a structure another joint lacks, or findings that may read the "
+              "prediction's own line)" if rest else "")
     if top.share is None:
         return (f"first in rule order: none of the {n} leading findings explains a share of the residual that can "
                 "be compared" if n > 1 else "the only leading finding") + behind

@@ -570,7 +570,7 @@ def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force,
         ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
         ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
         ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
-        ev.missing_enters = missing.get("enters")
+        ev.missing_enters, ev.missing_alone = missing.get("enters"), missing.get("alone")
     return ev
 
 

@@ -106,7 +106,9 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     smallest effective sample size of the estimation residual's joints), ``share`` (m, q) the share
     of each joint's validation mean square column c removes from the refit without it (negative when
     it makes the validation worse; on a joint whose rows c enters in neither run, what it moves
-    through the shared parameters refitted with it), ``enters`` (m, q): c enters the joint's rows in
+    through the shared parameters refitted with it), ``alone`` (m, q) the share column c removes
+    when it is the only column added to the model's (refitted on the estimation run, measured on the
+    validation run), ``enters`` (m, q): c enters the joint's rows in
     one of the runs (an offset of the shoulder does not enter the wrist's: adding it is the
     shoulder's step, which also helps the wrist), and ``explains_bias`` (m, q): c enters the joint
     and adding it at least halves the joint's validation mean. None when every column is in the model.
@@ -123,6 +125,7 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     q = len(outside)
     stat, pval = np.full(q, np.nan), np.full(q, np.nan)
     share, explains = np.full((m, q), np.nan), np.zeros((m, q), dtype=bool)
+    alone = np.full((m, q), np.nan)
     every = inside + outside
     x, coef, resid = _least_squares(est_reg3, est_tau, every)
     cov, n_eff = _sandwich(x, resid)
@@ -155,7 +158,13 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
         with np.errstate(invalid="ignore", divide="ignore"):
             share[:, i] = (mse_wo - mse_all) / mse0
         explains[:, i] = np.abs(mean_all) <= 0.5 * np.abs(mean_wo)
+        # the column's own effect: what a user who adds this column alone gets (the leave-one-out
+        # share above can be small when another absent column stands in for it in the joint refit)
+        own = list(range(len(inside))) + [len(inside) + i]
+        c_own = np.linalg.lstsq(gram[np.ix_(own, own)], rhs[own], rcond=None)[0] * d[own]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            alone[:, i] = (mse0 - validation(own, c_own)[0]) / mse0
     enters = np.any(val_reg3[:, :, outside] != 0, axis=0) | np.any(est_reg3[:, :, outside] != 0, axis=0)
     explains &= enters
     return {"enters": enters, "columns": outside, "statistic": stat, "pvalue": pval, "share": share,
-            "explains_bias": explains, "method": "estimation_refit"}
+            "alone": alone, "explains_bias": explains, "method": "estimation_refit"}

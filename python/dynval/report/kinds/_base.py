@@ -239,6 +239,7 @@ class Evidence:
     missing_share: np.ndarray | None = None  # (m, q): share of the validation mean square it removes
     missing_explains_bias: np.ndarray | None = None  # (m, q) bool: the term accounts for the joint's mean
     missing_enters: np.ndarray | None = None  # (m, q) bool: the column enters the joint's rows (the refit's)
+    missing_alone: np.ndarray | None = None  # (m, q): the share the column removes added alone (the refit's)
     # the motion: physics library (with q), predictive test (with the estimation run)
     # Any: the motion's and the design's sections are still the builders' dicts (report/_motion.py,
     # report/_sections.py), read by the rules through their keys
