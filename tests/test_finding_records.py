@@ -20,7 +20,6 @@ import pytest
 from statsmodels.stats.multitest import multipletests
 
 from dynval.checks._validation import InvalidParameter
-from dynval.report import _finding_words as w
 from dynval.report._findings import Evidence, Finding, Thresholds, compute_findings, holm_family, resolve_thresholds
 from dynval.report.kinds import bias as bias_kind
 from dynval.report.kinds import constant_target as constant_target_kind
@@ -34,6 +33,7 @@ from dynval.report.kinds import periodic_error as periodic_error_kind
 from dynval.report.kinds import pooling as pooling_kind
 from dynval.report.kinds import predictive_failure as predictive_failure_kind
 from dynval.report.kinds import processing_band as processing_band_kind
+from dynval.report.kinds import regressor_correlation as rc_kind
 from dynval.report.kinds import repeat_trajectory as repeat_trajectory_kind
 from dynval.report.kinds import sampling_colour as sampling_colour_kind
 from dynval.report.kinds import time_stamps as time_stamps_kind
@@ -176,7 +176,7 @@ def test_missing_term_added_variable_record_orders_columns_by_share():
                                 effect_unit="share of the residual's mean square the term would remove",
                                 threshold=0.01, details={"lag": 0, "ρ": 0.2, "added_variable": True,
                                                          "method": "added_variable", "indirect": {}})
-    _worded(f, w.missing_term("shoulder", [("b", 0.2, 0.05), ("c", 0.1, 0.01)], False, padj[0, 0], True))
+    _worded(f, rc_kind.missing_term_words("shoulder", [("b", 0.2, 0.05), ("c", 0.1, 0.01)], False, padj[0, 0], True))
 
 
 def test_missing_term_below_its_share_is_a_note_naming_every_significant_column():
@@ -186,7 +186,8 @@ def test_missing_term_below_its_share_is_a_note_naming_every_significant_column(
              missing_explains_bias=np.zeros((1, 2), bool))
     (f,) = _of(compute_findings(ev), "regressor_correlation")
     assert (f.severity, f.columns, f.effect, f.statistic) == ("note", (2, 1), 0.009, 0.04)
-    _worded(f, w.missing_term("shoulder", [("c", 0.04, 0.009), ("b", 0.05, 0.002)], False, f.pvalue_adjusted, False))
+    _worded(f, rc_kind.missing_term_words("shoulder", [("c", 0.04, 0.009), ("b", 0.05, 0.002)], False,
+                                          f.pvalue_adjusted, False))
 
 
 def test_missing_term_refit_tests_per_column_and_skips_joints_it_does_not_matter_on():
@@ -200,7 +201,7 @@ def test_missing_term_refit_tests_per_column_and_skips_joints_it_does_not_matter
     (f,) = found
     assert f.details == {"lag": 0, "t": 6.0, "added_variable": True, "method": "estimation_refit", "indirect": {}}
     assert (f.statistic, f.pvalue, f.effect, f.columns) == (6.0, 1e-8, 0.2, (1,))
-    _worded(f, w.missing_term("shoulder", [("b", 6.0, 0.2)], True, f.pvalue_adjusted, True))
+    _worded(f, rc_kind.missing_term_words("shoulder", [("b", 6.0, 0.2)], True, f.pvalue_adjusted, True))
 
 
 def test_a_joint_whose_missing_term_is_named_is_not_reported_again_for_correlation():
@@ -232,7 +233,7 @@ def test_regressor_correlation_record_names_the_earliest_lag_near_the_strongest(
                                 pvalue_adjusted=pytest.approx(padj[0, 0, 2]), effect=0.30, effect_unit="|ρ|",
                                 threshold=0.15, details={"lag": 2, "rho": 0.30, "n_significant_columns": 2,
                                                                   "in_model": None})
-    _worded(f, w.regressor_correlation("shoulder", [("a", "lag 2 (20 ms)", 0.30), ("b", "lag 2 (20 ms)", 0.16)],
+    _worded(f, rc_kind.correlation_words("shoulder", [("a", "lag 2 (20 ms)", 0.30), ("b", "lag 2 (20 ms)", 0.16)],
                                        0.15, 0.30, padj[0, 0, 2], True))
 
 
@@ -242,7 +243,7 @@ def test_regressor_correlation_below_its_threshold_is_a_note_and_at_it_a_deficie
         (f,) = _of(compute_findings(_ev(1, xcorr_rho=rho, xcorr_sd=np.full((1, 1, 1), 0.01))),
                    "regressor_correlation")
         assert (f.severity, f.effect, f.details["lag"]) == (severity, size, 0)
-        _worded(f, w.regressor_correlation("shoulder", [("column 1", "lag 0", size)], 0.15, size,
+        _worded(f, rc_kind.correlation_words("shoulder", [("column 1", "lag 0", size)], 0.15, size,
                                            f.pvalue_adjusted, severity == "deficiency"))
     # negative correlations count by their size; ties between columns go to the lower index
     rho = np.full((1, 2, 1), -0.2)

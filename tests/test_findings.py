@@ -515,7 +515,7 @@ def test_each_kinds_description_is_the_contracts():
 
 
 def test_the_named_lag_is_the_earliest_within_nine_tenths_of_the_strongest():
-    from dynval.report._findings import _strongest_lag
+    from dynval.report.kinds.regressor_correlation import strongest_lag as _strongest_lag
 
     rho = np.array([1.0, 0.05, 0.30, 0.86, 0.20, 0.95, 0.40])
     sig = np.array([2, 3, 5, 6])

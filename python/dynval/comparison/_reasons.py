@@ -43,20 +43,8 @@ def finding_reason(f: Finding, report: ReportSections) -> str:
     joints = ", ".join(joint_name(report, j) for j in f.joints)
     prefix = ("design: " if f.severity == "design" else "") + (f"{joints}: " if joints else "")
     declared = KINDS.get(f.kind)
-    if declared is not None:
-        return prefix + (declared.reason or _generic_reason)(f, lambda c: column_name(report, c))
-    cols = [column_name(report, c) for c in f.columns]
-    e, t = _vs(f, percent="share" in (f.effect_unit or ""))
-    if f.kind == "regressor_correlation" and "share" in f.effect_unit:
-        text = (f"missing term {cols[0] if cols else '(unnamed)'} (would remove {e} of the residual's "
-                f"mean square ≥ {t})" + (f"; {', '.join(cols[1:])} also significant" if len(cols) > 1 else ""))
-    elif f.kind == "regressor_correlation":
-        e, t = _vs(f, ".2f")
-        text = (f"residual correlates with {', '.join(cols) or 'a regressor column'} (|ρ| up to "
-                f"{e} ≥ {t}): " + _column_relation(f))
-    else:  # a kind this wording does not know: its name, effect and threshold
-        text = _generic_reason(f, lambda c: column_name(report, c))
-    return prefix + text
+    reason = (declared.reason if declared is not None else None) or _generic_reason
+    return prefix + reason(f, lambda c: column_name(report, c))
 
 
 def _generic_reason(f: Finding, column: Callable[[int], str]) -> str:
@@ -106,14 +94,3 @@ def candidate_reasons(ranking: list[str], reports: Mapping[str, ReportSections],
             out[n] = (f"no deficiency: rank {rank} of {len(ranking)}, {criterion} {_g(crit[n], '.1f')} "
                       f"(Δ{criterion} = {_g(crit[n] - crit[best], '+.1f')} to {best})",)
     return out
-
-
-def _column_relation(f: Finding) -> str:
-    """What a correlated column is to the model, from the finding's record (``details["in_model"]``:
-    the model has it, lacks it, or its columns are unknown), never from its words."""
-    in_model = (f.details or {}).get("in_model")
-    if in_model is True:
-        return "a mis-weighted term (the model has it)"
-    if in_model is False:
-        return "a missing term"
-    return "a missing or mis-weighted term"

@@ -12,16 +12,10 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ._text import number_text, p_clause, versus
+from ._text import number_text, p_clause
 
 Words = tuple[str, str]
 """``(message, action)`` of one finding."""
-
-UNITS = {
-    "missing_term": "share of the residual's mean square the term would remove",
-    "correlation": "|ρ|",
-}
-"""``Finding.effect_unit`` by rule (the repeat finding's names its state or measure)."""
 
 NEGLIGIBLE = ": significant but negligible."
 
@@ -80,63 +74,6 @@ def bias_action(name: str, kinds: Mapping[str, bool | None] | None) -> str:
         parts.append(("re-identify " if not parts else "or re-identify ") + f"the {', '.join(has)} the model has on "
                      f"{name}: its weight differs on this run (changed between runs, or the sensor's offset moved)")
     return "; ".join(parts)
-
-
-def missing_term(name: str, terms: Sequence[tuple[str, float, float] | tuple[str, float, float, float]], refit: bool,
-                 padj: float, big: bool,
-                 indirect: Sequence[tuple[str, float]] = ()) -> Words:
-    """``terms``: (column, statistic, share, share added alone or nan) of the chosen columns,
-    strongest first; ``indirect``: (joint, share) of the joints the first column does not enter
-    whose error adding it removes too (through the parameters refitted with it)."""
-    symbol = "t" if refit else "ρ"
-
-    def alone_text(share: float, alone: float) -> str:
-        # said only where it differs: another absent column of the joint refit can stand in for this one
-        return (f"; {100 * alone:.1f} % added alone" if math.isfinite(alone) and abs(alone - share) >= 0.01
-                else "")
-
-    listed = "; ".join(f"{t[0]} ({symbol} = {t[1]:+.3g}, would remove {100 * t[2]:.1f} % of the mean square"
-                       f"{alone_text(t[2], t[3] if len(t) > 3 else math.nan)})" for t in terms[:3])
-    how = ("refitted on the estimation run with the term added (Wald t with the coloured-noise covariance; the "
-           "share is measured on the validation run)" if refit
-           else "after removing what the model's own columns represent")
-    if indirect:
-        how += (f"; adding {terms[0][0]} alone (the model's parameters refitted with it) also removes "
-                + ", ".join(f"{100 * s:.1f} % on {joint}" for joint, s in indirect)
-                + " (joints it does not act on: the estimation run's fit made up for it there)")
-    return (f"{name}: a term the model lacks explains part of the residual: {listed}; {how} (Holm-adjusted p "
-            f"{p_text(padj)})" + (": a missing term." if big else NEGLIGIBLE),
-            f"add the term {terms[0][0]} to the model" if big else "none: the term would explain too little to matter")
-
-
-def regressor_correlation(name: str, hits: Sequence[tuple[str, str, float]], threshold: float, best: float,
-                          padj: float, big: bool, in_model: bool | None = None,
-                          simulator: tuple[float, float] | None = None) -> Words:
-    """``hits``: (column, lag text, ρ) of the chosen columns, strongest first; ``in_model``: the
-    first column is one of the model's (True), outside it (False), or not known (None);
-    ``simulator``: the first column's (value in the prediction, value refitted on this run) when it
-    is a simulator parameter's at lag 0 (:func:`simulator_words`)."""
-    listed = "; ".join(f"{c} ({lag}, ρ = {versus(rho, threshold, '+.3f', absolute=True)[0]})"
-                       for c, lag, rho in hits[:3])
-    head = (f"{name}: the residual correlates with {listed} beyond what the colour of both series explains "
-            f"(Holm-adjusted p {p_text(padj)})")
-    if big:
-        sim = simulator_words(name, hits[0][0], *simulator) if in_model and simulator else None
-        if sim:
-            return (head + ": the model has this column but does not use the information in it (a mis-weighted "
-                    f"term, or one that changed between runs): {sim[0]}.", sim[1])
-        if in_model:
-            return (head + ": the model has this column but does not use the information in it (a mis-weighted "
-                    "term, or one that changed between runs).",
-                    f"re-identify the term of {hits[0][0]} on {name}: the model has it, its weight does not fit "
-                    "this run")
-        if in_model is False:
-            return (head + ": the model lacks this column and the residual uses its information (a missing term).",
-                    f"add the term {hits[0][0]} on {name}: the model lacks it")
-        return (head + ": the model does not use the information in this column (a missing or mis-weighted term).",
-                f"add or re-weight the term of {hits[0][0]} on {name}: the model does not use the information in it")
-    return (head + f": significant but negligible (|ρ| below {versus(best, threshold)[1]}).",
-            "none: the correlation is real but too small to matter")
 
 
 PARTIAL_FORMS = {"coulomb": "the friction shape it lacks (a smooth sign or a Stribeck term)",

@@ -21,10 +21,8 @@ from typing import Any
 import numpy as np
 
 from ..statistics._stats import correlation_pvalue, holm
-from . import _finding_words as w
 from .kinds import KINDS as _DECLARED_KINDS
-from .kinds._base import Context, Evidence, Finding, Thresholds, declared_thresholds, worded
-from .kinds._evidence import simulator_values as _simulator_values
+from .kinds._base import Context, Evidence, Finding, Thresholds, declared_thresholds
 
 __all__ = ["Finding", "Thresholds", "Evidence", "SEVERITIES", "KINDS", "compute_findings",
            "resolve_thresholds"]
@@ -33,10 +31,8 @@ SEVERITIES = ("deficiency", "design", "note")
 """``deficiency``: the model should change; ``design``: the experiment should change;
 ``note``: information, including significant but negligible effects."""
 
-_LISTED = {
-    "regressor_correlation": "the residual correlates with a regressor column beyond what both series' colour explains",
-}
-"""The kinds whose rules are still in this module (the others are declared in ``report/kinds/``)."""
+_LISTED: dict[str, str] = {}
+"""The kinds whose rules are still in this module (none: every kind is declared in ``report/kinds/``)."""
 
 
 def resolve_thresholds(value: object) -> Thresholds:
@@ -59,13 +55,6 @@ def resolve_thresholds(value: object) -> Thresholds:
         given = tuple((k, float(x)) for k, x in value.items() if k in declared)
         return replace(Thresholds(), **{k: float(x) for k, x in value.items() if k in own}, declared=given)
     raise parameter_error("thresholds", "None, a mapping or a Thresholds", value)
-
-
-def _column_in_model(ev: Evidence, c: int) -> bool | None:
-    """A regressor column is the model's unless it is one of the columns tested as missing."""
-    if ev.missing_columns is None:
-        return True if ev.model_kinds is not None else None
-    return int(c) not in {int(x) for x in ev.missing_columns}
 
 
 def _tests(ev: Evidence) -> list[tuple[str, np.ndarray]]:
@@ -139,141 +128,19 @@ def compute_findings(ev: Evidence, thresholds: Thresholds | None = None, *,
     return out
 
 
-def _worded(words: w.Words, **record: Any) -> Finding:
-    """A finding with its message and action."""
-    return worded(words, **record)
-
-def _missing_term_rule(r: Context) -> list[Finding]:
-    """A column the model lacks: the residual against the part of it the model cannot represent."""
-    ev, th = r.ev, r.th
-    if "missing" not in r.fam:
-        return []
-    p, padj = r.fam["missing"]
-    stat = np.asarray(ev.missing_statistic, dtype=float)
-    share = np.asarray(ev.missing_share, dtype=float)
-    per_column = p.ndim == 1  # the estimation refit: one test per column, its effect per joint
-    refit = ev.missing_method == "estimation_refit"
-    missing = [] if ev.missing_columns is None else ev.missing_columns
-
-    def at(a: np.ndarray, j: int, k: int) -> float:
-        return float(a[k] if a.ndim == 1 else a[j, k])
-
-    enters = (np.ones(share.shape, dtype=bool) if ev.missing_enters is None or not per_column
-              else np.asarray(ev.missing_enters, dtype=bool))
-    # a column's effect: the larger of what it removes beside the other absent columns and added
-    # alone (two absent columns that stand in for each other each have a small leave-one-out share)
-    size = share if ev.missing_alone is None else np.fmax(share, np.asarray(ev.missing_alone, dtype=float))
-    out: list[Finding] = []
-    for j in range(share.shape[0]):
-        # a column that does not enter this joint's rows is the step of the joints it enters; what
-        # it moves here (through the parameters refitted with it) is said there
-        sig = [k for k in range(share.shape[1]) if at(padj, j, k) <= r.alpha and enters[j, k]]
-        if not sig:
-            continue
-        sig.sort(key=lambda k: -np.nan_to_num(size[j, k], nan=-np.inf))
-        strong = [k for k in sig if size[j, k] >= th.missing_term]
-        if per_column and not strong:
-            continue  # a column that matters on another joint only says nothing about this one
-        chosen = strong or sig
-        k = chosen[0]
-        big = bool(strong)
-        if big:
-            r.deficient.add(j)
-            r.missing.add(j)
-        terms = [(r.column(missing[kk]), float(at(stat, j, kk)), float(share[j, kk]),
-                  _alone(ev, j, kk)) for kk in chosen]
-        # what the column moves on the joints it does not enter: its own effect when known (the
-        # leave-one-out share there can be taken by another absent column of the joint refit)
-        moved = {jj: (_alone(ev, jj, k) if ev.missing_alone is not None else float(share[jj, k]))
-                 for jj in range(share.shape[0]) if not enters[jj, k]}
-        indirect = {jj: s for jj, s in moved.items() if s >= th.missing_term}
-        details: dict[str, Any] = {"lag": 0, "t" if refit else "ρ": float(at(stat, j, k)), "added_variable": True,
-                   "method": ev.missing_method, "indirect": indirect}
-        if ev.missing_alone is not None:
-            details["alone_share"] = _alone(ev, j, k)
-        out.append(_worded(
-            w.missing_term(r.name(j), terms, refit, float(at(padj, j, k)), big,
-                           [(r.name(jj), s) for jj, s in indirect.items()]),
-            kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
-            columns=tuple(int(missing[kk]) for kk in chosen), statistic=float(at(stat, j, k)),
-            pvalue=float(at(p, j, k)), pvalue_adjusted=float(at(padj, j, k)), effect=float(size[j, k]),
-            effect_unit=w.UNITS["missing_term"], threshold=th.missing_term,
-            details=details))
-    return out
-
-
-def _alone(ev: Evidence, j: int, k: int) -> float:
-    """The share of joint j's validation mean square absent column k removes added alone (nan unknown)."""
-    if ev.missing_alone is None:
-        return math.nan
-    x = float(np.asarray(ev.missing_alone)[j, k])
-    return x if math.isfinite(x) else math.nan
-
-
-def _strongest_lag(rho: np.ndarray, sig: np.ndarray) -> int:
-    """The smallest significant lag that sees nearly the strongest correlation: lags within the
-    motion's time scale see one phenomenon, and the earliest is the one to name."""
-    size = np.abs(rho[sig])
-    return int(sig[np.flatnonzero(size >= 0.9 * size.max())[0]])
-
-
-def _regressor_correlation_rule(r: Context) -> list[Finding]:
-    """The residual correlating with a regressor column beyond both series' colour."""
-    ev, th = r.ev, r.th
-    if "xcorr" not in r.fam:
-        return []
-    p, padj = r.fam["xcorr"]
-    rho = np.asarray(ev.xcorr_rho, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        z = np.abs(rho) / ev.xcorr_sd
-    out: list[Finding] = []
-    for j in range(rho.shape[0]):
-        if j in r.missing:
-            continue  # the missing term found above explains this joint's correlations
-        hits = []
-        for c in range(rho.shape[1]):
-            sig = np.flatnonzero(padj[j, c] <= r.alpha)
-            if sig.size:
-                lag = _strongest_lag(rho[j, c], sig)
-                hits.append((abs(rho[j, c, lag]), c, lag))
-        if not hits:
-            continue
-        hits.sort(key=lambda t: (-t[0], t[1]))
-        strong = [h for h in hits if h[0] >= th.regressor_correlation]
-        chosen = strong or hits
-        best, c, lag = chosen[0]
-        big = bool(strong)
-        if big:
-            r.deficient.add(j)
-        listed = [(r.column(cc), w.lag_text(ll, ev.sample_rate), float(rho[j, cc, ll])) for _, cc, ll in chosen]
-        out.append(_worded(
-            w.regressor_correlation(r.name(j), listed, th.regressor_correlation, float(best),
-                                    float(padj[j, c, lag]), big, _column_in_model(ev, c),
-                                    _simulator_values(ev, j, c) if lag == 0 else None),
-            kind="regressor_correlation", severity="deficiency" if big else "note", joints=(j,),
-            columns=tuple(int(cc) for _, cc, _ in chosen), statistic=float(z[j, c, lag]),
-            pvalue=float(p[j, c, lag]), pvalue_adjusted=float(padj[j, c, lag]), effect=float(best),
-            effect_unit=w.UNITS["correlation"], threshold=th.regressor_correlation,
-            details={"lag": lag, "rho": float(rho[j, c, lag]), "n_significant_columns": len(hits),
-                     "in_model": _column_in_model(ev, c)}))
-    return out
-
-
 def _extra_notes_rule(r: Context) -> list[Finding]:
     """The findings the caller hands in with the evidence (``Evidence.extra_notes``), after the rules'."""
     return list(r.ev.extra_notes)
 
 
-_RULES = ((300, _missing_term_rule), (400, _regressor_correlation_rule),
-          (830, _extra_notes_rule))
+_RULES = ((830, _extra_notes_rule),)
 """The rules still in this module, each with its place; the kinds of ``report/kinds/`` take their places
 among these (``Kind.order``): the data notes (10–40), the fit (100–120), bias (200), missing columns
-(300, here), correlations (400, here), the spectrum (500), the motion (600–630), whiteness
+and correlations (300), the spectrum (500), the motion (600–630), whiteness
 (700), the repeat (800), the validation design (810, 820) and the notes handed in (830, here)."""
 
-ORDER = {"regressor_correlation": 300}
-"""The place of each kind of this module's rules (the first of its two: the missing columns, 300, then the
-correlations, 400)."""
+ORDER: dict[str, int] = {}
+"""The place of each kind of this module's rules (none left)."""
 
 _ALL_RULES = tuple(rule for _, rule in sorted(
     [*_RULES, *((k.order, k.rule) for k in _DECLARED_KINDS.values() if k.rule is not None)], key=lambda t: t[0]))
