@@ -79,7 +79,8 @@ def bias_action(name: str, kinds: Mapping[str, bool | None] | None) -> str:
 PARTIAL_FORMS = {"coulomb": "the friction shape it lacks (a smooth sign or a Stribeck term)",
             "gravity": "the posture terms it lacks (a centre-of-mass component)",
             "position_harmonic": "the position harmonics it lacks",
-            "inertia": "the acceleration terms it lacks"}
+            "inertia": "the acceleration terms it lacks (a motor's reflected inertia J_a·q̈ on the joint, or a body the "
+                       "model does not have)"}
 
 
 def simulator_words(name: str, column: str, given: float, refit: float) -> Words | None:
