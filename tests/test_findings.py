@@ -568,6 +568,18 @@ def test_the_criteria_note_changes_no_decision():
     assert any(f.kind == "information_criteria" for f in many.reports["a"].findings)
 
 
+def _two_joint_runs(n, shift, columns):
+    """A two-joint regressor (n, 2, columns) at 100 Hz from ``shift`` s: column 0 shared by both
+    joints (as a link's inertial parameter), 1 the shoulder's, 2 the elbow's; the rest zero (the
+    caller's). Returns it and the times."""
+    t = np.arange(n) / 100.0 + shift
+    y = np.zeros((n, 2, columns))
+    y[:, 0, 0], y[:, 1, 0] = np.sin(t), 0.7 * np.cos(1.3 * t)  # shared
+    y[:, 0, 1] = np.sin(2.1 * t)  # shoulder only
+    y[:, 1, 2] = np.cos(0.9 * t)  # elbow only
+    return y, t
+
+
 def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
     """A shoulder offset the model lacks, on a two-joint regressor whose first column is shared (it
     enters both joints' rows, as a link's inertial parameter does): refitting with the offset moves
@@ -582,11 +594,7 @@ def test_a_missing_column_is_named_on_the_joints_whose_rows_it_enters():
     n = 3000
 
     def run(shift):
-        t = np.arange(n) / 100.0 + shift
-        y = np.zeros((n, 2, 4))
-        y[:, 0, 0], y[:, 1, 0] = np.sin(t), 0.7 * np.cos(1.3 * t)  # shared
-        y[:, 0, 1] = np.sin(2.1 * t)  # shoulder only
-        y[:, 1, 2] = np.cos(0.9 * t)  # elbow only
+        y, _ = _two_joint_runs(n, shift, 4)
         y[:, 0, 3] = 1.0  # the shoulder's offset
         return y
 
@@ -626,11 +634,7 @@ def test_a_missing_column_s_own_effect_is_measured_added_alone():
     n = 3000
 
     def run(shift):
-        t = np.arange(n) / 100.0 + shift
-        y = np.zeros((n, 2, 5))
-        y[:, 0, 0], y[:, 1, 0] = np.sin(t), 0.7 * np.cos(1.3 * t)  # shared
-        y[:, 0, 1] = np.sin(2.1 * t)  # shoulder only
-        y[:, 1, 2] = np.cos(0.9 * t)  # elbow only
+        y, t = _two_joint_runs(n, shift, 5)
         y[:, 0, 3] = 1.0 + 0.05 * np.cos(0.2 * t)  # a slow posture column: nearly an offset
         y[:, 0, 4] = 1.0  # the shoulder's offset
         return y
