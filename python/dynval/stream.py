@@ -74,6 +74,7 @@ from .report._assembly import Sections, ValidationReport, assemble_report, prove
 from .report._findings import Thresholds
 from .report._motion import detectable_share
 from .report._options import (
+    NAMES,
     UNSUPPORTED,
     Keywords,
     Options,
@@ -174,13 +175,8 @@ class ValidationAccumulator:
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
                  cross_correlation_detail: None = None, model_columns: None = None) -> None:
         # validate's checks, in its order (contract §2.1), the unsupported keywords refused in their places
-        self._settings = check_options(Keywords(
-            n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
-            max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
-            column_names=column_names, q=q,
-            estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
-            model_columns=model_columns, allow_wide=allow_wide), None)
+        given = {name: value for name, value in locals().items() if name in NAMES}  # OPTIONS' keywords
+        self._settings = check_options(Keywords(**given), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
         self._welch: WelchSums | None = None  # the residual's window periodograms (no regressor, lags held)
