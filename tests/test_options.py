@@ -86,9 +86,9 @@ def test_check_options_checks_every_declaration_in_its_order(monkeypatch):
 
 def test_a_bad_setting_is_named_in_the_contract_order():
     # two bad settings: the first declared wins (contract §2.1's order is OPTIONS')
-    with pytest.raises(InvalidParameter, match="^level must be"):
+    with pytest.raises(InvalidParameter, match=r"^level must be"):
         dynval.validate(np.arange(40.0), np.arange(40.0), n_params=1, level=2.0, allow_wide="yes")
-    with pytest.raises(InvalidParameter, match="^max_lag must be"):
+    with pytest.raises(InvalidParameter, match=r"^max_lag must be"):
         dynval.validate(np.arange(40.0), np.arange(40.0), n_params=1, level=2.0, max_lag=-1)
 
 
@@ -122,7 +122,7 @@ def test_keywords_refuse_unknown_names_and_need_n_params():
                                      ["compare", "m.npy", "--model", "a=p.npy:1"]])
 def test_the_command_line_flags_are_the_declarations(command):
     parser = build_parser()
-    sub = next(a for a in parser._subparsers._group_actions if a.choices)  # noqa: SLF001 (argparse's own)
+    sub = next(a for a in parser._subparsers._group_actions if a.choices)  # argparse's own
     actions = {a.dest: a for a in sub.choices[command[0]]._actions}
     for o in OPTIONS:
         if o.flag is None:

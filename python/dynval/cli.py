@@ -376,7 +376,7 @@ def _report_options(args, sources: dict, meas) -> dict:
     regressor, then each declared keyword's flag, its file read by its kind."""
     from .report._options import OPTIONS
 
-    options = {"regressor": load_array(args.regressor) if args.regressor else None}
+    options: dict = {"regressor": load_array(args.regressor) if args.regressor else None}
     for o in OPTIONS:
         if o.flag is not None:
             value = getattr(args, o.name)

@@ -228,7 +228,8 @@ def _noise_model(value: Any, c: Checking) -> str:
 
 
 def _sample_rate(value: Any, c: Checking) -> float | None:
-    return v.check_sample_rate(value)
+    rate: float | None = v.check_sample_rate(value)
+    return rate
 
 
 def _time_units_checked(value: Any, c: Checking) -> bool:
@@ -259,11 +260,13 @@ def _time(value: Any, c: Checking) -> _timing.Timing | None:
 def _bandwidth(value: Any, c: Checking) -> float | None:
     # the accumulator's rate may also come with its chunks' stamps: checked when they set it
     rate = c.done["sample_rate"]
-    return v.check_bandwidth(value, rate, rate_known=c.data is not None or rate is not None)
+    band: float | None = v.check_bandwidth(value, rate, rate_known=c.data is not None or rate is not None)
+    return band
 
 
 def _decimate(value: Any, c: Checking) -> str | int | None:
-    return v.check_decimate(value)
+    factor: str | int | None = v.check_decimate(value)
+    return factor
 
 
 def _names(value: Any) -> Any:
