@@ -154,3 +154,22 @@ def test_the_contract_table_is_current():
     assert found.group(1) == _options.options_table(), "run python -m dynval.coverage --write docs/contract.md"
     for o in OPTIONS:
         assert f"| `{o.name}` |" in found.group(1)
+
+
+def test_a_merge_names_the_first_setting_that_differs_in_the_declared_order():
+    # the settings two accumulators must share are the keywords the accumulator takes, compared in
+    # the contract's order: n_joints comes before max_lag there (contract §4.1, merge)
+    a = ValidationAccumulator(n_params=1, max_lag=2, n_joints=2)
+    b = ValidationAccumulator(n_params=1, max_lag=3)
+    with pytest.raises(InvalidParameter, match=r"same settings, got n_joints=None where this one has n_joints=2$"):
+        a.merge(b)
+
+
+def test_validate_docstring_states_the_declared_order_and_documents_every_keyword():
+    doc = dynval.validate.__doc__
+    said = re.search(r"Parameters are checked in the order\s+(.*?)\.\n", doc, re.S)
+    assert said is not None
+    names = [n.strip() for n in re.split(r",\s*", said.group(1).replace("\n", " "))]
+    assert names == [*NAMES, "parameters"]
+    documented = set(re.findall(r"^    (\w+)(?:, (\w+))? : ", doc, re.M))
+    assert set(NAMES) <= {n for pair in documented for n in pair if n}

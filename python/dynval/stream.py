@@ -75,6 +75,7 @@ from .report._findings import Thresholds
 from .report._motion import detectable_share
 from .report._options import (
     NAMES,
+    OPTIONS,
     UNSUPPORTED,
     Keywords,
     Options,
@@ -115,10 +116,9 @@ SETTLE_STEPS = 100
 _WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting",
                    "_waiting_rows")
 
-# The settings two accumulators must share to merge, in the order their difference is reported.
-_MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
-                    "backend")
+# The settings two accumulators must share to merge: every keyword it takes, in the order their
+# difference is reported (the contract's, OPTIONS').
+_MERGED_SETTINGS = tuple(o.name for o in OPTIONS if o.stream == "supported")
 
 
 class ValidationAccumulator:
