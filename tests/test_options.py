@@ -173,3 +173,12 @@ def test_validate_docstring_states_the_declared_order_and_documents_every_keywor
     assert names == [*NAMES, "parameters"]
     documented = set(re.findall(r"^    (\w+)(?:, (\w+))? : ", doc, re.M))
     assert set(NAMES) <= {n for pair in documented for n in pair if n}
+
+
+@pytest.mark.parametrize("name, bad", [("time_units_checked", "yes"), ("n_joints", 0)])
+def test_a_fleet_checks_every_setting_a_stream_takes_before_any_log(tmp_path, name, bad):
+    # the settings that need no data are the ones the stream checks before its chunks (contract §10)
+    from dynval import fleet
+
+    with pytest.raises(InvalidParameter, match=f"^{name} must be"):
+        fleet.validate_many([str(tmp_path / "r01__2026-01-01")], n_params=1, scheduler="single", **{name: bad})
