@@ -182,3 +182,12 @@ def test_a_fleet_checks_every_setting_a_stream_takes_before_any_log(tmp_path, na
 
     with pytest.raises(InvalidParameter, match=f"^{name} must be"):
         fleet.validate_many([str(tmp_path / "r01__2026-01-01")], n_params=1, scheduler="single", **{name: bad})
+
+
+def test_the_accumulator_docstring_documents_what_it_takes_and_refuses():
+    doc = ValidationAccumulator.__doc__
+    refused = re.search(r"^    ([\w, ]+)\n        Not supported", doc, re.M)
+    assert refused is not None
+    assert set(refused.group(1).split(", ")) == set(UNSUPPORTED)
+    documented = {n for line in re.findall(r"^    ([\w, ]+?)(?: : .*)?$", doc, re.M) for n in line.split(", ")}
+    assert {o.name for o in OPTIONS if o.stream == "supported"} <= documented
