@@ -564,3 +564,25 @@ def test_the_term_named_is_the_fewest_columns_near_the_best_by_share_and_by_what
     assert name_group({"coulomb": 0.30, "offset": 0.10}, widths) == "coulomb"
     assert name_group({"coulomb": 0.30, "offset": 0.25}, widths) == "offset"
     assert name_group({"gravity": 0.9, "coulomb": 0.5}, widths) == "gravity"
+
+
+def test_validate_differentiates_its_checked_q_without_checking_it_again(monkeypatch):
+    # validate checks q once (contract §2.1); its physics library derives q̇, q̈ through the checked
+    # inner filter, not the public differentiate, which would read q again for its own checks
+    from dynval.statistics import _derivatives
+
+    def read_again(*args, **kwargs):
+        raise AssertionError("q checked a second time")
+
+    rng = np.random.default_rng(3)
+    t = np.arange(600) / 100.0
+    q = np.column_stack([np.sin(t), np.cos(0.7 * t)])
+    tau = q + 0.05 * rng.normal(size=q.shape)
+    monkeypatch.setattr(_derivatives, "check_finite", read_again)
+    monkeypatch.setattr(_derivatives, "to_float_array", read_again)
+    report = dynval.validate(tau, q, n_params=2, q=q, sample_rate=100.0)
+    assert report.physics["derivatives"].startswith("Savitzky")
+    monkeypatch.undo()
+    # the public function still checks what it is given
+    with pytest.raises(dynval.NonFiniteInput, match="q has a non-finite value"):
+        dynval.robots.differentiate(np.where(t > 3.0, np.nan, t), 100.0)

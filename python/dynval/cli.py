@@ -52,16 +52,6 @@ EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: what the shell sees of a program the cl
 # --------------------------------------------------------------------------- parser
 
 
-# The help shows the accepted forms literally; tests parse its examples.
-SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or starts beginning at 0 (e.g. 0,500)"
-TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column of a table named as FILE:COLUMN "
-             "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
-             "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
-             "splits the lag analysis, and duplicated, missing and irregular stamps are reported. Stamps at a rate "
-             "outside 10 Hz to 100 kHz (whole seconds apart, say) look like ms, us or ns and are refused with the "
-             "fix (divide by 1000, ...) unless --time-units-unchecked")
-
-
 def _segments_arg(text: str):
     try:
         values = [int(v) for v in text.replace(";", ",").split(",") if v.strip()]
@@ -262,42 +252,32 @@ def _decimate_arg(text: str):
         raise argparse.ArgumentTypeError(f"expected auto, none or an integer >= 1, got {format_value(text)}") from None
 
 
+# How a declared keyword's flag reads its text (``report._options.Flag.read``): argparse's keywords.
+_FLAG_KINDS = {
+    "int": lambda o: {"type": int, "metavar": o.flag.metavar},
+    "float": lambda o: {"type": float, "metavar": o.flag.metavar},
+    "text": lambda o: {"default": o.default, "choices": o.flag.choices, "metavar": o.flag.metavar},
+    "segments": lambda o: {"type": _segments_arg, "metavar": o.flag.metavar},
+    "decimate": lambda o: {"type": _decimate_arg, "default": o.default, "metavar": o.flag.metavar},
+    "names": lambda o: {"type": _names_arg, "metavar": o.flag.metavar},
+    "file": lambda o: {"metavar": o.flag.metavar},
+    "time": lambda o: {"metavar": o.flag.metavar},
+    "estimation": lambda o: {"action": "append", "type": _key_file_arg, "metavar": o.flag.metavar},
+    "switch": lambda o: {"action": "store_true"},
+    "unswitch": lambda o: {"action": "store_false", "default": True},
+}
+
+
 def _add_report_options(sub) -> None:
-    """The options ``validate`` and ``compare`` share."""
+    """The options ``validate`` and ``compare`` share: the regressor, then a flag per declared keyword
+    of ``validate`` (``report._options.OPTIONS``, in the contract's order)."""
+    from .report._options import OPTIONS
+
     sub.add_argument("--regressor", metavar="Y",
                      help="regressor of the validation data, (N, m, p), or (N*m, p) with --n-joints")
-    sub.add_argument("--n-joints", type=int, metavar="M", help="joints m of a stacked 2-D regressor")
-    sub.add_argument("--max-lag", type=int, metavar="L",
-                     help="largest lag of the residual analysis (default: the profile's; 0 skips it)")
-    sub.add_argument("--level", type=float, metavar="X",
-                     help="confidence level of bands and findings, 0 < X < 1 (default: the profile's)")
-    sub.add_argument("--profile", default="lesson", choices=PROFILE_NAMES,
-                     help="convention profile (default lesson)")
-    sub.add_argument("--segments", type=_segments_arg, metavar="S", help=SEGMENTS_HELP)
-    sub.add_argument("--nan-policy", default="raise", choices=("raise", "omit"),
-                     help="raise on NaN/inf, or omit those rows (default raise)")
-    sub.add_argument("--noise-model", choices=("pooled", "per_joint", "full"),
-                     help="noise model of the information criteria (default: the profile's)")
-    sub.add_argument("--sample-rate", type=float, metavar="HZ", help="samples per second (frequencies in Hz)")
-    sub.add_argument("--time", metavar="FILE[:COLUMN]", help=TIME_HELP)
-    sub.add_argument("--time-units-unchecked", action="store_true",
-                     help="accept --time stamps at any rate (they must still be seconds float64 can count)")
-    sub.add_argument("--bandwidth", type=float, metavar="HZ",
-                     help="band in which the inputs are trustworthy (the differentiation or sensor filter): "
-                          "spectral and whiteness evidence above it is a note, never a deficiency; needs "
-                          "--sample-rate or --time, and at most their Nyquist frequency (half the rate)")
-    sub.add_argument("--decimate", type=_decimate_arg, default="auto", metavar="Q",
-                     help="whiteness at the information rate: auto (default), none, or a factor")
-    sub.add_argument("--joint-names", type=_names_arg, metavar="A,B,..", help="joint names, comma-separated")
-    sub.add_argument("--column-names", type=_names_arg, metavar="A,B,..",
-                     help="regressor column names, comma-separated")
-    sub.add_argument("--q", metavar="FILE", help="joint positions of the validation run (N, m)")
-    sub.add_argument("--estimation", action="append", type=_key_file_arg, metavar="KEY=FILE",
-                     help="the estimation run (repeatable): q=FILE, regressor=FILE, tau=FILE")
-    sub.add_argument("--allow-wide", action="store_true",
-                     help="accept fewer samples than joints (N < m); without it such data are taken for "
-                          "transposed and refused")
-    sub.add_argument("--backend", default=None, help="computation backend: python or cpp")
+    for o in OPTIONS:
+        if o.flag is not None:
+            sub.add_argument(o.flag.flag, dest=o.name, help=o.flag.help, **_FLAG_KINDS[o.flag.read](o))
     sub.add_argument("--json", action="store_true", help="print the report as JSON")
     sub.add_argument("--output", metavar="FILE", help="write the output to FILE instead of stdout")
     sub.add_argument("--html", metavar="FILE",
@@ -392,18 +372,36 @@ def _transpose_hint(message: str) -> str:
 
 
 def _report_options(args, sources: dict, meas) -> dict:
-    """Load the shared files and collect the shared keywords (FileInputError on a bad file)."""
-    est = None
-    if args.estimation:
-        est = {key: load_array(path) for key, path in args.estimation}
-    return dict(regressor=load_array(args.regressor) if args.regressor else None, n_joints=args.n_joints,
-                max_lag=args.max_lag, level=args.level, profile=args.profile, segments=args.segments,
-                nan_policy=args.nan_policy, backend=args.backend, noise_model=args.noise_model,
-                sample_rate=args.sample_rate, time=_load_time(args.time, sources) if args.time else None,
-                time_units_checked=not args.time_units_unchecked, bandwidth=args.bandwidth, decimate=args.decimate,
-                joint_names=_joint_names(args, meas),
-                column_names=args.column_names, q=_load(args.q, "q", sources) if args.q else None,
-                estimation=est, allow_wide=args.allow_wide)
+    """Load the shared files and collect the shared keywords (FileInputError on a bad file): the
+    regressor, then each declared keyword's flag, its file read by its kind."""
+    from .report._options import OPTIONS
+
+    options: dict = {"regressor": load_array(args.regressor) if args.regressor else None}
+    for o in OPTIONS:
+        if o.flag is not None:
+            value = getattr(args, o.name)
+            load = _LOADERS.get(o.flag.read)
+            options[o.name] = load(value, o.name, sources) if load is not None and value else value
+    options["joint_names"] = _joint_names(args, meas)
+    return options
+
+
+# The flags whose value names a file: how its array is read (a keyword's ``Flag.read``).
+_LOADERS = {
+    "file": lambda spec, name, sources: _load(spec, name, sources),
+    "time": lambda spec, name, sources: _load_time(spec, sources),
+    "estimation": lambda pairs, name, sources: {key: load_array(path) for key, path in pairs},
+}
+
+
+def _stream_options(args) -> tuple[list[str], dict]:
+    """The flags a streamed validation refuses (given, and needing the whole series), and the keywords
+    of the accumulator from the others (``report._options.OPTIONS``: what the stream supports)."""
+    from .report._options import OPTIONS
+
+    flagged = [o for o in OPTIONS if o.flag is not None]
+    refused = [o.flag.flag for o in flagged if o.stream.startswith("refused") and getattr(args, o.name) != o.default]
+    return refused, {o.name: getattr(args, o.name) for o in flagged if o.stream == "supported"}
 
 
 def _joint_names(args, meas) -> list[str] | None:
@@ -548,9 +546,7 @@ def _too_large_for_memory(args) -> bool:
 def _run_validate_streamed(args) -> int:
     from .stream import ValidationAccumulator
 
-    refused = [flag for flag, value in (("--segments", args.segments), ("--estimation", args.estimation)) if value]
-    if args.decimate != "auto":
-        refused.append("--decimate")
+    refused, keywords = _stream_options(args)
     if refused:
         args.subparser.error(f"{', '.join(refused)} cannot be used with a streamed validation (--stream, or "
                              "inputs larger than a quarter of memory): they need the whole series")
@@ -580,12 +576,7 @@ def _run_validate_streamed(args) -> int:
         return _error("validate", f"ShapeMismatch: regressor must have N={n} rows (or N*m stacked), got shape "
                                   f"{reg.shape}")
     try:
-        acc = ValidationAccumulator(
-            n_params=args.n_params, max_lag=args.max_lag, n_joints=args.n_joints, profile=args.profile,
-            level=args.level, noise_model=args.noise_model, nan_policy=args.nan_policy, backend=args.backend,
-            sample_rate=args.sample_rate, time_units_checked=not args.time_units_unchecked,
-            bandwidth=args.bandwidth, joint_names=args.joint_names, column_names=args.column_names,
-            allow_wide=args.allow_wide)
+        acc = ValidationAccumulator(n_params=args.n_params, **keywords)
         show = sys.stderr.isatty() if args.progress is None else args.progress
         from tqdm import tqdm  # type: ignore[import-untyped]
 

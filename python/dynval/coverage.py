@@ -246,18 +246,23 @@ START, END = "<!-- coverage-table:start -->", "<!-- coverage-table:end -->"
 
 
 def write_table(path: str) -> None:
-    """Put :func:`table` between :data:`START` and :data:`END` in the file at ``path``."""
+    """Put :func:`table` between :data:`START` and :data:`END` in the file at ``path``, and the table
+    of ``validate``'s keywords (``report._options.options_table``) between its own markers."""
+    from .report._options import TABLE_END, TABLE_START, options_table
+
     with open(path, encoding="utf-8") as f:
         text = f.read()
-    a, b = text.index(START) + len(START), text.index(END)
+    for start, end, body in ((START, END, table()), (TABLE_START, TABLE_END, options_table())):
+        a, b = text.index(start) + len(start), text.index(end)
+        text = text[:a] + "\n" + body + "\n" + text[b:]
     with open(path, "w", encoding="utf-8") as f:
-        f.write(text[:a] + "\n" + table() + "\n" + text[b:])
+        f.write(text)
 
 
 if __name__ == "__main__":
     import sys
 
-    # python -m dynval.coverage prints the table; --write docs/contract.md puts it there
+    # python -m dynval.coverage prints the table; --write docs/contract.md puts it there (and validate's keywords')
     if sys.argv[1:2] == ["--write"] and len(sys.argv) == 3:
         write_table(sys.argv[2])
     else:

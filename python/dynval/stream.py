@@ -74,6 +74,8 @@ from .report._assembly import Sections, ValidationReport, assemble_report, prove
 from .report._findings import Thresholds
 from .report._motion import detectable_share
 from .report._options import (
+    NAMES,
+    OPTIONS,
     UNSUPPORTED,
     Keywords,
     Options,
@@ -114,10 +116,9 @@ SETTLE_STEPS = 100
 _WAITING_FIELDS = ("_layout", "_chunks", "_rows_seen", "_timed", "_first_seen", "_last_seen", "_waiting",
                    "_waiting_rows")
 
-# The settings two accumulators must share to merge, in the order their difference is reported.
-_MERGED_SETTINGS = ("n_params", "max_lag", "n_joints", "profile", "nan_policy", "level", "noise_model", "sample_rate",
-                    "time_units_checked", "bandwidth", "joint_names", "column_names", "thresholds", "allow_wide",
-                    "backend")
+# The settings two accumulators must share to merge: every keyword it takes, in the order their
+# difference is reported (the contract's, OPTIONS').
+_MERGED_SETTINGS = tuple(o.name for o in OPTIONS if o.stream == "supported")
 
 
 class ValidationAccumulator:
@@ -174,13 +175,8 @@ class ValidationAccumulator:
                  segments: None = None, decimate: None = None, q: None = None, estimation: None = None,
                  cross_correlation_detail: None = None, model_columns: None = None) -> None:
         # validate's checks, in its order (contract §2.1), the unsupported keywords refused in their places
-        self._settings = check_options(Keywords(
-            n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
-            max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-            time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate, joint_names=joint_names,
-            column_names=column_names, q=q,
-            estimation=estimation, thresholds=thresholds, cross_correlation_detail=cross_correlation_detail,
-            model_columns=model_columns, allow_wide=allow_wide), None)
+        given = {name: value for name, value in locals().items() if name in NAMES}  # OPTIONS' keywords
+        self._settings = check_options(Keywords(**given), None)
         self._layout: Layout | None = None  # set by the first chunk: m, p and the lags held
         self._state: State | CoreState | None = None
         self._welch: WelchSums | None = None  # the residual's window periodograms (no regressor, lags held)

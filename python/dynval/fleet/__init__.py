@@ -127,8 +127,12 @@ def validate_many(logs: Any, *, n_params: int | None = None, scheduler: Any = No
 
 
 # validate's settings that do not depend on a log's data: checked once, before any task runs
-_DATA_FREE = ("profile", "nan_policy", "max_lag", "backend", "noise_model", "sample_rate", "bandwidth", "joint_names",
-              "column_names", "thresholds", "allow_wide")
+def _data_free() -> set[str]:
+    """validate's settings that need no data: those the stream checks before its chunks (its declared
+    ``stream="supported"``), but n_params and level, the fleet's own."""
+    from ..report._options import OPTIONS
+
+    return {o.name for o in OPTIONS if o.stream == "supported"} - {"n_params", "level"}
 
 
 # validate's data keywords: each log has its own, named by the manifest's columns
@@ -138,18 +142,16 @@ _PER_LOG = {"q": "q", "dq": "dq", "ddq": "ddq", "time": "timestamps",
 
 def _check_validate_keywords(keywords: dict[str, Any]) -> None:
     """Unknown names (TypeError) and bad data-free settings (InvalidParameter) fail here, not in every task."""
-    from dataclasses import fields
+    from ..report._options import NAMES, Keywords, check_options
 
-    from ..report._options import Keywords, check_options
-
-    known = {f.name for f in fields(Keywords)} - {"n_params", "level"}
+    known = set(NAMES) - {"n_params", "level"}
     for name in keywords:
         if name not in known:
             raise TypeError(f"validate_many() got an unexpected keyword argument {name!r}")
         if name in _PER_LOG:
             raise InvalidParameter(f"{name}= is one log's data, not the fleet's: give each log's file in the "
                                    f"manifest's {_PER_LOG[name]} column (contract §10)")
-    free = {k: v for k, v in keywords.items() if k in _DATA_FREE}
+    free = {k: v for k, v in keywords.items() if k in _data_free()}
     check_options(Keywords(n_params=0, decimate=None, cross_correlation_detail=None, **free), None)
 
 

@@ -1,11 +1,12 @@
 """The settings of a report, checked once: ``validate``'s keywords, and the accumulator's.
 
-``validate`` and :class:`dynval.stream.ValidationAccumulator` take the same keywords; the
-accumulator refuses those that need the whole series (:data:`UNSUPPORTED`). :func:`check_options`
-checks each in the contract's order (§2.1): n_params, n_joints, profile, nan_policy, segments,
-max_lag, level, backend, noise_model, sample_rate, time_units_checked, time, bandwidth, decimate, joint_names,
-column_names, q, dq, ddq, estimation, thresholds, cross_correlation_detail, model_columns,
-allow_wide, with one function per setting for both, and returns one frozen :class:`Options`.
+Each keyword is declared once, in :data:`OPTIONS` (:class:`Option`: its name, type, default, check,
+the contract's words, its command-line flag and what the accumulator does with it), in the
+contract's order of the checks (§2.1). :func:`check_options` runs the checks in that order, one
+function per setting for ``validate`` and :class:`dynval.stream.ValidationAccumulator` alike, and
+returns one frozen :class:`Options`; the accumulator refuses those that need the whole series
+(:data:`UNSUPPORTED`), ``dynval.cli`` builds its flags from them and :func:`options_table` is the
+contract's table (``python -m dynval.coverage --write docs/contract.md`` writes it).
 ``validate`` passes what its data tell (:class:`Data`) and runs the checks deferred
 (``_checks.CheckedCall``: a non-finite value in the data wins over a bad setting); the
 accumulator passes None before its first chunk: the checks that need m or p wait for it
@@ -31,53 +32,75 @@ from ..checks._errors import InvalidParameter, ShapeMismatch
 from ..checks._segments import longest_segment, parse_segments
 from ..checks._typing import BackendName, FloatArray, IntArray, Kernels
 from ..kernels._backend import resolve
-from ..metrics._profiles import Profile, get_profile
+from ..metrics._profiles import PROFILE_NAMES, Profile, get_profile
 from ._assembly import Setting
 from ._findings import Thresholds, resolve_thresholds
 
-__all__ = ["Keywords", "Data", "Options", "Lags", "UNSUPPORTED", "check_options", "plan_lags", "to_setting"]
-
-UNSUPPORTED = {
-    "segments": "call break_segment() between records instead",
-    "decimate": "whiteness at the information rate needs the whole series",
-    "q": "give q (and dq, ddq) with each chunk: update(..., q=...)",
-    "estimation": "the estimation run's refit and repeat check need whole series",
-    "cross_correlation_detail": "the colour-aware cross-correlation needs the whole series; rho is always given",
-    "model_columns": "the added-variable test projects whole columns",
-}
-"""Keywords of ``validate`` the accumulator refuses unless None, with the reason."""
+__all__ = ["Option", "Flag", "OPTIONS", "NAMES", "REQUIRED", "Keywords", "Data", "Options", "Lags", "UNSUPPORTED",
+           "check_options", "plan_lags", "to_setting", "options_table"]
 
 MOTION_LAG_SOURCE = "motion: one period of the information band's edge"
 
 
-@dataclass(frozen=True)
-class Keywords:
-    """The settings as the caller gave them, unchecked (``validate``'s defaults)."""
+class _Required:
+    """The default of a keyword the caller must give (``n_params``)."""
 
-    n_params: Any
-    n_joints: Any = None
-    profile: Any = "lesson"
-    nan_policy: Any = "raise"
-    segments: Any = None
-    max_lag: Any = None
-    level: Any = None
-    backend: Any = None
-    noise_model: Any = None
-    sample_rate: Any = None
-    time: Any = None
-    time_units_checked: Any = True
-    bandwidth: Any = None
-    decimate: Any = "auto"
-    joint_names: Any = None
-    column_names: Any = None
-    q: Any = None
-    dq: Any = None
-    ddq: Any = None
-    estimation: Any = None
-    thresholds: Any = None
-    cross_correlation_detail: Any = "top"
-    model_columns: Any = None
-    allow_wide: Any = False
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED: Any = _Required()
+
+
+class Flag(NamedTuple):
+    """An option's flag of ``dynval validate`` and ``dynval compare`` (``dynval.cli`` builds its parser
+    from these). ``read``: how the command line reads the text, one of the readers of ``dynval.cli``
+    ("int", "float", "text", "segments", "decimate", "names", "file", "time", "estimation"), or
+    "switch" (a flag without a value: True when given) and "unswitch" (False when given)."""
+
+    flag: str
+    help: str
+    metavar: str | None = None
+    read: str = "text"
+    choices: tuple[str, ...] | None = None
+
+
+class Checking(NamedTuple):
+    """What a setting's check reads besides its value: the data (None for the accumulator before its
+    chunks), the settings as given, and those checked before it, by name (``time`` refines ``segments`` and
+    ``sample_rate`` there: its gaps split the segments, its stamps give the rate)."""
+
+    data: Data | None
+    done: dict[str, Any]
+    given: Keywords
+
+
+class Option(NamedTuple):
+    """One keyword of ``validate`` (and of ``compare``, which passes it on; of the accumulator and the
+    command line as ``stream`` and ``flag`` say), declared once: :data:`OPTIONS` drives the check
+    (:func:`check_options`), the accumulator's refusals (:data:`UNSUPPORTED`), the command line's
+    flags and the contract's table (:func:`options_table`); tests hold ``validate``'s and the
+    accumulator's signatures to it.
+
+    ``check(value, checking)`` returns the checked value (InvalidParameter naming the value
+    otherwise); ``kind`` and ``doc`` are the contract's words; ``stream`` is "supported" (the
+    accumulator checks it as ``validate`` does), "update" (given with each chunk, ``update(...)``),
+    or "refused: why" (the accumulator takes only None, :data:`UNSUPPORTED`)."""
+
+    name: str
+    kind: str
+    default: Any
+    check: Callable[[Any, Checking], Any]
+    doc: str
+    flag: Flag | None = None
+    stream: str = "supported"
+
+    @property
+    def refused(self) -> str | None:
+        """Why the accumulator refuses the keyword unless None (None: it takes it)."""
+        if self.stream.startswith(("refused: ", "update: ")):
+            return self.stream.split(": ", 1)[1]
+        return None
 
 
 class Data(NamedTuple):
@@ -144,59 +167,13 @@ class Lags(NamedTuple):
 # --------------------------------------------------------------------------- the checks, in order
 
 
-def check_options(k: Keywords, data: Data | None) -> Options:
-    """Every setting in the contract's order; ``data`` None for the accumulator before its chunks."""
-    n_params = v.check_n_params(k.n_params)
-    n_joints = _n_joints(k.n_joints, data)
-    prof = get_profile(k.profile)
-    nan_policy = v.check_nan_policy(k.nan_policy)
-    if data is None:
-        starts = _refused("segments", k.segments)
-    else:
-        starts = parse_segments(k.segments, data.n) if data.starts is None else data.starts
-    max_lag = _max_lag(k.max_lag, prof, data, starts)
-    level = prof.level if k.level is None else v.check_level(k.level)
-    backend, _ = resolve(k.backend)
-    noise_model = prof.noise_model if k.noise_model is None else v.check_noise_model(k.noise_model)
-    sample_rate = v.check_sample_rate(k.sample_rate)
-    units_checked = v.check_flag("time_units_checked", k.time_units_checked)
-    timing = None
-    if data is not None and k.time is not None:  # the accumulator's stamps come with its chunks
-        assert starts is not None
-        timing, starts = _time_stamps(k.time, max_lag, sample_rate, units_checked, data, starts)
-        sample_rate = timing.sample_rate
-    # the accumulator's rate may also come with its chunks' stamps: checked when they set it
-    bandwidth = v.check_bandwidth(k.bandwidth, sample_rate, rate_known=data is not None or sample_rate is not None)
-    decimate = _refused("decimate", k.decimate) if data is None else v.check_decimate(k.decimate)
-    joint_names = _joint_names(k.joint_names, data, n_joints)
-    column_names = _names(k.column_names) if data is None else check_column_names(k.column_names, data.p)
-    q, dq, ddq = _motion_signals(k, data)
-    estimation = _refused("estimation", k.estimation) if data is None else _estimation(k.estimation, data)
-    thresholds = resolve_thresholds(k.thresholds)
-    if data is None:
-        detail = _refused("cross_correlation_detail", k.cross_correlation_detail)
-        model_columns = _refused("model_columns", k.model_columns)
-    else:
-        detail = v.check_detail(k.cross_correlation_detail)
-        model_columns = v.check_model_columns(k.model_columns, data.p, column_names)
-    allow_wide = v.check_allow_wide(k.allow_wide)
-    return Options(n_params=n_params, n_joints=n_joints, profile=prof, nan_policy=nan_policy, max_lag=max_lag,
-                   level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                   time_units_checked=units_checked, bandwidth=bandwidth, joint_names=joint_names,
-                   column_names=column_names, thresholds=thresholds,
-                   allow_wide=allow_wide, starts=starts, timing=timing, decimate=decimate, q=q, dq=dq, ddq=ddq,
-                   estimation=estimation, detail=detail or "top", model_columns=model_columns)
+def _n_params(value: Any, c: Checking) -> int:
+    return v.check_n_params(value)
 
 
-def _refused(name: str, value: object) -> Any:
-    """A keyword of ``validate`` the accumulator does not take: only None is accepted (and kept)."""
-    if value is not None:
-        raise v.parameter_error(name, f"None for ValidationAccumulator ({UNSUPPORTED[name]})", value)
-    return None
-
-
-def _n_joints(value: Any, data: Data | None) -> int | None:
+def _n_joints(value: Any, c: Checking) -> int | None:
     """``n_joints`` against the regressor (or m); the accumulator's, before m is known, alone."""
+    data = c.data
     if data is None:
         if value is not None and (not v.is_integer(value) or value <= 0):
             raise v.parameter_error("n_joints", "None or a positive integer", value)
@@ -208,12 +185,26 @@ def _n_joints(value: Any, data: Data | None) -> int | None:
     return None
 
 
-def _max_lag(value: Any, prof: Profile, data: Data | None, starts: IntArray | None) -> int | None:
+def _profile(value: Any, c: Checking) -> Profile:
+    return get_profile(value)
+
+
+def _nan_policy(value: Any, c: Checking) -> str:
+    return v.check_nan_policy(value)
+
+
+def _segments(value: Any, c: Checking) -> IntArray:
+    """The segments' starts (``validate``'s; with ``nan_policy="omit"`` parsed before the omission)."""
+    assert c.data is not None  # the accumulator refuses segments
+    return parse_segments(value, c.data.n) if c.data.starts is None else c.data.starts
+
+
+def _max_lag(value: Any, c: Checking) -> int | None:
     """``max_lag`` as given: below the longest segment; the accumulator's, before its segments are
     known, only >= 0, and given where the profile's default depends on N."""
+    data, prof = c.data, c.done["profile"]
     if data is not None:
-        assert starts is not None
-        return None if value is None else v.check_max_lag(value, longest_segment(starts, data.n))
+        return None if value is None else v.check_max_lag(value, longest_segment(c.done["segments"], data.n))
     if value is None:
         if prof.max_lag_cap is None:
             raise v.parameter_error("max_lag", f"an integer with max_lag >= 0 for the {prof.name} profile (its "
@@ -224,20 +215,58 @@ def _max_lag(value: Any, prof: Profile, data: Data | None, starts: IntArray | No
     return int(value)
 
 
-def _time_stamps(time: Any, max_lag: int | None, sample_rate: float | None, units_checked: bool, data: Data,
-                 starts: IntArray) -> tuple[_timing.Timing, IntArray]:
-    """The time stamps: their summary (in seconds unless not ``units_checked``), and the segments
-    split at their gaps (a given ``max_lag`` must stay below the longest run between gaps)."""
-    stamps = _timing.check_time(time, data.given_n)
+def _level(value: Any, c: Checking) -> float:
+    return c.done["profile"].level if value is None else v.check_level(value)
+
+
+def _backend(value: Any, c: Checking) -> BackendName:
+    return resolve(value)[0]
+
+
+def _noise_model(value: Any, c: Checking) -> str:
+    return c.done["profile"].noise_model if value is None else v.check_noise_model(value)
+
+
+def _sample_rate(value: Any, c: Checking) -> float | None:
+    rate: float | None = v.check_sample_rate(value)
+    return rate
+
+
+def _time_units_checked(value: Any, c: Checking) -> bool:
+    return v.check_flag("time_units_checked", value)
+
+
+def _time(value: Any, c: Checking) -> _timing.Timing | None:
+    """The time stamps: their summary (in seconds unless not ``time_units_checked``); the segments
+    split at their gaps (a given ``max_lag`` must stay below the longest run between gaps), and the
+    sample rate theirs."""
+    data, done = c.data, c.done
+    if data is None or value is None:
+        return None
+    stamps = _timing.check_time(value, data.given_n)
     # rows omitted for non-finite data leave gaps in the stamps, as they should
-    timing = _timing.analyse(stamps if data.kept_rows is None else stamps[data.kept_rows], sample_rate, data.meas,
-                             units_checked)
-    starts = _timing.split_at_gaps(starts, timing.gap_rows)
+    timing = _timing.analyse(stamps if data.kept_rows is None else stamps[data.kept_rows], done["sample_rate"],
+                             data.meas, done["time_units_checked"])
+    starts = _timing.split_at_gaps(done["segments"], timing.gap_rows)
     longest = longest_segment(starts, data.n)
+    max_lag = done["max_lag"]
     if max_lag is not None and max_lag >= longest:
         raise InvalidParameter(f"max_lag must be below {longest}, the longest run of samples between the "
                                f"{timing.gaps} gaps of the time stamps, got {max_lag}")
-    return timing, starts
+    done["segments"], done["sample_rate"] = starts, timing.sample_rate
+    return timing
+
+
+def _bandwidth(value: Any, c: Checking) -> float | None:
+    # the accumulator's rate may also come with its chunks' stamps: checked when they set it
+    rate = c.done["sample_rate"]
+    band: float | None = v.check_bandwidth(value, rate, rate_known=c.data is not None or rate is not None)
+    return band
+
+
+def _decimate(value: Any, c: Checking) -> str | int | None:
+    factor: str | int | None = v.check_decimate(value)
+    return factor
 
 
 def _names(value: Any) -> Any:
@@ -247,9 +276,10 @@ def _names(value: Any) -> Any:
     return tuple(value)
 
 
-def _joint_names(value: Any, data: Data | None, n_joints: int | None) -> Any:
-    if data is not None:
-        return _names(check_joint_names(value, data.m))
+def _joint_names(value: Any, c: Checking) -> Any:
+    n_joints = c.done["n_joints"]
+    if c.data is not None:
+        return _names(check_joint_names(value, c.data.m))
     if n_joints is not None:  # the accumulator knows m from n_joints
         check_joint_names(value, n_joints)
     return _names(value)
@@ -261,6 +291,10 @@ def check_joint_names(value: Any, m: int) -> list[str] | None:
     return names
 
 
+def _column_names(value: Any, c: Checking) -> Any:
+    return _names(value) if c.data is None else check_column_names(value, c.data.p)
+
+
 def check_column_names(value: Any, p: int | None, show: Callable[[Any], Any] = lambda x: x) -> tuple[str, ...] | None:
     """``column_names``: None, or (with a regressor of p columns) p distinct strings. ``show``: how
     the message shows the value without a regressor."""
@@ -270,19 +304,28 @@ def check_column_names(value: Any, p: int | None, show: Callable[[Any], Any] = l
     return names
 
 
-def _motion_signals(k: Keywords, data: Data | None) -> tuple[FloatArray | None, ...]:
-    """``q``, ``dq``, ``ddq``: (N, m) signals of the validation run; dq and ddq need q."""
-    if data is None:
-        return _refused("q", k.q), None, None
-    q, dq, ddq = (None if x is None else v.check_signal_like(x, name, data.given_n, data.m)
-                  for x, name in ((k.q, "q"), (k.dq, "dq"), (k.ddq, "ddq")))
-    if q is None and (dq is not None or ddq is not None):
-        raise v.parameter_error("dq" if dq is not None else "ddq", "None without q", k.dq if dq is not None else k.ddq)
-    return q, dq, ddq
+def _signal(name: str) -> Callable[[Any, Checking], FloatArray | None]:
+    """``q``, ``dq``, ``ddq``: (N, m) signals of the validation run."""
+    def check(value: Any, c: Checking) -> FloatArray | None:
+        assert c.data is not None  # given with the accumulator's chunks
+        return None if value is None else v.check_signal_like(value, name, c.data.given_n, c.data.m)
+    return check
 
 
-def _estimation(value: Any, data: Data) -> dict[str, FloatArray] | None:
+def _ddq(value: Any, c: Checking) -> FloatArray | None:
+    """``ddq``, then the rule of ``dq`` and ``ddq`` together (after the three are checked): they need q."""
+    ddq = _signal("ddq")(value, c)
+    dq = c.done["dq"]
+    if c.done["q"] is None and (dq is not None or ddq is not None):
+        raise v.parameter_error("dq" if dq is not None else "ddq", "None without q",
+                                c.given.dq if dq is not None else value)
+    return ddq
+
+
+def _estimation(value: Any, c: Checking) -> dict[str, FloatArray] | None:
     """``estimation``: the estimation run's arrays, with the regressor's columns and N agreeing."""
+    data = c.data
+    assert data is not None  # the accumulator refuses it
     estimation: dict[str, FloatArray] | None = v.check_estimation(value, data.m)
     if estimation is None or "regressor" not in estimation:
         return estimation
@@ -294,6 +337,199 @@ def _estimation(value: Any, data: Data) -> dict[str, FloatArray] | None:
         raise ShapeMismatch(f"estimation['regressor'] and estimation['tau'] must have the same N, got "
                             f"{reg.shape[0]} and {estimation['tau'].shape[0]} samples")
     return estimation
+
+
+def _thresholds(value: Any, c: Checking) -> Thresholds:
+    return resolve_thresholds(value)
+
+
+def _detail(value: Any, c: Checking) -> str:
+    return v.check_detail(value)
+
+
+def _model_columns(value: Any, c: Checking) -> list[int] | None:
+    assert c.data is not None  # the accumulator refuses it
+    columns: list[int] | None = v.check_model_columns(value, c.data.p, c.done["column_names"])
+    return columns
+
+
+def _allow_wide(value: Any, c: Checking) -> bool:
+    return v.check_allow_wide(value)
+
+
+# The command line's help texts that tests read literally (its examples are parsed).
+SEGMENTS_HELP = "independent records, comma-separated: lengths (e.g. 500,300) or starts beginning at 0 (e.g. 0,500)"
+TIME_HELP = ("time stamps of the samples in seconds: a 1-D array, or one column of a table named as FILE:COLUMN "
+             "(log.csv:t by its header name, log.csv:0 by an index counted from 0; log.npz:t, log.parquet:t, "
+             "log.h5:/t). The sample rate is inferred from them (--sample-rate must agree within 1 %%), a gap "
+             "splits the lag analysis, and duplicated, missing and irregular stamps are reported. Stamps at a rate "
+             "outside 10 Hz to 100 kHz (whole seconds apart, say) look like ms, us or ns and are refused with the "
+             "fix (divide by 1000, ...) unless --time-units-unchecked")
+
+OPTIONS: tuple[Option, ...] = (
+    Option("n_params", "int >= 0", REQUIRED, _n_params,
+           "number of identified parameters p (always given: there is no default)"),
+    Option("n_joints", "int > 0 or None", None, _n_joints, "joints m of a stacked (N·m, p) regressor",
+           Flag("--n-joints", "joints m of a stacked 2-D regressor", "M", "int")),
+    Option("profile", "str", "lesson", _profile, "the convention profile that fills every default (§3)",
+           Flag("--profile", "convention profile (default lesson)", None, "text", PROFILE_NAMES)),
+    Option("nan_policy", "str", "raise", _nan_policy,
+           "`raise`, or `omit` the rows with a non-finite value (a segment break where rows were deleted)",
+           Flag("--nan-policy", "raise on NaN/inf, or omit those rows (default raise)", None, "text",
+                ("raise", "omit"))),
+    Option("segments", "lengths, starts or named lengths", None, _segments,
+           "independent records (§1.1); named lengths also get their own metrics",
+           Flag("--segments", SEGMENTS_HELP, "S", "segments"),
+           stream="refused: call break_segment() between records instead"),
+    Option("max_lag", "int >= 0 or None", None, _max_lag,
+           "largest lag of the autocorrelation and cross-correlation; None: the profile's, or with a sample "
+           "rate the motion's time scale; 0 skips the lag analysis",
+           Flag("--max-lag", "largest lag of the residual analysis (default: the profile's; 0 skips it)", "L",
+                "int")),
+    Option("level", "float in (0, 1) or None", None, _level,
+           "confidence level of the bands and findings (None: the profile's)",
+           Flag("--level", "confidence level of bands and findings, 0 < X < 1 (default: the profile's)", "X",
+                "float")),
+    Option("backend", "str or None", None, _backend, "computation backend, `python` or `cpp` (None: the default)",
+           Flag("--backend", "computation backend: python or cpp")),
+    Option("noise_model", "str or None", None, _noise_model,
+           "noise model of the information criteria, `pooled`, `per_joint` or `full` (None: the profile's)",
+           Flag("--noise-model", "noise model of the information criteria (default: the profile's)", None, "text",
+                ("pooled", "per_joint", "full"))),
+    Option("sample_rate", "float > 0 or None", None, _sample_rate,
+           "samples per second: frequencies in Hz (else cycles per sample); inferred from `time`",
+           Flag("--sample-rate", "samples per second (frequencies in Hz)", "HZ", "float")),
+    Option("time_units_checked", "bool", True, _time_units_checked,
+           "False accepts time stamps at any rate (else 10 Hz to 100 kHz)",
+           Flag("--time-units-unchecked",
+                "accept --time stamps at any rate (they must still be seconds float64 can count)", None, "unswitch")),
+    Option("time", "array (N,) or None", None, _time,
+           "time stamps in seconds: the timing section, a gap splits the segments, the rate inferred",
+           Flag("--time", TIME_HELP, "FILE[:COLUMN]", "time"), stream="update"),
+    Option("bandwidth", "float > 0 or None", None, _bandwidth,
+           "band (Hz) in which the inputs are trustworthy: evidence above it is a note; needs a rate, at most "
+           "its Nyquist frequency",
+           Flag("--bandwidth", "band in which the inputs are trustworthy (the differentiation or sensor filter): "
+                "spectral and whiteness evidence above it is a note, never a deficiency; needs --sample-rate or "
+                "--time, and at most their Nyquist frequency (half the rate)", "HZ", "float")),
+    Option("decimate", "`auto`, None or int >= 1", "auto", _decimate,
+           "whiteness also at the information rate: `auto`, a factor, or None (the logged rate only)",
+           Flag("--decimate", "whiteness at the information rate: auto (default), none, or a factor", "Q",
+                "decimate"),
+           stream="refused: whiteness at the information rate needs the whole series"),
+    Option("joint_names", "m distinct str or None", None, _joint_names, "names of the joints in every table",
+           Flag("--joint-names", "joint names, comma-separated", "A,B,..", "names")),
+    Option("column_names", "p distinct str or None", None, _column_names,
+           "names of the regressor's columns (needs a regressor)",
+           Flag("--column-names", "regressor column names, comma-separated", "A,B,..", "names")),
+    Option("q", "array (N, m) or None", None, _signal("q"),
+           "joint positions of the validation run: the repeat check and the physics library",
+           Flag("--q", "joint positions of the validation run (N, m)", "FILE", "file"),
+           stream="update: give q (and dq, ddq) with each chunk: update(..., q=...)"),
+    Option("dq", "array (N, m) or None", None, _signal("dq"), "joint velocities of the validation run (needs q)",
+           stream="update"),
+    Option("ddq", "array (N, m) or None", None, _ddq, "joint accelerations of the validation run (needs q)",
+           stream="update"),
+    Option("estimation", "mapping or None", None, _estimation,
+           "the estimation run: any of `q`, `dq`, `ddq`, `regressor`, `tau`, `bandwidth`",
+           Flag("--estimation", "the estimation run (repeatable): q=FILE, regressor=FILE, tau=FILE", "KEY=FILE",
+                "estimation"),
+           stream="refused: the estimation run's refit and repeat check need whole series"),
+    Option("thresholds", "Thresholds, mapping or None", None, _thresholds,
+           "practical effect sizes a deficiency must reach (§4, `thresholds`)"),
+    Option("cross_correlation_detail", "str", "top", _detail,
+           "`top`: the strongest cross-correlation cells; `full`: also the whole ρ array",
+           stream="refused: the colour-aware cross-correlation needs the whole series; rho is always given"),
+    Option("model_columns", "int or str sequence, or None", None, _model_columns,
+           "the regressor columns the model contains: the others are tested as missing terms",
+           stream="refused: the added-variable test projects whole columns"),
+    Option("allow_wide", "bool", False, _allow_wide, "accept fewer samples than joints (N < m)",
+           Flag("--allow-wide", "accept fewer samples than joints (N < m); without it such data are taken for "
+                "transposed and refused", None, "switch")),
+)
+"""Every keyword of ``validate`` in the contract's order of its checks (§2.1)."""
+
+NAMES = tuple(o.name for o in OPTIONS)
+
+UNSUPPORTED = {o.name: o.refused for o in OPTIONS if o.refused is not None}
+"""Keywords of ``validate`` the accumulator refuses unless None, with the reason."""
+
+
+class Keywords:
+    """The settings as the caller gave them, unchecked: every name of :data:`OPTIONS`, its declared
+    default when not given (``n_params`` must be given)."""
+
+    __slots__ = ("_given",)
+
+    def __init__(self, **given: Any) -> None:
+        unknown = [name for name in given if name not in NAMES]
+        if unknown:
+            raise TypeError(f"unexpected keyword argument {unknown[0]!r}")
+        if "n_params" not in given:
+            raise TypeError("missing keyword argument 'n_params'")
+        self._given = {o.name: given.get(o.name, o.default) for o in OPTIONS}
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self._given[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def check_options(k: Keywords, data: Data | None) -> Options:
+    """Every setting in the contract's order (:data:`OPTIONS`); ``data`` None for the accumulator
+    before its chunks: what it takes with its chunks waits for them, what it refuses must be None."""
+    c = Checking(data, {}, k)
+    for o in OPTIONS:
+        value = getattr(k, o.name)
+        if data is not None or o.stream == "supported":
+            c.done[o.name] = o.check(value, c)
+        else:
+            c.done[o.name] = None if o.refused is None else _refused(o.name, value)
+    d = c.done
+    return Options(n_params=d["n_params"], n_joints=d["n_joints"], profile=d["profile"], nan_policy=d["nan_policy"],
+                   max_lag=d["max_lag"], level=d["level"], backend=d["backend"], noise_model=d["noise_model"],
+                   sample_rate=d["sample_rate"], time_units_checked=d["time_units_checked"],
+                   bandwidth=d["bandwidth"], joint_names=d["joint_names"], column_names=d["column_names"],
+                   thresholds=d["thresholds"], allow_wide=d["allow_wide"], starts=d["segments"], timing=d["time"],
+                   decimate=d["decimate"], q=d["q"], dq=d["dq"], ddq=d["ddq"], estimation=d["estimation"],
+                   detail=d["cross_correlation_detail"] or "top", model_columns=d["model_columns"])
+
+
+def _refused(name: str, value: object) -> Any:
+    """A keyword of ``validate`` the accumulator does not take: only None is accepted (and kept)."""
+    if value is not None:
+        raise v.parameter_error(name, f"None for ValidationAccumulator ({UNSUPPORTED[name]})", value)
+    return None
+
+
+# --------------------------------------------------------------------------- the contract's table
+
+TABLE_START, TABLE_END = "<!-- options-table:start -->", "<!-- options-table:end -->"
+"""The markers around :func:`options_table` in docs/contract.md §4."""
+
+
+def options_table() -> str:
+    """The keywords of ``validate`` as the contract's table (§4): type, default, the command line's
+    flag and the accumulator's part, from :data:`OPTIONS`."""
+    lines = ["| keyword | type | default | command line | stream | what it sets |", "|---|---|---|---|---|---|"]
+    for o in OPTIONS:
+        default = "required" if o.default is REQUIRED else f"`{o.default!r}`"
+        flag = "—" if o.flag is None else f"`{o.flag.flag}`"
+        stream = {"supported": "yes", "update": "with each chunk"}.get(o.stream, "refused")
+        if o.stream.startswith("update: "):
+            stream = "with each chunk"
+        lines.append(f"| `{o.name}` | {o.kind} | {default} | {flag} | {stream} | {o.doc} |")
+    return "\n".join(lines)
+
+
+def write_table(path: str) -> None:
+    """Put :func:`options_table` between :data:`TABLE_START` and :data:`TABLE_END` in the file at ``path``."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    a, b = text.index(TABLE_START) + len(TABLE_START), text.index(TABLE_END)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text[:a] + "\n" + options_table() + "\n" + text[b:])
 
 
 # --------------------------------------------------------------------------- lags and the report's setting
@@ -353,3 +589,4 @@ def to_setting(o: Options, lags: Lags, m: int, *, sample_rate: float | None, tim
                    column_names=list(o.column_names) if o.column_names is not None else None,
                    model_columns=o.model_columns, thresholds=o.thresholds, backend=o.backend,
                    decimate=o.decimate, streaming=streaming, not_tested=list(not_tested or []))
+

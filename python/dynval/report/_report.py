@@ -41,7 +41,7 @@ from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds, resolve_thresholds
-from ._options import Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
+from ._options import NAMES, Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
 from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
@@ -235,14 +235,9 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     >>> dynval.validate(tau, tau, n_params=1, profile="sklearn").per_joint["r2"]
     array([1., 1.])
     """
+    given = {name: value for name, value in locals().items() if name in NAMES}  # OPTIONS' keywords, as given
     seg_names, segments = v.named_segments(segments)
-    k = Keywords(n_params=n_params, n_joints=n_joints, profile=profile, nan_policy=nan_policy, segments=segments,
-                 max_lag=max_lag, level=level, backend=backend, noise_model=noise_model, sample_rate=sample_rate,
-                 time=time, time_units_checked=time_units_checked, bandwidth=bandwidth, decimate=decimate,
-                 joint_names=joint_names,
-                 column_names=column_names, q=q, dq=dq, ddq=ddq, estimation=estimation, thresholds=thresholds,
-                 cross_correlation_detail=cross_correlation_detail, model_columns=model_columns,
-                 allow_wide=allow_wide)
+    k = Keywords(**{**given, "segments": segments})
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
     d, o = _checked(tau_meas, tau_pred, regressor, k)
     d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)

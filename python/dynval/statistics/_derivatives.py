@@ -15,7 +15,7 @@ import numpy as np
 from ..checks._typing import ArrayLike
 from ..checks._validation import check_choice, check_finite, parameter_error, promote_signal, to_float_array
 
-__all__ = ["Derivatives", "differentiate"]
+__all__ = ["Derivatives", "differentiate", "checked_differentiate"]
 
 
 @dataclass(frozen=True)
@@ -107,13 +107,22 @@ def differentiate(q: ArrayLike, sample_rate: float, *, method: str = "savgol", w
     >>> d.delay_s
     0.0
     """
-    import scipy.signal
-
     check_choice("method", method, ("savgol", "butterworth"))
     if not (isinstance(sample_rate, (int, float)) and math.isfinite(sample_rate) and sample_rate > 0):
         raise parameter_error("sample_rate", "a finite number > 0", sample_rate)
     x = promote_signal(to_float_array(q, "q"), "q")
     check_finite(x, "q")
+    return checked_differentiate(x, float(sample_rate), method=method, window=window, polyorder=polyorder,
+                                 cutoff=cutoff, order=order)
+
+
+def checked_differentiate(x: np.ndarray, sample_rate: float, *, method: str = "savgol", window: float | None = None,
+                          polyorder: int = 4, cutoff: float | None = None, order: int = 4) -> Derivatives:
+    """:func:`differentiate` of positions already checked: ``x`` finite float64 (N, m), ``sample_rate``
+    finite > 0, ``method`` one of its two (``validate``'s physics library and the stream's filter
+    call it on their checked q; the filter's own settings are still checked here)."""
+    import scipy.signal
+
     n = x.shape[0]
     dt = 1.0 / sample_rate
     freq = np.linspace(0.0, sample_rate / 2.0, 4097)[1:]

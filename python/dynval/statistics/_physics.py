@@ -98,7 +98,7 @@ def derivatives(q, sample_rate, dq=None, ddq=None) -> Derivatives:
 
 def _derived(q, sample_rate, dq, ddq) -> Derivatives:
     """q̇ and q̈ derived where not given (the filter, or central differences on short runs)."""
-    from ._derivatives import differentiate
+    from ._derivatives import checked_differentiate
 
     fs = 1.0 if sample_rate is None else float(sample_rate)
     n = q.shape[0]
@@ -108,7 +108,7 @@ def _derived(q, sample_rate, dq, ddq) -> Derivatives:
         return Derivatives(d1 if dq is None else np.asarray(dq, float),
                            np.gradient(d1, 1.0 / fs, axis=0) if ddq is None else np.asarray(ddq, float),
                            "central differences", None)
-    d = differentiate(q, fs, window=window)
+    d = checked_differentiate(q, fs, window=window)  # q checked by the caller (validate, the stream)
     return Derivatives(d.dq if dq is None else np.asarray(dq, float),
                        d.ddq if ddq is None else np.asarray(ddq, float),
                        f"Savitzky–Golay, {window:g} s window, degree 4", float(d.bandwidth_hz))

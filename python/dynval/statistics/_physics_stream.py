@@ -122,10 +122,10 @@ class _Differentiator:
         waiting = sum(p["q"].shape[0] for p in self.pending)
         if not self.started:
             if not self.length:
-                from ._derivatives import differentiate
+                from ._derivatives import checked_differentiate
 
                 probe = max(int(round(self.window * self.fs)) + 2, 8)
-                self.length = int(differentiate(np.zeros((probe, 1)), self.fs,
+                self.length = int(checked_differentiate(np.zeros((probe, 1)), self.fs,
                                                 window=self.window).settings["window_samples"])
             need = max(self.length, int(round(self.window * self.fs)) + 2) + self.length
             if waiting < need and not final:
@@ -146,9 +146,9 @@ class _Differentiator:
         self.context = q[max(0, stop - self.length):stop]
         if not self.started:
             self.method = f"Savitzky–Golay, {self.window:g} s window, degree 4"
-            from ._derivatives import differentiate
+            from ._derivatives import checked_differentiate
 
-            self.bandwidth = float(differentiate(np.zeros((self.length + 2, 1)), self.fs,
+            self.bandwidth = float(checked_differentiate(np.zeros((self.length + 2, 1)), self.fs,
                                                  window=self.window).bandwidth_hz)
         self.started = True
         return out
