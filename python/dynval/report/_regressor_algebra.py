@@ -161,7 +161,9 @@ def _scaled_block(reg3: np.ndarray, j: int, memo: Memo[Any],
 def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
     """Joint j's nonzero columns, each scaled by the power of two of its largest |x| (exact)."""
     live = np.flatnonzero(largest[j] > 0)
-    return _scale_pow2(reg3[:, j, :] if live.size == reg3.shape[2] else reg3[:, j, live], _exponents(largest[j, live]))
+    if live.size == reg3.shape[2]:
+        return _scale_pow2(reg3[:, j, :], _exponents(largest[j]))
+    return _scale_pow2(reg3[:, j, :], _exponents(largest[j, live]), live)  # each run of live columns in place
 
 
 class RangeProjection:

@@ -25,6 +25,7 @@ else:
 
 from ..checks._typing import ArrayLike, FloatArray
 from ..kernels._threads import worker_count
+from ._columns import runs
 
 __all__ = [
     "z_two_sided",
@@ -219,9 +220,7 @@ def _centred_columns(x: np.ndarray, cols: slice | np.ndarray, means: np.ndarray 
     if isinstance(cols, slice):
         return x[:, cols] - means[cols] if means is not None else x[:, cols]
     out = np.empty((x.shape[0], cols.size))
-    cuts = np.flatnonzero(np.diff(cols) != 1) + 1
-    for lo, hi in zip(np.concatenate([[0], cuts]).tolist(), np.concatenate([cuts, [cols.size]]).tolist()):
-        a, b = int(cols[lo]), int(cols[hi - 1]) + 1
+    for lo, hi, a, b in runs(cols):
         if means is not None:
             np.subtract(x[:, a:b], means[a:b], out=out[:, lo:hi])
         else:
