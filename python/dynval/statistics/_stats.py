@@ -178,8 +178,8 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
         live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n and k > _ZERO_TEST_COLUMNS \
             else np.arange(k)
     every = live.size == k
-    # the live columns' sums side by side: each batch adds to a slice of them (adding to scattered
-    # columns of the whole (lags, k) array took as long as the inverse transforms)
+    # the live columns' sums side by side: each batch adds to a slice of them, not to scattered
+    # columns of the whole (lags, k) array (a gather, an addition and a scatter per batch)
     acov = np.zeros((max_lag + 1, live.size))
     # the columns of a batch are transformed apart, on the core's threads when they are many
     workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
@@ -214,9 +214,9 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
 
 def _centred_columns(x: np.ndarray, cols: slice | np.ndarray, means: np.ndarray | None) -> np.ndarray:
     """x[:, cols] less the columns' means (``means`` None: as they are), taking each run of
-    consecutive indices of ``cols`` as a slice: a gather of scattered columns costs several times
-    the subtraction (a regressor's live columns come in a few runs, one per joint). The same values
-    as ``x[:, cols] - means[cols]``."""
+    consecutive indices of ``cols`` as a slice, so that the columns are read once, in place, rather
+    than gathered into a copy that is then subtracted from (a regressor's live columns come in a
+    few runs per joint). The same values as ``x[:, cols] - means[cols]``."""
     if isinstance(cols, slice):
         return x[:, cols] - means[cols] if means is not None else x[:, cols]
     out = np.empty((x.shape[0], cols.size))
