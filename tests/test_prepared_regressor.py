@@ -167,6 +167,36 @@ def test_compare_factors_a_rank_deficient_block_once(runs, monkeypatch):
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
 
 
+def test_compare_scales_each_joint_block_once_for_the_projection_and_the_excitation(runs, monkeypatch):
+    # A singular block is scaled by powers of two for the spectrum's range projection, and the
+    # excitation section's R factor of the same block (its Gram matrices do not decide a singular
+    # stack) is taken from that scaling, not from a second one.
+    _, (_, y_v, tau_v) = runs
+    y = np.ascontiguousarray(np.concatenate([y_v, y_v.sum(axis=2, keepdims=True)], axis=2))
+    preds = _predictions(runs)
+    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y, max_lag=10) for n, p in preds.items()}
+    scaled = _count_calls(monkeypatch, _regressor_algebra, "_scaled_live_block")
+    factored = _count_calls(monkeypatch, _regressor_algebra, "_r_factor")
+    cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y, max_lag=10)
+    assert len(scaled) == len(factored) == y.shape[1]
+    assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
+
+
+def test_a_well_conditioned_stack_does_not_factor_the_joint_blocks(monkeypatch):
+    # Each joint's block singular, the stacked regressor not: the excitation takes its singular
+    # values from the Gram matrix, and no R factor of a joint is computed for it.
+    rng = np.random.default_rng(11)
+    y = rng.normal(size=(600, 2, 3))
+    y[:, 0, 2] = y[:, 0, 0] + y[:, 0, 1]  # joint 1's block singular
+    y[:, 1, 0] = y[:, 1, 1] - y[:, 1, 2]  # joint 2's too, by another combination
+    tau = y @ np.array([1.0, 2.0, 3.0]) + rng.normal(0.0, 0.1, (600, 2))
+    factored = _count_calls(monkeypatch, _regressor_algebra, "_r_factor")
+    projected = _count_calls(monkeypatch, _regressor_algebra, "RangeProjection")
+    dynval.compare(tau, {"a": (y @ np.array([1.0, 2.0, 3.1]), 3), "b": (y @ np.array([1.1, 2.0, 3.0]), 3)},
+                   regressor=y, max_lag=10)
+    assert len(projected) == 2 and not factored
+
+
 def _block(singular_values, n=400, seed=3):
     """An (n, k) block with these singular values, and its left singular vectors (n, k)."""
     rng = np.random.default_rng(seed)

@@ -119,11 +119,15 @@ def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | Non
     if reg3 is None or cols is None or e is None:
         return None
     n, m = e.shape
+    # every column: a view of the joint's columns, not a gathered copy of its whole (N, p) block
+    # per joint (the same values; a 91-column regressor's copy is 15 MB a joint at 20,000 rows)
+    every = len(cols) == reg3.shape[2] and all(int(c) == i for i, c in enumerate(cols))
     out = []
     for j in range(m):
         lib = libraries[j] if libraries is not None else _model_terms.library_for(
             j, q, None if q is None or d is None else d.dq, None if q is None or d is None else d.ddq, n, sample_rate)
-        out.append(_model_terms.kinds_present(j, reg3[:, j, cols], lib, m, declared[j] if declared else set()))
+        y_j = reg3[:, j, :] if every else reg3[:, j, cols]
+        out.append(_model_terms.kinds_present(j, y_j, lib, m, declared[j] if declared else set()))
     return out
 
 

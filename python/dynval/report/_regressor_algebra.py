@@ -116,7 +116,7 @@ def _project_out(e: np.ndarray, reg3: np.ndarray, grams: JointGrams | None = Non
         # The projection does not depend on the scale of e or of any column: both are scaled by
         # powers of two near their largest |x| first (exact, contract §1.3), so that subnormal or
         # 1e140 data do not overflow the normal equations.
-        y, solver = memo(("scaled_block", reg3.shape, int(j)), partial(_scaled_block, reg3, int(j), memo))
+        y, solver = memo(("scaled_block", reg3.shape, int(j)), partial(_scaled_block, reg3, int(j), memo, grams))
         ej, k = _pow2_columns(e[:, j : j + 1])
         # Below the condition limit the kept normal-equations factor solves it; above, the kept
         # projection on the block's numerical range (lstsq's rank decision) is applied.
@@ -138,15 +138,22 @@ def _live_factor(grams: JointGrams, j: int, live: np.ndarray) -> Factor | None:
     return _normal_factor(grams.gram[j][np.ix_(live, live)]) if live.size else None
 
 
-def _scaled_block(reg3: np.ndarray, j: int,
-                  memo: Memo[Any]) -> tuple[np.ndarray, Factor] | tuple[None, RangeProjection]:
+def _scaled_block(reg3: np.ndarray, j: int, memo: Memo[Any],
+                  grams: JointGrams | None = None) -> tuple[np.ndarray, Factor] | tuple[None, RangeProjection]:
     """Joint j's nonzero columns scaled exactly by powers of two and how to solve on them: (the
     block, the factor of its normal equations) when they are well conditioned, else (None, the
     projection on its numerical range), which no longer needs the block. A zero column adds
     nothing to the range, and a serial arm's joint has many (the parameters of the links before
     it): leaving them out makes the factorisation several times cheaper. The largest |x| of every
-    column at once: one contiguous pass instead of a strided one per joint."""
+    column at once: one contiguous pass instead of a strided one per joint.
+
+    A prepared regressor whose excitation section will factor the same block (:func:`_stacked_r`,
+    when ``grams`` do not decide its singular values) keeps that R factor from this block now,
+    rather than scaling the columns again later."""
     y = _scaled_live_block(reg3, j, column_largest(reg3, memo))
+    if memo is not compute_now and y.shape[1] and memo(("stacked_r_needed", reg3.shape),
+                                                       partial(_stacked_r_needed, grams)):
+        memo(("joint_r", reg3.shape, j), partial(_r_factor, y, np.arange(y.shape[1])))
     factor = _normal_factor(y.T @ y) if y.shape[1] else None
     return (y, factor) if factor is not None else (None, RangeProjection(y))
 
@@ -154,7 +161,9 @@ def _scaled_block(reg3: np.ndarray, j: int,
 def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
     """Joint j's nonzero columns, each scaled by the power of two of its largest |x| (exact)."""
     live = np.flatnonzero(largest[j] > 0)
-    return _scale_pow2(reg3[:, j, :] if live.size == reg3.shape[2] else reg3[:, j, live], _exponents(largest[j, live]))
+    if live.size == reg3.shape[2]:
+        return _scale_pow2(reg3[:, j, :], _exponents(largest[j]))
+    return _scale_pow2(reg3[:, j, :], _exponents(largest[j, live]), live)  # each run of live columns in place
 
 
 class RangeProjection:
@@ -350,6 +359,13 @@ def _stacked_r(reg3: np.ndarray, k: np.ndarray, memo: Memo[Any] = compute_now) -
     stacked = np.vstack(pieces)
     r = scipy.linalg.qr(stacked, mode="r", overwrite_a=True, check_finite=False)[0]
     return np.array(r[:min(stacked.shape[0], p)])
+
+
+def _stacked_r_needed(grams: JointGrams | None) -> bool:
+    """Whether the excitation section (:func:`dynval.report._sections._regressor_excitation`) asks
+    for :func:`_stacked_r`: its Gram matrix's singular values do not decide the condition numbers."""
+    gram = grams.stacked() if grams is not None and grams.usable else None
+    return gram is None or _gram_singular_values(gram, np.sqrt(np.diag(gram).copy())) is None
 
 
 def _joint_r(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:

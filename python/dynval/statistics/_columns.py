@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["ROW_BLOCK", "ROUNDOFF_COLUMN", "largest_abs", "exponents", "pow2_exponents", "scale_pow2",
-           "zero_columns", "column_norms"]
+           "zero_columns", "column_norms", "runs"]
 
 # Rows per block where a pass over the stacked regressor would otherwise copy it whole.
 ROW_BLOCK = 1 << 16
@@ -28,12 +28,28 @@ def pow2_exponents(x: np.ndarray) -> np.ndarray:
     return exponents(largest_abs(x))
 
 
-def scale_pow2(x: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """x·2^-k per column, exactly (as np.ldexp)."""
+def scale_pow2(x: np.ndarray, k: np.ndarray, cols: np.ndarray | None = None) -> np.ndarray:
+    """x·2^-k per column, exactly (as np.ldexp); of x[:, cols] when ``cols`` are given, read run by
+    run of consecutive columns (:func:`runs`) rather than gathered into a copy first, and laid out
+    column-major as numpy lays out such a gather of a joint's columns (reg3[:, j, cols]), so that
+    every product taken of it later is summed in the same order."""
+    if cols is not None:
+        out = np.empty((x.shape[0], cols.size), order="F")
+        for lo, hi, a, b in runs(cols):
+            out[:, lo:hi] = scale_pow2(x[:, a:b], k[lo:hi])
+        return out
     if np.all(np.abs(k) < 1000):
         # 2^-k is a normal number: multiplying by it is the same exact scaling, and much faster
         return np.asarray(x * np.ldexp(1.0, -k))
     return np.asarray(np.ldexp(x, -k))
+
+
+def runs(cols: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """The runs of consecutive indices in ``cols`` (increasing), as (lo, hi, a, b): cols[lo:hi] is
+    a..b-1. A regressor's live columns come in a few runs per joint, and a slice of each is read
+    in place where indexing by all of them would gather a copy."""
+    cuts = (np.flatnonzero(np.diff(cols) != 1) + 1).tolist()
+    return [(lo, hi, int(cols[lo]), int(cols[hi - 1]) + 1) for lo, hi in zip([0] + cuts, cuts + [cols.size]) if hi > lo]
 
 
 ROUNDOFF_COLUMN = 1e-13

@@ -25,6 +25,7 @@ else:
 
 from ..checks._typing import ArrayLike, FloatArray
 from ..kernels._threads import worker_count
+from ._columns import runs
 
 __all__ = [
     "z_two_sided",
@@ -167,7 +168,6 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
         x = x[:, None]
     n, k = x.shape
     bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
-    acov = np.zeros((max_lag + 1, k))
     # Columns in batches: a transform holds about 6 numbers per sample and column, so the whole
     # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
     batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
@@ -178,16 +178,19 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
         live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n and k > _ZERO_TEST_COLUMNS \
             else np.arange(k)
     every = live.size == k
+    # the live columns' sums side by side: each batch adds to a slice of them, not to scattered
+    # columns of the whole (lags, k) array (a gather, an addition and a scatter per batch)
+    acov = np.zeros((max_lag + 1, live.size))
     # the columns of a batch are transformed apart, on the core's threads when they are many
     workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
     for c0 in range(0, live.size, batch):
-        cols = slice(c0, min(c0 + batch, k)) if every else live[c0:c0 + batch]
-        xc = x[:, cols] - means[cols] if means is not None else x[:, cols]
+        done = slice(c0, min(c0 + batch, live.size))
+        xc = _centred_columns(x, slice(c0, min(c0 + batch, k)) if every else live[done], means)
         # ρ is a ratio: each column scaled by a power of two first (exact, contract §1.3), so that
         # no square underflows near 1e-160 (the compiled kernel scales, and the two must agree).
         xc = _pow2_scaled_columns(xc)
         if max_lag <= _DIRECT_LAGS:
-            acov[:, cols] = _lag_products(xc, bounds, max_lag)
+            acov[:, done] = _lag_products(xc, bounds, max_lag)
             continue
         for a, b in zip(bounds[:-1], bounds[1:]):
             length = b - a
@@ -198,11 +201,31 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
             del spec
             r = scipy.fft.irfft(power, n=size, axis=0, workers=workers)
             keep = min(max_lag + 1, length)
-            acov[:keep, cols] += r[:keep]
+            acov[:keep, done] += r[:keep]
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = acov / acov[0]
     rho[:, ~(acov[0] > 0)] = np.nan
-    return rho
+    if every:
+        return rho
+    out = np.full((max_lag + 1, k), np.nan)
+    out[:, live] = rho
+    return out
+
+
+def _centred_columns(x: np.ndarray, cols: slice | np.ndarray, means: np.ndarray | None) -> np.ndarray:
+    """x[:, cols] less the columns' means (``means`` None: as they are), taking each run of
+    consecutive indices of ``cols`` as a slice, so that the columns are read once, in place, rather
+    than gathered into a copy that is then subtracted from (a regressor's live columns come in a
+    few runs per joint). The same values as ``x[:, cols] - means[cols]``."""
+    if isinstance(cols, slice):
+        return x[:, cols] - means[cols] if means is not None else x[:, cols]
+    out = np.empty((x.shape[0], cols.size))
+    for lo, hi, a, b in runs(cols):
+        if means is not None:
+            np.subtract(x[:, a:b], means[a:b], out=out[:, lo:hi])
+        else:
+            out[:, lo:hi] = x[:, a:b]
+    return out
 
 
 def andrews_bandwidth(phi, n: int) -> np.ndarray:
