@@ -16,7 +16,7 @@ import dynval
 from dynval.report import _finding_words as w
 from dynval.report import _motion
 from dynval.report._findings import Evidence, compute_findings
-from dynval.statistics import _model_terms
+from dynval.statistics import _model_terms, _physics
 
 FS = 100.0
 
@@ -263,6 +263,30 @@ def test_rigid_body_column_names_declare_what_the_model_holds_and_lacks():
     assert _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05)["relation"] == "reweight"
     lacks = _model_terms.relate(0, "viscous", e_j, y_j, lib, m, 0.05, declared={"-viscous"})
     assert lacks["relation"] == "missing" and lacks["declared"] is False
+
+
+def test_a_model_whose_column_is_a_posture_term_holds_gravity_in_part():
+    """A gravity model of a 3-joint chain whose column on joint 0 is m·g·cos(q_0 + q_1) (a posture term of
+    the chain, no single library column): the residual's posture error is a part the model lacks,
+    never the whole term ("add a position-dependent term" to a model that has gravity, as the
+    7-joint gravity-only rows were told), and the bias sees the model's gravity.
+    Kills: the model's column not looked for in the group's span (relation "missing"); a column
+    outside it counted (an acceleration column: still "missing")."""
+    rng = np.random.default_rng(3)
+    n, m = 3000, 3
+    t = np.arange(n) / 100.0
+    q = np.column_stack([np.sin(0.3 * t + k) + 0.2 * k for k in range(m)])
+    lib = _physics.library(0, q, np.gradient(q, axis=0), np.gradient(np.gradient(q, axis=0), axis=0),
+                           np.zeros(n), 100.0)
+    posture = np.cos(q[:, 0] + q[:, 1])
+    e_j = 0.5 * np.sin(q[:, 0] + q[:, 1] + q[:, 2]) + 0.01 * rng.standard_normal(n)
+    held = _model_terms.relate(0, "gravity", e_j, posture[:, None], lib, m, 0.05)
+    assert held["model_in_group"] is True and held["relation"] == "partial"
+    assert _model_terms.kinds_present(0, posture[:, None], lib, m)["gravity"] is True
+    accel = rng.standard_normal((n, 1))
+    free = _model_terms.relate(0, "gravity", e_j, accel, lib, m, 0.05)
+    assert free["model_in_group"] is False and free["relation"] == "missing"
+    assert _model_terms.kinds_present(0, accel, lib, m)["gravity"] is False
 
 
 def _words_for(relation: str, reweight: float):

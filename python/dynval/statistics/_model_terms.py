@@ -202,7 +202,11 @@ def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str
     out_coupling = cols[:, ~inside & mask]
     active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0 if y_j.size else np.zeros(0, bool)
     reweight, outside, outside_own = _shares(e_j, y_j[:, active] if y_j.size else y_j, out_own, out_coupling)
-    has_own = bool(np.any(inside & ~mask)) or group in declared
+    # the model holds a term of this kind when one of its own columns lies in the group's span (a
+    # gravity model's column m·g·cos(q_2 + q_3) is a posture term though no single library column is
+    # in the model's span): what it lacks of the group is then a part, never the whole term
+    holds = model_in_group(y_j[:, active] if y_j.size else y_j, cols) and f"-{group}" not in declared
+    has_own = bool(np.any(inside & ~mask)) or group in declared or holds
     if f"-{group}" in declared:
         relation = "missing"
     elif group in declared:
@@ -213,7 +217,7 @@ def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str
         relation = "unsupported"
     elif has_own and outside_own < practical and out_coupling.shape[1] and outside - outside_own >= practical:
         relation = "coupling"
-    elif bool(np.any(inside)):
+    elif bool(np.any(inside)) or holds:
         relation = "partial"
     else:
         relation = "missing"
@@ -222,7 +226,18 @@ def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str
             "own_columns": int(np.sum(~mask)), "coupling_in_span": int(np.sum(inside & mask)),
             "coupling_columns": int(np.sum(mask)), "outside_fraction": [float(x) for x in frac],
             "tolerance": SPAN_TOLERANCE,
-            "declared": True if group in declared else False if f"-{group}" in declared else None}
+            "declared": True if group in declared else False if f"-{group}" in declared else None,
+            "model_in_group": holds}
+
+
+def model_in_group(y_j: np.ndarray, cols: np.ndarray) -> bool:
+    """One of the model's columns on the joint lies in the span of the group's columns (within
+    :data:`SPAN_TOLERANCE` of its RMS)."""
+    if y_j.size == 0 or cols.size == 0:
+        return False
+    frac = outside_fraction(span_basis(cols), y_j)
+    rms = np.sqrt(np.mean(y_j * y_j, axis=0))
+    return bool(np.any((frac <= SPAN_TOLERANCE) & (rms > 0)))
 
 
 def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
@@ -233,7 +248,7 @@ def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
     out = {}
     for g, cols in lib_j.items():
         mask = coupling_mask(g, j, m, cols.shape[1])
-        spanned = bool(np.any((fractions[g] <= SPAN_TOLERANCE) & ~mask))
+        spanned = bool(np.any((fractions[g] <= SPAN_TOLERANCE) & ~mask)) or model_in_group(y_j, cols)
         out[g] = g in declared or (spanned and f"-{g}" not in declared)
     return out
 
