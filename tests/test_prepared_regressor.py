@@ -153,14 +153,21 @@ def test_prepare_regressor_refuses_what_is_not_real_numbers():
         dynval.validate(np.ones((12, 1)), np.ones((12, 1)), n_params=1, regressor=prepared)
 
 
-def test_compare_factors_a_rank_deficient_block_once(runs, monkeypatch):
-    # A column that is the sum of the others makes each joint's block singular: the spectrum's projection
-    # then takes the block's numerical range, factored once per joint for all candidates (not one
-    # lstsq per residual).
+def _singular_blocks(runs):
+    """The validation run with a column that is the sum of the others (each joint's block singular),
+    the candidates' predictions and their plain validate reports."""
     _, (_, y_v, tau_v) = runs
     y = np.ascontiguousarray(np.concatenate([y_v, y_v.sum(axis=2, keepdims=True)], axis=2))
     preds = _predictions(runs)
     plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y, max_lag=10) for n, p in preds.items()}
+    return tau_v, y, preds, plain
+
+
+def test_compare_factors_a_rank_deficient_block_once(runs, monkeypatch):
+    # A column that is the sum of the others makes each joint's block singular: the spectrum's projection
+    # then takes the block's numerical range, factored once per joint for all candidates (not one
+    # lstsq per residual).
+    tau_v, y, preds, plain = _singular_blocks(runs)
     factored = _count_calls(monkeypatch, _regressor_algebra, "RangeProjection")
     cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y, max_lag=10)
     assert len(factored) == y.shape[1]
@@ -171,10 +178,7 @@ def test_compare_scales_each_joint_block_once_for_the_projection_and_the_excitat
     # A singular block is scaled by powers of two for the spectrum's range projection, and the
     # excitation section's R factor of the same block (its Gram matrices do not decide a singular
     # stack) is taken from that scaling, not from a second one.
-    _, (_, y_v, tau_v) = runs
-    y = np.ascontiguousarray(np.concatenate([y_v, y_v.sum(axis=2, keepdims=True)], axis=2))
-    preds = _predictions(runs)
-    plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y, max_lag=10) for n, p in preds.items()}
+    tau_v, y, preds, plain = _singular_blocks(runs)
     scaled = _count_calls(monkeypatch, _regressor_algebra, "_scaled_live_block")
     factored = _count_calls(monkeypatch, _regressor_algebra, "_r_factor")
     cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y, max_lag=10)
