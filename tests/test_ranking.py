@@ -209,6 +209,10 @@ def test_a_missing_column_ranks_with_what_it_removes_on_the_joints_it_does_not_a
                   threshold=0.01, action="add the term L1:mz", message="j1: a term the model lacks: L1:mz.",
                   details={"added_variable": True, "method": "estimation_refit", "indirect": {1: 0.55}})
     assert [r.finding.kind for r in deciding([PHYSICS, col])] == ["regressor_correlation", "missing_physics"]
+    # the reason says what made it first: its effect on the joint it does not act on too
+    why = first_reason(deciding([PHYSICS, col], [0.5, 0.5]), NAMES)
+    assert "and, added alone, 55 % on j2 (the parameters the fit bent there; 28 % of the torque's variance" in why
+    assert "and, added alone" not in first_reason(deciding([PHYSICS]), NAMES)
     less = dataclasses.replace(col, details={**col.details, "indirect": {1: 0.4}})
     assert [r.finding.kind for r in deciding([PHYSICS, less])] == ["missing_physics", "regressor_correlation"]
 

@@ -43,6 +43,7 @@ class Ranked:
     joint: int | None
     leads: bool = True  # names a cause, or stands on a joint where nothing does
     torque_share: float | None = None  # share × (1 − R²) of the joint: of its measured torque's variance
+    indirect_torque: float = 0.0  # a missing column's: what adding it removes on the joints it does not enter
 
     def to_dict(self, joint_names: Sequence[str] | None = None) -> dict[str, Any]:
         f = self.finding
@@ -270,7 +271,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     for f in findings:
         share, basis, joint = explained_share(f)
         ranked.append(Ranked(f, share, basis, joint, leads=group(f) == 0,
-                             torque_share=_torque_share(share, joint, r2)))
+                             torque_share=_torque_share(share, joint, r2), indirect_torque=_indirect(f, r2)))
     with_r2 = r2 is not None and all(r.torque_share is not None for r in ranked if r.share is not None)
 
     def effect(r: Ranked) -> float | None:
@@ -329,6 +330,17 @@ def torque_text(x: float) -> str:
     return share_text(x) + " of" if x < 1.0 else f"{number_text(x, '.2g')}×"
 
 
+def _indirect_text(r: Ranked, joint_names: Sequence[str] | None) -> str:
+    """A missing column's effect on the joints it does not enter, which counts in its rank."""
+    indirect = (r.finding.details or {}).get("indirect") or {}
+    if not indirect:
+        return ""
+    where = ", ".join(f"{share_text(float(s))} on {_name(joint_names, int(j))}" for j, s in indirect.items())
+    return (f" and, added alone, {where} (the parameters the fit bent there"
+            + (f"; {torque_text(r.indirect_torque)} the torque's variance there" if r.indirect_torque > 0 else "")
+            + ")")
+
+
 def _basis_text(r: Ranked) -> str:
     return "carried from the estimation run" if r.basis == HELD_OUT else "on the validation run"
 
@@ -351,7 +363,7 @@ def first_reason(ranked: Sequence[Ranked], joint_names: Sequence[str] | None = N
     text = (f"first because it explains {share_text(top.share)} of the residual's mean square"
             + (f" on {where}" if where else "") + f" ({_basis_text(top)}"
             + (f"; {torque_text(top.torque_share)} the measured torque's variance there" if top.torque_share
-               is not None else "") + ")")
+               is not None else "") + ")" + _indirect_text(top, joint_names))
     if n == 1:
         return text + ", the only deciding finding that names a cause" + behind if rest else \
             text + ", the only deciding finding"
