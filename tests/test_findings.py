@@ -649,6 +649,11 @@ def test_a_missing_column_s_own_effect_is_measured_added_alone():
     assert out["share"][0, k] < 0.5
     # ... while adding it alone removes nearly everything, on the elbow too (the shared column's bend)
     assert out["alone"][0, k] > 0.9 and out["alone"][1, k] > 0.5
+    # the share added alone, by a plain least-squares refit of the model's columns and column 3
+    def mse(cols):
+        coef = np.linalg.lstsq(est[:, :, cols].reshape(-1, len(cols)), est_tau.reshape(-1), rcond=None)[0]
+        return np.mean((val_tau - val[:, :, cols] @ coef) ** 2, axis=0)
+    np.testing.assert_allclose(out["alone"][:, k], (mse([0, 1, 2]) - mse([0, 1, 2, 3])) / mse([0, 1, 2]), rtol=1e-6)
     model = [0, 1, 2]
     coef = np.linalg.lstsq(est[:, :, model].reshape(-1, 3), est_tau.reshape(-1), rcond=None)[0]
     r = dynval.validate(val_tau, val[:, :, model] @ coef, n_params=3, regressor=val, model_columns=model,
