@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import shutil
 
+import numpy as np
 import pytest
 
 import dynval
@@ -68,6 +69,46 @@ def kuka_page(tmp_path_factory):
     path = tmp_path_factory.mktemp("kuka") / "report.html"
     html.write_report(cmp, path, title="KUKA LWR4+ run 3")
     return path, cmp
+
+
+@pytest.fixture(scope="module")
+def validation_page(tmp_path_factory):
+    """One validation's page (no comparison): the README's decoupled KUKA model, whose first step
+    and its reason are long."""
+    from dynval.datasets import load_kuka_lwr4
+    from dynval.robots import differentiate
+
+    est, val = load_kuka_lwr4(1), load_kuka_lwr4(3)
+
+    def joint_model(run):
+        d = differentiate(run.q, run.sample_rate)
+        eye = np.eye(run.q.shape[1])
+        terms = [d.ddq, d.dq, np.sign(d.dq), np.sin(run.q), np.cos(run.q)]
+        return np.concatenate([x[:, :, None] * eye for x in terms], axis=2), d
+
+    (y_est, d_est), (y_val, d) = joint_model(est), joint_model(val)
+    fit = dynval.identify(y_est, est.tau)
+    rep = dynval.validate(val.tau, fit.predict(y_val), n_params=fit.rank, regressor=y_val, time=val.time,
+                          q=val.q, dq=d.dq, ddq=d.ddq, joint_names=list(val.joint_names),
+                          estimation={"q": est.q, "dq": d_est.dq, "ddq": d_est.ddq, "regressor": y_est,
+                                      "tau": est.tau})
+    path = tmp_path_factory.mktemp("one") / "report.html"
+    html.write_report(rep, path, title="KUKA LWR4+ run 3, decoupled model")
+    return path, rep
+
+
+@pytest.mark.parametrize("width", [1280, 800])
+def test_one_validations_first_step_is_on_the_first_screen(browser, validation_page, width):
+    """Kills: the single report's box without its first step (it had only the count)."""
+    path, rep = validation_page
+    assert rep.deficiencies and rep.first_step
+    got = _layout(browser, path, width)
+    for part in ("verdict", "first"):
+        where = got[part]
+        assert where is not None, f"{part} is not on the page"
+        assert where["bottom"] <= 800 and where["right"] <= width, f"{part} is off the first screen: {where}"
+    text = path.read_text(encoding="utf-8")
+    assert "Do first: <b>" in text and html._t(rep.first_step) in text
 
 
 def _layout(browser, path, width):

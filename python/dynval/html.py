@@ -541,8 +541,12 @@ def _deficiency_count_html(rep) -> str:
         return ""
     defic = [f for f in findings or [] if getattr(f, "severity", "") == "deficiency"]
     state = "refine" if defic else "accept"
+    # the step to take first and why, in the box: a reader who stops at the first screen acts on it
+    first = getattr(rep, "first_step", "") if defic else ""
+    step = (f'<p class="first-step">Do first: <b>{_t(first)}</b></p><p class="muted">{_t(rep.first_reason)}</p>'
+            if first else "")
     return (f'<div class="verdict {state}"><div class="decision">'
-            f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div></div>")
+            f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div>{step}</div>")
 
 
 def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, str]:
