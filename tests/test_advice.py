@@ -321,3 +321,90 @@ def test_re_identifying_is_advised_where_it_carries():
     assert action.startswith("re-identify the model's terms on j3: what remains is carried by its own columns")
     _, action = _words_for("reweight", 0.6)
     assert action.startswith("re-identify viscous friction on j3: the model has the term, its weight differs")
+
+
+def _shared_inertia_run(seed, rotor, model_rotor):
+    """Two joints whose model shares a link inertia: columns [q̈₀ | 0], [q̈₀ + q̈₁ | q̈₀ + q̈₁] (a
+    link that loads both joints), [0 | q̈₀], viscous and gravity per joint; the robot has a rotor
+    inertia ``rotor``·q̈₁ on joint 1 alone (the model's column [0 | q̈₁] with ``model_rotor``)."""
+    q, dq, ddq = _motion_of(seed)
+    zero = np.zeros_like(ddq[:, 0])
+    shared = [np.column_stack([ddq[:, 0], zero]), np.column_stack([ddq.sum(axis=1)] * 2),
+              np.column_stack([zero, ddq[:, 0]])]
+    own = [np.column_stack([zero, ddq[:, 1]])] if model_rotor else []
+    eye = np.eye(2)
+    decoupled = np.concatenate([x[:, :, None] * eye for x in (dq, np.sin(q), np.cos(q))], axis=2)
+    reg = np.concatenate([np.stack(shared + own, axis=2), decoupled], axis=2)
+    tau = reg[:, :, :3] @ np.array([0.6, 0.3, 0.2]) + 0.8 * dq + 2.0 * np.cos(q) + 0.7 * np.sin(q)
+    tau[:, 1] += rotor * ddq[:, 1]
+    tau += 0.02 * np.random.default_rng(seed + 99).standard_normal(tau.shape)
+    return q, dq, ddq, reg, tau
+
+
+def _rotor_report(rotor_est, rotor_val, model_rotor):
+    qe, dqe, ddqe, ye, tau_e = _shared_inertia_run(1, rotor_est, model_rotor)
+    qv, dqv, ddqv, yv, tau_v = _shared_inertia_run(2, rotor_val, model_rotor)
+    fit = dynval.identify(ye, tau_e)
+    return dynval.validate(tau_v, fit.predict(yv), n_params=fit.rank, q=qv, dq=dqv, ddq=ddqv, sample_rate=FS,
+                           joint_names=["j0", "j1"], regressor=yv,
+                           estimation={"q": qe, "dq": dqe, "ddq": ddqe, "regressor": ye, "tau": tau_e})
+
+
+def test_a_rotor_inertia_the_shared_link_columns_only_bend_to_is_added_on_its_joint_alone():
+    """The model's columns span q̈₁ on joint 1's rows ([q̈₀ + q̈₁] − [q̈₀]), but only by moving the
+    link inertia joint 0 shares: the rotor inertia is a column the model lacks, named on joint 1 and
+    first, and joint 0's error (the bend) follows it. Kills: the stacked refit dropped (joint 1
+    "re-identify an inertial term"), its share not compared with the practical one, the ranking not
+    counting ``local`` as lacking."""
+    r = _rotor_report(0.4, 0.4, model_rotor=False)
+    f = _physics_finding(r, 1)
+    assert f.details["term"] == "inertia" and f.details["relation"] == "local", f.details["model_terms"]
+    gain = f.details["model_terms"]["local"]
+    assert gain["group"] == "inertia" and gain["columns"] == 1
+    assert gain["share"] > 0.5 and len(gain["shares"]) == 2
+    assert f.action.startswith("add a rotor inertia J_a·q̈ (a motor's reflected inertia) on j1 alone")
+    assert "only by moving parameters other joints share" in f.message
+    assert r.deciding[0].finding is f
+    # the gain checked against a plain least-squares refit with the column [0 | q̈₁] added
+    _, _, ddqe, ye, tau_e = _shared_inertia_run(1, 0.4, False)
+    _, _, ddqv, yv, tau_v = _shared_inertia_run(2, 0.4, False)
+    col_e = np.zeros(ye.shape[:2] + (1,))
+    col_e[:, 1, 0] = ddqe[:, 1]
+    col_v = np.zeros(yv.shape[:2] + (1,))
+    col_v[:, 1, 0] = ddqv[:, 1]
+    base = tau_v - dynval.identify(ye, tau_e).predict(yv)
+    plus = np.concatenate([ye, col_e], axis=2)
+    after = tau_v - np.concatenate([yv, col_v], axis=2) @ np.linalg.lstsq(plus.reshape(-1, plus.shape[2]),
+                                                                           tau_e.reshape(-1), rcond=None)[0]
+    expected = 1.0 - np.mean(after**2, axis=0) / np.mean(base**2, axis=0)
+    assert gain["shares"] == pytest.approx(list(expected), abs=1e-6)
+
+
+def test_a_rotor_inertia_the_model_has_on_its_joint_alone_is_re_identified_when_it_changed():
+    """The model has the column [0 | q̈₁]; the rotor inertia grew from 0.1 to 0.5 between runs: the
+    column is the model's over all joints, so adding it gains nothing and the advice is to
+    re-identify. Kills: ``local`` without the stacked refit's gain (the joint's span alone)."""
+    r = _rotor_report(0.1, 0.5, model_rotor=True)
+    f = _physics_finding(r, 1)
+    assert f.details["relation"] == "reweight", f.details["model_terms"]
+    assert "local" not in f.details["model_terms"]
+    assert f.action.startswith("re-identify")
+
+
+def test_the_naming_refit_carries_each_column_in_the_estimation_runs_units():
+    """A coefficient refitted on the estimation run is carried to the validation run: both runs'
+    library columns take the estimation run's scale (and its Coulomb velocity scale), so a
+    validation run moving twice as fast has a viscous column twice as large. Kills: each run scaled
+    by its own RMS (the carried viscous term then half what it is), a second velocity scale."""
+    qe, dqe, ddqe = _motion_of(1)
+    qv, dqv, ddqv = (2.0 * x for x in _motion_of(1))
+    de = _physics.derivatives(qe, FS, dqe, ddqe)
+    dv = _physics.derivatives(qv, FS, dqv, ddqv)
+    est, val = _motion._carried_libraries(1, qe, de, qv, dv, FS)
+    rms = np.sqrt(np.mean(dqe[:, 1] ** 2))
+    assert np.allclose(est["viscous"][:, 0], dqe[:, 1] / rms) and np.allclose(val["viscous"][:, 0], dqv[:, 1] / rms)
+    assert np.allclose(val["inertia"], 2.0 * est["inertia"])
+    # the smooth signs tanh(q̇ / (c·v_s)) with the estimation run's v_s on both runs
+    assert np.allclose(val["coulomb"][:, 1] * _physics._scale(np.tanh(dqe[:, 1] / (0.02 * rms))),
+                       np.tanh(dqv[:, 1] / (0.02 * rms)))
+    assert np.allclose(val["offset"], 1.0) and set(est) == set(val)

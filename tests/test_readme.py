@@ -55,8 +55,14 @@ def test_the_real_robot_example_runs_alone(capsys):
     # derivatives come from one filter, handed to estimation= too
     named = {f.joints[0]: f for f in real.findings if f.kind == "missing_physics" and f.severity == "deficiency"}
     assert named[0].details["relation"] == "coupling" and "coupling" in named[0].action
-    for j in (2, 3, 4):
-        assert named[j].details["term"] in ("viscous", "coulomb") and not named[j].action.startswith("add"), j
+    # the model's own q̇_j refitted again adds nothing (the naming refit carries each column in the
+    # estimation run's units: a run-by-run scaling made it look like a 23–84 % gain on joints 2–4)
+    for t in real.physics["tests"]:
+        if t["refit_run"] == "estimation":
+            assert abs(t["refit_shares"]["viscous"]) < 1e-6, t["joint"]
+    for f in named.values():
+        if f.details["term"] in ("viscous", "coulomb", "inertia"):
+            assert not f.action.startswith("add ") or f.details["relation"] in ("coupling", "local"), f.action
     assert not any(f.action.startswith(("add viscous", "add Coulomb")) for f in real.findings)
     assert real.physics["derivative_source"] == "given"
     out = capsys.readouterr().out

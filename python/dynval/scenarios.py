@@ -1126,7 +1126,9 @@ _ADD_WORDS = {"offset": "add a torque offset", "coulomb": "add a friction", "vis
 
 def adds_what_it_has(report: Any, s: Scenario, offered: bool, model_columns: Sequence[int]) -> list[str]:
     """The actions of ``report``'s deficiencies that tell the model to add a term it has (empty when
-    none): a named physical term among :attr:`Scenario.model_has` (its cross-joint coupling aside), a
+    none): a named physical term among :attr:`Scenario.model_has` (its cross-joint coupling aside, and
+    a term of one joint alone the model's shared parameters only bend to, relation ``local``: a
+    rotor inertia beside link inertias is a column outside the model's span over all joints), a
     bias's "add a friction"/"a gravity term"/"a torque offset" for a kind it has, or "add the term C"
     for one of its own columns."""
     names = report.provenance["column_names"] or ()
@@ -1135,7 +1137,7 @@ def adds_what_it_has(report: Any, s: Scenario, offered: bool, model_columns: Seq
     for f in report.deficiencies:
         d = f.details or {}
         physics = (f.kind == "missing_physics" and f.action.startswith("add ") and d.get("term") in s.model_has
-                   and d.get("relation") != "coupling")
+                   and d.get("relation") not in ("coupling", "local"))
         bias = f.kind == "bias" and any(k in s.model_has and w in f.action for k, w in _ADD_WORDS.items())
         column = f.action.startswith("add the term ") and bool(f.columns) and int(f.columns[0]) in own
         if physics or bias or column:

@@ -62,14 +62,15 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level,
                                   libraries=libs, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
+    local: dict[int, dict[str, Any]] = {}
     source = derivative_source(q, dq, ddq, est_run)
     if est_fit is not None and reg3 is not None and meas is not None and est_run is not None and "q" in est_run:
-        refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source)
+        local = refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source)
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
     declared = declared_groups(reg3, cols, column_names)
-    relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs)
+    relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs, local)
     return {"naming": naming,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
@@ -135,11 +136,14 @@ def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, 
                  d: Derivatives, sample_rate: float | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
                  est_fit: EstimationFit | None,
                  practical: float, declared: list[set[str]] | None = None,
-                 libraries: list[dict[str, np.ndarray]] | None = None) -> None:
+                 libraries: list[dict[str, np.ndarray]] | None = None,
+                 local: Mapping[int, dict[str, Any]] | None = None) -> None:
     """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
     with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
     with the coefficients of the model's columns closest to it, estimated and refitted on this run.
-    ``libraries``: each joint's library when built already."""
+    ``libraries``: each joint's library when built already. ``local``: per joint, what the named
+    group's own columns added on that joint alone give (:func:`refit_names`): a term the joint's
+    columns span only by bending parameters other joints share is ``local``, not a re-weighting."""
     n, m = e.shape
     for t in tests:
         if t.term is None:
@@ -161,6 +165,10 @@ def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, 
         base = _model_terms.crossfit_sse(ej, y_j[:, active], full=both)
         t.carried_share = (base - _model_terms.crossfit_sse(ej, both, full=both)) / total
         rel = _model_terms.relate(j, t.term, ej, y_j, lib, m, practical, declared[j] if declared else set())
+        gain = (local or {}).get(j)
+        if (rel["relation"] == "reweight" and gain is not None and gain["group"] == t.term
+                and gain["share"] >= practical):
+            rel["relation"], rel["local"] = "local", gain
         near = _model_terms.aligned_columns(y_j, lib[t.term])
         in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
         est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred
@@ -335,7 +343,7 @@ def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
 def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fit: EstimationFit,
                 reg3: np.ndarray, meas: np.ndarray, q: np.ndarray, d: Derivatives, sample_rate: float | None,
                 practical: float = 0.05,
-                source: str = "savgol") -> None:
+                source: str = "savgol") -> dict[int, dict[str, Any]]:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
     estimation run with one library group added on every flagged joint at once (a friction or an
     offset is usually missing on all joints alike, and the joints' terms interact through the
@@ -347,10 +355,13 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
     ``source`` (:func:`derivative_source`): both runs' libraries take their q̇, q̈ from one source,
     the user's (``"given"``) or Savitzky–Golay of each run's q, never one of each (a "viscous"
     column of one filter is not the model's F_v of another, and refitting it looks like a gain).
+
+    Returns, per flagged joint whose term is named, what the named group's own columns added on that
+    joint alone give (:func:`_joint_local_gains`).
     """
     flagged = [t for t in tests if t.selected]
     if not flagged:
-        return
+        return {}
     cols = list(est_fit.columns)
     q_e = est_run["q"]
     if source == "given":
@@ -367,8 +378,9 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
     y_v = reg3[:, :, cols] * scales
     x = y_e.reshape(n_e * m, k)
     gram, rhs = x.T @ x, x.T @ tau_e.reshape(-1)
-    lib_e = {t.joint: _physics.library(t.joint, q_e, de.dq, de.ddq, np.zeros(n_e), sample_rate) for t in flagged}
-    lib_v = {t.joint: _physics.library(t.joint, q, d.dq, d.ddq, np.zeros(q.shape[0]), sample_rate) for t in flagged}
+    both = {t.joint: _carried_libraries(t.joint, q_e, de, q, d, sample_rate) for t in flagged}
+    lib_e = {j: pair[0] for j, pair in both.items()}
+    lib_v = {j: pair[1] for j, pair in both.items()}
     base = {t.joint: float(np.mean((meas[:, t.joint] - reg3[:, t.joint, cols] @ est_fit.coefficients) ** 2))
             for t in flagged}
     gains: dict[int, dict[str, float]] = {t.joint: {} for t in flagged}
@@ -407,6 +419,68 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
         t.term, t.term_share = best, max(0.0, gj[best])
         t.refit_shares = {g: float(v) for g, v in gj.items()}
         t.refit_run = how
+    every = {j: float(np.mean((meas[:, j] - reg3[:, j, cols] @ est_fit.coefficients) ** 2)) for j in range(m)}
+    return {t.joint: _joint_local_gains(t.joint, t.term, lib_e[t.joint][t.term], lib_v[t.joint][t.term], gram, rhs,
+                                        y_e, y_v, tau_e, meas, every)
+            for t in flagged if t.term is not None and t.term in lib_e[t.joint]}
+
+
+_NORMAL_RCOND = 1e-10
+"""Singular values of unit-norm normal equations below this fraction of the largest are dependent
+directions (1e-5 of the design's: a column within 1e-5 of the others' span adds nothing)."""
+
+
+def _carried_libraries(j: int, q_e: np.ndarray, de: Derivatives, q: np.ndarray, d: Derivatives,
+                        sample_rate: float | None) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Joint j's library on the estimation run and on the validation run in the estimation run's
+    units: a coefficient refitted on the one is carried to the other, so each column is scaled by its
+    RMS on the estimation run on both (the library scales each run by its own RMS: a validation run
+    moving 20 % faster would carry a viscous term 20 % too small, and a column the model has, refitted
+    again, would look like a gain), and the Coulomb shapes take the estimation run's velocity scale on
+    both (the same shape). The drift is each run's own time, as the library defines it."""
+    vs = _physics._scale(de.dq[:, j])
+
+    def raw(q_r: np.ndarray, d_r: Derivatives) -> dict[str, np.ndarray]:
+        n = q_r.shape[0]
+        u = np.zeros(n)  # unscaled columns (the drift is replaced below)
+        return _physics.library(j, q_r, d_r.dq, d_r.ddq, np.zeros(n), sample_rate, velocity_scale=vs, row_index=u)
+
+    est, val = raw(q_e, de), raw(q, d)
+    scales = {g: np.array([_physics._scale(c) for c in x.T]) for g, x in est.items() if g != "drift"}
+    out = ({g: x / scales[g] for g, x in est.items() if g != "drift"},
+           {g: x / scales[g] for g, x in val.items() if g != "drift"})
+    for lib, q_r in zip(out, (q_e, q)):
+        lib["drift"] = _physics.library(j, None, None, None, np.zeros(q_r.shape[0]), sample_rate)["drift"]
+    return out
+
+
+def _joint_local_gains(j: int, group: str, lib_e: np.ndarray, lib_v: np.ndarray, gram: np.ndarray, rhs: np.ndarray,
+                       y_e: np.ndarray, y_v: np.ndarray, tau_e: np.ndarray, meas: np.ndarray,
+                       base: Mapping[int, float]) -> dict[str, Any]:
+    """The group's own columns (functions of joint j's motion alone: a rotor inertia's q̈_j, a friction
+    of q̇_j) added on joint j's rows only, the model refitted with them on the estimation run (unit-norm
+    model columns, its normal equations ``gram``, ``rhs``): per joint, the share of its validation mean
+    square (``base``, the model as estimated) this removes. A term the model's columns span on joint j's
+    rows by moving parameters that other joints share (a link inertia that also loads the joints before
+    it) is not one the model has there: adding it lets the fit stop bending them (conventions §5.2,
+    "Joint-local terms")."""
+    m = meas.shape[1]
+    own = lib_e[:, ~_model_terms.coupling_mask(group, j, m, lib_e.shape[1])]
+    own_v = lib_v[:, ~_model_terms.coupling_mask(group, j, m, lib_v.shape[1])]
+    k = gram.shape[0]
+    # unit-norm added columns and a relative cutoff on the normal equations (whose condition is the
+    # square of the design's): a column the model already has on this joint alone is dependent, and
+    # must add nothing rather than a rounding-sized direction scaled up
+    norm = np.sqrt(np.sum(own * own, axis=0))
+    scale = np.where(norm > 0, 1.0 / np.where(norm > 0, norm, 1.0), 0.0)
+    own, own_v = own * scale, own_v * scale
+    a = np.block([[gram, y_e[:, j, :].T @ own], [own.T @ y_e[:, j, :], own.T @ own]])
+    coef = np.linalg.lstsq(a, np.concatenate([rhs, own.T @ tau_e[:, j]]), rcond=_NORMAL_RCOND)[0]
+    shares = []
+    for i in range(m):
+        resid = meas[:, i] - y_v[:, i, :] @ coef[:k] - (own_v @ coef[k:] if i == j else 0.0)
+        shares.append((base[i] - float(np.mean(resid**2))) / base[i] if base[i] > 0 else 0.0)
+    return {"group": group, "columns": int(own.shape[1]), "share": shares[j], "shares": shares}
 
 
 def _validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, float]:

@@ -116,6 +116,10 @@ def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
     if f.kind in ("oscillation", "prediction_artefact", "periodic_error"):
         return effect, VALIDATION, j
     if f.kind == "missing_physics":
+        local = _local(f)
+        if local is not None:
+            # the term added on its joint alone, refitted on the estimation run, carried to validation
+            return _finite(local.get("share")), HELD_OUT, j
         return _finite(d.get("term_share", f.effect)), VALIDATION, j
     if f.kind == "delay":
         shares = [_finite(x) for x in d.get("share") or ()]
@@ -129,6 +133,31 @@ def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
     if f.kind == "physical_consistency" and "share" in unit:
         return effect, HELD_OUT, j
     return None, VALIDATION, j
+
+
+def _local(f: Finding) -> dict[str, Any] | None:
+    """A joint-local term's stacked refit (``model_terms.local``, relation ``local``), else None."""
+    d = f.details or {}
+    if f.kind != "missing_physics" or d.get("relation") != "local":
+        return None
+    local = (d.get("model_terms") or {}).get("local")
+    return local if isinstance(local, dict) else None
+
+
+def _carried(f: Finding) -> dict[int, float]:
+    """What adding the structure a finding names removes on the joints it does not act on, per joint:
+    a missing column's ``details["indirect"]``, a joint-local term's refit on the other joints."""
+    local = _local(f)
+    if local is not None:
+        shares = {k: _finite(s) for k, s in enumerate(local.get("shares") or ()) if k not in f.joints}
+    else:
+        shares = {int(k): _finite(s) for k, s in ((f.details or {}).get("indirect") or {}).items()}
+    return {k: s for k, s in shares.items() if s is not None}
+
+
+_FOLLOWS = 0.5
+"""A joint whose residual mean square a lacking structure elsewhere removes at least this share of
+(its refit carried to the validation run) has that structure as its cause: its own findings follow."""
 
 
 _UMBRELLA = ("worse_than_constant", "periodic_error", "predictive_failure")
@@ -161,7 +190,7 @@ def _torque_share(share: float | None, joint: int | None, r2: Sequence[float] | 
     return share * rest if math.isfinite(rest) and rest > 0 else None
 
 
-_LACKS = ("missing", "partial", "coupling")
+_LACKS = ("missing", "partial", "coupling", "local")
 """Relations of a physical term to the model's columns (:mod:`dynval.statistics._model_terms`)
 in which the model lacks a structure."""
 
@@ -196,6 +225,8 @@ def _reweights(f: Finding) -> bool:
     if f.kind != "missing_physics":
         return False
     d = f.details or {}
+    if d.get("relation") == "local":
+        return False
     terms = d.get("model_terms") or {}
     outside, reweight = _finite(terms.get("outside_share")), _finite(terms.get("reweight_share"))
     spanned = outside is not None and reweight is not None and reweight > 0 and outside <= _SPANNED * reweight
@@ -253,11 +284,17 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     lacking_columns = {c for _, c in lacking}
 
     bent = _bent_joints(findings)
+    # joints whose error adding a lacking structure elsewhere removes (a missing rotor inertia's refit
+    # takes most of the wrists' error: the fit had bent the link inertias they share)
+    explained = {k for f in findings if f.severity == "deficiency" and _lacks(f)
+                 for k, s in _carried(f).items() if s >= _FOLLOWS and k not in f.joints}
 
     def group(f: Finding) -> int:
         if f.kind == "whiteness":
             return 2
         if f.joints and set(f.joints) <= bent and _reweights(f):
+            return 1
+        if f.joints and set(f.joints) <= explained and not _lacks(f):
             return 1
         if f.kind != "prediction_artefact" and f.joints and set(f.joints) <= artefact:
             return 1
@@ -293,7 +330,8 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
         if own is None:
             return (g, 1, 0.0, 0.0, i)
         c = _missing_column(r.finding)
-        return (g, 0, -(cause[c] if c is not None else own), -own, i)
+        total = cause[c] if c is not None else own + (r.indirect_torque if _local(r.finding) else 0.0)
+        return (g, 0, -total, -own, i)
 
     return [r for _, r in sorted(enumerate(ranked), key=key)]
 
@@ -302,7 +340,7 @@ def _indirect(f: Finding, r2: Sequence[float] | None) -> float:
     """What a missing column's refit removes on the joints it does not act on (``details["indirect"]``:
     joint → share of its residual), on the scale :func:`rank` compares (of the torque with ``r2``)."""
     total = 0.0
-    for joint, share in ((f.details or {}).get("indirect") or {}).items():
+    for joint, share in _carried(f).items():
         scaled = share if r2 is None else _torque_share(share, int(joint), r2)
         total += scaled if scaled is not None else 0.0
     return total
@@ -331,8 +369,13 @@ def torque_text(x: float) -> str:
 
 
 def _indirect_text(r: Ranked, joint_names: Sequence[str] | None) -> str:
-    """A missing column's effect on the joints it does not enter, which counts in its rank."""
+    """A missing column's or a joint-local term's effect on the joints it does not act on, which counts
+    in its rank (a joint-local term's: where it removes a practical share, the largest first)."""
     indirect = (r.finding.details or {}).get("indirect") or {}
+    if _local(r.finding) is not None:
+        practical = _finite(r.finding.threshold) or 0.0
+        indirect = dict(sorted(((k, s) for k, s in _carried(r.finding).items() if s >= practical),
+                               key=lambda kv: -kv[1])[:4])
     if not indirect:
         return ""
     where = ", ".join(f"{share_text(float(s))} on {_name(joint_names, int(j))}" for j, s in indirect.items())

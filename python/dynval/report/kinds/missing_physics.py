@@ -70,6 +70,8 @@ def words(name: str, label: str, others: Sequence[str], together: float, term_sh
                 f"the cross-joint columns lie outside its span and remove {held} (a decoupled model of a coupled "
                 "arm).",
                 f"add the coupling (cross-joint) terms of {label} on {name}: {coupling_terms(rel['group'], name)}")
+    if kind == "local":
+        return _local_words(head, name, label, rel, advice)
     if kind == "partial":
         return (head + f": the model has part of this term ({rel['own_in_span']} of its {rel['own_columns']} own "
                 f"columns lie in the span of its columns); what lies outside removes {held}: another shape of it.",
@@ -77,6 +79,30 @@ def words(name: str, label: str, others: Sequence[str], together: float, term_sh
                 + PARTIAL_FORMS.get(rel["group"], "the form it lacks"))
     return (head + f": a term the model lacks (outside the span of its columns on this joint; it removes {held}).",
             f"add {label} on {name} to the model")
+
+
+LOCAL_FORMS = {"inertia": "a rotor inertia J_a·q̈ (a motor's reflected inertia)",
+               "viscous": "a viscous friction F_v·q̇", "coulomb": "a Coulomb friction F_c·sign q̇",
+               "velocity_squared": "a drag term q̇|q̇|", "offset": "a torque offset"}
+"""What a group's own columns on one joint alone are, as a column of the model (relation ``local``)."""
+
+
+def _local_words(head: str, name: str, label: str, rel: Mapping[str, Any], advice: Mapping[str, Any]) -> Words:
+    """The model's columns span the term on this joint's rows only by moving parameters other joints
+    share (``rel["local"]``: the stacked refit with the group's own columns on this joint alone)."""
+    gain = rel["local"]
+    names = advice.get("joint_names") or []
+    form = LOCAL_FORMS.get(rel["group"], f"{label} of this joint's own motion")
+    others = [f"{100 * s:.0f} % on {names[k]}" for k, s in sorted(enumerate(gain["shares"]), key=lambda kv: -kv[1])
+              if k < len(names) and names[k] != name and s >= advice.get("practical", 0.0)][:3]
+    shared = [names[k] for k in rel.get("shared_with") or () if k < len(names)]
+    through = f" (shared with {', '.join(shared)})" if shared else ""
+    return (head + f": the model's columns span it on {name}'s rows only by moving parameters other joints share"
+            f"{through}, so re-identifying them cannot add it; {form} on {name} alone, refitted with the model on "
+            f"the estimation run and carried to this run, removes {100 * gain['share']:.0f} % of {name}'s mean square"
+            + (f" (and {', '.join(others)}, where the fit had bent the shared parameters)" if others else "") + ".",
+            f"add {form} on {name} alone: the model's link terms carry it there only by bending parameters other "
+            "joints share")
 
 
 def _measured(label: str, advice: Mapping[str, Any]) -> str:
@@ -147,6 +173,7 @@ def rule(r: Context) -> list[Finding]:
         together = float(t.get("selected_share", t["term_share"]))
         rel = t.get("relation")
         advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel, "practical": th.missing_physics,
+                  "joint_names": [r.name(k) for k in range(len(ev.physics["tests"]))],
                   "derivatives": _derivative_words(ev.physics),
                   "column_names": None if rel is None else [r.column(c) for c in rel.get("columns", [])],
                   "simulator": simulator_values(ev, j, rel["columns"][0]) if rel and rel.get("columns") else None}
@@ -173,6 +200,7 @@ RELATION = {
     "reweight": "mis-weighted or changed between runs (the model has it):",
     "coupling": "missing the cross-joint coupling of",
     "partial": "part of a term the model has, another shape of",
+    "local": "missing on this joint alone (the model spans it only through parameters other joints share):",
 }
 """The physics finding relative to the model's columns (``details["relation"]``) in ``compare``'s
 reason; without it (the columns unknown) a structure of the kind remains."""
