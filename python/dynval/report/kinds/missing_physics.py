@@ -83,7 +83,10 @@ def words(name: str, label: str, others: Sequence[str], together: float, term_sh
 
 LOCAL_FORMS = {"inertia": "a rotor inertia J_a·q̈ (a motor's reflected inertia)",
                "viscous": "a viscous friction F_v·q̇", "coulomb": "a Coulomb friction F_c·sign q̇",
-               "velocity_squared": "a drag term q̇|q̇|", "offset": "a torque offset"}
+               "velocity_squared": "a drag term q̇|q̇|", "offset": "a torque offset",
+               "gravity": "a torque of its own angle, sin q and cos q (a spring, a counterbalance or a cable: the "
+                          "links' gravity would also load the joints before it)",
+               "position_harmonic": "position harmonics of its own angle (its motor's cogging)"}
 """What a group's own columns on one joint alone are, as a column of the model (relation ``local``)."""
 
 
