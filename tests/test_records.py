@@ -176,3 +176,35 @@ def _assert_same_value(value, decoded, where):
         assert decoded == (bool(value) if isinstance(value, np.bool_) else value), where
     else:
         assert decoded == pytest.approx(float(value), rel=1e-15, abs=0.0), where
+
+
+def test_a_section_completed_later_keeps_each_names_place_and_adds_new_names_last():
+    # a later step completes a section (the cross-correlation's parameter_error, the design's motion):
+    # the record it gets lists its names as the mapping updated in place would, so the JSON is the same
+    section = rec.CrossCorrelation.of({"max_lag": 3, "band": 0.1, "level": 0.95})
+    done = section.with_(band=0.2, parameter_error=True)
+    assert list(done) == ["max_lag", "band", "level", "parameter_error"]
+    assert done.band == 0.2 and done.parameter_error is True
+    assert list(section) == ["max_lag", "band", "level"] and section.band == 0.1  # the first record is unchanged
+    with pytest.raises(TypeError, match="no field 'rho_typo'"):
+        section.with_(rho_typo=1.0)
+
+
+def test_present_reads_a_quantity_not_computed_as_none():
+    design = rec.Design.of({"noise_n_eff": np.array([10.0])})
+    assert rec.present(design.repeat) is None
+    assert rec.present(design.noise_n_eff) is design.noise_n_eff
+    assert rec.present(0.0) == 0.0  # a computed falsy value stays
+
+
+def test_the_assembler_takes_the_builders_records_as_they_are(full_report):
+    # validate's sections are built once, frozen: a route cannot write a section after the fact
+    from dynval.report._assembly import Sections
+
+    names = {f.name for f in dataclasses.fields(Sections)}
+    assert {"per_joint", "bias", "white", "cross", "design", "physics"} <= names
+    b = Sections(km={}, per_joint=full_report.per_joint, pooled=full_report.pooled,
+                 aggregates=full_report.aggregates, residuals=full_report.residuals,
+                 ic=full_report.information_criteria)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        b.bias = full_report.bias  # type: ignore[misc]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -36,7 +36,10 @@ from ..checks._typing import (
 )
 from ..kernels._blas import one_blas_thread
 from ..statistics import _estimation
+from ..statistics._estimation import EstimationFit
+from ..statistics._stats import Spectrum
 from . import _consistency, _motion
+from . import _records as rec
 from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
@@ -243,14 +246,20 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
-    b = Sections()
-    _residual_sections(d, o, b)
-    _lag_sections(d, o, b)
-    _regressor_sections(d, o, b)
-    _motion_sections(d, o, b)
+    r = _residual_sections(d, o)
+    lagged = _lag_sections(d, o, r)
+    crossed = _regressor_sections(d, o, r)
+    motion = _motion_sections(d, o, r, lagged)
+    named = None
     if seg_names is not None:
-        b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
-                                                o.n_params, o.profile)
+        lengths = cast(list[int], segments)  # with names, named_segments gives the lengths as a list
+        named = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, lengths, o.n_params, o.profile)
+    b = Sections(km=r.km, per_joint=r.per_joint, pooled=r.pooled, aggregates=r.aggregates, residuals=r.residuals,
+                 ic=r.ic, bias=r.bias, acf=lagged.acf, lb=lagged.lb, lb_lags=lagged.lb_lags, white=lagged.white,
+                 spec=lagged.spec, spec_tests=lagged.spec_tests, spec_sides=lagged.spec_sides, cross=crossed.cross,
+                 xrho=crossed.xrho, xsd=crossed.xsd, missing=crossed.missing, design=motion.design,
+                 physics=motion.physics, predictive=motion.predictive, periodic=motion.periodic,
+                 model_kinds=motion.model_kinds, segment_metrics=named)
     report = _assemble(d, o, b, seg_names)
     return report if not physical else _with_findings(report, physical)
 
@@ -320,39 +329,63 @@ def _assemble(d: _Data, o: Options, b: Sections, seg_names: list[str] | None) ->
     return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
 
 
-def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
+class _Residual(NamedTuple):
+    """The point metrics, the residual's moments and zero-mean test, the estimation refit, the bias
+    test, the criteria, and the regressor's Gram matrices the later phases share."""
+
+    km: dict[str, Any]
+    per_joint: rec.PerJoint
+    pooled: rec.Pooled
+    aggregates: rec.Aggregates
+    residuals: rec.Residuals
+    est_fit: EstimationFit | None
+    bias: rec.Bias | None
+    ic: rec.InformationCriteria
+    grams: algebra.JointGrams | None
+
+    @property
+    def n_eff(self) -> FloatArray | None:
+        """Each joint's effective sample size from the bias test (None without lags)."""
+        return None if self.bias is None else self.bias.n_eff
+
+
+def _residual_sections(d: _Data, o: Options) -> _Residual:
     """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
     from ..metrics._api import checked_zero_mean_test
 
     prof = o.profile
-    b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
-    b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
+    km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
+    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
     lagged = d.lags.max_lag > 0
     zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
-           else sec.iid_zero_mean_test(b.km, d.n, prof.ddof))
-    b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
-                   "variance": np.asarray(b.km["residual_variance"], dtype=np.float64),
-                   "ddof": prof.ddof, "zero_mean_test": zmt}
+           else sec.iid_zero_mean_test(km, d.n, prof.ddof))
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
     # The estimation run, when given with its torques: the parameters' coloured-noise covariance
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
     est = o.estimation or {}
+    est_fit = None
     if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
         cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
-        b.est_fit = d.memo(("fit_columns", _estimation_key(d, est), cols),
-                           lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
+        est_fit = d.memo(("fit_columns", _estimation_key(d, est), cols),
+                         lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
     param_var = None
-    if b.est_fit is not None and d.reg3 is not None:
-        fit, val_reg = b.est_fit, d.reg3
+    if est_fit is not None and d.reg3 is not None:
+        fit, val_reg = est_fit, d.reg3
         means = d.memo(("column_means", val_reg.shape, fit.columns),
                        lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
         param_var = _estimation.quadratic_forms(fit, means)
-    b.bias = sec.bias_test(d.e, d.lags.starts, b.per_joint["rmse"], param_var) if lagged else None
-    b.n_eff = None if b.bias is None else b.bias["n_eff"]
-    b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
+    bias = None
+    if lagged:
+        assert d.e is not None  # a residual whenever lags are analysed
+        bias = sec.bias_test(d.e, d.lags.starts, per_joint.rmse, param_var)
+    ic = sec.information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
     reg3 = d.reg3
-    b.grams = None if reg3 is None else d.memo(
+    grams = None if reg3 is None else d.memo(
         ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
+    return _Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams)
 
 
 def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
@@ -363,93 +396,133 @@ def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
     return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
 
 
-def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
+class _Lagged(NamedTuple):
+    """The lag analysis: ACF, Ljung–Box, whiteness at the information rate, the residual's spectrum."""
+
+    lb_lags: list[int]
+    acf: rec.Autocorrelation | None = None
+    lb: rec.LjungBox | None = None
+    white: rec.Whiteness | None = None
+    spec: rec.Spectrum | None = None
+    spec_tests: Spectrum | None = None
+    spec_sides: tuple[FloatArray, FloatArray] | None = None
+
+
+def _lag_sections(d: _Data, o: Options, r: _Residual) -> _Lagged:
     """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
     lags = d.lags
-    b.lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
+    lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
     if lags.max_lag <= 0:
-        return
-    b.acf = sec.autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
-    if b.lb_lags:
-        b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, lags.starts)
-        b.white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, b.lb, o.decimate, o.sample_rate, band=lags.band,
-                                bandwidth=o.bandwidth, lag=lags.white_lag)
-    b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams, memo=d.memo)
-    b.spec_sides = sec.spectrum_sides(d.meas, d.pred, lags.starts, o.sample_rate, b.spec)
+        return _Lagged(lb_lags)
+    assert d.e is not None  # a residual whenever lags are analysed
+    acf = sec.autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
+    lb = white = None
+    if lb_lags:
+        lb = sec.ljung_box(o.kernel, d.e, lb_lags, lags.starts)
+        white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, lb, o.decimate, o.sample_rate, band=lags.band,
+                              bandwidth=o.bandwidth, lag=lags.white_lag)
+    spec, spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, r.grams, memo=d.memo)
+    return _Lagged(lb_lags, acf, lb, white, spec, spec_tests, sec.spectrum_sides(d.meas, d.pred, lags.starts,
+                                                                                 o.sample_rate, spec))
 
 
-def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
+class _Crossed(NamedTuple):
+    """The residual against the regressor's columns, and the columns the model lacks."""
+
+    cross: rec.CrossCorrelation | None = None
+    xrho: FloatArray | None = None
+    xsd: FloatArray | None = None
+    missing: dict[str, Any] | None = None
+
+
+def _regressor_sections(d: _Data, o: Options, r: _Residual) -> _Crossed:
     """Cross-correlation with the regressor's columns, and the columns the model lacks."""
     if d.reg2 is None:
-        return
-    b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile,
-                                                   o.level, d.lags.starts, d.n, d.m, b.n_eff, o.detail, memo=d.memo)
-    if b.est_fit is not None:
-        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, d.lags.starts, o.profile, o.level,
-                                       memo=d.memo)
-        b.cross["parameter_error"] = True
-    if o.model_columns is not None and d.e is not None:
+        return _Crossed()
+    assert d.e is not None and d.p_cols is not None and d.reg3 is not None  # with a regressor
+    cross, xrho, xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile, o.level,
+                                             d.lags.starts, d.n, d.m, r.n_eff, o.detail, memo=d.memo)
+    if r.est_fit is not None:
+        xsd = sec.parameter_error_sd(xrho, xsd, d.e, d.reg3, r.est_fit, d.lags.starts, o.profile, o.level,
+                                     memo=d.memo)
+        cross = cross.with_(parameter_error=True)
+    missing = None
+    if o.model_columns is not None:
         est = o.estimation or {}
-        if b.est_fit is not None:
+        if r.est_fit is not None:
             cols = tuple(int(c) for c in o.model_columns)
             reg3 = d.reg3
-            assert reg3 is not None  # with reg2
-            b.missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
-                                digest(d.meas) if d.memo is not compute_now else ()),
-                               lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
+            missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
+                              digest(d.meas) if d.memo is not compute_now else ()),
+                             lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
         else:
-            b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, b.n_eff)
-        if b.missing is not None:
-            b.cross["missing_terms"] = dict(b.missing)
+            missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
+        if missing is not None:
+            cross = cross.with_(missing_terms=dict(missing))
+    return _Crossed(cross, xrho, xsd, missing)
 
 
-def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
+class _Motion(NamedTuple):
+    """The validation design and what the motion says."""
+
+    design: rec.Design | None
+    physics: rec.Physics | None = None
+    periodic: rec.Periodic | None = None
+    predictive: rec.Predictive | None = None
+    model_kinds: list[dict[str, bool]] | None = None
+
+
+def _motion_sections(d: _Data, o: Options, r: _Residual, lagged: _Lagged) -> _Motion:
     """The validation design, and what the motion says: physics library, delay, periodic noise,
     predictive test, each joint's motion and the smallest detectable effect."""
-    b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate,
-                          memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}), structure=d.structure)
+    design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, r.grams, sample_rate=o.sample_rate,
+                        memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}), structure=d.structure)
+    physics = periodic = model_kinds = None
     if o.q is not None and d.e is not None and not d.omitted:
-        b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
-                                    b.est_fit, o.level, o.estimation, d.meas,
-                                    practical=resolve_thresholds(o.thresholds).missing_physics,
-                                    column_names=o.column_names)
-        b.physics["delay"] = _motion.delay(d.meas, d.pred, o.sample_rate)
-        band = None if b.white is None else b.white["information_band"]
-        b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
+        phys = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
+                               r.est_fit, o.level, o.estimation, d.meas,
+                               practical=resolve_thresholds(o.thresholds).missing_physics,
+                               column_names=o.column_names)
+        physics = rec.Physics.of({**phys, "delay": _motion.delay(d.meas, d.pred, o.sample_rate)})
+        band = None if lagged.white is None else lagged.white.information_band
+        periodic = rec.record_or_none(rec.Periodic, _motion.periodic(d.e, o.q, o.sample_rate, band, r.est_fit, d.reg3,
+                                                                     o.model_columns))
     elif d.reg3 is not None and d.e is not None:
         # without q the model's columns still tell whether it has an offset (the bias rule's words)
-        cols = (list(b.est_fit.columns) if b.est_fit is not None else
+        cols = (list(r.est_fit.columns) if r.est_fit is not None else
                 list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
         declared = _motion.declared_groups(d.reg3, cols, o.column_names)
         # the regressor's work alone (each joint's span of the model's columns, an SVD of N × k):
         # kept by a prepared regressor, so compare's candidates with the same columns do it once
         key = ("model_kinds", d.reg3.shape, tuple(int(c) for c in cols),
                None if declared is None else tuple(frozenset(x) for x in declared))
-        kinds = d.memo(key, lambda: _motion.model_kinds(d.e, None, None, o.sample_rate, d.reg3, cols, declared))
-        b.model_kinds = None if kinds is None else [dict(x) for x in kinds]
-    if b.est_fit is not None and b.n_eff is not None:
-        b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff, memo=d.memo)
-    b.design = _motion_design(b.design, o, b.physics, d.m)
+        reg3 = d.reg3
+        kinds = d.memo(key, lambda: _motion.model_kinds(d.e, None, None, o.sample_rate, reg3, cols, declared))
+        model_kinds = None if kinds is None else [dict(x) for x in kinds]
+    predictive = None
+    if r.est_fit is not None and r.n_eff is not None:
+        predictive = rec.record_or_none(rec.Predictive, _motion.predictive(d.e, r.est_fit, d.reg3, r.n_eff,
+                                                                           memo=d.memo))
+    return _Motion(_motion_design(design, o, physics, d.m), physics, periodic, predictive, model_kinds)
 
 
-def _motion_design(design: dict[str, Any] | None, o: Options, phys: dict[str, Any] | None,
-                   m: int) -> dict[str, Any] | None:
+def _motion_design(design: rec.Design | None, o: Options, phys: rec.Physics | None, m: int) -> rec.Design | None:
     """The design section completed with what the motion says: each joint's motion against the
     estimation run's, and the smallest effect this run can detect per joint."""
     est_q = (o.estimation or {}).get("q")
     ratio = _motion.joint_excitation(o.q, est_q)
     # the noise's N_eff: what the physical terms leave (the residual's own N_eff counts a missing
     # term's slow structure as colour); without q it is not known
-    noise_n_eff = phys["n_eff"] if phys is not None else None
+    noise_n_eff = phys.n_eff if phys is not None else None
     if ratio is None and noise_n_eff is None:
         return design
-    design = dict(design or {})
+    more: dict[str, Any] = {}
     if ratio is not None:
-        design["joint_motion_ratio"] = ratio
+        more["joint_motion_ratio"] = ratio
     if noise_n_eff is not None:
-        design["noise_n_eff"] = np.asarray(noise_n_eff, dtype=float)
-        design["detectable_share"] = _motion.detectable_share(noise_n_eff, m, o.level)
-    return design
+        more["noise_n_eff"] = np.asarray(noise_n_eff, dtype=float)
+        more["detectable_share"] = _motion.detectable_share(noise_n_eff, m, o.level)
+    return (design or rec.Design.of({})).with_(**more)
 
 
 def _as_dict(result: Any) -> dict[str, Any]:

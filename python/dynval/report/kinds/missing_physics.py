@@ -114,7 +114,7 @@ def _coefficients(advice: Mapping[str, Any]) -> str:
     return "; ".join(parts) if parts else "its coefficients differ"
 
 
-def _derivative_words(physics: dict[str, Any]) -> str:
+def _derivative_words(physics: Mapping[str, Any]) -> str:
     from .._motion import source_text
 
     return source_text(str(physics.get("derivative_source", "savgol")))
