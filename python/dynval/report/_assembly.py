@@ -269,9 +269,7 @@ class Sections:
     cross: rec.CrossCorrelation | None = None
     xrho: FloatArray | None = None  # (m, p, L+1): every cell's correlation, whatever the section's detail
     xsd: FloatArray | None = None  # (m, p, L+1): its colour-aware standard deviation
-    # Any: the missing terms' test (the added-variable or the refit's), the cross-correlation's
-    # ``missing_terms`` (contract §4)
-    missing: dict[str, Any] | None = None
+    missing: rec.MissingTerms | None = None  # the cross-correlation's ``missing_terms``, as a record
     design: rec.Design | None = None
     physics: rec.Physics | None = None
     predictive: rec.Predictive | None = None
@@ -337,12 +335,12 @@ def _spectrum_evidence(ev: Evidence, spec: rec.Spectrum, tests: Spectrum,
         ev.spectrum_power_measured, ev.spectrum_power_prediction = sides
 
 
-def _missing_evidence(ev: Evidence, missing: dict[str, Any]) -> None:
+def _missing_evidence(ev: Evidence, missing: rec.MissingTerms) -> None:
     """The columns the model lacks: the added-variable correlations or the refit's tests."""
-    ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
-    ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
-    ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
-    ev.missing_enters, ev.missing_alone = missing.get("enters"), missing.get("alone")
+    ev.missing_columns, ev.missing_method = missing.columns, missing.method
+    ev.missing_statistic, ev.missing_pvalue = missing.statistic, missing.pvalue
+    ev.missing_share, ev.missing_explains_bias = missing.share, missing.explains_bias
+    ev.missing_enters, ev.missing_alone = rec.present(missing.enters), rec.present(missing.alone)
 
 
 @dataclass(frozen=True)

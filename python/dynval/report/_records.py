@@ -22,8 +22,8 @@ from ..checks._json import to_jsonable
 from ..checks._typing import BoolArray, FloatArray, IntArray
 
 __all__ = ["ABSENT", "Record", "Provenance", "PerJoint", "Pooled", "Aggregates", "Residuals", "Autocorrelation",
-           "LjungBox", "CrossCorrelation", "InformationCriteria", "Bias", "Whiteness", "Spectrum", "Design",
-           "Physics", "Predictive", "Periodic", "Timing", "Segment", "present", "record_or_none"]
+           "LjungBox", "CrossCorrelation", "MissingTerms", "InformationCriteria", "Bias", "Whiteness", "Spectrum",
+           "Design", "Physics", "Predictive", "Periodic", "Timing", "Segment", "present", "record_or_none"]
 
 _R = TypeVar("_R", bound="Record")
 _T = TypeVar("_T")
@@ -269,6 +269,25 @@ class CrossCorrelation(Record):
     # Any: the added-variable section (columns, statistics, p-values, shares), contract §4
     missing_terms: dict[str, Any] = ABSENT
     pvalue_adjusted: FloatArray = ABSENT
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class MissingTerms(Record):
+    """The columns outside ``model_columns`` tested as the model's missing terms: on the validation run
+    (``method`` "added_variable": ``statistic`` the correlation ρ, ``sd``, per joint and column (m, q))
+    or by the estimation run's refit (``method`` "estimation_refit": ``statistic`` its Wald t per column,
+    ``enters`` and ``alone`` (m, q)); ``share`` and ``explains_bias`` (m, q). The record of
+    ``cross_correlation.missing_terms``, which the report writes as a mapping (contract §4)."""
+
+    enters: BoolArray = ABSENT
+    method: str = ABSENT
+    columns: list[int] = ABSENT
+    statistic: FloatArray = ABSENT
+    sd: FloatArray = ABSENT
+    pvalue: FloatArray = ABSENT
+    share: FloatArray = ABSENT
+    alone: FloatArray = ABSENT
+    explains_bias: BoolArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -432,7 +432,7 @@ class _Crossed(NamedTuple):
     cross: rec.CrossCorrelation | None = None
     xrho: FloatArray | None = None
     xsd: FloatArray | None = None
-    missing: dict[str, Any] | None = None
+    missing: rec.MissingTerms | None = None
 
 
 def _regressor_sections(d: _Data, o: Options, r: _Residual) -> _Crossed:
@@ -452,9 +452,10 @@ def _regressor_sections(d: _Data, o: Options, r: _Residual) -> _Crossed:
         if r.est_fit is not None:
             cols = tuple(int(c) for c in o.model_columns)
             reg3 = d.reg3
-            missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
-                              digest(d.meas) if d.memo is not compute_now else ()),
-                             lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
+            missing = rec.record_or_none(rec.MissingTerms, d.memo(
+                ("missing_terms", _estimation_key(d, est), reg3.shape, cols,
+                 digest(d.meas) if d.memo is not compute_now else ()),
+                lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
         else:
             missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
         if missing is not None:

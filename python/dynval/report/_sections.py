@@ -474,7 +474,7 @@ def _top_cells(lag_max: IntArray, rho_max: FloatArray, z_max: FloatArray) -> lis
 
 
 def added_variable(e: FloatArray, reg3: FloatArray, model_columns: Sequence[int], starts: IntArray,
-                   n_eff: FloatArray | None) -> dict[str, Any] | None:
+                   n_eff: FloatArray | None) -> rec.MissingTerms | None:
     """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
 
     For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
@@ -521,8 +521,9 @@ def added_variable(e: FloatArray, reg3: FloatArray, model_columns: Sequence[int]
     with np.errstate(invalid="ignore", divide="ignore"):
         sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
     explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
-    return {"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
-            "pvalue": _stats.correlation_pvalue(rho, sd), "share": share, "explains_bias": explains}
+    return rec.MissingTerms.of({"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
+                                "pvalue": _stats.correlation_pvalue(rho, sd), "share": share,
+                                "explains_bias": explains})
 
 
 def segment_metrics(kernel: Kernels, meas: FloatArray, pred: FloatArray, names: Sequence[str],
