@@ -25,6 +25,7 @@ from . import _records as rec
 from ._findings import Evidence, Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
 from ._ranking import Ranked, deciding, first_reason
 from ._summary import format_summary
+from ._text import source_text
 
 REPORT_SCHEMA_VERSION = 1
 
@@ -433,8 +434,6 @@ def _derivatives(physics: rec.Physics | None) -> dict[str, Any] | None:
     runs' naming refits share (contract §4)."""
     if physics is None:
         return None
-    from ._motion import source_text
-
     return {"validation": physics.get("derivatives"), "both_runs": source_text(physics.get("derivative_source",
                                                                                                 "savgol")),
             "estimation_bandwidth_hz": physics.get("estimation_bandwidth_hz")}

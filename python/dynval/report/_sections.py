@@ -2,8 +2,10 @@
 record (``_records.py``); the parts of a section (``design.excitation``, ``cross_correlation.missing_terms``)
 are the contract's mappings.
 
-``validate`` (``_report.py``) checks the inputs once, then calls these in its phases, and the stream
-(``stream.py``) calls those its sums allow; the assembler (``_assembly.py``) reads the records'
+``validate`` (``_report.py``) checks the inputs once into a :class:`CheckedData`, then runs its phases:
+the residual's, the lag analysis and the regressor's are here (:func:`residual_phase`, :func:`lag_phase`,
+:func:`regressor_phase`, each returning its typed result), the motion's in ``_motion.py``. The stream
+(``stream.py``) calls the builders its sums allow; the assembler (``_assembly.py``) reads the records'
 attributes into the evidence the rules read.
 """
 
@@ -11,8 +13,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -23,7 +26,8 @@ from ..statistics import _estimation, _stats
 from ..statistics._columns import column_norms as _column_norms
 from ..statistics._columns import zero_columns
 from . import _records as rec
-from ._prepared import Memo, compute_now
+from . import _regressor_algebra as algebra
+from ._prepared import Memo, compute_now, digest
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
@@ -39,6 +43,7 @@ if TYPE_CHECKING:
     from ..statistics._estimation import EstimationFit
     from ..statistics._stats import LongRunVariance, Spectrum
     from ._findings import Thresholds
+    from ._options import Lags, Options
 
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
 
@@ -381,8 +386,8 @@ def _biased_acf(kernel: Kernels, x: FloatArray, starts: IntArray, big: int,
     (``live``: the columns known not to be all zeros)."""
     from ..kernels import _reference
 
-    if kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous \
-            and x.dtype == np.float64:
+    if (kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous
+            and x.dtype == np.float64):
         return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
     return _stats.acf_fft(x, starts, big, live=live)
 
@@ -703,3 +708,179 @@ def _regressor_excitation(reg3: FloatArray, grams: JointGrams | None, estimation
     if estimation is not None and "regressor" in estimation:
         est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
     return _excitation(partial(_stacked_r, reg3, memo=memo), stacked.shape[0], norms, gram, est, structure)
+
+
+# --------------------------------------------------------------------------- validate's phases
+
+
+@dataclass(frozen=True)
+class CheckedData:
+    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D), and
+    the frame of their lag analysis."""
+
+    meas: FloatArray
+    pred: FloatArray
+    e: FloatArray | None
+    reg2: FloatArray | None
+    reg3: FloatArray | None
+    p_cols: int | None
+    omitted: int
+    given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
+    given_pred: FloatArray
+    lags: Lags
+    # the prepared regressor's store of residual-independent results; compute_now keeps nothing
+    memo: Memo[Any] = compute_now
+    # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
+    structure: FloatArray | None = None
+
+    @property
+    def n(self) -> int:
+        return int(self.meas.shape[0])
+
+    @property
+    def m(self) -> int:
+        return int(self.meas.shape[1])
+
+
+class Residual(NamedTuple):
+    """The point metrics, the residual's moments and zero-mean test, the estimation refit, the bias
+    test, the criteria, and the regressor's Gram matrices the later phases share."""
+
+    km: dict[str, Any]
+    per_joint: rec.PerJoint
+    pooled: rec.Pooled
+    aggregates: rec.Aggregates
+    residuals: rec.Residuals
+    est_fit: EstimationFit | None
+    bias: rec.Bias | None
+    ic: rec.InformationCriteria
+    grams: JointGrams | None
+    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (_estimation_key)
+
+    @property
+    def n_eff(self) -> FloatArray | None:
+        """Each joint's effective sample size from the bias test (None without lags)."""
+        return None if self.bias is None else self.bias.n_eff
+
+
+def residual_phase(d: CheckedData, o: Options) -> Residual:
+    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
+    from ..metrics._api import checked_zero_mean_test
+
+    prof = o.profile
+    km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
+    per_joint, pooled, aggregates = point_metrics(km, prof)
+    lagged = d.lags.max_lag > 0
+    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
+           else iid_zero_mean_test(km, d.n, prof.ddof))
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    # The estimation run, when given with its torques: the parameters' coloured-noise covariance
+    # (the bias and regressor tests allow for it) and the refit that names a missing term.
+    est = o.estimation or {}
+    est_key = _estimation_key(d.memo, est)
+    est_fit = None
+    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
+        cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
+        est_fit = d.memo(("fit_columns", est_key, cols),
+                         lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
+    param_var = None
+    if est_fit is not None and d.reg3 is not None:
+        fit, val_reg = est_fit, d.reg3
+        means = d.memo(("column_means", val_reg.shape, fit.columns),
+                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
+        param_var = _estimation.quadratic_forms(fit, means)
+    bias = None
+    if lagged:
+        assert d.e is not None  # a residual whenever lags are analysed
+        bias = bias_test(d.e, d.lags.starts, per_joint.rmse, param_var)
+    ic = information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
+    # One pass over the regressor for both the spectrum's projection and the excitation section.
+    reg3 = d.reg3
+    grams = None if reg3 is None else d.memo(
+        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
+    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, est_key)
+
+
+def _estimation_key(memo: Memo[Any], est: Mapping[str, Any]) -> tuple[Any, ...]:
+    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
+    prepared regressor, where nothing is kept)."""
+    if memo is compute_now:
+        return ()
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
+
+
+class Lagged(NamedTuple):
+    """The lag analysis: ACF, Ljung–Box, whiteness at the information rate, the residual's spectrum."""
+
+    lb_lags: list[int]
+    acf: rec.Autocorrelation | None = None
+    lb: rec.LjungBox | None = None
+    white: rec.Whiteness | None = None
+    spec: rec.Spectrum | None = None
+    spec_tests: Spectrum | None = None
+    spec_sides: tuple[FloatArray, FloatArray] | None = None
+
+
+def lag_phase(d: CheckedData, o: Options, r: Residual) -> Lagged:
+    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
+    lags = d.lags
+    lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
+    if lags.max_lag <= 0:
+        return Lagged(lb_lags)
+    assert d.e is not None  # a residual whenever lags are analysed
+    acf = autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
+    lb = white = None
+    if lb_lags:
+        lb = ljung_box(o.kernel, d.e, lb_lags, lags.starts)
+        white = whiteness(o.kernel, d.e, d.pred, lags.starts, lb, o.decimate, o.sample_rate, band=lags.band,
+                              bandwidth=o.bandwidth, lag=lags.white_lag)
+    spec, spec_tests = spectrum(d.e, lags.starts, d.reg3, o.sample_rate, r.grams, memo=d.memo)
+    return Lagged(lb_lags, acf, lb, white, spec, spec_tests, spectrum_sides(d.meas, d.pred, lags.starts,
+                                                                                 o.sample_rate, spec))
+
+
+class Crossed(NamedTuple):
+    """The residual against the regressor's columns, and the columns the model lacks."""
+
+    cross: rec.CrossCorrelation | None = None
+    xrho: FloatArray | None = None
+    xsd: FloatArray | None = None
+    missing: rec.MissingTerms | None = None
+
+
+def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
+    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
+    if d.reg2 is None:
+        return Crossed()
+    assert d.e is not None and d.p_cols is not None and d.reg3 is not None  # with a regressor
+    cross, xrho, xsd = cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile, o.level,
+                                             d.lags.starts, d.n, d.m, r.n_eff, o.detail, memo=d.memo)
+    if r.est_fit is not None:
+        xsd = parameter_error_sd(xrho, xsd, d.e, d.reg3, r.est_fit, d.lags.starts, o.profile, o.level,
+                                     memo=d.memo)
+        cross = cross.with_(parameter_error=True)
+    missing = None
+    if o.model_columns is not None:
+        est = o.estimation or {}
+        if r.est_fit is not None:
+            cols = tuple(int(c) for c in o.model_columns)
+            reg3 = d.reg3
+            missing = rec.record_or_none(rec.MissingTerms, d.memo(
+                ("missing_terms", r.est_key, reg3.shape, cols,
+                 digest(d.meas) if d.memo is not compute_now else ()),
+                lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
+        else:
+            missing = added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
+        if missing is not None:
+            cross = cross.with_(missing_terms=dict(missing))
+    return Crossed(cross, xrho, xsd, missing)
+
+
+def _as_dict(result: Any) -> dict[str, Any]:
+    if hasattr(result, "_asdict"):
+        return dict(result._asdict())
+    if hasattr(result, "__dataclass_fields__"):
+        return {f: getattr(result, f) for f in result.__dataclass_fields__}
+    return dict(result)

@@ -8,6 +8,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from .._finding_words import NEGLIGIBLE, PARTIAL_FORMS, Words, coupling_terms, p_text, simulator_words
+from .._text import source_text
 from ._base import Context, Finding, Kind, effect_versus_threshold, worded
 from ._evidence import delay_explains, simulator_values, term_effect
 
@@ -115,8 +116,6 @@ def _coefficients(advice: Mapping[str, Any]) -> str:
 
 
 def _derivative_words(physics: Mapping[str, Any]) -> str:
-    from .._motion import source_text
-
     return source_text(str(physics.get("derivative_source", "savgol")))
 
 
