@@ -62,7 +62,17 @@ from .checks import _timing
 from .checks import _validation as v
 from .checks._checks import Array, CheckedCall
 from .checks._errors import InputError, InvalidParameter, ShapeMismatch
-from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .checks._typing import (
+    ArrayLike,
+    BoolArray,
+    FloatArray,
+    FusedMetrics,
+    IntArray,
+    Integer,
+    NanPolicy,
+    NoiseModel,
+    ProfileName,
+)
 from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .kernels._reference.information import assemble, fit_term_from_sums, pooled_sum
@@ -1014,7 +1024,7 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.
     return float(np.sum(np.ldexp(ss, 2 * shift)) + n * np.sum((d - np.mean(d)) ** 2)), top
 
 
-def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
+def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int, noise_model: str) -> FusedMetrics:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
@@ -1035,7 +1045,9 @@ def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int,
     rmse = np.ldexp(np.sqrt(sse_s / n), exp_e)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
     max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))
-    out: dict[str, Any] = {
+    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse_s, exp_e), mo.sigma, int(exp_e.max()))
+    ic = assemble(f, n_ic, n_vec, size, n_params)
+    return {
         "n_samples": n, "n_joints": m, "n_params": n_params, "sse": np.ldexp(sse_s, 2 * exp_e), "rmse": rmse,
         "max_abs_error": max_abs, "vaf": vaf, "fit_percent": fit, "r2": r2,
         "residual_mean": np.ldexp(mo.mean_e, exp_e), "residual_variance": np.ldexp(ssc_e / (n - ddof), 2 * exp_e),
@@ -1050,10 +1062,8 @@ def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int,
         "vaf_variance_weighted": variance_weighted(vaf, parts),
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
+        "aic": ic["aic"], "bic": ic["bic"], "aicc": ic["aicc"], "fpe": ic["fpe"], "naic": ic["naic"],
     }
-    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse_s, exp_e), mo.sigma, int(exp_e.max()))
-    out.update(assemble(f, n_ic, n_vec, size, n_params))
-    return out
 
 
 class _Kernel:

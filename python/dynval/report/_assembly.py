@@ -18,7 +18,7 @@ import numpy as np
 from .._version import CONTRACT_VERSION, __version__
 from ..checks._json import to_frame, to_jsonable
 from ..checks._timing import Timing
-from ..checks._typing import FloatArray
+from ..checks._typing import FloatArray, FusedMetrics
 from ..metrics._profiles import Profile
 from ..statistics._stats import Spectrum
 from . import _records as rec
@@ -252,8 +252,7 @@ class Sections:
     the arrays beside them that the findings read (``spec_tests``, ``xrho``, ``xsd``, ``missing``,
     ``spec_sides``, ``model_kinds``); built once, when every section is computed."""
 
-    # Any: the fused kernel's metrics by name (dynval._core.compute_metrics, contract §5.1)
-    km: dict[str, Any]
+    km: FusedMetrics  # the fused kernel's result (contract §5.1)
     per_joint: rec.PerJoint
     pooled: rec.Pooled
     aggregates: rec.Aggregates

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..checks._typing import FloatArray, IntArray, Kernels
+from ..checks._typing import FloatArray, FusedMetrics, IntArray, Kernels
 from ..metrics._profiles import Profile
 from ..statistics import _estimation, _stats
 from ..statistics._columns import column_norms as _column_norms
@@ -56,21 +56,26 @@ def _force_finite(values: ArrayLike, constant: ArrayLike) -> FloatArray:
     return values
 
 
-def point_metrics(km: Mapping[str, Any], prof: Profile) -> tuple[rec.PerJoint, rec.Pooled, rec.Aggregates]:
-    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's dictionary."""
+def point_metrics(km: FusedMetrics, prof: Profile) -> tuple[rec.PerJoint, rec.Pooled, rec.Aggregates]:
+    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's result."""
     scale = 1.0 if prof.units == "percent" else 0.01
     force = prof.constant_target == "force_finite"
     constant = np.asarray(km["constant_target"], dtype=bool)
+    # each fit measure as the kernel gives it: per joint, pooled, uniform and variance-weighted means
+    fits = {"vaf": (km["vaf"], km["vaf_pooled"], km["vaf_uniform_average"], km["vaf_variance_weighted"]),
+            "fit_percent": (km["fit_percent"], km["fit_percent_pooled"], km["fit_percent_uniform_average"],
+                            km["fit_percent_variance_weighted"]),
+            "r2": (km["r2"], km["r2_pooled"], km["r2_uniform_average"], km["r2_variance_weighted"])}
 
     def unit(name: str) -> float:
         return scale if name != "r2" else 1.0
 
     def per_joint_fit(name: str) -> FloatArray:
-        values = np.asarray(km[name], dtype=np.float64) * unit(name)
+        values = np.asarray(fits[name][0], dtype=np.float64) * unit(name)
         return _force_finite(values, constant) if force else values
 
     def pooled_fit(name: str) -> float:
-        value = float(km[f"{name}_pooled"]) * unit(name)
+        value = float(fits[name][1]) * unit(name)
         if force and km["constant_target_pooled"]:
             value = 1.0 if math.isnan(value) else 0.0
         return value
@@ -103,16 +108,16 @@ def point_metrics(km: Mapping[str, Any], prof: Profile) -> tuple[rec.PerJoint, r
             # Constant joints have weight 0 in both conventions, so the kernel's value stands,
             # except when every joint is constant: then the uniform mean of the forced values.
             weighted[name] = (float(np.mean(values)) if constant.all()
-                              else float(km[f"{name}_variance_weighted"]) * unit(name))
+                              else float(fits[name][3]) * unit(name))
         else:
-            uniform[name] = float(km[f"{name}_uniform_average"]) * unit(name)
-            weighted[name] = float(km[f"{name}_variance_weighted"]) * unit(name)
+            uniform[name] = float(fits[name][2]) * unit(name)
+            weighted[name] = float(fits[name][3]) * unit(name)
     aggregates = {"uniform_average": uniform, "variance_weighted": weighted,
                   "rmse_uniform_average": float(km["rmse_uniform_average"])}
     return rec.PerJoint.of(per_joint), rec.Pooled.of(pooled), rec.Aggregates.of(aggregates)
 
 
-def iid_zero_mean_test(km: Mapping[str, Any], n: int, ddof: int) -> dict[str, Any]:
+def iid_zero_mean_test(km: FusedMetrics, n: int, ddof: int) -> dict[str, Any]:
     """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
 
     With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
@@ -231,7 +236,7 @@ def _centred_columns(reg3: FloatArray) -> tuple[FloatArray, FloatArray]:
     return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
 
 
-def information_criteria(km: Mapping[str, Any], prof: Profile, noise_model: str, n: int, m: int, n_params: int,
+def information_criteria(km: FusedMetrics, prof: Profile, noise_model: str, n: int, m: int, n_params: int,
                          n_eff: FloatArray | None) -> rec.InformationCriteria:
     """The lesson's criteria of the noise model and, beside them, their N_eff-based variants."""
     n_obs = n * m if noise_model == "pooled" else n
@@ -746,7 +751,7 @@ class Residual(NamedTuple):
     """The point metrics, the residual's moments and zero-mean test, the estimation refit, the bias
     test, the criteria, and the regressor's Gram matrices the later phases share."""
 
-    km: dict[str, Any]
+    km: FusedMetrics
     per_joint: rec.PerJoint
     pooled: rec.Pooled
     aggregates: rec.Aggregates
