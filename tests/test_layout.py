@@ -175,3 +175,17 @@ def test_no_private_name_is_imported_across_packages():
     """Kills: a helper of another package's private module reached by its underscore name (the
     column norms, a file opener, a stream's snapshot) instead of a name that says it is shared."""
     assert _cross_package_private_names() == []
+
+
+def test_no_module_of_report_or_comparison_is_in_the_lenient_typing_tier():
+    # report/ and comparison/ are mypy strict (issue 35): a module named in pyproject's lenient tier
+    # would be checked without strict None checks and with untyped functions allowed
+    import tomllib
+
+    config = tomllib.loads((PACKAGE.parents[1] / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["mypy"]
+    lenient = [o for o in config["overrides"] if o.get("disallow_untyped_defs") is False]
+    assert lenient, "the lenient tier is where this test looks"
+    named = [m for o in lenient for m in o["module"]
+             if m.startswith(("dynval.report", "dynval.comparison"))]
+    assert named == []
+    assert not [m for m in config["untyped_calls_exclude"] if m.startswith(("dynval.report", "dynval.comparison"))]

@@ -118,7 +118,7 @@ def test_strict_json_of_non_finite_values():
     assert d["pooled"]["r2"] == "NaN" and d["information_criteria"]["aic"] == "-Infinity"
 
 
-@pytest.mark.parametrize("cls", [*SECTIONS.values(), rec.Segment], ids=lambda c: c.__name__)
+@pytest.mark.parametrize("cls", [*SECTIONS.values(), rec.Segment, rec.MissingTerms], ids=lambda c: c.__name__)
 def test_every_field_is_named_in_the_contract(cls):
     """One documented attribute per quantity: contract §4 names every field of every record."""
     text = (ROOT / "docs" / "contract.md").read_text(encoding="utf-8")
@@ -176,3 +176,69 @@ def _assert_same_value(value, decoded, where):
         assert decoded == (bool(value) if isinstance(value, np.bool_) else value), where
     else:
         assert decoded == pytest.approx(float(value), rel=1e-15, abs=0.0), where
+
+
+def test_a_section_completed_later_keeps_each_names_place_and_adds_new_names_last():
+    # a later step completes a section (the cross-correlation's parameter_error, the design's motion):
+    # the record it gets lists its names as the mapping updated in place would, so the JSON is the same
+    section = rec.CrossCorrelation.of({"max_lag": 3, "band": 0.1, "level": 0.95})
+    done = section.with_(band=0.2, parameter_error=True)
+    assert list(done) == ["max_lag", "band", "level", "parameter_error"]
+    assert done.band == 0.2 and done.parameter_error is True
+    assert list(section) == ["max_lag", "band", "level"] and section.band == 0.1  # the first record is unchanged
+    with pytest.raises(TypeError, match="no field 'rho_typo'"):
+        section.with_(rho_typo=1.0)
+
+
+def test_present_reads_a_quantity_not_computed_as_none():
+    design = rec.Design.of({"noise_n_eff": np.array([10.0])})
+    assert rec.present(design.repeat) is None
+    assert rec.present(design.noise_n_eff) is design.noise_n_eff
+    assert rec.present(0.0) == 0.0  # a computed falsy value stays
+
+
+def test_the_assembler_takes_the_builders_records_as_they_are(full_report):
+    # validate's sections are built once, frozen: a route cannot write a section after the fact
+    from dynval.report._assembly import Sections
+
+    names = {f.name for f in dataclasses.fields(Sections)}
+    assert {"per_joint", "bias", "white", "cross", "design", "physics"} <= names
+    b = Sections(km={}, per_joint=full_report.per_joint, pooled=full_report.pooled,
+                 aggregates=full_report.aggregates, residuals=full_report.residuals,
+                 ic=full_report.information_criteria)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        b.bias = full_report.bias  # type: ignore[misc]
+
+
+def test_the_missing_terms_are_a_record_written_as_the_contracts_mapping():
+    # the added-variable test on a residual that holds half of an absent column: its record's
+    # attributes are what the rules read, and the report writes the same names as a mapping
+    rng = np.random.default_rng(3)
+    n, m, p = 400, 1, 2
+    reg = rng.standard_normal((n, m, p))
+    e = 0.5 * reg[:, :, 1] + 0.1 * rng.standard_normal((n, m))
+    tau = reg[:, :, 0] + e
+    report = dynval.validate(tau, reg[:, :, 0], n_params=1, regressor=reg, model_columns=[0], max_lag=5)
+    section = report.cross_correlation.missing_terms
+    assert isinstance(section, dict)  # contract §4: a mapping inside the cross-correlation's record
+    from dynval.report import _sections
+
+    found = _sections.added_variable(e, reg, [0], np.array([0]), None)
+    assert isinstance(found, rec.MissingTerms)
+    assert found.columns == [1] and found.method == "added_variable"
+    assert list(section) == list(found)
+    assert rec.present(found.alone) is None  # the refit's alone, not the added-variable test's
+    assert found.share[0, 0] > 0.5  # e holds mostly 0.5·Y_1: the column removes most of its mean square
+
+
+def test_a_model_of_every_column_has_no_missing_terms_with_or_without_the_estimation_run():
+    # every column in model_columns: neither the refit nor the added-variable test has a column to try
+    rng = np.random.default_rng(4)
+    n, m, p = 300, 1, 2
+    reg = rng.standard_normal((n, m, p))
+    tau = reg.sum(axis=2) + 0.1 * rng.standard_normal((n, m))
+    est = {"regressor": reg, "tau": tau}
+    for estimation in (None, est):
+        report = dynval.validate(tau, reg.sum(axis=2), n_params=2, regressor=reg, model_columns=[0, 1],
+                                 estimation=estimation, max_lag=5)
+        assert "missing_terms" not in report.cross_correlation

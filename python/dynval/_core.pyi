@@ -14,6 +14,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .checks._typing import FusedMetrics
+
 _Int = int | np.integer[Any]
 _Real = float | np.floating[Any] | np.integer[Any]
 _Bool = bool | np.bool_
@@ -47,7 +49,7 @@ def residual_mean(e: ArrayLike) -> NDArray[np.float64]: ...
 def residual_variance(e: ArrayLike, ddof: _Int) -> NDArray[np.float64]: ...
 def compute_metrics(
     meas: ArrayLike, pred: ArrayLike, n_params: _Int, ddof: _Int, noise_model: str
-) -> dict[str, Any]: ...
+) -> FusedMetrics: ...
 
 # register_correlation.cpp
 def autocorrelation(e: ArrayLike, max_lag: _Int, adjusted: _Bool, starts: _Starts) -> NDArray[np.float64]: ...

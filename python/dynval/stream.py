@@ -62,13 +62,24 @@ from .checks import _timing
 from .checks import _validation as v
 from .checks._checks import Array, CheckedCall
 from .checks._errors import InputError, InvalidParameter, ShapeMismatch
-from .checks._typing import ArrayLike, BoolArray, FloatArray, IntArray, Integer, NanPolicy, NoiseModel, ProfileName
+from .checks._typing import (
+    ArrayLike,
+    BoolArray,
+    FloatArray,
+    FusedMetrics,
+    IntArray,
+    Integer,
+    NanPolicy,
+    NoiseModel,
+    ProfileName,
+)
 from .coverage import not_tested
 from .kernels._reference.fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
 from .kernels._reference.information import assemble, fit_term_from_sums, pooled_sum
 from .kernels._reference.portmanteau import chi2_logsf
 from .metrics._profiles import Profile
 from .metrics._results import ZeroMeanTest
+from .report import _records as rec
 from .report import _sections as sec
 from .report._assembly import Sections, ValidationReport, assemble_report, provenance
 from .report._findings import Thresholds
@@ -1013,7 +1024,7 @@ def _pooled_ss(ss: np.ndarray, centre: np.ndarray, offset: np.ndarray, exps: np.
     return float(np.sum(np.ldexp(ss, 2 * shift)) + n * np.sum((d - np.mean(d)) ** 2)), top
 
 
-def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int, noise_model: str) -> dict[str, Any]:
+def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int, noise_model: str) -> FusedMetrics:
     """The fields of the fused ``compute_metrics`` kernel (contract §5.1) from the moments."""
     n, m = mo.n, mo.m
     ssc_e = mo.cov_e[0]
@@ -1034,7 +1045,9 @@ def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int,
     rmse = np.ldexp(np.sqrt(sse_s / n), exp_e)
     vaf, fit, r2 = vaf_values(parts), fit_values(parts), r2_values(parts)
     max_abs = np.maximum(np.abs(st.min_e), np.abs(st.max_e))
-    out: dict[str, Any] = {
+    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse_s, exp_e), mo.sigma, int(exp_e.max()))
+    ic = assemble(f, n_ic, n_vec, size, n_params)
+    return {
         "n_samples": n, "n_joints": m, "n_params": n_params, "sse": np.ldexp(sse_s, 2 * exp_e), "rmse": rmse,
         "max_abs_error": max_abs, "vaf": vaf, "fit_percent": fit, "r2": r2,
         "residual_mean": np.ldexp(mo.mean_e, exp_e), "residual_variance": np.ldexp(ssc_e / (n - ddof), 2 * exp_e),
@@ -1049,10 +1062,8 @@ def _fused_metrics(mo: _Moments, st: State | Snapshot, n_params: int, ddof: int,
         "vaf_variance_weighted": variance_weighted(vaf, parts),
         "fit_percent_variance_weighted": variance_weighted(fit, parts),
         "r2_variance_weighted": variance_weighted(r2, parts),
+        "aic": ic["aic"], "bic": ic["bic"], "aicc": ic["aicc"], "fpe": ic["fpe"], "naic": ic["naic"],
     }
-    f, n_ic, n_vec, size = fit_term_from_sums(noise_model, n, m, (sse_s, exp_e), mo.sigma, int(exp_e.max()))
-    out.update(assemble(f, n_ic, n_vec, size, n_params))
-    return out
 
 
 class _Kernel:
@@ -1104,7 +1115,7 @@ def _zero_mean_test(mo: _Moments, kernel: _Kernel, longest: int, lags_held: int)
 
 
 def _bias_test(mo: _Moments, st: State | Snapshot, rmse: np.ndarray, longest: int,
-               edges: SegmentEdges | None = None) -> tuple[dict[str, Any] | None, str | None]:
+               edges: SegmentEdges | None = None) -> tuple[rec.Bias | None, str | None]:
     """``validate``'s bias test (contract §3.3, docs/conventions.md §5.4) from the lagged sums: the
     same prewhitened Bartlett long-run variance, its autocovariances the stream's, corrected at the
     stream's two ends with the rows the state keeps there and at the inner segment junctions with
@@ -1138,7 +1149,7 @@ def _added(a: tuple[np.ndarray, np.ndarray] | None, b: tuple[np.ndarray, np.ndar
     return a[0][:rows] + b[0][:rows], a[1][:rows] + b[1][:rows]
 
 
-def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> dict[str, Any]:
+def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) -> rec.CrossCorrelation:
     """ρ of the residual with every regressor column at lags 0..max_lag (contract §3.6) and the
     white band; the colour-aware fields of ``validate``'s section need whole series (§4.1)."""
     n = mo.n
@@ -1159,26 +1170,27 @@ def _cross_correlation(mo: _Moments, max_lag: int, prof: Profile, level: float) 
         hits = np.argwhere(np.abs(rho) > band)
     outside = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(abs(rho[j, c, lag]) / band))
                       for j, c, lag in hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
-    return {"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mo.y_constant.copy(),
-            "band": float(band), "level": float(level), "n_outside_white_band": len(hits), "rho": rho,
-            "outside": outside}
+    return rec.CrossCorrelation.of({"max_lag": int(max_lag), "adjusted": bool(prof.adjusted),
+                                    "constant_mask": mo.y_constant.copy(), "band": float(band), "level": float(level),
+                                    "n_outside_white_band": len(hits), "rho": rho, "outside": outside})
 
 
-def _untested_count(mo: _Moments, b: Sections, starts: np.ndarray) -> int:
+def _untested_count(mo: _Moments, lagged: bool, spec: rec.Spectrum | None, cross: rec.CrossCorrelation | None,
+                    starts: np.ndarray) -> int:
     """The tests ``validate`` would add to the Holm family on the same data that a stream leaves
     out: every spectral bin it tests on each varying joint, and the colour-aware cross-correlation's
     cells (docs/conventions.md §5)."""
     count = 0
-    if b.acf is not None and b.spec is None:
+    if lagged and spec is None:
         varying = int(np.count_nonzero(~mo.e_constant & (mo.cov_e[0] > 0)))
         count += varying * _stats.spectrum_tests_per_joint(starts, mo.n)
-    if b.cross is not None:
-        count += int(np.count_nonzero(np.isfinite(b.cross["rho"])))
+    if cross is not None:
+        count += int(np.count_nonzero(np.isfinite(cross.rho)))
     return count
 
 
 def _spectrum(mo: _Moments, welch: WelchSums | None, starts: np.ndarray,
-              sample_rate: float | None) -> tuple[tuple[dict[str, Any], Any] | None, str | None]:
+              sample_rate: float | None) -> tuple[tuple[rec.Spectrum, _stats.Spectrum] | None, str | None]:
     """``validate``'s spectrum section and peak tests from the window periodograms (no regressor:
     with one, ``validate`` projects it out first), or None and why not."""
     if welch is None:
@@ -1214,41 +1226,45 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
     max_lag = lags.max_lag
     mo = _moments(st)
     kernel = _Kernel(mo)
-    b = Sections()
-    b.km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
-    b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
+    km = _fused_metrics(mo, st, cfg.n_params, prof.ddof, cfg.noise_model)
+    per_joint, pooled, aggregates = sec.point_metrics(km, prof)
     lagged = max_lag > 0
     zmt = (_zero_mean_test(mo, kernel, lags.longest, st.layout.acf_lags) if lagged
-           else sec.iid_zero_mean_test(b.km, n, prof.ddof))
-    b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
-                   "variance": np.asarray(b.km["residual_variance"], dtype=np.float64), "ddof": prof.ddof,
-                   "zero_mean_test": zmt}
+           else sec.iid_zero_mean_test(km, n, prof.ddof))
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
     skipped: dict[str, str] = {}
+    bias = None
     if lagged:
-        b.bias, why = _bias_test(mo, st, b.per_joint["rmse"], lags.longest, edges)
+        bias, why = _bias_test(mo, st, per_joint.rmse, lags.longest, edges)
         if why is not None:
             skipped["bias"] = why
-    b.n_eff = None if b.bias is None else b.bias["n_eff"]
-    b.ic = sec.information_criteria(b.km, prof, cfg.noise_model, n, m, cfg.n_params, b.n_eff)
-    b.lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
+    ic = sec.information_criteria(km, prof, cfg.noise_model, n, m, cfg.n_params, None if bias is None else bias.n_eff)
+    lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
+    acf = lb = white = spec = spec_tests = None
     if lagged:
-        b.acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
-        if b.lb_lags:
-            b.lb = sec.ljung_box(kernel, None, b.lb_lags, starts)
-            b.white = sec.whiteness(kernel, None, None, starts, b.lb, None, sample_rate, bandwidth=cfg.bandwidth)
-    b.cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
+        acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
+        if lb_lags:
+            lb = sec.ljung_box(kernel, None, lb_lags, starts)
+            white = sec.whiteness(kernel, None, None, starts, lb, None, sample_rate, bandwidth=cfg.bandwidth)
+    cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
     if lagged:
         spectral, why = _spectrum(mo, welch, starts, sample_rate)
         if spectral is not None:
-            b.spec, b.spec_tests = spectral
+            spec, spec_tests = spectral
         elif why is not None:
             skipped["spectrum"] = why
-    b.untested = _untested_count(mo, b, starts)
+    physical = design = None
     if physics is not None:
-        b.physics = physics
+        physical = rec.Physics.of(physics)
         # validate's design section of a run without an estimation run: what the physical terms leave
-        b.design = {"noise_n_eff": np.asarray(physics["n_eff"], dtype=float),
-                    "detectable_share": detectable_share(physics["n_eff"], m, cfg.level)}
+        design = rec.Design.of({"noise_n_eff": np.asarray(physics["n_eff"], dtype=float),
+                                "detectable_share": detectable_share(physics["n_eff"], m, cfg.level)})
+    b = Sections(km=km, per_joint=per_joint, pooled=pooled, aggregates=aggregates, residuals=residuals, ic=ic,
+                 bias=bias, acf=acf, lb=lb, lb_lags=lb_lags, white=white, spec=spec, spec_tests=spec_tests,
+                 cross=cross, design=design, physics=physical,
+                 untested=_untested_count(mo, acf is not None, spec, cross, starts))
     given = {"lags"} if lagged else set()
     given |= ({"regressor"} if p else set()) | ({"time"} if timing is not None else set())
     given |= {"q"} if physics is not None else set()

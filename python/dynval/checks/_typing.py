@@ -10,7 +10,7 @@ type checker catch it earlier. ``Kernels`` is the kernel set of contract §5.1, 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, Protocol, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -61,6 +61,45 @@ _Starts = ArrayLike | None
 _Metric = float | FloatArray
 
 
+class FusedMetrics(TypedDict):
+    """The fused ``compute_metrics`` kernel's result (contract §5.1), one type for its three producers:
+    the C++ kernel (``dynval._core``), the numpy reference (``kernels/_reference/metrics.py``) and the
+    stream's sums (``stream._fused_metrics``). Per-joint values are arrays (m,), pooled ones numbers."""
+
+    n_samples: int
+    n_joints: int
+    n_params: int
+    sse: FloatArray
+    rmse: FloatArray
+    max_abs_error: FloatArray
+    vaf: FloatArray
+    fit_percent: FloatArray
+    r2: FloatArray
+    residual_mean: FloatArray
+    residual_variance: FloatArray
+    constant_target: BoolArray
+    sse_total: float
+    rmse_per_element: float
+    rmse_per_sample: float
+    max_abs_error_pooled: float
+    vaf_pooled: float
+    fit_percent_pooled: float
+    r2_pooled: float
+    constant_target_pooled: bool
+    rmse_uniform_average: float
+    vaf_uniform_average: float
+    fit_percent_uniform_average: float
+    r2_uniform_average: float
+    vaf_variance_weighted: float
+    fit_percent_variance_weighted: float
+    r2_variance_weighted: float
+    aic: float
+    bic: float
+    aicc: float
+    fpe: float
+    naic: float
+
+
 class Kernels(Protocol):
     """The kernel set of contract §5.1 (the module ``dynval.kernels._reference`` or ``dynval._core``)."""
 
@@ -82,7 +121,7 @@ class Kernels(Protocol):
     def residual_variance(self, e: ArrayLike, ddof: Integer) -> FloatArray: ...
     def compute_metrics(
         self, meas: ArrayLike, pred: ArrayLike, n_params: Integer, ddof: Integer, noise_model: str
-    ) -> dict[str, Any]: ...
+    ) -> FusedMetrics: ...
     def autocorrelation(
         self, e: ArrayLike, max_lag: Integer, adjusted: bool | np.bool_, starts: _Starts
     ) -> FloatArray: ...

@@ -18,12 +18,14 @@ import numpy as np
 from .._version import CONTRACT_VERSION, __version__
 from ..checks._json import to_frame, to_jsonable
 from ..checks._timing import Timing
+from ..checks._typing import FloatArray, FusedMetrics
 from ..metrics._profiles import Profile
+from ..statistics._stats import Spectrum
 from . import _records as rec
-from . import _sections as sec
-from ._findings import Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
+from ._findings import Evidence, Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
 from ._ranking import Ranked, deciding, first_reason
 from ._summary import format_summary
+from ._text import source_text
 
 REPORT_SCHEMA_VERSION = 1
 
@@ -244,38 +246,101 @@ class ValidationReport:
                 f"findings={len(self.findings)}, deficiencies={len(self.deficiencies)})")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Sections:
-    """The report's sections as they are computed (None: not computed by this route)."""
+    """The report's sections, each its builder's typed record (None: not computed by this route), and
+    the arrays beside them that the findings read (``spec_tests``, ``xrho``, ``xsd``, ``missing``,
+    ``spec_sides``, ``model_kinds``); built once, when every section is computed."""
 
-    km: dict[str, Any] = field(default_factory=dict)
-    per_joint: dict[str, Any] = field(default_factory=dict)
-    pooled: dict[str, Any] = field(default_factory=dict)
-    aggregates: dict[str, Any] = field(default_factory=dict)
-    residuals: dict[str, Any] = field(default_factory=dict)
-    est_fit: Any = None
-    bias: dict[str, Any] | None = None
-    n_eff: Any = None
-    ic: dict[str, Any] = field(default_factory=dict)
-    grams: Any = None
-    acf: dict[str, Any] | None = None
-    lb: dict[str, Any] | None = None
+    km: FusedMetrics  # the fused kernel's result (contract §5.1)
+    per_joint: rec.PerJoint
+    pooled: rec.Pooled
+    aggregates: rec.Aggregates
+    residuals: rec.Residuals
+    ic: rec.InformationCriteria
+    bias: rec.Bias | None = None
+    acf: rec.Autocorrelation | None = None
+    lb: rec.LjungBox | None = None
     lb_lags: list[int] = field(default_factory=list)
-    white: dict[str, Any] | None = None
-    spec: dict[str, Any] | None = None
-    spec_tests: Any = None  # every bin's peak test (dynval.statistics._stats.residual_spectrum), for the findings
-    spec_sides: Any = None  # the measured torque's and the prediction's power on the spectrum's grid
-    cross: dict[str, Any] | None = None
-    xrho: Any = None
-    xsd: Any = None
-    missing: dict[str, Any] | None = None
-    design: dict[str, Any] | None = None
-    physics: dict[str, Any] | None = None
-    predictive: dict[str, Any] | None = None
-    periodic: dict[str, Any] | None = None
+    white: rec.Whiteness | None = None
+    spec: rec.Spectrum | None = None
+    spec_tests: Spectrum | None = None  # every bin's peak test (dynval.statistics._stats.residual_spectrum)
+    spec_sides: tuple[FloatArray, FloatArray] | None = None  # the measured torque's and the prediction's power
+    cross: rec.CrossCorrelation | None = None
+    xrho: FloatArray | None = None  # (m, p, L+1): every cell's correlation, whatever the section's detail
+    xsd: FloatArray | None = None  # (m, p, L+1): its colour-aware standard deviation
+    missing: rec.MissingTerms | None = None  # the cross-correlation's ``missing_terms``, as a record
+    design: rec.Design | None = None
+    physics: rec.Physics | None = None
+    predictive: rec.Predictive | None = None
+    periodic: rec.Periodic | None = None
     model_kinds: list[dict[str, bool]] | None = None  # without q: which of offset, drift the model spans
-    segment_metrics: dict[str, Any] | None = None
+    segment_metrics: dict[str, rec.Segment] | None = None
     untested: int = 0  # tests validate would run that this route did not (Holm's family, _findings.holm_family)
+
+
+def evidence(s: Setting, b: Sections, *, n: int, omitted: int, timing: dict[str, Any] | None) -> Evidence:
+    """What the findings' rules read, from the sections' records (``b.untested``: tests the entry point
+    left out, which count in Holm's family, docs/conventions.md §5)."""
+    ev = Evidence(n_samples=n, level=s.level, joint_names=list(s.joint_names),
+                  r2=np.asarray(b.per_joint.r2, dtype=float), pooled_r2=float(b.pooled.r2),
+                  constant_target=np.asarray(b.km["constant_target"], dtype=bool), column_names=s.column_names,
+                  omitted_rows=omitted, force_finite=s.prof.constant_target == "force_finite",
+                  n_params=int(b.ic.n_params), criteria_n_obs=int(b.ic.n_obs), noise_model=str(b.ic.noise_model))
+    if b.bias is not None:
+        ev.mean, ev.rmse = b.bias.mean, b.per_joint.rmse
+        ev.bias_statistic, ev.bias_pvalue, ev.n_eff = b.bias.statistic, b.bias.pvalue, b.bias.n_eff
+    if b.white is not None:
+        _whiteness_evidence(ev, b.white)
+    if b.acf is not None:
+        rho = b.acf.rho
+        ev.max_abs_acf = np.fmax.reduce(np.abs(rho[1:]), axis=0) if rho.shape[0] > 1 else None
+    if b.spec is not None and b.spec_tests is not None:
+        _spectrum_evidence(ev, b.spec, b.spec_tests, b.spec_sides)
+    if b.xrho is not None:
+        ev.xcorr_rho, ev.xcorr_sd = b.xrho, b.xsd
+        ev.xcorr_mask = None if b.cross is None else b.cross.constant_mask
+    if b.design is not None:
+        ev.repeat, ev.excitation = rec.present(b.design.repeat), rec.present(b.design.excitation)
+        ev.joint_motion_ratio = rec.present(b.design.joint_motion_ratio)
+        ev.detectable_share = rec.present(b.design.detectable_share)
+        ev.noise_n_eff = rec.present(b.design.noise_n_eff)
+    ev.physics, ev.predictive, ev.sample_rate, ev.periodic = b.physics, b.predictive, s.sample_rate, b.periodic
+    ev.timing, ev.bandwidth, ev.untested = timing, s.bandwidth, int(b.untested)
+    ev.model_kinds = rec.present(b.physics.model_kinds) if b.physics is not None else b.model_kinds
+    if b.missing is not None:
+        _missing_evidence(ev, b.missing)
+    return ev
+
+
+def _whiteness_evidence(ev: Evidence, white: rec.Whiteness) -> None:
+    """Ljung–Box at the logged rate and, when decimated, at the information rate."""
+    ev.whiteness_lag = white.lag
+    ev.whiteness_pvalue_raw, ev.whiteness_log_pvalue_raw = white.pvalue_raw, white.log_pvalue_raw
+    ev.whiteness_pvalue_decimated = white.pvalue_decimated
+    if white.pvalue_decimated is not None:
+        ev.whiteness_lag = white.lag_decimated
+    ev.decimation, ev.information_band = white.decimation, white.information_band
+    ev.whiteness_above_bandwidth = bool(white.above_bandwidth)
+
+
+def _spectrum_evidence(ev: Evidence, spec: rec.Spectrum, tests: Spectrum,
+                       sides: tuple[FloatArray, FloatArray] | None) -> None:
+    """Every bin's peak test, and the two sides' power when they are on the residual's grid."""
+    ev.spectrum_frequency, ev.frequency_unit = spec.frequency, spec.frequency_unit
+    ev.spectrum_pvalue, ev.spectrum_ratio = tests.pvalue, tests.ratio
+    ev.spectrum_share, ev.spectrum_is_peak = tests.share, tests.is_peak
+    if sides is not None and sides[0].shape == spec.power.shape:
+        ev.spectrum_power = spec.power
+        ev.spectrum_power_measured, ev.spectrum_power_prediction = sides
+
+
+def _missing_evidence(ev: Evidence, missing: rec.MissingTerms) -> None:
+    """The columns the model lacks: the added-variable correlations or the refit's tests."""
+    ev.missing_columns, ev.missing_method = missing.columns, missing.method
+    ev.missing_statistic, ev.missing_pvalue = missing.statistic, missing.pvalue
+    ev.missing_share, ev.missing_explains_bias = missing.share, missing.explains_bias
+    ev.missing_enters, ev.missing_alone = rec.present(missing.enters), rec.present(missing.alone)
 
 
 @dataclass(frozen=True)
@@ -363,13 +428,11 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
     return out
 
 
-def _derivatives(physics: dict[str, Any] | None) -> dict[str, Any] | None:
+def _derivatives(physics: rec.Physics | None) -> dict[str, Any] | None:
     """Where the physics library's q̇, q̈ came from: the validation test's, and the one source both
     runs' naming refits share (contract §4)."""
     if physics is None:
         return None
-    from ._motion import source_text
-
     return {"validation": physics.get("derivatives"), "both_runs": source_text(physics.get("derivative_source",
                                                                                                 "savgol")),
             "estimation_bandwidth_hz": physics.get("estimation_bandwidth_hz")}
@@ -378,32 +441,16 @@ def _derivatives(physics: dict[str, Any] | None) -> dict[str, Any] | None:
 def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m: int, omitted: int) -> ValidationReport:
     """The evidence of every section, the findings, and the :class:`~dynval.ValidationReport`."""
     timing = None if s.timing is None else s.timing.to_dict()
-    ev = sec.evidence(n=n, m=m, level=s.level, names=s.joint_names, per_joint=b.per_joint, pooled=b.pooled,
-                      constant=np.asarray(b.km["constant_target"], dtype=bool), omitted=omitted,
-                      force=s.prof.constant_target == "force_finite", bias=b.bias, white=b.white, spec=b.spec,
-                      spec_tests=b.spec_tests,
-                      xcorr_rho=b.xrho, xcorr_sd=b.xsd,
-                      xcorr_mask=None if b.cross is None or b.xrho is None else b.cross["constant_mask"],
-                      design=b.design, column_names=s.column_names, acf=b.acf, missing=b.missing, physics=b.physics,
-                      predictive=b.predictive, sample_rate=s.sample_rate, periodic=b.periodic, timing=timing,
-                      bandwidth=s.bandwidth, criteria=b.ic, untested=b.untested, model_kinds=b.model_kinds,
-                      spec_sides=b.spec_sides)
+    ev = evidence(s, b, n=n, omitted=omitted, timing=timing)
     family = holm_family(ev)
     found = compute_findings(ev, s.thresholds, family=family)
     cross = b.cross
     cells = cell_pvalue_adjusted(family)
     if cross is not None and cells is not None:
-        cross = {**cross, "pvalue_adjusted": cells}  # for the heatmap: the cells the findings call significant
+        cross = cross.with_(pvalue_adjusted=cells)  # for the heatmap: the cells the findings call significant
     return ValidationReport(
-        provenance=rec.Provenance.of(prov), per_joint=rec.PerJoint.of(b.per_joint), pooled=rec.Pooled.of(b.pooled),
-        aggregates=rec.Aggregates.of(b.aggregates), residuals=rec.Residuals.of(b.residuals),
-        autocorrelation=rec.record_or_none(rec.Autocorrelation, b.acf),
-        ljung_box=rec.record_or_none(rec.LjungBox, b.lb),
-        cross_correlation=rec.record_or_none(rec.CrossCorrelation, cross),
-        information_criteria=rec.InformationCriteria.of(b.ic), warnings_text=[f.message for f in found],
-        findings=found, bias=rec.record_or_none(rec.Bias, b.bias), whiteness=rec.record_or_none(rec.Whiteness, b.white),
-        spectrum=rec.record_or_none(rec.Spectrum, b.spec), design=rec.record_or_none(rec.Design, b.design),
-        segment_metrics=None if b.segment_metrics is None else {
-            name: rec.Segment.of(seg) for name, seg in b.segment_metrics.items()},
-        physics=rec.record_or_none(rec.Physics, b.physics), predictive=rec.record_or_none(rec.Predictive, b.predictive),
-        periodic=rec.record_or_none(rec.Periodic, b.periodic), timing=rec.record_or_none(rec.Timing, timing))
+        provenance=rec.Provenance.of(prov), per_joint=b.per_joint, pooled=b.pooled, aggregates=b.aggregates,
+        residuals=b.residuals, autocorrelation=b.acf, ljung_box=b.lb, cross_correlation=cross,
+        information_criteria=b.ic, warnings_text=[f.message for f in found], findings=found, bias=b.bias,
+        whiteness=b.white, spectrum=b.spec, design=b.design, segment_metrics=b.segment_metrics,
+        physics=b.physics, predictive=b.predictive, periodic=b.periodic, timing=rec.record_or_none(rec.Timing, timing))

@@ -9,18 +9,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 if TYPE_CHECKING:
     import scipy.stats
+
+    from ._options import Options
+    from ._sections import CheckedData, Lagged, Residual
 else:
     from .._lazy import scipy
 
 from ..statistics import _estimation, _model_terms, _periodic, _physics
 from ..statistics._estimation import EstimationFit
 from ..statistics._physics import Derivatives, PhysicsTest
+from . import _records as rec
+from . import _sections as sec
 from ._prepared import Memo, compute_now
 from ._regressor_algebra import unit_norm_columns
 
@@ -89,12 +94,6 @@ def derivative_source(q: np.ndarray | None, dq: np.ndarray | None, ddq: np.ndarr
     est_run = est_run or {}
     both = dq is not None and ddq is not None and "dq" in est_run and "ddq" in est_run
     return "given" if both else "savgol"
-
-
-def source_text(source: str) -> str:
-    """The derivative source in words (the provenance's and the findings')."""
-    return ("the user's q̇, q̈ on both runs" if source == "given"
-            else "Savitzky–Golay derivatives of q on both runs (0.1 s window, degree 4)")
 
 
 def declared_groups(reg3: np.ndarray | None, cols: Sequence[int] | None,
@@ -495,3 +494,66 @@ def _validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[
         if base > 0:
             out[g] = (base - _model_terms.crossfit_sse(tau_j, both, full=both)) / base
     return out
+
+
+# --------------------------------------------------------------------------- validate's motion phase
+
+
+class Motion(NamedTuple):
+    """The validation design and what the motion says."""
+
+    design: rec.Design | None
+    physics: rec.Physics | None = None
+    periodic: rec.Periodic | None = None
+    predictive: rec.Predictive | None = None
+    model_kinds: list[dict[str, bool]] | None = None
+
+
+def motion_phase(d: CheckedData, o: Options, r: Residual, lagged: Lagged) -> Motion:
+    """The validation design, and what the motion says: physics library, delay, periodic noise,
+    predictive test, each joint's motion and the smallest detectable effect."""
+    design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, r.grams, sample_rate=o.sample_rate,
+                        memo=d.memo, estimation_key=r.est_key, structure=d.structure)
+    library = noise = kinds_spanned = None
+    if o.q is not None and d.e is not None and not d.omitted:
+        phys = physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns, r.est_fit, o.level,
+                       o.estimation, d.meas, practical=o.thresholds.missing_physics, column_names=o.column_names)
+        library = rec.Physics.of({**phys, "delay": delay(d.meas, d.pred, o.sample_rate)})
+        band = None if lagged.white is None else lagged.white.information_band
+        noise = rec.record_or_none(rec.Periodic, periodic(d.e, o.q, o.sample_rate, band, r.est_fit, d.reg3,
+                                                          o.model_columns))
+    elif d.reg3 is not None and d.e is not None:
+        # without q the model's columns still tell whether it has an offset (the bias rule's words)
+        cols = (list(r.est_fit.columns) if r.est_fit is not None else
+                list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
+        declared = declared_groups(d.reg3, cols, o.column_names)
+        # the regressor's work alone (each joint's span of the model's columns, an SVD of N × k):
+        # kept by a prepared regressor, so compare's candidates with the same columns do it once
+        key = ("model_kinds", d.reg3.shape, tuple(int(c) for c in cols),
+               None if declared is None else tuple(frozenset(x) for x in declared))
+        reg3 = d.reg3
+        kinds = d.memo(key, lambda: model_kinds(d.e, None, None, o.sample_rate, reg3, cols, declared))
+        kinds_spanned = None if kinds is None else [dict(x) for x in kinds]
+    test = None
+    if r.est_fit is not None and r.n_eff is not None:
+        test = rec.record_or_none(rec.Predictive, predictive(d.e, r.est_fit, d.reg3, r.n_eff, memo=d.memo))
+    return Motion(_motion_design(design, o, library, d.m), library, noise, test, kinds_spanned)
+
+
+def _motion_design(design: rec.Design | None, o: Options, phys: rec.Physics | None, m: int) -> rec.Design | None:
+    """The design section completed with what the motion says: each joint's motion against the
+    estimation run's, and the smallest effect this run can detect per joint."""
+    est_q = (o.estimation or {}).get("q")
+    ratio = joint_excitation(o.q, est_q)
+    # the noise's N_eff: what the physical terms leave (the residual's own N_eff counts a missing
+    # term's slow structure as colour); without q it is not known
+    noise_n_eff = phys.n_eff if phys is not None else None
+    if ratio is None and noise_n_eff is None:
+        return design
+    more: dict[str, Any] = {}
+    if ratio is not None:
+        more["joint_motion_ratio"] = ratio
+    if noise_n_eff is not None:
+        more["noise_n_eff"] = np.asarray(noise_n_eff, dtype=float)
+        more["detectable_share"] = detectable_share(noise_n_eff, m, o.level)
+    return (design or rec.Design.of({})).with_(**more)

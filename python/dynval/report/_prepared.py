@@ -151,8 +151,8 @@ def prepare_regressor(regressor: ArrayLike | PreparedRegressor, *,
     """
     if isinstance(regressor, PreparedRegressor) and structure is None:
         return regressor
-    array = regressor.array if isinstance(regressor, PreparedRegressor) else \
-        np.ascontiguousarray(v.to_float_array(regressor, "regressor"))
+    array = (regressor.array if isinstance(regressor, PreparedRegressor)
+             else np.ascontiguousarray(v.to_float_array(regressor, "regressor")))
     return PreparedRegressor(array, None if structure is None else _structure(structure, array))
 
 

@@ -22,10 +22,11 @@ from ..checks._json import to_jsonable
 from ..checks._typing import BoolArray, FloatArray, IntArray
 
 __all__ = ["ABSENT", "Record", "Provenance", "PerJoint", "Pooled", "Aggregates", "Residuals", "Autocorrelation",
-           "LjungBox", "CrossCorrelation", "InformationCriteria", "Bias", "Whiteness", "Spectrum", "Design",
-           "Physics", "Predictive", "Periodic", "Timing", "Segment", "record_or_none"]
+           "LjungBox", "CrossCorrelation", "MissingTerms", "InformationCriteria", "Bias", "Whiteness", "Spectrum",
+           "Design", "Physics", "Predictive", "Periodic", "Timing", "Segment", "present", "record_or_none"]
 
 _R = TypeVar("_R", bound="Record")
+_T = TypeVar("_T")
 
 
 class _Absent:
@@ -66,6 +67,11 @@ class Record(Mapping[str, Any]):
         if unknown:
             raise TypeError(f"{cls.__name__} has no field {unknown[0]!r}")
         return cls(_order=tuple(section), **section)
+
+    def with_(self: _R, **values: Any) -> _R:
+        """This record with ``values`` set: a name it holds keeps its place, a new one comes last (a
+        section completed by a later step, as a mapping updated in place would be)."""
+        return type(self).of({**{k: getattr(self, k) for k in self._order}, **values})
 
     def __getitem__(self, key: str) -> Any:
         if key not in self._order:
@@ -113,6 +119,11 @@ def _short(value: Any) -> str:
     if isinstance(value, (list, tuple)) and len(value) > 8:
         return f"[{', '.join(map(str, value[:3]))}, …, {', '.join(map(str, value[-2:]))}] ({len(value)} items)"
     return repr(value)
+
+
+def present(value: _T) -> _T | None:
+    """A record's attribute, or None where the section does not hold it (:data:`ABSENT`)."""
+    return None if value is ABSENT else value
 
 
 def record_or_none(cls: type[_R], section: Mapping[str, Any] | None) -> _R | None:
@@ -258,6 +269,25 @@ class CrossCorrelation(Record):
     # Any: the added-variable section (columns, statistics, p-values, shares), contract §4
     missing_terms: dict[str, Any] = ABSENT
     pvalue_adjusted: FloatArray = ABSENT
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class MissingTerms(Record):
+    """The columns outside ``model_columns`` tested as the model's missing terms: on the validation run
+    (``method`` "added_variable": ``statistic`` the correlation ρ, ``sd``, per joint and column (m, q))
+    or by the estimation run's refit (``method`` "estimation_refit": ``statistic`` its Wald t per column,
+    ``enters`` and ``alone`` (m, q)); ``share`` and ``explains_bias`` (m, q). The record of
+    ``cross_correlation.missing_terms``, which the report writes as a mapping (contract §4)."""
+
+    enters: BoolArray = ABSENT
+    method: str = ABSENT
+    columns: list[int] = ABSENT
+    statistic: FloatArray = ABSENT
+    sd: FloatArray = ABSENT
+    pvalue: FloatArray = ABSENT
+    share: FloatArray = ABSENT
+    alone: FloatArray = ABSENT
+    explains_bias: BoolArray = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)

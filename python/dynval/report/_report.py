@@ -13,8 +13,8 @@ The profile (``_profiles.py``) fills every default.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-from typing import Any, NamedTuple
+from dataclasses import replace
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -35,14 +35,12 @@ from ..checks._typing import (
     ProfileName,
 )
 from ..kernels._blas import one_blas_thread
-from ..statistics import _estimation
 from . import _consistency, _motion
-from . import _regressor_algebra as algebra
 from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
-from ._findings import SEVERITIES, Finding, Thresholds, resolve_thresholds
-from ._options import NAMES, Data, Keywords, Lags, Options, check_options, plan_lags, to_setting
-from ._prepared import Memo, PreparedRegressor, compute_now, digest, memo_for, scan_for
+from ._findings import SEVERITIES, Finding, Thresholds
+from ._options import NAMES, Data, Keywords, Options, check_options, plan_lags, to_setting
+from ._prepared import PreparedRegressor, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -243,14 +241,20 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
-    b = Sections()
-    _residual_sections(d, o, b)
-    _lag_sections(d, o, b)
-    _regressor_sections(d, o, b)
-    _motion_sections(d, o, b)
+    r = sec.residual_phase(d, o)
+    lagged = sec.lag_phase(d, o, r)
+    crossed = sec.regressor_phase(d, o, r)
+    motion = _motion.motion_phase(d, o, r, lagged)
+    named = None
     if seg_names is not None:
-        b.segment_metrics = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, segments,
-                                                o.n_params, o.profile)
+        lengths = cast(list[int], segments)  # with names, named_segments gives the lengths as a list
+        named = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, lengths, o.n_params, o.profile)
+    b = Sections(km=r.km, per_joint=r.per_joint, pooled=r.pooled, aggregates=r.aggregates, residuals=r.residuals,
+                 ic=r.ic, bias=r.bias, acf=lagged.acf, lb=lagged.lb, lb_lags=lagged.lb_lags, white=lagged.white,
+                 spec=lagged.spec, spec_tests=lagged.spec_tests, spec_sides=lagged.spec_sides, cross=crossed.cross,
+                 xrho=crossed.xrho, xsd=crossed.xsd, missing=crossed.missing, design=motion.design,
+                 physics=motion.physics, predictive=motion.predictive, periodic=motion.periodic,
+                 model_kinds=motion.model_kinds, segment_metrics=named)
     report = _assemble(d, o, b, seg_names)
     return report if not physical else _with_findings(report, physical)
 
@@ -262,37 +266,8 @@ def _with_findings(report: ValidationReport, extra: list[Finding]) -> Validation
     return replace(report, findings=found, warnings_text=[f.message for f in found])
 
 
-@dataclass(frozen=True)
-class _Data:
-    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D), and
-    the frame of their lag analysis."""
-
-    meas: FloatArray
-    pred: FloatArray
-    e: FloatArray | None
-    reg2: FloatArray | None
-    reg3: FloatArray | None
-    p_cols: int | None
-    omitted: int
-    given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
-    given_pred: FloatArray
-    lags: Lags
-    # the prepared regressor's store of residual-independent results; compute_now keeps nothing
-    memo: Memo[Any] = compute_now
-    # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
-    structure: FloatArray | None = None
-
-    @property
-    def n(self) -> int:
-        return int(self.meas.shape[0])
-
-    @property
-    def m(self) -> int:
-        return int(self.meas.shape[1])
-
-
 def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | PreparedRegressor | None,
-             k: Keywords) -> tuple[_Data, Options]:
+             k: Keywords) -> tuple[sec.CheckedData, Options]:
     """The data checks, then the settings in the contract's order, deferred (a non-finite value
     still wins over a bad setting), then the lags: with a rate, the motion's time scale."""
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
@@ -310,151 +285,11 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | Pr
     reg2 = call.arrays[2][1] if pr.p is not None else None
     e = np.ascontiguousarray(meas - pred) if lags.max_lag > 0 or reg2 is not None else None
     reg3 = None if reg2 is None or pr.p is None else reg2.reshape(n, m, pr.p)
-    return _Data(meas, pred, e, reg2, reg3, pr.p, call.omitted, pr.given_meas, pr.given_pred, lags), o
+    return sec.CheckedData(meas, pred, e, reg2, reg3, pr.p, call.omitted, pr.given_meas, pr.given_pred, lags), o
 
 
-def _assemble(d: _Data, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
+def _assemble(d: sec.CheckedData, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
     s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
     prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
                       seg_names=seg_names, omitted=d.omitted)
     return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
-
-
-def _residual_sections(d: _Data, o: Options, b: Sections) -> None:
-    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
-    from ..metrics._api import checked_zero_mean_test
-
-    prof = o.profile
-    b.km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
-    b.per_joint, b.pooled, b.aggregates = sec.point_metrics(b.km, prof)
-    lagged = d.lags.max_lag > 0
-    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
-           else sec.iid_zero_mean_test(b.km, d.n, prof.ddof))
-    b.residuals = {"mean": np.asarray(b.km["residual_mean"], dtype=np.float64),
-                   "variance": np.asarray(b.km["residual_variance"], dtype=np.float64),
-                   "ddof": prof.ddof, "zero_mean_test": zmt}
-    # The estimation run, when given with its torques: the parameters' coloured-noise covariance
-    # (the bias and regressor tests allow for it) and the refit that names a missing term.
-    est = o.estimation or {}
-    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
-        cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
-        b.est_fit = d.memo(("fit_columns", _estimation_key(d, est), cols),
-                           lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
-    param_var = None
-    if b.est_fit is not None and d.reg3 is not None:
-        fit, val_reg = b.est_fit, d.reg3
-        means = d.memo(("column_means", val_reg.shape, fit.columns),
-                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
-        param_var = _estimation.quadratic_forms(fit, means)
-    b.bias = sec.bias_test(d.e, d.lags.starts, b.per_joint["rmse"], param_var) if lagged else None
-    b.n_eff = None if b.bias is None else b.bias["n_eff"]
-    b.ic = sec.information_criteria(b.km, prof, o.noise_model, d.n, d.m, o.n_params, b.n_eff)
-    # One pass over the regressor for both the spectrum's projection and the excitation section.
-    reg3 = d.reg3
-    b.grams = None if reg3 is None else d.memo(
-        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
-
-
-def _estimation_key(d: _Data, est: dict[str, Any]) -> tuple[Any, ...]:
-    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
-    prepared regressor, where nothing is kept)."""
-    if d.memo is compute_now:
-        return ()
-    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
-
-
-def _lag_sections(d: _Data, o: Options, b: Sections) -> None:
-    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
-    lags = d.lags
-    b.lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
-    if lags.max_lag <= 0:
-        return
-    b.acf = sec.autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
-    if b.lb_lags:
-        b.lb = sec.ljung_box(o.kernel, d.e, b.lb_lags, lags.starts)
-        b.white = sec.whiteness(o.kernel, d.e, d.pred, lags.starts, b.lb, o.decimate, o.sample_rate, band=lags.band,
-                                bandwidth=o.bandwidth, lag=lags.white_lag)
-    b.spec, b.spec_tests = sec.spectrum(d.e, lags.starts, d.reg3, o.sample_rate, b.grams, memo=d.memo)
-    b.spec_sides = sec.spectrum_sides(d.meas, d.pred, lags.starts, o.sample_rate, b.spec)
-
-
-def _regressor_sections(d: _Data, o: Options, b: Sections) -> None:
-    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
-    if d.reg2 is None:
-        return
-    b.cross, b.xrho, b.xsd = sec.cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile,
-                                                   o.level, d.lags.starts, d.n, d.m, b.n_eff, o.detail, memo=d.memo)
-    if b.est_fit is not None:
-        b.xsd = sec.parameter_error_sd(b.xrho, b.xsd, d.e, d.reg3, b.est_fit, d.lags.starts, o.profile, o.level,
-                                       memo=d.memo)
-        b.cross["parameter_error"] = True
-    if o.model_columns is not None and d.e is not None:
-        est = o.estimation or {}
-        if b.est_fit is not None:
-            cols = tuple(int(c) for c in o.model_columns)
-            reg3 = d.reg3
-            assert reg3 is not None  # with reg2
-            b.missing = d.memo(("missing_terms", _estimation_key(d, est), reg3.shape, cols,
-                                digest(d.meas) if d.memo is not compute_now else ()),
-                               lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
-        else:
-            b.missing = sec.added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, b.n_eff)
-        if b.missing is not None:
-            b.cross["missing_terms"] = dict(b.missing)
-
-
-def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
-    """The validation design, and what the motion says: physics library, delay, periodic noise,
-    predictive test, each joint's motion and the smallest detectable effect."""
-    b.design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, b.grams, sample_rate=o.sample_rate,
-                          memo=d.memo, estimation_key=_estimation_key(d, o.estimation or {}), structure=d.structure)
-    if o.q is not None and d.e is not None and not d.omitted:
-        b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
-                                    b.est_fit, o.level, o.estimation, d.meas,
-                                    practical=resolve_thresholds(o.thresholds).missing_physics,
-                                    column_names=o.column_names)
-        b.physics["delay"] = _motion.delay(d.meas, d.pred, o.sample_rate)
-        band = None if b.white is None else b.white["information_band"]
-        b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
-    elif d.reg3 is not None and d.e is not None:
-        # without q the model's columns still tell whether it has an offset (the bias rule's words)
-        cols = (list(b.est_fit.columns) if b.est_fit is not None else
-                list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
-        declared = _motion.declared_groups(d.reg3, cols, o.column_names)
-        # the regressor's work alone (each joint's span of the model's columns, an SVD of N × k):
-        # kept by a prepared regressor, so compare's candidates with the same columns do it once
-        key = ("model_kinds", d.reg3.shape, tuple(int(c) for c in cols),
-               None if declared is None else tuple(frozenset(x) for x in declared))
-        kinds = d.memo(key, lambda: _motion.model_kinds(d.e, None, None, o.sample_rate, d.reg3, cols, declared))
-        b.model_kinds = None if kinds is None else [dict(x) for x in kinds]
-    if b.est_fit is not None and b.n_eff is not None:
-        b.predictive = _motion.predictive(d.e, b.est_fit, d.reg3, b.n_eff, memo=d.memo)
-    b.design = _motion_design(b.design, o, b.physics, d.m)
-
-
-def _motion_design(design: dict[str, Any] | None, o: Options, phys: dict[str, Any] | None,
-                   m: int) -> dict[str, Any] | None:
-    """The design section completed with what the motion says: each joint's motion against the
-    estimation run's, and the smallest effect this run can detect per joint."""
-    est_q = (o.estimation or {}).get("q")
-    ratio = _motion.joint_excitation(o.q, est_q)
-    # the noise's N_eff: what the physical terms leave (the residual's own N_eff counts a missing
-    # term's slow structure as colour); without q it is not known
-    noise_n_eff = phys["n_eff"] if phys is not None else None
-    if ratio is None and noise_n_eff is None:
-        return design
-    design = dict(design or {})
-    if ratio is not None:
-        design["joint_motion_ratio"] = ratio
-    if noise_n_eff is not None:
-        design["noise_n_eff"] = np.asarray(noise_n_eff, dtype=float)
-        design["detectable_share"] = _motion.detectable_share(noise_n_eff, m, o.level)
-    return design
-
-
-def _as_dict(result: Any) -> dict[str, Any]:
-    if hasattr(result, "_asdict"):
-        return dict(result._asdict())
-    if hasattr(result, "__dataclass_fields__"):
-        return {f: getattr(result, f) for f in result.__dataclass_fields__}
-    return dict(result)

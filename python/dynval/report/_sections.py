@@ -1,22 +1,33 @@
-"""Section builders of a validation report: each takes what it needs and returns one dict.
+"""Section builders of a validation report: each takes what it needs and returns its section's frozen
+record (``_records.py``); the parts of a section (``design.excitation``, ``cross_correlation.missing_terms``)
+are the contract's mappings.
 
-``validate`` (``_report.py``) checks the inputs once, then calls these in turn; the findings are
-computed from the evidence they collect (``_findings.py``) and worded in ``_summary.py``.
+``validate`` (``_report.py``) checks the inputs once into a :class:`CheckedData`, then runs its phases:
+the residual's, the lag analysis and the regressor's are here (:func:`residual_phase`, :func:`lag_phase`,
+:func:`regressor_phase`, each returning its typed result), the motion's in ``_motion.py``. The stream
+(``stream.py``) calls the builders its sums allow; the assembler (``_assembly.py``) reads the records'
+attributes into the evidence the rules read.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from ..checks._typing import FloatArray, FusedMetrics, IntArray, Kernels
+from ..metrics._profiles import Profile
 from ..statistics import _estimation, _stats
 from ..statistics._columns import column_norms as _column_norms
 from ..statistics._columns import zero_columns
-from ._findings import Evidence
-from ._prepared import Memo, compute_now
+from . import _records as rec
+from . import _regressor_algebra as algebra
+from ._prepared import Memo, compute_now, digest
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
@@ -28,10 +39,16 @@ from ._regressor_algebra import (
     column_largest,
 )
 
+if TYPE_CHECKING:
+    from ..statistics._estimation import EstimationFit
+    from ..statistics._stats import LongRunVariance, Spectrum
+    from ._findings import Thresholds
+    from ._options import Lags, Options
+
 _LN_2PI_PLUS_1 = math.log(2.0 * math.pi) + 1.0
 
 
-def _force_finite(values, constant):
+def _force_finite(values: ArrayLike, constant: ArrayLike) -> FloatArray:
     """scikit-learn's force_finite: a constant target gives 1.0 if exact (nan) else 0.0 (−inf)."""
     values = np.array(values, dtype=np.float64, copy=True)
     constant = np.asarray(constant, dtype=bool)
@@ -39,21 +56,26 @@ def _force_finite(values, constant):
     return values
 
 
-def point_metrics(km, prof):
-    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's dictionary."""
+def point_metrics(km: FusedMetrics, prof: Profile) -> tuple[rec.PerJoint, rec.Pooled, rec.Aggregates]:
+    """``per_joint``, ``pooled`` and ``aggregates`` from the fused kernel's result."""
     scale = 1.0 if prof.units == "percent" else 0.01
     force = prof.constant_target == "force_finite"
     constant = np.asarray(km["constant_target"], dtype=bool)
+    # each fit measure as the kernel gives it: per joint, pooled, uniform and variance-weighted means
+    fits = {"vaf": (km["vaf"], km["vaf_pooled"], km["vaf_uniform_average"], km["vaf_variance_weighted"]),
+            "fit_percent": (km["fit_percent"], km["fit_percent_pooled"], km["fit_percent_uniform_average"],
+                            km["fit_percent_variance_weighted"]),
+            "r2": (km["r2"], km["r2_pooled"], km["r2_uniform_average"], km["r2_variance_weighted"])}
 
-    def unit(name):
+    def unit(name: str) -> float:
         return scale if name != "r2" else 1.0
 
-    def per_joint_fit(name):
-        values = np.asarray(km[name], dtype=np.float64) * unit(name)
+    def per_joint_fit(name: str) -> FloatArray:
+        values = np.asarray(fits[name][0], dtype=np.float64) * unit(name)
         return _force_finite(values, constant) if force else values
 
-    def pooled_fit(name):
-        value = float(km[f"{name}_pooled"]) * unit(name)
+    def pooled_fit(name: str) -> float:
+        value = float(fits[name][1]) * unit(name)
         if force and km["constant_target_pooled"]:
             value = 1.0 if math.isnan(value) else 0.0
         return value
@@ -86,16 +108,16 @@ def point_metrics(km, prof):
             # Constant joints have weight 0 in both conventions, so the kernel's value stands,
             # except when every joint is constant: then the uniform mean of the forced values.
             weighted[name] = (float(np.mean(values)) if constant.all()
-                              else float(km[f"{name}_variance_weighted"]) * unit(name))
+                              else float(fits[name][3]) * unit(name))
         else:
-            uniform[name] = float(km[f"{name}_uniform_average"]) * unit(name)
-            weighted[name] = float(km[f"{name}_variance_weighted"]) * unit(name)
+            uniform[name] = float(fits[name][2]) * unit(name)
+            weighted[name] = float(fits[name][3]) * unit(name)
     aggregates = {"uniform_average": uniform, "variance_weighted": weighted,
                   "rmse_uniform_average": float(km["rmse_uniform_average"])}
-    return per_joint, pooled, aggregates
+    return rec.PerJoint.of(per_joint), rec.Pooled.of(pooled), rec.Aggregates.of(aggregates)
 
 
-def iid_zero_mean_test(km, n, ddof):
+def iid_zero_mean_test(km: FusedMetrics, n: int, ddof: int) -> dict[str, Any]:
     """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
 
     With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
@@ -109,7 +131,8 @@ def iid_zero_mean_test(km, n, ddof):
             "n_eff": None, "bandwidth": None}
 
 
-def bias_test(e, starts, rmse, parameter_variance=None):
+def bias_test(e: FloatArray, starts: IntArray, rmse: FloatArray,
+              parameter_variance: FloatArray | None = None) -> rec.Bias:
     """The residual mean against its coloured-noise standard error (automatic long-run variance).
 
     Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
@@ -127,11 +150,13 @@ def bias_test(e, starts, rmse, parameter_variance=None):
     out = bias_from_long_run(x.mean(axis=0), _stats.long_run_variance(x, starts), e.shape[0], rmse,
                              parameter_variance, exponents=exps)
     if parameter_variance is not None:
-        out["parameter_standard_error"] = np.ldexp(out["parameter_standard_error"], exps)
+        out = out.with_(parameter_standard_error=np.ldexp(out.parameter_standard_error, exps))
     return out
 
 
-def bias_from_long_run(mean, lr, n, rmse, parameter_variance=None, exponents=None):
+def bias_from_long_run(mean: FloatArray, lr: LongRunVariance, n: int, rmse: FloatArray,
+                       parameter_variance: FloatArray | None = None,
+                       exponents: IntArray | None = None) -> rec.Bias:
     """:func:`bias_test` from the mean and the long-run variance ``lr`` (m,) of each joint.
 
     ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
@@ -146,17 +171,18 @@ def bias_from_long_run(mean, lr, n, rmse, parameter_variance=None, exponents=Non
     mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
     with np.errstate(invalid="ignore", divide="ignore"):
         effect = np.abs(mean) / np.asarray(rmse, dtype=float)
-    out = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
+    out: dict[str, Any] = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
            "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
            "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
            "standard_error": standard_error}
     if parameter_variance is not None:
         out["method"] = "student_t_n_eff_with_parameter_error"
         out["parameter_standard_error"] = np.sqrt(parameter_variance)
-    return out
+    return rec.Bias.of(out)
 
 
-def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level, memo: Memo = compute_now):
+def parameter_error_sd(rho: FloatArray, sd: FloatArray, e: FloatArray, reg3: FloatArray, fit: EstimationFit,
+                       starts: IntArray, prof: Profile, level: float, memo: Memo[Any] = compute_now) -> FloatArray:
     """Widen the residual × regressor standard deviations by the estimated parameters' error.
 
     The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
@@ -199,22 +225,23 @@ def parameter_error_sd(rho, sd, e, reg3, fit, starts, prof, level, memo: Memo = 
     return sd
 
 
-def _joint_columns(yc, j: int, cols):
+def _joint_columns(yc: FloatArray, j: int, cols: list[int]) -> FloatArray:
     """Joint j's ``cols`` of the centred regressor, contiguous."""
     return np.ascontiguousarray(yc[:, j, cols])
 
 
-def _centred_columns(reg3):
+def _centred_columns(reg3: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The regressor less its column means, and each column's variance (over N)."""
     yc = reg3 - reg3.mean(axis=0)
     return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
 
 
-def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
+def information_criteria(km: FusedMetrics, prof: Profile, noise_model: str, n: int, m: int, n_params: int,
+                         n_eff: FloatArray | None) -> rec.InformationCriteria:
     """The lesson's criteria of the noise model and, beside them, their N_eff-based variants."""
     n_obs = n * m if noise_model == "pooled" else n
     constant_term = n * m * _LN_2PI_PLUS_1 if prof.ic_constant == "included" else 0.0
-    ic = {
+    ic: dict[str, Any] = {
         "noise_model": noise_model, "constant": prof.ic_constant, "n_obs": int(n_obs), "n_params": int(n_params),
         "aic": float(km["aic"]) + constant_term, "bic": float(km["bic"]) + constant_term,
         "aicc": float(km["aicc"]) + constant_term, "fpe": float(km["fpe"]), "naic": float(km["naic"]),
@@ -232,10 +259,11 @@ def information_criteria(km, prof, noise_model, n, m, n_params, n_eff):
         ic["bic_neff"] = fit_eff + p * math.log(n_eff_obs) + constant_term * ratio
         ic["aicc_neff"] = (ic["aic_neff"] + 2.0 * p * (p + 1) / (n_eff_obs - p - 1)
                            if n_eff_obs - p - 1 > 0 else float("nan"))
-    return ic
+    return rec.InformationCriteria.of(ic)
 
 
-def autocorrelation(kernel, e, max_lag, prof, level, starts, n) -> dict:
+def autocorrelation(kernel: Any, e: FloatArray | None, max_lag: int, prof: Profile, level: float, starts: IntArray,
+                    n: int) -> rec.Autocorrelation:
     """The ACF with its band (white or Bartlett) and the lags outside it."""
     rho = np.asarray(kernel.autocorrelation(e, max_lag, prof.adjusted, starts), dtype=np.float64)
     z = _stats.z_two_sided(level)
@@ -253,21 +281,23 @@ def autocorrelation(kernel, e, max_lag, prof, level, starts, n) -> dict:
                for j in range(rho.shape[1]) for lag in np.flatnonzero(is_out[:, j])]
     fraction = is_out.sum(axis=0) / float(max_lag)
     fraction = np.where(np.isnan(rho[0]), np.nan, fraction)
-    return {"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "rho": rho, "band_type": prof.band,
-            "level": float(level), "band": band, "outside": outside, "fraction_outside": fraction}
+    return rec.Autocorrelation.of({"max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "rho": rho,
+                                   "band_type": prof.band, "level": float(level), "band": band, "outside": outside,
+                                   "fraction_outside": fraction})
 
 
-def ljung_box(kernel, e, lags, starts) -> dict:
+def ljung_box(kernel: Any, e: FloatArray | None, lags: Sequence[int], starts: IntArray) -> rec.LjungBox:
     lb = kernel.portmanteau(e, np.asarray(lags, dtype=np.int64), 0, starts, "ljung_box")
-    return {"test": "ljung_box", "lags": np.asarray(lags, dtype=np.int64), "model_df": 0,
-            "statistic": np.asarray(lb["statistic"], dtype=np.float64),
-            "pvalue": np.asarray(lb["pvalue"], dtype=np.float64),
-            "log_pvalue": np.asarray(lb["log_pvalue"], dtype=np.float64),
-            "df": np.asarray(lb["df"], dtype=np.int64)}
+    return rec.LjungBox.of({"test": "ljung_box", "lags": np.asarray(lags, dtype=np.int64), "model_df": 0,
+                            "statistic": np.asarray(lb["statistic"], dtype=np.float64),
+                            "pvalue": np.asarray(lb["pvalue"], dtype=np.float64),
+                            "log_pvalue": np.asarray(lb["log_pvalue"], dtype=np.float64),
+                            "df": np.asarray(lb["df"], dtype=np.int64)})
 
 
-def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None, bandwidth=None,
-              lag=None) -> dict:
+def whiteness(kernel: Any, e: FloatArray | None, motion: FloatArray | None, starts: IntArray, lb: rec.LjungBox,
+              decimate: str | int | None, sample_rate: float | None, *, band: float | None = None,
+              bandwidth: float | None = None, lag: int | None = None) -> rec.Whiteness:
     """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
 
     ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
@@ -280,11 +310,12 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
     test still sees frequencies above it. ``lag``: the decimated test's largest lag (samples of
     the decimated rate; the logged test's otherwise).
     """
-    raw_p = np.asarray(lb["pvalue"][0], dtype=float)
-    lag = int(lb["lags"][0]) if lag is None else int(lag)
+    raw_p = np.asarray(lb.pvalue[0], dtype=float)
+    lag = int(lb.lags[0]) if lag is None else int(lag)
     fs = 1.0 if sample_rate is None else float(sample_rate)
     q = 1
     if decimate == "auto":
+        assert e is not None  # the stream, which has no residual, does not decimate
         if band is None:
             band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
         if np.isfinite(band) and band > 0:
@@ -296,12 +327,13 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
         band = None
         if decimate is not None:
             q = int(decimate)
-    out = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
-           "log_pvalue_raw": np.asarray(lb["log_pvalue"][0], dtype=float), "decimation": 1,
+    out: dict[str, Any] = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
+           "log_pvalue_raw": np.asarray(lb.log_pvalue[0], dtype=float), "decimation": 1,
            "information_band": band, "information_band_source": "prediction" if band is not None else None,
            "pvalue_decimated": None, "lag_decimated": None,
            "n_decimated": None}
     if q >= 2:
+        assert e is not None
         d, d_starts = _stats.decimate_segments(e, starts, q)
         if d is not None:
             longest = int(np.diff(np.append(d_starts, d.shape[0])).max())
@@ -314,11 +346,11 @@ def whiteness(kernel, e, motion, starts, lb, decimate, sample_rate, *, band=None
     tested_nyquist = fs / (2.0 * int(out["decimation"]))
     out["bandwidth"] = bandwidth
     out["above_bandwidth"] = bool(bandwidth is not None and tested_nyquist > bandwidth * (1 + 1e-9))
-    return out
+    return rec.Whiteness.of(out)
 
 
-def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
-             memo: Memo = compute_now) -> tuple[dict, Any]:
+def spectrum(e: FloatArray, starts: IntArray, reg3: FloatArray | None, sample_rate: float | None,
+             grams: JointGrams | None = None, memo: Memo[Any] = compute_now) -> tuple[rec.Spectrum, Spectrum]:
     """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
     the report's section, and the tests of every bin (:func:`dynval.statistics._stats.residual_spectrum`),
     which the findings read."""
@@ -327,21 +359,22 @@ def spectrum(e, starts, reg3, sample_rate, grams: JointGrams | None = None,
     return spectrum_section(spec, sample_rate, reg3 is not None), spec
 
 
-def spectrum_section(spec, sample_rate, regressor_removed: bool) -> dict:
+def spectrum_section(spec: Spectrum, sample_rate: float | None, regressor_removed: bool) -> rec.Spectrum:
     """The report's spectrum section from the tested spectrum (:class:`dynval.statistics._stats.Spectrum`)."""
     top = sorted(spec.peaks, key=lambda d: (d["pvalue"], -d["share"]))[:3 * spec.power.shape[1]]
-    return {"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
-            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg, "regressor_removed": regressor_removed,
-            "peaks": top}
+    return rec.Spectrum.of({"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
+                            "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg,
+                            "regressor_removed": regressor_removed, "peaks": top})
 
 
-def spectrum_sides(meas, pred, starts, sample_rate, spec: dict | None) -> tuple[Any, Any] | None:
+def spectrum_sides(meas: FloatArray | None, pred: FloatArray | None, starts: IntArray, sample_rate: float | None,
+                   spec: rec.Spectrum | None) -> tuple[FloatArray, FloatArray] | None:
     """The measured torque's and the prediction's Welch power on the residual spectrum's grid
     (conventions §5.2, ``prediction_artefact``): a line of the residual that the prediction holds and
     the measurement does not is the model's own. None without a spectrum."""
-    if spec is None or meas is None or pred is None or len(spec["frequency"]) == 0:
+    if spec is None or meas is None or pred is None or len(spec.frequency) == 0:
         return None
-    return _stats.welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec["nperseg"]))
+    return _stats.welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec.nperseg))
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
@@ -350,20 +383,21 @@ def spectrum_sides(meas, pred, starts, sample_rate, spec: dict | None) -> tuple[
 _DIRECT_ACF_LAGS = 128
 
 
-def _biased_acf(kernel, x, starts, big: int, live: np.ndarray | None = None) -> np.ndarray:
+def _biased_acf(kernel: Kernels, x: FloatArray, starts: IntArray, big: int,
+                live: IntArray | None = None) -> FloatArray:
     """Biased autocorrelation of every column of ``x`` (the residual's, the regressor's) to lag
     ``big`` (acf_fft's definition): the compiled kernel's direct sums when the backend is cpp,
     the lags few and the array contiguous (no copy), else :func:`dynval.statistics._stats.acf_fft`
     (``live``: the columns known not to be all zeros)."""
     from ..kernels import _reference
 
-    if kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous \
-            and x.dtype == np.float64:
+    if (kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous
+            and x.dtype == np.float64):
         return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
     return _stats.acf_fft(x, starts, big, live=live)
 
 
-def _kept_moments(kernel, reg2, memo: Memo) -> tuple[Any, ...]:
+def _kept_moments(kernel: Kernels, reg2: FloatArray, memo: Memo[Any]) -> tuple[Any, ...]:
     """The compiled kernel's moments of the regressor's columns (half of its time on a log of few
     lags), as an extra argument when a prepared regressor keeps them; none otherwise (the kernel
     computes them, and a plain array keeps nothing)."""
@@ -372,8 +406,9 @@ def _kept_moments(kernel, reg2, memo: Memo) -> tuple[Any, ...]:
     return (memo(("regressor_moments", reg2.shape), lambda: kernel.regressor_moments(reg2)),)
 
 
-def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_eff,
-                      detail, memo: Memo = compute_now) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+def cross_correlation(kernel: Kernels, e: FloatArray, reg2: FloatArray, p: int, max_lag: int, prof: Profile,
+                      level: float, starts: IntArray, n: int, m: int, n_eff: FloatArray | None, detail: str,
+                      memo: Memo[Any] = compute_now) -> tuple[rec.CrossCorrelation, FloatArray, FloatArray]:
     """Residual × regressor-column correlations with a colour-aware standard deviation per cell.
 
     The band of the lesson (z/√N) is kept for reference; the findings use Bartlett's variance
@@ -411,7 +446,7 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
     with np.errstate(invalid="ignore"):
         white_hits = np.argwhere(np.abs(rho) > band)
     top = _top_cells(lag_max, rho_max, z_max)
-    section = {
+    section: dict[str, Any] = {
         "max_lag": int(max_lag), "adjusted": bool(prof.adjusted), "constant_mask": mask, "band": float(band),
         "level": float(level), "n_outside_white_band": len(white_hits),
         "colour_lags": int(big), "colour_factor": colour, "max_abs_rho": np.abs(rho_max), "lag_of_max": lag_max,
@@ -424,10 +459,10 @@ def cross_correlation(kernel, e, reg2, p, max_lag, prof, level, starts, n, m, n_
         section["sd"] = sd
         section["outside"] = sorted(((int(j), int(c), int(lag), float(rho[j, c, lag]), float(z[j, c, lag]))
                                      for j, c, lag in white_hits), key=lambda t: (-t[4], t[0], t[1], t[2]))
-    return section, rho, sd
+    return rec.CrossCorrelation.of(section), rho, sd
 
 
-def _top_cells(lag_max, rho_max, z_max) -> list[tuple[int, int, int, float, float]]:
+def _top_cells(lag_max: IntArray, rho_max: FloatArray, z_max: FloatArray) -> list[tuple[int, int, int, float, float]]:
     """(joint, column, lag, rho, z) of the strongest cells, strongest first (ties by joint, then
     column): the five strongest of each joint and the two strongest of each column, so that a
     report stays small on p = 70 columns."""
@@ -448,7 +483,8 @@ def _top_cells(lag_max, rho_max, z_max) -> list[tuple[int, int, int, float, floa
     return top
 
 
-def added_variable(e, reg3, model_columns, starts, n_eff):
+def added_variable(e: FloatArray, reg3: FloatArray, model_columns: Sequence[int], starts: IntArray,
+                   n_eff: FloatArray | None) -> rec.MissingTerms | None:
     """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
 
     For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
@@ -495,13 +531,15 @@ def added_variable(e, reg3, model_columns, starts, n_eff):
     with np.errstate(invalid="ignore", divide="ignore"):
         sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
     explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
-    return {"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
-            "pvalue": _stats.correlation_pvalue(rho, sd), "share": share, "explains_bias": explains}
+    return rec.MissingTerms.of({"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
+                                "pvalue": _stats.correlation_pvalue(rho, sd), "share": share,
+                                "explains_bias": explains})
 
 
-def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
+def segment_metrics(kernel: Kernels, meas: FloatArray, pred: FloatArray, names: Sequence[str],
+                    lengths: Sequence[int], n_params: int, prof: Profile) -> dict[str, rec.Segment]:
     """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, rec.Segment] = {}
     start = 0
     for name, length in zip(names, lengths):
         a, b = start, start + int(length)
@@ -510,71 +548,21 @@ def segment_metrics(kernel, meas, pred, names, lengths, n_params, prof) -> dict:
         rows = np.all(np.isfinite(mt), axis=1) & np.all(np.isfinite(pr), axis=1)
         mt, pr = np.ascontiguousarray(mt[rows]), np.ascontiguousarray(pr[rows])
         if mt.shape[0] < 2:
-            out[name] = {"n_samples": int(mt.shape[0])}
+            out[name] = rec.Segment.of({"n_samples": int(mt.shape[0])})
             continue
         km = kernel.compute_metrics(mt, pr, n_params, prof.ddof, prof.noise_model)
         pj, pooled, _ = point_metrics(km, prof)
-        out[name] = {"n_samples": int(mt.shape[0]), "start": int(a),
-                     "per_joint": {k: pj[k] for k in ("rmse", "max_abs_error", "vaf", "fit_percent", "r2")},
-                     "mean": np.asarray(km["residual_mean"], dtype=float),
-                     "pooled": {k: pooled[k] for k in ("rmse_per_element", "vaf", "fit_percent", "r2")}}
+        out[name] = rec.Segment.of({
+            "n_samples": int(mt.shape[0]), "start": int(a),
+            "per_joint": {"rmse": pj.rmse, "max_abs_error": pj.max_abs_error, "vaf": pj.vaf,
+                          "fit_percent": pj.fit_percent, "r2": pj.r2},
+            "mean": np.asarray(km["residual_mean"], dtype=float),
+            "pooled": {"rmse_per_element": pooled.rmse_per_element, "vaf": pooled.vaf,
+                       "fit_percent": pooled.fit_percent, "r2": pooled.r2}})
     return out
 
 
-def evidence(*, n, m, level, names, per_joint, pooled, constant, omitted, force, bias, white, spec, spec_tests,
-             xcorr_rho, xcorr_sd, xcorr_mask, design, column_names, acf, missing=None, physics=None,
-             predictive=None, sample_rate=None, periodic=None, timing=None, bandwidth=None, criteria=None,
-             untested=0, model_kinds=None, spec_sides=None) -> Evidence:
-    """Collect what the findings' rules read (``untested``: tests the entry point left out, which
-    count in Holm's family, docs/conventions.md §5)."""
-    ev = Evidence(n_samples=n, level=level, joint_names=list(names), r2=np.asarray(per_joint["r2"], dtype=float),
-                  pooled_r2=float(pooled["r2"]), constant_target=constant, column_names=column_names,
-                  omitted_rows=omitted, force_finite=force)
-    if criteria is not None:
-        ev.n_params, ev.criteria_n_obs = int(criteria["n_params"]), int(criteria["n_obs"])
-        ev.noise_model = str(criteria["noise_model"])
-    if bias is not None:
-        ev.mean, ev.rmse = bias["mean"], per_joint["rmse"]
-        ev.bias_statistic, ev.bias_pvalue, ev.n_eff = bias["statistic"], bias["pvalue"], bias["n_eff"]
-    if white is not None:
-        ev.whiteness_lag = white["lag"]
-        ev.whiteness_pvalue_raw = white["pvalue_raw"]
-        ev.whiteness_log_pvalue_raw = white["log_pvalue_raw"]
-        ev.whiteness_pvalue_decimated = white["pvalue_decimated"]
-        if white["pvalue_decimated"] is not None:
-            ev.whiteness_lag = white["lag_decimated"]
-        ev.decimation = white["decimation"]
-        ev.information_band = white["information_band"]
-        ev.whiteness_above_bandwidth = bool(white.get("above_bandwidth", False))
-    if acf is not None:
-        ev.max_abs_acf = np.fmax.reduce(np.abs(acf["rho"][1:]), axis=0) if acf["rho"].shape[0] > 1 else None
-    if spec is not None:
-        ev.spectrum_frequency = spec["frequency"]
-        ev.spectrum_pvalue, ev.spectrum_ratio = spec_tests.pvalue, spec_tests.ratio
-        ev.spectrum_share, ev.spectrum_is_peak = spec_tests.share, spec_tests.is_peak
-        ev.frequency_unit = spec["frequency_unit"]
-        if spec_sides is not None and spec_sides[0].shape == spec["power"].shape:
-            ev.spectrum_power = spec["power"]
-            ev.spectrum_power_measured, ev.spectrum_power_prediction = spec_sides
-    if xcorr_rho is not None:
-        ev.xcorr_rho, ev.xcorr_sd, ev.xcorr_mask = xcorr_rho, xcorr_sd, xcorr_mask
-    if design is not None:
-        ev.repeat, ev.excitation = design.get("repeat"), design.get("excitation")
-        ev.joint_motion_ratio = design.get("joint_motion_ratio")
-        ev.detectable_share = design.get("detectable_share")
-        ev.noise_n_eff = design.get("noise_n_eff")
-    ev.physics, ev.predictive, ev.sample_rate, ev.periodic = physics, predictive, sample_rate, periodic
-    ev.timing, ev.bandwidth, ev.untested = timing, bandwidth, int(untested)
-    ev.model_kinds = physics.get("model_kinds") if physics is not None else model_kinds
-    if missing is not None:
-        ev.missing_columns, ev.missing_method = missing["columns"], missing["method"]
-        ev.missing_statistic, ev.missing_pvalue = missing["statistic"], missing["pvalue"]
-        ev.missing_share, ev.missing_explains_bias = missing["share"], missing["explains_bias"]
-        ev.missing_enters, ev.missing_alone = missing.get("enters"), missing.get("alone")
-    return ev
-
-
-def _relative_distance(a, b, centre: bool) -> float:
+def _relative_distance(a: FloatArray, b: FloatArray, centre: bool) -> float:
     """‖a − b‖ / ‖b − b̄‖ (centred) or ‖a − b‖ / ‖b‖ on the rows both runs have."""
     rows = min(a.shape[0], b.shape[0])
     a, b = a[:rows], b[:rows]
@@ -583,7 +571,8 @@ def _relative_distance(a, b, centre: bool) -> float:
     return float(np.linalg.norm(a - b)) / denom if denom > 0 else float("inf")
 
 
-def _excitation(r_factor, n_rows: int, norms, gram, est, structure=None) -> dict[str, Any]:
+def _excitation(r_factor: Callable[[IntArray], FloatArray], n_rows: int, norms: FloatArray, gram: FloatArray | None,
+                est: FloatArray | None, structure: FloatArray | None = None) -> dict[str, Any]:
     """The excitation section (contract §4): the columns that are structural (zero or exact
     combinations of others in both runs: reduced to the identifiable combinations), those the
     validation run leaves unexcited or inseparable while the estimation run excites them, and the
@@ -596,10 +585,9 @@ def _excitation(r_factor, n_rows: int, norms, gram, est, structure=None) -> dict
     with_est = est is not None and est.shape[1] == p
     source = "estimation" if with_est else "model" if structure is not None and structure.shape[1] == p else None
     motion_ref = est if with_est else None
-    if source == "model":
-        est = structure
-    with_est = source is not None
-    est_norms = _column_norms(est) if with_est else None
+    ref = est if with_est else structure if source == "model" else None
+    with_est = ref is not None
+    est_norms = _column_norms(ref) if ref is not None else None
     fast = _gram_singular_values(gram, norms) if gram is not None else None
     if fast is not None:  # full column rank in the validation run: nothing is structural or unexcited
         sv, sv_s = fast
@@ -609,18 +597,18 @@ def _excitation(r_factor, n_rows: int, norms, gram, est, structure=None) -> dict
                                "identifiable_columns": everything if with_est else None, "validation_rank": p}
     else:
         zero_v = zero_columns(norms)
-        both = np.hypot(norms, est_norms) if with_est else norms
+        both = np.hypot(norms, est_norms) if est_norms is not None else norms
         k = np.where(both > 0, np.frexp(both)[1], 0).astype(np.int64)
         every = np.arange(p)
         r_v = r_factor(k)
         structural: list[int] | None = None
         unidentifiable: list[int] = []
-        if with_est:
+        if ref is not None:
             zero_s = zero_columns(both)
             nz = np.flatnonzero(~zero_s)
             base = np.zeros(0, dtype=np.intp)
             if nz.size:
-                r_s = np.asarray(np.linalg.qr(np.vstack([_r_factor(est, nz, k[nz]), r_v[:, nz]]), mode="r"))
+                r_s = np.asarray(np.linalg.qr(np.vstack([_r_factor(ref, nz, k[nz]), r_v[:, nz]]), mode="r"))
                 base = nz[_leading_base(r_s, _RANK_TOL)]
             unidentifiable = [int(c) for c in np.flatnonzero(zero_s)]
             structural = [int(c) for c in np.setdiff1d(every, base)]
@@ -648,17 +636,18 @@ def _excitation(r_factor, n_rows: int, norms, gram, est, structure=None) -> dict
     out["rank_tolerance"] = _RANK_TOL
     out["column_norms"] = norms
     out["structural_source"] = source
-    if motion_ref is not None:
+    if motion_ref is not None and est_norms is not None:
         # each column's RMS per row on the validation run over the estimation run's
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             out["column_motion_ratio"] = np.where(
-                est_norms > 0, (norms / math.sqrt(n_rows)) / (est_norms / math.sqrt(est.shape[0])), np.nan)
+                est_norms > 0, (norms / math.sqrt(n_rows)) / (est_norms / math.sqrt(motion_ref.shape[0])), np.nan)
     return out
 
 
-def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | None = None,
-           sample_rate=None, memo: Memo = compute_now, estimation_key=(),
-           structure=None) -> dict[str, Any] | None:
+def design(reg3: FloatArray | None, q_val: FloatArray | None, estimation: Mapping[str, FloatArray] | None,
+           meas: FloatArray, thresholds: Thresholds | None = None, grams: JointGrams | None = None,
+           sample_rate: float | None = None, memo: Memo[Any] = compute_now, estimation_key: tuple[Any, ...] = (),
+           structure: FloatArray | None = None) -> rec.Design | None:
     """Whether the validation run repeats the estimation run, and how well it excites the model.
 
     Repeat (conventions §5.6): the share of the validation run whose state (q, q̇, q̈ from ``q``,
@@ -710,11 +699,11 @@ def design(reg3, q_val, estimation, meas, thresholds=None, grams: JointGrams | N
         # the regressors' alone (``estimation_key`` names the estimation run's)
         out["excitation"] = memo(("excitation", reg3.shape, estimation_key),
                                  lambda: _regressor_excitation(reg3, grams, estimation, memo, structure))
-    return out or None
+    return rec.Design.of(out) if out else None
 
 
-def _regressor_excitation(reg3, grams: JointGrams | None, estimation, memo: Memo = compute_now,
-                          structure=None) -> dict[str, Any]:
+def _regressor_excitation(reg3: FloatArray, grams: JointGrams | None, estimation: Mapping[str, FloatArray] | None,
+                          memo: Memo[Any] = compute_now, structure: FloatArray | None = None) -> dict[str, Any]:
     """:func:`_excitation` of the stacked validation regressor (and the estimation run's, else the
     model's structure)."""
     stacked = reg3.reshape(-1, reg3.shape[2])
@@ -724,3 +713,179 @@ def _regressor_excitation(reg3, grams: JointGrams | None, estimation, memo: Memo
     if estimation is not None and "regressor" in estimation:
         est = estimation["regressor"].reshape(-1, estimation["regressor"].shape[2])
     return _excitation(partial(_stacked_r, reg3, memo=memo), stacked.shape[0], norms, gram, est, structure)
+
+
+# --------------------------------------------------------------------------- validate's phases
+
+
+@dataclass(frozen=True)
+class CheckedData:
+    """The checked data: measured and predicted torques, residual, regressor (2-D and 3-D), and
+    the frame of their lag analysis."""
+
+    meas: FloatArray
+    pred: FloatArray
+    e: FloatArray | None
+    reg2: FloatArray | None
+    reg3: FloatArray | None
+    p_cols: int | None
+    omitted: int
+    given_meas: FloatArray  # the torques as given (before nan_policy="omit"), for the segment metrics
+    given_pred: FloatArray
+    lags: Lags
+    # the prepared regressor's store of residual-independent results; compute_now keeps nothing
+    memo: Memo[Any] = compute_now
+    # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
+    structure: FloatArray | None = None
+
+    @property
+    def n(self) -> int:
+        return int(self.meas.shape[0])
+
+    @property
+    def m(self) -> int:
+        return int(self.meas.shape[1])
+
+
+class Residual(NamedTuple):
+    """The point metrics, the residual's moments and zero-mean test, the estimation refit, the bias
+    test, the criteria, and the regressor's Gram matrices the later phases share."""
+
+    km: FusedMetrics
+    per_joint: rec.PerJoint
+    pooled: rec.Pooled
+    aggregates: rec.Aggregates
+    residuals: rec.Residuals
+    est_fit: EstimationFit | None
+    bias: rec.Bias | None
+    ic: rec.InformationCriteria
+    grams: JointGrams | None
+    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (_estimation_key)
+
+    @property
+    def n_eff(self) -> FloatArray | None:
+        """Each joint's effective sample size from the bias test (None without lags)."""
+        return None if self.bias is None else self.bias.n_eff
+
+
+def residual_phase(d: CheckedData, o: Options) -> Residual:
+    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
+    from ..metrics._api import checked_zero_mean_test
+
+    prof = o.profile
+    km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
+    per_joint, pooled, aggregates = point_metrics(km, prof)
+    lagged = d.lags.max_lag > 0
+    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
+           else iid_zero_mean_test(km, d.n, prof.ddof))
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    # The estimation run, when given with its torques: the parameters' coloured-noise covariance
+    # (the bias and regressor tests allow for it) and the refit that names a missing term.
+    est = o.estimation or {}
+    est_key = _estimation_key(d.memo, est)
+    est_fit = None
+    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
+        cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
+        est_fit = d.memo(("fit_columns", est_key, cols),
+                         lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
+    param_var = None
+    if est_fit is not None and d.reg3 is not None:
+        fit, val_reg = est_fit, d.reg3
+        means = d.memo(("column_means", val_reg.shape, fit.columns),
+                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
+        param_var = _estimation.quadratic_forms(fit, means)
+    bias = None
+    if lagged:
+        assert d.e is not None  # a residual whenever lags are analysed
+        bias = bias_test(d.e, d.lags.starts, per_joint.rmse, param_var)
+    ic = information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
+    # One pass over the regressor for both the spectrum's projection and the excitation section.
+    reg3 = d.reg3
+    grams = None if reg3 is None else d.memo(
+        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
+    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, est_key)
+
+
+def _estimation_key(memo: Memo[Any], est: Mapping[str, Any]) -> tuple[Any, ...]:
+    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
+    prepared regressor, where nothing is kept)."""
+    if memo is compute_now:
+        return ()
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
+
+
+class Lagged(NamedTuple):
+    """The lag analysis: ACF, Ljung–Box, whiteness at the information rate, the residual's spectrum."""
+
+    lb_lags: list[int]
+    acf: rec.Autocorrelation | None = None
+    lb: rec.LjungBox | None = None
+    white: rec.Whiteness | None = None
+    spec: rec.Spectrum | None = None
+    spec_tests: Spectrum | None = None
+    spec_sides: tuple[FloatArray, FloatArray] | None = None
+
+
+def lag_phase(d: CheckedData, o: Options, r: Residual) -> Lagged:
+    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
+    lags = d.lags
+    lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
+    if lags.max_lag <= 0:
+        return Lagged(lb_lags)
+    assert d.e is not None  # a residual whenever lags are analysed
+    acf = autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
+    lb = white = None
+    if lb_lags:
+        lb = ljung_box(o.kernel, d.e, lb_lags, lags.starts)
+        white = whiteness(o.kernel, d.e, d.pred, lags.starts, lb, o.decimate, o.sample_rate, band=lags.band,
+                              bandwidth=o.bandwidth, lag=lags.white_lag)
+    spec, spec_tests = spectrum(d.e, lags.starts, d.reg3, o.sample_rate, r.grams, memo=d.memo)
+    return Lagged(lb_lags, acf, lb, white, spec, spec_tests, spectrum_sides(d.meas, d.pred, lags.starts,
+                                                                                 o.sample_rate, spec))
+
+
+class Crossed(NamedTuple):
+    """The residual against the regressor's columns, and the columns the model lacks."""
+
+    cross: rec.CrossCorrelation | None = None
+    xrho: FloatArray | None = None
+    xsd: FloatArray | None = None
+    missing: rec.MissingTerms | None = None
+
+
+def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
+    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
+    if d.reg2 is None:
+        return Crossed()
+    assert d.e is not None and d.p_cols is not None and d.reg3 is not None  # with a regressor
+    cross, xrho, xsd = cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile, o.level,
+                                             d.lags.starts, d.n, d.m, r.n_eff, o.detail, memo=d.memo)
+    if r.est_fit is not None:
+        xsd = parameter_error_sd(xrho, xsd, d.e, d.reg3, r.est_fit, d.lags.starts, o.profile, o.level,
+                                     memo=d.memo)
+        cross = cross.with_(parameter_error=True)
+    missing = None
+    if o.model_columns is not None:
+        est = o.estimation or {}
+        if r.est_fit is not None:
+            cols = tuple(int(c) for c in o.model_columns)
+            reg3 = d.reg3
+            missing = rec.record_or_none(rec.MissingTerms, d.memo(
+                ("missing_terms", r.est_key, reg3.shape, cols,
+                 digest(d.meas) if d.memo is not compute_now else ()),
+                lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
+        else:
+            missing = added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
+        if missing is not None:
+            cross = cross.with_(missing_terms=dict(missing))
+    return Crossed(cross, xrho, xsd, missing)
+
+
+def _as_dict(result: Any) -> dict[str, Any]:
+    if hasattr(result, "_asdict"):
+        return dict(result._asdict())
+    if hasattr(result, "__dataclass_fields__"):
+        return {f: getattr(result, f) for f in result.__dataclass_fields__}
+    return dict(result)

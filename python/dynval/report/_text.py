@@ -194,3 +194,9 @@ def printable(text: object) -> str:
     except UnicodeEncodeError:
         return text.encode("utf-8", "backslashreplace").decode("utf-8")
     return raw.decode("utf-8", "backslashreplace")
+
+
+def source_text(source: str) -> str:
+    """The derivative source in words (the provenance's and the findings')."""
+    return ("the user's q̇, q̈ on both runs" if source == "given"
+            else "Savitzky–Golay derivatives of q on both runs (0.1 s window, degree 4)")

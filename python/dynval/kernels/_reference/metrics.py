@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from ...checks._typing import FusedMetrics
 from ...checks._validation import check_ddof, check_n_params, check_noise_model
 from ._common import finite_pair
 from .fit import fit_values, r2_values, uniform_average, vaf_values, variance_weighted
@@ -18,7 +19,7 @@ from .information import assemble, fit_term, pooled_sum
 from .norms import joint_major, moments_scaled, pooled, sumsq
 
 
-def compute_metrics(meas, pred, n_params, ddof, noise_model) -> dict:
+def compute_metrics(meas, pred, n_params, ddof, noise_model) -> FusedMetrics:
     """All report metrics for ``tau_meas``/``tau_pred``; see contract §5.1 for the fields.
 
     Unlike :func:`information_criteria`, ``n_params >= n − 1`` does not raise: aicc and fpe

@@ -8,7 +8,7 @@ A kind's module (``report/kinds/<kind>.py``) imports this module and nothing of 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
@@ -241,11 +241,11 @@ class Evidence:
     missing_enters: np.ndarray | None = None  # (m, q) bool: the column enters the joint's rows (the refit's)
     missing_alone: np.ndarray | None = None  # (m, q): the share the column removes added alone (the refit's)
     # the motion: physics library (with q), predictive test (with the estimation run)
-    # Any: the motion's and the design's sections are still the builders' dicts (report/_motion.py,
-    # report/_sections.py), read by the rules through their keys
-    physics: dict[str, Any] | None = None
-    predictive: dict[str, Any] | None = None
-    periodic: dict[str, Any] | None = None
+    # the sections' records (report/_records.py: Physics, Predictive, Periodic), read as mappings, or
+    # a test's plain mappings of the same names; Any: their nested per-joint mappings (contract §4)
+    physics: Mapping[str, Any] | None = None
+    predictive: Mapping[str, Any] | None = None
+    periodic: Mapping[str, Any] | None = None
     sample_rate: float | None = None
     # validation design
     repeat: dict[str, Any] | None = None

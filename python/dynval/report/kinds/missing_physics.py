@@ -8,6 +8,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from .._finding_words import NEGLIGIBLE, PARTIAL_FORMS, Words, coupling_terms, p_text, simulator_words
+from .._text import source_text
 from ._base import Context, Finding, Kind, effect_versus_threshold, worded
 from ._evidence import delay_explains, simulator_values, term_effect
 
@@ -143,9 +144,7 @@ def _coefficients(advice: Mapping[str, Any]) -> str:
     return "; ".join(parts) if parts else "its coefficients differ"
 
 
-def _derivative_words(physics: dict[str, Any]) -> str:
-    from .._motion import source_text
-
+def _derivative_words(physics: Mapping[str, Any]) -> str:
     return source_text(str(physics.get("derivative_source", "savgol")))
 
 
