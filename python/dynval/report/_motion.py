@@ -410,8 +410,14 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
             # validation run, what the model's own columns cannot represent there.
             gv = _validation_refit_gains(meas[:, t.joint], unit_norm_columns(reg3[:, t.joint, cols]), lib_v[t.joint])
             if not gv or not max(gv.values()) >= practical:
-                # Neither refit names a group that carries a practical share: keep the validation
-                # test's own naming (the model's columns may span the term: mis-weighted, not missing).
+                # Neither refit names a group that carries a practical share: the model's columns
+                # span what remains (mis-weighted, not missing). Name the kind of their re-weighting.
+                y_j = unit_norm_columns(reg3[:, t.joint, cols])
+                held = _model_terms.kinds_present(t.joint, y_j, lib_v[t.joint], m)
+                named = _reweighted_group(meas[:, t.joint] - reg3[:, t.joint, cols] @ est_fit.coefficients, y_j,
+                                          {g: x for g, x in lib_v[t.joint].items() if held.get(g)})
+                if named is not None:
+                    t.term = named
                 continue
             gj, how = gv, "validation"
         best = _physics.name_group(gj, {g: lib_e[t.joint][g].shape[1] for g in gj})
@@ -427,6 +433,30 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
 _NORMAL_RCOND = 1e-10
 """Singular values of unit-norm normal equations below this fraction of the largest are dependent
 directions (1e-5 of the design's: a column within 1e-5 of the others' span adds nothing)."""
+
+
+def _reweighted_group(e_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> str | None:
+    """The library group that best represents what re-weighting the model's columns changes on this
+    run: the residual's least-squares fit on the model's columns (the torque the changed weights
+    make), and the group of ``groups`` (those the model holds) that explains the most of it. A
+    payload changes the weights of the model's gravity and inertia columns: what they then add is a
+    posture term, not a position harmonic that the validation test's selection may have taken first.
+    None when the re-weighting adds nothing."""
+    active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+    if not np.any(active) or not groups:
+        return None
+    y = y_j[:, active]
+    r = y @ np.linalg.lstsq(y, e_j, rcond=None)[0]
+    total = float(r @ r)
+    if not total > 0:
+        return None
+    shares = {}
+    for g, x in groups.items():
+        left = r - x @ np.linalg.lstsq(x, r, rcond=None)[0]
+        shares[g] = 1.0 - float(left @ left) / total
+    # the largest share, not the fewest columns near it: every group is fitted to the same torque
+    # of the model's own columns, which a slowly moving joint's constant-like columns all nearly fit
+    return max(shares, key=lambda g: (shares[g], -groups[g].shape[1]))
 
 
 def _carried_libraries(j: int, q_e: np.ndarray, de: Derivatives, q: np.ndarray, d: Derivatives,
