@@ -412,7 +412,8 @@ def _motion_sections(d: _Data, o: Options, b: Sections) -> None:
         b.physics = _motion.physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns,
                                     b.est_fit, o.level, o.estimation, d.meas,
                                     practical=resolve_thresholds(o.thresholds).missing_physics,
-                                    column_names=o.column_names)
+                                    column_names=o.column_names,
+                                    band=d.lags.band if o.decimate == "auto" else None)
         b.physics["delay"] = _motion.delay(d.meas, d.pred, o.sample_rate)
         band = None if b.white is None else b.white["information_band"]
         b.periodic = _motion.periodic(d.e, o.q, o.sample_rate, band, b.est_fit, d.reg3, o.model_columns)
