@@ -11,7 +11,7 @@ tolerance, shares of the logged rate's mean square and N_eff in its units.
 Mutations caught: a factor that ignores the margin, the row floor or the 40,000-row limit; a band
 taken from elsewhere than the report's; decimation with ``decimate=None``; a statement missing or
 present on a log not decimated; shares of the decimated rows' mean square (white noise above the
-band removed: each share then grows by up to D); N_eff left in decimated samples (D times too few);
+band removed: each share then grows by up to D); N_eff left in decimated samples (D times too few) or above the logged rows;
 a library built at the logged rate for decimated rows (a shape error) or a filter's edge kept.
 """
 
@@ -103,8 +103,11 @@ def _z(p):
 def _compare(decimated, logged, white):
     assert "decimation" in decimated.physics and "decimation" not in logged.physics
     assert sorted(map(_key, decimated.findings)) == sorted(map(_key, logged.findings))
+    assert "Physical terms tested on the log decimated by" in decimated.summary()
+    assert "tested on the log decimated" not in logged.summary()
     for a, b in zip(decimated.physics["tests"], logged.physics["tests"]):
         where = f"joint {b['joint']}"
+        assert a["n_eff"] <= decimated.provenance["n_samples"], where  # never more than the logged rows
         pa, pb = float(a["pvalue"]), float(b["pvalue"])
         if pb >= SMALL_P:
             assert abs(_z(pa) - _z(pb)) <= Z_TOL, f"{where}: p {pa:.3g} decimated against {pb:.3g}"

@@ -309,7 +309,8 @@ def decimation(n: int, sample_rate: float | None, band: float | None) -> Decimat
     if by_band >= by_rows:
         rule = (f"decimated by {factor} (zero-phase FIR) to {rows} rows before the library is built: the new "
                 f"Nyquist frequency {float(sample_rate) / (2 * factor):.4g} Hz is at least {_MARGIN:g}× the "
-                f"information band {band:.4g} Hz, and at least {_MIN_ROWS} rows are kept")
+                f"information band {band:.4g} Hz and N/{factor} at least {_MIN_ROWS} rows ({_EDGE} rows at each end, "
+                f"where the filter reached past the log, dropped)")
     else:
         rule = f"decimated by {factor} (zero-phase FIR) to {rows} rows: longer than {_MAX_ROWS} rows"
     return Decimation(factor, band if usable else None, rows, rule)
@@ -367,7 +368,7 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
         nz = None if nuisance is None else nuisance[j]
         gj = None if model_regressor is None else model_regressor[:, j, :]
         return _joint_test(j, e[:, j], lib, nz, alpha, gj, parameter_covariance,
-                           None if full_ms is None else float(full_ms[j]))
+                           None if full_ms is None else (float(full_ms[j]), n))
 
     return [joint(j) for j in range(m)]
 
@@ -387,12 +388,13 @@ def name_group(shares: dict[str, float], widths: dict[str, int]) -> str:
     return min(near, key=lambda g: (widths[g], -shares[g]))
 
 
-def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, full_ms=None):
+def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, logged=None):
     """One joint. ``nz``: nuisance columns refitted on the validation run (the model's columns when
     Cov(π̂) is unknown), or None; ``g``, ``cov_p``: the model's columns and Cov(π̂) when known.
-    ``full_ms``: on a decimated log, the residual's mean square at the logged rate: the shares are
-    of it (a sum of squares of the decimated rows taken per row, as the band's power is kept by the
-    filter) and N_eff is in its units (conventions §5.2)."""
+    ``logged``: on a decimated log, the residual's mean square at the logged rate and the logged
+    rows: the shares are of it (a sum of squares of the decimated rows taken per row, as the band's
+    power is kept by the filter) and N_eff is in its units, at most the logged rows (conventions §5.2)."""
+    full_ms, full_n = (None, None) if logged is None else logged
     n = ej.shape[0]
     total = float(ej @ ej)
     if not total > 0 or n < 50:
@@ -416,7 +418,7 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, full_ms=None):
         # the library leaves; a term in the band sees got · (what is left there)/(what is left here)
         left_ms = float(left @ left) / n
         above = max(full_ms - total / n, 0.0)
-        return got * (1.0 + above / left_ms) if left_ms > 0 else got
+        return min(got * (1.0 + above / left_ms), float(full_n)) if left_ms > 0 else got
 
     return _conclude(j, problem, fit, total, raw_sse, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size),
                      None if full_ms is None else n * full_ms)
