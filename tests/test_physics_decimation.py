@@ -11,8 +11,9 @@ tolerance, shares of the logged rate's mean square and N_eff in its units.
 Mutations caught: a factor that ignores the margin, the row floor or the 40,000-row limit; a band
 taken from elsewhere than the report's; decimation with ``decimate=None``; a statement missing or
 present on a log not decimated; shares of the decimated rows' mean square (white noise above the
-band removed: each share then grows by up to D); N_eff left in decimated samples (D times too few) or above the logged rows;
-a library built at the logged rate for decimated rows (a shape error) or a filter's edge kept.
+band removed: each share then grows by up to D); N_eff left in decimated samples (D times too few)
+or above the logged rows; a library built at the logged rate for decimated rows (a shape error) or a
+filter's edge kept.
 """
 
 from __future__ import annotations

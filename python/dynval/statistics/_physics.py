@@ -138,7 +138,9 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     ``only``: the groups to build (each the same columns as in the whole library), else all."""
     n = pred_j.shape[0]
     wanted = set(GROUPS) if only is None else set(only)
-    if row_index is None:
+    if "drift" not in wanted:
+        drift = []
+    elif row_index is None:
         t = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)
         drift = [t, t * t - np.mean(t * t)]
     else:
@@ -153,10 +155,12 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
             groups["coulomb"] = [np.sign(v)] + [np.tanh(v / (c * vs)) for c in (0.02, 0.1, 0.3)] + \
                 [np.sign(v) * np.exp(-(v / (0.1 * vs)) ** 2)]
         groups["viscous"] = [v]
-        groups["velocity_squared"] = [v * np.abs(v)]
+        if "velocity_squared" in wanted:
+            groups["velocity_squared"] = [v * np.abs(v)]
         if "gravity" in wanted:
             groups["gravity"] = _chains(j, q, chains)
-        groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
+        if "position_harmonic" in wanted:
+            groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
         groups["inertia"] = [ddq[:, k] for k in range(m)]
     out = {}
     for g in GROUPS:
