@@ -177,3 +177,17 @@ def test_the_decimated_rows_drop_the_filters_edges():
     assert y.shape == (400 - 20, 2)
     assert np.max(np.abs(y - 1.0)) < 1e-3
     assert np.max(np.abs(scipy.signal.decimate(x, 5, ftype="fir", axis=0, zero_phase=True) - 1.0)) > 0.1
+
+
+def test_the_models_columns_refitted_on_a_decimated_log_keep_the_findings(monkeypatch):
+    # a regressor without the estimation run: its columns, nuisance refitted on the run, are decimated too
+    rep, (pi, rank) = _scenario("no_gravity:lowpass:anthro3@1000")
+    val = rep.validation
+    cols = list(rep.model_columns)
+    pred = val.regressor[:, :, cols] @ pi
+    kw = dict(n_params=rank, regressor=val.regressor, model_columns=cols, sample_rate=rep.scenario.sample_rate,
+              q=val.q, column_names=list(rep.column_names))
+    decimated = dynval.validate(val.tau, pred, **kw)
+    logged = _logged_rate(monkeypatch, lambda: dynval.validate(val.tau, pred, **kw))
+    assert decimated.physics["decimation"]["factor"] == 5
+    _compare(decimated, logged, white=False)
