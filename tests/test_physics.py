@@ -586,3 +586,42 @@ def test_validate_differentiates_its_checked_q_without_checking_it_again(monkeyp
     # the public function still checks what it is given
     with pytest.raises(dynval.NonFiniteInput, match="q has a non-finite value"):
         dynval.robots.differentiate(np.where(t > 3.0, np.nan, t), 100.0)
+
+
+def _whole_shift_by_loop(meas, pred, big):
+    """The delay test's whole shift as a loop over every shift finds it (the first on a tie)."""
+    n = meas.shape[0]
+    inner = slice(big + 1, n - big - 1)
+    sse0 = np.sum((meas - pred)[inner] ** 2, axis=0)
+
+    def sse(shift):
+        lo = inner.start - int(shift)
+        return np.sum((meas[inner] - pred[lo:lo + inner.stop - inner.start]) ** 2, axis=0)
+
+    whole = np.arange(-big, big + 1, dtype=float)
+    return float(whole[int(np.argmin([np.sum(sse(d) / sse0) for d in whole]))]), inner, sse, sse0
+
+
+def test_the_delay_tests_whole_shift_is_the_loops_ties_included():
+    # the costs of every whole shift come from one correlation; the near-best are scored again exactly,
+    # so the shift chosen is the loop's, also where shifts tie (a constant or periodic prediction)
+    from dynval.statistics import _physics
+
+    rng = np.random.default_rng(3)
+    cases = []
+    for k in range(20):
+        n, m = int(rng.integers(300, 2500)), int(rng.integers(1, 4))
+        t = np.arange(n)[:, None]
+        pred = np.sin(t * rng.uniform(0.01, 0.3, m)) + (rng.normal(size=(n, m)) if k % 3 == 0 else 0.0)
+        meas = np.roll(pred, int(rng.integers(-5, 6)), axis=0) + rng.normal(0.0, 0.1, (n, m))
+        cases.append((meas, pred, int(rng.integers(1, 12))))
+    flat = np.ones((500, 2))
+    cases.append((flat + rng.normal(size=(500, 2)), flat, 10))  # every shift ties
+    square = np.tile([1.0, -1.0], 250)[:, None]
+    cases.append((square + 0.1, square, 10))  # every other shift ties
+    for period in (3, 7):  # every period-th shift ties exactly in the loop, not in a running sum's rounding
+        wave = np.tile(rng.uniform(-2.0, 2.0, period), 3000 // period)[:, None] * np.array([[1.0, 0.37]])
+        cases.append((wave + rng.normal(0.0, 0.5, wave.shape), wave, 20))
+    for meas, pred, big in cases:
+        want, inner, sse, sse0 = _whole_shift_by_loop(meas, pred, big)
+        assert _physics._best_whole_shift(meas, pred, inner, big, sse, sse0) == want

@@ -403,6 +403,9 @@ def provenance(s: Setting, sections: Sections, *, n: int, m: int, p_cols: int | 
                                            else None),
             "decimate": s.decimate,
             "derivatives": _derivatives(sections.physics),
+            # only where the physics test decimated the log (conventions §5.2): the others stay as they were
+            **({"physics_decimation": dict(sections.physics["decimation"])}
+               if sections.physics is not None and "decimation" in sections.physics else {}),
         },
         "units": {"vaf": prof.units, "fit_percent": prof.units, "r2": "fraction", "nrmse": "fraction",
                   "torque": "as given", "frequency": "Hz" if s.sample_rate else "cycles/sample"},

@@ -8,7 +8,7 @@ They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or th
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -41,8 +41,12 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
             sample_rate: float | None,
             reg3: np.ndarray | None, model_columns: Sequence[int] | None, est_fit: EstimationFit | None, level: float,
             est_run: Mapping[str, Any] | None = None, meas: np.ndarray | None = None, practical: float = 0.05,
-            column_names: Sequence[str] | None = None) -> dict[str, Any]:
+            column_names: Sequence[str] | None = None, band: float | None = None) -> dict[str, Any]:
     """Each joint's residual against the physics library (:mod:`dynval.statistics._physics`).
+
+    ``band``: the report's information band (Hz); where it allows, the test runs on the log
+    decimated towards it (:func:`dynval.statistics._physics.decimation`, conventions §5.2), and the
+    section's ``decimation`` states the factor, the band and the rows.
 
     The model's own columns: with the estimation run their estimation error widens the test
     (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
@@ -62,10 +66,12 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
         how = "refitted on the validation run (what they represent is not missing)"
-    # each joint's library once: the test, the relation to the model and its kinds read the same columns
-    libs = [_physics.library(j, q, d.dq, d.ddq, np.zeros(e.shape[0]), sample_rate) for j in range(e.shape[1])]
+    # each joint's library once, when first read: the test (at the logged rate), the relation to the
+    # model and its kinds read the same columns
+    libs = _Libraries(q, d, e.shape[0], sample_rate)
+    dec = _physics.decimation(e.shape[0], sample_rate, band)
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level,
-                                  libraries=libs, **kwargs)
+                                  libraries=libs, band=band, **kwargs)
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
     local: dict[int, dict[str, Any]] = {}
     source = derivative_source(q, dq, ddq, est_run)
@@ -84,7 +90,52 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
             "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared, libs),
             "simulator_parameters": simulator_parameters(pred, meas, reg3, column_names),
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
-            "n_eff": np.array([t.n_eff for t in tests])}
+            "n_eff": np.array([t.n_eff for t in tests]),
+            # stated only where the log was decimated: the other reports stay as they were
+            **({"decimation": dec.to_dict()} if dec.factor > 1 else {})}
+
+
+class _Libraries(Sequence[Mapping[str, np.ndarray]]):
+    """Each joint's physics library at the logged rate, each group built when first read (a
+    decimated test builds its own from the decimated motion: then only the named terms' groups and,
+    with a regressor, the model's kinds need these); the joints share the posture chains' sin and cos."""
+
+    def __init__(self, q: np.ndarray, d: Derivatives, n: int, sample_rate: float | None) -> None:
+        self._args = (q, d.dq, d.ddq, np.zeros(n), sample_rate)
+        self._m = int(q.shape[1])
+        self._chains: dict[Any, Any] = {}
+        self._joints = [_JointLibrary(self, j) for j in range(self._m)]
+
+    def __len__(self) -> int:
+        return self._m
+
+    def __getitem__(self, j: Any) -> Any:
+        return self._joints[j]
+
+    def build(self, j: int, group: str) -> np.ndarray:
+        q, dq, ddq, zeros, fs = self._args
+        return _physics.library(j, q, dq, ddq, zeros, fs, chains=self._chains, only={group})[group]
+
+
+class _JointLibrary(Mapping[str, np.ndarray]):
+    """One joint's library (:func:`dynval.statistics._physics.library`'s groups, in its order)."""
+
+    def __init__(self, owner: _Libraries, j: int) -> None:
+        self._owner, self._j = owner, j
+        self._built: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, group: str) -> np.ndarray:
+        if group not in _physics.GROUPS:
+            raise KeyError(group)
+        if group not in self._built:
+            self._built[group] = self._owner.build(self._j, group)
+        return self._built[group]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(_physics.GROUPS)
+
+    def __len__(self) -> int:
+        return len(_physics.GROUPS)
 
 
 def derivative_source(q: np.ndarray | None, dq: np.ndarray | None, ddq: np.ndarray | None,
@@ -112,7 +163,7 @@ def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | Non
                 reg3: np.ndarray | None,
                 cols: Sequence[int] | None,
                 declared: list[set[str]] | None = None,
-                libraries: list[dict[str, np.ndarray]] | None = None) -> list[dict[str, bool]] | None:
+                libraries: Sequence[Mapping[str, np.ndarray]] | None = None) -> list[dict[str, bool]] | None:
     """Per joint, which library groups the model's columns span (an own column of each within
     the tolerance of :mod:`dynval.statistics._model_terms`); None when its columns are unknown.
     ``libraries``: each joint's library when built already."""
@@ -135,7 +186,7 @@ def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, 
                  d: Derivatives, sample_rate: float | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
                  est_fit: EstimationFit | None,
                  practical: float, declared: list[set[str]] | None = None,
-                 libraries: list[dict[str, np.ndarray]] | None = None,
+                 libraries: Sequence[Mapping[str, np.ndarray]] | None = None,
                  local: Mapping[int, dict[str, Any]] | None = None) -> None:
     """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
     with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
@@ -547,7 +598,8 @@ def motion_phase(d: CheckedData, o: Options, r: Residual, lagged: Lagged) -> Mot
     library = noise = kinds_spanned = None
     if o.q is not None and d.e is not None and not d.omitted:
         phys = physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns, r.est_fit, o.level,
-                       o.estimation, d.meas, practical=o.thresholds.missing_physics, column_names=o.column_names)
+                       o.estimation, d.meas, practical=o.thresholds.missing_physics, column_names=o.column_names,
+                       band=d.lags.band if o.decimate == "auto" else None)
         library = rec.Physics.of({**phys, "delay": delay(d.meas, d.pred, o.sample_rate)})
         band = None if lagged.white is None else lagged.white.information_band
         noise = rec.record_or_none(rec.Periodic, periodic(d.e, o.q, o.sample_rate, band, r.est_fit, d.reg3,

@@ -401,6 +401,8 @@ class Physics(Record):
     n_eff: FloatArray = ABSENT
     # Any: the delay test's mapping (shift, per-joint shares and p-values)
     delay: dict[str, Any] = ABSENT
+    # present where the test ran on a decimated log (conventions §5.2): factor, band, rows, rule
+    decimation: dict[str, Any] = ABSENT
 
 
 @dataclass(frozen=True, eq=False, repr=False)

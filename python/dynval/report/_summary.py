@@ -203,8 +203,11 @@ def _physics_lines(report: ReportSections) -> list[str]:
     phys = getattr(report, "physics", None)
     if phys is None:
         return []
-    return [f"Physical terms tested against each joint's residual (q given; derivatives: "
-            f"{phys['derivatives']}; the model's own columns: {phys['model_columns']})."]
+    lines = [f"Physical terms tested against each joint's residual (q given; derivatives: "
+             f"{phys['derivatives']}; the model's own columns: {phys['model_columns']})."]
+    if "decimation" in phys:  # only a decimated log says it (conventions §5.2)
+        lines.append(f"Physical terms tested on the log {phys['decimation']['rule']}.")
+    return lines
 
 
 def _design_lines(report: ReportSections) -> list[str]:

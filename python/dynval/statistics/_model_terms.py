@@ -26,6 +26,7 @@ rows (what remains is rather the model's own terms mis-weighted, ``reweight_shar
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -185,7 +186,7 @@ def declared_kinds(names: Any) -> set[str]:
     return out
 
 
-def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
+def relate(j: int, group: str, e_j: np.ndarray, y_j: np.ndarray, lib_j: Mapping[str, np.ndarray], m: int,
            practical: float, declared: set[str] | frozenset[str] = frozenset()) -> dict[str, Any]:
     """The named ``group`` on joint j relative to the model's columns ``y_j`` (N, k) on the
     validation run: ``relation`` (module docstring), the shares, which of its columns lie in the
@@ -240,7 +241,7 @@ def model_in_group(y_j: np.ndarray, cols: np.ndarray) -> bool:
     return bool(np.any((frac <= SPAN_TOLERANCE) & (rms > 0)))
 
 
-def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
+def kinds_present(j: int, y_j: np.ndarray, lib_j: Mapping[str, np.ndarray], m: int,
                   declared: set[str] | frozenset[str] = frozenset()) -> dict[str, bool]:
     """Per library group, whether the model spans at least one of its own columns on joint j (or
     its column names declare the group)."""
@@ -253,7 +254,7 @@ def kinds_present(j: int, y_j: np.ndarray, lib_j: dict[str, np.ndarray], m: int,
     return out
 
 
-def outside_fractions(y_j: np.ndarray, groups: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def outside_fractions(y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Per group, :func:`outside_fraction` of its columns and :func:`span_basis` of ``y_j``, from R
     of one QR of the unit-RMS model columns and the groups' columns side by side: the span's basis
     and every projection are taken on R's rows (norms and inner products are R's), so the N rows

@@ -68,6 +68,12 @@ _OUTSIDE = 0.01
 _PARSIMONY = 0.8
 _LEFT_RATIO, _LEFT_SLACK = 1.5, 0.01
 _MAX_ROWS = 40_000  # longer runs are decimated by a whole factor (anti-aliased) before the test
+# Decimation to the information band (conventions §5.2): the band's edge at most 1/_MARGIN of the new
+# Nyquist frequency (a Coulomb step's content above the band is what is lost), at least _MIN_ROWS
+# rows kept; _EDGE rows at each end of the decimated log dropped (the filter's half length, 10 rows).
+_MARGIN = 4.0
+_MIN_ROWS = 4_000
+_EDGE = 10
 
 
 @dataclass(frozen=True)
@@ -120,7 +126,7 @@ def _scale(x):
 
 
 def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
-            row_index=None, chains=None) -> dict[str, np.ndarray]:
+            row_index=None, chains=None, only=None) -> dict[str, np.ndarray]:
     """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None.
 
     A stream's chunk (:mod:`._physics_stream`) gives ``velocity_scale`` (the Coulomb shapes' scale,
@@ -128,9 +134,13 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     then left unscaled and the drift is (u, u²) of that index, which the stream maps linearly to
     the in-memory columns once the log's length and each column's RMS are known. ``chains``: a dict
     shared by the joints' calls on the same rows, which keeps each chain's sin and cos (a chain
-    i ≤ j ≤ k is in every joint j between: 28 chains of 7 joints computed once, not 84 times)."""
+    i ≤ j ≤ k is in every joint j between: 28 chains of 7 joints computed once, not 84 times).
+    ``only``: the groups to build (each the same columns as in the whole library), else all."""
     n = pred_j.shape[0]
-    if row_index is None:
+    wanted = set(GROUPS) if only is None else set(only)
+    if "drift" not in wanted:
+        drift = []
+    elif row_index is None:
         t = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)
         drift = [t, t * t - np.mean(t * t)]
     else:
@@ -140,30 +150,40 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     if q is not None:
         m = q.shape[1]
         v = dq[:, j]
-        vs = _scale(v) if velocity_scale is None else float(velocity_scale)
-        groups["coulomb"] = [np.sign(v)] + [np.tanh(v / (c * vs)) for c in (0.02, 0.1, 0.3)] + \
-            [np.sign(v) * np.exp(-(v / (0.1 * vs)) ** 2)]
+        if "coulomb" in wanted:
+            vs = _scale(v) if velocity_scale is None else float(velocity_scale)
+            groups["coulomb"] = [np.sign(v)] + [np.tanh(v / (c * vs)) for c in (0.02, 0.1, 0.3)] + \
+                [np.sign(v) * np.exp(-(v / (0.1 * vs)) ** 2)]
         groups["viscous"] = [v]
-        groups["velocity_squared"] = [v * np.abs(v)]
-        grav: list[np.ndarray] = []
-        for i in range(j + 1):
-            for k in range(j, m):
-                pair = None if chains is None else chains.get((i, k))
-                if pair is None:
-                    s = q[:, i:k + 1].sum(axis=1)
-                    pair = [np.sin(s), np.cos(s)]
-                    if chains is not None:
-                        chains[(i, k)] = pair
-                grav += pair
-        groups["gravity"] = grav
-        groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
+        if "velocity_squared" in wanted:
+            groups["velocity_squared"] = [v * np.abs(v)]
+        if "gravity" in wanted:
+            groups["gravity"] = _chains(j, q, chains)
+        if "position_harmonic" in wanted:
+            groups["position_harmonic"] = [f(h * q[:, j]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]
         groups["inertia"] = [ddq[:, k] for k in range(m)]
     out = {}
     for g in GROUPS:
-        if g in groups:
+        if g in groups and g in wanted:
             cols = np.column_stack(groups[g])
             out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
     return out
+
+
+def _chains(j, q, chains):
+    """sin and cos of q_i + … + q_k for every chain i ≤ j ≤ k (``chains``: the pairs already made)."""
+    m = q.shape[1]
+    grav: list[np.ndarray] = []
+    for i in range(j + 1):
+        for k in range(j, m):
+            pair = None if chains is None else chains.get((i, k))
+            if pair is None:
+                s = q[:, i:k + 1].sum(axis=1)
+                pair = [np.sin(s), np.cos(s)]
+                if chains is not None:
+                    chains[(i, k)] = pair
+            grav += pair
+    return grav
 
 
 def _ar_prewhitener(u, max_order):
@@ -261,19 +281,57 @@ class PhysicsTest:
                 "ar_order": self.ar_order}
 
 
-def _decimation(n):
-    return max(1, math.ceil(n / _MAX_ROWS))
+@dataclass(frozen=True)
+class Decimation:
+    """The whole factor by which :func:`physics_test` decimates a log before its library is built
+    (docs/conventions.md §5.2, "Decimated to the information band"), and why."""
+
+    factor: int
+    band_hz: float | None  # the report's information band f_I (None: not known, no rate)
+    rows: int  # the rows tested
+    rule: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"factor": self.factor, "information_band_hz": self.band_hz, "rows": self.rows,
+                "margin": _MARGIN, "min_rows": _MIN_ROWS, "rule": self.rule}
 
 
-def _down(x, q):
-    if q == 1:
+def decimation(n: int, sample_rate: float | None, band: float | None) -> Decimation:
+    """The factor: the largest that keeps the information band ``band`` (Hz) at most 1/_MARGIN of
+    the new Nyquist frequency and at least _MIN_ROWS rows; at least the factor that brings the
+    log to _MAX_ROWS rows. 1 (no decimation) without a rate or a band, or when neither allows 2."""
+    by_rows = max(1, math.ceil(n / _MAX_ROWS))
+    by_band = 1
+    usable = sample_rate is not None and band is not None and math.isfinite(band) and band > 0
+    if usable:
+        fs = float(sample_rate)
+        by_band = max(1, min(int(math.floor(min(fs / (2.0 * _MARGIN * band), float(n)))), n // _MIN_ROWS))
+    factor = max(by_rows, by_band)
+    if factor == 1:
+        return Decimation(1, band if usable else None, n, "none")
+    rows = len(range(0, n, factor)) - 2 * _EDGE
+    if by_band >= by_rows:
+        rule = (f"decimated by {factor} (zero-phase FIR) to {rows} rows before the library is built: the new "
+                f"Nyquist frequency {float(sample_rate) / (2 * factor):.4g} Hz is at least {_MARGIN:g}× the "
+                f"information band {band:.4g} Hz and N/{factor} at least {_MIN_ROWS} rows ({_EDGE} rows at each end, "
+                f"where the filter reached past the log, dropped)")
+    else:
+        rule = f"decimated by {factor} (zero-phase FIR) to {rows} rows: longer than {_MAX_ROWS} rows"
+    return Decimation(factor, band if usable else None, rows, rule)
+
+
+def _down(x, factor):
+    """x (N, ...) low-passed and kept every ``factor``-th row (scipy.signal.decimate's zero-phase
+    FIR), less _EDGE rows at each end, where the filter reached past the log (its zero padding)."""
+    if factor == 1:
         return x
-    return scipy.signal.decimate(x, q, ftype="fir", axis=0, zero_phase=True)
+    y = scipy.signal.decimate(x, factor, ftype="fir", axis=0, zero_phase=True)
+    return y[_EDGE:y.shape[0] - _EDGE]
 
 
 def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisance=None, alpha=0.05,
                  groups=None, model_regressor=None, parameter_covariance=None,
-                 libraries=None) -> list[PhysicsTest]:
+                 libraries=None, band=None) -> list[PhysicsTest]:
     """Each joint's residual against the physics library (module docstring).
 
     e, pred : (N, m) residual and prediction; q, dq, ddq : (N, m) or None (then only ``offset``,
@@ -281,24 +339,40 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
     validation run (the model's own columns when their estimation error is unknown), or None;
     model_regressor (N, m, k) and parameter_covariance (k, k): the model's columns and Cov(π̂) from
     the estimation run, whose error then widens the test instead of being refitted away;
-    libraries: each joint's :func:`library` when the caller built them already.
+    libraries: each joint's :func:`library` when the caller built them already (at the logged
+    rate: not used when the log is decimated); band: the report's information band (Hz), from
+    which :func:`decimation` chooses the factor.
     """
     n, m = e.shape
-    dec = _decimation(n)
+    dec = decimation(n, sample_rate, band).factor
+    full_ms = None
+    if dec > 1:
+        # Linear columns commute with the filter; the library's are built from the decimated q,
+        # q̇, q̈ (conventions §5.2): its nonlinear columns of band-limited motion stay in the band
+        full_ms = np.mean(e * e, axis=0)
+        # one filter call for the joints' series side by side
+        parts = [e, pred] + ([] if q is None else [q, dq, ddq])
+        e, pred, *motion = np.split(_down(np.hstack(parts), dec), len(parts), axis=1)
+        if q is not None:
+            q, dq, ddq = motion
+        nuisance = None if nuisance is None else [_down(x, dec) for x in nuisance]
+        if model_regressor is not None:
+            g = np.asarray(model_regressor, float)
+            model_regressor = _down(g.reshape(n, -1), dec).reshape(-1, *g.shape[1:])
+        libraries, sample_rate = None, None if sample_rate is None else float(sample_rate) / dec
+    chains: dict = {}
 
     def joint(j):
-        lib = library(j, q, dq, ddq, pred[:, j], sample_rate) if libraries is None else libraries[j]
+        if libraries is not None:
+            lib = libraries[j]
+        else:
+            lib = library(j, q, dq, ddq, pred[:, j], sample_rate, chains=chains if dec > 1 else None)
         if groups is not None:
             lib = {g: x for g, x in lib.items() if g in groups}
         nz = None if nuisance is None else nuisance[j]
         gj = None if model_regressor is None else model_regressor[:, j, :]
-        ej = e[:, j]
-        if dec > 1:
-            lib = {g: _down(x, dec) for g, x in lib.items()}
-            ej = _down(ej, dec)
-            nz = None if nz is None else _down(nz, dec)
-            gj = None if gj is None else _down(gj, dec)
-        return _joint_test(j, ej, lib, nz, alpha, gj, parameter_covariance)
+        return _joint_test(j, e[:, j], lib, nz, alpha, gj, parameter_covariance,
+                           None if full_ms is None else (float(full_ms[j]), n))
 
     return [joint(j) for j in range(m)]
 
@@ -318,9 +392,13 @@ def name_group(shares: dict[str, float], widths: dict[str, int]) -> str:
     return min(near, key=lambda g: (widths[g], -shares[g]))
 
 
-def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
+def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, logged=None):
     """One joint. ``nz``: nuisance columns refitted on the validation run (the model's columns when
-    Cov(π̂) is unknown), or None; ``g``, ``cov_p``: the model's columns and Cov(π̂) when known."""
+    Cov(π̂) is unknown), or None; ``g``, ``cov_p``: the model's columns and Cov(π̂) when known.
+    ``logged``: on a decimated log, the residual's mean square at the logged rate and the logged
+    rows: the shares are of it (a sum of squares of the decimated rows taken per row, as the band's
+    power is kept by the filter) and N_eff is in its units, at most the logged rows (conventions §5.2)."""
+    full_ms, full_n = (None, None) if logged is None else logged
     n = ej.shape[0]
     total = float(ej @ ej)
     if not total > 0 or n < 50:
@@ -336,9 +414,18 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None):
 
     def n_eff(cols, coef):
         # the noise's N_eff (what the model's columns and the library leave), for the design rule
-        return _ar_prewhitener(ej - stack.times(cols, coef), min(_MAX_AR, n // 50))[1]
+        left = ej - stack.times(cols, coef)
+        got = _ar_prewhitener(left, min(_MAX_AR, n // 50))[1]
+        if full_ms is None:
+            return got
+        # in the logged rate's units: the filter removed the residual's power above the band, which
+        # the library leaves; a term in the band sees got · (what is left there)/(what is left here)
+        left_ms = float(left @ left) / n
+        above = max(full_ms - total / n, 0.0)
+        return min(got * (1.0 + above / left_ms), float(full_n)) if left_ms > 0 else got
 
-    return _conclude(j, problem, fit, total, raw_sse, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size))
+    return _conclude(j, problem, fit, total, raw_sse, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size),
+                     None if full_ms is None else n * full_ms)
 
 
 def _nan_result(j):
@@ -365,10 +452,12 @@ def _filtered_fit(stack, alpha, cov_p=None):
     return a, problem, fit
 
 
-def _conclude(j, problem, fit, total, raw_sse, n_eff_of, widths, ar_order):
+def _conclude(j, problem, fit, total, raw_sse, n_eff_of, widths, ar_order, denominator=None):
     """The shares, N_eff and the term named, from the whitened fit: ``raw_sse(cols, coef)`` is the
     raw residual's sum of squares after the GLS coefficients ``coef`` of the stacked ``cols``,
-    ``n_eff_of(cols, coef)`` the N_eff of what they leave; ``widths`` each group's columns."""
+    ``n_eff_of(cols, coef)`` the N_eff of what they leave; ``widths`` each group's columns;
+    ``denominator``: the sum of squares the shares are of (``total``, the rows', unless decimated)."""
+    denominator = total if denominator is None else denominator
     names, selected = fit["names"], fit["selected"]
     f_stat, k, df2, pvalue = fit["f"], fit["k"], fit["df2"], fit["pvalue"]
     stack = problem.stack
@@ -386,21 +475,21 @@ def _conclude(j, problem, fit, total, raw_sse, n_eff_of, widths, ar_order):
     every = list(range(len(names)))
     full, coef_full, cols_full = sse(every)
     n_eff = n_eff_of(cols_full, coef_full)
-    share = max(0.0, (base - full) / total)
+    share = max(0.0, (base - full) / denominator)
     shares: dict[str, float] = {}
     selected_share = 0.0
     if selected:
         fit_all = sse(selected)[0]
-        selected_share = max(0.0, (base - fit_all) / total)
+        selected_share = max(0.0, (base - fit_all) / denominator)
         for s in selected:
             without = sse([t for t in selected if t != s])[0]
-            shares[names[s]] = max(0.0, (without - fit_all) / total)
+            shares[names[s]] = max(0.0, (without - fit_all) / denominator)
     # The term named: of the groups that alone remove nearly as much as the best one (within
     # _PARSIMONY of it), the one with the fewest columns. A joint's own friction or offset (one to
     # five columns) is named before the many-column inertia and posture groups, which on a
     # few-harmonic trajectory can mimic it; the first group to enter is the most significant after
     # whitening, which favours sharp terms such as Coulomb's, and is not used for the name.
-    alone_by = {i: max(0.0, (base - sse([i])[0]) / total) for i in every} if selected else {}
+    alone_by = {i: max(0.0, (base - sse([i])[0]) / denominator) for i in every} if selected else {}
     term = None
     alone = 0.0
     if alone_by:
@@ -632,6 +721,28 @@ def _forward_selection(columns, tests, alpha):
     return selected
 
 
+def _best_whole_shift(meas, pred, inner, big, sse, sse0):
+    """The whole shift in −big..big of least Σ_j sse_j(d)/sse0_j (the first on a tie), as a loop of
+    ``sse`` over every shift finds it: the costs of all shifts from one product of the prediction's
+    windows with the measurement (Σ m² − 2 Σ m p + Σ p² on the inner rows), then the shifts within
+    1e-9 of the least cost, relative, scored again by ``sse`` itself (the product's rounding cannot
+    change which is chosen)."""
+    width = inner.stop - inner.start
+    lo = inner.start - big  # the window of shift +big starts here, that of −big at inner.start + big
+    m_in = meas[inner]
+    cost = np.zeros(2 * big + 1)
+    for j in range(meas.shape[1]):
+        p = pred[lo:lo + width + 2 * big, j]
+        cross = np.correlate(p, m_in[:, j], "valid")  # r: the window starting at lo + r, i.e. shift big − r
+        sq = np.cumsum(np.concatenate([[0.0], p * p]))
+        power = sq[width:] - sq[:-width]
+        cost += ((m_in[:, j] @ m_in[:, j] - 2.0 * cross + power) / sse0[j])[::-1]
+    shifts = np.arange(-big, big + 1)
+    near = shifts[cost <= cost.min() + 1e-9 * max(abs(cost.min()), 1e-300) + 1e-9]
+    exact = [float(np.sum(sse(float(d)) / sse0)) for d in near]
+    return float(near[int(np.argmin(exact))])
+
+
 def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any]:
     """The common time shift d (samples; > 0: the measurement lags) that best aligns the prediction
     with the measured torque, each joint's share of the mean square realigning removes, and each
@@ -655,8 +766,7 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
         return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
 
     # whole samples first, then quarter samples around the best
-    whole = np.arange(-big, big + 1, dtype=float)
-    best = float(whole[int(np.argmin([np.sum(sse(d) / sse0) for d in whole]))])
+    best = _best_whole_shift(meas, pred, inner, big, sse, sse0)
     grid = np.clip(best + np.arange(-1.0, 1.001, 0.25), -big, big)
     cost = np.array([np.sum(sse(d) / sse0) for d in grid])
     i = int(np.argmin(cost))

@@ -22,8 +22,9 @@ The library's columns are summed unscaled, the drift as (u, u²) of the row inde
 scaling, the centring of t² and the model columns' unit norm are linear maps of the columns, applied
 to the sums once the log's length and each column's norm are known (:meth:`_JointSums.test`). A
 stream does not decimate: the in-memory test decimates a log longer than 40,000 rows to at most
-40,000, the stream tests every row. On a log of at most FIRST_BLOCK rows the stream's test is the
-in-memory one, to rounding. The state is O(width²) numbers per joint, and the first block and the
+40,000 (and towards the information band where it allows, conventions §5.2), the stream tests every
+row. On a log of at most FIRST_BLOCK rows the stream's test is the in-memory one at the logged rate
+(``validate(decimate=None)``), to rounding. The state is O(width²) numbers per joint, and the first block and the
 kept rows while the log is short, whatever its length.
 """
 
