@@ -42,13 +42,13 @@ def test_a_first_validate_limits_scipys_blas_too():
     # scipy came with the package import (kernels/_blas.py).
     code = """
 import json, numpy as np, threadpoolctl, dynval
-from dynval.report import _report
+from dynval.report import _motion
 seen = []
-original = _report._motion_sections
+original = _motion.motion_phase
 def spy(*args):
     seen.extend(lib["num_threads"] for lib in threadpoolctl.threadpool_info() if lib["user_api"] == "blas")
     return original(*args)
-_report._motion_sections = spy
+_motion.motion_phase = spy
 x = np.sin(np.arange(400.0))
 dynval.validate(np.c_[x, x], np.c_[0.9 * x, x], n_params=1, max_lag=5, regressor=np.ones((400, 2, 1)))
 print(json.dumps(sorted(set(seen))))
