@@ -428,3 +428,24 @@ def test_a_re_weighting_is_named_by_the_kind_the_model_columns_change():
     assert _motion._reweighted_group(e, y, {"offset": groups["offset"]}) == "offset"
     assert _motion._reweighted_group(e, y, {}) is None
     assert _motion._reweighted_group(np.zeros(n), y, groups) is None
+
+
+@pytest.mark.parametrize("key, replicate, joint, term", [
+    # a payload in the validation run only: the shoulder's re-weighted gravity columns, which the
+    # validation test's selection had named a position harmonic (a kind the rigid-body names do not hold)
+    ("payload:white:anthro3@100", 1, 1, "gravity"),
+    # the model's chattering sign(q̇): the test names Coulomb friction, a kind the model holds, and it
+    # stays named so (re-naming it by the re-weighting said "re-identify an inertial term")
+    ("chatter:white:anthro3@500", 3, 2, "coulomb"),
+])
+def test_where_no_refit_carries_the_term_is_a_kind_the_model_holds(key, replicate, joint, term):
+    """Kills: the re-weighting's kind not used (payload), or used where the test's kind is held (chatter)."""
+    pytest.importorskip("pinocchio")
+    from dynval import scenarios
+
+    s = next(x for x in scenarios.library() if x.key == key)
+    rep = scenarios.simulate(s, replicate)
+    report = scenarios.validate_replicate(rep, False, prediction=scenarios.fit(rep))
+    t = report.physics["tests"][joint]
+    assert t["refit_run"] is None and t["term"] == term, (t["term"], t["refit_run"])
+    assert scenarios.advice_right(report, s, False, rep.model_columns)

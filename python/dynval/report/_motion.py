@@ -75,12 +75,12 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
     naming = "the group that alone removes nearly the most of the validation residual, fewest columns first"
     local: dict[int, dict[str, Any]] = {}
     source = derivative_source(q, dq, ddq, est_run)
+    declared = declared_groups(reg3, cols, column_names)
     if est_fit is not None and reg3 is not None and meas is not None and est_run is not None and "q" in est_run:
-        local = refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source)
+        local = refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source, declared)
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
-    declared = declared_groups(reg3, cols, column_names)
     relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs, local)
     return {"naming": naming,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
@@ -393,7 +393,7 @@ def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
 def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fit: EstimationFit,
                 reg3: np.ndarray, meas: np.ndarray, q: np.ndarray, d: Derivatives, sample_rate: float | None,
                 practical: float = 0.05,
-                source: str = "savgol") -> dict[int, dict[str, Any]]:
+                source: str = "savgol", declared: list[set[str]] | None = None) -> dict[int, dict[str, Any]]:
     """Name each flagged joint's term as an engineer would: refit the model's columns on the
     estimation run with one library group added on every flagged joint at once (a friction or an
     offset is usually missing on all joints alike, and the joints' terms interact through the
@@ -405,6 +405,8 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
     ``source`` (:func:`derivative_source`): both runs' libraries take their q̇, q̈ from one source,
     the user's (``"given"``) or Savitzky–Golay of each run's q, never one of each (a "viscous"
     column of one filter is not the model's F_v of another, and refitting it looks like a gain).
+    ``declared``: per joint, the groups the model's column names declare (:func:`declared_groups`):
+    the kinds it holds, where neither refit carries and the term is named by the re-weighting.
 
     Returns, per flagged joint whose term is named, what the named group's own columns added on that
     joint alone give (:func:`_joint_local_gains`).
@@ -462,9 +464,13 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
             gv = _validation_refit_gains(meas[:, t.joint], unit_norm_columns(reg3[:, t.joint, cols]), lib_v[t.joint])
             if not gv or not max(gv.values()) >= practical:
                 # Neither refit names a group that carries a practical share: the model's columns
-                # span what remains (mis-weighted, not missing). Name the kind of their re-weighting.
+                # span what remains (mis-weighted, not missing). Where the validation test named a kind
+                # the model does not hold, name the held kind of their re-weighting instead.
                 y_j = unit_norm_columns(reg3[:, t.joint, cols])
-                held = _model_terms.kinds_present(t.joint, y_j, lib_v[t.joint], m)
+                held = ({g: g in declared[t.joint] for g in lib_v[t.joint]} if declared else
+                        _model_terms.kinds_present(t.joint, y_j, lib_v[t.joint], m))
+                if t.term is None or held.get(t.term):
+                    continue
                 named = _reweighted_group(meas[:, t.joint] - reg3[:, t.joint, cols] @ est_fit.coefficients, y_j,
                                           {g: x for g, x in lib_v[t.joint].items() if held.get(g)})
                 if named is not None:
