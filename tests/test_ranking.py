@@ -298,3 +298,37 @@ def test_a_model_columns_correlation_follows_any_group_the_lacking_structure_too
     assert deciding([sin2, named_only])[0].finding is sin2
     ddq_first = dataclasses.replace(sin2, columns=(5, 13))
     assert deciding([ddq_first, coupling])[0].finding is coupling
+
+
+def _local_finding(shares):
+    """A joint-local term on j2 (relation ``local``) whose refit removes ``shares`` on (j1, j2)."""
+    return Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.9, threshold=0.05,
+                   action="add a rotor inertia J_a·q̈ on j2 alone", message="j2: local.",
+                   details={"term": "inertia", "term_share": 0.7, "relation": "local",
+                            "model_terms": {"relation": "local", "outside_share": 0.0, "reweight_share": 0.8,
+                                            "local": {"group": "inertia", "columns": 1, "share": shares[1],
+                                                      "shares": list(shares)}}})
+
+
+@pytest.mark.parametrize("on_j1, follows", [(0.9, True), (0.3, False)])
+def test_a_joint_local_term_ranks_by_its_refit_and_the_joints_it_explains_follow(on_j1, follows):
+    """A joint-local term's share is its refit's on its joint (held out), what the refit removes on
+    the other joints counts in its rank, and the findings of a joint it removes at least half of
+    follow it. Kills: its share taken from the library's term share, its effect elsewhere not
+    counted, _FOLLOWS not applied (or applied below its half)."""
+    local = _local_finding((on_j1, 0.6))
+    assert explained_share(local) == (0.6, "held_out", 1)
+    # j1's larger own error: a predictive failure and a correlation with a model column
+    chow = Finding(kind="predictive_failure", severity="deficiency", joints=(0,), statistic=5.0, effect=5.0)
+    rho = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(2,), effect=0.9,
+                  details={"in_model": True})
+    r2 = [0.5, 0.9]  # j1's residual is half its torque, j2's a tenth
+    ranked = rank([chow, rho, local], r2)
+    lead = {r.finding.kind: r.leads for r in ranked}
+    if follows:
+        assert ranked[0].finding is local and not lead["predictive_failure"] and not lead["regressor_correlation"]
+        # its rank counts j1's 90 % of a residual that is half the torque
+        assert ranked[0].indirect_torque == pytest.approx(0.9 * 0.5)
+        assert "90 % on j1" in first_reason(ranked, NAMES)
+    else:
+        assert lead["regressor_correlation"] and ranked[0].finding is not local
