@@ -332,3 +332,20 @@ def test_a_joint_local_term_ranks_by_its_refit_and_the_joints_it_explains_follow
         assert "90 % on j1" in first_reason(ranked, NAMES)
     else:
         assert lead["regressor_correlation"] and ranked[0].finding is not local
+
+
+def test_a_delay_is_judged_on_the_joint_where_it_explains_the_most_of_the_torque():
+    """One shift realigns every joint: its effect is its largest share of a joint's measured torque
+    (share × (1 − R²)), not the torque share of the joint where its share of the residual is largest
+    (delay:white:arm4@1000 replicate 12: 51 % of the base's tiny residual ranked after 26 % of the wrist's).
+    Kills: the joint chosen by the residual's share alone (then the wrist's correlation leads)."""
+    delay = Finding(kind="delay", severity="deficiency", joints=(0, 1, 2), effect=3.0, threshold=1.0,
+                    action="realign", message="a delay", details={"share": [0.5, 0.1, 0.45]})
+    wrist = Finding(kind="regressor_correlation", severity="deficiency", joints=(1,), columns=(2,), effect=0.45,
+                    threshold=0.1, action="re-identify", message="j2: a column", details={"in_model": True})
+    r2 = [1.0 - 0.001, 1.0 - 0.01, 1.0 - 0.006]
+    assert explained_share(delay, r2) == (0.45, "validation", 2)
+    assert explained_share(delay) == (0.5, "validation", 0)  # without R², the residual's share decides
+    ranked = rank([wrist, delay], r2)
+    assert ranked[0].finding.kind == "delay"
+    assert ranked[0].torque_share == pytest.approx(0.45 * 0.006)

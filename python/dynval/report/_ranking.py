@@ -72,7 +72,7 @@ def _joint(f: Finding) -> int | None:
     return int(f.joints[0]) if f.joints else None
 
 
-def explained_share(f: Finding) -> tuple[float | None, str, int | None]:
+def explained_share(f: Finding, r2: Sequence[float] | None = None) -> tuple[float | None, str, int | None]:
     """The share of a joint's residual mean square that finding ``f`` explains, its basis and the joint.
 
     Per kind (conventions §5.10): ``worse_than_constant`` −R²/(1 − R²) (what predicting the mean torque
@@ -82,15 +82,17 @@ def explained_share(f: Finding) -> tuple[float | None, str, int | None]:
     ``details["alone_share"]``); ``oscillation``, ``prediction_artefact`` and ``periodic_error`` their share of the
     residual variance; ``missing_physics`` the named term's share (``details["held_out_share"]``,
     carried from the estimation run, when the rule gives one); ``delay`` the share realigning
-    removes on its strongest joint; ``predictive_failure`` 1 − 1/ratio (the part of the validation
+    removes on its strongest joint (with ``r2``, per joint, the joint where that share is the most of
+    the measured torque's variance: one shift realigns every joint, and its effect is judged where it
+    is largest, as any other finding's); ``predictive_failure`` 1 − 1/ratio (the part of the validation
     mean square beyond what the estimation run allows: held out by construction); a
     ``physical_consistency`` finding whose effect is a share of the residual, that share. Others None.
     """
-    share, basis, j = _raw_share(f)
+    share, basis, j = _raw_share(f, r2)
     return (None if share is None else min(max(share, 0.0), 1.0)), basis, j
 
 
-def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
+def _raw_share(f: Finding, r2: Sequence[float] | None = None) -> tuple[float | None, str, int | None]:
     d = f.details or {}
     j = _joint(f)
     held = _finite(d.get("held_out_share"))
@@ -99,8 +101,8 @@ def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
     effect = _finite(f.effect)
     unit = f.effect_unit or ""
     if f.kind == "worse_than_constant":
-        r2 = _finite(f.statistic)
-        return (None if r2 is None else -r2 / (1.0 - r2)), VALIDATION, j
+        fit = _finite(f.statistic)
+        return (None if fit is None else -fit / (1.0 - fit)), VALIDATION, j
     if f.kind == "bias":
         return (None if effect is None else effect * effect), VALIDATION, j
     if f.kind == "regressor_correlation":
@@ -126,7 +128,7 @@ def _raw_share(f: Finding) -> tuple[float | None, str, int | None]:
         own = [(s, jj) for jj, s in enumerate(shares) if s is not None and jj in f.joints]
         if not own:
             return None, VALIDATION, j
-        s, jj = max(own)
+        s, jj = max(own, key=lambda sj: (_torque_share(sj[0], sj[1], r2) or 0.0, sj[0]))
         return s, VALIDATION, jj
     if f.kind == "predictive_failure":
         return (None if effect is None or effect <= 0 else max(1.0 - 1.0 / effect, 0.0)), HELD_OUT, j
@@ -306,7 +308,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
 
     ranked = []
     for f in findings:
-        share, basis, joint = explained_share(f)
+        share, basis, joint = explained_share(f, r2)
         ranked.append(Ranked(f, share, basis, joint, leads=group(f) == 0,
                              torque_share=_torque_share(share, joint, r2), indirect_torque=_indirect(f, r2)))
     with_r2 = r2 is not None and all(r.torque_share is not None for r in ranked if r.share is not None)
