@@ -62,6 +62,11 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
         kwargs["model_regressor"] = reg3[:, :, list(est_fit.columns)]
         kwargs["parameter_covariance"] = est_fit.covariance
         how = "their estimation error, Cov(π̂) from the estimation run, widens the test"
+        found = _estimation_structure(est_run, est_fit, sample_rate, 1.0 - level, band)
+        if found is not None:
+            kwargs["parameter_covariance"], removed = found
+            how += (" (Cov(π̂) of the noise the estimation run leaves once the library terms its own test "
+                    "finds there are removed: " + "; ".join(f"joint {j}: {', '.join(g)}" for j, g in removed) + ")")
     elif reg3 is not None:
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
@@ -93,6 +98,38 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
             "n_eff": np.array([t.n_eff for t in tests]),
             # stated only where the log was decimated: the other reports stay as they were
             **({"decimation": dec.to_dict()} if dec.factor > 1 else {})}
+
+
+def _estimation_structure(est_run: Mapping[str, Any] | None, est_fit: EstimationFit, sample_rate: float | None,
+                          alpha: float, band: float | None) -> tuple[np.ndarray, list[tuple[int, list[str]]]] | None:
+    """Cov(π̂) under the alternative (conventions §5.2): the physics test run on the estimation run's
+    residual (the model's columns refitted per joint as nuisance), and the covariance of the noise
+    the model's columns refitted with the groups selected there leave
+    (:func:`dynval.statistics._estimation.noise_covariance`), with the groups removed per joint.
+    None without the estimation run's q or where its test selects no group on any joint (the
+    covariance is then the estimation fit's own)."""
+    if est_run is None or "q" not in est_run or "regressor" not in est_run:
+        return None
+    q_e = np.asarray(est_run["q"], dtype=float)
+    reg_e = np.asarray(est_run["regressor"], dtype=float)
+    cols = list(est_fit.columns)
+    resid = est_fit.residual
+    m = resid.shape[1]
+    if q_e.shape != resid.shape:
+        return None
+    de = _physics.derivatives(q_e, sample_rate, est_run.get("dq"), est_run.get("ddq"))
+    pred_e = np.asarray(est_run["tau"], dtype=float) - resid
+    nuisance = [unit_norm_columns(reg_e[:, j, cols]) for j in range(m)]
+    tests = _physics.physics_test(resid, pred_e, q_e, de.dq, de.ddq, sample_rate=sample_rate, alpha=alpha,
+                                  nuisance=nuisance, band=band)
+    removed = [(t.joint, list(t.selected)) for t in tests if t.selected]
+    if not removed:
+        return None
+    structure: list[np.ndarray | None] = [None] * m
+    for j, groups in removed:
+        lib = _physics.library(j, q_e, de.dq, de.ddq, pred_e[:, j], sample_rate, only=set(groups))
+        structure[j] = np.hstack([lib[g] for g in groups])
+    return _estimation.noise_covariance(est_fit, reg_e, structure), removed
 
 
 class _Libraries(Sequence[Mapping[str, np.ndarray]]):
