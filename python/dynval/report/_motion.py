@@ -86,13 +86,15 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
         naming = ("refitted on the estimation run with each group added to the model's columns on every "
                   "flagged joint; the group whose refit removes nearly the most of the joint's validation "
                   "mean square, fewest columns first")
+    kinds = model_kinds(e, q, d, sample_rate, reg3, cols, declared, libs)
+    name_absent_kinds(tests, kinds, e, libs, practical)
     relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs, local)
     return {"naming": naming,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
             "model_columns": how, "derivatives": d.method, "derivative_bandwidth_hz": d.bandwidth_hz,
             "derivative_source": source, "estimation_bandwidth_hz": (est_run or {}).get("bandwidth"),
             "groups": list(_physics.GROUPS), "tests": [t.to_dict() for t in tests],
-            "model_kinds": model_kinds(e, q, d, sample_rate, reg3, cols, declared, libs),
+            "model_kinds": kinds,
             "simulator_parameters": simulator_parameters(pred, meas, reg3, column_names),
             "pvalue": np.array([t.pvalue for t in tests]), "share": np.array([t.share for t in tests]),
             "n_eff": np.array([t.n_eff for t in tests]),
@@ -217,6 +219,37 @@ def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | Non
         y_j = reg3[:, j, :] if every else reg3[:, j, cols]
         out.append(_model_terms.kinds_present(j, y_j, lib, m, declared[j] if declared else set()))
     return out
+
+
+_RIGID_BODY = ("inertia", "gravity")
+"""The kinds every rigid-body model of a moving arm holds: a model that holds one of them on no joint
+lacks it as a whole (a gravity-only model of a moving arm lacks its inertia)."""
+
+
+def name_absent_kinds(tests: Sequence[PhysicsTest], kinds: list[dict[str, bool]] | None, e: np.ndarray,
+                      libraries: Sequence[Mapping[str, np.ndarray]], practical: float) -> None:
+    """Name a rigid-body kind the model holds on no joint where the test selects it (conventions §5.2,
+    "A kind the model lacks on every joint"): on a joint whose term was named by a kind the model
+    holds (on some joint), the named term is the fit's re-weighting of what it has, bent to make up
+    for the kind it lacks; adding that kind and refitting is the step. Named only where the kind's
+    own columns, cross-fitted on the validation run, remove a practical share of the joint's mean
+    square (its ``term_share`` then). ``kinds``: per joint, the groups the model holds."""
+    if not kinds:
+        return
+    absent = [g for g in _RIGID_BODY if not any(k.get(g) for k in kinds)]
+    held = {g for k in kinds for g, v in k.items() if v}
+    for t in tests:
+        if t.term is None or t.term not in held:
+            continue
+        ej = e[:, t.joint]
+        total = float(ej @ ej)
+        for g in absent:
+            if g not in t.selected or g not in libraries[t.joint] or not total > 0:
+                continue
+            share = (total - _model_terms.crossfit_sse(ej, libraries[t.joint][g])) / total
+            if share >= practical:
+                t.term, t.term_share, t.refit_run = g, share, "absent"
+                break
 
 
 def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, meas: np.ndarray | None, q: np.ndarray,

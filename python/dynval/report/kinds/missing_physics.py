@@ -121,6 +121,9 @@ def _measured(label: str, advice: Mapping[str, Any]) -> str:
         return (f"; named by a fallback refit on this run alone (no group refitted on the estimation run helped): "
                 f"added to the model's columns refitted here it removes {pct} of held-out rows (cross-fitted on "
                 "alternate blocks of this run)")
+    if run == "absent":
+        return (f"; the model holds {label} on no joint, and what its fit re-weights here makes up for it: the "
+                f"term's own columns remove {pct} of held-out rows of this run (cross-fitted on alternate blocks)")
     if run == "stream":
         return (f"; {label} alone removes {pct} of this run's mean square (in sample: a stream keeps no rows to "
                 "cross-fit on)" if pct else "")
