@@ -152,11 +152,23 @@ def _scaled_block(reg3: np.ndarray, j: int, memo: Memo[Any],
     (:func:`joint_factor`, taken from this block), which the excitation section and the kinds the
     model spans without q read too: the block is scaled and factored once per joint."""
     y = _scaled_live_block(reg3, j, column_largest(reg3, memo))
-    factor = _normal_factor(y.T @ y) if y.shape[1] else None
+    factor = None
+    if y.shape[1] and not _gram_says_singular(grams, reg3.shape, j, memo):
+        factor = _normal_factor(y.T @ y)
     if factor is not None:
         return y, factor
     r = memo(("joint_factor", reg3.shape, j), partial(_factor_with_library, y)) if y.shape[1] else None
     return None, RangeProjection(y, None if r is None else r[:, :y.shape[1]])
+
+
+def _gram_says_singular(grams: JointGrams | None, shape: tuple[int, ...], j: int, memo: Memo[Any]) -> bool:
+    """Whether joint j's usable Gram matrix already found its live columns beyond the normal
+    equations' condition limit (:func:`_project_out`'s first test): the scaled block's own Gram
+    matrix, the same up to rounding, is then not formed to be found so again."""
+    if grams is None or not grams.usable:
+        return False
+    live = memo(("live_columns", shape, j), partial(_live_columns, grams, j))
+    return bool(live.size) and memo(("live_factor", shape, j), partial(_live_factor, grams, j, live)) is None
 
 
 def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
