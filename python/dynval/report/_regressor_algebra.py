@@ -428,8 +428,9 @@ def joint_factor(reg3: np.ndarray, j: int, memo: Memo[Any] = compute_now) -> np.
     range projection of a singular block decomposes; the whole is what the kinds the model spans
     without q are read from (the span's inner products are R's). Rows of either sign: only RᵀR,
     which QR fixes up to rounding, is used."""
-    return memo(("joint_factor", reg3.shape, j),
-                lambda: _factor_with_library(_scaled_live_block(reg3, j, column_largest(reg3, memo))))
+    r: np.ndarray = memo(("joint_factor", reg3.shape, j),
+                         lambda: _factor_with_library(_scaled_live_block(reg3, j, column_largest(reg3, memo))))
+    return r
 
 
 def _factor_with_library(y: np.ndarray) -> np.ndarray:
@@ -449,29 +450,37 @@ def library_without_q(n: int) -> np.ndarray:
 def kinds_without_q(reg3: np.ndarray, cols: Sequence[int], declared: Sequence[set[str]] | None,
                     memo: Memo[Any] = compute_now) -> list[dict[str, bool]]:
     """Per joint, which of the library's groups without q (offset, drift) the model's columns
-    ``cols`` span: ``dynval.statistics._model_terms.kinds_present`` of the model's columns and the
-    library's taken as their coordinates in the joint's one R factor (:func:`joint_factor`, the
-    columns unscaled again), whose norms and inner products are those of the N rows: the same
-    fractions up to rounding (docs/conventions.md §6) without another pass over the rows."""
+    ``cols`` span: ``dynval.statistics._model_terms.kinds_present`` of :func:`span_coordinates`,
+    whose norms and inner products are those of the N rows: the same fractions up to rounding
+    (docs/conventions.md §6) without another pass over the rows."""
     from ..statistics import _model_terms
 
-    _, m, p = reg3.shape
+    m = reg3.shape[1]
+    return [_model_terms.kinds_present(j, *span_coordinates(reg3, j, cols, memo), m, declared[j] if declared else set())
+            for j in range(m)]
+
+
+def span_coordinates(reg3: np.ndarray, j: int, cols: Sequence[int],
+                     memo: Memo[Any] = compute_now) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The model's columns ``cols`` that are not zero on joint j, and the library's groups without
+    q by name, as their coordinates in the joint's R factor (:func:`joint_factor`; the columns
+    unscaled again): (rows × k, {group: rows × width}), rows ≤ k + 3. Y = Q R with Q's columns
+    orthonormal, so every norm, inner product and projection of them is the N rows' own."""
+    from ..statistics import _model_terms
+
+    p = reg3.shape[2]
     largest = column_largest(reg3, memo)
     wanted = np.zeros(p, dtype=bool)
     wanted[np.asarray(cols, dtype=np.intp)] = True
-    groups = _model_terms.library_for(0, None, None, None, 1, None)  # the groups' names and widths
-    out = []
-    for j in range(m):
-        live = np.flatnonzero(largest[j] > 0)
-        r = joint_factor(reg3, j, memo)
-        mine = np.flatnonzero(wanted[live])  # the model's columns that are not zero on the joint
-        y_j = np.ldexp(r[:, mine], _exponents(largest[j, live[mine]]))
-        lib, at = {}, live.size
-        for g, c in groups.items():
-            lib[g] = r[:, at:at + c.shape[1]]
-            at += c.shape[1]
-        out.append(_model_terms.kinds_present(j, y_j, lib, m, declared[j] if declared else set()))
-    return out
+    live = np.flatnonzero(largest[j] > 0)
+    r = joint_factor(reg3, j, memo)
+    mine = np.flatnonzero(wanted[live])
+    y_j = np.ldexp(r[:, mine], _exponents(largest[j, live[mine]]))
+    lib, at = {}, live.size
+    for g, c in _model_terms.library_for(0, None, None, None, 1, None).items():  # the groups' names and widths
+        lib[g] = r[:, at:at + c.shape[1]]
+        at += c.shape[1]
+    return y_j, lib
 
 
 def _leading_base(a: np.ndarray, tol: float) -> np.ndarray:
