@@ -124,14 +124,15 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
              for n, p in _predictions(runs).items()}
     grams = _count_calls(monkeypatch, _regressor_algebra, "JointGrams")
     excitation = _count_calls(monkeypatch, _sections, "_excitation")
-    column_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
+    residual_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
+    regressor_band = _count_calls(monkeypatch, _sections, "_regressor_band")
     candidates = {n: (p, 10, y_v) if own else (p, 10) for n, p in _predictions(runs).items()}
     cmp = dynval.compare(tau_v, candidates, regressor=None if own else y_v, q=q_v, estimation=est, max_lag=200)
     assert len(grams) == 1 and len(excitation) == 1
-    # each residual's own autocorrelation, and the regressor's once per number of colour lags
-    # (the band's J depends on the residual's N_eff)
+    # each residual's own autocorrelation, and the regressor's half of the band (its columns'
+    # transforms at 200 lags) once per number of colour lags (the band's J depends on the residual's N_eff)
     colour_lags = {r.cross_correlation["colour_lags"] for r in cmp.reports.values()}
-    assert len(column_acf) == 3 + len(colour_lags) and colour_lags == {200}
+    assert len(residual_acf) == 3 and len(regressor_band) == len(colour_lags) and colour_lags == {200}
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
 
 
