@@ -52,6 +52,21 @@ def test_the_range_projection_from_a_kept_r_is_the_svd_projection(span):
     assert np.max(np.abs(proj.residual(b) - expected)) <= PROJECTION_TOL * np.linalg.norm(b)
 
 
+def test_the_range_projection_factors_the_block_when_its_basis_is_not_positive_definite(monkeypatch):
+    # Should the Cholesky QR of y V_r S_r^-1 fail, the block's own Householder QR gives the basis.
+    y = _block([1.0, 0.1, 0.01, 0.0])
+    b = np.random.default_rng(6).normal(size=y.shape[0])
+
+    def refuse(a):
+        raise np.linalg.LinAlgError("not positive definite")
+
+    monkeypatch.setattr(np.linalg, "cholesky", refuse)
+    proj = ra.RangeProjection(y, np.linalg.qr(y, mode="r"))
+    expected, rank = _svd_residual(y, b)
+    assert proj.rank == rank == 3
+    assert np.max(np.abs(proj.residual(b) - expected)) <= PROJECTION_TOL * np.linalg.norm(b)
+
+
 def _singular_run(seed=0, n=1200):
     """A 2-joint arm's regressor with a column that is the sum of the others (every joint block and
     the stack singular), torques from it, and a prediction that misses part of them."""

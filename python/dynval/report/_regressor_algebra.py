@@ -203,8 +203,10 @@ class RangeProjection:
             _, s, vt = np.linalg.svd(r, full_matrices=False)
             self.rank = _lstsq_rank(s, y.shape)
             if self.rank and s[0] <= _BASIS_COND * s[self.rank - 1]:
-                self.basis = _orthonormalised(y @ (vt[:self.rank].T / s[:self.rank]))
-                return
+                basis = _orthonormalised(y @ (vt[:self.rank].T / s[:self.rank]))
+                if basis is not None:
+                    self.basis = basis
+                    return
         (reflectors, tau), r = scipy.linalg.qr(y, mode="raw", check_finite=False)
         u, s, _ = np.linalg.svd(r, full_matrices=False)
         self.rank = _lstsq_rank(s, y.shape)
@@ -236,9 +238,13 @@ def _lstsq_rank(s: np.ndarray, shape: tuple[int, ...]) -> int:
     return int(np.count_nonzero(s > tol))
 
 
-def _orthonormalised(x: np.ndarray) -> np.ndarray:
-    """x (N × r, nearly orthonormal columns) made orthonormal by a Cholesky QR: x C⁻¹, CᵀC = xᵀx."""
-    c = np.linalg.cholesky(x.T @ x).T
+def _orthonormalised(x: np.ndarray) -> np.ndarray | None:
+    """x (N × r, nearly orthonormal columns) made orthonormal by a Cholesky QR: x C⁻¹, CᵀC = xᵀx;
+    None when xᵀx is not numerically positive definite (then the caller factors the block itself)."""
+    try:
+        c = np.linalg.cholesky(x.T @ x).T
+    except np.linalg.LinAlgError:
+        return None
     # C is within rounding of the identity: x times its inverse is one product, not N solves
     inverse = scipy.linalg.solve_triangular(c, np.eye(c.shape[0]), lower=False, check_finite=False)
     q: np.ndarray = x @ inverse
