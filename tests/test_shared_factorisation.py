@@ -12,6 +12,7 @@ import pytest
 import dynval
 from dynval import calibration as C
 from dynval import simulate as sim
+from dynval.report import _motion
 from dynval.report import _regressor_algebra as ra
 from dynval.statistics import _model_terms, _stats
 
@@ -198,3 +199,38 @@ def test_the_colour_bands_regressor_half_from_transforms_is_the_lagged_sums(star
     got = powers.weighted_sums(rho_e).ravel()
     np.testing.assert_allclose(got, _plain_colour_sums(x, bounds, big, rho_e, p), rtol=0, atol=COLOUR_TOL)
     assert got[1] == got[6] == 0.0
+
+
+def _findings(report):
+    return [(f.kind, f.severity, tuple(f.joints), tuple(f.columns), f.action) for f in report.findings]
+
+
+def test_the_shared_routes_give_the_findings_of_the_row_routes(monkeypatch):
+    # The same comparison with each shared route replaced by its route on the N rows (the block's
+    # Householder basis, the lag-domain autocorrelations of the columns, the kinds' QR of the rows):
+    # the same findings (with the bias finding's words, which the kinds decide) and verdict, and the
+    # numbers within the tolerances above.
+    y, tau, pred = _singular_run(2)
+    cands = {"scaled": (pred, 10), "offset": (pred + 0.4, 10), "right": (y[:, :, :-1] @ sim.base_parameters(
+        sim.DEFAULT_ARM), 10)}
+    shared = dynval.compare(tau, cands, regressor=y, sample_rate=100.0, max_lag=150)
+
+    def lag_domain(x, starts, big, m, live=None, largest=None):
+        return _stats.weighted_column_acf(_stats.acf_fft(x, starts, big, live=live).reshape(big + 1, m, -1))
+
+    def row_kinds(reg3, cols, declared, memo):
+        return _motion.model_kinds(np.zeros(reg3.shape[:2]), None, None, None, reg3, cols, declared)
+
+    monkeypatch.setattr(ra, "_BASIS_COND", 0.0)
+    monkeypatch.setattr(_stats, "column_powers", lag_domain)
+    monkeypatch.setattr(_motion, "kinds_without_q", row_kinds)
+    rows = dynval.compare(tau, cands, regressor=y, sample_rate=100.0, max_lag=150)
+    assert (shared.verdict.decision, shared.verdict.model) == (rows.verdict.decision, rows.verdict.model)
+    assert shared.ranking == rows.ranking
+    for name in cands:
+        a, b = shared.reports[name], rows.reports[name]
+        assert _findings(a) == _findings(b) and _findings(a)
+        np.testing.assert_allclose(a.spectrum["power"], b.spectrum["power"], rtol=SPECTRUM_RTOL,
+                                   atol=1e-12 * np.max(b.spectrum["power"]))
+        np.testing.assert_allclose(a.cross_correlation["colour_factor"], b.cross_correlation["colour_factor"],
+                                   rtol=1e-10)
