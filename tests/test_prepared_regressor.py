@@ -124,14 +124,15 @@ def test_compare_does_the_regressor_work_once_for_all_candidates(runs, monkeypat
              for n, p in _predictions(runs).items()}
     grams = _count_calls(monkeypatch, _regressor_algebra, "JointGrams")
     excitation = _count_calls(monkeypatch, _sections, "_excitation")
-    column_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
+    residual_acf = _count_calls(monkeypatch, _sections, "_biased_acf")
+    regressor_band = _count_calls(monkeypatch, _sections, "_regressor_band")
     candidates = {n: (p, 10, y_v) if own else (p, 10) for n, p in _predictions(runs).items()}
     cmp = dynval.compare(tau_v, candidates, regressor=None if own else y_v, q=q_v, estimation=est, max_lag=200)
     assert len(grams) == 1 and len(excitation) == 1
-    # each residual's own autocorrelation, and the regressor's once per number of colour lags
-    # (the band's J depends on the residual's N_eff)
+    # each residual's own autocorrelation, and the regressor's half of the band (its columns'
+    # transforms at 200 lags) once per number of colour lags (the band's J depends on the residual's N_eff)
     colour_lags = {r.cross_correlation["colour_lags"] for r in cmp.reports.values()}
-    assert len(column_acf) == 3 + len(colour_lags) and colour_lags == {200}
+    assert len(residual_acf) == 3 and len(regressor_band) == len(colour_lags) and colour_lags == {200}
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
 
 
@@ -186,9 +187,10 @@ def test_compare_scales_each_joint_block_once_for_the_projection_and_the_excitat
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}
 
 
-def test_a_well_conditioned_stack_does_not_factor_the_joint_blocks(monkeypatch):
+def test_a_well_conditioned_stack_factors_each_joint_block_once_for_its_projection(monkeypatch):
     # Each joint's block singular, the stacked regressor not: the excitation takes its singular
-    # values from the Gram matrix, and no R factor of a joint is computed for it.
+    # values from the Gram matrix and stacks no R factor; each singular block's one R factor is its
+    # range projection's (joint_factor), once per joint for both candidates.
     rng = np.random.default_rng(11)
     y = rng.normal(size=(600, 2, 3))
     y[:, 0, 2] = y[:, 0, 0] + y[:, 0, 1]  # joint 1's block singular
@@ -196,9 +198,10 @@ def test_a_well_conditioned_stack_does_not_factor_the_joint_blocks(monkeypatch):
     tau = y @ np.array([1.0, 2.0, 3.0]) + rng.normal(0.0, 0.1, (600, 2))
     factored = _count_calls(monkeypatch, _regressor_algebra, "_r_factor")
     projected = _count_calls(monkeypatch, _regressor_algebra, "RangeProjection")
+    stacked = _count_calls(monkeypatch, _regressor_algebra, "_stacked_r")
     dynval.compare(tau, {"a": (y @ np.array([1.0, 2.0, 3.1]), 3), "b": (y @ np.array([1.1, 2.0, 3.0]), 3)},
                    regressor=y, max_lag=10)
-    assert len(projected) == 2 and not factored
+    assert len(projected) == len(factored) == 2 and not stacked
 
 
 def _block(singular_values, n=400, seed=3):
@@ -317,13 +320,13 @@ def test_a_structure_is_checked_against_the_regressor():
 
 def test_compare_without_q_finds_the_kinds_the_model_spans_once(runs, monkeypatch):
     # Without q the model's columns still say whether it spans an offset: each joint's span of the
-    # regressor (an SVD of N × k) depends on the regressor and the model's columns alone, so the
-    # candidates of one compare with the same columns compute it once, and the reports are those of
-    # validate on the plain array.
+    # regressor (read from the joint's R factor) depends on the regressor and the model's columns
+    # alone, so the candidates of one compare with the same columns compute it once, and the reports
+    # are those of validate on the plain array.
     _, (_, y_v, tau_v) = runs
     preds = _predictions(runs)
     plain = {n: dynval.validate(tau_v, p, n_params=10, regressor=y_v, max_lag=10) for n, p in preds.items()}
-    kinds = _count_calls(monkeypatch, _motion, "model_kinds")
+    kinds = _count_calls(monkeypatch, _motion, "kinds_without_q")
     cmp = dynval.compare(tau_v, {n: (p, 10) for n, p in preds.items()}, regressor=y_v, max_lag=10)
     assert len(kinds) == 1
     assert {n: r.to_json() for n, r in cmp.reports.items()} == {n: r.to_json() for n, r in plain.items()}

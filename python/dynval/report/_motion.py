@@ -27,7 +27,7 @@ from ..statistics._physics import Derivatives, PhysicsTest
 from . import _records as rec
 from . import _sections as sec
 from ._prepared import Memo, compute_now
-from ._regressor_algebra import unit_norm_columns
+from ._regressor_algebra import kinds_without_q, unit_norm_columns
 
 __all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
 
@@ -685,12 +685,13 @@ def motion_phase(d: CheckedData, o: Options, r: Residual, lagged: Lagged) -> Mot
         cols = (list(r.est_fit.columns) if r.est_fit is not None else
                 list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
         declared = declared_groups(d.reg3, cols, o.column_names)
-        # the regressor's work alone (each joint's span of the model's columns, an SVD of N × k):
-        # kept by a prepared regressor, so compare's candidates with the same columns do it once
+        # the regressor's work alone (each joint's span of the model's columns, read from the
+        # joint's R factor that the spectrum and the excitation share): kept by a prepared
+        # regressor, so compare's candidates with the same columns do it once
         key = ("model_kinds", d.reg3.shape, tuple(int(c) for c in cols),
                None if declared is None else tuple(frozenset(x) for x in declared))
         reg3 = d.reg3
-        kinds = d.memo(key, lambda: model_kinds(d.e, None, None, o.sample_rate, reg3, cols, declared))
+        kinds = d.memo(key, lambda: kinds_without_q(reg3, cols, declared, d.memo))
         kinds_spanned = None if kinds is None else [dict(x) for x in kinds]
     test = None
     if r.est_fit is not None and r.n_eff is not None:

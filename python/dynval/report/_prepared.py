@@ -1,9 +1,10 @@
 """A regressor prepared once for many :func:`dynval.validate` calls (contract §4, prepared regressor).
 
 Much of ``validate``'s work with a regressor does not depend on the residual: each joint's Gram
-matrix, the columns' autocorrelations of the colour-aware cross-correlation band, the excitation
-section's factorisation, the per-joint column blocks and solve decisions of the spectrum's
-projection (the QR of an ill-conditioned block), the centred columns of the parameter-error
+matrix, the regressor's half of the colour-aware cross-correlation band (its columns' transforms),
+each joint's one R factor (which the excitation section, the spectrum's projection on an
+ill-conditioned block and the kinds the model spans without q share), the per-joint column blocks
+and solve decisions of the spectrum's projection, the centred columns of the parameter-error
 widening, the predictive test's Gram matrix of the model's columns. A :class:`PreparedRegressor`
 keeps each of them the first time a call computes it, under a key naming every other input it
 depends on, and hands the same result to later calls: :func:`dynval.compare` prepares the shared

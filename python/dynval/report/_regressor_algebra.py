@@ -8,6 +8,7 @@ alone but for the residual's projection itself, so a prepared regressor keeps it
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -147,15 +148,27 @@ def _scaled_block(reg3: np.ndarray, j: int, memo: Memo[Any],
     it): leaving them out makes the factorisation several times cheaper. The largest |x| of every
     column at once: one contiguous pass instead of a strided one per joint.
 
-    A prepared regressor whose excitation section will factor the same block (:func:`_stacked_r`,
-    when ``grams`` do not decide its singular values) keeps that R factor from this block now,
-    rather than scaling the columns again later."""
+    The range projection of a singular block is formed from the joint's one R factor
+    (:func:`joint_factor`, taken from this block), which the excitation section and the kinds the
+    model spans without q read too: the block is scaled and factored once per joint."""
     y = _scaled_live_block(reg3, j, column_largest(reg3, memo))
-    if memo is not compute_now and y.shape[1] and memo(("stacked_r_needed", reg3.shape),
-                                                       partial(_stacked_r_needed, grams)):
-        memo(("joint_r", reg3.shape, j), partial(_r_factor, y, np.arange(y.shape[1])))
-    factor = _normal_factor(y.T @ y) if y.shape[1] else None
-    return (y, factor) if factor is not None else (None, RangeProjection(y))
+    factor = None
+    if y.shape[1] and not _gram_says_singular(grams, reg3.shape, j, memo):
+        factor = _normal_factor(y.T @ y)
+    if factor is not None:
+        return y, factor
+    r = memo(("joint_factor", reg3.shape, j), partial(_factor_with_library, y)) if y.shape[1] else None
+    return None, RangeProjection(y, None if r is None else r[:, :y.shape[1]])
+
+
+def _gram_says_singular(grams: JointGrams | None, shape: tuple[int, ...], j: int, memo: Memo[Any]) -> bool:
+    """Whether joint j's usable Gram matrix already found its live columns beyond the normal
+    equations' condition limit (:func:`_project_out`'s first test): the scaled block's own Gram
+    matrix, the same up to rounding, is then not formed to be found so again."""
+    if grams is None or not grams.usable:
+        return False
+    live = memo(("live_columns", shape, j), partial(_live_columns, grams, j))
+    return bool(live.size) and memo(("live_factor", shape, j), partial(_live_factor, grams, j, live)) is None
 
 
 def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
@@ -168,22 +181,35 @@ def _scaled_live_block(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndar
 
 class RangeProjection:
     """The orthogonal projection on the numerical range of an (N, p) block, N ≥ p, as
-    ``numpy.linalg.lstsq(y, b, rcond=None)`` decides it: y = QR (Householder), R = U S Vᵀ, and the
-    rank r the number of singular values above eps·max(N, p)·s_max, lstsq's rule. The range's
-    orthonormal basis Q_r = Q U_r (N × r, no larger than the block) is kept, and ``residual(b)`` is
+    ``numpy.linalg.lstsq(y, b, rcond=None)`` decides it: y = QR, R = U S Vᵀ, and the rank r the
+    number of singular values above eps·max(N, p)·s_max, lstsq's rule. The range's orthonormal
+    basis Q_r = Q U_r (N × r, no larger than the block) is kept, and ``residual(b)`` is
     b − Q_r Q_rᵀ b, what lstsq's b − y β gives up to rounding: two passes over Q_r (O(Nr)) where
     lstsq factors the block again (O(Np²)), so a prepared regressor factors each block once for
     every residual. ``rank`` is r.
+
+    ``r``: an R factor of y already computed (any QR of y, rows of any sign: :func:`joint_factor`).
+    When the kept singular values span at most :data:`_BASIS_COND`, the basis is y V_r S_r⁻¹,
+    re-orthonormalised (Cholesky QR), with no second factorisation of the block: its span is
+    Q U_r's within about eps·s_1/s_r (docs/conventions.md §6, the regressor's shared factorisation).
+    Beyond that, or without ``r``, the block's Householder QR gives Q U_r itself.
     """
 
-    def __init__(self, y: np.ndarray):
+    def __init__(self, y: np.ndarray, r: np.ndarray | None = None):
         self.rank = 0
         if y.shape[1] == 0:  # no column: nothing to project on
             return
+        if r is not None:
+            _, s, vt = np.linalg.svd(r, full_matrices=False)
+            self.rank = _lstsq_rank(s, y.shape)
+            if self.rank and s[0] <= _BASIS_COND * s[self.rank - 1]:
+                basis = _orthonormalised(y @ (vt[:self.rank].T / s[:self.rank]))
+                if basis is not None:
+                    self.basis = basis
+                    return
         (reflectors, tau), r = scipy.linalg.qr(y, mode="raw", check_finite=False)
         u, s, _ = np.linalg.svd(r, full_matrices=False)
-        tol = np.finfo(np.float64).eps * max(y.shape) * (s[0] if s.size else 0.0)
-        self.rank = int(np.count_nonzero(s > tol))
+        self.rank = _lstsq_rank(s, y.shape)
         if self.rank == 0:
             return
         top = np.zeros((y.shape[0], self.rank), order="F")
@@ -197,6 +223,33 @@ class RangeProjection:
         """b less its least-squares fit on the block, (N,)."""
         rest: np.ndarray = b.copy() if self.rank == 0 else b - self.basis @ (self.basis.T @ b)
         return rest
+
+
+_BASIS_COND = 1e6
+"""The largest s_1/s_r of a block's kept singular values for which its range basis is taken as
+y V_r S_r⁻¹ from an R factor already computed (its rounding grows with s_1/s_r): the projected
+residual is then within 1e-11 of ‖b‖ of the exact projection (measured: 1.5e-12 at a span of 1e6,
+6e-15 on the KUKA LWR4+ blocks, whose kept singular values span ≤ 1e4; 2e-9 at 1e9, which the
+Householder QR of the block takes instead). docs/conventions.md §6."""
+
+
+def _lstsq_rank(s: np.ndarray, shape: tuple[int, ...]) -> int:
+    """The rank ``numpy.linalg.lstsq(rcond=None)`` takes: singular values above eps·max(N, p)·s_max."""
+    tol = np.finfo(np.float64).eps * max(shape) * (s[0] if s.size else 0.0)
+    return int(np.count_nonzero(s > tol))
+
+
+def _orthonormalised(x: np.ndarray) -> np.ndarray | None:
+    """x (N × r, nearly orthonormal columns) made orthonormal by a Cholesky QR: x C⁻¹, CᵀC = xᵀx;
+    None when xᵀx is not numerically positive definite (then the caller factors the block itself)."""
+    try:
+        c = np.linalg.cholesky(x.T @ x).T
+    except np.linalg.LinAlgError:
+        return None
+    # C is within rounding of the identity: x times its inverse is one product, not N solves
+    inverse = scipy.linalg.solve_triangular(c, np.eye(c.shape[0]), lower=False, check_finite=False)
+    q: np.ndarray = x @ inverse
+    return q
 
 
 # Below this condition number the normal equations lose at most about 1e-8 of the fit
@@ -255,24 +308,29 @@ def _pow2_columns(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 _QR_ROWS = 1 << 10
 
 
-def _r_factor(x: np.ndarray, columns: np.ndarray, k: np.ndarray | None = None, block: int = _QR_ROWS) -> np.ndarray:
+def _r_factor(x: np.ndarray, columns: np.ndarray, k: np.ndarray | None = None, block: int = _QR_ROWS,
+              extra: np.ndarray | None = None) -> np.ndarray:
     """The triangular factor R of x[:, columns]·2^-k = QR (k: an exact column scaling by powers of
     two, none by default), p × p at most: each block of rows is stacked under the R so far and
-    factored again, in one Fortran-ordered buffer (no copy of x)."""
-    p = columns.size
-    every = p == x.shape[1]  # a slice is a view; indexing by columns copies only the block
+    factored again, in one Fortran-ordered buffer (no copy of x). ``extra`` (rows × e): columns
+    appended after x's (R of [x[:, columns]·2^-k, extra], (p + e) × (p + e) at most)."""
+    p = columns.size + (0 if extra is None else extra.shape[1])
+    every = columns.size == x.shape[1]  # a slice is a view; indexing by columns copies only the block
     scale = np.ldexp(1.0, -k) if k is not None and np.all(np.abs(k) < 1000) else None
     buf = np.empty((block + p, p), order="F")
     top = 0  # rows of R at the top of buf
     for i in range(0, x.shape[0], block):
         rows = x[i:i + block] if every else x[i:i + block, columns]
         end = top + rows.shape[0]
+        mine = buf[top:end, :columns.size]
         if k is None:
-            buf[top:end] = rows
+            mine[:] = rows
         elif scale is not None:  # 2^-k is a normal number: the same exact products as ldexp
-            np.multiply(rows, scale, out=buf[top:end])
+            np.multiply(rows, scale, out=mine)
         else:
-            buf[top:end] = np.ldexp(rows, -k)
+            mine[:] = np.ldexp(rows, -k)
+        if extra is not None:
+            buf[top:end, columns.size:] = extra[i:i + block]
         r = scipy.linalg.qr(buf[:end], mode="r", overwrite_a=True, check_finite=False)[0]
         top = min(end, p)
         buf[:top] = np.triu(r[:top])
@@ -350,7 +408,7 @@ def _stacked_r(reg3: np.ndarray, k: np.ndarray, memo: Memo[Any] = compute_now) -
     for j in range(m):
         live = np.flatnonzero(largest[j] > 0)
         if live.size:
-            r_j = memo(("joint_r", reg3.shape, j), partial(_joint_r, reg3, j, largest))
+            r_j = _joint_r(reg3, j, largest, memo)
             piece = np.zeros((r_j.shape[0], p))
             piece[:, live] = np.ldexp(r_j, _exponents(largest[j, live]) - k[live])
             pieces.append(piece)
@@ -361,17 +419,75 @@ def _stacked_r(reg3: np.ndarray, k: np.ndarray, memo: Memo[Any] = compute_now) -
     return np.array(r[:min(stacked.shape[0], p)])
 
 
-def _stacked_r_needed(grams: JointGrams | None) -> bool:
-    """Whether the excitation section (:func:`dynval.report._sections._regressor_excitation`) asks
-    for :func:`_stacked_r`: its Gram matrix's singular values do not decide the condition numbers."""
-    gram = grams.stacked() if grams is not None and grams.usable else None
-    return gram is None or _gram_singular_values(gram, np.sqrt(np.diag(gram).copy())) is None
+def _joint_r(reg3: np.ndarray, j: int, largest: np.ndarray, memo: Memo[Any] = compute_now) -> np.ndarray:
+    """R of joint j's nonzero columns scaled by powers of two (:func:`_scaled_live_block`): the
+    leading block of :func:`joint_factor`."""
+    k = int(np.count_nonzero(largest[j] > 0))
+    r = joint_factor(reg3, j, memo)
+    return np.array(r[:min(k, r.shape[0]), :k])
 
 
-def _joint_r(reg3: np.ndarray, j: int, largest: np.ndarray) -> np.ndarray:
-    """R of joint j's nonzero columns scaled by powers of two (:func:`_scaled_live_block`)."""
-    y = _scaled_live_block(reg3, j, largest)
-    return _r_factor(y, np.arange(y.shape[1]))
+def joint_factor(reg3: np.ndarray, j: int, memo: Memo[Any] = compute_now) -> np.ndarray:
+    """Joint j's one R factor, kept by a prepared regressor: R of [Y_j·2^-k_j, L], Y_j·2^-k_j the
+    joint's nonzero columns scaled by powers of two (:func:`_scaled_live_block`) and L the library's
+    columns without q (:func:`library_without_q`: an offset and a drift, the same on every joint).
+    Its leading block is the R of the joint's columns that the excitation section stacks and the
+    range projection of a singular block decomposes; the whole is what the kinds the model spans
+    without q are read from (the span's inner products are R's). Rows of either sign: only RᵀR,
+    which QR fixes up to rounding, is used."""
+    r: np.ndarray = memo(("joint_factor", reg3.shape, j),
+                         lambda: _factor_with_library(_scaled_live_block(reg3, j, column_largest(reg3, memo))))
+    return r
+
+
+def _factor_with_library(y: np.ndarray) -> np.ndarray:
+    """R of [y, L] (:func:`joint_factor`), by :func:`_r_factor`'s short updates."""
+    return _r_factor(y, np.arange(y.shape[1]), extra=library_without_q(y.shape[0]))
+
+
+def library_without_q(n: int) -> np.ndarray:
+    """The physics library's columns without q (``dynval.statistics._physics.library``: the
+    offset's and the drift's, unit RMS), (n, 3): they do not depend on the joint."""
+    from ..statistics import _model_terms  # here: the report's sections need it only with a regressor
+
+    lib = _model_terms.library_for(0, None, None, None, n, None)
+    return np.column_stack(list(lib.values()))
+
+
+def kinds_without_q(reg3: np.ndarray, cols: Sequence[int], declared: Sequence[set[str]] | None,
+                    memo: Memo[Any] = compute_now) -> list[dict[str, bool]]:
+    """Per joint, which of the library's groups without q (offset, drift) the model's columns
+    ``cols`` span: ``dynval.statistics._model_terms.kinds_present`` of :func:`span_coordinates`,
+    whose norms and inner products are those of the N rows: the same fractions up to rounding
+    (docs/conventions.md §6) without another pass over the rows."""
+    from ..statistics import _model_terms
+
+    m = reg3.shape[1]
+    return [_model_terms.kinds_present(j, *span_coordinates(reg3, j, cols, memo), m, declared[j] if declared else set())
+            for j in range(m)]
+
+
+def span_coordinates(reg3: np.ndarray, j: int, cols: Sequence[int],
+                     memo: Memo[Any] = compute_now) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The model's columns ``cols`` that are not zero on joint j, and the library's groups without
+    q by name, as their coordinates in the joint's R factor (:func:`joint_factor`; the columns
+    unscaled again): (rows × k, {group: rows × width}), rows ≤ k + 3. Y = Q R with Q's columns
+    orthonormal, so every norm, inner product and projection of them is the N rows' own."""
+    from ..statistics import _model_terms
+
+    p = reg3.shape[2]
+    largest = column_largest(reg3, memo)
+    wanted = np.zeros(p, dtype=bool)
+    wanted[np.asarray(cols, dtype=np.intp)] = True
+    live = np.flatnonzero(largest[j] > 0)
+    r = joint_factor(reg3, j, memo)
+    mine = np.flatnonzero(wanted[live])
+    y_j = np.ldexp(r[:, mine], _exponents(largest[j, live[mine]]))
+    lib, at = {}, live.size
+    for g, c in _model_terms.library_for(0, None, None, None, 1, None).items():  # the groups' names and widths
+        lib[g] = r[:, at:at + c.shape[1]]
+        at += c.shape[1]
+    return y_j, lib
 
 
 def _leading_base(a: np.ndarray, tol: float) -> np.ndarray:

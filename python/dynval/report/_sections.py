@@ -389,12 +389,30 @@ def _biased_acf(kernel: Kernels, x: FloatArray, starts: IntArray, big: int,
     ``big`` (acf_fft's definition): the compiled kernel's direct sums when the backend is cpp,
     the lags few and the array contiguous (no copy), else :func:`dynval.statistics._stats.acf_fft`
     (``live``: the columns known not to be all zeros)."""
-    from ..kernels import _reference
-
-    if (kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous
-            and x.dtype == np.float64):
+    if _direct_acf(kernel, x, big):
         return np.asarray(kernel.autocorrelation(x, big, False, np.asarray(starts, dtype=np.int64)))
     return _stats.acf_fft(x, starts, big, live=live)
+
+
+def _regressor_band(kernel: Kernels, reg2: FloatArray, starts: IntArray, big: int, m: int,
+                    memo: Memo[Any]) -> FloatArray | _stats.ColumnPowers:
+    """The regressor's half of the colour-aware band to ``big`` lags: the weighted
+    autocorrelations of its columns (:func:`dynval.statistics._stats.weighted_column_acf`) where
+    the compiled kernel sums the few lags directly, else the columns' transforms
+    (:func:`dynval.statistics._stats.column_powers`), whose inverse transforms the band never needs."""
+    n, p = reg2.shape[0], reg2.shape[1] // m
+    largest = column_largest(reg2.reshape(n, m, p), memo).ravel()
+    live = np.flatnonzero(largest > 0)
+    if _direct_acf(kernel, reg2, big) or big <= _stats._DIRECT_LAGS:
+        return _stats.weighted_column_acf(_biased_acf(kernel, reg2, starts, big, live).reshape(big + 1, m, p))
+    return _stats.column_powers(reg2, starts, big, m, live, largest)
+
+
+def _direct_acf(kernel: Kernels, x: FloatArray, big: int) -> bool:
+    """Whether :func:`_biased_acf` takes the compiled kernel's direct sums."""
+    from ..kernels import _reference
+
+    return kernel is not _reference and big <= _DIRECT_ACF_LAGS and x.flags.c_contiguous and x.dtype == np.float64
 
 
 def _kept_moments(kernel: Kernels, reg2: FloatArray, memo: Memo[Any]) -> tuple[Any, ...]:
@@ -428,9 +446,7 @@ def cross_correlation(kernel: Kernels, e: FloatArray, reg2: FloatArray, p: int, 
     rho_e = _biased_acf(kernel, e, starts, big)
     # the regressor's half of the band: the same for every residual on this regressor
     key = ("columns_acf", getattr(kernel, "__name__", str(kernel)), reg2.shape, tuple(int(s) for s in starts), big)
-    weighted_y = memo(key, lambda: _stats.weighted_column_acf(_biased_acf(
-        kernel, reg2, starts, big, np.flatnonzero(column_largest(reg2.reshape(n, m, p), memo).ravel() > 0),
-    ).reshape(big + 1, m, p)))
+    weighted_y = memo(key, partial(_regressor_band, kernel, reg2, starts, big, m, memo))
     lags = np.arange(max_lag + 1)
     n_l = np.maximum(lengths[None, :] - lags[:, None], 0).sum(axis=1).astype(float)
     d_l = n_l if prof.adjusted else np.full_like(n_l, float(n))

@@ -40,6 +40,8 @@ __all__ = [
     "score_covariance",
     "cross_correlation_sd",
     "weighted_column_acf",
+    "ColumnPowers",
+    "column_powers",
     "colour_aware_sd",
     "correlation_pvalue",
     "Spectrum",
@@ -168,34 +170,18 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
         x = x[:, None]
     n, k = x.shape
     bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
-    # Columns in batches: a transform holds about 6 numbers per sample and column, so the whole
-    # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
-    batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
-    means = x.mean(axis=0) if centre else None  # one pass over the rows, not one per batch
-    # A column of zeros (common in a regressor: a link's parameters do not act on the joints
-    # before it) is zero once centred too: its ρ is nan without a transform.
-    if live is None:  # worth a pass only where many columns may be zero (a regressor, not a residual)
-        live = np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n and k > _ZERO_TEST_COLUMNS \
-            else np.arange(k)
+    live = _live_columns(x, live)
     every = live.size == k
     # the live columns' sums side by side: each batch adds to a slice of them, not to scattered
     # columns of the whole (lags, k) array (a gather, an addition and a scatter per batch)
     acov = np.zeros((max_lag + 1, live.size))
-    # the columns of a batch are transformed apart, on the core's threads when they are many
-    workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
-    for c0 in range(0, live.size, batch):
-        done = slice(c0, min(c0 + batch, live.size))
-        xc = _centred_columns(x, slice(c0, min(c0 + batch, k)) if every else live[done], means)
-        # ρ is a ratio: each column scaled by a power of two first (exact, contract §1.3), so that
-        # no square underflows near 1e-160 (the compiled kernel scales, and the two must agree).
-        xc = _pow2_scaled_columns(xc)
+    for done, xc, workers in _scaled_batches(x, live, centre):
         if max_lag <= _DIRECT_LAGS:
             acov[:, done] = _lag_products(xc, bounds, max_lag)
             continue
         for a, b in zip(bounds[:-1], bounds[1:]):
             length = b - a
-            # Zero padding to length + max_lag keeps the circular wrap-around out of the lags kept.
-            size = scipy.fft.next_fast_len(length + min(max_lag, length - 1), real=True)
+            size = _transform_size(length, max_lag)
             spec = scipy.fft.rfft(xc[a:b], n=size, axis=0, workers=workers)
             power = spec.real**2 + spec.imag**2
             del spec
@@ -210,6 +196,108 @@ def acf_fft(x, starts, max_lag: int, *, centre: bool = True, live: np.ndarray | 
     out = np.full((max_lag + 1, k), np.nan)
     out[:, live] = rho
     return out
+
+
+def _live_columns(x: np.ndarray, live: np.ndarray | None) -> np.ndarray:
+    """``live`` when given, else the columns of x that are not all zeros (looked for only where many
+    may be: a regressor, not a residual)."""
+    if live is not None:
+        return live
+    n, k = x.shape
+    # A column of zeros (common in a regressor: a link's parameters do not act on the joints
+    # before it) is zero once centred too: its ρ is nan without a transform.
+    return (np.flatnonzero((x.max(axis=0) != 0) | (x.min(axis=0) != 0)) if n and k > _ZERO_TEST_COLUMNS
+            else np.arange(k))
+
+
+def _transform_size(length: int, max_lag: int) -> int:
+    """Zero padding to length + max_lag keeps the circular wrap-around out of the lags kept."""
+    return int(scipy.fft.next_fast_len(length + min(max_lag, length - 1), real=True))
+
+
+def _scaled_batches(x: np.ndarray, live: np.ndarray, centre: bool, scale: bool = True):
+    """The live columns of x in batches, each less its overall mean (``centre``) and scaled by a
+    power of two (``scale``): (the batch's slice of ``live``, its columns (N, batch), the FFT's
+    workers)."""
+    n, k = x.shape
+    every = live.size == k
+    # Columns in batches: a transform holds about 6 numbers per sample and column, so the whole
+    # (N, k) regressor at once would need several times its own size (tests/test_memory.py).
+    batch = max(1, _FFT_BATCH_BYTES // (48 * max(n, 1)))
+    means = x.mean(axis=0) if centre else None  # one pass over the rows, not one per batch
+    # the columns of a batch are transformed apart, on the core's threads when they are many
+    workers = min(worker_count(n * min(batch, live.size)), max(1, min(batch, live.size)))
+    for c0 in range(0, live.size, batch):
+        done = slice(c0, min(c0 + batch, live.size))
+        xc = _centred_columns(x, slice(c0, min(c0 + batch, k)) if every else live[done], means)
+        # ρ is a ratio: each column scaled by a power of two first (exact, contract §1.3), so that
+        # no square underflows near 1e-160 (the compiled kernel scales, and the two must agree).
+        yield done, _pow2_scaled_columns(xc) if scale else xc, workers
+
+
+@dataclass(frozen=True)
+class ColumnPowers:
+    """The regressor's half of the colour-aware band (:func:`colour_aware_sd`) in the frequency
+    domain: per segment, the power |X(f)|² of each live column's centred values (scaled by a power
+    of two), zero-padded to ``sizes`` as :func:`acf_fft` pads them for ``big`` lags, and each
+    column's lag-0 sum. Σ_j ρ_e(j) w_j ρ_y(j) over j = 1..J is then Σ_f Re G(f)·|X(f)|² / size
+    over the transform's bins (G the transform of the residual's weighted lags), divided by the lag-0
+    sum: one transform per joint and residual, where the lag domain needs every column's inverse
+    transform (docs/conventions.md §6, the regressor's shared factorisation). A prepared
+    regressor keeps it."""
+
+    shape: tuple[int, int, int]  # (J + 1, m, p): the lags and the regressor's joints and columns
+    live: np.ndarray  # the live columns (flattened m·p index), ascending
+    lengths: tuple[int, ...]  # each segment's rows
+    powers: tuple[np.ndarray, ...]  # each segment's (size/2 + 1, live) powers
+    lag0: np.ndarray  # (live,): each column's Σ of squares, summed over segments
+
+    def weighted_sums(self, rho_e: np.ndarray) -> np.ndarray:
+        """Σ_{j=1..J} ρ_e(j)·w_j·ρ_y(j) per joint and column (m, p): ``rho_e`` (J + 1, m), nan
+        as 0; a constant column's ρ_y (nan) as 0, as :func:`weighted_column_acf`."""
+        big, m, p = self.shape[0] - 1, self.shape[1], self.shape[2]
+        w = 1.0 - np.arange(1, big + 1) / (big + 1.0)
+        joint = self.live // p
+        total = np.zeros(self.live.size)
+        for length, power in zip(self.lengths, self.powers):
+            size = _transform_size(length, big)
+            keep = min(big + 1, length)
+            g = np.zeros((size, m))
+            g[1:keep] = rho_e[1:keep] * w[:keep - 1, None]
+            kernel = scipy.fft.rfft(g, axis=0).real
+            kernel[1:(size + 1) // 2] *= 2.0  # the bins of the spectrum's other half
+            kernel /= size
+            for j in range(m):
+                cols = np.flatnonzero(joint == j)
+                if cols.size:
+                    lo, hi = int(cols[0]), int(cols[-1]) + 1  # the live columns of a joint are consecutive
+                    total[lo:hi] += kernel[:, j] @ power[:, lo:hi]
+        out = np.zeros(m * p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[self.live] = np.where(self.lag0 > 0, total / self.lag0, 0.0)
+        return out.reshape(m, p)
+
+
+def column_powers(x: np.ndarray, starts, big: int, m: int, live: np.ndarray | None = None,
+                  largest: np.ndarray | None = None) -> ColumnPowers:
+    """:class:`ColumnPowers` of the regressor's columns x (N, m·p) for ``big`` colour lags.
+    ``largest``: each column's largest |x| when known; where every live column's lies within
+    2^±300, no sum can underflow or overflow, and the columns are transformed unscaled: the same
+    ratios, bit for bit, as scaled by powers of two (every product and sum is scaled exactly)."""
+    x = np.asarray(x, dtype=np.float64)
+    n, k = x.shape
+    bounds = list(np.asarray(starts, dtype=np.int64)) + [n]
+    live = _live_columns(x, live)
+    lengths = [b - a for a, b in zip(bounds[:-1], bounds[1:])]
+    powers = [np.empty((_transform_size(length, big) // 2 + 1, live.size)) for length in lengths]
+    lag0 = np.zeros(live.size)
+    scale = largest is None or not np.all((largest[live] >= 2.0**-300) & (largest[live] <= 2.0**300))
+    for done, xc, workers in _scaled_batches(x, live, True, scale):
+        for s, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+            spec = scipy.fft.rfft(xc[a:b], n=_transform_size(b - a, big), axis=0, workers=workers)
+            np.add(spec.real**2, spec.imag**2, out=powers[s][:, done])
+            lag0[done] += np.einsum("ij,ij->j", xc[a:b], xc[a:b])
+    return ColumnPowers((big + 1, m, k // m), live, tuple(lengths), tuple(powers), lag0)
 
 
 def _centred_columns(x: np.ndarray, cols: slice | np.ndarray, means: np.ndarray | None) -> np.ndarray:
@@ -497,9 +585,12 @@ def weighted_column_acf(rho_y) -> np.ndarray:
 
 
 def colour_aware_sd(rho_e, weighted_y, n_lag, d_lag) -> np.ndarray:
-    """:func:`cross_correlation_sd` from the regressor's half :func:`weighted_column_acf`."""
+    """:func:`cross_correlation_sd` from the regressor's half :func:`weighted_column_acf` (or its
+    transforms, :func:`column_powers`)."""
     rho_e = np.nan_to_num(np.asarray(rho_e, dtype=np.float64))
-    colour = 1.0 + 2.0 * np.einsum("jm,jmp->mp", rho_e[1:], weighted_y)
+    sums = (weighted_y.weighted_sums(rho_e) if isinstance(weighted_y, ColumnPowers)
+            else np.einsum("jm,jmp->mp", rho_e[1:], weighted_y))
+    colour = 1.0 + 2.0 * sums
     colour = np.maximum(colour, 1.0)
     white = np.sqrt(np.asarray(n_lag, dtype=np.float64)) / np.asarray(d_lag, dtype=np.float64)
     return np.sqrt(colour)[:, :, None] * white[None, None, :]
