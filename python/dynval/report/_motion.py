@@ -66,7 +66,7 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
         if found is not None:
             kwargs["parameter_covariance"], removed = found
             how += (" (Cov(π̂) of the noise the estimation run leaves once the library terms its own test "
-                    "finds there are removed: " + "; ".join(f"joint {j}: {', '.join(g)}" for j, g in removed) + ")")
+                    "finds there are removed: " + "; ".join(f"joint {j + 1}: {', '.join(g)}" for j, g in removed) + ")")
     elif reg3 is not None:
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
