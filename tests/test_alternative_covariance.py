@@ -76,11 +76,11 @@ def test_a_right_model_keeps_the_estimation_covariance():
 
 
 def test_the_parameters_a_missing_term_bent_are_cleared_on_every_joint():
-    """gravity_only:white:arm6@200 replicate 4: the estimation run's test selects groups on some
-    joints; the last wrist's residual there is the error of parameters the missing inertia bent,
-    which its own model columns refitted remove. Cleared only where a group was selected, its
-    widening stayed and the wrist tested at p = 0.31, and a correlation with its own column led.
-    Kills: the model's columns refitted only on joints with a structure."""
+    """gravity_only:white:arm6@200 replicate 4: the estimation run's test selects inertia and gravity
+    on some joints; the last wrist's residual there is the error of parameters the missing inertia
+    bent. With the groups on the selected joints alone its widening stayed, the wrist tested at
+    p = 0.31 and a correlation with its own column led. Kills: a rigid-body group taken only on the
+    joints where it was selected."""
     report = _report("gravity_only:white:arm6@200", 4)
     assert report.to_dict()["physics"]["tests"][5]["pvalue"] < 1e-6
     first = report.deciding[0].finding

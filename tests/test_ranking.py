@@ -349,3 +349,31 @@ def test_a_delay_is_judged_on_the_joint_where_it_explains_the_most_of_the_torque
     ranked = rank([wrist, delay], r2)
     assert ranked[0].finding.kind == "delay"
     assert ranked[0].torque_share == pytest.approx(0.45 * 0.006)
+
+
+@pytest.mark.parametrize("on_j1, follows", [(0.9, True), (0.3, False)])
+def test_a_term_the_model_lacks_counts_what_its_own_columns_remove_on_the_other_joints(on_j1, follows):
+    """A term the model lacks (relation ``partial``) with its own columns added on its joint alone
+    (``model_terms.added_alone``): what that refit removes on the other joints counts in its rank,
+    and a joint it removes at least half of follows it (stribeck:ar0.9:arm6@200: the shoulder's
+    missing Stribeck friction bent the parameters the wrists' re-weightings then led with).
+    Kills: ``added_alone`` not read (only a joint-local term's refit counted)."""
+    partial = Finding(kind="missing_physics", severity="deficiency", joints=(1,), effect=0.9, threshold=0.05,
+                      action="complete Coulomb friction on j2", message="j2: partial.",
+                      details={"term": "coulomb", "term_share": 0.4, "relation": "partial",
+                               "model_terms": {"relation": "partial", "outside_share": 0.5, "reweight_share": 0.3,
+                                               "added_alone": {"group": "coulomb", "columns": 5, "share": 0.4,
+                                                               "shares": [on_j1, 0.4]}}})
+    bent = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.9, threshold=0.05,
+                   action="re-identify Coulomb friction on j1", message="j1: reweight.",
+                   details={"term": "coulomb", "term_share": 0.9, "relation": "reweight",
+                            "model_terms": {"relation": "reweight", "outside_share": 0.0, "reweight_share": 0.9}})
+    r2 = [0.5, 0.9]
+    ranked = rank([bent, partial], r2)
+    lead = {r.finding.action: r.leads for r in ranked}
+    if follows:
+        assert ranked[0].finding is partial and not lead[bent.action]
+        assert ranked[0].indirect_torque == pytest.approx(0.9 * 0.5)
+        assert "90 % on j1" in first_reason(ranked, NAMES)
+    else:
+        assert ranked[0].finding is bent and lead[bent.action]

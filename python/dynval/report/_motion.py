@@ -106,8 +106,8 @@ def _estimation_structure(est_run: Mapping[str, Any] | None, est_fit: Estimation
                           alpha: float, band: float | None) -> tuple[np.ndarray, list[tuple[int, list[str]]]] | None:
     """Cov(π̂) under the alternative (conventions §5.2): the physics test run on the estimation run's
     residual (the model's columns refitted per joint as nuisance), and the covariance of the noise
-    the model's columns refitted with the groups selected there leave
-    (:func:`dynval.statistics._estimation.noise_covariance`), with the groups removed per joint.
+    the model's columns refitted with the groups selected there leave (a rigid-body group on every
+    joint; :func:`dynval.statistics._estimation.noise_covariance`), with the groups selected per joint.
     None without the estimation run's q or where its test selects no group on any joint (the
     covariance is then the estimation fit's own)."""
     if est_run is None or "q" not in est_run or "regressor" not in est_run:
@@ -127,10 +127,17 @@ def _estimation_structure(est_run: Mapping[str, Any] | None, est_fit: Estimation
     removed = [(t.joint, list(t.selected)) for t in tests if t.selected]
     if not removed:
         return None
-    structure: list[np.ndarray | None] = [None] * m
-    for j, groups in removed:
-        lib = _physics.library(j, q_e, de.dq, de.ddq, pred_e[:, j], sample_rate, only=set(groups))
-        structure[j] = np.hstack([lib[g] for g in groups])
+    # a rigid-body kind selected on some joint is taken on every joint: the arm's inertia and gravity
+    # load every joint through parameters they share, and the joints where the test did not take it
+    # in keep the error of the parameters it bent; a friction, offset or drift is the joint's own
+    # (taken on every joint, its columns would fit the noise behind the model's own friction columns)
+    rigid = {g for _, groups in removed for g in groups if g in _RIGID_BODY}
+    selected = dict(removed)
+    structure: list[np.ndarray | None] = []
+    for j in range(m):
+        want = [g for g in _physics.GROUPS if g in rigid or g in selected.get(j, ())]
+        lib = _physics.library(j, q_e, de.dq, de.ddq, pred_e[:, j], sample_rate, only=set(want)) if want else {}
+        structure.append(np.hstack([lib[g] for g in want if g in lib]) if want else None)
     return _estimation.noise_covariance(est_fit, reg_e, structure), removed
 
 
@@ -221,6 +228,9 @@ def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | Non
     return out
 
 
+_LACKING = ("missing", "partial", "coupling")
+"""Relations in which the model lacks the named term (:func:`dynval.statistics._model_terms.relate`)."""
+
 _RIGID_BODY = ("inertia", "gravity")
 """The kinds every rigid-body model of a moving arm holds: a model that holds one of them on no joint
 lacks it as a whole (a gravity-only model of a moving arm lacks its inertia)."""
@@ -289,6 +299,10 @@ def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, 
         if (rel["relation"] == "reweight" and gain is not None and gain["group"] == t.term
                 and gain["share"] >= practical):
             rel["relation"], rel["local"] = "local", gain
+        elif rel["relation"] in _LACKING and gain is not None and gain["group"] == t.term:
+            # what its own columns added on this joint alone remove on the others: the parameters
+            # the fit bent there for it (conventions §5.10, "One missing column is one step")
+            rel["added_alone"] = gain
         near = _model_terms.aligned_columns(y_j, lib[t.term])
         in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
         est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred

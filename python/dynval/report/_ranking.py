@@ -146,10 +146,21 @@ def _local(f: Finding) -> dict[str, Any] | None:
     return local if isinstance(local, dict) else None
 
 
+def _added_alone(f: Finding) -> dict[str, Any] | None:
+    """The stacked refit with a physical term's own columns added on its joint alone: a joint-local
+    term's (``model_terms.local``), or a term the model lacks (``model_terms.added_alone``)."""
+    local = _local(f)
+    if local is not None or f.kind != "missing_physics":
+        return local
+    alone = ((f.details or {}).get("model_terms") or {}).get("added_alone")
+    return alone if isinstance(alone, dict) else None
+
+
 def _carried(f: Finding) -> dict[int, float]:
     """What adding the structure a finding names removes on the joints it does not act on, per joint:
-    a missing column's ``details["indirect"]``, a joint-local term's refit on the other joints."""
-    local = _local(f)
+    a missing column's ``details["indirect"]``, a physical term's refit with its own columns added on
+    its joint alone, on the other joints."""
+    local = _added_alone(f)
     if local is not None:
         shares = {k: _finite(s) for k, s in enumerate(local.get("shares") or ()) if k not in f.joints}
     else:
@@ -371,10 +382,11 @@ def torque_text(x: float) -> str:
 
 
 def _indirect_text(r: Ranked, joint_names: Sequence[str] | None) -> str:
-    """A missing column's or a joint-local term's effect on the joints it does not act on, which counts
-    in its rank (a joint-local term's: where it removes a practical share, the largest first)."""
+    """A missing column's effect on the joints it does not act on, or a physical term's added on its
+    joint alone, which counts in its rank (a physical term's: where it removes a practical share, the
+    largest first)."""
     indirect = (r.finding.details or {}).get("indirect") or {}
-    if _local(r.finding) is not None:
+    if _added_alone(r.finding) is not None:
         practical = _finite(r.finding.threshold) or 0.0
         indirect = dict(sorted(((k, s) for k, s in _carried(r.finding).items() if s >= practical),
                                key=lambda kv: -kv[1])[:4])

@@ -88,29 +88,33 @@ def fit_columns(reg3, tau, columns) -> EstimationFit:
 
 def noise_covariance(fit: EstimationFit, reg3, structure) -> np.ndarray:
     """Cov(π̂) with the estimation residual's structure removed: the sandwich of :func:`fit_columns`
-    on what each joint's residual leaves after least squares on the model's columns on that joint and
-    ``structure[j]`` (an (N, k_j) array, or None), scaled by √(N/(N − r_j)), r_j the rank of those
-    columns, so that white noise keeps its variance. The estimation fit's own covariance when no
-    joint has a structure.
+    on the residual of the stacked refit of the model's columns and ``structure[j]`` (an (N, k_j)
+    array on joint j's rows, or None), scaled by √(N·m/(N·m − r)), r the rank the structure adds
+    to the model's, so that white noise keeps its variance. The estimation fit's own covariance when
+    no joint has a structure.
 
     A model that lacks a term leaves it in its estimation residual, and a slow deterministic torque
     read as coloured noise makes the sandwich's long-run variance (so Cov(π̂)) orders of magnitude too
-    wide: the parameters' sampling error is the noise's, not the missing torque's. Every joint's
-    model columns are refitted on it, as the missing-physics test that found the structure refits
-    them (its nuisance): the parameters the missing term bent leave their error on joints where no
-    group was selected too. This is the covariance under the alternative, as a Wald test takes it
-    (conventions §5.2, "Cov(π̂) under the alternative")."""
-    if all(c is None or c.shape[1] == 0 for c in structure):
+    wide: the parameters' sampling error is the noise's, not the missing torque's. This is the
+    covariance under the alternative, as a Wald test takes it (conventions §5.2, "Cov(π̂) under the
+    alternative")."""
+    blocks = [(j, np.asarray(c, dtype=np.float64)) for j, c in enumerate(structure) if c is not None and c.shape[1]]
+    if not blocks:
         return fit.covariance
     x = np.asarray(reg3, dtype=np.float64)[:, :, list(fit.columns)]
-    left = np.array(fit.residual, dtype=np.float64)
-    n = left.shape[0]
-    for j, extra in enumerate(structure):
-        own = x[:, j, :]
-        cols = own if extra is None else np.hstack([own, np.asarray(extra, dtype=np.float64)])
-        d = _column_scales(cols)
-        coef, _, rank, _ = np.linalg.lstsq(cols * d, left[:, j], rcond=None)
-        left[:, j] = (left[:, j] - (cols * d) @ coef) * np.sqrt(n / max(n - int(rank), 1))
+    resid = np.asarray(fit.residual, dtype=np.float64)
+    n, m, k = x.shape
+    extra = np.zeros((n, m, sum(c.shape[1] for _, c in blocks)))
+    at = 0
+    for j, c in blocks:
+        extra[:, j, at:at + c.shape[1]] = c
+        at += c.shape[1]
+    design = np.concatenate([x, extra], axis=2).reshape(n * m, -1)
+    design = design * _column_scales(design)
+    coef, _, rank, _ = np.linalg.lstsq(design, resid.reshape(-1), rcond=None)
+    own = int(np.linalg.matrix_rank(design[:, :k])) if k else 0
+    left = (resid.reshape(-1) - design @ coef).reshape(n, m)
+    left *= np.sqrt(n * m / max(n * m - (int(rank) - own), 1))
     return _sandwich(x, left)[0]
 
 
