@@ -117,10 +117,13 @@ def differentiate(q: ArrayLike, sample_rate: float, *, method: str = "savgol", w
 
 
 def checked_differentiate(x: np.ndarray, sample_rate: float, *, method: str = "savgol", window: float | None = None,
-                          polyorder: int = 4, cutoff: float | None = None, order: int = 4) -> Derivatives:
+                          polyorder: int = 4, cutoff: float | None = None, order: int = 4,
+                          positions: bool = True) -> Derivatives:
     """:func:`differentiate` of positions already checked: ``x`` finite float64 (N, m), ``sample_rate``
     finite > 0, ``method`` one of its two (``validate``'s physics library and the stream's filter
-    call it on their checked q; the filter's own settings are still checked here)."""
+    call it on their checked q; the filter's own settings are still checked here).
+    ``positions=False`` (Savitzky–Golay only): the smoothed positions are not computed and ``q`` is
+    ``x`` as given, for a caller that reads only q̇, q̈ and the bands (one filter pass of three)."""
     import scipy.signal
 
     n = x.shape[0]
@@ -136,7 +139,7 @@ def checked_differentiate(x: np.ndarray, sample_rate: float, *, method: str = "s
         if length > n:
             raise parameter_error("window", f"at most N={n} samples long", window)
         kw = dict(window_length=length, polyorder=polyorder, delta=dt, axis=0, mode="interp")
-        qs = scipy.signal.savgol_filter(x, deriv=0, **kw)
+        qs = scipy.signal.savgol_filter(x, deriv=0, **kw) if positions else x
         dq = scipy.signal.savgol_filter(x, deriv=1, **kw)
         ddq = scipy.signal.savgol_filter(x, deriv=2, **kw)
         gains = []

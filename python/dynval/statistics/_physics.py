@@ -114,7 +114,8 @@ def _derived(q, sample_rate, dq, ddq) -> Derivatives:
         return Derivatives(d1 if dq is None else np.asarray(dq, float),
                            np.gradient(d1, 1.0 / fs, axis=0) if ddq is None else np.asarray(ddq, float),
                            "central differences", None)
-    d = checked_differentiate(q, fs, window=window)  # q checked by the caller (validate, the stream)
+    # q checked by the caller (validate, the stream); its smoothed positions are not read here
+    d = checked_differentiate(q, fs, window=window, positions=False)
     return Derivatives(d.dq if dq is None else np.asarray(dq, float),
                        d.ddq if ddq is None else np.asarray(ddq, float),
                        f"Savitzky–Golay, {window:g} s window, degree 4", float(d.bandwidth_hz))
@@ -218,9 +219,22 @@ def _ar_prewhitener(u, max_order):
 
 
 def _whiten(x, a):
-    if a.size == 0 or x.size == 0:
-        return x[a.size:]
-    return scipy.signal.lfilter(np.concatenate([[1.0], -a]), [1.0], x, axis=0)[a.size:]
+    """x_k − Σ a_i x_{k−i} for k ≥ p (p = a.size), along axis 0.
+
+    The sums of ``scipy.signal.lfilter(np.r_[1, -a], 1, x)[p:]`` (an FIR filter: one
+    ``numpy.convolve`` per column, oldest product first) in the same order and, as it returns them,
+    column-major (the later products' bits depend on the layout), so the same result
+    (``tests/test_physics_fast_paths.py``) from a few whole-array operations instead of a Python
+    call per column."""
+    p = a.size
+    if p == 0 or x.size == 0:
+        return x[p:]
+    n = x.shape[0]
+    out = np.multiply(x[:n - p], -a[p - 1], order="F")
+    for i in range(p - 2, -1, -1):
+        out += x[p - 1 - i:n - 1 - i] * -a[i]
+    out += x[p:]
+    return out
 
 
 def _wald(xw, yw, cols=None, gw=None, cov_p=None, gram=None, xg=None):
@@ -743,6 +757,22 @@ def _best_whole_shift(meas, pred, inner, big, sse, sse0):
     return float(near[int(np.argmin(exact))])
 
 
+def _shifted(pred, shift, rows):
+    """pred (N, m) at t − shift for t in the slice ``rows`` (each t − shift within 0..N − 1), by linear
+    interpolation between samples, computed as ``numpy.interp(t − shift, arange(N), pred[:, j])``
+    computes it, (p[i + 1] − p[i])·(x − i) + p[i] with i = ⌊x⌋, so the same bits
+    (``tests/test_physics_fast_paths.py``), for every joint at once on those rows."""
+    x = np.arange(rows.start, rows.stop, dtype=float) - shift
+    lo = np.floor(x)
+    i = lo.astype(np.intp)
+    if i.size and i[-1] - i[0] == i.size - 1 and np.all(np.diff(i) == 1):
+        # consecutive samples (every x on one side of the same grid offset): slices, not a gather
+        below, above = pred[i[0]:i[-1] + 1], pred[i[0] + 1:i[-1] + 2]
+    else:
+        below, above = pred[i], pred[i + 1]
+    return (above - below) * (x - lo)[:, None] + below
+
+
 def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any]:
     """The common time shift d (samples; > 0: the measurement lags) that best aligns the prediction
     with the measured torque, each joint's share of the mean square realigning removes, and each
@@ -750,7 +780,6 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
     n, m = meas.shape
     fs = 1.0 if sample_rate is None else float(sample_rate)
     big = int(max_shift if max_shift is not None else min(max(10, round(0.05 * fs)), n // 20))
-    t = np.arange(n, dtype=float)
     inner = slice(big + 1, n - big - 1)  # rows every shift reaches
     e0 = meas - pred
     sse0 = np.sum(e0[inner] ** 2, axis=0)
@@ -762,8 +791,7 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
             # a whole shift is a slice: np.interp returns the sample itself at a grid point
             lo = inner.start - int(shift)
             return np.sum((meas[inner] - pred[lo:lo + inner.stop - inner.start]) ** 2, axis=0)
-        shifted = np.column_stack([np.interp(t - shift, t, pred[:, j]) for j in range(m)])
-        return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
+        return np.sum((meas[inner] - _shifted(pred, shift, inner)) ** 2, axis=0)
 
     # whole samples first, then quarter samples around the best
     best = _best_whole_shift(meas, pred, inner, big, sse, sse0)
@@ -783,13 +811,15 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
     # misfit the HC1 variance turned into lost power (a 4-sample delay removing 85 % of a joint's
     # mean square at p = 0.03). d is chosen from the data among the 2·big + 1 whole shifts: the
     # p-value is multiplied by their number (Bonferroni), so a right model is not called delayed.
-    shifted = np.column_stack([np.interp(t - d, t, pred[:, j]) for j in range(m)]) if d != 0.0 else pred
+    # the realignment's correction on the rows every shift reaches (the only rows tested)
+    # (column-major: each joint's column contiguous, as the products below read it)
+    correction = np.asfortranarray(_shifted(pred, d, inner) - pred[inner] if d != 0.0 else
+                                   np.zeros((inner.stop - inner.start, m)))
     searched = 2 * big + 1
     for j in range(m):
-        col = shifted[:, j] - pred[:, j]
-        if not np.any(col[inner]):
+        c, y = correction[:, j], e0[inner, j]
+        if not np.any(c):
             continue
-        c, y = col[inner], e0[inner, j]
         # one column absorbs little of the noise: the AR model of what it leaves is not too white
         b = float(c @ y) / float(c @ c)
         a, _ = _ar_prewhitener(y - b * c, min(_MAX_AR, n // 50))
