@@ -127,3 +127,115 @@ def test_derivatives_without_the_positions_pass_are_the_same():
     d = _physics.derivatives(q, fs)
     assert np.array_equal(d.dq, full.dq) and np.array_equal(d.ddq, full.ddq)
     assert d.bandwidth_hz == full.bandwidth_hz
+
+
+# ------------------------------------------------------------- rules that move the last bits only
+
+def _fft_yule_walker(u, order):
+    """The AR(order) coefficients from autocovariances taken by one zero-padded FFT (the former way)."""
+    n = u.shape[0]
+    uc = u - u.mean()
+    nfft = 1 << (2 * n - 1).bit_length()
+    f = np.fft.rfft(uc, nfft)
+    acov = np.fft.irfft(f * np.conj(f), nfft)[:order + 1] / n
+    return scipy.linalg.solve_toeplitz(acov[:order], acov[1:order + 1])
+
+
+def test_the_ar_model_from_direct_lag_sums_is_the_ffts():
+    rng = np.random.default_rng(5)
+    for phi in ([0.6, 0.3], [1.2, -0.5], [0.95, 0.0], [-0.4, 0.1]):
+        e = rng.normal(size=6000)
+        u = scipy.signal.lfilter([1.0], [1.0, -phi[0], -phi[1]], e) + 3.0
+        a, n_eff = _physics._ar_prewhitener(u, 2)
+        assert a.size == 2 or phi[1] == 0.0 and a.size >= 1
+        reference = _fft_yule_walker(u, a.size)
+        np.testing.assert_allclose(a, reference, rtol=1e-10, atol=1e-12)
+        assert 2.0 <= n_eff <= u.size
+
+
+def _rows_wald(x, y, base, cand):
+    """HC1 Wald statistic (score form) of the columns ``cand`` in the OLS of y on x[:, base + cand],
+    from the rows (least squares by numpy.linalg.lstsq on them)."""
+    cols = list(base) + list(cand)
+    xx = x[:, cols]
+    n, k = xx.shape
+    r = y - xx @ np.linalg.lstsq(xx, y, rcond=None)[0]
+    xt = x[:, cand]
+    if len(base):
+        xt = xt - x[:, base] @ np.linalg.lstsq(x[:, base], xt, rcond=None)[0]
+    h = xt * r[:, None]
+    meat = h.T @ h * (n / max(n - k, 1))
+    score = xt.T @ y
+    return float(score @ np.linalg.pinv(meat) @ score)
+
+
+@pytest.mark.parametrize("base", [[], [0, 1, 2], [5]])
+def test_a_selection_steps_candidates_projected_together_equal_each_fit_on_the_rows(base):
+    rng = np.random.default_rng(6)
+    n, k = 1500, 14
+    x = rng.normal(size=(n, k)) @ (np.eye(k) + 0.3 * rng.normal(size=(k, k)))
+    y = x[:, 3] * 0.2 + np.abs(x[:, 0]) * rng.normal(size=n)  # heteroscedastic
+    r = np.linalg.qr(np.column_stack([x, y]), mode="r")
+    tests = _physics._Tests(r[:, :k], r[:, k], np.asfortranarray(x), y, n)
+    candidates = [np.arange(a, b) for a, b in ((3, 5), (6, 7), (7, 12), (12, 14)) if a not in base]
+    got = tests.step(np.asarray(base, dtype=int), candidates)
+    for w, cand in zip(got, candidates):
+        assert w == pytest.approx(_rows_wald(x, y, base, list(cand)), rel=1e-8)
+
+
+def test_the_r_factor_by_pieces_of_1024_rows_holds_the_gram_matrix():
+    rng = np.random.default_rng(8)
+    for n in (3978, 5027, 20000):
+        x = np.asfortranarray(rng.normal(size=(n, 30)) * np.logspace(0, 4, 30))
+        r = _physics._tall_r(x)
+        whole = np.linalg.qr(x, mode="r")
+        assert r.shape == whole.shape
+        np.testing.assert_allclose(np.abs(r), np.abs(whole), rtol=1e-9, atol=1e-9 * np.abs(whole).max())
+
+
+def test_the_quarter_grids_costs_are_the_loops_where_they_are_read():
+    rng = np.random.default_rng(9)
+    n, m, big = 5000, 3, 10
+    tt = np.arange(n, dtype=float)
+    pred = np.column_stack([np.sin(2 * np.pi * f * tt / 500) + 0.3 * np.sign(np.sin(2 * np.pi * f * tt / 500))
+                            for f in (0.5, 0.8, 1.3)])
+    inner = slice(big + 1, n - big - 1)
+    for delay in (2.3, -1.6, 0.0, 4.75):
+        meas = np.column_stack([np.interp(tt - delay, tt, pred[:, j]) for j in range(m)]) + \
+            rng.normal(0, 0.05, (n, m))
+        sse0 = np.sum((meas - pred)[inner] ** 2, axis=0)
+
+        def sse(shift):
+            shifted = np.column_stack([np.interp(tt - shift, tt, pred[:, j]) for j in range(m)])
+            return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
+
+        best = round(delay)
+        grid = np.clip(best + np.arange(-1.0, 1.001, 0.25), -big, big)
+        reference = np.array([np.sum(sse(d) / sse0) for d in grid])
+        got = _physics._grid_costs(meas, pred, inner, grid, sse, sse0)
+        i = int(np.argmin(reference))
+        assert int(np.argmin(got)) == i
+        for k in (i - 1, i, i + 1):
+            if 0 <= k < grid.size:
+                assert got[k] == reference[k]
+        np.testing.assert_allclose(got, reference, rtol=1e-9)
+
+
+def test_the_joint_test_of_a_first_pass_is_computed_only_when_it_is_kept(monkeypatch):
+    """The fit returned holds the test of every group of the problem it comes from, to the bit."""
+    rng = np.random.default_rng(11)
+    n = 3000
+    t = np.arange(n) / 500.0
+    q = np.column_stack([np.sin(2 * np.pi * 0.4 * t), np.sin(2 * np.pi * 0.7 * t + 1)])
+    d = _physics.derivatives(q, 500.0)
+    e = 0.3 * np.sign(d.dq[:, 0]) + 0.1 * scipy.signal.lfilter([1.0], [1.0, -0.6], rng.normal(size=n))
+    lib = _physics.library(0, q, d.dq, d.ddq, e, 500.0)
+    stack = _physics._Stack(e, np.zeros((n, 0)), lib)
+    calls = []
+    original = _physics._with_joint_test
+    monkeypatch.setattr(_physics, "_with_joint_test", lambda fit: calls.append(fit) or original(fit))
+    a, problem, fit = _physics._filtered_fit(stack, 0.05)
+    assert fit["selected"] and len(calls) == 2  # the second pass's, then the fit returned (already done)
+    reference = _physics._whitened_fit(problem, 0.05)
+    assert (fit["f"], fit["pvalue"], fit["selected"]) == (reference["f"], reference["pvalue"], reference["selected"])
+    assert "tests" not in fit
