@@ -122,7 +122,7 @@ def edge_distance(n: int, starts: np.ndarray) -> np.ndarray:
     k = np.searchsorted(starts, i, side="right")
     before = starts[np.maximum(k - 1, 0)]
     after = starts[np.minimum(k, starts.size - 1)]
-    return np.minimum(np.abs(i - before + 0.5), np.abs(i - after + 0.5))
+    return np.asarray(np.minimum(np.abs(i - before + 0.5), np.abs(i - after + 0.5)), dtype=float)
 
 
 def _gap(y: np.ndarray, full: np.ndarray) -> int:

@@ -114,8 +114,9 @@ def _derived(q, sample_rate, dq, ddq) -> Derivatives:
         return Derivatives(d1 if dq is None else np.asarray(dq, float),
                            np.gradient(d1, 1.0 / fs, axis=0) if ddq is None else np.asarray(ddq, float),
                            "central differences", None)
-    # q checked by the caller (validate, the stream); its smoothed positions are not read here
-    d = checked_differentiate(q, fs, window=window, positions=False)
+    # q checked by the caller (validate, the stream); its smoothed positions are not read here, and
+    # the derivatives' interior is convolved by FFT (the same filter to rounding)
+    d = checked_differentiate(q, fs, window=window, positions=False, by_fft=True)
     return Derivatives(d.dq if dq is None else np.asarray(dq, float),
                        d.ddq if ddq is None else np.asarray(ddq, float),
                        f"Savitzky–Golay, {window:g} s window, degree 4", float(d.bandwidth_hz))
@@ -127,7 +128,7 @@ def _scale(x):
 
 
 def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
-            row_index=None, chains=None, only=None) -> dict[str, np.ndarray]:
+            row_index=None, chains=None, only=None, column_major=False) -> dict[str, np.ndarray]:
     """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None.
 
     A stream's chunk (:mod:`._physics_stream`) gives ``velocity_scale`` (the Coulomb shapes' scale,
@@ -136,7 +137,9 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     the in-memory columns once the log's length and each column's RMS are known. ``chains``: a dict
     shared by the joints' calls on the same rows, which keeps each chain's sin and cos (a chain
     i ≤ j ≤ k is in every joint j between: 28 chains of 7 joints computed once, not 84 times).
-    ``only``: the groups to build (each the same columns as in the whole library), else all."""
+    ``only``: the groups to build (each the same columns as in the whole library), else all.
+    ``column_major``: each group's columns contiguous (the same values; the test's stack copies
+    them so at the cost of a plain copy, not a transposition)."""
     n = pred_j.shape[0]
     wanted = set(GROUPS) if only is None else set(only)
     if "drift" not in wanted:
@@ -166,7 +169,7 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     out = {}
     for g in GROUPS:
         if g in groups and g in wanted:
-            cols = np.column_stack(groups[g])
+            cols = np.array(groups[g], dtype=float).T if column_major else np.column_stack(groups[g])
             out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
     return out
 
@@ -381,7 +384,8 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
         if libraries is not None:
             lib = libraries[j]
         else:
-            lib = library(j, q, dq, ddq, pred[:, j], sample_rate, chains=chains if dec > 1 else None)
+            lib = library(j, q, dq, ddq, pred[:, j], sample_rate, chains=chains if dec > 1 else None,
+                          column_major=True)
         if groups is not None:
             lib = {g: x for g, x in lib.items() if g in groups}
         nz = None if nuisance is None else nuisance[j]
