@@ -267,3 +267,28 @@ def test_a_column_major_library_holds_the_same_columns():
         assert list(rows) == list(cols)
         for g in rows:
             assert cols[g].flags.f_contiguous and np.array_equal(cols[g], rows[g])
+
+
+def test_the_period_searchs_valleys_are_the_loops():
+    from dynval.statistics import _periodic
+
+    def loop(d, threshold):
+        below = d <= threshold
+        below[0] = False
+        out, lag, n = [], 1, d.shape[0]
+        while lag < n:
+            if below[lag]:
+                end = lag
+                while end + 1 < n and below[end + 1]:
+                    end += 1
+                out.append(lag + int(np.argmin(d[lag:end + 1])))
+                lag = end + 1
+            else:
+                lag += 1
+        return out
+
+    rng = np.random.default_rng(14)
+    for n in (1, 2, 5, 300, 5000):
+        d = np.abs(np.cumsum(rng.normal(size=n))) * 0.05 + 0.5 * (1 + np.cos(np.arange(n) / 7.0))
+        for threshold in (-1.0, 0.05, 0.3, 1.0, 10.0):
+            assert _periodic._valleys(d.copy(), threshold) == loop(d.copy(), threshold)
