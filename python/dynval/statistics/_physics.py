@@ -725,12 +725,21 @@ class _Tests:
                 out.append(0.0)
                 continue
             x_r = x_all[:, piece]
-            beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
+            score = x_r.T @ y_r
+            if ki == 1:
+                # one column: its least squares and pseudo-inverse in closed form (lstsq's and pinv's
+                # cut-offs are relative to the one singular value, so only an exact zero is dropped)
+                size = float(x_r[:, 0] @ x_r[:, 0])
+                beta = score / size if size > 0 else np.zeros(1)
+            else:
+                beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
             meat = self._meat(piece, beta) * (self.n / max(self.n - base.size - ki, 1))
             if xg_all is not None:
                 meat = meat + xg_all[piece] @ self.cov_p @ xg_all[piece].T
-            score = x_r.T @ y_r
-            out.append(float(score @ np.linalg.pinv(meat) @ score))
+            if ki == 1:
+                out.append(float(score[0] * score[0] / meat[0, 0]) if meat[0, 0] != 0 else 0.0)
+            else:
+                out.append(float(score @ np.linalg.pinv(meat) @ score))
         return out
 
     def _project(self, base, every, c_y, c_all):
