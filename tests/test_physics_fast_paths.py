@@ -292,3 +292,11 @@ def test_the_period_searchs_valleys_are_the_loops():
         d = np.abs(np.cumsum(rng.normal(size=n))) * 0.05 + 0.5 * (1 + np.cos(np.arange(n) / 7.0))
         for threshold in (-1.0, 0.05, 0.3, 1.0, 10.0):
             assert _periodic._valleys(d.copy(), threshold) == loop(d.copy(), threshold)
+
+
+def test_the_column_major_librarys_scales_are_each_columns_own_to_the_bit():
+    rng = np.random.default_rng(15)
+    for n in (1, 37, 4000):
+        x = np.asfortranarray(rng.normal(size=(n, 6)) * rng.lognormal(0.0, 6.0, 6))
+        x[:, 2] = 0.0
+        assert np.array_equal(_physics._scales(x), np.array([_physics._scale(c) for c in x.T]))

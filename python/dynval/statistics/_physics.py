@@ -169,9 +169,23 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     out = {}
     for g in GROUPS:
         if g in groups and g in wanted:
-            cols = np.array(groups[g], dtype=float).T if column_major else np.column_stack(groups[g])
-            out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
+            if column_major:
+                cols = np.array(groups[g], dtype=float).T
+                out[g] = cols if row_index is not None else cols / _scales(cols)
+            else:
+                cols = np.column_stack(groups[g])
+                out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
     return out
+
+
+def _scales(cols):
+    """:func:`_scale` of each column of a column-major (N, k) array in one reduction: each column's
+    sum runs over its contiguous rows as the one-column call's does, so the same bits."""
+    if cols.shape[0] == 0:
+        return np.ones(cols.shape[1])
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = np.sqrt(np.mean(cols * cols, axis=0))
+    return np.where((s > 0) & np.isfinite(s), s, 1.0)
 
 
 def _chains(j, q, chains):
