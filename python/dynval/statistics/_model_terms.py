@@ -101,11 +101,7 @@ def crossfit_sse(y: np.ndarray, x: np.ndarray, blocks: int | None = None, full: 
     gap = min(_gap(y, x if full is None else full), n // (4 * blocks))
     index = np.arange(n) * blocks // max(n, 1)
     half = index % 2 == 0
-    starts = np.flatnonzero(np.diff(index)) + 1
-    edge = np.full(n, np.inf)
-    for b in starts:
-        edge = np.minimum(edge, np.abs(np.arange(n) - b + 0.5))
-    scored = edge >= gap
+    scored = edge_distance(n, np.flatnonzero(np.diff(index)) + 1) >= gap
     sse, rows = 0.0, 0
     for fit_rows in (half, ~half):
         coef, *_ = np.linalg.lstsq(x[fit_rows], y[fit_rows], rcond=None)
@@ -114,6 +110,19 @@ def crossfit_sse(y: np.ndarray, x: np.ndarray, blocks: int | None = None, full: 
         sse += float(r @ r)
         rows += int(test.sum())
     return float(sse * n / max(rows, 1))
+
+
+def edge_distance(n: int, starts: np.ndarray) -> np.ndarray:
+    """Each of the ``n`` rows' distance to the nearest block edge, |i − b + 1/2| for the block
+    starting at row b (``starts`` increasing; inf without one): the nearest edge of a row is the
+    start at or before it or the one after it, so two of them are compared, not every block's."""
+    if starts.size == 0:
+        return np.full(n, np.inf)
+    i = np.arange(n)
+    k = np.searchsorted(starts, i, side="right")
+    before = starts[np.maximum(k - 1, 0)]
+    after = starts[np.minimum(k, starts.size - 1)]
+    return np.asarray(np.minimum(np.abs(i - before + 0.5), np.abs(i - after + 0.5)), dtype=float)
 
 
 def _gap(y: np.ndarray, full: np.ndarray) -> int:

@@ -219,18 +219,11 @@ def _valleys(d: FloatArray, threshold: float) -> list[int]:
     """The lag of the lowest point of each run of lags ≥ 1 where d ≤ threshold, in increasing order."""
     below = d <= threshold
     below[0] = False
-    out: list[int] = []
-    lag, n = 1, d.shape[0]
-    while lag < n:
-        if below[lag]:
-            end = lag
-            while end + 1 < n and below[end + 1]:
-                end += 1
-            out.append(lag + int(np.argmin(d[lag : end + 1])))
-            lag = end + 1
-        else:
-            lag += 1
-    return out
+    # each run's first lag and the lag after its last, from the steps of the padded indicator (one
+    # pass over the lags, not a Python step per lag: 10,000 lags on a 20,000-row log)
+    steps = np.diff(np.concatenate([[0], below.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(steps == 1), np.flatnonzero(steps == -1)
+    return [int(lo + np.argmin(d[lo:hi])) for lo, hi in zip(starts, stops)]
 
 
 def _parabolic(d: FloatArray, lag: int) -> float:

@@ -114,7 +114,9 @@ def _derived(q, sample_rate, dq, ddq) -> Derivatives:
         return Derivatives(d1 if dq is None else np.asarray(dq, float),
                            np.gradient(d1, 1.0 / fs, axis=0) if ddq is None else np.asarray(ddq, float),
                            "central differences", None)
-    d = checked_differentiate(q, fs, window=window)  # q checked by the caller (validate, the stream)
+    # q checked by the caller (validate, the stream); its smoothed positions are not read here, and
+    # the derivatives' interior is convolved by FFT (the same filter to rounding)
+    d = checked_differentiate(q, fs, window=window, positions=False, by_fft=True)
     return Derivatives(d.dq if dq is None else np.asarray(dq, float),
                        d.ddq if ddq is None else np.asarray(ddq, float),
                        f"Savitzky–Golay, {window:g} s window, degree 4", float(d.bandwidth_hz))
@@ -126,7 +128,7 @@ def _scale(x):
 
 
 def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
-            row_index=None, chains=None, only=None) -> dict[str, np.ndarray]:
+            row_index=None, chains=None, only=None, column_major=False) -> dict[str, np.ndarray]:
     """The library's columns for joint j, by group (each (N, k), unit RMS); q may be None.
 
     A stream's chunk (:mod:`._physics_stream`) gives ``velocity_scale`` (the Coulomb shapes' scale,
@@ -135,7 +137,9 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     the in-memory columns once the log's length and each column's RMS are known. ``chains``: a dict
     shared by the joints' calls on the same rows, which keeps each chain's sin and cos (a chain
     i ≤ j ≤ k is in every joint j between: 28 chains of 7 joints computed once, not 84 times).
-    ``only``: the groups to build (each the same columns as in the whole library), else all."""
+    ``only``: the groups to build (each the same columns as in the whole library), else all.
+    ``column_major``: each group's columns contiguous (the same values; the test's stack copies
+    them so at the cost of a plain copy, not a transposition)."""
     n = pred_j.shape[0]
     wanted = set(GROUPS) if only is None else set(only)
     if "drift" not in wanted:
@@ -165,9 +169,23 @@ def library(j: int, q, dq, ddq, pred_j, sample_rate, *, velocity_scale=None,
     out = {}
     for g in GROUPS:
         if g in groups and g in wanted:
-            cols = np.column_stack(groups[g])
-            out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
+            if column_major:
+                cols = np.array(groups[g], dtype=float).T
+                out[g] = cols if row_index is not None else cols / _scales(cols)
+            else:
+                cols = np.column_stack(groups[g])
+                out[g] = cols if row_index is not None else cols / np.array([_scale(c) for c in cols.T])
     return out
+
+
+def _scales(cols):
+    """:func:`_scale` of each column of a column-major (N, k) array in one reduction: each column's
+    sum runs over its contiguous rows as the one-column call's does, so the same bits."""
+    if cols.shape[0] == 0:
+        return np.ones(cols.shape[1])
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = np.sqrt(np.mean(cols * cols, axis=0))
+    return np.where((s > 0) & np.isfinite(s), s, 1.0)
 
 
 def _chains(j, q, chains):
@@ -193,9 +211,8 @@ def _ar_prewhitener(u, max_order):
     var = float(uc @ uc) / n
     if var <= 0:
         return np.zeros(0), float(n)
-    nfft = 1 << (2 * n - 1).bit_length()
-    f = np.fft.rfft(uc, nfft)
-    acov = np.fft.irfft(f * np.conj(f), nfft)[:max_order + 1] / n
+    # the few lags the model needs as direct sums (an FFT of 2n points computes all n of them)
+    acov = np.array([var] + [float(uc[:n - k] @ uc[k:]) / n for k in range(1, max_order + 1)])
     best = (math.log(var), np.zeros(0))
     best_bic = math.log(var)
     for p in range(1, max_order + 1):
@@ -218,9 +235,22 @@ def _ar_prewhitener(u, max_order):
 
 
 def _whiten(x, a):
-    if a.size == 0 or x.size == 0:
-        return x[a.size:]
-    return scipy.signal.lfilter(np.concatenate([[1.0], -a]), [1.0], x, axis=0)[a.size:]
+    """x_k − Σ a_i x_{k−i} for k ≥ p (p = a.size), along axis 0.
+
+    The sums of ``scipy.signal.lfilter(np.r_[1, -a], 1, x)[p:]`` (an FIR filter: one
+    ``numpy.convolve`` per column, oldest product first) in the same order and, as it returns them,
+    column-major (the later products' bits depend on the layout), so the same result
+    (``tests/test_physics_fast_paths.py``) from a few whole-array operations instead of a Python
+    call per column."""
+    p = a.size
+    if p == 0 or x.size == 0:
+        return x[p:]
+    n = x.shape[0]
+    out = np.multiply(x[:n - p], -a[p - 1], order="F")
+    for i in range(p - 2, -1, -1):
+        out += x[p - 1 - i:n - 1 - i] * -a[i]
+    out += x[p:]
+    return out
 
 
 def _wald(xw, yw, cols=None, gw=None, cov_p=None, gram=None, xg=None):
@@ -350,9 +380,11 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
         # Linear columns commute with the filter; the library's are built from the decimated q,
         # q̇, q̈ (conventions §5.2): its nonlinear columns of band-limited motion stay in the band
         full_ms = np.mean(e * e, axis=0)
-        # one filter call for the joints' series side by side
-        parts = [e, pred] + ([] if q is None else [q, dq, ddq])
-        e, pred, *motion = np.split(_down(np.hstack(parts), dec), len(parts), axis=1)
+        # one filter call for the joints' series side by side; not the prediction, of which the
+        # library reads only the row count
+        parts = [e] + ([] if q is None else [q, dq, ddq])
+        e, *motion = np.split(_down(np.hstack(parts), dec), len(parts), axis=1)
+        pred = e
         if q is not None:
             q, dq, ddq = motion
         nuisance = None if nuisance is None else [_down(x, dec) for x in nuisance]
@@ -366,7 +398,8 @@ def physics_test(e, pred, q=None, dq=None, ddq=None, *, sample_rate=None, nuisan
         if libraries is not None:
             lib = libraries[j]
         else:
-            lib = library(j, q, dq, ddq, pred[:, j], sample_rate, chains=chains if dec > 1 else None)
+            lib = library(j, q, dq, ddq, pred[:, j], sample_rate, chains=chains if dec > 1 else None,
+                          column_major=True)
         if groups is not None:
             lib = {g: x for g, x in lib.items() if g in groups}
         nz = None if nuisance is None else nuisance[j]
@@ -409,8 +442,13 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, logged=None):
     if fit is None:
         return _nan_result(j)
 
-    def raw_sse(cols, coef):
-        return float(np.sum((ej - stack.times(cols, coef)) ** 2))
+    def raw_sses(fits):
+        # every design's coefficients side by side: one product of the rows for all of them
+        coefs = np.zeros((stack.raw.shape[1], len(fits)))
+        for i, (cols, coef) in enumerate(fits):
+            coefs[cols, i] = coef
+        left = ej[:, None] - stack.raw @ coefs
+        return [float(x) for x in np.einsum("ij,ij->j", left, left)]
 
     def n_eff(cols, coef):
         # the noise's N_eff (what the model's columns and the library leave), for the design rule
@@ -424,7 +462,7 @@ def _joint_test(j, ej, lib, nz, alpha, g=None, cov_p=None, logged=None):
         above = max(full_ms - total / n, 0.0)
         return min(got * (1.0 + above / left_ms), float(full_n)) if left_ms > 0 else got
 
-    return _conclude(j, problem, fit, total, raw_sse, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size),
+    return _conclude(j, problem, fit, total, raw_sses, n_eff, {g: x.shape[1] for g, x in lib.items()}, int(a.size),
                      None if full_ms is None else n * full_ms)
 
 
@@ -442,54 +480,59 @@ def _filtered_fit(stack, alpha, cov_p=None):
     # otherwise be taken for colour and whitened away), and the test is repeated once.
     a, _ = _ar_prewhitener(ej, min(_MAX_AR, n // 50))
     problem = _Compressed(stack, a)
-    fit = _whitened_fit(problem, alpha, cov_p)
+    # the first pass's test of every group is read only when no second pass replaces it
+    fit = _whitened_fit(problem, alpha, cov_p, joint_test=False)
     if fit is not None and fit["selected"]:
         chosen = stack.raw[:, stack.columns(["nz"] + [fit["names"][s] for s in fit["selected"]])]
         c1, *_ = np.linalg.lstsq(chosen, ej, rcond=None)
         a, _ = _ar_prewhitener(ej - chosen @ c1, min(_MAX_AR, n // 50))
         problem = _Compressed(stack, a)
         fit = _whitened_fit(problem, alpha, cov_p) or fit
-    return a, problem, fit
+    return a, problem, None if fit is None else _with_joint_test(fit)
 
 
-def _conclude(j, problem, fit, total, raw_sse, n_eff_of, widths, ar_order, denominator=None):
-    """The shares, N_eff and the term named, from the whitened fit: ``raw_sse(cols, coef)`` is the
-    raw residual's sum of squares after the GLS coefficients ``coef`` of the stacked ``cols``,
-    ``n_eff_of(cols, coef)`` the N_eff of what they leave; ``widths`` each group's columns;
-    ``denominator``: the sum of squares the shares are of (``total``, the rows', unless decimated)."""
+def _conclude(j, problem, fit, total, raw_sses, n_eff_of, widths, ar_order, denominator=None):
+    """The shares, N_eff and the term named, from the whitened fit: ``raw_sses(fits)`` are the raw
+    residual's sums of squares after each of the GLS fits ``fits`` (pairs of the stacked ``cols``
+    and their coefficients), ``n_eff_of(cols, coef)`` the N_eff of what they leave; ``widths`` each
+    group's columns; ``denominator``: the sum of squares the shares are of (``total``, the rows',
+    unless decimated)."""
     denominator = total if denominator is None else denominator
     names, selected = fit["names"], fit["selected"]
     f_stat, k, df2, pvalue = fit["f"], fit["k"], fit["df2"], fit["pvalue"]
     stack = problem.stack
-
-    def sse(groups):
-        """SSE on the raw residual of the GLS fit of the nuisance columns and ``groups``: the fit from
-        the compressed whitened problem, the residual of the raw rows (one product)."""
+    every = tuple(range(len(names)))
+    # the designs whose sums of squares are read: none, every group, and with a selection the
+    # selected groups, each of them left out in turn and each group alone
+    designs = [(), every]
+    if selected:
+        designs += [tuple(selected)] + [tuple(t for t in selected if t != s) for s in selected] + \
+            [(i,) for i in every]
+    fits = {}
+    for groups in dict.fromkeys(designs):
+        # the GLS fit of the nuisance columns and the groups from the compressed whitened problem
         cols = stack.columns(["nz"] + [names[i] for i in groups])
-        if cols.size == 0:
-            return total, np.zeros(0), cols
-        coef = problem.lstsq(cols, stack.index["e"])
-        return raw_sse(cols, coef), coef, cols
-
-    base, _, _ = sse([])
-    every = list(range(len(names)))
-    full, coef_full, cols_full = sse(every)
-    n_eff = n_eff_of(cols_full, coef_full)
+        fits[groups] = (cols, problem.lstsq(cols, stack.index["e"]) if cols.size else np.zeros(0))
+    # the residual of the raw rows: one pass for every design
+    sse = {groups: total if fits[groups][0].size == 0 else got
+           for groups, got in zip(fits, raw_sses(list(fits.values())))}
+    base, full = sse[()], sse[every]
+    n_eff = n_eff_of(*fits[every])
     share = max(0.0, (base - full) / denominator)
     shares: dict[str, float] = {}
     selected_share = 0.0
     if selected:
-        fit_all = sse(selected)[0]
+        fit_all = sse[tuple(selected)]
         selected_share = max(0.0, (base - fit_all) / denominator)
         for s in selected:
-            without = sse([t for t in selected if t != s])[0]
+            without = sse[tuple(t for t in selected if t != s)]
             shares[names[s]] = max(0.0, (without - fit_all) / denominator)
     # The term named: of the groups that alone remove nearly as much as the best one (within
     # _PARSIMONY of it), the one with the fewest columns. A joint's own friction or offset (one to
     # five columns) is named before the many-column inertia and posture groups, which on a
     # few-harmonic trajectory can mimic it; the first group to enter is the most significant after
     # whitening, which favours sharp terms such as Coulomb's, and is not used for the name.
-    alone_by = {i: max(0.0, (base - sse([i])[0]) / denominator) for i in every} if selected else {}
+    alone_by = {i: max(0.0, (base - sse[(i,)]) / denominator) for i in every} if selected else {}
     term = None
     alone = 0.0
     if alone_by:
@@ -510,7 +553,8 @@ class _Stack:
         edges = np.cumsum([0] + [x.shape[1] for _, x in parts])
         self.index = {name: np.arange(edges[i], edges[i + 1]) for i, (name, _) in enumerate(parts)}
         self.groups = [name for name, _ in parts if name not in ("e", "nz")]
-        self.raw = np.empty((ej.shape[0], int(edges[-1])))
+        # column-major: each column contiguous for the filter, the QR and the fits' gathers
+        self.raw = np.empty((ej.shape[0], int(edges[-1])), order="F")
         for (_, x), lo, hi in zip(parts, edges[:-1], edges[1:]):
             self.raw[:, lo:hi] = x
 
@@ -558,12 +602,13 @@ class _Compressed:
         return np.linalg.lstsq(x, self.r[:, int(target[0])], rcond=np.finfo(float).eps * max(self.n, x.shape[1]))[0]
 
 
-_QR_ROWS = 2048
+_QR_ROWS = 1024
 
 
 def _tall_r(x):
     """R of a QR of a tall x, by pieces of about _QR_ROWS rows (the R of their stacked Rs): each
-    piece's Householder QR stays in cache, twice as fast on 20,000 rows as one QR of all of them,
+    piece's Householder QR stays in cache, twice as fast on 20,000 rows as one QR of all of them
+    and a third faster on a decimated log's 4,000 (pieces of 1,024 rows; of 2,048 it was one piece),
     and as accurate (a product of orthogonal transforms). R is unique up to the signs of its rows,
     which no product RᵀR, fit or singular value depends on."""
     pieces = x.shape[0] // _QR_ROWS
@@ -582,9 +627,11 @@ def _orthonormal(x, rel=1e-7, floor=0.0):
     return u[:, keep], vt[keep].T / s[keep]
 
 
-def _whitened_fit(problem, alpha, cov_p=None):
+def _whitened_fit(problem, alpha, cov_p=None, joint_test=True):
     """The whitened problem: the library's groups outside the nuisance columns, the Wald test of
     them all and the forward selection; None when no group keeps a direction of its own.
+    ``joint_test=False``: the test of them all left to :func:`_with_joint_test` (a first pass
+    whose selection is refitted under a new filter does not need it).
 
     Computed on the compressed problem (:class:`_Compressed`): each group's orthonormal block and
     the residual outside the nuisance columns are maps of the stacked columns, so their rows are
@@ -628,12 +675,21 @@ def _whitened_fit(problem, alpha, cov_p=None):
     # contiguous piece of memory for its residual and meat
     tests = problem.tests(x_r, yw[:, 0], np.hstack(maps + [y_map]), cov_p)
     k = int(edges[-1])
-    w = tests.step(np.zeros(0, dtype=int), [np.arange(k)])[0]
     df2 = max(problem.n - k - basis.shape[1], 1)
     columns = [np.arange(edges[i], edges[i + 1]) for i in range(len(blocks))]
-    return {"names": names, "f": w / k, "k": k, "df2": df2,
-            "pvalue": float(scipy.stats.f.sf(w / k, k, df2)),
-            "selected": _forward_selection(columns, tests, alpha)}
+    fit = {"names": names, "k": k, "df2": df2, "selected": _forward_selection(columns, tests, alpha), "tests": tests}
+    return _with_joint_test(fit) if joint_test else fit
+
+
+def _with_joint_test(fit):
+    """The fit with the Wald test of every group together (its F and p-value); each step's tests are
+    computed from the same stored products whatever was tested before."""
+    if "f" not in fit:
+        k, df2 = fit["k"], fit["df2"]
+        w = fit["tests"].step(np.zeros(0, dtype=int), [np.arange(k)])[0]
+        fit.update(f=w / k, pvalue=float(scipy.stats.f.sf(w / k, k, df2)))
+    fit.pop("tests", None)  # the whitened rows it holds are not needed past the tests
+    return fit
 
 
 class _Tests:
@@ -653,51 +709,71 @@ class _Tests:
         (X̃ᵀX̃)⁻¹X̃ᵀy with covariance (X̃ᵀX̃)⁻¹ M (X̃ᵀX̃)⁻¹, M = X̃ᵀΩX̃ (+ X̃ᵀG Cov(π̂) GᵀX̃), so
         W = (X̃ᵀy)ᵀ M⁻¹ (X̃ᵀy): one inverse of a matrix conditioned as X̃ᵀX̃ (the product
         (XᵀX)⁻¹ M (XᵀX)⁻¹ squares it again: the statistic then moved by percents under a 1e-13 change
-        of y). The rows are read once per candidate for its residual and its meat."""
+        of y). Every candidate's columns are projected off the base together (one least-squares
+        solve on R's rows, one product of the rows: conventions §5.2), then the rows are read once
+        per candidate for its residual and its meat."""
         eps = np.finfo(float).eps
+        if not candidates:
+            return []
+        every = np.concatenate(candidates)
+        x_all = self.x_r[:, every]
+        xg_all = None if self.xg is None or self.cov_p is None else self.xg[every]
         y_r = self.y_r
+        c_y = c_all = None
         if base.size:
             x_base = self.x_r[:, base]
-            rcond = eps * max(self.n, base.size)
-            c_y = np.linalg.lstsq(x_base, y_r, rcond=rcond)[0]
+            coef = np.linalg.lstsq(x_base, np.column_stack([y_r, x_all]), rcond=eps * max(self.n, base.size))[0]
+            c_y, c_all = coef[:, 0], coef[:, 1:]
             y_r = y_r - x_base @ c_y
-            self._base(base, c_y)
-        else:
-            self._base(base, None)
+            x_all = x_all - x_base @ c_all
+            if xg_all is not None:
+                xg_all = xg_all - c_all.T @ self.xg[base]
+        self._project(base, every, c_y, c_all)
         out = []
+        lo = 0
         for cand in candidates:
             ki = cand.size
-            k = base.size + ki
-            # a group's columns are contiguous: a view of the rows, not a copy
-            cols = slice(int(cand[0]), int(cand[-1]) + 1) if ki and cand[-1] - cand[0] == ki - 1 else cand
-            x_r = self.x_r[:, cols]
-            xg = None if self.xg is None or self.cov_p is None else self.xg[cols]
-            c = None
-            if base.size:
-                c = np.linalg.lstsq(x_base, x_r, rcond=rcond)[0]
-                x_r = x_r - x_base @ c
-                xg = None if xg is None else xg - c.T @ self.xg[base]
-            beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
-            meat = self._scores(cols, c, beta) * (self.n / max(self.n - k, 1))
-            if xg is not None:
-                meat = meat + xg @ self.cov_p @ xg.T
+            piece = slice(lo, lo + ki)
+            lo += ki
+            if not ki:
+                out.append(0.0)
+                continue
+            x_r = x_all[:, piece]
             score = x_r.T @ y_r
-            out.append(float(score @ np.linalg.pinv(meat) @ score) if ki else 0.0)
+            if ki == 1:
+                # one column: its least squares and pseudo-inverse in closed form (lstsq's and pinv's
+                # cut-offs are relative to the one singular value, so only an exact zero is dropped)
+                size = float(x_r[:, 0] @ x_r[:, 0])
+                beta = score / size if size > 0 else np.zeros(1)
+            else:
+                beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
+            meat = self._meat(piece, beta) * (self.n / max(self.n - base.size - ki, 1))
+            if xg_all is not None:
+                meat = meat + xg_all[piece] @ self.cov_p @ xg_all[piece].T
+            if ki == 1:
+                out.append(float(score[0] * score[0] / meat[0, 0]) if meat[0, 0] != 0 else 0.0)
+            else:
+                out.append(float(score @ np.linalg.pinv(meat) @ score))
         return out
 
-    def _base(self, base, c_y):
-        """The step's base columns and the residual's coefficients on them (None: no base)."""
-        self._rows_base = None if c_y is None else self.x_rows[:, base]
-        self._y_rows = self.y_rows if c_y is None else self.y_rows - self._rows_base @ c_y
+    def _project(self, base, every, c_y, c_all):
+        """The rows of the residual and of the candidates' columns ``every`` outside the ``base``
+        columns (``c_y``, ``c_all``: their coefficients on them; None: no base), for :meth:`_meat`."""
+        contiguous = every.size and every[-1] - every[0] == every.size - 1 and np.all(np.diff(every) == 1)
+        rows = self.x_rows[:, int(every[0]):int(every[-1]) + 1] if contiguous else self.x_rows[:, every]
+        if c_y is None:
+            self._y_rows, self._rows_all = self.y_rows, rows
+            return
+        rows_base = self.x_rows[:, base]
+        self._y_rows = self.y_rows - rows_base @ c_y
+        # column-major, as the rows: each candidate's columns are one contiguous piece
+        self._rows_all = np.subtract(rows, (c_all.T @ rows_base.T).T, order="F")
 
-    def _scores(self, cols, c, beta):
-        """Σ h hᵀ of the rows' scores h = x̃ r: the candidate's columns ``cols`` outside the base
-        (``c`` their coefficients on it) and the residual after ``beta``."""
-        x_rows = self.x_rows[:, cols]
-        if c is not None:
-            x_rows = x_rows - self._rows_base @ c
-        r = self._y_rows - x_rows @ beta
-        h = x_rows * r[:, None]
+    def _meat(self, piece, beta):
+        """Σ h hᵀ of the rows' scores h = x̃ r: the candidate's columns (``piece`` of the projected
+        ones) and the residual after its coefficients ``beta``."""
+        x_rows = self._rows_all[:, piece]
+        h = x_rows * (self._y_rows - x_rows @ beta)[:, None]
         return h.T @ h
 
 
@@ -743,6 +819,65 @@ def _best_whole_shift(meas, pred, inner, big, sse, sse0):
     return float(near[int(np.argmin(exact))])
 
 
+def _shifted(pred, shift, rows):
+    """pred (N, m) at t − shift for t in the slice ``rows`` (each t − shift within 0..N − 1), by linear
+    interpolation between samples, computed as ``numpy.interp(t − shift, arange(N), pred[:, j])``
+    computes it, (p[i + 1] − p[i])·(x − i) + p[i] with i = ⌊x⌋, so the same bits
+    (``tests/test_physics_fast_paths.py``), for every joint at once on those rows."""
+    x = np.arange(rows.start, rows.stop, dtype=float) - shift
+    lo = np.floor(x)
+    i = lo.astype(np.intp)
+    if i.size and i[-1] - i[0] == i.size - 1 and np.all(np.diff(i) == 1):
+        # consecutive samples (every x on one side of the same grid offset): slices, not a gather
+        below, above = pred[i[0]:i[-1] + 1], pred[i[0] + 1:i[-1] + 2]
+    else:
+        below, above = pred[i], pred[i + 1]
+    return (above - below) * (x - lo)[:, None] + below
+
+
+def _grid_costs(meas, pred, inner, grid, sse, sse0):
+    """Σ_j sse_j(d)/sse0_j on the quarter-sample ``grid``, as a loop of ``sse`` over it gives them
+    wherever they are read: between whole shifts k < d < k + 1 the interpolated prediction is
+    P_{k+1} + g (P_k − P_{k+1}), g = k + 1 − d, so each joint's sum of squares is the quadratic
+    S0 − 2g S1 + g² S2 of three sums per interval; the grid points within 1e-9 of the least of these
+    and their neighbours (which the parabolic refinement reads) are then scored by ``sse`` itself, so
+    the shift chosen and refined is the loop's to the bit."""
+    width = inner.stop - inner.start
+    m_in = meas[inner]
+    sums = {}
+
+    def quadratic(d):
+        k = math.floor(d)
+        if k not in sums:
+            lo = inner.start - k - 1
+            after, before = pred[lo:lo + width], pred[lo + 1:lo + 1 + width]  # P_{k+1}, P_k
+            left, step = m_in - after, before - after
+            sums[k] = (np.sum(left * left, axis=0), np.sum(left * step, axis=0), np.sum(step * step, axis=0))
+        s0, s1, s2 = sums[k]
+        g = k + 1 - d
+        return float(np.sum((s0 - 2.0 * g * s1 + g * g * s2) / sse0))
+
+    exact: dict[int, float] = {}
+
+    def scored(i):
+        if i not in exact:
+            exact[i] = float(np.sum(sse(float(grid[i])) / sse0))
+        return exact[i]
+
+    approx = np.array([scored(i) if grid[i] == int(grid[i]) else quadratic(float(grid[i]))
+                       for i in range(grid.size)])
+    least = float(approx.min())
+    near = np.flatnonzero(approx <= least + 1e-9 * max(abs(least), 1e-300) + 1e-9)
+    cost = approx.copy()
+    for i in near:
+        cost[i] = scored(int(i))
+    i = int(np.argmin(cost))
+    for k in (i - 1, i, i + 1):
+        if 0 <= k < grid.size:
+            cost[k] = scored(k)
+    return cost
+
+
 def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any]:
     """The common time shift d (samples; > 0: the measurement lags) that best aligns the prediction
     with the measured torque, each joint's share of the mean square realigning removes, and each
@@ -750,7 +885,6 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
     n, m = meas.shape
     fs = 1.0 if sample_rate is None else float(sample_rate)
     big = int(max_shift if max_shift is not None else min(max(10, round(0.05 * fs)), n // 20))
-    t = np.arange(n, dtype=float)
     inner = slice(big + 1, n - big - 1)  # rows every shift reaches
     e0 = meas - pred
     sse0 = np.sum(e0[inner] ** 2, axis=0)
@@ -762,13 +896,12 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
             # a whole shift is a slice: np.interp returns the sample itself at a grid point
             lo = inner.start - int(shift)
             return np.sum((meas[inner] - pred[lo:lo + inner.stop - inner.start]) ** 2, axis=0)
-        shifted = np.column_stack([np.interp(t - shift, t, pred[:, j]) for j in range(m)])
-        return np.sum((meas[inner] - shifted[inner]) ** 2, axis=0)
+        return np.sum((meas[inner] - _shifted(pred, shift, inner)) ** 2, axis=0)
 
     # whole samples first, then quarter samples around the best
     best = _best_whole_shift(meas, pred, inner, big, sse, sse0)
     grid = np.clip(best + np.arange(-1.0, 1.001, 0.25), -big, big)
-    cost = np.array([np.sum(sse(d) / sse0) for d in grid])
+    cost = _grid_costs(meas, pred, inner, grid, sse, sse0)
     i = int(np.argmin(cost))
     d = float(grid[i])
     if 0 < i < grid.size - 1:  # parabolic refinement between grid points
@@ -783,13 +916,15 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
     # misfit the HC1 variance turned into lost power (a 4-sample delay removing 85 % of a joint's
     # mean square at p = 0.03). d is chosen from the data among the 2·big + 1 whole shifts: the
     # p-value is multiplied by their number (Bonferroni), so a right model is not called delayed.
-    shifted = np.column_stack([np.interp(t - d, t, pred[:, j]) for j in range(m)]) if d != 0.0 else pred
+    # the realignment's correction on the rows every shift reaches (the only rows tested)
+    # (column-major: each joint's column contiguous, as the products below read it)
+    correction = np.asfortranarray(_shifted(pred, d, inner) - pred[inner] if d != 0.0 else
+                                   np.zeros((inner.stop - inner.start, m)))
     searched = 2 * big + 1
     for j in range(m):
-        col = shifted[:, j] - pred[:, j]
-        if not np.any(col[inner]):
+        c, y = correction[:, j], e0[inner, j]
+        if not np.any(c):
             continue
-        c, y = col[inner], e0[inner, j]
         # one column absorbs little of the noise: the AR model of what it leaves is not too white
         b = float(c @ y) / float(c @ c)
         a, _ = _ar_prewhitener(y - b * c, min(_MAX_AR, n // 50))

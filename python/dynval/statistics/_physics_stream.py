@@ -433,7 +433,8 @@ class _JointSums:
         def n_eff(cols, coef):
             return float(np.clip(self.n_eff_ratio * n, 2.0, n))
 
-        return ph._conclude(self.j, problem, fit, total, raw_sse, n_eff, self.widths, int(self.a.size))
+        return ph._conclude(self.j, problem, fit, total, lambda fits: [raw_sse(c, k) for c, k in fits], n_eff,
+                            self.widths, int(self.a.size))
 
 
 class _Index:
@@ -473,11 +474,11 @@ class _NullMeatTests(ph._Tests):
         self.omega = omega
         self.width = omega.shape[0]
 
-    def _base(self, base, c_y):
-        self._base_cols = base
+    def _project(self, base, every, c_y, c_all):
+        self._base_cols, self._every, self._c_all = base, every, c_all
 
-    def _scores(self, cols, c, beta):
-        cx = np.eye(self.width)[:, cols]
-        if c is not None:
-            cx[self._base_cols] -= c
+    def _meat(self, piece, beta):
+        cx = np.eye(self.width)[:, self._every[piece]]
+        if self._c_all is not None:
+            cx[self._base_cols] -= self._c_all[:, piece]
         return cx.T @ self.omega @ cx
