@@ -335,3 +335,21 @@ def test_compare_without_q_finds_the_kinds_the_model_spans_once(runs, monkeypatc
     dynval.compare(tau_v, {n: {"prediction": p, "n_params": 10, "model_columns": NO_FC} if n == "half" else (p, 10)
                            for n, p in preds.items()}, regressor=y_v, max_lag=10)
     assert len(kinds) == 2
+
+
+def test_a_plain_regressor_has_its_small_shared_results_computed_once_per_call(runs, monkeypatch):
+    # Without a prepared regressor, one call still computes each joint column's largest value (a
+    # pass over the whole regressor) and each singular block's R factor once, for the Gram
+    # matrices, the projection, the colour band, the excitation and the kinds without q alike;
+    # the next call computes them again (nothing is kept beyond the call), and the report is the one
+    # a prepared regressor gives.
+    tau_v, y, preds, _ = _singular_blocks(runs)
+    largest = _count_calls(monkeypatch, _regressor_algebra, "_column_largest")
+    factored = _count_calls(monkeypatch, _regressor_algebra, "_factor_with_library")
+    pred = next(iter(preds.values()))
+    plain = dynval.validate(tau_v, pred, n_params=10, regressor=y, max_lag=10)
+    assert len(largest) == 1 and len(factored) == y.shape[1]
+    again = dynval.validate(tau_v, pred, n_params=10, regressor=y, max_lag=10)
+    assert len(largest) == 2 and len(factored) == 2 * y.shape[1]
+    shared = dynval.validate(tau_v, pred, n_params=10, regressor=dynval.prepare_regressor(y), max_lag=10)
+    assert plain.to_json() == again.to_json() == shared.to_json()
