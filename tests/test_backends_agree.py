@@ -328,7 +328,7 @@ def test_reference_cross_correlation_multiplies_only_the_varying_columns(monkeyp
     from dynval.kernels._reference import correlation as ref
 
     e, y = serial_arm_regressor()
-    n, m, p = y.shape
+    _, m, p = y.shape
     rows = []
     original = ref.row_lagged_products
 
