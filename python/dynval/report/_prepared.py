@@ -177,9 +177,10 @@ def _is_prepared(prepared: PreparedRegressor | None, a: FloatArray | None) -> bo
 
 
 #: What a call on a plain regressor keeps until it returns: small results that several sections ask
-#: for (each joint column's largest value, a pass over the whole regressor; each joint's R factor;
-#: the projection's live columns and solve factor), never anything of the regressor's size.
-CALL_KEPT = frozenset({"column_largest", "joint_factor", "live_columns", "live_factor"})
+#: for (each joint column's largest value and the compiled kernel's moments of the columns, each a
+#: pass over the whole regressor; each joint's R factor; the projection's live columns and solve
+#: factor), never anything of the regressor's size.
+CALL_KEPT = frozenset({"column_largest", "regressor_moments", "joint_factor", "live_columns", "live_factor"})
 
 
 class CallMemo:

@@ -417,9 +417,10 @@ def _direct_acf(kernel: Kernels, x: FloatArray, big: int) -> bool:
 
 def _kept_moments(kernel: Kernels, reg2: FloatArray, memo: Memo[Any]) -> tuple[Any, ...]:
     """The compiled kernel's moments of the regressor's columns (half of its time on a log of few
-    lags), as an extra argument when a prepared regressor keeps them; none otherwise (the kernel
-    computes them, and a plain array keeps nothing)."""
-    if not keeps_across_calls(memo) or not hasattr(kernel, "regressor_moments"):
+    lags), as an extra argument from the call's memo: a prepared regressor keeps them for every call,
+    a plain one for this call (the columns' largest values are read from the same moments); none for
+    the reference kernel."""
+    if not hasattr(kernel, "regressor_moments"):
         return ()
     return (memo(("regressor_moments", reg2.shape), lambda: kernel.regressor_moments(reg2)),)
 
