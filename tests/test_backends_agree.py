@@ -294,6 +294,60 @@ def test_cross_correlation_agrees(problem, p, max_lag, adjusted, form, data):
     assert got.band == want.band
 
 
+def serial_arm_regressor(n=900, m=4, p=10, seed=5):
+    """(e, Y): joint j's first 2j columns zero (the links before it, as on a serial arm), one
+    nonzero constant column among the varying ones."""
+    rng = np.random.default_rng(seed)
+    e = rng.normal(size=(n, m)) + np.cumsum(rng.normal(size=(n, m)), axis=0) / 20.0
+    y = rng.normal(size=(n, m, p)) + 0.3 * e[:, :, None]
+    for j in range(m):
+        y[:, j, :2 * j] = 0.0
+    y[:, 1, 6] = -2.5
+    return e, y
+
+
+def direct_cross_correlation(e, y, max_lag):
+    """ρ_{e_j Y_jc}(ℓ) by direct sums (adjusted: lag ℓ over its N − ℓ products); nan for a constant column."""
+    n, m, p = y.shape
+    rho = np.full((m, p, max_lag + 1), np.nan)
+    for j in range(m):
+        de = e[:, j] - e[:, j].mean()
+        for c in range(p):
+            dy = y[:, j, c] - y[:, j, c].mean()
+            if np.ptp(y[:, j, c]) == 0:
+                continue
+            scale = math.sqrt(de @ de / n) * math.sqrt(dy @ dy / n)
+            rho[j, c] = [de[lag:] @ dy[:n - lag] / (n - lag) / scale for lag in range(max_lag + 1)]
+    return rho
+
+
+def test_reference_cross_correlation_multiplies_only_the_varying_columns(monkeypatch):
+    """A serial arm's regressor is zero in most joint-column pairs: the reference kernel forms the
+    lagged products of the varying columns only (a constant column's ρ is nan whatever its sums),
+    and both backends still give nan there and the direct sums' ρ elsewhere."""
+    from dynval.kernels._reference import correlation as ref
+
+    e, y = serial_arm_regressor()
+    _, m, p = y.shape
+    rows = []
+    original = ref.row_lagged_products
+
+    def counting(xr, yr, max_lag, starts, method=None):
+        rows.append(yr.shape[0])
+        return original(xr, yr, max_lag, starts, method)
+
+    monkeypatch.setattr(ref, "row_lagged_products", counting)
+    want = direct_cross_correlation(e, y, 6)
+    constant = np.isnan(want[:, :, 0])
+    assert constant.sum() == sum(2 * j for j in range(m)) + 1
+    for backend in ("python", "cpp"):
+        got = dynval.cross_correlation(e, y, 6, adjusted=True, backend=backend)
+        np.testing.assert_array_equal(got.constant_mask, constant)
+        np.testing.assert_array_equal(np.isnan(got.rho), np.broadcast_to(constant[:, :, None], got.rho.shape))
+        np.testing.assert_allclose(got.rho[~constant], want[~constant], rtol=0, atol=1e-13)
+    assert rows == [p - 2 * j - (j == 1) for j in range(m)]
+
+
 # --------------------------------------------------------------------------- criteria
 
 

@@ -335,3 +335,46 @@ def test_compare_without_q_finds_the_kinds_the_model_spans_once(runs, monkeypatc
     dynval.compare(tau_v, {n: {"prediction": p, "n_params": 10, "model_columns": NO_FC} if n == "half" else (p, 10)
                            for n, p in preds.items()}, regressor=y_v, max_lag=10)
     assert len(kinds) == 2
+
+
+def test_a_plain_regressor_has_its_small_shared_results_computed_once_per_call(runs, monkeypatch):
+    # Without a prepared regressor, one call still computes each joint column's largest value (a
+    # pass over the whole regressor) and each singular block's R factor once, for the Gram
+    # matrices, the projection, the colour band, the excitation and the kinds without q alike;
+    # the next call computes them again (nothing is kept beyond the call), and the report is the one
+    # a prepared regressor gives.
+    tau_v, y, preds, _ = _singular_blocks(runs)
+    largest = _count_calls(monkeypatch, _regressor_algebra, "_largest_of")
+    factored = _count_calls(monkeypatch, _regressor_algebra, "_factor_with_library")
+    pred = next(iter(preds.values()))
+    plain = dynval.validate(tau_v, pred, n_params=10, regressor=y, max_lag=10)
+    assert len(largest) == 1 and len(factored) == y.shape[1]
+    again = dynval.validate(tau_v, pred, n_params=10, regressor=y, max_lag=10)
+    assert len(largest) == 2 and len(factored) == 2 * y.shape[1]
+    shared = dynval.validate(tau_v, pred, n_params=10, regressor=dynval.prepare_regressor(y), max_lag=10)
+    assert plain.to_json() == again.to_json() == shared.to_json()
+
+
+def test_the_columns_largest_values_come_from_the_kernels_moments(runs, monkeypatch):
+    # With the compiled core, each column's largest |x| is read from the moments the cross-correlation
+    # kernel takes (one pass, kept for the call), not from two more passes of numpy's max and min:
+    # a plain call computes the moments once and takes no numpy pass; the values are numpy's exactly,
+    # for negative, zero, tiny and huge columns.
+    pytest.importorskip("dynval._core")
+    from dynval import _core
+
+    _, (_, y_v, tau_v) = runs
+    pred = next(iter(_predictions(runs).values()))
+    numpy_passes = _count_calls(monkeypatch, _regressor_algebra, "_column_largest")
+    calls = []
+    real = _core.regressor_moments
+    monkeypatch.setattr(_core, "regressor_moments", lambda y: calls.append(y.shape) or real(y))
+    dynval.validate(tau_v, pred, n_params=10, regressor=y_v, max_lag=10, backend="cpp")
+    assert calls == [(y_v.shape[0], y_v.shape[1] * y_v.shape[2])] and numpy_passes == []
+    y = np.random.default_rng(3).normal(size=(300, 2, 5))
+    y[:, 0, 0] = 0.0
+    y[:, 0, 1] = -np.abs(y[:, 0, 1]) * 1e300
+    y[:, 1, 2] *= 1e-300
+    y[:, 1, 3] = np.abs(y[:, 1, 3])
+    largest = _regressor_algebra.column_largest(y)
+    np.testing.assert_array_equal(largest, np.maximum(y.max(axis=0), -y.min(axis=0)))

@@ -22,7 +22,11 @@ void register_correlation(py::module_& m) {
     py::class_<joint_moments>(m, "RegressorMoments",
                               "A regressor's column moments, kept for later cross_correlation calls.")
         .def_readonly("n_samples", &joint_moments::n_samples)
-        .def_readonly("n_columns", &joint_moments::n_joints);
+        .def_readonly("n_columns", &joint_moments::n_joints)
+        // Each column's smallest and largest value (exact): the report's columns' largest |x| from
+        // the same pass, instead of two more over the regressor.
+        .def_property_readonly("column_min", [](const joint_moments& mo) { return Eigen::VectorXd(mo.tau_min); })
+        .def_property_readonly("column_max", [](const joint_moments& mo) { return Eigen::VectorXd(mo.tau_max); });
     m.def(
         "regressor_moments",
         [](const RowRef& y) {

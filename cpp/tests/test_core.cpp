@@ -519,6 +519,41 @@ TEST(Correlation, TiledCrossCorrelationAgainstDirectSums) {
         }
 }
 
+// A serial arm's regressor: joint j's columns of the links before it are zero. The tiled kernel
+// multiplies only the columns that vary; the others are nan, and every varying column's ρ is the
+// one it has beside varying columns in their place (bit for bit: a column's sums do not depend on
+// its place in the packed panels), also for a joint all of whose columns are constant and for
+// more than 8 live columns (two panels) beside a partial panel.
+TEST(Correlation, TiledCrossCorrelationSkipsConstantColumns) {
+    const Eigen::Index n = 1500, m = 4, p = 13, max_lag = 8;
+    const MatrixXd e = random_matrix(n, m, 81);
+    const RowMatrix full = random_matrix(n, m * p, 82);
+    RowMatrix arm = full;
+    for (Eigen::Index j = 0; j < m; ++j)
+        for (Eigen::Index c = 0; c < 3 * j; ++c) arm.col(j * p + c).setZero();
+    arm.col(2 * p + 10).setConstant(0.25);  // a constant column among the varying ones
+    for (Eigen::Index c = 0; c < p; ++c) arm.col(3 * p + c).setConstant(c == 0 ? 0.0 : 2.0);  // joint 3: none varies
+    const std::vector<long long> lengths{600, 900};
+    const auto skipped = dynval::cross_correlation(e, arm, p, max_lag, true, lengths);
+    const auto every = dynval::cross_correlation(e, full, p, max_lag, true, lengths);
+    Eigen::Index varying = 0;
+    for (Eigen::Index j = 0; j < m; ++j)
+        for (Eigen::Index c = 0; c < p; ++c) {
+            const Eigen::Index q = j * p + c;
+            const bool constant = j == 3 || c < 3 * j || q == 2 * p + 10;
+            EXPECT_EQ(skipped.constant_mask[static_cast<std::size_t>(q)], constant) << "column " << q;
+            for (Eigen::Index lag = 0; lag <= max_lag; ++lag) {
+                if (constant) {
+                    EXPECT_TRUE(std::isnan(skipped.rho(q, lag))) << "column " << q << " lag " << lag;
+                } else {
+                    EXPECT_EQ(skipped.rho(q, lag), every.rho(q, lag)) << "column " << q << " lag " << lag;
+                }
+            }
+            varying += constant ? 0 : 1;
+        }
+    EXPECT_EQ(varying, p + (p - 3) + (p - 7));
+}
+
 // Above about 1e8 multiply-adds the tiled cross-correlation splits the joints over threads: the
 // result is bit for bit the one-thread result whatever the split (each joint's sums are formed by
 // one thread in the same order), and equals the per-lag dot products of a column-major regressor.

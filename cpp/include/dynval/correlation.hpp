@@ -492,6 +492,19 @@ DYNVAL_VECTOR_CLONES inline void pack_centred_row(const double* DYNVAL_RESTRICT 
     }
 }
 
+/// pack_centred_row of the `count` columns `cols` of the row `src` (joint-relative indices), packed
+/// side by side: column cols[k] goes to lane k; `shift` and `dev` are those columns' own, in the
+/// same order. The same arithmetic per value as pack_centred_row.
+inline void pack_centred_live(const double* DYNVAL_RESTRICT src, const Index* DYNVAL_RESTRICT cols, Index count,
+                              const double* DYNVAL_RESTRICT shift, const double* DYNVAL_RESTRICT dev,
+                              Index panel_stride, Index u, double* DYNVAL_RESTRICT out) {
+    for (Index c0 = 0; c0 < count; c0 += lag_panel) {
+        double* dst = out + ((c0 / lag_panel) * panel_stride + u) * lag_panel;
+        const Index width = std::min(lag_panel, count - c0);
+        for (Index k = 0; k < width; ++k) dst[k] = (src[cols[c0 + k]] - shift[c0 + k]) - dev[c0 + k];
+    }
+}
+
 /// Moments of a large regressor as those of its two halves of rows, merged: one thread per half
 /// when the machine has two. Whether to split depends on the size alone (at least 2^24 values),
 /// so the result does not depend on the thread count.
@@ -519,7 +532,10 @@ joint_moments accumulate_signal_halves(const Eigen::MatrixBase<D>& x) {
 /// residuals as columns. The regressor is read once, a block of rows at a time, row by row for
 /// every joint of a thread, each joint's columns centred with the moments' shift and deviation
 /// into its panels (lag_block_products); partial sums go into compensated totals every `sum_rows`
-/// rows.
+/// rows. Only the columns that vary are packed and multiplied (a serial arm's regressor is zero in
+/// most of its joint-column pairs, and a constant column's correlation is nan whatever its sums):
+/// their sums come out 0. A column's sums do not depend on its place in the panels, so those of the
+/// varying columns are the same bit for bit as when every column was multiplied.
 inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e, const std::vector<bool>& use,
                                                         const double* y, Index stride, Index p, const joint_moments& my,
                                                         const std::vector<Index>& starts, Index n, Index max_lag) {
@@ -527,14 +543,32 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
     constexpr Index block = 128, sum_rows = 1024;
     const Index m = e.cols(), n_lags = max_lag + 1;
     const auto lengths = segment_lengths(starts, n);
-    const auto per_joint = static_cast<std::size_t>(n_lags * p);
-    std::vector<double> acc(per_joint * static_cast<std::size_t>(m));
-    std::vector<compensated> total(per_joint * static_cast<std::size_t>(m));
-    std::vector<double> shift(static_cast<std::size_t>(m * p)), dev(static_cast<std::size_t>(m * p));
-    for (Index q = 0; q < m * p; ++q) {
-        shift[static_cast<std::size_t>(q)] = my.tau_shift(q);
-        dev[static_cast<std::size_t>(q)] = my.tau_dev(q);
+    std::vector<Index> joints;  // the joints to sum, split over threads (each joint's sums on one)
+    // Per joint: its varying columns (`live`, joint-relative), their moments, and where its sums start.
+    std::vector<std::vector<Index>> live(static_cast<std::size_t>(m));
+    std::vector<std::vector<double>> shift(static_cast<std::size_t>(m)), dev(static_cast<std::size_t>(m));
+    std::vector<std::size_t> at(static_cast<std::size_t>(m), 0);
+    std::size_t sums_size = 0;
+    Index live_total = 0;
+    for (Index j = 0; j < m; ++j) {
+        if (!use[static_cast<std::size_t>(j)]) continue;
+        const auto sj = static_cast<std::size_t>(j);
+        for (Index c = 0; c < p; ++c) {
+            const Index q = j * p + c;
+            if (my.tau_min(q) == my.tau_max(q)) continue;
+            live[sj].push_back(c);
+            shift[sj].push_back(my.tau_shift(q));
+            dev[sj].push_back(my.tau_dev(q));
+        }
+        const auto pj = static_cast<Index>(live[sj].size());
+        if (pj == 0) continue;
+        joints.push_back(j);
+        at[sj] = sums_size;
+        sums_size += static_cast<std::size_t>(n_lags * pj);
+        live_total += pj;
     }
+    std::vector<double> acc(sums_size);
+    std::vector<compensated> total(sums_size);
     // Each residual on its segment followed by max_lag zeros: lags never reach the next segment.
     Index padded_total = 0;
     std::vector<Index> seg_offset(starts.size());
@@ -542,25 +576,31 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
         seg_offset[s] = padded_total;
         padded_total += lengths[s] + max_lag;
     }
-    std::vector<double> epad(static_cast<std::size_t>(padded_total * m), 0.0);
-    for (Index j = 0; j < m; ++j)
-        for (std::size_t s = 0; s < starts.size(); ++s)
-            std::copy(e.col(j).data() + starts[s], e.col(j).data() + starts[s] + lengths[s],
-                      epad.begin() + j * padded_total + seg_offset[s]);
-    std::vector<Index> joints;  // the joints to sum, split over threads (each joint's sums on one)
-    for (Index j = 0; j < m; ++j)
-        if (use[static_cast<std::size_t>(j)]) joints.push_back(j);
+    std::vector<double> epad;
+    if (!joints.empty()) {
+        epad.assign(static_cast<std::size_t>(padded_total * m), 0.0);
+        for (Index j : joints)
+            for (std::size_t s = 0; s < starts.size(); ++s)
+                std::copy(e.col(j).data() + starts[s], e.col(j).data() + starts[s] + lengths[s],
+                          epad.begin() + j * padded_total + seg_offset[s]);
+    }
     const Index n_joints = static_cast<Index>(joints.size());
-    const double work = static_cast<double>(n) * static_cast<double>(p * n_lags) * static_cast<double>(n_joints);
+    const double work = static_cast<double>(n) * static_cast<double>(n_lags) * static_cast<double>(live_total);
     detail::for_ranges(n_joints, detail::worker_count(n_joints, work), [&](Index, Index first, Index last) {
         // The block's packed rows of every joint of this range: the regressor is read row by row
         // (contiguous), not joint by joint (a strided read that ran at about 6 GB/s here).
-        const Index joint_buf = (p + lag_panel - 1) / lag_panel * block * lag_panel;
-        std::vector<double> ybuf(static_cast<std::size_t>(joint_buf * (last - first)), 0.0);
+        std::vector<Index> buf_at(static_cast<std::size_t>(last - first) + 1, 0);
+        for (Index i = first; i < last; ++i) {
+            const auto pj = static_cast<Index>(live[static_cast<std::size_t>(joints[static_cast<std::size_t>(i)])].size());
+            buf_at[static_cast<std::size_t>(i - first + 1)] =
+                buf_at[static_cast<std::size_t>(i - first)] + (pj + lag_panel - 1) / lag_panel * block * lag_panel;
+        }
+        std::vector<double> ybuf(static_cast<std::size_t>(buf_at.back()), 0.0);
         const auto flush = [&] {
             for (Index i = first; i < last; ++i) {
-                const std::size_t at = static_cast<std::size_t>(joints[static_cast<std::size_t>(i)]) * per_joint;
-                for (std::size_t k = at; k < at + per_joint; ++k) {
+                const auto sj = static_cast<std::size_t>(joints[static_cast<std::size_t>(i)]);
+                const std::size_t end = at[sj] + static_cast<std::size_t>(n_lags) * live[sj].size();
+                for (std::size_t k = at[sj]; k < end; ++k) {
                     total[k].add(acc[k]);
                     acc[k] = 0.0;
                 }
@@ -573,14 +613,22 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
                 for (Index u = 0; u < rows; ++u)
                     for (Index i = first; i < last; ++i) {
                         const Index j = joints[static_cast<std::size_t>(i)];
-                        pack_centred_row(y + (s0 + a + u) * stride + j * p, p, shift.data() + j * p,
-                                         dev.data() + j * p, block, u, ybuf.data() + (i - first) * joint_buf);
+                        const auto sj = static_cast<std::size_t>(j);
+                        const auto pj = static_cast<Index>(live[sj].size());
+                        double* out = ybuf.data() + buf_at[static_cast<std::size_t>(i - first)];
+                        const double* src = y + (s0 + a + u) * stride + j * p;
+                        if (pj == p)
+                            pack_centred_row(src, p, shift[sj].data(), dev[sj].data(), block, u, out);
+                        else
+                            pack_centred_live(src, live[sj].data(), pj, shift[sj].data(), dev[sj].data(), block, u,
+                                              out);
                     }
                 for (Index i = first; i < last; ++i) {
                     const Index j = joints[static_cast<std::size_t>(i)];
+                    const auto sj = static_cast<std::size_t>(j);
                     lag_block_products(epad.data() + j * padded_total + seg_offset[s] + a,
-                                       ybuf.data() + (i - first) * joint_buf, block, rows, p, n_lags,
-                                       acc.data() + static_cast<std::size_t>(j) * per_joint);
+                                       ybuf.data() + buf_at[static_cast<std::size_t>(i - first)], block, rows,
+                                       static_cast<Index>(live[sj].size()), n_lags, acc.data() + at[sj]);
                 }
                 if ((a + rows) % sum_rows == 0) flush();
             }
@@ -589,12 +637,15 @@ inline std::vector<Eigen::MatrixXd> cross_lag_sums_rows(const Eigen::MatrixXd& e
     });
     std::vector<Eigen::MatrixXd> sums(static_cast<std::size_t>(m));
     for (Index j = 0; j < m; ++j) {
-        if (!use[static_cast<std::size_t>(j)]) continue;
-        Eigen::MatrixXd& out = sums[static_cast<std::size_t>(j)];
-        out.resize(n_lags, p);
+        const auto sj = static_cast<std::size_t>(j);
+        if (!use[sj]) continue;
+        Eigen::MatrixXd& out = sums[sj];
+        out.setZero(n_lags, p);
+        const auto pj = static_cast<Index>(live[sj].size());
         for (Index l = 0; l < n_lags; ++l)
-            for (Index c = 0; c < p; ++c)
-                out(l, c) = total[static_cast<std::size_t>(j) * per_joint + static_cast<std::size_t>(l * p + c)].value();
+            for (Index k = 0; k < pj; ++k)
+                out(l, live[sj][static_cast<std::size_t>(k)]) =
+                    total[at[sj] + static_cast<std::size_t>(l * pj + k)].value();
     }
     return sums;
 }

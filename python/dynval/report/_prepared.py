@@ -25,7 +25,8 @@ from ..checks import _validation as v
 from ..checks._errors import ShapeMismatch
 from ..checks._typing import ArrayLike, FloatArray
 
-__all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "memo_for", "scan_for", "digest"]
+__all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "CallMemo", "keeps_across_calls",
+           "memo_for", "scan_for", "digest"]
 
 T = TypeVar("T")
 
@@ -175,10 +176,42 @@ def _is_prepared(prepared: PreparedRegressor | None, a: FloatArray | None) -> bo
             and a.size == prepared.array.size and a.flags.c_contiguous)
 
 
+#: What a call on a plain regressor keeps until it returns: small results that several sections ask
+#: for (each joint column's largest value and the compiled kernel's moments of the columns, each a
+#: pass over the whole regressor; each joint's R factor; the projection's live columns and solve
+#: factor), never anything of the regressor's size.
+CALL_KEPT = frozenset({"column_largest", "regressor_moments", "joint_factor", "live_columns", "live_factor"})
+
+
+class CallMemo:
+    """The memo of one call on a plain regressor: the results named in :data:`CALL_KEPT`, computed
+    once for the call (the same code on the same array, so the same numbers) and dropped with it;
+    every other key is computed each time it is asked for, as by :func:`compute_now`."""
+
+    __slots__ = ("_kept",)
+
+    def __init__(self) -> None:
+        self._kept: dict[tuple[Hashable, ...], Any] = {}
+
+    def __call__(self, key: tuple[Hashable, ...], compute: Callable[[], T]) -> T:
+        if key[0] not in CALL_KEPT:
+            return compute()
+        if key not in self._kept:
+            self._kept[key] = _frozen(compute())
+        return cast(T, self._kept[key])
+
+
+def keeps_across_calls(memo: Memo[Any]) -> bool:
+    """Whether ``memo`` keeps results for later calls (a prepared regressor's): only then do the
+    keys need the hashes of the arrays given beside the regressor."""
+    return memo is not compute_now and not isinstance(memo, CallMemo)
+
+
 def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:
     """The memo a call may use: the prepared regressor's when the call's checked 2-D regressor is
-    the prepared array itself (same memory, every row kept), else one that keeps nothing."""
-    return prepared.memo if prepared is not None and _is_prepared(prepared, checked) else compute_now
+    the prepared array itself (same memory, every row kept), else a :class:`CallMemo` for this call
+    alone."""
+    return prepared.memo if prepared is not None and _is_prepared(prepared, checked) else CallMemo()
 
 
 def scan_for(prepared: PreparedRegressor | None) -> Callable[[FloatArray], tuple[int, int, float] | None]:

@@ -39,7 +39,22 @@ def column_largest(reg3: np.ndarray, memo: Memo[Any] = compute_now) -> np.ndarra
     autocorrelations and the excitation's factor all leave the zero columns out."""
     n, m, p = reg3.shape
     largest: np.ndarray = memo(("column_largest", reg3.shape),
-                               lambda: _column_largest(reg3.reshape(n, m * p)).reshape(m, p))
+                               lambda: _largest_of(reg3.reshape(n, m * p), memo).reshape(m, p))
+    return largest
+
+
+def _largest_of(x: np.ndarray, memo: Memo[Any]) -> np.ndarray:
+    """Each column's largest |x|: from the compiled core's moments of the regressor when it is
+    there (each column's min and max, exact; kept under the key the cross-correlation kernel reads
+    them from, so the one pass serves both), else numpy's max and min. The same values either way."""
+    from ..kernels._backend import _load_core  # here: the core is imported once, by the backends
+
+    core: Any = _load_core()  # the compiled module (the reference kernels have no moments)
+    if (core is None or not hasattr(getattr(core, "RegressorMoments", None), "column_max")
+            or not (x.dtype == np.float64 and x.flags.c_contiguous) or x.shape[0] == 0):
+        return _column_largest(x)
+    moments = memo(("regressor_moments", x.shape), lambda: core.regressor_moments(x))
+    largest: np.ndarray = np.maximum(np.asarray(moments.column_max), -np.asarray(moments.column_min))
     return largest
 
 

@@ -27,7 +27,7 @@ from ..statistics._columns import column_norms as _column_norms
 from ..statistics._columns import zero_columns
 from . import _records as rec
 from . import _regressor_algebra as algebra
-from ._prepared import Memo, compute_now, digest
+from ._prepared import Memo, compute_now, digest, keeps_across_calls
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
@@ -417,9 +417,10 @@ def _direct_acf(kernel: Kernels, x: FloatArray, big: int) -> bool:
 
 def _kept_moments(kernel: Kernels, reg2: FloatArray, memo: Memo[Any]) -> tuple[Any, ...]:
     """The compiled kernel's moments of the regressor's columns (half of its time on a log of few
-    lags), as an extra argument when a prepared regressor keeps them; none otherwise (the kernel
-    computes them, and a plain array keeps nothing)."""
-    if memo is compute_now or not hasattr(kernel, "regressor_moments"):
+    lags), as an extra argument from the call's memo: a prepared regressor keeps them for every call,
+    a plain one for this call (the columns' largest values are read from the same moments); none for
+    the reference kernel."""
+    if not hasattr(kernel, "regressor_moments"):
         return ()
     return (memo(("regressor_moments", reg2.shape), lambda: kernel.regressor_moments(reg2)),)
 
@@ -827,7 +828,7 @@ def residual_phase(d: CheckedData, o: Options) -> Residual:
 def _estimation_key(memo: Memo[Any], est: Mapping[str, Any]) -> tuple[Any, ...]:
     """The estimation run's part of a kept result's key: a hash of its arrays (none without a
     prepared regressor, where nothing is kept)."""
-    if memo is compute_now:
+    if not keeps_across_calls(memo):
         return ()
     return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
 
@@ -890,7 +891,7 @@ def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
             reg3 = d.reg3
             missing = rec.record_or_none(rec.MissingTerms, d.memo(
                 ("missing_terms", r.est_key, reg3.shape, cols,
-                 digest(d.meas) if d.memo is not compute_now else ()),
+                 digest(d.meas) if keeps_across_calls(d.memo) else ()),
                 lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
         else:
             missing = added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)

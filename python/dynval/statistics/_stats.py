@@ -294,8 +294,14 @@ def column_powers(x: np.ndarray, starts, big: int, m: int, live: np.ndarray | No
     scale = largest is None or not np.all((largest[live] >= 2.0**-300) & (largest[live] <= 2.0**300))
     for done, xc, workers in _scaled_batches(x, live, True, scale):
         for s, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
-            spec = scipy.fft.rfft(xc[a:b], n=_transform_size(b - a, big), axis=0, workers=workers)
-            np.add(spec.real**2, spec.imag**2, out=powers[s][:, done])
+            # Each column zero-padded as a contiguous row: pocketfft transforms rows about three times
+            # faster than the columns of an (N, batch) array, with the same arithmetic on each series.
+            rows = np.zeros((xc.shape[1], _transform_size(b - a, big)))
+            rows[:, :b - a] = xc[a:b].T
+            spec = scipy.fft.rfft(rows, axis=1, workers=workers)
+            power = powers[s][:, done].T
+            np.multiply(spec.real, spec.real, out=power)
+            power += spec.imag * spec.imag
             lag0[done] += np.einsum("ij,ij->j", xc[a:b], xc[a:b])
     return ColumnPowers((big + 1, m, k // m), live, tuple(lengths), tuple(powers), lag0)
 

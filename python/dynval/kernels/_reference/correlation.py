@@ -157,7 +157,14 @@ def cross_correlation(e, y, n_columns, max_lag, adjusted, starts) -> dict:
     for j in range(m):
         cols = slice(j * p, (j + 1) * p)
         dy, ss_y, constant_mask[cols] = centred_and_ss(y[:, cols])
-        s = row_lagged_products(np.broadcast_to(de[j], dy.shape), dy, max_lag, starts)
+        # Only the varying columns are multiplied (a serial arm's regressor is zero in most joint-column
+        # pairs); a constant column's correlation is nan below whatever its sums. Each row's sums do not
+        # depend on the other rows, so the varying columns' are the ones all columns would give.
+        live = np.flatnonzero(~constant_mask[cols])
+        s = np.zeros((max_lag + 1, p))
+        if live.size:
+            dl = dy if live.size == p else dy[live]
+            s[:, live] = row_lagged_products(np.broadcast_to(de[j], dl.shape), dl, max_lag, starts)
         with np.errstate(divide="ignore", invalid="ignore"):
             # Two roots, not the root of the product: R_e(0)·R_Y(0) overflows for data near 1e80
             # and underflows near 1e-80, both inside the accepted range.
