@@ -85,3 +85,24 @@ def test_the_parameters_a_missing_term_bent_are_cleared_on_every_joint():
     assert report.to_dict()["physics"]["tests"][5]["pvalue"] < 1e-6
     first = report.deciding[0].finding
     assert first.kind == "missing_physics" and first.details["term"] == "inertia"
+
+
+def test_the_refit_is_the_stacked_least_squares():
+    """The normal equations assembled joint by joint give the residual of numpy's least squares on
+    the stacked design [model columns | each joint's structure on its rows], scaled by the rank the
+    structure adds. Kills: a block on the wrong joint's rows, the model's columns left out of the
+    refit, the rank scale dropped."""
+    reg, _, with_term, slow = _runs(seed=3)
+    fit = _estimation.fit_columns(reg, with_term, [0, 1, 2])
+    rng = np.random.default_rng(4)
+    structure = [rng.standard_normal((reg.shape[0], 2)), np.hstack([slow, slow ** 2])]
+    n, m, k = reg.shape
+    design = np.zeros((n, m, k + 4))
+    design[:, :, :k] = reg
+    design[:, 0, k:k + 2] = structure[0]
+    design[:, 1, k + 2:] = structure[1]
+    flat = design.reshape(n * m, -1)
+    coef, _, rank, _ = np.linalg.lstsq(flat, fit.residual.reshape(-1), rcond=None)
+    left = (fit.residual.reshape(-1) - flat @ coef).reshape(n, m) * np.sqrt(n * m / (n * m - (rank - 3)))
+    expected = _estimation._sandwich(reg, left)[0]
+    np.testing.assert_allclose(_estimation.noise_covariance(fit, reg, structure), expected, rtol=1e-7, atol=0.0)

@@ -86,6 +86,11 @@ def fit_columns(reg3, tau, columns) -> EstimationFit:
     return EstimationFit(tuple(int(c) for c in columns), coef, cov, resid, n_eff)
 
 
+_NORMAL_RCOND = 1e-10
+"""Eigenvalues of the unit-diagonal normal equations below this fraction of the largest are dependent
+directions (a column within 1e-5 of the others' span adds nothing to the residual)."""
+
+
 def noise_covariance(fit: EstimationFit, reg3, structure) -> np.ndarray:
     """Cov(π̂) with the estimation residual's structure removed: the sandwich of :func:`fit_columns`
     on the residual of the stacked refit of the model's columns and ``structure[j]`` (an (N, k_j)
@@ -97,25 +102,43 @@ def noise_covariance(fit: EstimationFit, reg3, structure) -> np.ndarray:
     read as coloured noise makes the sandwich's long-run variance (so Cov(π̂)) orders of magnitude too
     wide: the parameters' sampling error is the noise's, not the missing torque's. This is the
     covariance under the alternative, as a Wald test takes it (conventions §5.2, "Cov(π̂) under the
-    alternative")."""
+    alternative"). The refit is solved on its normal equations, assembled joint by joint (the
+    structure's columns are each on one joint's rows), scaled to a unit diagonal, directions below
+    :data:`_NORMAL_RCOND` left out: only its residual is used, which such directions do not move."""
     blocks = [(j, np.asarray(c, dtype=np.float64)) for j, c in enumerate(structure) if c is not None and c.shape[1]]
     if not blocks:
         return fit.covariance
     x = np.asarray(reg3, dtype=np.float64)[:, :, list(fit.columns)]
     resid = np.asarray(fit.residual, dtype=np.float64)
     n, m, k = x.shape
-    extra = np.zeros((n, m, sum(c.shape[1] for _, c in blocks)))
-    at = 0
-    for j, c in blocks:
-        extra[:, j, at:at + c.shape[1]] = c
-        at += c.shape[1]
-    design = np.concatenate([x, extra], axis=2).reshape(n * m, -1)
-    design = design * _column_scales(design)
-    coef, _, rank, _ = np.linalg.lstsq(design, resid.reshape(-1), rcond=None)
-    own = int(np.linalg.matrix_rank(design[:, :k])) if k else 0
-    left = (resid.reshape(-1) - design @ coef).reshape(n, m)
-    left *= np.sqrt(n * m / max(n * m - (int(rank) - own), 1))
+    sizes = np.cumsum([k] + [c.shape[1] for _, c in blocks])
+    gram = np.zeros((sizes[-1], sizes[-1]))
+    rhs = np.zeros(sizes[-1])
+    gram[:k, :k] = np.einsum("nmk,nml->kl", x, x)
+    rhs[:k] = np.einsum("nmk,nm->k", x, resid)
+    for (j, c), lo, hi in zip(blocks, sizes[:-1], sizes[1:]):
+        gram[:k, lo:hi] = x[:, j, :].T @ c
+        gram[lo:hi, :k] = gram[:k, lo:hi].T
+        gram[lo:hi, lo:hi] = c.T @ c
+        rhs[lo:hi] = c.T @ resid[:, j]
+    coef, rank = _solve_normal(gram, rhs)
+    own = _solve_normal(gram[:k, :k], rhs[:k])[1] if k else 0
+    left = resid - x @ coef[:k]
+    for (j, c), lo, hi in zip(blocks, sizes[:-1], sizes[1:]):
+        left[:, j] -= c @ coef[lo:hi]
+    left *= np.sqrt(n * m / max(n * m - (rank - own), 1))
     return _sandwich(x, left)[0]
+
+
+def _solve_normal(gram: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, int]:
+    """The minimum-norm solution of the normal equations on their unit-diagonal scaling (zero columns
+    left out), and their rank (eigenvalues above :data:`_NORMAL_RCOND` of the largest)."""
+    diag = np.diag(gram)
+    d = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 0.0)
+    w, v = np.linalg.eigh(gram * d[:, None] * d[None, :])
+    keep = w > _NORMAL_RCOND * max(float(w.max(initial=0.0)), 0.0)
+    coef = v[:, keep] @ ((v[:, keep].T @ (rhs * d)) / w[keep])
+    return coef * d, int(keep.sum())
 
 
 def quadratic_forms(fit: EstimationFit, g) -> np.ndarray:
