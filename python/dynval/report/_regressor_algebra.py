@@ -47,9 +47,10 @@ def _largest_of(x: np.ndarray, memo: Memo[Any]) -> np.ndarray:
     """Each column's largest |x|: from the compiled core's moments of the regressor when it is
     there (each column's min and max, exact; kept under the key the cross-correlation kernel reads
     them from, so the one pass serves both), else numpy's max and min. The same values either way."""
-    from ..kernels._backend import _load_core  # here: the core is imported once, by the backends
+    from ..kernels._backend import available, get_backend  # here: the core is imported once, by the backends
 
-    core: Any = _load_core()  # the compiled module (the reference kernels have no moments)
+    # the compiled module, where it imports (the reference kernels have no moments)
+    core: Any = get_backend("cpp") if "cpp" in available() else None
     if (core is None or not hasattr(getattr(core, "RegressorMoments", None), "column_max")
             or not (x.dtype == np.float64 and x.flags.c_contiguous) or x.shape[0] == 0):
         return _column_largest(x)
