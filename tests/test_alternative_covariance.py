@@ -64,15 +64,21 @@ def test_a_gravity_only_model_is_not_excused_by_its_own_misfit():
     physics = report.to_dict()["physics"]
     last = physics["tests"][6]
     assert last["pvalue"] < 1e-6
-    assert "removed" in physics["model_columns"] and "inertia" in physics["model_columns"]
+    assert "selects" in physics["model_columns"] and "inertia" in physics["model_columns"]
     assert report.deciding[0].finding.kind == "missing_physics"
 
 
-def test_a_right_model_keeps_the_estimation_covariance():
+def test_a_right_model_keeps_the_estimation_covariance(monkeypatch):
     """The estimation run's own test selects nothing for a right model: the widening is the
-    estimation fit's. Kills: a structure removed where its test found none."""
+    estimation fit's, and the physics section is the one the estimation fit's covariance gives.
+    Kills: a structure removed where its test found none (every group taken, a level of 1)."""
+    from dynval.report import _motion
+
     physics = _report("right:white:arm6@200", 0).to_dict()["physics"]
-    assert "removed" not in physics["model_columns"]
+    assert "selects" not in physics["model_columns"]
+    monkeypatch.setattr(_motion, "_estimation_structure", lambda *a, **k: None)
+    plain = _report("right:white:arm6@200", 0).to_dict()["physics"]
+    assert [t["pvalue"] for t in physics["tests"]] == [t["pvalue"] for t in plain["tests"]]
 
 
 def test_the_parameters_a_missing_term_bent_are_cleared_on_every_joint():

@@ -65,8 +65,9 @@ def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | Non
         found = _estimation_structure(est_run, est_fit, sample_rate, 1.0 - level, band)
         if found is not None:
             kwargs["parameter_covariance"], removed = found
-            how += (" (Cov(π̂) of the noise the estimation run leaves once the library terms its own test "
-                    "finds there are removed: " + "; ".join(f"joint {j + 1}: {', '.join(g)}" for j, g in removed) + ")")
+            how += (" (Cov(π̂) of the noise the estimation run leaves once the model is refitted there with the "
+                    "library groups its own test selects, an inertia or gravity group on every joint: "
+                    + "; ".join(f"joint {j + 1}: {', '.join(g)}" for j, g in removed) + ")")
     elif reg3 is not None:
         # unit-norm columns: the refit's rank decision does not depend on their units (contract §4)
         kwargs["nuisance"] = [unit_norm_columns(reg3[:, j, cols]) for j in range(reg3.shape[1])]
