@@ -122,7 +122,8 @@ def _raw_share(f: Finding, r2: Sequence[float] | None = None) -> tuple[float | N
         if local is not None:
             # the term added on its joint alone, refitted on the estimation run, carried to validation
             return _finite(local.get("share")), HELD_OUT, j
-        return _finite(d.get("term_share", f.effect)), VALIDATION, j
+        carried = d.get("refit_run") == "estimation"  # refitted there with the model, carried here
+        return _finite(d.get("term_share", f.effect)), HELD_OUT if carried else VALIDATION, j
     if f.kind == "delay":
         shares = [_finite(x) for x in d.get("share") or ()]
         own = [(s, jj) for jj, s in enumerate(shares) if s is not None and jj in f.joints]
@@ -220,6 +221,9 @@ def _own_column_trace(f: Finding) -> bool:
     return f.kind == "regressor_correlation" and not d.get("added_variable") and d.get("in_model") is True
 
 
+_RIGID_BODY = ("inertia", "gravity")
+"""The kinds of a rigid-body model, whose parameters the joints share."""
+
 _REWEIGHT = ("reweight", "unsupported")
 """Relations in which what remains on a joint is carried by the model's own columns with other weights."""
 
@@ -254,20 +258,40 @@ def _lacks(f: Finding) -> bool:
             or _missing_column(f) is not None)
 
 
+def _lacks_rigid_body(f: Finding) -> bool:
+    """The finding names a rigid-body kind (inertia, gravity) of which the model holds nothing on its
+    joint, neither an own column nor a coupling one (relation ``"missing"``)."""
+    d = f.details or {}
+    return f.kind == "missing_physics" and d.get("term") in _RIGID_BODY and d.get("relation") == "missing"
+
+
+def _holds_rigid_body(f: Finding) -> bool:
+    """A physical term of a rigid-body kind (inertia, gravity) that the model holds on the finding's joint."""
+    d = f.details or {}
+    terms = d.get("model_terms") or {}
+    return f.kind == "missing_physics" and d.get("term") in _RIGID_BODY and terms.get("model_in_group") is True
+
+
 def _bent_joints(findings: Sequence[Finding]) -> set[int]:
-    """Joints whose own columns, re-weighted, would remove their error, where those columns also enter
-    a joint on which the model lacks a structure: least squares over every joint bends the shared
-    parameters to make up for the missing structure there, and the error left here is that bend
-    (a planar arm without the shoulder's L1:mz fits the elbow's L2:mz wrong). Re-identifying the
-    shared columns alone does not help; adding the missing structure and refitting does."""
-    lacking = {j for f in findings if f.severity == "deficiency" and _lacks(f) for j in f.joints}
+    """Joints whose error is the bend of parameters they share with a joint on which the model lacks a
+    structure: least squares over every joint bends the shared parameters to make up for it (a planar
+    arm without the shoulder's L1:mz fits the elbow's L2:mz wrong). Re-identifying the shared columns
+    alone does not help; adding the missing structure and refitting does. Such a joint's own columns,
+    re-weighted, would remove its error; or, where the structure lacking elsewhere is a rigid-body
+    kind of which the model holds nothing on that joint (a gravity-only model's inertia), its error
+    is a term of a rigid-body kind the model holds here (the posture terms a gravity-only fit bent to
+    stand for the inertia it lacks), whatever its part outside the model's span (conventions §5.10)."""
+    deficient = [f for f in findings if f.severity == "deficiency" and _lacks(f)]
+    lacking = {j for f in deficient for j in f.joints}
+    absent = {j for f in deficient if _lacks_rigid_body(f) for j in f.joints}
     bent: set[int] = set()
     for f in findings:
         d = f.details or {}
-        if f.kind == "missing_physics" and _reweights(f):
-            shared = set(((d.get("model_terms") or {}).get("shared_with")) or ())
-            if shared & (lacking - set(f.joints)):
-                bent.update(f.joints)
+        shared = set(((d.get("model_terms") or {}).get("shared_with")) or ())
+        if f.kind == "missing_physics" and _reweights(f) and shared & (lacking - set(f.joints)):
+            bent.update(f.joints)
+        elif _holds_rigid_body(f) and shared & (absent - set(f.joints)):
+            bent.update(f.joints)
     return bent
 
 
@@ -305,7 +329,7 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     def group(f: Finding) -> int:
         if f.kind == "whiteness":
             return 2
-        if f.joints and set(f.joints) <= bent and _reweights(f):
+        if f.joints and set(f.joints) <= bent and (_reweights(f) or _holds_rigid_body(f)):
             return 1
         if f.joints and set(f.joints) <= explained and not _lacks(f):
             return 1
