@@ -287,10 +287,9 @@ def _bent_joints(findings: Sequence[Finding]) -> set[int]:
     bent: set[int] = set()
     for f in findings:
         d = f.details or {}
-        shared = set(((d.get("model_terms") or {}).get("shared_with")) or ())
-        if f.kind == "missing_physics" and _reweights(f) and shared & (lacking - set(f.joints)):
-            bent.update(f.joints)
-        elif _holds_rigid_body(f) and shared & (absent - set(f.joints)):
+        shared = set(((d.get("model_terms") or {}).get("shared_with")) or ()) - set(f.joints)
+        reweighted = f.kind == "missing_physics" and _reweights(f) and shared & lacking
+        if reweighted or (_holds_rigid_body(f) and shared & absent):
             bent.update(f.joints)
     return bent
 
