@@ -26,6 +26,7 @@ from ..checks._errors import ShapeMismatch
 from ..checks._typing import ArrayLike, FloatArray
 
 __all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "CallMemo", "keeps_across_calls",
+           "estimation_key",
            "memo_for", "scan_for", "digest"]
 
 T = TypeVar("T")
@@ -205,6 +206,15 @@ def keeps_across_calls(memo: Memo[Any]) -> bool:
     """Whether ``memo`` keeps results for later calls (a prepared regressor's): only then do the
     keys need the hashes of the arrays given beside the regressor."""
     return memo is not compute_now and not isinstance(memo, CallMemo)
+
+
+def estimation_key(memo: Memo[Any], estimation: dict[str, Any] | None) -> tuple[Hashable, ...]:
+    """The estimation run's part of a kept result's key: a hash of its arrays (none where ``memo``
+    keeps nothing past the call)."""
+    if not keeps_across_calls(memo):
+        return ()
+    est = estimation or {}
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
 
 
 def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:

@@ -21,7 +21,7 @@ import numpy as np
 from ..checks import _validation as v
 from ..checks._checks import Array, CheckedCall
 from ..checks._json import to_jsonable
-from ..checks._segments import parse_segments, segment_lengths
+from ..checks._segments import parse_segments
 from ..checks._typing import (
     ArrayLike,
     BackendName,
@@ -40,7 +40,7 @@ from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds
 from ._options import NAMES, Data, Keywords, Options, check_options, plan_lags, to_setting
-from ._prepared import PreparedRegressor, memo_for, scan_for
+from ._prepared import PreparedRegressor, estimation_key, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -238,7 +238,9 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     k = Keywords(**{**given, "segments": segments})
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
     d, o = _checked(tau_meas, tau_pred, regressor, k)
-    d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)
+    memo = memo_for(prepared, d.reg2)
+    d = replace(d, memo=memo, structure=None if prepared is None else prepared.structure,
+                estimation_key=estimation_key(memo, o.estimation))
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
     r = sec.residual_phase(d, o)
@@ -290,6 +292,6 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | Pr
 
 def _assemble(d: sec.CheckedData, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
     s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
-    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
+    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=d.lags.lengths,
                       seg_names=seg_names, omitted=d.omitted)
     return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)

@@ -41,7 +41,7 @@ from ._regressor_algebra import (
 
 if TYPE_CHECKING:
     from ..statistics._estimation import EstimationFit
-    from ..statistics._stats import LongRunVariance, Spectrum
+    from ..statistics._stats import BiasTest, Spectrum
     from ._findings import Thresholds
     from ._options import Lags, Options
 
@@ -117,67 +117,20 @@ def point_metrics(km: FusedMetrics, prof: Profile) -> tuple[rec.PerJoint, rec.Po
     return rec.PerJoint.of(per_joint), rec.Pooled.of(pooled), rec.Aggregates.of(aggregates)
 
 
-def iid_zero_mean_test(km: FusedMetrics, n: int, ddof: int) -> dict[str, Any]:
-    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
-
-    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
-    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
-    """
-    mean = np.asarray(km["residual_mean"], dtype=np.float64)
-    std = np.sqrt(np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0)))
-    t_iid, p_iid = _stats.iid_t_test(mean, std, n)
-    return {"mean": mean, "std": std, "n_samples": int(n), "statistic_iid": t_iid, "pvalue_iid": p_iid,
-            "df_iid": int(n - 1), "statistic_eff": None, "pvalue_eff": None, "df_eff": None,
-            "n_eff": None, "bandwidth": None}
-
-
-def bias_test(e: FloatArray, starts: IntArray, rmse: FloatArray,
-              parameter_variance: FloatArray | None = None) -> rec.Bias:
-    """The residual mean against its coloured-noise standard error (automatic long-run variance).
-
-    Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
-    of :func:`dynval.statistics._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
-    (m,), from the estimation run, is the variance the mean gets from the estimated parameters
-    (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
-    Each joint is scaled by the power of two of its largest |e| first (contract §1.3): the squares of
-    a residual near 1e-200 would underflow to a zero variance and an infinite t.
-    """
-    largest = np.max(np.abs(e), axis=0)
-    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
-    x = np.ldexp(e, -exps[None])
-    if parameter_variance is not None:
-        parameter_variance = np.ldexp(parameter_variance, -2 * exps)
-    out = bias_from_long_run(x.mean(axis=0), _stats.long_run_variance(x, starts), e.shape[0], rmse,
-                             parameter_variance, exponents=exps)
-    if parameter_variance is not None:
-        out = out.with_(parameter_standard_error=np.ldexp(out.parameter_standard_error, exps))
-    return out
-
-
-def bias_from_long_run(mean: FloatArray, lr: LongRunVariance, n: int, rmse: FloatArray,
-                       parameter_variance: FloatArray | None = None,
-                       exponents: IntArray | None = None) -> rec.Bias:
-    """:func:`bias_test` from the mean and the long-run variance ``lr`` (m,) of each joint.
-
-    ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
-    contract §4.1); the test does not see the unit, the reported mean and errors are unscaled.
-    """
-    std = np.sqrt(lr.variance * n / max(n - 1, 1))
-    noise_var = std**2 / lr.n_eff
-    total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
-    # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
-    t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
-    k = np.zeros(np.shape(mean), dtype=np.int64) if exponents is None else np.asarray(exponents)
-    mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
+def bias_section(test: BiasTest, rmse: FloatArray) -> rec.Bias:
+    """The bias section from the statistics' bias test (:func:`dynval.statistics._stats.bias_t_test`):
+    the residual mean against its coloured-noise standard error, Student t with N_eff − 1 degrees of
+    freedom (N_eff from the prewhitened Bartlett long-run variance); effect = |ē_j| / RMSE_j."""
+    lr = test.long_run
     with np.errstate(invalid="ignore", divide="ignore"):
-        effect = np.abs(mean) / np.asarray(rmse, dtype=float)
-    out: dict[str, Any] = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
-           "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
-           "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
-           "standard_error": standard_error}
-    if parameter_variance is not None:
+        effect = np.abs(test.mean) / np.asarray(rmse, dtype=float)
+    out: dict[str, Any] = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": test.mean,
+           "std": test.std, "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": test.statistic,
+           "pvalue": test.pvalue, "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
+           "standard_error": test.standard_error}
+    if test.parameter_standard_error is not None:
         out["method"] = "student_t_n_eff_with_parameter_error"
-        out["parameter_standard_error"] = np.sqrt(parameter_variance)
+        out["parameter_standard_error"] = test.parameter_standard_error
     return rec.Bias.of(out)
 
 
@@ -754,6 +707,8 @@ class CheckedData:
     memo: Memo[Any] = compute_now
     # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
     structure: FloatArray | None = None
+    # the estimation run's part of a kept result's key (_prepared.estimation_key)
+    estimation_key: tuple[Any, ...] = ()
 
     @property
     def n(self) -> int:
@@ -777,7 +732,7 @@ class Residual(NamedTuple):
     bias: rec.Bias | None
     ic: rec.InformationCriteria
     grams: JointGrams | None
-    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (_estimation_key)
+    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (CheckedData.estimation_key)
 
     @property
     def n_eff(self) -> FloatArray | None:
@@ -786,51 +741,42 @@ class Residual(NamedTuple):
 
 
 def residual_phase(d: CheckedData, o: Options) -> Residual:
-    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
+    """Point metrics, then each lower module once: the regressor's Gram matrices, the estimation
+    refit, the zero-mean test (the public metric's checked core) and the bias test; then the
+    residual's sections and the criteria."""
     from ..metrics._api import checked_zero_mean_test
 
-    prof = o.profile
+    prof, lags, memo = o.profile, d.lags, d.memo
     km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
     per_joint, pooled, aggregates = point_metrics(km, prof)
-    lagged = d.lags.max_lag > 0
-    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
-           else iid_zero_mean_test(km, d.n, prof.ddof))
-    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
-                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
-                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    # One pass over the regressor for both the spectrum's projection and the excitation section.
+    reg3 = d.reg3
+    grams = None if reg3 is None else memo(
+        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, memo)))
     # The estimation run, when given with its torques: the parameters' coloured-noise covariance
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
     est = o.estimation or {}
-    est_key = _estimation_key(d.memo, est)
-    est_fit = None
-    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
+    est_fit = param_var = None
+    if reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
         cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
-        est_fit = d.memo(("fit_columns", est_key, cols),
-                         lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
-    param_var = None
-    if est_fit is not None and d.reg3 is not None:
-        fit, val_reg = est_fit, d.reg3
-        means = d.memo(("column_means", val_reg.shape, fit.columns),
-                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
+        fit = est_fit = memo(("fit_columns", d.estimation_key, cols),
+                             lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
+        means = memo(("column_means", reg3.shape, fit.columns), lambda: reg3[:, :, list(fit.columns)].mean(axis=0))
         param_var = _estimation.quadratic_forms(fit, means)
-    bias = None
-    if lagged:
+    bias_t = None
+    if lags.max_lag > 0:
         assert d.e is not None  # a residual whenever lags are analysed
-        bias = bias_test(d.e, d.lags.starts, per_joint.rmse, param_var)
+        zero_mean = checked_zero_mean_test(d.e, o.kernel, lags.starts, lags.longest)
+        zmt = {name: getattr(zero_mean, name) for name in zero_mean.__dataclass_fields__}
+        bias_t = _stats.residual_bias_test(d.e, lags.starts, param_var)
+    else:
+        zmt = _stats.iid_zero_mean(km["residual_mean"], km["residual_variance"], d.n, prof.ddof)._asdict()
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    bias = None if bias_t is None else bias_section(bias_t, per_joint.rmse)
     ic = information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
-    # One pass over the regressor for both the spectrum's projection and the excitation section.
-    reg3 = d.reg3
-    grams = None if reg3 is None else d.memo(
-        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
-    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, est_key)
-
-
-def _estimation_key(memo: Memo[Any], est: Mapping[str, Any]) -> tuple[Any, ...]:
-    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
-    prepared regressor, where nothing is kept)."""
-    if not keeps_across_calls(memo):
-        return ()
-    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
+    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, d.estimation_key)
 
 
 class Lagged(NamedTuple):
@@ -848,7 +794,7 @@ class Lagged(NamedTuple):
 def lag_phase(d: CheckedData, o: Options, r: Residual) -> Lagged:
     """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
     lags = d.lags
-    lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
+    lb_lags = lags.lb_lags
     if lags.max_lag <= 0:
         return Lagged(lb_lags)
     assert d.e is not None  # a residual whenever lags are analysed
@@ -898,11 +844,3 @@ def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
         if missing is not None:
             cross = cross.with_(missing_terms=dict(missing))
     return Crossed(cross, xrho, xsd, missing)
-
-
-def _as_dict(result: Any) -> dict[str, Any]:
-    if hasattr(result, "_asdict"):
-        return dict(result._asdict())
-    if hasattr(result, "__dataclass_fields__"):
-        return {f: getattr(result, f) for f in result.__dataclass_fields__}
-    return dict(result)
