@@ -1247,7 +1247,7 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
         acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
         if lb_lags:
             lb = sec.ljung_box(kernel, None, lb_lags, starts)
-            white = sec.whiteness(kernel, None, None, starts, lb, None, sample_rate, bandwidth=cfg.bandwidth)
+            white = sec.whiteness(kernel, lb, None, sample_rate, bandwidth=cfg.bandwidth)
     cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
     if lagged:
         spectral, why = _spectrum(mo, welch, starts, sample_rate)

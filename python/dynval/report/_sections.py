@@ -41,7 +41,7 @@ from ._regressor_algebra import (
 
 if TYPE_CHECKING:
     from ..statistics._estimation import EstimationFit
-    from ..statistics._stats import BiasTest, Spectrum
+    from ..statistics._stats import BiasTest, Decimation, Spectrum
     from ._findings import Thresholds
     from ._options import Lags, Options
 
@@ -248,68 +248,37 @@ def ljung_box(kernel: Any, e: FloatArray | None, lags: Sequence[int], starts: In
                             "df": np.asarray(lb["df"], dtype=np.int64)})
 
 
-def whiteness(kernel: Any, e: FloatArray | None, motion: FloatArray | None, starts: IntArray, lb: rec.LjungBox,
-              decimate: str | int | None, sample_rate: float | None, *, band: float | None = None,
+def whiteness(kernel: Any, lb: rec.LjungBox, rate: Decimation | None, sample_rate: float | None, *,
               bandwidth: float | None = None, lag: int | None = None) -> rec.Whiteness:
     """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
 
-    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
-    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
-    noise would fill the band on light joints and hide the motion's);
-    the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
-    used as given; None or 1 tests at the logged rate only. ``band``: f_I when already known.
-    ``bandwidth`` (Hz): the inputs are trustworthy below it only, so "auto" decimates at least
-    until the Nyquist frequency is at most the bandwidth, and ``above_bandwidth`` says when the
-    test still sees frequencies above it. ``lag``: the decimated test's largest lag (samples of
-    the decimated rate; the logged test's otherwise).
+    ``rate``: the residual at that rate (:func:`dynval.statistics._stats.information_rate`); None
+    tests at the logged rate only. ``bandwidth`` (Hz): ``above_bandwidth`` says when the test still
+    sees frequencies above it. ``lag``: the decimated test's largest lag (samples of the decimated
+    rate; the logged test's otherwise).
     """
     raw_p = np.asarray(lb.pvalue[0], dtype=float)
     lag = int(lb.lags[0]) if lag is None else int(lag)
     fs = 1.0 if sample_rate is None else float(sample_rate)
-    q = 1
-    if decimate == "auto":
-        assert e is not None  # the stream, which has no residual, does not decimate
-        if band is None:
-            band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
-        if np.isfinite(band) and band > 0:
-            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
-        if bandwidth is not None and fs / 2.0 > bandwidth:
-            # a band far below the rate asks for more than the rows: capped before int
-            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
-    else:
-        band = None
-        if decimate is not None:
-            q = int(decimate)
+    band = None if rate is None else rate.band
     out: dict[str, Any] = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
            "log_pvalue_raw": np.asarray(lb.log_pvalue[0], dtype=float), "decimation": 1,
            "information_band": band, "information_band_source": "prediction" if band is not None else None,
            "pvalue_decimated": None, "lag_decimated": None,
            "n_decimated": None}
-    if q >= 2:
-        assert e is not None
-        d, d_starts = _stats.decimate_segments(e, starts, q)
-        if d is not None:
-            longest = int(np.diff(np.append(d_starts, d.shape[0])).max())
-            h = min(lag, d.shape[0] // 5, longest - 1)
-            if h >= 1:
-                res = kernel.portmanteau(np.ascontiguousarray(d), np.array([h], dtype=np.int64), 0, d_starts,
-                                         "ljung_box")
-                out.update(decimation=q, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
-                           lag_decimated=int(h), n_decimated=int(d.shape[0]))
+    if rate is not None and rate.residual is not None and rate.starts is not None:
+        x, x_starts = rate.residual, rate.starts
+        longest = int(np.diff(np.append(x_starts, x.shape[0])).max())
+        h = min(lag, x.shape[0] // 5, longest - 1)
+        if h >= 1:
+            res = kernel.portmanteau(np.ascontiguousarray(x), np.array([h], dtype=np.int64), 0, x_starts,
+                                     "ljung_box")
+            out.update(decimation=rate.factor, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
+                       lag_decimated=int(h), n_decimated=int(x.shape[0]))
     tested_nyquist = fs / (2.0 * int(out["decimation"]))
     out["bandwidth"] = bandwidth
     out["above_bandwidth"] = bool(bandwidth is not None and tested_nyquist > bandwidth * (1 + 1e-9))
     return rec.Whiteness.of(out)
-
-
-def spectrum(e: FloatArray, starts: IntArray, reg3: FloatArray | None, sample_rate: float | None,
-             grams: JointGrams | None = None, memo: Memo[Any] = compute_now) -> tuple[rec.Spectrum, Spectrum]:
-    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
-    the report's section, and the tests of every bin (:func:`dynval.statistics._stats.residual_spectrum`),
-    which the findings read."""
-    x = _project_out(e, reg3, grams, memo) if reg3 is not None else e
-    spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
-    return spectrum_section(spec, sample_rate, reg3 is not None), spec
 
 
 def spectrum_section(spec: Spectrum, sample_rate: float | None, regressor_removed: bool) -> rec.Spectrum:
@@ -318,16 +287,6 @@ def spectrum_section(spec: Spectrum, sample_rate: float | None, regressor_remove
     return rec.Spectrum.of({"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
                             "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg,
                             "regressor_removed": regressor_removed, "peaks": top})
-
-
-def spectrum_sides(meas: FloatArray | None, pred: FloatArray | None, starts: IntArray, sample_rate: float | None,
-                   spec: rec.Spectrum | None) -> tuple[FloatArray, FloatArray] | None:
-    """The measured torque's and the prediction's Welch power on the residual spectrum's grid
-    (conventions §5.2, ``prediction_artefact``): a line of the residual that the prediction holds and
-    the measurement does not is the model's own. None without a spectrum."""
-    if spec is None or meas is None or pred is None or len(spec.frequency) == 0:
-        return None
-    return _stats.welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec.nperseg))
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
@@ -792,21 +751,23 @@ class Lagged(NamedTuple):
 
 
 def lag_phase(d: CheckedData, o: Options, r: Residual) -> Lagged:
-    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
+    """ACF and Ljung–Box from the kernels; the residual less what the regressor explains; the
+    statistics of the information rate and of the spectra; then whiteness and spectrum sections."""
     lags = d.lags
-    lb_lags = lags.lb_lags
     if lags.max_lag <= 0:
-        return Lagged(lb_lags)
+        return Lagged(lags.lb_lags)
     assert d.e is not None  # a residual whenever lags are analysed
     acf = autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
-    lb = white = None
-    if lb_lags:
-        lb = ljung_box(o.kernel, d.e, lb_lags, lags.starts)
-        white = whiteness(o.kernel, d.e, d.pred, lags.starts, lb, o.decimate, o.sample_rate, band=lags.band,
-                              bandwidth=o.bandwidth, lag=lags.white_lag)
-    spec, spec_tests = spectrum(d.e, lags.starts, d.reg3, o.sample_rate, r.grams, memo=d.memo)
-    return Lagged(lb_lags, acf, lb, white, spec, spec_tests, spectrum_sides(d.meas, d.pred, lags.starts,
-                                                                                 o.sample_rate, spec))
+    lb = ljung_box(o.kernel, d.e, lags.lb_lags, lags.starts) if lags.lb_lags else None
+    x = _project_out(d.e, d.reg3, r.grams, d.memo) if d.reg3 is not None else d.e
+    rate = None if lb is None else _stats.information_rate(d.e, d.pred, lags.starts, o.decimate, o.sample_rate,
+                                                           band=lags.band, bandwidth=o.bandwidth)
+    spectra = _stats.residual_spectra(x, d.meas, d.pred, lags.starts, sample_rate=o.sample_rate)
+    white = None
+    if lb is not None:
+        white = whiteness(o.kernel, lb, rate, o.sample_rate, bandwidth=o.bandwidth, lag=lags.white_lag)
+    spec = spectrum_section(spectra.residual, o.sample_rate, d.reg3 is not None)
+    return Lagged(lags.lb_lags, acf, lb, white, spec, spectra.residual, spectra.sides)
 
 
 class Crossed(NamedTuple):

@@ -55,6 +55,10 @@ __all__ = [
     "spectrum_from_welch",
     "information_bandwidth",
     "decimate_segments",
+    "Decimation",
+    "information_rate",
+    "ResidualSpectra",
+    "residual_spectra",
 ]
 
 
@@ -942,3 +946,61 @@ def decimate_segments(x, starts, factor: int):
     if not parts:
         return None, None
     return np.concatenate(parts, axis=0), np.asarray(new_starts, dtype=np.int64)
+
+
+class Decimation(NamedTuple):
+    """The residual at the rate that carries information (:func:`information_rate`)."""
+
+    factor: int  # q: every q-th sample kept (1: the logged rate only)
+    band: float | None  # the information band f_I, with decimate="auto" (nan or 0: none found)
+    residual: np.ndarray | None  # the decimated residual (None when q < 2 or every segment is too short)
+    starts: np.ndarray | None  # its segments' starts
+
+
+def information_rate(e, motion, starts, decimate, sample_rate=None, *, band: float | None = None,
+                     bandwidth: float | None = None) -> Decimation:
+    """The residual decimated to the rate that carries information, for the whiteness test there.
+
+    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
+    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
+    noise would fill the band on light joints and hide the motion's); the factor q = ⌊f_s/(4 f_I)⌋
+    keeps a Nyquist frequency of at least 2 f_I (``band``: f_I when already known). ``bandwidth``
+    (Hz): the inputs are trustworthy below it only, so "auto" decimates at least until the Nyquist
+    frequency is at most the bandwidth. An integer is used as given; None or 1 keeps the logged rate.
+    """
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    q = 1
+    if decimate == "auto":
+        if band is None:
+            band = information_bandwidth(motion, starts, sample_rate=sample_rate)
+        if np.isfinite(band) and band > 0:
+            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
+        if bandwidth is not None and fs / 2.0 > bandwidth:
+            # a band far below the rate asks for more than the rows: capped before int
+            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
+    else:
+        band = None
+        if decimate is not None:
+            q = int(decimate)
+    x, x_starts = decimate_segments(e, starts, q) if q >= 2 else (None, None)
+    return Decimation(q, band, x, x_starts)
+
+
+class ResidualSpectra(NamedTuple):
+    """The residual's tested spectrum and, on its grid, the measured torque's and the prediction's
+    Welch power (None without a spectrum)."""
+
+    residual: Spectrum
+    sides: tuple[np.ndarray, np.ndarray] | None
+
+
+def residual_spectra(x, meas, pred, starts, *, sample_rate=None) -> ResidualSpectra:
+    """:func:`residual_spectrum` of ``x`` (the residual less what the regressor explains) and
+    :func:`welch_pair` of the measured torque and the prediction on its grid (conventions §5.2,
+    ``prediction_artefact``: a line of the residual that the prediction holds and the measurement
+    does not is the model's own)."""
+    spec = residual_spectrum(x, starts, sample_rate=sample_rate)
+    sides = None
+    if len(spec.frequency):
+        sides = welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec.nperseg))
+    return ResidualSpectra(spec, sides)
