@@ -26,7 +26,7 @@ from ..checks._errors import ShapeMismatch
 from ..checks._typing import ArrayLike, FloatArray
 
 __all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "CallMemo", "keeps_across_calls",
-           "estimation_key",
+           "kept_keys",
            "memo_for", "scan_for", "digest"]
 
 T = TypeVar("T")
@@ -208,13 +208,15 @@ def keeps_across_calls(memo: Memo[Any]) -> bool:
     return memo is not compute_now and not isinstance(memo, CallMemo)
 
 
-def estimation_key(memo: Memo[Any], estimation: dict[str, Any] | None) -> tuple[Hashable, ...]:
-    """The estimation run's part of a kept result's key: a hash of its arrays (none where ``memo``
-    keeps nothing past the call)."""
+def kept_keys(memo: Memo[Any], estimation: dict[str, Any] | None,
+              meas: FloatArray) -> tuple[tuple[Hashable, ...], tuple[Hashable, ...]]:
+    """The parts of a kept result's key that name the arrays given beside the regressor: a hash of
+    the estimation run's arrays, and one of the measured torques (none where ``memo`` keeps nothing
+    past the call)."""
     if not keeps_across_calls(memo):
-        return ()
+        return (), ()
     est = estimation or {}
-    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq")), digest(meas)
 
 
 def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:

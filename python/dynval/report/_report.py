@@ -40,7 +40,7 @@ from . import _sections as sec
 from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
 from ._findings import SEVERITIES, Finding, Thresholds
 from ._options import NAMES, Data, Keywords, Options, check_options, plan_lags, to_setting
-from ._prepared import PreparedRegressor, estimation_key, memo_for, scan_for
+from ._prepared import PreparedRegressor, kept_keys, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -239,8 +239,9 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
     d, o = _checked(tau_meas, tau_pred, regressor, k)
     memo = memo_for(prepared, d.reg2)
+    estimation_key, meas_key = kept_keys(memo, o.estimation, d.meas)
     d = replace(d, memo=memo, structure=None if prepared is None else prepared.structure,
-                estimation_key=estimation_key(memo, o.estimation))
+                estimation_key=estimation_key, meas_key=meas_key)
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
     r = sec.residual_phase(d, o)

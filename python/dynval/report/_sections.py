@@ -27,7 +27,7 @@ from ..statistics._columns import column_norms as _column_norms
 from ..statistics._columns import zero_columns
 from . import _records as rec
 from . import _regressor_algebra as algebra
-from ._prepared import Memo, compute_now, digest, keeps_across_calls
+from ._prepared import Memo, compute_now
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
@@ -132,61 +132,6 @@ def bias_section(test: BiasTest, rmse: FloatArray) -> rec.Bias:
         out["method"] = "student_t_n_eff_with_parameter_error"
         out["parameter_standard_error"] = test.parameter_standard_error
     return rec.Bias.of(out)
-
-
-def parameter_error_sd(rho: FloatArray, sd: FloatArray, e: FloatArray, reg3: FloatArray, fit: EstimationFit,
-                       starts: IntArray, prof: Profile, level: float, memo: Memo[Any] = compute_now) -> FloatArray:
-    """Widen the residual × regressor standard deviations by the estimated parameters' error.
-
-    The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
-    cross-covariance with column c at lag ℓ holds Σ_k δ_k R̂_{Y_k Y_c}(ℓ), of variance gᵀ Cov(π̂) g.
-    Only cells with a raw p-value ≤ α are recomputed: the others cannot be rejected by Holm and
-    only grow. Returns the new sd (m, p, L+1).
-    """
-    alpha = 1.0 - level
-    p_raw = _stats.correlation_pvalue(rho, sd)
-    cells = np.argwhere(p_raw <= alpha)
-    if cells.size == 0:
-        return sd
-    n = e.shape[0]
-    sd = sd.copy()
-    lengths = np.diff(np.append(starts, n))
-    cols = list(fit.columns)
-    ec = e - e.mean(axis=0)
-    var_e = np.einsum("nm,nm->m", ec, ec) / n
-    yc, var_y = memo(("centred_columns", reg3.shape), lambda: _centred_columns(reg3))
-    by_cell: dict[tuple[int, int], list[int]] = {}
-    for j, c, lag in cells:
-        by_cell.setdefault((int(j), int(lag)), []).append(int(c))
-    one_segment = len(starts) == 1 and int(starts[0]) == 0
-    model_cols: dict[int, np.ndarray] = {}
-    for (j, lag), which in sorted(by_cell.items()):
-        if one_segment:
-            # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
-            if j not in model_cols:
-                model_cols[j] = memo(("centred_model_columns", reg3.shape, j, fit.columns),
-                                     partial(_joint_columns, yc, j, cols))
-            g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
-        else:
-            cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
-            g = (cur[:, cols].T @ prev[:, which]).T
-        n_pairs = float(np.maximum(lengths - lag, 0).sum())
-        g = g / (n_pairs if prof.adjusted else float(n))  # (len(which), k)
-        extra = _estimation.quadratic_forms(fit, g)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
-    return sd
-
-
-def _joint_columns(yc: FloatArray, j: int, cols: list[int]) -> FloatArray:
-    """Joint j's ``cols`` of the centred regressor, contiguous."""
-    return np.ascontiguousarray(yc[:, j, cols])
-
-
-def _centred_columns(reg3: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The regressor less its column means, and each column's variance (over N)."""
-    yc = reg3 - reg3.mean(axis=0)
-    return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
 
 
 def information_criteria(km: FusedMetrics, prof: Profile, noise_model: str, n: int, m: int, n_params: int,
@@ -412,59 +357,6 @@ def _top_cells(lag_max: IntArray, rho_max: FloatArray, z_max: FloatArray) -> lis
     return top
 
 
-def added_variable(e: FloatArray, reg3: FloatArray, model_columns: Sequence[int], starts: IntArray,
-                   n_eff: FloatArray | None) -> rec.MissingTerms | None:
-    """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
-
-    For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
-    validation data, per joint) is what the model cannot represent of it; a missing term shows as
-    a residual correlated with its z_c, while the model's compensation through S does not
-    (the added-variable or partial-regression idea). Standard deviations are colour-aware as in
-    :func:`cross_correlation`. Returns (columns, rho (m, q), sd (m, q)) or None.
-    """
-    n, m, p = reg3.shape
-    outside = [c for c in range(p) if c not in set(model_columns)]
-    if not outside or n < 4 * p:
-        return None
-    inside = [c for c in range(p) if c in set(model_columns)]
-    z = np.empty((n, m, len(outside)))
-    for j in range(m):
-        y_out = reg3[:, j, outside]
-        if inside:
-            coef, *_ = np.linalg.lstsq(reg3[:, j, inside], y_out, rcond=None)
-            y_out = y_out - reg3[:, j, inside] @ coef
-        z[:, j, :] = y_out
-    ec = e - e.mean(axis=0)
-    zc = z - z.mean(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rho = np.einsum("nm,nmq->mq", ec, zc) / np.sqrt(
-            np.einsum("nm,nm->m", ec, ec)[:, None] * np.einsum("nmq,nmq->mq", zc, zc))
-    # A column the model represents entirely (z ≈ 0) carries no evidence.
-    rho = np.where(np.einsum("nmq,nmq->mq", zc, zc) > 1e-20 * np.einsum("nmq,nmq->mq", reg3[:, :, outside] ** 2,
-                                                                       np.ones_like(zc)), rho, np.nan)
-    lengths = np.diff(np.append(starts, n))
-    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
-    tau_int = tau_int if np.isfinite(tau_int) else 1.0
-    big = int(min(int(lengths.max()) - 1, max(1, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
-    rho_e = _stats.acf_fft(e, starts, big)
-    rho_z = _stats.acf_fft(z.reshape(n, -1), starts, big).reshape(big + 1, m, len(outside))
-    sd = _stats.cross_correlation_sd(rho_e, rho_z, np.array([float(n)]), np.array([float(n)]), n)[:, :, 0]
-    # Effect: the share of the residual's mean square the term would remove if added (uncentred,
-    # so a term whose absence shows as a bias counts its mean too).
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
-                                                      * np.einsum("nmq,nmq->mq", z, z))
-    share = np.where(np.isnan(rho), np.nan, share)
-    # The term accounts for the residual's mean when it would move it towards zero: sign(b·z̄) = sign(ē),
-    # b = eᵀz/zᵀz.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
-    explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
-    return rec.MissingTerms.of({"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
-                                "pvalue": _stats.correlation_pvalue(rho, sd), "share": share,
-                                "explains_bias": explains})
-
-
 def segment_metrics(kernel: Kernels, meas: FloatArray, pred: FloatArray, names: Sequence[str],
                     lengths: Sequence[int], n_params: int, prof: Profile) -> dict[str, rec.Segment]:
     """Per-joint RMSE, VAF, fit, R² and mean of each named segment (e.g. transient and steady)."""
@@ -666,8 +558,9 @@ class CheckedData:
     memo: Memo[Any] = compute_now
     # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
     structure: FloatArray | None = None
-    # the estimation run's part of a kept result's key (_prepared.estimation_key)
+    # the estimation run's and the measured torques' parts of a kept result's key (_prepared.kept_keys)
     estimation_key: tuple[Any, ...] = ()
+    meas_key: tuple[Any, ...] = ()
 
     @property
     def n(self) -> int:
@@ -780,28 +673,29 @@ class Crossed(NamedTuple):
 
 
 def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
-    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
+    """Cross-correlation with the regressor's columns (the kernel's, with the colour-aware sd), then
+    the estimation module once: the sd widened by the estimated parameters' error, and the columns
+    the model lacks (refit on the estimation run, else the added-variable test)."""
     if d.reg2 is None:
         return Crossed()
     assert d.e is not None and d.p_cols is not None and d.reg3 is not None  # with a regressor
+    starts, memo, reg3 = d.lags.starts, d.memo, d.reg3
     cross, xrho, xsd = cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile, o.level,
-                                             d.lags.starts, d.n, d.m, r.n_eff, o.detail, memo=d.memo)
+                                         starts, d.n, d.m, r.n_eff, o.detail, memo=memo)
     if r.est_fit is not None:
-        xsd = parameter_error_sd(xrho, xsd, d.e, d.reg3, r.est_fit, d.lags.starts, o.profile, o.level,
-                                     memo=d.memo)
-        cross = cross.with_(parameter_error=True)
-    missing = None
-    if o.model_columns is not None:
+        xsd = _estimation.parameter_error_sd(xrho, xsd, d.e, reg3, r.est_fit, starts, o.profile.adjusted, o.level,
+                                             memo=memo)
+    found = None
+    if o.model_columns is not None and r.est_fit is not None:
         est = o.estimation or {}
-        if r.est_fit is not None:
-            cols = tuple(int(c) for c in o.model_columns)
-            reg3 = d.reg3
-            missing = rec.record_or_none(rec.MissingTerms, d.memo(
-                ("missing_terms", r.est_key, reg3.shape, cols,
-                 digest(d.meas) if keeps_across_calls(d.memo) else ()),
-                lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
-        else:
-            missing = added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
-        if missing is not None:
-            cross = cross.with_(missing_terms=dict(missing))
+        cols = tuple(int(c) for c in o.model_columns)
+        found = memo(("missing_terms", r.est_key, reg3.shape, cols, d.meas_key),
+                     lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
+    elif o.model_columns is not None:
+        found = _estimation.added_variable(d.e, reg3, o.model_columns, starts, r.n_eff)
+    missing = rec.record_or_none(rec.MissingTerms, found)
+    if r.est_fit is not None:
+        cross = cross.with_(parameter_error=True)
+    if missing is not None:
+        cross = cross.with_(missing_terms=dict(missing))
     return Crossed(cross, xrho, xsd, missing)
