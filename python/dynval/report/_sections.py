@@ -561,6 +561,8 @@ class CheckedData:
     # the estimation run's and the measured torques' parts of a kept result's key (_prepared.kept_keys)
     estimation_key: tuple[Any, ...] = ()
     meas_key: tuple[Any, ...] = ()
+    # the named segments as given (names, lengths), which get point metrics of their own
+    named: tuple[list[str], list[int]] | None = None
 
     @property
     def n(self) -> int:
@@ -585,6 +587,7 @@ class Residual(NamedTuple):
     ic: rec.InformationCriteria
     grams: JointGrams | None
     est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (CheckedData.estimation_key)
+    segments: dict[str, rec.Segment] | None = None  # each named segment's point metrics
 
     @property
     def n_eff(self) -> FloatArray | None:
@@ -593,14 +596,16 @@ class Residual(NamedTuple):
 
 
 def residual_phase(d: CheckedData, o: Options) -> Residual:
-    """Point metrics, then each lower module once: the regressor's Gram matrices, the estimation
-    refit, the zero-mean test (the public metric's checked core) and the bias test; then the
-    residual's sections and the criteria."""
+    """Point metrics (the named segments' too), then each lower module once: the regressor's Gram
+    matrices, the estimation refit, the zero-mean test (the public metric's checked core) and the
+    bias test; then the residual's sections and the criteria."""
     from ..metrics._api import checked_zero_mean_test
 
     prof, lags, memo = o.profile, d.lags, d.memo
     km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
     per_joint, pooled, aggregates = point_metrics(km, prof)
+    segments = None if d.named is None else segment_metrics(o.kernel, d.given_meas, d.given_pred, *d.named,
+                                                            o.n_params, prof)
     # One pass over the regressor for both the spectrum's projection and the excitation section.
     reg3 = d.reg3
     grams = None if reg3 is None else memo(
@@ -628,7 +633,7 @@ def residual_phase(d: CheckedData, o: Options) -> Residual:
                                   "ddof": prof.ddof, "zero_mean_test": zmt})
     bias = None if bias_t is None else bias_section(bias_t, per_joint.rmse)
     ic = information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
-    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, d.estimation_key)
+    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, d.estimation_key, segments)
 
 
 class Lagged(NamedTuple):
