@@ -951,7 +951,7 @@ def decimate_segments(x, starts, factor: int):
 class Decimation(NamedTuple):
     """The residual at the rate that carries information (:func:`information_rate`)."""
 
-    factor: int  # q: every q-th sample kept (1: the logged rate only)
+    factor: int  # q: every q-th sample kept (below 2: the logged rate only)
     band: float | None  # the information band f_I, with decimate="auto" (nan or 0: none found)
     residual: np.ndarray | None  # the decimated residual (None when q < 2 or every segment is too short)
     starts: np.ndarray | None  # its segments' starts
