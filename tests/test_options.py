@@ -8,6 +8,7 @@ checks and the contract's table (§4).
 from __future__ import annotations
 
 import inspect
+import math
 import re
 from pathlib import Path
 
@@ -191,3 +192,31 @@ def test_the_accumulator_docstring_documents_what_it_takes_and_refuses():
     assert set(refused.group(1).split(", ")) == set(UNSUPPORTED)
     documented = {n for line in re.findall(r"^    ([\w, ]+?)(?: : .*)?$", doc, re.M) for n in line.split(", ")}
     assert {o.name for o in OPTIONS if o.stream == "supported"} <= documented
+
+
+@pytest.mark.parametrize("profile, max_lag, expected_lb", [("lesson", None, [50]), ("statsmodels", None, [10]),
+                                                           ("statsmodels", 7, [10]), ("lesson", 0, [])])
+def test_plan_lags_plans_the_ljung_box_lags_and_the_segment_lengths_once(profile, max_lag, expected_lb):
+    # the lag phase, the stream and the provenance read these from Lags instead of asking again
+    n = 1000
+    starts = np.array([0, 300], dtype=np.int64)
+    data = _options.Data(n=n, m=1, p=None, reg_shape=None, starts=starts, given_n=n, kept_rows=None,
+                         meas=np.zeros((n, 1)))
+    o = check_options(Keywords(n_params=1, profile=profile, max_lag=max_lag, segments=starts), data)
+    lags = _options.plan_lags(o, n, starts)
+    assert lags.lb_lags == expected_lb
+    assert lags.lengths.tolist() == [300, 700] and lags.longest == 700
+
+
+def test_plan_lags_with_the_motion_band_keeps_the_profile_count_for_the_decimated_test():
+    fs, n = 200.0, 4000
+    t = np.arange(n) / fs
+    pred = np.sin(2 * np.pi * 2.0 * t)[:, None]  # the motion's power at 2 Hz: about 100 samples a period
+    starts = np.array([0], dtype=np.int64)
+    data = _options.Data(n=n, m=1, p=None, reg_shape=None, starts=starts, given_n=n, kept_rows=None, meas=pred)
+    o = check_options(Keywords(n_params=1, sample_rate=fs, segments=starts), data)
+    lags = _options.plan_lags(o, n, starts, pred)
+    assert lags.source == _options.MOTION_LAG_SOURCE
+    assert lags.band is not None and 2.0 <= lags.band <= 4.0  # the Welch bin holding the edge
+    assert lags.max_lag == math.ceil(fs / lags.band) and lags.max_lag != 50
+    assert lags.white_lag == 50 and lags.lb_lags == [lags.max_lag]  # the lesson's rule: one Ljung–Box lag, max_lag

@@ -348,3 +348,15 @@ def test_numbers_quoted_in_conventions_doc(backend):
     assert float(mp.sqrt(2) * mp.erfinv(mpf("0.99"))) == pytest.approx(2.575829, abs=5e-7)
     assert float(mlog(2 * mp.pi) + 1) == pytest.approx(2.8378771, abs=5e-8)
     assert float(mlog(1000)) == pytest.approx(6.907755, abs=5e-7)
+
+
+@pytest.mark.parametrize("profile, period, longest, expected", [
+    ("lesson", 40.5, 1000, 41),          # one period of the band's edge, rounded up
+    ("lesson", 500.0, 1000, 200),        # at most four times the lesson's 50 lags
+    ("statsmodels", 500.0, 1000, 120),   # four times ⌊10·log10(1000)⌋ = 30
+    ("lesson", 1e300, 60, 59),           # below the longest segment, and no overflow on the way
+    ("lesson", float("inf"), 60, 59),
+    ("lesson", 0.25, 1000, 1),           # at least one lag
+])
+def test_motion_max_lag_is_one_period_within_the_profile_cap_and_the_segment(profile, period, longest, expected):
+    assert PROFILES[profile].motion_max_lag(period, 1000, longest) == expected

@@ -221,9 +221,9 @@ def test_the_missing_terms_are_a_record_written_as_the_contracts_mapping():
     report = dynval.validate(tau, reg[:, :, 0], n_params=1, regressor=reg, model_columns=[0], max_lag=5)
     section = report.cross_correlation.missing_terms
     assert isinstance(section, dict)  # contract §4: a mapping inside the cross-correlation's record
-    from dynval.report import _sections
+    from dynval.statistics import _estimation
 
-    found = _sections.added_variable(e, reg, [0], np.array([0]), None)
+    found = rec.record_or_none(rec.MissingTerms, _estimation.added_variable(e, reg, [0], np.array([0]), None))
     assert isinstance(found, rec.MissingTerms)
     assert found.columns == [1] and found.method == "added_variable"
     assert list(section) == list(found)

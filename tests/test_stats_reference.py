@@ -971,3 +971,67 @@ def test_decimate_segments_per_segment_scipy_decimate():
                                                 ftype="fir", axis=0) for a, b in ((0, 400), (400, 700))])
     np.testing.assert_array_equal(got32, exp)
     assert _stats.decimate_segments(x[:50], [0], 2) == (None, None)
+
+
+def test_iid_zero_mean_from_the_moments_is_scipys_one_sample_t_test():
+    rng = np.random.default_rng(5)
+    e = rng.standard_normal((200, 3)) + np.array([0.0, 0.3, -1.0])
+    for ddof in (0, 1):
+        z = _stats.iid_zero_mean(e.mean(axis=0), e.var(axis=0, ddof=ddof), e.shape[0], ddof)
+        ref = scipy.stats.ttest_1samp(e, 0.0)
+        np.testing.assert_allclose(z.statistic_iid, ref.statistic, rtol=1e-12)
+        np.testing.assert_allclose(z.pvalue_iid, ref.pvalue, rtol=1e-10)
+        np.testing.assert_allclose(z.std, e.std(axis=0, ddof=1), rtol=1e-12)
+        assert z.df_iid == 199 and z.n_samples == 200 and z.n_eff is None and z.bandwidth is None
+
+
+def test_residual_bias_test_reports_the_parameter_error_in_the_residuals_unit():
+    # the test runs on each joint scaled by a power of two; the standard errors it reports are unscaled
+    rng = np.random.default_rng(6)
+    e = rng.standard_normal((500, 2)) + 0.1
+    pv = np.array([1e-3, 4e-3])
+    starts = np.array([0], dtype=np.int64)
+    plain = _stats.residual_bias_test(e, starts, pv)
+    tiny = _stats.residual_bias_test(np.ldexp(e, -500), starts, np.ldexp(pv, -1000))
+    np.testing.assert_allclose(plain.parameter_standard_error, np.sqrt(pv), rtol=1e-15)
+    np.testing.assert_array_equal(tiny.parameter_standard_error, np.ldexp(plain.parameter_standard_error, -500))
+    np.testing.assert_array_equal(tiny.standard_error, np.ldexp(plain.standard_error, -500))
+    np.testing.assert_array_equal(tiny.statistic, plain.statistic)
+    # the parameters' variance widens the error: s²/N_eff alone is smaller
+    alone = _stats.residual_bias_test(e, starts)
+    assert alone.parameter_standard_error is None
+    np.testing.assert_allclose(plain.standard_error**2, alone.standard_error**2 + pv, rtol=1e-12)
+
+
+@pytest.mark.parametrize("decimate, band, bandwidth, factor", [
+    (None, None, None, 1), (1, None, None, 1), (4, None, None, 4),
+    ("auto", 5.0, None, 5),      # ⌊f_s / (4 f_I)⌋ = ⌊100 / 20⌋
+    ("auto", 40.0, 10.0, 5),     # the band allows no decimation, the bandwidth asks ⌈100 / 20⌉
+    ("auto", 40.0, None, 0),     # a band above a quarter of the rate: no factor (the logged rate)
+])
+def test_information_rate_chooses_the_decimation_factor(decimate, band, bandwidth, factor):
+    rng = np.random.default_rng(7)
+    e = rng.standard_normal((1200, 2))
+    starts = np.array([0, 600], dtype=np.int64)
+    rate = _stats.information_rate(e, None, starts, decimate, 100.0, band=band, bandwidth=bandwidth)
+    assert rate.factor == factor
+    assert rate.band == (band if decimate == "auto" else None)
+    if factor >= 2:
+        # each segment decimated on its own: ⌈600 / q⌉ rows each
+        assert rate.residual is not None and rate.residual.shape == (2 * -(-600 // factor), 2)
+        assert rate.starts is not None and rate.starts.tolist() == [0, -(-600 // factor)]
+    else:
+        assert rate.residual is None and rate.starts is None
+
+
+def test_residual_spectra_put_the_measured_and_predicted_power_on_the_residuals_grid():
+    rng = np.random.default_rng(8)
+    meas = rng.standard_normal((2048, 2))
+    pred = 0.5 * meas
+    starts = np.array([0], dtype=np.int64)
+    spectra = _stats.residual_spectra(meas - pred, meas, pred, starts, sample_rate=50.0)
+    assert spectra.sides is not None
+    p_meas, p_pred = spectra.sides
+    assert p_meas.shape == spectra.residual.power.shape == p_pred.shape
+    np.testing.assert_allclose(p_pred, 0.25 * p_meas, rtol=1e-12)
+    np.testing.assert_allclose(spectra.residual.power, 0.25 * p_meas, rtol=1e-12)  # the residual is 0.5·meas

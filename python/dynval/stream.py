@@ -1138,7 +1138,7 @@ def _bias_test(mo: _Moments, st: State | Snapshot, rmse: np.ndarray, longest: in
     if lr is None:
         return None, (f"its bandwidth needs the residual's autocovariance at {needed} lags and the stream holds "
                       f"{held}: pass max_lag={needed} or more")
-    return sec.bias_from_long_run(mo.mean_e, lr, mo.n, rmse, exponents=mo.exp_e), None
+    return sec.bias_section(_stats.bias_t_test(mo.mean_e, lr, mo.n, exponents=mo.exp_e), rmse), None
 
 
 def _added(a: tuple[np.ndarray, np.ndarray] | None, b: tuple[np.ndarray, np.ndarray] | None,
@@ -1230,7 +1230,7 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
     per_joint, pooled, aggregates = sec.point_metrics(km, prof)
     lagged = max_lag > 0
     zmt = (_zero_mean_test(mo, kernel, lags.longest, st.layout.acf_lags) if lagged
-           else sec.iid_zero_mean_test(km, n, prof.ddof))
+           else _stats.iid_zero_mean(km["residual_mean"], km["residual_variance"], n, prof.ddof)._asdict())
     residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
                                   "variance": np.asarray(km["residual_variance"], dtype=np.float64),
                                   "ddof": prof.ddof, "zero_mean_test": zmt})
@@ -1241,13 +1241,13 @@ def _report(st: State | Snapshot, cfg: Options, omitted: int,
         if why is not None:
             skipped["bias"] = why
     ic = sec.information_criteria(km, prof, cfg.noise_model, n, m, cfg.n_params, None if bias is None else bias.n_eff)
-    lb_lags = prof.ljung_box_lags(n, max_lag, lags.longest)
+    lb_lags = lags.lb_lags
     acf = lb = white = spec = spec_tests = None
     if lagged:
         acf = sec.autocorrelation(kernel, None, max_lag, prof, cfg.level, starts, n)
         if lb_lags:
             lb = sec.ljung_box(kernel, None, lb_lags, starts)
-            white = sec.whiteness(kernel, None, None, starts, lb, None, sample_rate, bandwidth=cfg.bandwidth)
+            white = sec.whiteness(kernel, lb, None, sample_rate, bandwidth=cfg.bandwidth)
     cross = _cross_correlation(mo, max_lag, prof, cfg.level) if p else None
     if lagged:
         spectral, why = _spectrum(mo, welch, starts, sample_rate)

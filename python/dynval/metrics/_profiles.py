@@ -94,6 +94,23 @@ class Profile:
             cap = self.max_lag_cap
         return max(0, min(cap, longest_segment - 1))
 
+    def motion_max_lag(self, period: float, n_samples: int, longest_segment: int) -> int:
+        """The default ``max_lag`` with a sample rate: the motion's time scale, one period of the
+        information band's edge (``period`` samples: lags within it see one phenomenon), at most four
+        times the profile's count and below the longest segment.
+
+        Examples
+        --------
+        >>> PROFILES["lesson"].motion_max_lag(40.5, 1000, 1000)
+        41
+        >>> PROFILES["matlab"].motion_max_lag(1e300, 1000, 50)
+        49
+        """
+        # a band far below the rate (bandwidth=1e-307) gives more lags than any cap: capped before int
+        lags = int(math.ceil(min(period, float(longest_segment))))
+        cap = 4 * max(self.default_max_lag(n_samples, n_samples + 1), 1)
+        return int(max(1, min(lags, cap, longest_segment - 1)))
+
     def ljung_box_lags(self, n_samples: int, max_lag: int, longest_segment: int) -> list:
         """Lags of the report's Ljung–Box statistics (empty: no statistic).
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -22,7 +22,7 @@ from ..checks._typing import FloatArray, FusedMetrics
 from ..metrics._profiles import Profile
 from ..statistics._stats import Spectrum
 from . import _records as rec
-from ._findings import Evidence, Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
+from ._findings import SEVERITIES, Evidence, Finding, Thresholds, cell_pvalue_adjusted, compute_findings, holm_family
 from ._ranking import Ranked, deciding, first_reason
 from ._summary import format_summary
 from ._text import source_text
@@ -457,3 +457,10 @@ def assemble_report(s: Setting, b: Sections, prov: dict[str, Any], *, n: int, m:
         information_criteria=b.ic, warnings_text=[f.message for f in found], findings=found, bias=b.bias,
         whiteness=b.white, spectrum=b.spec, design=b.design, segment_metrics=b.segment_metrics,
         physics=b.physics, predictive=b.predictive, periodic=b.periodic, timing=rec.record_or_none(rec.Timing, timing))
+
+
+def with_findings(report: ValidationReport, extra: list[Finding]) -> ValidationReport:
+    """The report with ``extra`` findings among its own, deficiencies still first (contract §8)."""
+    order = {s: i for i, s in enumerate(SEVERITIES)}
+    found = sorted([*report.findings, *extra], key=lambda f: order[f.severity])
+    return replace(report, findings=found, warnings_text=[f.message for f in found])

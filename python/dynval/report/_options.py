@@ -19,7 +19,6 @@ the motion's information band) are chosen once the data are known, by :func:`pla
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -29,7 +28,7 @@ import numpy as np
 from ..checks import _timing
 from ..checks import _validation as v
 from ..checks._errors import InvalidParameter, ShapeMismatch
-from ..checks._segments import longest_segment, parse_segments
+from ..checks._segments import longest_segment, parse_segments, segment_lengths
 from ..checks._typing import BackendName, FloatArray, IntArray, Kernels
 from ..kernels._backend import resolve
 from ..metrics._profiles import PROFILE_NAMES, Profile, get_profile
@@ -162,6 +161,8 @@ class Lags(NamedTuple):
     source: str  # "given", "profile 'name'" or the motion's
     band: float | None  # the motion's information band f_I (Hz), validate with a sample rate
     white_lag: int | None  # the decimated whiteness test's lag (when the motion sets max_lag)
+    lb_lags: list[int]  # the lags of the Ljung–Box statistics (the profile's rule; empty without lags)
+    lengths: IntArray  # each segment's length
 
 
 # --------------------------------------------------------------------------- the checks, in order
@@ -536,20 +537,25 @@ def write_table(path: str) -> None:
 
 
 def plan_lags(o: Options, n: int, starts: IntArray, pred: FloatArray | None = None) -> Lags:
-    """The lag analysis of n samples in the segments ``starts``: a given ``max_lag`` (below the
-    longest segment), else the profile's default; with the prediction and a sample rate
-    (``validate``), the motion's time scale instead: one period of the information band's edge."""
+    """The lag analysis of n samples in the segments ``starts``, planned once for every phase: a given
+    ``max_lag`` (below the longest segment), else the profile's default; with the prediction and a
+    sample rate (``validate``), the motion's time scale instead: one period of the information band's
+    edge. The Ljung–Box lags and the segments' lengths come with it."""
     prof = o.profile
+    lengths = segment_lengths(starts, n)
     longest = longest_segment(starts, n)
     band = None if pred is None else _motion_band(pred, starts, o)
+    source, white_lag = "given", None
     if o.max_lag is not None:
-        return Lags(starts, longest, v.check_max_lag(o.max_lag, longest), "given", band, None)
-    max_lag = prof.default_max_lag(n, longest)
-    if max_lag > 0 and band is not None:
-        # the decimated whiteness test keeps the profile's count of lags
-        white_lag = (prof.ljung_box_lags(n, max_lag, longest) or [None])[0]
-        return Lags(starts, longest, _motion_max_lag(band, o, n, longest), MOTION_LAG_SOURCE, band, white_lag)
-    return Lags(starts, longest, max_lag, f"profile {prof.name!r}", band, None)
+        max_lag = v.check_max_lag(o.max_lag, longest)
+    else:
+        max_lag, source = prof.default_max_lag(n, longest), f"profile {prof.name!r}"
+        if max_lag > 0 and band is not None:
+            assert o.sample_rate is not None  # a band needs a rate
+            # the decimated whiteness test keeps the profile's count of lags
+            white_lag = (prof.ljung_box_lags(n, max_lag, longest) or [None])[0]
+            max_lag, source = prof.motion_max_lag(o.sample_rate / band, n, longest), MOTION_LAG_SOURCE
+    return Lags(starts, longest, max_lag, source, band, white_lag, prof.ljung_box_lags(n, max_lag, longest), lengths)
 
 
 def _motion_band(pred: FloatArray, starts: IntArray, o: Options) -> float | None:
@@ -565,17 +571,6 @@ def _motion_band(pred: FloatArray, starts: IntArray, o: Options) -> float | None
     # a prediction made of filtered inputs carries the filter's leakage above its bandwidth: the
     # motion cannot be trusted there either
     return band if o.bandwidth is None else min(band, o.bandwidth)
-
-
-def _motion_max_lag(band: float, o: Options, n: int, longest: int) -> int:
-    """The default largest lag with a sample rate: the motion's time scale, one period 1/f_I of the
-    information band's edge (lags within it see one phenomenon), at most four times the profile's
-    count and below the longest segment."""
-    assert o.sample_rate is not None
-    # a band far below the rate (bandwidth=1e-307) gives more lags than any cap: capped before int
-    lags = int(math.ceil(min(o.sample_rate / band, float(longest))))
-    cap = 4 * max(o.profile.default_max_lag(n, n + 1), 1)
-    return int(max(1, min(lags, cap, longest - 1)))
 
 
 def to_setting(o: Options, lags: Lags, m: int, *, sample_rate: float | None, timing: _timing.Timing | None,

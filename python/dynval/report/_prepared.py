@@ -26,6 +26,7 @@ from ..checks._errors import ShapeMismatch
 from ..checks._typing import ArrayLike, FloatArray
 
 __all__ = ["PreparedRegressor", "prepare_regressor", "Memo", "compute_now", "CallMemo", "keeps_across_calls",
+           "kept_keys",
            "memo_for", "scan_for", "digest"]
 
 T = TypeVar("T")
@@ -205,6 +206,17 @@ def keeps_across_calls(memo: Memo[Any]) -> bool:
     """Whether ``memo`` keeps results for later calls (a prepared regressor's): only then do the
     keys need the hashes of the arrays given beside the regressor."""
     return memo is not compute_now and not isinstance(memo, CallMemo)
+
+
+def kept_keys(memo: Memo[Any], estimation: dict[str, Any] | None,
+              meas: FloatArray) -> tuple[tuple[Hashable, ...], tuple[Hashable, ...]]:
+    """The parts of a kept result's key that name the arrays given beside the regressor: a hash of
+    the estimation run's arrays, and one of the measured torques (none where ``memo`` keeps nothing
+    past the call)."""
+    if not keeps_across_calls(memo):
+        return (), ()
+    est = estimation or {}
+    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq")), digest(meas)
 
 
 def memo_for(prepared: PreparedRegressor | None, checked: FloatArray | None) -> Memo[Any]:

@@ -21,7 +21,7 @@ import numpy as np
 from ..checks import _validation as v
 from ..checks._checks import Array, CheckedCall
 from ..checks._json import to_jsonable
-from ..checks._segments import parse_segments, segment_lengths
+from ..checks._segments import parse_segments
 from ..checks._typing import (
     ArrayLike,
     BackendName,
@@ -37,10 +37,10 @@ from ..checks._typing import (
 from ..kernels._blas import one_blas_thread
 from . import _consistency, _motion
 from . import _sections as sec
-from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance
-from ._findings import SEVERITIES, Finding, Thresholds
+from ._assembly import REPORT_SCHEMA_VERSION, Sections, ValidationReport, assemble_report, provenance, with_findings
+from ._findings import Finding, Thresholds
 from ._options import NAMES, Data, Keywords, Options, check_options, plan_lags, to_setting
-from ._prepared import PreparedRegressor, memo_for, scan_for
+from ._prepared import PreparedRegressor, kept_keys, memo_for, scan_for
 
 __all__ = ["validate", "ValidationReport", "REPORT_SCHEMA_VERSION", "to_jsonable"]
 
@@ -238,32 +238,24 @@ def validate(tau_meas: ArrayLike, tau_pred: ArrayLike, *, n_params: Integer,
     k = Keywords(**{**given, "segments": segments})
     prepared = regressor if isinstance(regressor, PreparedRegressor) else None
     d, o = _checked(tau_meas, tau_pred, regressor, k)
-    d = replace(d, memo=memo_for(prepared, d.reg2), structure=None if prepared is None else prepared.structure)
+    memo = memo_for(prepared, d.reg2)
+    estimation_key, meas_key = kept_keys(memo, o.estimation, d.meas)
+    named = None if seg_names is None else (seg_names, cast(list[int], segments))  # named: lengths, as a list
+    d = replace(d, memo=memo, structure=None if prepared is None else prepared.structure,
+                estimation_key=estimation_key, meas_key=meas_key, named=named)
     physical = None if parameters is None else _consistency.report_findings(
         parameters, m=d.m, level=o.level, column_names=o.column_names)
     r = sec.residual_phase(d, o)
     lagged = sec.lag_phase(d, o, r)
     crossed = sec.regressor_phase(d, o, r)
     motion = _motion.motion_phase(d, o, r, lagged)
-    named = None
-    if seg_names is not None:
-        lengths = cast(list[int], segments)  # with names, named_segments gives the lengths as a list
-        named = sec.segment_metrics(o.kernel, d.given_meas, d.given_pred, seg_names, lengths, o.n_params, o.profile)
     b = Sections(km=r.km, per_joint=r.per_joint, pooled=r.pooled, aggregates=r.aggregates, residuals=r.residuals,
                  ic=r.ic, bias=r.bias, acf=lagged.acf, lb=lagged.lb, lb_lags=lagged.lb_lags, white=lagged.white,
                  spec=lagged.spec, spec_tests=lagged.spec_tests, spec_sides=lagged.spec_sides, cross=crossed.cross,
                  xrho=crossed.xrho, xsd=crossed.xsd, missing=crossed.missing, design=motion.design,
                  physics=motion.physics, predictive=motion.predictive, periodic=motion.periodic,
-                 model_kinds=motion.model_kinds, segment_metrics=named)
-    report = _assemble(d, o, b, seg_names)
-    return report if not physical else _with_findings(report, physical)
-
-
-def _with_findings(report: ValidationReport, extra: list[Finding]) -> ValidationReport:
-    """The report with ``extra`` findings among its own, deficiencies still first (contract §8)."""
-    order = {s: i for i, s in enumerate(SEVERITIES)}
-    found = sorted([*report.findings, *extra], key=lambda f: order[f.severity])
-    return replace(report, findings=found, warnings_text=[f.message for f in found])
+                 model_kinds=motion.model_kinds, segment_metrics=r.segments)
+    return _assemble(d, o, b, seg_names, physical or [])
 
 
 def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | PreparedRegressor | None,
@@ -288,8 +280,11 @@ def _checked(tau_meas: ArrayLike, tau_pred: ArrayLike, regressor: ArrayLike | Pr
     return sec.CheckedData(meas, pred, e, reg2, reg3, pr.p, call.omitted, pr.given_meas, pr.given_pred, lags), o
 
 
-def _assemble(d: sec.CheckedData, o: Options, b: Sections, seg_names: list[str] | None) -> ValidationReport:
+def _assemble(d: sec.CheckedData, o: Options, b: Sections, seg_names: list[str] | None,
+              physical: list[Finding]) -> ValidationReport:
+    """The setting, the provenance and the report, the model's own ``physical`` findings among its own."""
     s = to_setting(o, d.lags, d.m, sample_rate=o.sample_rate, timing=o.timing)
-    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=segment_lengths(d.lags.starts, d.n),
+    prov = provenance(s, b, n=d.n, m=d.m, p_cols=d.p_cols, lengths=d.lags.lengths,
                       seg_names=seg_names, omitted=d.omitted)
-    return assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
+    report = assemble_report(s, b, prov, n=d.n, m=d.m, omitted=d.omitted)
+    return with_findings(report, physical) if physical else report

@@ -27,7 +27,7 @@ from ..statistics._columns import column_norms as _column_norms
 from ..statistics._columns import zero_columns
 from . import _records as rec
 from . import _regressor_algebra as algebra
-from ._prepared import Memo, compute_now, digest, keeps_across_calls
+from ._prepared import Memo, compute_now
 from ._regressor_algebra import (
     _RANK_TOL,
     JointGrams,
@@ -41,7 +41,7 @@ from ._regressor_algebra import (
 
 if TYPE_CHECKING:
     from ..statistics._estimation import EstimationFit
-    from ..statistics._stats import LongRunVariance, Spectrum
+    from ..statistics._stats import BiasTest, Decimation, Spectrum
     from ._findings import Thresholds
     from ._options import Lags, Options
 
@@ -117,123 +117,21 @@ def point_metrics(km: FusedMetrics, prof: Profile) -> tuple[rec.PerJoint, rec.Po
     return rec.PerJoint.of(per_joint), rec.Pooled.of(pooled), rec.Aggregates.of(aggregates)
 
 
-def iid_zero_mean_test(km: FusedMetrics, n: int, ddof: int) -> dict[str, Any]:
-    """The i.i.d. half of the zero-mean test from the fused kernel's mean and variance.
-
-    With ``max_lag=0`` there is no lag analysis, so the autocorrelation-corrected half (which needs
-    the autocorrelation up to the Newey–West bandwidth) is left out: its fields are None.
-    """
-    mean = np.asarray(km["residual_mean"], dtype=np.float64)
-    std = np.sqrt(np.asarray(km["residual_variance"], dtype=np.float64) * ((n - ddof) / (n - 1.0)))
-    t_iid, p_iid = _stats.iid_t_test(mean, std, n)
-    return {"mean": mean, "std": std, "n_samples": int(n), "statistic_iid": t_iid, "pvalue_iid": p_iid,
-            "df_iid": int(n - 1), "statistic_eff": None, "pvalue_eff": None, "df_eff": None,
-            "n_eff": None, "bandwidth": None}
-
-
-def bias_test(e: FloatArray, starts: IntArray, rmse: FloatArray,
-              parameter_variance: FloatArray | None = None) -> rec.Bias:
-    """The residual mean against its coloured-noise standard error (automatic long-run variance).
-
-    Student t with N_eff − 1 degrees of freedom, N_eff from the prewhitened Bartlett estimator
-    of :func:`dynval.statistics._stats.long_run_variance`; effect = |ē_j| / RMSE_j. ``parameter_variance``
-    (m,), from the estimation run, is the variance the mean gets from the estimated parameters
-    (c̄_jᵀ Cov(π̂) c̄_j, c̄_j the mean of joint j's model columns): it adds to the noise's s²/N_eff.
-    Each joint is scaled by the power of two of its largest |e| first (contract §1.3): the squares of
-    a residual near 1e-200 would underflow to a zero variance and an infinite t.
-    """
-    largest = np.max(np.abs(e), axis=0)
-    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
-    x = np.ldexp(e, -exps[None])
-    if parameter_variance is not None:
-        parameter_variance = np.ldexp(parameter_variance, -2 * exps)
-    out = bias_from_long_run(x.mean(axis=0), _stats.long_run_variance(x, starts), e.shape[0], rmse,
-                             parameter_variance, exponents=exps)
-    if parameter_variance is not None:
-        out = out.with_(parameter_standard_error=np.ldexp(out.parameter_standard_error, exps))
-    return out
-
-
-def bias_from_long_run(mean: FloatArray, lr: LongRunVariance, n: int, rmse: FloatArray,
-                       parameter_variance: FloatArray | None = None,
-                       exponents: IntArray | None = None) -> rec.Bias:
-    """:func:`bias_test` from the mean and the long-run variance ``lr`` (m,) of each joint.
-
-    ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
-    contract §4.1); the test does not see the unit, the reported mean and errors are unscaled.
-    """
-    std = np.sqrt(lr.variance * n / max(n - 1, 1))
-    noise_var = std**2 / lr.n_eff
-    total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
-    # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
-    t, p = _stats.iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
-    k = np.zeros(np.shape(mean), dtype=np.int64) if exponents is None else np.asarray(exponents)
-    mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
+def bias_section(test: BiasTest, rmse: FloatArray) -> rec.Bias:
+    """The bias section from the statistics' bias test (:func:`dynval.statistics._stats.bias_t_test`):
+    the residual mean against its coloured-noise standard error, Student t with N_eff − 1 degrees of
+    freedom (N_eff from the prewhitened Bartlett long-run variance); effect = |ē_j| / RMSE_j."""
+    lr = test.long_run
     with np.errstate(invalid="ignore", divide="ignore"):
-        effect = np.abs(mean) / np.asarray(rmse, dtype=float)
-    out: dict[str, Any] = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": mean, "std": std,
-           "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": t, "pvalue": p,
-           "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
-           "standard_error": standard_error}
-    if parameter_variance is not None:
+        effect = np.abs(test.mean) / np.asarray(rmse, dtype=float)
+    out: dict[str, Any] = {"method": "student_t_n_eff", "long_run_variance_method": lr.method, "mean": test.mean,
+           "std": test.std, "n_eff": lr.n_eff, "phi": lr.phi, "bandwidth": lr.bandwidth, "statistic": test.statistic,
+           "pvalue": test.pvalue, "df": lr.n_eff - 1.0, "effect": effect, "effect_unit": "|mean| / RMSE",
+           "standard_error": test.standard_error}
+    if test.parameter_standard_error is not None:
         out["method"] = "student_t_n_eff_with_parameter_error"
-        out["parameter_standard_error"] = np.sqrt(parameter_variance)
+        out["parameter_standard_error"] = test.parameter_standard_error
     return rec.Bias.of(out)
-
-
-def parameter_error_sd(rho: FloatArray, sd: FloatArray, e: FloatArray, reg3: FloatArray, fit: EstimationFit,
-                       starts: IntArray, prof: Profile, level: float, memo: Memo[Any] = compute_now) -> FloatArray:
-    """Widen the residual × regressor standard deviations by the estimated parameters' error.
-
-    The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
-    cross-covariance with column c at lag ℓ holds Σ_k δ_k R̂_{Y_k Y_c}(ℓ), of variance gᵀ Cov(π̂) g.
-    Only cells with a raw p-value ≤ α are recomputed: the others cannot be rejected by Holm and
-    only grow. Returns the new sd (m, p, L+1).
-    """
-    alpha = 1.0 - level
-    p_raw = _stats.correlation_pvalue(rho, sd)
-    cells = np.argwhere(p_raw <= alpha)
-    if cells.size == 0:
-        return sd
-    n = e.shape[0]
-    sd = sd.copy()
-    lengths = np.diff(np.append(starts, n))
-    cols = list(fit.columns)
-    ec = e - e.mean(axis=0)
-    var_e = np.einsum("nm,nm->m", ec, ec) / n
-    yc, var_y = memo(("centred_columns", reg3.shape), lambda: _centred_columns(reg3))
-    by_cell: dict[tuple[int, int], list[int]] = {}
-    for j, c, lag in cells:
-        by_cell.setdefault((int(j), int(lag)), []).append(int(c))
-    one_segment = len(starts) == 1 and int(starts[0]) == 0
-    model_cols: dict[int, np.ndarray] = {}
-    for (j, lag), which in sorted(by_cell.items()):
-        if one_segment:
-            # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
-            if j not in model_cols:
-                model_cols[j] = memo(("centred_model_columns", reg3.shape, j, fit.columns),
-                                     partial(_joint_columns, yc, j, cols))
-            g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
-        else:
-            cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
-            g = (cur[:, cols].T @ prev[:, which]).T
-        n_pairs = float(np.maximum(lengths - lag, 0).sum())
-        g = g / (n_pairs if prof.adjusted else float(n))  # (len(which), k)
-        extra = _estimation.quadratic_forms(fit, g)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
-    return sd
-
-
-def _joint_columns(yc: FloatArray, j: int, cols: list[int]) -> FloatArray:
-    """Joint j's ``cols`` of the centred regressor, contiguous."""
-    return np.ascontiguousarray(yc[:, j, cols])
-
-
-def _centred_columns(reg3: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The regressor less its column means, and each column's variance (over N)."""
-    yc = reg3 - reg3.mean(axis=0)
-    return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
 
 
 def information_criteria(km: FusedMetrics, prof: Profile, noise_model: str, n: int, m: int, n_params: int,
@@ -295,68 +193,37 @@ def ljung_box(kernel: Any, e: FloatArray | None, lags: Sequence[int], starts: In
                             "df": np.asarray(lb["df"], dtype=np.int64)})
 
 
-def whiteness(kernel: Any, e: FloatArray | None, motion: FloatArray | None, starts: IntArray, lb: rec.LjungBox,
-              decimate: str | int | None, sample_rate: float | None, *, band: float | None = None,
+def whiteness(kernel: Any, lb: rec.LjungBox, rate: Decimation | None, sample_rate: float | None, *,
               bandwidth: float | None = None, lag: int | None = None) -> rec.Whiteness:
     """Ljung–Box at the logged rate and, on oversampled data, at the rate that carries information.
 
-    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
-    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
-    noise would fill the band on light joints and hide the motion's);
-    the factor q = ⌊f_s/(4 f_I)⌋ keeps a Nyquist frequency of at least 2 f_I. An integer is
-    used as given; None or 1 tests at the logged rate only. ``band``: f_I when already known.
-    ``bandwidth`` (Hz): the inputs are trustworthy below it only, so "auto" decimates at least
-    until the Nyquist frequency is at most the bandwidth, and ``above_bandwidth`` says when the
-    test still sees frequencies above it. ``lag``: the decimated test's largest lag (samples of
-    the decimated rate; the logged test's otherwise).
+    ``rate``: the residual at that rate (:func:`dynval.statistics._stats.information_rate`); None
+    tests at the logged rate only. ``bandwidth`` (Hz): ``above_bandwidth`` says when the test still
+    sees frequencies above it. ``lag``: the decimated test's largest lag (samples of the decimated
+    rate; the logged test's otherwise).
     """
     raw_p = np.asarray(lb.pvalue[0], dtype=float)
     lag = int(lb.lags[0]) if lag is None else int(lag)
     fs = 1.0 if sample_rate is None else float(sample_rate)
-    q = 1
-    if decimate == "auto":
-        assert e is not None  # the stream, which has no residual, does not decimate
-        if band is None:
-            band = _stats.information_bandwidth(motion, starts, sample_rate=sample_rate)
-        if np.isfinite(band) and band > 0:
-            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
-        if bandwidth is not None and fs / 2.0 > bandwidth:
-            # a band far below the rate asks for more than the rows: capped before int
-            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
-    else:
-        band = None
-        if decimate is not None:
-            q = int(decimate)
+    band = None if rate is None else rate.band
     out: dict[str, Any] = {"test": "ljung_box", "lag": lag, "pvalue_raw": raw_p,
            "log_pvalue_raw": np.asarray(lb.log_pvalue[0], dtype=float), "decimation": 1,
            "information_band": band, "information_band_source": "prediction" if band is not None else None,
            "pvalue_decimated": None, "lag_decimated": None,
            "n_decimated": None}
-    if q >= 2:
-        assert e is not None
-        d, d_starts = _stats.decimate_segments(e, starts, q)
-        if d is not None:
-            longest = int(np.diff(np.append(d_starts, d.shape[0])).max())
-            h = min(lag, d.shape[0] // 5, longest - 1)
-            if h >= 1:
-                res = kernel.portmanteau(np.ascontiguousarray(d), np.array([h], dtype=np.int64), 0, d_starts,
-                                         "ljung_box")
-                out.update(decimation=q, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
-                           lag_decimated=int(h), n_decimated=int(d.shape[0]))
+    if rate is not None and rate.residual is not None and rate.starts is not None:
+        x, x_starts = rate.residual, rate.starts
+        longest = int(np.diff(np.append(x_starts, x.shape[0])).max())
+        h = min(lag, x.shape[0] // 5, longest - 1)
+        if h >= 1:
+            res = kernel.portmanteau(np.ascontiguousarray(x), np.array([h], dtype=np.int64), 0, x_starts,
+                                     "ljung_box")
+            out.update(decimation=rate.factor, pvalue_decimated=np.asarray(res["pvalue"][0], dtype=float),
+                       lag_decimated=int(h), n_decimated=int(x.shape[0]))
     tested_nyquist = fs / (2.0 * int(out["decimation"]))
     out["bandwidth"] = bandwidth
     out["above_bandwidth"] = bool(bandwidth is not None and tested_nyquist > bandwidth * (1 + 1e-9))
     return rec.Whiteness.of(out)
-
-
-def spectrum(e: FloatArray, starts: IntArray, reg3: FloatArray | None, sample_rate: float | None,
-             grams: JointGrams | None = None, memo: Memo[Any] = compute_now) -> tuple[rec.Spectrum, Spectrum]:
-    """Welch spectrum of the residual (less what the regressor explains) with per-bin peak tests:
-    the report's section, and the tests of every bin (:func:`dynval.statistics._stats.residual_spectrum`),
-    which the findings read."""
-    x = _project_out(e, reg3, grams, memo) if reg3 is not None else e
-    spec = _stats.residual_spectrum(x, starts, sample_rate=sample_rate)
-    return spectrum_section(spec, sample_rate, reg3 is not None), spec
 
 
 def spectrum_section(spec: Spectrum, sample_rate: float | None, regressor_removed: bool) -> rec.Spectrum:
@@ -365,16 +232,6 @@ def spectrum_section(spec: Spectrum, sample_rate: float | None, regressor_remove
     return rec.Spectrum.of({"frequency": spec.frequency, "frequency_unit": "Hz" if sample_rate else "cycles/sample",
                             "power": spec.power, "dof": spec.dof, "nperseg": spec.nperseg,
                             "regressor_removed": regressor_removed, "peaks": top})
-
-
-def spectrum_sides(meas: FloatArray | None, pred: FloatArray | None, starts: IntArray, sample_rate: float | None,
-                   spec: rec.Spectrum | None) -> tuple[FloatArray, FloatArray] | None:
-    """The measured torque's and the prediction's Welch power on the residual spectrum's grid
-    (conventions §5.2, ``prediction_artefact``): a line of the residual that the prediction holds and
-    the measurement does not is the model's own. None without a spectrum."""
-    if spec is None or meas is None or pred is None or len(spec.frequency) == 0:
-        return None
-    return _stats.welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec.nperseg))
 
 
 # Up to this many lags the compiled lagged products beat the FFT on the regressor's columns
@@ -498,59 +355,6 @@ def _top_cells(lag_max: IntArray, rho_max: FloatArray, z_max: FloatArray) -> lis
         seen_joint[j] = seen_joint.get(j, 0) + 1
         seen_column[c] = seen_column.get(c, 0) + 1
     return top
-
-
-def added_variable(e: FloatArray, reg3: FloatArray, model_columns: Sequence[int], starts: IntArray,
-                   n_eff: FloatArray | None) -> rec.MissingTerms | None:
-    """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
-
-    For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
-    validation data, per joint) is what the model cannot represent of it; a missing term shows as
-    a residual correlated with its z_c, while the model's compensation through S does not
-    (the added-variable or partial-regression idea). Standard deviations are colour-aware as in
-    :func:`cross_correlation`. Returns (columns, rho (m, q), sd (m, q)) or None.
-    """
-    n, m, p = reg3.shape
-    outside = [c for c in range(p) if c not in set(model_columns)]
-    if not outside or n < 4 * p:
-        return None
-    inside = [c for c in range(p) if c in set(model_columns)]
-    z = np.empty((n, m, len(outside)))
-    for j in range(m):
-        y_out = reg3[:, j, outside]
-        if inside:
-            coef, *_ = np.linalg.lstsq(reg3[:, j, inside], y_out, rcond=None)
-            y_out = y_out - reg3[:, j, inside] @ coef
-        z[:, j, :] = y_out
-    ec = e - e.mean(axis=0)
-    zc = z - z.mean(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rho = np.einsum("nm,nmq->mq", ec, zc) / np.sqrt(
-            np.einsum("nm,nm->m", ec, ec)[:, None] * np.einsum("nmq,nmq->mq", zc, zc))
-    # A column the model represents entirely (z ≈ 0) carries no evidence.
-    rho = np.where(np.einsum("nmq,nmq->mq", zc, zc) > 1e-20 * np.einsum("nmq,nmq->mq", reg3[:, :, outside] ** 2,
-                                                                       np.ones_like(zc)), rho, np.nan)
-    lengths = np.diff(np.append(starts, n))
-    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
-    tau_int = tau_int if np.isfinite(tau_int) else 1.0
-    big = int(min(int(lengths.max()) - 1, max(1, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
-    rho_e = _stats.acf_fft(e, starts, big)
-    rho_z = _stats.acf_fft(z.reshape(n, -1), starts, big).reshape(big + 1, m, len(outside))
-    sd = _stats.cross_correlation_sd(rho_e, rho_z, np.array([float(n)]), np.array([float(n)]), n)[:, :, 0]
-    # Effect: the share of the residual's mean square the term would remove if added (uncentred,
-    # so a term whose absence shows as a bias counts its mean too).
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
-                                                      * np.einsum("nmq,nmq->mq", z, z))
-    share = np.where(np.isnan(rho), np.nan, share)
-    # The term accounts for the residual's mean when it would move it towards zero: sign(b·z̄) = sign(ē),
-    # b = eᵀz/zᵀz.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
-    explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
-    return rec.MissingTerms.of({"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
-                                "pvalue": _stats.correlation_pvalue(rho, sd), "share": share,
-                                "explains_bias": explains})
 
 
 def segment_metrics(kernel: Kernels, meas: FloatArray, pred: FloatArray, names: Sequence[str],
@@ -754,6 +558,11 @@ class CheckedData:
     memo: Memo[Any] = compute_now
     # the model's regressor at states its structure allows (PreparedRegressor.structure), or None
     structure: FloatArray | None = None
+    # the estimation run's and the measured torques' parts of a kept result's key (_prepared.kept_keys)
+    estimation_key: tuple[Any, ...] = ()
+    meas_key: tuple[Any, ...] = ()
+    # the named segments as given (names, lengths), which get point metrics of their own
+    named: tuple[list[str], list[int]] | None = None
 
     @property
     def n(self) -> int:
@@ -777,7 +586,8 @@ class Residual(NamedTuple):
     bias: rec.Bias | None
     ic: rec.InformationCriteria
     grams: JointGrams | None
-    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (_estimation_key)
+    est_key: tuple[Any, ...]  # the estimation run's part of a kept result's key (CheckedData.estimation_key)
+    segments: dict[str, rec.Segment] | None = None  # each named segment's point metrics
 
     @property
     def n_eff(self) -> FloatArray | None:
@@ -786,51 +596,44 @@ class Residual(NamedTuple):
 
 
 def residual_phase(d: CheckedData, o: Options) -> Residual:
-    """Point metrics, residual statistics, the estimation refit, the bias test and the criteria."""
+    """Point metrics (the named segments' too), then each lower module once: the regressor's Gram
+    matrices, the estimation refit, the zero-mean test (the public metric's checked core) and the
+    bias test; then the residual's sections and the criteria."""
     from ..metrics._api import checked_zero_mean_test
 
-    prof = o.profile
+    prof, lags, memo = o.profile, d.lags, d.memo
     km = o.kernel.compute_metrics(d.meas, d.pred, o.n_params, prof.ddof, o.noise_model)
     per_joint, pooled, aggregates = point_metrics(km, prof)
-    lagged = d.lags.max_lag > 0
-    zmt = (_as_dict(checked_zero_mean_test(d.e, o.kernel, d.lags.starts, d.lags.longest)) if lagged and d.e is not None
-           else iid_zero_mean_test(km, d.n, prof.ddof))
-    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
-                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
-                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    segments = None if d.named is None else segment_metrics(o.kernel, d.given_meas, d.given_pred, *d.named,
+                                                            o.n_params, prof)
+    # One pass over the regressor for both the spectrum's projection and the excitation section.
+    reg3 = d.reg3
+    grams = None if reg3 is None else memo(
+        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, memo)))
     # The estimation run, when given with its torques: the parameters' coloured-noise covariance
     # (the bias and regressor tests allow for it) and the refit that names a missing term.
     est = o.estimation or {}
-    est_key = _estimation_key(d.memo, est)
-    est_fit = None
-    if d.reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
+    est_fit = param_var = None
+    if reg3 is not None and d.p_cols is not None and d.e is not None and "regressor" in est and "tau" in est:
         cols = tuple(int(c) for c in (o.model_columns if o.model_columns is not None else range(d.p_cols)))
-        est_fit = d.memo(("fit_columns", est_key, cols),
-                         lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
-    param_var = None
-    if est_fit is not None and d.reg3 is not None:
-        fit, val_reg = est_fit, d.reg3
-        means = d.memo(("column_means", val_reg.shape, fit.columns),
-                       lambda: val_reg[:, :, list(fit.columns)].mean(axis=0))
+        fit = est_fit = memo(("fit_columns", d.estimation_key, cols),
+                             lambda: _estimation.fit_columns(est["regressor"], est["tau"], cols))
+        means = memo(("column_means", reg3.shape, fit.columns), lambda: reg3[:, :, list(fit.columns)].mean(axis=0))
         param_var = _estimation.quadratic_forms(fit, means)
-    bias = None
-    if lagged:
+    bias_t = None
+    if lags.max_lag > 0:
         assert d.e is not None  # a residual whenever lags are analysed
-        bias = bias_test(d.e, d.lags.starts, per_joint.rmse, param_var)
+        zero_mean = checked_zero_mean_test(d.e, o.kernel, lags.starts, lags.longest)
+        zmt = {name: getattr(zero_mean, name) for name in zero_mean.__dataclass_fields__}
+        bias_t = _stats.residual_bias_test(d.e, lags.starts, param_var)
+    else:
+        zmt = _stats.iid_zero_mean(km["residual_mean"], km["residual_variance"], d.n, prof.ddof)._asdict()
+    residuals = rec.Residuals.of({"mean": np.asarray(km["residual_mean"], dtype=np.float64),
+                                  "variance": np.asarray(km["residual_variance"], dtype=np.float64),
+                                  "ddof": prof.ddof, "zero_mean_test": zmt})
+    bias = None if bias_t is None else bias_section(bias_t, per_joint.rmse)
     ic = information_criteria(km, prof, o.noise_model, d.n, d.m, o.n_params, None if bias is None else bias.n_eff)
-    # One pass over the regressor for both the spectrum's projection and the excitation section.
-    reg3 = d.reg3
-    grams = None if reg3 is None else d.memo(
-        ("grams", reg3.shape), lambda: algebra.JointGrams(reg3, algebra.column_largest(reg3, d.memo)))
-    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, est_key)
-
-
-def _estimation_key(memo: Memo[Any], est: Mapping[str, Any]) -> tuple[Any, ...]:
-    """The estimation run's part of a kept result's key: a hash of its arrays (none without a
-    prepared regressor, where nothing is kept)."""
-    if not keeps_across_calls(memo):
-        return ()
-    return digest(est.get("regressor"), est.get("tau"), est.get("q"), est.get("dq"), est.get("ddq"))
+    return Residual(km, per_joint, pooled, aggregates, residuals, est_fit, bias, ic, grams, d.estimation_key, segments)
 
 
 class Lagged(NamedTuple):
@@ -846,21 +649,23 @@ class Lagged(NamedTuple):
 
 
 def lag_phase(d: CheckedData, o: Options, r: Residual) -> Lagged:
-    """ACF, Ljung–Box, whiteness at the information rate, spectrum."""
+    """ACF and Ljung–Box from the kernels; the residual less what the regressor explains; the
+    statistics of the information rate and of the spectra; then whiteness and spectrum sections."""
     lags = d.lags
-    lb_lags = o.profile.ljung_box_lags(d.n, lags.max_lag, lags.longest)
     if lags.max_lag <= 0:
-        return Lagged(lb_lags)
+        return Lagged(lags.lb_lags)
     assert d.e is not None  # a residual whenever lags are analysed
     acf = autocorrelation(o.kernel, d.e, lags.max_lag, o.profile, o.level, lags.starts, d.n)
-    lb = white = None
-    if lb_lags:
-        lb = ljung_box(o.kernel, d.e, lb_lags, lags.starts)
-        white = whiteness(o.kernel, d.e, d.pred, lags.starts, lb, o.decimate, o.sample_rate, band=lags.band,
-                              bandwidth=o.bandwidth, lag=lags.white_lag)
-    spec, spec_tests = spectrum(d.e, lags.starts, d.reg3, o.sample_rate, r.grams, memo=d.memo)
-    return Lagged(lb_lags, acf, lb, white, spec, spec_tests, spectrum_sides(d.meas, d.pred, lags.starts,
-                                                                                 o.sample_rate, spec))
+    lb = ljung_box(o.kernel, d.e, lags.lb_lags, lags.starts) if lags.lb_lags else None
+    x = _project_out(d.e, d.reg3, r.grams, d.memo) if d.reg3 is not None else d.e
+    rate = None if lb is None else _stats.information_rate(d.e, d.pred, lags.starts, o.decimate, o.sample_rate,
+                                                           band=lags.band, bandwidth=o.bandwidth)
+    spectra = _stats.residual_spectra(x, d.meas, d.pred, lags.starts, sample_rate=o.sample_rate)
+    white = None
+    if lb is not None:
+        white = whiteness(o.kernel, lb, rate, o.sample_rate, bandwidth=o.bandwidth, lag=lags.white_lag)
+    spec = spectrum_section(spectra.residual, o.sample_rate, d.reg3 is not None)
+    return Lagged(lags.lb_lags, acf, lb, white, spec, spectra.residual, spectra.sides)
 
 
 class Crossed(NamedTuple):
@@ -873,36 +678,29 @@ class Crossed(NamedTuple):
 
 
 def regressor_phase(d: CheckedData, o: Options, r: Residual) -> Crossed:
-    """Cross-correlation with the regressor's columns, and the columns the model lacks."""
+    """Cross-correlation with the regressor's columns (the kernel's, with the colour-aware sd), then
+    the estimation module once: the sd widened by the estimated parameters' error, and the columns
+    the model lacks (refit on the estimation run, else the added-variable test)."""
     if d.reg2 is None:
         return Crossed()
     assert d.e is not None and d.p_cols is not None and d.reg3 is not None  # with a regressor
+    starts, memo, reg3 = d.lags.starts, d.memo, d.reg3
     cross, xrho, xsd = cross_correlation(o.kernel, d.e, d.reg2, d.p_cols, d.lags.max_lag, o.profile, o.level,
-                                             d.lags.starts, d.n, d.m, r.n_eff, o.detail, memo=d.memo)
+                                         starts, d.n, d.m, r.n_eff, o.detail, memo=memo)
     if r.est_fit is not None:
-        xsd = parameter_error_sd(xrho, xsd, d.e, d.reg3, r.est_fit, d.lags.starts, o.profile, o.level,
-                                     memo=d.memo)
-        cross = cross.with_(parameter_error=True)
-    missing = None
-    if o.model_columns is not None:
+        xsd = _estimation.parameter_error_sd(xrho, xsd, d.e, reg3, r.est_fit, starts, o.profile.adjusted, o.level,
+                                             memo=memo)
+    found = None
+    if o.model_columns is not None and r.est_fit is not None:
         est = o.estimation or {}
-        if r.est_fit is not None:
-            cols = tuple(int(c) for c in o.model_columns)
-            reg3 = d.reg3
-            missing = rec.record_or_none(rec.MissingTerms, d.memo(
-                ("missing_terms", r.est_key, reg3.shape, cols,
-                 digest(d.meas) if keeps_across_calls(d.memo) else ()),
-                lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols)))
-        else:
-            missing = added_variable(d.e, d.reg3, o.model_columns, d.lags.starts, r.n_eff)
-        if missing is not None:
-            cross = cross.with_(missing_terms=dict(missing))
+        cols = tuple(int(c) for c in o.model_columns)
+        found = memo(("missing_terms", r.est_key, reg3.shape, cols, d.meas_key),
+                     lambda: _estimation.missing_terms(est["regressor"], est["tau"], reg3, d.meas, cols))
+    elif o.model_columns is not None:
+        found = _estimation.added_variable(d.e, reg3, o.model_columns, starts, r.n_eff)
+    missing = rec.record_or_none(rec.MissingTerms, found)
+    if r.est_fit is not None:
+        cross = cross.with_(parameter_error=True)
+    if missing is not None:
+        cross = cross.with_(missing_terms=dict(missing))
     return Crossed(cross, xrho, xsd, missing)
-
-
-def _as_dict(result: Any) -> dict[str, Any]:
-    if hasattr(result, "_asdict"):
-        return dict(result._asdict())
-    if hasattr(result, "__dataclass_fields__"):
-        return {f: getattr(result, f) for f in result.__dataclass_fields__}
-    return dict(result)

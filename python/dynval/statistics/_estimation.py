@@ -13,12 +13,19 @@ parameter error explains (docs/conventions.md §5.4).
 The same run answers "which term is missing": refit with each column the model lacks added, test
 its coefficient (Wald t with the same covariance) and measure, on the validation run, the share of
 each joint's mean square the added term removes — an out-of-sample effect, and the column named.
+Without the estimation run the validation run alone answers it (:func:`added_variable`): the
+residual's correlation with the part of each absent column the model's columns cannot represent.
+The residual × regressor standard deviations widened by the parameter error are
+:func:`parameter_error_sd`.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from functools import partial
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -29,7 +36,18 @@ else:
 
 from . import _stats
 
-__all__ = ["EstimationFit", "fit_columns", "missing_terms", "quadratic_forms", "noise_covariance"]
+__all__ = ["EstimationFit", "fit_columns", "missing_terms", "quadratic_forms", "noise_covariance",
+           "parameter_error_sd", "added_variable"]
+
+_T = TypeVar("_T")
+# A store of results that depend on the regressor alone, keyed by what they depend on (the report's
+# prepared regressor keeps them across calls): memo(key, compute) returns compute()'s value.
+Memo = Callable[[tuple[Hashable, ...], Callable[[], Any]], Any]
+
+
+def _compute_now(key: tuple[Hashable, ...], compute: Callable[[], _T]) -> _T:
+    """The memo that keeps nothing."""
+    return compute()
 
 
 @dataclass(frozen=True)
@@ -223,3 +241,115 @@ def missing_terms(est_reg3, est_tau, val_reg3, val_tau, model_columns):
     explains &= enters
     return {"enters": enters, "columns": outside, "statistic": stat, "pvalue": pval, "share": share,
             "alone": alone, "explains_bias": explains, "method": "estimation_refit"}
+
+
+def parameter_error_sd(rho, sd, e, reg3, fit: EstimationFit, starts, adjusted: bool, level: float,
+                       memo: Memo = _compute_now) -> np.ndarray:
+    """Widen the residual × regressor standard deviations by the estimated parameters' error.
+
+    The residual on a new run is noise + Y_S δ (δ = π − π̂, S the model's columns), so its
+    cross-covariance with column c at lag ℓ holds Σ_k δ_k R̂_{Y_k Y_c}(ℓ), of variance gᵀ Cov(π̂) g.
+    Only cells with a raw p-value ≤ α are recomputed: the others cannot be rejected by Holm and
+    only grow. Returns the new sd (m, p, L+1). ``adjusted``: the lag-ℓ products divided by their
+    count (else by N); ``memo``: where the caller keeps what depends on the regressor alone.
+    """
+    alpha = 1.0 - level
+    p_raw = _stats.correlation_pvalue(rho, sd)
+    cells = np.argwhere(p_raw <= alpha)
+    if cells.size == 0:
+        return sd
+    n = e.shape[0]
+    sd = sd.copy()
+    lengths = np.diff(np.append(starts, n))
+    cols = list(fit.columns)
+    ec = e - e.mean(axis=0)
+    var_e = np.einsum("nm,nm->m", ec, ec) / n
+    yc, var_y = memo(("centred_columns", reg3.shape), lambda: _centred_regressor(reg3))
+    by_cell: dict[tuple[int, int], list[int]] = {}
+    for j, c, lag in cells:
+        by_cell.setdefault((int(j), int(lag)), []).append(int(c))
+    one_segment = len(starts) == 1 and int(starts[0]) == 0
+    model_cols: dict[int, np.ndarray] = {}
+    for (j, lag), which in sorted(by_cell.items()):
+        if one_segment:
+            # the lagged rows are views of the joint's columns: no index arrays, no copies of Y
+            if j not in model_cols:
+                model_cols[j] = memo(("centred_model_columns", reg3.shape, j, fit.columns),
+                                     partial(_joint_columns, yc, j, cols))
+            g = (model_cols[j][lag:].T @ yc[:n - lag, j, which]).T
+        else:
+            cur, prev, _ = _stats._segment_lag_pairs(yc[:, j, :], starts, lag)
+            g = (cur[:, cols].T @ prev[:, which]).T
+        n_pairs = float(np.maximum(lengths - lag, 0).sum())
+        g = g / (n_pairs if adjusted else float(n))  # (len(which), k)
+        extra = quadratic_forms(fit, g)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sd[j, which, lag] = np.sqrt(sd[j, which, lag] ** 2 + extra / (var_e[j] * var_y[j, which]))
+    return sd
+
+
+def _joint_columns(yc: np.ndarray, j: int, cols: list[int]) -> np.ndarray:
+    """Joint j's ``cols`` of the centred regressor, contiguous."""
+    return np.ascontiguousarray(yc[:, j, cols])
+
+
+def _centred_regressor(reg3: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The regressor less its column means, and each column's variance (over N)."""
+    yc = reg3 - reg3.mean(axis=0)
+    return yc, np.einsum("nmp,nmp->mp", yc, yc) / reg3.shape[0]
+
+
+def added_variable(e, reg3, model_columns: Sequence[int], starts, n_eff) -> dict[str, Any] | None:
+    """Lag-0 correlation of each joint's residual with the part of each column the model lacks.
+
+    For a column c outside the model's columns S, z_c = Y_c − P_S Y_c (least squares on the
+    validation data, per joint) is what the model cannot represent of it; a missing term shows as
+    a residual correlated with its z_c, while the model's compensation through S does not
+    (the added-variable or partial-regression idea). Standard deviations are colour-aware as in
+    the report's cross-correlation (Bartlett's variance with J ≥ 5 N/N_eff lags of the residual,
+    ``n_eff`` its joints' effective sample sizes, None: white). Returns the ``missing_terms``
+    mapping (``method`` "added_variable": ``columns`` (q,), ``statistic`` ρ, ``sd``, ``pvalue``,
+    ``share``, ``explains_bias``, each (m, q)), or None when no column is outside the model or
+    there are fewer than 4 rows per column.
+    """
+    n, m, p = reg3.shape
+    outside = [c for c in range(p) if c not in set(model_columns)]
+    if not outside or n < 4 * p:
+        return None
+    inside = [c for c in range(p) if c in set(model_columns)]
+    z = np.empty((n, m, len(outside)))
+    for j in range(m):
+        y_out = reg3[:, j, outside]
+        if inside:
+            coef, *_ = np.linalg.lstsq(reg3[:, j, inside], y_out, rcond=None)
+            y_out = y_out - reg3[:, j, inside] @ coef
+        z[:, j, :] = y_out
+    ec = e - e.mean(axis=0)
+    zc = z - z.mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = np.einsum("nm,nmq->mq", ec, zc) / np.sqrt(
+            np.einsum("nm,nm->m", ec, ec)[:, None] * np.einsum("nmq,nmq->mq", zc, zc))
+    # A column the model represents entirely (z ≈ 0) carries no evidence.
+    rho = np.where(np.einsum("nmq,nmq->mq", zc, zc) > 1e-20 * np.einsum("nmq,nmq->mq", reg3[:, :, outside] ** 2,
+                                                                       np.ones_like(zc)), rho, np.nan)
+    lengths = np.diff(np.append(starts, n))
+    tau_int = float(np.fmax.reduce(n / np.asarray(n_eff, dtype=float))) if n_eff is not None else 1.0
+    tau_int = tau_int if np.isfinite(tau_int) else 1.0
+    big = int(min(int(lengths.max()) - 1, max(1, math.ceil(5.0 * tau_int)), max(n // 4, 1)))
+    rho_e = _stats.acf_fft(e, starts, big)
+    rho_z = _stats.acf_fft(z.reshape(n, -1), starts, big).reshape(big + 1, m, len(outside))
+    sd = _stats.cross_correlation_sd(rho_e, rho_z, np.array([float(n)]), np.array([float(n)]), n)[:, :, 0]
+    # Effect: the share of the residual's mean square the term would remove if added (uncentred,
+    # so a term whose absence shows as a bias counts its mean too).
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.einsum("nm,nmq->mq", e, z) ** 2 / (np.einsum("nm,nm->m", e, e)[:, None]
+                                                      * np.einsum("nmq,nmq->mq", z, z))
+    share = np.where(np.isnan(rho), np.nan, share)
+    # The term accounts for the residual's mean when it would move it towards zero: sign(b·z̄) = sign(ē),
+    # b = eᵀz/zᵀz.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sign = np.sign(np.einsum("nm,nmq->mq", e, z) * z.mean(axis=0))
+    explains = sign * np.sign(e.mean(axis=0))[:, None] > 0
+    return {"method": "added_variable", "columns": outside, "statistic": rho, "sd": sd,
+                                "pvalue": _stats.correlation_pvalue(rho, sd), "share": share,
+                                "explains_bias": explains}

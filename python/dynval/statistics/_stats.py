@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -30,6 +30,11 @@ from ._columns import runs
 __all__ = [
     "z_two_sided",
     "iid_t_test",
+    "ZeroMean",
+    "iid_zero_mean",
+    "BiasTest",
+    "bias_t_test",
+    "residual_bias_test",
     "holm",
     "acf_fft",
     "LongRunVariance",
@@ -50,6 +55,10 @@ __all__ = [
     "spectrum_from_welch",
     "information_bandwidth",
     "decimate_segments",
+    "Decimation",
+    "information_rate",
+    "ResidualSpectra",
+    "residual_spectra",
 ]
 
 
@@ -351,6 +360,85 @@ class LongRunVariance:
     phi: np.ndarray
     bandwidth: np.ndarray
     method: str = "andrews_monahan"
+
+
+class ZeroMean(NamedTuple):
+    """The zero-mean test's fields (contract §3.3, ``ZeroMeanTest``'s order); the
+    autocorrelation-corrected half is None where it is not computed (no lag analysis)."""
+
+    mean: FloatArray
+    std: FloatArray
+    n_samples: int
+    statistic_iid: FloatArray
+    pvalue_iid: FloatArray
+    df_iid: int
+    statistic_eff: FloatArray | None = None
+    pvalue_eff: FloatArray | None = None
+    df_eff: FloatArray | None = None
+    n_eff: FloatArray | None = None
+    bandwidth: int | None = None
+
+
+def iid_zero_mean(mean: ArrayLike, variance: ArrayLike, n: int, ddof: int) -> ZeroMean:
+    """The i.i.d. half of the zero-mean test from the residual's mean and variance (``ddof``).
+
+    Without a lag analysis the autocorrelation-corrected half (which needs the autocorrelation up
+    to the Newey–West bandwidth) is left out.
+    """
+    mean = np.asarray(mean, dtype=np.float64)
+    std = np.sqrt(np.asarray(variance, dtype=np.float64) * ((n - ddof) / (n - 1.0)))
+    t_iid, p_iid = iid_t_test(mean, std, n)
+    return ZeroMean(mean, std, int(n), t_iid, p_iid, int(n - 1))
+
+
+class BiasTest(NamedTuple):
+    """The residual mean against its coloured-noise standard error (:func:`bias_t_test`), each
+    joint's values (m,) in the residual's units."""
+
+    mean: FloatArray
+    std: FloatArray
+    standard_error: FloatArray
+    statistic: FloatArray
+    pvalue: FloatArray
+    long_run: LongRunVariance
+    parameter_standard_error: FloatArray | None  # with the estimated parameters' variance only
+
+
+def bias_t_test(mean: FloatArray, lr: LongRunVariance, n: int, parameter_variance: FloatArray | None = None,
+                exponents: np.ndarray | None = None) -> BiasTest:
+    """The bias test from each joint's mean and long-run variance ``lr``.
+
+    Student t with N_eff − 1 degrees of freedom on the total standard error: the noise's s²/N_eff
+    plus ``parameter_variance`` (m,), the variance the mean gets from the estimated parameters.
+    ``exponents`` (m,): ``mean`` and ``lr`` are in units 2^k of each joint (a stream's sums,
+    contract §4.1); the test does not see the unit, the returned mean and errors are unscaled.
+    """
+    std = np.sqrt(lr.variance * n / max(n - 1, 1))
+    noise_var = std**2 / lr.n_eff
+    total_var = noise_var if parameter_variance is None else noise_var + parameter_variance
+    # The t statistic on the total standard error, N_eff − 1 degrees of freedom kept (conservative).
+    t, p = iid_t_test(mean, np.sqrt(total_var * lr.n_eff), lr.n_eff)
+    k = np.zeros(np.shape(mean), dtype=np.int64) if exponents is None else np.asarray(exponents)
+    mean, std, standard_error = np.ldexp(mean, k), np.ldexp(std, k), np.ldexp(np.sqrt(total_var), k)
+    parameter_se = None if parameter_variance is None else np.sqrt(parameter_variance)
+    return BiasTest(mean, std, standard_error, t, p, lr, parameter_se)
+
+
+def residual_bias_test(e: FloatArray, starts, parameter_variance: FloatArray | None = None) -> BiasTest:
+    """:func:`bias_t_test` of a residual (N, m), its long-run variance by :func:`long_run_variance`.
+
+    Each joint is scaled by the power of two of its largest |e| first (contract §1.3): the squares
+    of a residual near 1e-200 would underflow to a zero variance and an infinite t.
+    """
+    largest = np.max(np.abs(e), axis=0)
+    exps = np.where((largest > 0) & np.isfinite(largest), np.frexp(largest)[1], 0).astype(np.int64)
+    x = np.ldexp(e, -exps[None])
+    if parameter_variance is not None:
+        parameter_variance = np.ldexp(parameter_variance, -2 * exps)
+    out = bias_t_test(x.mean(axis=0), long_run_variance(x, starts), e.shape[0], parameter_variance, exponents=exps)
+    if out.parameter_standard_error is not None:
+        out = out._replace(parameter_standard_error=np.ldexp(out.parameter_standard_error, exps))
+    return out
 
 
 def _segment_lag_pairs(x, starts, lag: int):
@@ -858,3 +946,61 @@ def decimate_segments(x, starts, factor: int):
     if not parts:
         return None, None
     return np.concatenate(parts, axis=0), np.asarray(new_starts, dtype=np.int64)
+
+
+class Decimation(NamedTuple):
+    """The residual at the rate that carries information (:func:`information_rate`)."""
+
+    factor: int  # q: every q-th sample kept (below 2: the logged rate only)
+    band: float | None  # the information band f_I, with decimate="auto" (nan or 0: none found)
+    residual: np.ndarray | None  # the decimated residual (None when q < 2 or every segment is too short)
+    starts: np.ndarray | None  # its segments' starts
+
+
+def information_rate(e, motion, starts, decimate, sample_rate=None, *, band: float | None = None,
+                     bandwidth: float | None = None) -> Decimation:
+    """The residual decimated to the rate that carries information, for the whiteness test there.
+
+    ``decimate="auto"``: the information band f_I holds 99 % of the power of ``motion``, the
+    noise-free side (the prediction, a function of the trajectory: the measured torque's sensor
+    noise would fill the band on light joints and hide the motion's); the factor q = ⌊f_s/(4 f_I)⌋
+    keeps a Nyquist frequency of at least 2 f_I (``band``: f_I when already known). ``bandwidth``
+    (Hz): the inputs are trustworthy below it only, so "auto" decimates at least until the Nyquist
+    frequency is at most the bandwidth. An integer is used as given; None or 1 keeps the logged rate.
+    """
+    fs = 1.0 if sample_rate is None else float(sample_rate)
+    q = 1
+    if decimate == "auto":
+        if band is None:
+            band = information_bandwidth(motion, starts, sample_rate=sample_rate)
+        if np.isfinite(band) and band > 0:
+            q = int(math.floor(min(fs / (4.0 * band), float(e.shape[0]))))
+        if bandwidth is not None and fs / 2.0 > bandwidth:
+            # a band far below the rate asks for more than the rows: capped before int
+            q = max(q, int(math.ceil(min(fs / (2.0 * bandwidth), float(e.shape[0])))))
+    else:
+        band = None
+        if decimate is not None:
+            q = int(decimate)
+    x, x_starts = decimate_segments(e, starts, q) if q >= 2 else (None, None)
+    return Decimation(q, band, x, x_starts)
+
+
+class ResidualSpectra(NamedTuple):
+    """The residual's tested spectrum and, on its grid, the measured torque's and the prediction's
+    Welch power (None without a spectrum)."""
+
+    residual: Spectrum
+    sides: tuple[np.ndarray, np.ndarray] | None
+
+
+def residual_spectra(x, meas, pred, starts, *, sample_rate=None) -> ResidualSpectra:
+    """:func:`residual_spectrum` of ``x`` (the residual less what the regressor explains) and
+    :func:`welch_pair` of the measured torque and the prediction on its grid (conventions §5.2,
+    ``prediction_artefact``: a line of the residual that the prediction holds and the measurement
+    does not is the model's own)."""
+    spec = residual_spectrum(x, starts, sample_rate=sample_rate)
+    sides = None
+    if len(spec.frequency):
+        sides = welch_pair(meas, pred, starts, sample_rate=sample_rate, nperseg=int(spec.nperseg))
+    return ResidualSpectra(spec, sides)
