@@ -278,6 +278,21 @@ def _wald(xw, yw, cols=None, gw=None, cov_p=None, gram=None, xg=None):
     return w, int(idx.size), b, r
 
 
+def _wald_one(x, y):
+    """:func:`_wald`'s statistic for one column x (1-D): its least squares, HC1 variance and Wald
+    statistic in closed form (lstsq's and pinv's cut-offs are relative to the one singular value, so
+    only an exact zero column or variance is dropped), without an SVD of the N rows: the delay test's
+    one column per joint at the logged rate."""
+    n = x.shape[0]
+    size = float(x @ x)
+    if not size > 0:
+        return 0.0
+    b = float(x @ y) / size
+    h = x * (y - x * b)
+    var = float(h @ h) * (n / max(n - 1, 1)) / (size * size)
+    return b * b / var if var > 0 else 0.0
+
+
 @dataclass
 class PhysicsTest:
     """One joint's library test."""
@@ -613,8 +628,19 @@ def _tall_r(x):
     which no product RᵀR, fit or singular value depends on."""
     pieces = x.shape[0] // _QR_ROWS
     if pieces < 2:
+        return _r_of(x)
+    return _r_of(np.vstack([_r_of(p) for p in np.array_split(x, pieces)]))
+
+
+def _r_of(x):
+    """``numpy.linalg.qr(x, mode="r")`` from LAPACK's dgeqrf called directly (the same Householder
+    QR, so the same R; without numpy's checks, copies and wrapping, a tenth of a small piece's cost)."""
+    if x.shape[0] == 0 or x.shape[1] == 0:
         return np.linalg.qr(x, mode="r")
-    return np.linalg.qr(np.vstack([np.linalg.qr(p, mode="r") for p in np.array_split(x, pieces)]), mode="r")
+    factored, _, _, info = scipy.linalg.lapack.dgeqrf(x)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgeqrf failed on a ({x.shape[0]}, {x.shape[1]}) array (info {info})")
+    return np.triu(factored[:min(x.shape)])
 
 
 def _orthonormal(x, rel=1e-7, floor=0.0):
@@ -746,14 +772,14 @@ class _Tests:
                 size = float(x_r[:, 0] @ x_r[:, 0])
                 beta = score / size if size > 0 else np.zeros(1)
             else:
-                beta = np.linalg.lstsq(x_r, y_r, rcond=eps * max(self.n, ki))[0]
+                beta = _small_lstsq(x_r, y_r, eps * max(self.n, ki))
             meat = self._meat(piece, beta) * (self.n / max(self.n - base.size - ki, 1))
             if xg_all is not None:
                 meat = meat + xg_all[piece] @ self.cov_p @ xg_all[piece].T
             if ki == 1:
                 out.append(float(score[0] * score[0] / meat[0, 0]) if meat[0, 0] != 0 else 0.0)
             else:
-                out.append(float(score @ np.linalg.pinv(meat) @ score))
+                out.append(_score_quadratic(score, meat))
         return out
 
     def _project(self, base, every, c_y, c_all):
@@ -766,8 +792,10 @@ class _Tests:
             return
         rows_base = self.x_rows[:, base]
         self._y_rows = self.y_rows - rows_base @ c_y
-        # column-major, as the rows: each candidate's columns are one contiguous piece
-        self._rows_all = np.subtract(rows, (c_all.T @ rows_base.T).T, order="F")
+        # column-major, as the rows: each candidate's columns are one contiguous piece; the difference
+        # written over the product (a new array for it took ten times as long on 4,000 × 40)
+        fitted = (c_all.T @ rows_base.T).T
+        self._rows_all = np.subtract(rows, fitted, out=fitted)
 
     def _meat(self, piece, beta):
         """Σ h hᵀ of the rows' scores h = x̃ r: the candidate's columns (``piece`` of the projected
@@ -775,6 +803,42 @@ class _Tests:
         x_rows = self._rows_all[:, piece]
         h = x_rows * (self._y_rows - x_rows @ beta)[:, None]
         return h.T @ h
+
+
+def _small_lstsq(x, y, rcond):
+    """The minimum-norm least-squares solution of x b = y for a few rows (R's) and columns, the
+    columns of rank below ``rcond`` (relative) dropped: LAPACK's dgelsy, a QR with column pivoting,
+    where ``numpy.linalg.lstsq``'s dgelsd takes an SVD; the two agree to rounding wherever the rank is
+    not within rounding of the cut-off (conventions §5.2, "Fewer passes"), at a quarter of the cost
+    on R's few dozen rows, the selection steps' count of small fits."""
+    m, k = x.shape
+    rhs = np.zeros((max(m, k), 1))
+    rhs[:m, 0] = y
+    lwork, info = scipy.linalg.lapack.dgelsy_lwork(m, k, 1, rcond)
+    if info != 0:
+        return np.linalg.lstsq(x, y, rcond=rcond)[0]
+    _, got, _, _, info = scipy.linalg.lapack.dgelsy(x, rhs, np.zeros(k, dtype=np.int32), rcond, int(lwork))
+    return got[:k, 0] if info == 0 else np.linalg.lstsq(x, y, rcond=rcond)[0]
+
+
+# the meat's reciprocal condition number above which its Cholesky factor stands for its
+# pseudo-inverse: the two then agree to about 1e-8 relative (numpy's pinv cuts at 1e-15)
+_CHOLESKY_RCOND = 1e-7
+
+
+def _score_quadratic(score, meat):
+    """scoreᵀ pinv(meat) score for a symmetric positive semi-definite ``meat``: ‖L⁻¹ score‖² from its
+    Cholesky factor L where it is well conditioned (LAPACK's estimate), else ``numpy.linalg.pinv``'s
+    (an SVD per call, three times the cost on a selection step's meats)."""
+    lapack = scipy.linalg.lapack
+    chol, info = lapack.dpotrf(meat, lower=1, clean=1)
+    if info == 0:
+        rcond, info = lapack.dpocon(chol, float(np.max(np.sum(np.abs(meat), axis=0))), uplo="L")
+        if info == 0 and rcond > _CHOLESKY_RCOND:
+            z, info = lapack.dtrtrs(chol, score, lower=1)
+            if info == 0:
+                return float(z @ z)
+    return float(score @ np.linalg.pinv(meat) @ score)
 
 
 def _forward_selection(columns, tests, alpha):
@@ -928,8 +992,8 @@ def delay_test(meas, pred, *, sample_rate=None, max_shift=None) -> dict[str, Any
         # one column absorbs little of the noise: the AR model of what it leaves is not too white
         b = float(c @ y) / float(c @ c)
         a, _ = _ar_prewhitener(y - b * c, min(_MAX_AR, n // 50))
-        w, k, _, _ = _wald(_whiten(c[:, None], a), _whiten(y, a))
-        p[j] = min(1.0, searched * float(scipy.stats.chi2.sf(w, k)))
+        w = _wald_one(_whiten(c, a), _whiten(y, a))
+        p[j] = min(1.0, searched * float(scipy.stats.chi2.sf(w, 1)))
     return {"shift_samples": d, "delay_s": d / fs if sample_rate else None, "share": share, "pvalue": p,
             "grid_limit": big,
             "method": "common shift of the prediction (linear interpolation; whole samples, then a 1/4-sample grid); "
