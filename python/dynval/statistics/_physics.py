@@ -650,7 +650,8 @@ def _tall_r(x):
 
 def _r_of(x):
     """``numpy.linalg.qr(x, mode="r")`` from LAPACK's dgeqrf called directly (the same Householder
-    QR, so the same R; without numpy's checks, copies and wrapping, a tenth of a small piece's cost)."""
+    QR, so the same R; without numpy's checks, copies and wrapping: 2.1 against 2.3 ms for a
+    3,978 × 45 stack by pieces)."""
     if x.shape[0] == 0 or x.shape[1] == 0:
         return np.linalg.qr(x, mode="r")
     factored, _, _, info = scipy.linalg.lapack.dgeqrf(x)
@@ -851,7 +852,7 @@ _CHOLESKY_RCOND = 1e-7
 def _score_quadratic(score, meat):
     """scoreᵀ pinv(meat) score for a symmetric positive semi-definite ``meat``: ‖L⁻¹ score‖² from its
     Cholesky factor L where it is well conditioned (LAPACK's estimate), else ``numpy.linalg.pinv``'s
-    (an SVD per call, three times the cost on a selection step's meats)."""
+    (an SVD per call: 143 against 23 µs on a 21-column meat)."""
     lapack = scipy.linalg.lapack
     chol, info = lapack.dpotrf(meat, lower=1, clean=1)
     if info == 0:
