@@ -7,7 +7,10 @@ test. Where the rule claims the same bits, the comparison is exact.
 Mutations caught: a prewhitening filter with its taps in the wrong order or a lag off by one; the
 interpolation's grid offset or weight off (or a gather that takes the wrong neighbour where the
 shifted rows are not consecutive); a block edge measured from the wrong side or only from the
-block before; the derivatives' filter pass skipped changing q̇, q̈ or the bands.
+block before; the derivatives' filter pass skipped changing q̇, q̈ or the bands; an R factor
+not upper triangular or cut to the wrong rows; a small least squares without the rank cut (a basic
+instead of the minimum-norm solution); a Cholesky statistic kept below pinv's cut-off; a one-column
+Wald test without the HC1 degrees-of-freedom factor.
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ from dynval.statistics import _derivatives, _model_terms, _physics
 @pytest.mark.parametrize("layout", ["C", "F", "1d"])
 def test_the_prewhitening_filter_is_lfilters_to_the_bit(order, layout):
     rng = np.random.default_rng(order)
-    for _ in range(20):
+    for trial in range(20):
         a = rng.normal(0.0, 0.7, order)
-        x = rng.normal(size=(997, 6)) * rng.lognormal(0.0, 3.0, 6)
+        width = (6, 37)[trial % 2]  # 37: across the filter's pieces of 16 columns
+        x = rng.normal(size=(997, width)) * rng.lognormal(0.0, 3.0, width)
         x = x[:, 2] if layout == "1d" else np.asfortranarray(x) if layout == "F" else x
         got = _physics._whiten(x, a)
         if order == 0:  # no filter: the rows as given
@@ -300,3 +304,66 @@ def test_the_column_major_librarys_scales_are_each_columns_own_to_the_bit():
         x = np.asfortranarray(rng.normal(size=(n, 6)) * rng.lognormal(0.0, 6.0, 6))
         x[:, 2] = 0.0
         assert np.array_equal(_physics._scales(x), np.array([_physics._scale(c) for c in x.T]))
+
+
+def test_the_r_factor_from_dgeqrf_is_numpys_to_the_bit():
+    # the same Householder QR without numpy's wrapping: R itself, not only up to signs
+    rng = np.random.default_rng(16)
+    for shape in ((1024, 40), (3978, 45), (45, 45), (7, 12), (3, 1)):
+        x = np.asfortranarray(rng.normal(size=shape) * np.logspace(0, 3, shape[1]))
+        for piece in (x, np.ascontiguousarray(x), x[1:]):
+            assert np.array_equal(_physics._r_of(piece), np.linalg.qr(piece, mode="r"))
+    assert _physics._r_of(np.zeros((5, 0))).shape == np.linalg.qr(np.zeros((5, 0)), mode="r").shape
+
+
+def test_the_small_least_squares_are_numpys_full_rank_and_minimum_norm_when_rank_deficient():
+    rng = np.random.default_rng(17)
+    rcond = np.finfo(float).eps * 4000
+    for rows, cols in ((45, 21), (46, 1), (30, 30)):
+        x = rng.normal(size=(rows, cols)) @ (np.eye(cols) + 0.5 * rng.normal(size=(cols, cols)))
+        y = rng.normal(size=rows)
+        np.testing.assert_allclose(_physics._small_lstsq(x, y, rcond), np.linalg.lstsq(x, y, rcond=rcond)[0],
+                                   rtol=1e-9, atol=1e-12)
+    # a repeated column and a zero one: numpy's minimum-norm solution splits the coefficient evenly,
+    # a basic solution (a QR without the rank cut) would not
+    x = rng.normal(size=(40, 5))
+    x[:, 3] = x[:, 1]
+    x[:, 4] = 0.0
+    y = rng.normal(size=40)
+    got = _physics._small_lstsq(x, y, rcond)
+    np.testing.assert_allclose(got, np.linalg.lstsq(x, y, rcond=rcond)[0], rtol=1e-9, atol=1e-12)
+    assert got[1] == pytest.approx(got[3], rel=1e-9) and got[4] == 0.0
+
+
+def test_the_score_quadratic_is_the_pseudo_inverses_when_conditioned_and_singular():
+    rng = np.random.default_rng(18)
+    for k in (2, 7, 24):
+        h = rng.normal(size=(500, k)) * rng.lognormal(0.0, 1.0, k)
+        meat, score = h.T @ h, rng.normal(size=k)
+        assert _physics._score_quadratic(score, meat) == pytest.approx(float(score @ np.linalg.pinv(meat) @ score),
+                                                                       rel=1e-9)
+    # rank 2 of 4 (a score in its range and one outside it): pinv's cut, where a Cholesky factor of
+    # the rounding left in the null space would return a huge statistic or fail
+    a = rng.normal(size=(4, 2))
+    meat = a @ a.T
+    for score in (a @ np.array([1.0, -2.0]), rng.normal(size=4)):
+        want = float(score @ np.linalg.pinv(meat) @ score)
+        assert _physics._score_quadratic(score, meat) == pytest.approx(want, rel=1e-9)
+    assert _physics._score_quadratic(np.ones(3), np.zeros((3, 3))) == 0.0
+    # a direction below pinv's cut-off (1e-15 of the largest) on which a Cholesky factor still exists
+    meat = np.diag([2.0, 3.0, 1e-18])
+    assert _physics._score_quadratic(np.ones(3), meat) == pytest.approx(0.5 + 1.0 / 3.0, rel=1e-12)
+
+
+def test_the_one_column_wald_is_the_row_based_ols_with_hc1():
+    # the reference: least squares by numpy.linalg.lstsq on the rows, HC1 sandwich, b²/var
+    rng = np.random.default_rng(19)
+    for n in (60, 19898):
+        x = rng.normal(size=n) * (1.0 + np.arange(n) / n)
+        y = 0.05 * x + np.abs(x) * rng.normal(size=n)
+        b = np.linalg.lstsq(x[:, None], y, rcond=None)[0][0]
+        h = x * (y - b * x)
+        var = float(h @ h) * n / (n - 1) / float(x @ x) ** 2
+        assert _physics._wald_one(x, y) == pytest.approx(b * b / var, rel=1e-10)
+    assert _physics._wald_one(np.zeros(50), rng.normal(size=50)) == 0.0
+    assert _physics._wald_one(np.ones(50), np.ones(50)) == 0.0  # an exact fit: no variance left

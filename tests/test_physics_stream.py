@@ -5,7 +5,8 @@ prewhitening filter, the Coulomb shapes' velocity scale and N_eff/N (docs/conven
 stream"). When the first block is the whole log the stream's test is the in-memory one, to rounding:
 the same groups, selection, degrees of freedom, filter order and term, statistics and p-values within
 1e-6, shares and N_eff within 1e-7. With a shorter first block (and, past MEAT_ROWS rows, the meat of
-the residual under the first block's fit), the same terms and decisions, F within 10 %.
+the residual under the first block's fit), the same terms and decisions, F within 10 %. On a
+1 kHz log of 100,000 rows (validate decimates it, the stream does not), the same missing physics.
 
 Mutations caught: a chunk's whitening without the rows before it, Savitzky–Golay derivatives cut at
 a chunk's edge, the drift's map from the row index, the model columns' unit norm, the R update's
@@ -187,3 +188,38 @@ def test_the_accumulator_refuses_q_given_unlike_before_and_merging():
         ValidationAccumulator(n_params=1).update(x, x, q=x)
     with pytest.raises(dynval.InvalidParameter, match=r"^other cannot be merged: an accumulator updated with q"):
         plain.merge(acc)
+
+
+@pytest.mark.slow
+def test_a_long_1khz_stream_names_the_missing_physics_that_validate_names():
+    # 100,000 rows at 1 kHz: validate tests the log decimated towards its band (past 40,000 rows it
+    # must decimate), a stream every row with the filter of its first block (conventions §5.2). The
+    # missing terms are known by construction: viscous and Coulomb friction on every joint.
+    import dynval
+    from dynval.stream import ValidationAccumulator
+
+    fs, n, m = 1000.0, 100_000, 7
+    rng = np.random.default_rng(38)
+    t = np.arange(n) / fs
+    w = 2 * np.pi * 0.1 * np.arange(1, 6)
+    amp, ph = rng.uniform(0.05, 0.25, (5, m)), rng.uniform(0, 2 * np.pi, (5, m))
+    arg = t[:, None, None] * w[None, :, None] + ph
+    q = np.sum(amp * np.sin(arg), axis=1)
+    dq = np.sum(amp * w[:, None] * np.cos(arg), axis=1)
+    ddq = -np.sum(amp * (w ** 2)[:, None] * np.sin(arg), axis=1)
+    pred = 20.0 * np.sin(q + 0.3) + 2.0 * ddq + np.cumsum(np.sin(q), axis=1)
+    rms = np.sqrt(np.mean(pred ** 2, axis=0))
+    tau = pred + 0.03 * rms * (dq / np.std(dq, axis=0) + np.sign(dq)) + rng.normal(0.0, 0.02, (n, m)) * rms
+    want = dynval.validate(tau, pred, n_params=0, q=q, time=t)
+    acc = ValidationAccumulator(n_params=0)
+    for k in range(0, n, 10_000):
+        acc.update(tau[k:k + 10_000], pred[k:k + 10_000], q=q[k:k + 10_000], time=t[k:k + 10_000])
+    got = acc.result()
+
+    def named(report):
+        return {f.joints: (f.severity, f.details["term"]) for f in report.findings if f.kind == "missing_physics"}
+
+    assert want.to_dict()["physics"]["decimation"]["factor"] > 1
+    assert set(named(want)) == {(j,) for j in range(m)}
+    assert {term for _, term in named(want).values()} <= {"viscous", "coulomb"}
+    assert named(got) == named(want)
