@@ -5,9 +5,9 @@ effect."""
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from ._base import Evidence
+from ._views import JointPhysics, delay_of, physics_joint
 
 __all__ = ["delay_explains", "term_effect", "phase_lag", "simulator_values"]
 
@@ -15,30 +15,29 @@ __all__ = ["delay_explains", "term_effect", "phase_lag", "simulator_values"]
 def delay_explains(ev: Evidence, j: int) -> bool:
     """Realigning removes at least as much of joint j's mean square as the physical terms: the
     structure is a time shift, not a missing term (a missing viscous term looks like a small shift)."""
-    dl = ev.physics.get("delay") if ev.physics else None
-    if dl is None or ev.physics is None:
+    dl = delay_of(ev)
+    if dl is None:
         return False
-    share = float(dl["share"][j])
-    lib = ev.physics["tests"][j]["share"]
+    share = float(dl.share[j])
+    lib = physics_joint(ev, j).share
     return bool(share >= (lib if lib == lib else 0.0))
 
 
-def term_effect(t: dict[str, Any]) -> float:
+def term_effect(t: JointPhysics) -> float:
     """The named term's share of the joint's mean square, out of sample: refitted with the model on
     the estimation run and carried to validation, or (a fallback refit on this run) cross-fitted on
     it; from the validation test alone, what it adds to the model's columns cross-fitted (what
     re-identifying them gains when the model spans it), or its own effect alone cross-fitted when
     the columns are unknown. Coloured noise a term fits by chance does not carry to held-out rows."""
-    if t.get("refit_run") in ("estimation", "validation"):
-        return float(t["term_share"])
-    rel = t.get("relation")
+    if t.refit_run in ("estimation", "validation"):
+        return float(t.term_share)
+    rel = t.relation
     if rel is not None:
-        value = (rel["reweight_share"] if rel.get("relation") in ("reweight", "unsupported")
-                 else t.get("carried_share"))
+        value = rel["reweight_share"] if t.relation_name in ("reweight", "unsupported") else t.carried_share
     else:
-        value = t.get("heldout_share")
+        value = t.heldout_share
     value = float("nan") if value is None else float(value)
-    return value if value == value else float(t["term_share"])
+    return value if value == value else float(t.term_share)
 
 
 def phase_lag(ev: Evidence, shift: float) -> tuple[float | None, float | None]:

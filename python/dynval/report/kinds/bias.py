@@ -11,6 +11,7 @@ from .._finding_words import PARTIAL_FORMS, Words, bias_action, coupling_terms, 
 from .._text import versus
 from ._base import Context, Evidence, Finding, Kind, Thresholds, effect_versus_threshold, worded
 from ._evidence import delay_explains, term_effect
+from ._views import physics_joint
 
 UNIT = "|mean| / RMSE"
 
@@ -82,13 +83,13 @@ def physical_term(r: Context, j: int) -> tuple[str, str, str] | None:
     ev = r.ev
     if ev.physics is None or "physics" not in r.fam or delay_explains(ev, j):
         return None
-    t = ev.physics["tests"][j]
-    rel = (t.get("relation") or {}).get("relation")
-    if t["term"] is None or rel not in ("missing", "coupling", "partial") or not r.fam["physics"][1][j] <= r.alpha:
+    t = physics_joint(ev, j)
+    rel = t.relation_name
+    if t.term is None or rel not in ("missing", "coupling", "partial") or not r.fam["physics"][1][j] <= r.alpha:
         return None
-    if not (t["share"] >= r.th.missing_physics and term_effect(t) >= r.th.missing_physics):
+    if not (t.share >= r.th.missing_physics and term_effect(t) >= r.th.missing_physics):
         return None
-    return t["term"], LABELS[t["term"]], rel
+    return t.term, LABELS[t.term], rel
 
 
 def rule(r: Context) -> list[Finding]:

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-import numpy as np
-
 from .._finding_words import Words, p_text, percent
 from .._text import number_text
 from ._base import Context, Finding, Kind, effect_versus_threshold, worded
 from ._evidence import delay_explains, phase_lag
+from ._views import delay_of, physics_joint
 
 UNIT = "share of the joint's mean square realigning removes"
 UNIT_PHASE = "degrees of phase lag at the information band's edge"
@@ -60,9 +59,10 @@ def rule(r: Context) -> list[Finding]:
     if "delay" not in r.fam or ev.physics is None:
         return []
     p, padj = r.fam["delay"]
-    dl = ev.physics["delay"]
-    share = np.asarray(dl["share"], dtype=float)
-    d = float(dl["shift_samples"])
+    dl = delay_of(ev)
+    assert dl is not None
+    share = dl.share
+    d = dl.shift_samples
     # a joint whose error realigning does not reduce holds no evidence of the delay
     significant = [j for j in range(share.size) if padj[j] <= r.alpha and share[j] > 0]
     if not significant or d == 0.0:
@@ -78,7 +78,7 @@ def rule(r: Context) -> list[Finding]:
     fs = ev.sample_rate
     j0 = max(joints, key=lambda j: share[j])
     shares = [(r.name(j), float(share[j])) for j in joints]
-    masked = [] if big else [(r.name(j), float(share[j]), float(ev.physics["tests"][j]["share"]))
+    masked = [] if big else [(r.name(j), float(share[j]), float(physics_joint(ev, j).share))
                              for j in significant if j not in explains]
     band = None if edge is None else (edge * fs if fs else edge)
     return [worded(

@@ -11,6 +11,7 @@ from .._finding_words import NEGLIGIBLE, PARTIAL_FORMS, Words, coupling_terms, p
 from .._text import source_text
 from ._base import Context, Finding, Kind, effect_versus_threshold, worded
 from ._evidence import delay_explains, simulator_values, term_effect
+from ._views import physics_joints
 
 UNIT = "share of the joint's mean square the physical terms remove"
 
@@ -162,39 +163,40 @@ def rule(r: Context) -> list[Finding]:
         return []
     p, padj = r.fam["physics"]
     out: list[Finding] = []
-    for j, t in enumerate(ev.physics["tests"]):
+    joints = physics_joints(ev)
+    for j, t in enumerate(joints):
         if not (padj[j] <= r.alpha) or delay_explains(ev, j):
             continue
-        shares = t["shares"]
-        term = t["term"]
+        shares = t.shares
+        term = t.term
         if term is None:
             continue
         effect = term_effect(t)
-        big = bool(t["share"] >= th.missing_physics and effect >= th.missing_physics)
+        big = bool(t.share >= th.missing_physics and effect >= th.missing_physics)
         if big:
             r.deficient.add(j)
         label = LABELS[term]
         others = [LABELS[g] for g, sh in sorted(shares.items(), key=lambda kv: -kv[1]) if g != term and sh >= 0.01]
-        together = float(t.get("selected_share", t["term_share"]))
-        rel = t.get("relation")
-        advice = {"refit_run": t.get("refit_run"), "effect": effect, "relation": rel, "practical": th.missing_physics,
-                  "joint_names": [r.name(k) for k in range(len(ev.physics["tests"]))],
+        together = float(t.selected_share)
+        rel = t.relation
+        advice = {"refit_run": t.refit_run, "effect": effect, "relation": rel, "practical": th.missing_physics,
+                  "joint_names": [r.name(k) for k in range(len(joints))],
                   "derivatives": _derivative_words(ev.physics),
                   "column_names": None if rel is None else [r.column(c) for c in rel.get("columns", [])],
                   "simulator": simulator_values(ev, j, rel["columns"][0]) if rel and rel.get("columns") else None}
         out.append(worded(
-            words(r.name(j), label, others, together, float(t["term_share"]), float(t["share"]), float(padj[j]), big,
+            words(r.name(j), label, others, together, float(t.term_share), float(t.share), float(padj[j]), big,
                   advice),
             kind="missing_physics", severity="deficiency" if big else "note", joints=(j,),
-            statistic=float(t["statistic"]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
-            effect=float(t["share"]), effect_unit=UNIT, threshold=th.missing_physics,
-            details={"term": term, "label": label, "term_share": float(t["term_share"]),
-                     "selected_share": together, "selected": list(t["selected"]), "shares": dict(shares),
-                     "n_eff": float(t["n_eff"]), "method": ev.physics["method"],
-                     "derivatives": ev.physics["derivatives"], "refit_run": t.get("refit_run"),
-                     "effect_out_of_sample": effect, "heldout_share": t.get("heldout_share"),
-                     "carried_share": t.get("carried_share"),
-                     "relation": None if rel is None else rel.get("relation"),
+            statistic=float(t.statistic), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
+            effect=float(t.share), effect_unit=UNIT, threshold=th.missing_physics,
+            details={"term": term, "label": label, "term_share": float(t.term_share),
+                     "selected_share": together, "selected": list(t.selected), "shares": dict(shares),
+                     "n_eff": float(t.n_eff), "method": ev.physics["method"],
+                     "derivatives": ev.physics["derivatives"], "refit_run": t.refit_run,
+                     "effect_out_of_sample": effect, "heldout_share": t.heldout_share,
+                     "carried_share": t.carried_share,
+                     "relation": t.relation_name,
                      "model_terms": None if rel is None else dict(rel),
                      "derivative_source": ev.physics.get("derivative_source")}))
     return out

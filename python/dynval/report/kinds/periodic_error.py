@@ -6,10 +6,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
-
 from .._finding_words import NEGLIGIBLE, Words, p_text
 from ._base import Context, Finding, Kind, worded
+from ._views import periodic_of
 
 UNIT = "share of the residual's variance common to every period"
 
@@ -30,8 +29,9 @@ def rule(r: Context) -> list[Finding]:
     if "periodic" not in r.fam or r.ev.periodic is None:
         return []
     p, padj = r.fam["periodic"]
-    per = r.ev.periodic
-    effect = np.asarray(per["effect_net"], dtype=float)
+    per = periodic_of(r.ev)
+    assert per is not None
+    effect = per.effect_net
     threshold = r.th.periodic_error
     out: list[Finding] = []
     for j in range(effect.size):
@@ -41,13 +41,13 @@ def rule(r: Context) -> list[Finding]:
         if big:
             r.deficient.add(j)
         out.append(worded(
-            words(r.name(j), float(effect[j]), per["n_periods"], per["period"], float(padj[j]), big),
+            words(r.name(j), float(effect[j]), per.n_periods, per.period, float(padj[j]), big),
             kind="periodic_error", severity="deficiency" if big else "note", joints=(j,),
-            statistic=float(per["statistic"][j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
+            statistic=float(per.statistic[j]), pvalue=float(p[j]), pvalue_adjusted=float(padj[j]),
             effect=float(effect[j]), effect_unit=UNIT, threshold=threshold,
-            details={"n_periods": int(per["n_periods"]), "period": per["period"],
-                     "noise_variance": float(per["noise_variance"][j]),
-                     "model_columns_removed": bool(per.get("model_columns_removed", False))}))
+            details={"n_periods": per.n_periods, "period": per.period,
+                     "noise_variance": float(per.noise_variance[j]),
+                     "model_columns_removed": per.model_columns_removed}))
     return out
 
 
