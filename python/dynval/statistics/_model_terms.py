@@ -22,11 +22,13 @@ kind's own columns, the cross-joint columns remain) or ``missing`` (it spans no 
 ``unsupported``: the model spans no own column of the kind and adding it does not carry to held-out
 rows (what remains is rather the model's own terms mis-weighted, ``reweight_share``).
 
-Applied to the physics test's named terms (the last part of the module): which kinds the model
+Applied to the physics test's named terms (the last parts of the module): which kinds the model
 holds per joint (:func:`model_kinds`, :func:`declared_groups`), a rigid-body kind it holds on no
 joint (:func:`name_absent_kinds`), each named term's relation and the model's coefficients closest
-to it (:func:`relate_terms`), and a simulator model's own parameters refitted
-(:func:`simulator_parameters`).
+to it (:func:`relate_terms`), a simulator model's own parameters refitted
+(:func:`simulator_parameters`), and a term named on the validation run where the estimation run's
+refit names none (:func:`name_on_validation`: the groups' cross-fitted gains beyond the model's
+columns, else the held kind the model's re-weighting adds).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import _physics
+from ._columns import unit_norm_columns
 from ._physics import Derivatives, PhysicsTest
 
 if TYPE_CHECKING:
@@ -46,7 +49,7 @@ if TYPE_CHECKING:
 __all__ = ["SPAN_TOLERANCE", "CROSSFIT_ROWS", "coupling_mask", "span_basis", "outside_fraction", "crossfit_sse",
            "relate", "kinds_present", "declared_kinds", "RIGID_BODY_PARAMETERS", "SIMULATOR_PARAMETERS",
            "simulator_attribute", "RIGID_BODY_KINDS", "declared_groups", "model_kinds", "name_absent_kinds",
-           "relate_terms", "simulator_parameters"]
+           "relate_terms", "simulator_parameters", "name_on_validation", "validation_refit_gains", "reweighted_group"]
 
 SPAN_TOLERANCE = 0.1
 """A column lies in the model's span when less than this fraction of its RMS stays outside."""
@@ -488,3 +491,69 @@ def simulator_parameters(pred: np.ndarray | None, meas: np.ndarray | None, reg3:
         out.append([{"column": c, "name": str(column_names[c]), "predicted": float(in_pred[c]),
                      "refitted": float(refit[c])} for c in named])
     return out if any(out) else None
+
+
+# --------------------------------------------------------------------------- naming on the validation run
+
+
+def name_on_validation(t: PhysicsTest, meas_j: np.ndarray, y_j: np.ndarray, coefficients: np.ndarray,
+                       lib_j: Mapping[str, np.ndarray], m: int, practical: float,
+                       declared: set[str] | None) -> dict[str, float] | None:
+    """Joint t.joint's term named on the validation run, where the estimation run's refit names
+    none (:func:`dynval.statistics._term_refit.refit_names`): the groups' shares of what the model's
+    own columns ``y_j`` (as given, with their estimated ``coefficients``) leave, cross-fitted
+    (:func:`validation_refit_gains`), returned when one reaches ``practical`` (the caller names
+    the term from them). Otherwise the model's columns span what remains (mis-weighted, not
+    missing): where the test named a kind the model does not hold (``declared``: the kinds its
+    column names declare, else those it spans), ``t.term`` becomes the held kind its re-weighting
+    adds (:func:`reweighted_group`), and None is returned."""
+    y_unit = unit_norm_columns(y_j)
+    gv = validation_refit_gains(meas_j, y_unit, lib_j)
+    if gv and max(gv.values()) >= practical:
+        return gv
+    held = ({g: g in declared for g in lib_j} if declared is not None else
+            kinds_present(t.joint, y_unit, lib_j, m))
+    if t.term is None or held.get(t.term):
+        return None
+    named = reweighted_group(meas_j - y_j @ coefficients, y_unit, {g: x for g, x in lib_j.items() if held.get(g)})
+    if named is not None:
+        t.term = named
+    return None
+
+
+def validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """Per group, the share of the residual left by the model's columns refitted on this run that
+    the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
+    (:func:`crossfit_sse`, the rows near a block's edge unscored), so
+    a group that fits the noise of the rows it sees does not count."""
+    out = {}
+    for g, b in groups.items():
+        both = np.hstack([y_j, b])
+        base = crossfit_sse(tau_j, y_j, full=both)
+        if base > 0:
+            out[g] = (base - crossfit_sse(tau_j, both, full=both)) / base
+    return out
+
+
+def reweighted_group(e_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> str | None:
+    """The library group that best represents what re-weighting the model's columns changes on this
+    run: the residual's least-squares fit on the model's columns (the torque the changed weights
+    make), and the group of ``groups`` (those the model holds) that explains the most of it. A
+    payload changes the weights of the model's gravity and inertia columns: what they then add is a
+    posture term, not a position harmonic that the validation test's selection may have taken first.
+    None when the re-weighting adds nothing."""
+    active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+    if not np.any(active) or not groups:
+        return None
+    y = y_j[:, active]
+    r = y @ np.linalg.lstsq(y, e_j, rcond=None)[0]
+    total = float(r @ r)
+    if not total > 0:
+        return None
+    shares = {}
+    for g, x in groups.items():
+        left = r - x @ np.linalg.lstsq(x, r, rcond=None)[0]
+        shares[g] = 1.0 - float(left @ left) / total
+    # the largest share, not the fewest columns near it: every group is fitted to the same torque
+    # of the model's own columns, which a slowly moving joint's constant-like columns all nearly fit
+    return max(shares, key=lambda g: (shares[g], -groups[g].shape[1]))

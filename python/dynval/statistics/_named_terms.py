@@ -110,6 +110,8 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
     d = _physics.derivatives(q, sample_rate, dq, ddq)
     cols = None if reg3 is None else (list(est_fit.columns) if est_fit is not None else
                                       list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
+    # the kinds the model's column names declare: the naming refit and the relation both read them
+    declared = _model_terms.declared_groups(reg3, cols, column_names)
     use, alternative, kwargs = _model_columns_in_test(reg3, cols, est_fit, est_run, sample_rate, level, band)
     # each joint's library once, when first read: the test (at the logged rate), the relation to the
     # model and its kinds read the same columns
@@ -119,7 +121,6 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
                                   libraries=libs, band=band, **kwargs)
     local: dict[int, dict[str, Any]] = {}
     source = _term_refit.derivative_source(q, dq, ddq, est_run)
-    declared = _model_terms.declared_groups(reg3, cols, column_names)
     refit = False
     if est_fit is not None and reg3 is not None and meas is not None and est_run is not None and "q" in est_run:
         refit = True

@@ -5,8 +5,8 @@ joint's validation residual follows; which of them the model *lacks* is what ref
 with the group added removes out of sample. This module does that refit, on the estimation run
 first (:func:`refit_names`: the group added on every flagged joint at once, the model's columns
 refitted with it, the validation mean square it removes), on the validation run where that refit
-carries no practical share (:func:`validation_refit_gains`, cross-fitted), and names the model's
-own re-weighting where neither carries. It also gives the physics test's Cov(π̂) under the
+carries no practical share (cross-fitted there, and the model's own re-weighting where neither
+carries: :func:`dynval.statistics._model_terms.name_on_validation`). It also gives the physics test's Cov(π̂) under the
 alternative (:func:`alternative_covariance`): the estimation run's noise once what its own test
 finds there is refitted with the model.
 """
@@ -24,8 +24,7 @@ from ._columns import unit_norm_columns
 from ._estimation import EstimationFit
 from ._physics import Derivatives, PhysicsTest
 
-__all__ = ["derivative_source", "alternative_covariance", "refit_names", "validation_refit_gains",
-           "reweighted_group", "carried_libraries", "joint_local_gains"]
+__all__ = ["derivative_source", "alternative_covariance", "refit_names", "carried_libraries", "joint_local_gains"]
 
 
 def derivative_source(q: np.ndarray | None, dq: np.ndarray | None, ddq: np.ndarray | None,
@@ -89,7 +88,8 @@ def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fi
     mean square (of the groups near the best, the one with the fewest columns: :func:`_physics.name_group`).
 
     ``practical``: when no group so refitted removes that share of the joint's validation mean
-    square, the term is named from the validation run instead (:func:`validation_refit_gains`).
+    square, the term is named from the validation run instead
+    (:func:`dynval.statistics._model_terms.name_on_validation`).
     ``source`` (:func:`derivative_source`): both runs' libraries take their q̇, q̈ from one source,
     the user's (``"given"``) or Savitzky–Golay of each run's q, never one of each (a "viscous"
     column of one filter is not the model's F_v of another, and refitting it looks like a gain).
@@ -195,29 +195,18 @@ def _group_gains(flagged: Sequence[PhysicsTest], refit: _Refit, meas: np.ndarray
 def _name_term(t: PhysicsTest, gj: dict[str, float], refit: _Refit, meas: np.ndarray, practical: float,
                declared: list[set[str]] | None) -> None:
     """Joint t.joint's term from its groups' estimation-run gains ``gj``, else from the validation
-    run's cross-fitted refit, else the held kind the model's re-weighting adds (set on ``t``)."""
-    j, lib_v = t.joint, refit.lib_v[t.joint]
+    run (:func:`dynval.statistics._model_terms.name_on_validation`), set on ``t``."""
+    j = t.joint
     how = "estimation"
     if not gj or not max(gj.values()) >= practical:
         # No group helps by a practical share once refitted on the estimation run: the model's
         # columns absorbed the term there (an offset into the gravity columns of a joint that
         # hardly changes posture), or its parameter error (other joints' noise through the
-        # shared parameters) outweighs the term. Name the group that best explains, on the
-        # validation run, what the model's own columns cannot represent there.
-        gv = validation_refit_gains(meas[:, j], unit_norm_columns(refit.reg3[:, j, refit.cols]), lib_v)
-        if not gv or not max(gv.values()) >= practical:
-            # Neither refit names a group that carries a practical share: the model's columns
-            # span what remains (mis-weighted, not missing). Where the validation test named a kind
-            # the model does not hold, name the held kind of their re-weighting instead.
-            y_j = unit_norm_columns(refit.reg3[:, j, refit.cols])
-            held = ({g: g in declared[j] for g in lib_v} if declared else
-                    _model_terms.kinds_present(j, y_j, lib_v, refit.m))
-            if t.term is None or held.get(t.term):
-                return
-            named = reweighted_group(meas[:, j] - refit.reg3[:, j, refit.cols] @ refit.coefficients, y_j,
-                                     {g: x for g, x in lib_v.items() if held.get(g)})
-            if named is not None:
-                t.term = named
+        # shared parameters) outweighs the term. Name it from what the model's own columns cannot
+        # represent on the validation run.
+        gv = _model_terms.name_on_validation(t, meas[:, j], refit.reg3[:, j, refit.cols], refit.coefficients,
+                                             refit.lib_v[j], refit.m, practical, declared[j] if declared else None)
+        if gv is None:
             return
         gj, how = gv, "validation"
     best = _physics.name_group(gj, {g: refit.lib_e[j][g].shape[1] for g in gj})
@@ -225,33 +214,10 @@ def _name_term(t: PhysicsTest, gj: dict[str, float], refit: _Refit, meas: np.nda
     t.refit_shares = {g: float(v) for g, v in gj.items()}
     t.refit_run = how
 
+
 _NORMAL_RCOND = 1e-10
 """Singular values of unit-norm normal equations below this fraction of the largest are dependent
 directions (1e-5 of the design's: a column within 1e-5 of the others' span adds nothing)."""
-
-
-def reweighted_group(e_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> str | None:
-    """The library group that best represents what re-weighting the model's columns changes on this
-    run: the residual's least-squares fit on the model's columns (the torque the changed weights
-    make), and the group of ``groups`` (those the model holds) that explains the most of it. A
-    payload changes the weights of the model's gravity and inertia columns: what they then add is a
-    posture term, not a position harmonic that the validation test's selection may have taken first.
-    None when the re-weighting adds nothing."""
-    active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
-    if not np.any(active) or not groups:
-        return None
-    y = y_j[:, active]
-    r = y @ np.linalg.lstsq(y, e_j, rcond=None)[0]
-    total = float(r @ r)
-    if not total > 0:
-        return None
-    shares = {}
-    for g, x in groups.items():
-        left = r - x @ np.linalg.lstsq(x, r, rcond=None)[0]
-        shares[g] = 1.0 - float(left @ left) / total
-    # the largest share, not the fewest columns near it: every group is fitted to the same torque
-    # of the model's own columns, which a slowly moving joint's constant-like columns all nearly fit
-    return max(shares, key=lambda g: (shares[g], -groups[g].shape[1]))
 
 
 def carried_libraries(j: int, q_e: np.ndarray, de: Derivatives, q: np.ndarray, d: Derivatives,
@@ -305,18 +271,3 @@ def joint_local_gains(j: int, group: str, lib_e: np.ndarray, lib_v: np.ndarray, 
         resid = meas[:, i] - y_v[:, i, :] @ coef[:k] - (own_v @ coef[k:] if i == j else 0.0)
         shares.append((base[i] - float(np.mean(resid**2))) / base[i] if base[i] > 0 else 0.0)
     return {"group": group, "columns": int(own.shape[1]), "share": shares[j], "shares": shares}
-
-
-def validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """Per group, the share of the residual left by the model's columns refitted on this run that
-    the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
-    (:func:`dynval.statistics._model_terms.crossfit_sse`, the rows near a block's edge unscored), so
-    a group that fits the noise of the rows it sees does not count."""
-    out = {}
-    for g, b in groups.items():
-        both = np.hstack([y_j, b])
-        base = _model_terms.crossfit_sse(tau_j, y_j, full=both)
-        if base > 0:
-            out[g] = (base - _model_terms.crossfit_sse(tau_j, both, full=both)) / base
-    return out
-
