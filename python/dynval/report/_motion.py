@@ -2,7 +2,11 @@
 
 They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or the estimation run
 (docs/conventions.md §5.2): each takes what it needs and returns one dict, and the rules in
-``_findings.py`` read them through the evidence record.
+``_findings.py`` read them through the evidence record. The statistics behind them live below the
+report, each asked once: the physics test's named terms and their relation to the model
+(:func:`dynval.statistics._named_terms.name_terms`, one typed record that :func:`physics` words),
+the delay (:mod:`dynval.statistics._physics`) and the periodic noise
+(:func:`dynval.statistics._periodic.periodic_error_test`).
 """
 
 from __future__ import annotations
@@ -22,7 +26,6 @@ else:
     from .._lazy import scipy
 
 from ..statistics import _model_terms, _named_terms, _periodic, _physics
-from ..statistics._columns import unit_norm_columns
 from ..statistics._estimation import EstimationFit
 from . import _records as rec
 from . import _sections as sec
@@ -153,49 +156,17 @@ def detectable_share(n_eff: np.ndarray, n_tests: int, level: float, power: float
 def periodic(e: np.ndarray, q: np.ndarray, sample_rate: float | None, band: float | None,
              est_fit: EstimationFit | None = None, reg3: np.ndarray | None = None,
              model_columns: Sequence[int] | None = None) -> dict[str, Any] | None:
-    """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
-    part common to every period against the noise the period-to-period variation measures
-    (:func:`dynval.statistics._periodic.periodic_noise_test`, no whiteness assumed).
+    """The periodic section (:func:`dynval.statistics._periodic.periodic_error_test`) on the model's
+    own columns: the estimation fit's, else those given, else every column of the regressor."""
+    cols = None if reg3 is None else _model_columns(reg3, est_fit, model_columns)
+    return _periodic.periodic_error_test(e, q, sample_rate, band, reg3, cols)
 
-    A model's estimation error Y(π − π̂) repeats with the trajectory too: with a regressor, each
-    joint's residual is first cleared of what the model's own columns represent (least squares on
-    the validation run), so what is tested is periodic error the model cannot represent.
-    """
-    period = _periodic.detect_period(q, sample_rate=sample_rate)
-    if period is None:
-        return None
-    if round(period.samples) < _periodic.MIN_TESTED_PERIOD:
-        return _untested_period(period, f"q repeats every {period.samples:.3g} samples: an encoder dithering by a "
-                                        "count at standstill, not a repeated trajectory; such a period has no "
-                                        "harmonic below the Nyquist frequency, so no periodic test")
-    projected = False
-    if reg3 is not None:
-        cols = (list(est_fit.columns) if est_fit is not None
-                else list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
-        e = e.copy()
-        for j in range(e.shape[1]):
-            y = unit_norm_columns(reg3[:, j, cols])  # the projection in any unit of the columns
-            if y.size:
-                e[:, j] -= y @ np.linalg.lstsq(y, e[:, j], rcond=None)[0]
-        projected = True
-    use_band = band if band is not None and np.isfinite(band) and band > 0 else None
-    try:
-        test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate, band=use_band)
-    except ValueError:
-        if use_band is None:
-            return None
-        try:
-            test = _periodic.periodic_noise_test(e, period, sample_rate=sample_rate)
-        except ValueError as exc:
-            return _untested_period(period, f"no periodic test: {exc}")
-    out = {"used": True, "period": period.to_dict(), **test.to_dict()}
-    out["model_columns_removed"] = projected
-    out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
-    return out
 
-def _untested_period(period: _periodic.Period, note: str) -> dict[str, Any]:
-    """The periodic section of a period that cannot be tested: ``used`` False and the ``note`` why."""
-    return {"used": False, "period": period.to_dict(), "note": note}
+def _model_columns(reg3: np.ndarray, est_fit: EstimationFit | None, given: Sequence[int] | None) -> list[int]:
+    """The model's own columns of the regressor: the estimation fit's, else those given, else every one."""
+    if est_fit is not None:
+        return list(est_fit.columns)
+    return list(range(reg3.shape[2])) if given is None else list(given)
 
 
 # --------------------------------------------------------------------------- validate's motion phase
@@ -227,8 +198,7 @@ def motion_phase(d: CheckedData, o: Options, r: Residual, lagged: Lagged) -> Mot
                                                           o.model_columns))
     elif d.reg3 is not None and d.e is not None:
         # without q the model's columns still tell whether it has an offset (the bias rule's words)
-        cols = (list(r.est_fit.columns) if r.est_fit is not None else
-                list(range(d.reg3.shape[2])) if o.model_columns is None else list(o.model_columns))
+        cols = _model_columns(d.reg3, r.est_fit, o.model_columns)
         declared = _model_terms.declared_groups(d.reg3, cols, o.column_names)
         # the regressor's work alone (each joint's span of the model's columns, read from the
         # joint's R factor that the spectrum and the excitation share): kept by a prepared
