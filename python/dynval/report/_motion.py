@@ -6,7 +6,8 @@ They complete ``_sections.py`` for what needs the trajectory (q, q̇, q̈) or th
 report, each asked once: the physics test's named terms and their relation to the model
 (:func:`dynval.statistics._named_terms.name_terms`, one typed record that :func:`physics` words),
 the delay (:mod:`dynval.statistics._physics`) and the periodic noise
-(:func:`dynval.statistics._periodic.periodic_error_test`).
+(:func:`dynval.statistics._periodic.periodic_error_test`), each on the model's own columns as the
+phase picks them once (:func:`_model_columns`).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from . import _sections as sec
 from ._prepared import Memo, compute_now
 from ._regressor_algebra import kinds_without_q
 
-__all__ = ["physics", "delay", "periodic", "predictive", "joint_excitation", "detectable_share"]
+__all__ = ["physics", "delay", "predictive", "joint_excitation", "detectable_share"]
 
 
 def delay(meas: np.ndarray, pred: np.ndarray, sample_rate: float | None) -> dict[str, Any]:
@@ -42,14 +43,14 @@ def delay(meas: np.ndarray, pred: np.ndarray, sample_rate: float | None) -> dict
 
 def physics(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | None, ddq: np.ndarray | None,
             sample_rate: float | None,
-            reg3: np.ndarray | None, model_columns: Sequence[int] | None, est_fit: EstimationFit | None, level: float,
+            reg3: np.ndarray | None, cols: Sequence[int] | None, est_fit: EstimationFit | None, level: float,
             est_run: Mapping[str, Any] | None = None, meas: np.ndarray | None = None, practical: float = 0.05,
             column_names: Sequence[str] | None = None, band: float | None = None) -> dict[str, Any]:
     """Each joint's residual against the physics library, its term named and related to the model
     (:func:`dynval.statistics._named_terms.name_terms`, one call), as the section's mapping: the
     section's ``decimation`` states the factor, the band and the rows where the log was decimated."""
-    named = _named_terms.name_terms(e, pred, q, dq, ddq, sample_rate, reg3, model_columns, est_fit, level, est_run,
-                                    meas, practical, column_names, band)
+    named = _named_terms.name_terms(e, pred, q, dq, ddq, sample_rate, reg3, cols, est_fit, level, est_run, meas,
+                                    practical, column_names, band)
     tests, d, dec = named.tests, named.derivatives, named.decimation
     return {"naming": _NAMING_ESTIMATION if named.named_on_estimation else _NAMING_VALIDATION,
             "method": "prewhitened least squares (AR(≤ 2) by BIC), heteroscedasticity-robust Wald test per joint",
@@ -153,17 +154,9 @@ def detectable_share(n_eff: np.ndarray, n_tests: int, level: float, power: float
     return c / (n_eff + c) if math.isfinite(c) else np.full_like(n_eff, np.nan)
 
 
-def periodic(e: np.ndarray, q: np.ndarray, sample_rate: float | None, band: float | None,
-             est_fit: EstimationFit | None = None, reg3: np.ndarray | None = None,
-             model_columns: Sequence[int] | None = None) -> dict[str, Any] | None:
-    """The periodic section (:func:`dynval.statistics._periodic.periodic_error_test`) on the model's
-    own columns: the estimation fit's, else those given, else every column of the regressor."""
-    cols = None if reg3 is None else _model_columns(reg3, est_fit, model_columns)
-    return _periodic.periodic_error_test(e, q, sample_rate, band, reg3, cols)
-
-
 def _model_columns(reg3: np.ndarray, est_fit: EstimationFit | None, given: Sequence[int] | None) -> list[int]:
-    """The model's own columns of the regressor: the estimation fit's, else those given, else every one."""
+    """The model's own columns of the regressor: the estimation fit's, else those given, else every
+    one; what the physics test, the periodic section and the kinds without q read alike."""
     if est_fit is not None:
         return list(est_fit.columns)
     return list(range(reg3.shape[2])) if given is None else list(given)
@@ -187,18 +180,19 @@ def motion_phase(d: CheckedData, o: Options, r: Residual, lagged: Lagged) -> Mot
     predictive test, each joint's motion and the smallest detectable effect."""
     design = sec.design(d.reg3, o.q, o.estimation, d.meas, o.thresholds, r.grams, sample_rate=o.sample_rate,
                         memo=d.memo, estimation_key=r.est_key, structure=d.structure)
+    cols = None if d.reg3 is None else _model_columns(d.reg3, r.est_fit, o.model_columns)
     library = noise = kinds_spanned = None
     if o.q is not None and d.e is not None and not d.omitted:
-        phys = physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, o.model_columns, r.est_fit, o.level,
+        phys = physics(d.e, d.pred, o.q, o.dq, o.ddq, o.sample_rate, d.reg3, cols, r.est_fit, o.level,
                        o.estimation, d.meas, practical=o.thresholds.missing_physics, column_names=o.column_names,
                        band=d.lags.band if o.decimate == "auto" else None)
         library = rec.Physics.of({**phys, "delay": delay(d.meas, d.pred, o.sample_rate)})
         band = None if lagged.white is None else lagged.white.information_band
-        noise = rec.record_or_none(rec.Periodic, periodic(d.e, o.q, o.sample_rate, band, r.est_fit, d.reg3,
-                                                          o.model_columns))
-    elif d.reg3 is not None and d.e is not None:
+        # the residual's periodic part beyond what the model's own columns represent
+        noise = rec.record_or_none(rec.Periodic, _periodic.periodic_error_test(d.e, o.q, o.sample_rate, band, d.reg3,
+                                                                               cols))
+    elif d.reg3 is not None and d.e is not None and cols is not None:
         # without q the model's columns still tell whether it has an offset (the bias rule's words)
-        cols = _model_columns(d.reg3, r.est_fit, o.model_columns)
         declared = _model_terms.declared_groups(d.reg3, cols, o.column_names)
         # the regressor's work alone (each joint's span of the model's columns, read from the
         # joint's R factor that the spectrum and the excitation share): kept by a prepared

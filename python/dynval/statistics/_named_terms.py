@@ -101,15 +101,15 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
     """Each joint's residual ``e`` against the physics library, its term named and related to the
     model's columns.
 
-    ``band``: the report's information band (Hz); where it allows, the test runs on the log
+    ``model_columns``: the model's own columns of the regressor ``reg3`` (the estimation fit's
+    when it is given). ``band``: the report's information band (Hz); where it allows, the test runs on the log
     decimated towards it (:func:`dynval.statistics._physics.decimation`, conventions §5.2).
     The model's own columns: with the estimation run their estimation error widens the test
     (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
     represent is not missing); with neither, the prediction alone is given and nothing is refitted.
     """
     d = _physics.derivatives(q, sample_rate, dq, ddq)
-    cols = None if reg3 is None else (list(est_fit.columns) if est_fit is not None else
-                                      list(range(reg3.shape[2])) if model_columns is None else list(model_columns))
+    cols = None if reg3 is None or model_columns is None else list(model_columns)
     # the kinds the model's column names declare: the naming refit and the relation both read them
     declared = _model_terms.declared_groups(reg3, cols, column_names)
     use, alternative, kwargs = _model_columns_in_test(reg3, cols, est_fit, est_run, sample_rate, level, band)
