@@ -110,8 +110,6 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
     """
     d = _physics.derivatives(q, sample_rate, dq, ddq)
     cols = None if reg3 is None or model_columns is None else list(model_columns)
-    # the kinds the model's column names declare: the naming refit and the relation both read them
-    declared = _model_terms.declared_groups(reg3, cols, column_names)
     use, alternative, kwargs = _model_columns_in_test(reg3, cols, est_fit, est_run, sample_rate, level, band)
     # each joint's library once, when first read: the test (at the logged rate), the relation to the
     # model and its kinds read the same columns
@@ -119,6 +117,8 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
     dec = _physics.decimation(e.shape[0], sample_rate, band)
     tests = _physics.physics_test(e, pred, q, d.dq, d.ddq, sample_rate=sample_rate, alpha=1.0 - level,
                                   libraries=libs, band=band, **kwargs)
+    # the kinds the model's column names declare: the naming refit and the relation both read them
+    declared = _model_terms.declared_groups(reg3, cols, column_names)
     local: dict[int, dict[str, Any]] = {}
     source = _term_refit.derivative_source(q, dq, ddq, est_run)
     refit = False
