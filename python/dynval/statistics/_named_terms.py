@@ -102,8 +102,11 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
     model's columns.
 
     ``model_columns``: the model's own columns of the regressor ``reg3`` (the estimation fit's
-    when it is given). ``band``: the report's information band (Hz); where it allows, the test runs on the log
-    decimated towards it (:func:`dynval.statistics._physics.decimation`, conventions §5.2).
+    when it is given). ``level``: the test's confidence level. ``band``: the report's information
+    band (Hz); where it allows, the test runs on the log decimated towards it
+    (:func:`dynval.statistics._physics.decimation`, conventions §5.2). ``practical``: the share of
+    a joint's mean square below which a term is not named by a refit.
+
     The model's own columns: with the estimation run their estimation error widens the test
     (Cov(π̂)); with a regressor alone they are refitted on the validation run (what they can
     represent is not missing); with neither, the prediction alone is given and nothing is refitted.
@@ -119,8 +122,9 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
                                   libraries=libs, band=band, **kwargs)
     # the kinds the model's column names declare: the naming refit and the relation both read them
     declared = _model_terms.declared_groups(reg3, cols, column_names)
-    local: dict[int, dict[str, Any]] = {}
     source = _term_refit.derivative_source(q, dq, ddq, est_run)
+    # the estimation run names the terms where it can be refitted (its q given); else the test's names stay
+    local: dict[int, dict[str, Any]] = {}
     refit = False
     if est_fit is not None and reg3 is not None and meas is not None and est_run is not None and "q" in est_run:
         refit = True

@@ -6,9 +6,9 @@ with the group added removes out of sample. This module does that refit, on the 
 first (:func:`refit_names`: the group added on every flagged joint at once, the model's columns
 refitted with it, the validation mean square it removes), on the validation run where that refit
 carries no practical share (cross-fitted there, and the model's own re-weighting where neither
-carries: :func:`dynval.statistics._model_terms.name_on_validation`). It also gives the physics test's Cov(π̂) under the
-alternative (:func:`alternative_covariance`): the estimation run's noise once what its own test
-finds there is refitted with the model.
+carries: :func:`dynval.statistics._model_terms.name_on_validation`). It also gives the physics
+test's Cov(π̂) under the alternative (:func:`alternative_covariance`): the estimation run's noise
+once what its own test finds there is refitted with the model.
 """
 
 from __future__ import annotations
@@ -34,7 +34,6 @@ def derivative_source(q: np.ndarray | None, dq: np.ndarray | None, ddq: np.ndarr
     est_run = est_run or {}
     both = dq is not None and ddq is not None and "dq" in est_run and "ddq" in est_run
     return "given" if both else "savgol"
-
 
 
 def alternative_covariance(est_run: Mapping[str, Any] | None, est_fit: EstimationFit, sample_rate: float | None,
@@ -74,7 +73,6 @@ def alternative_covariance(est_run: Mapping[str, Any] | None, est_fit: Estimatio
         lib = _physics.library(j, q_e, de.dq, de.ddq, pred_e[:, j], sample_rate, only=set(want)) if want else {}
         structure.append(np.hstack([lib[g] for g in want if g in lib]) if want else None)
     return _estimation.noise_covariance(est_fit, reg_e, structure), removed
-
 
 
 def refit_names(tests: Sequence[PhysicsTest], est_run: Mapping[str, Any], est_fit: EstimationFit,
