@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from dynval import scenarios
-from dynval.report._motion import name_absent_kinds
 from dynval.statistics import _model_terms
+from dynval.statistics._model_terms import name_absent_kinds
 from dynval.statistics._physics import PhysicsTest
 
 N = 2000

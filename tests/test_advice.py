@@ -14,9 +14,8 @@ import pytest
 
 import dynval
 from dynval.report import _finding_words as w
-from dynval.report import _motion
 from dynval.report._findings import Evidence, compute_findings
-from dynval.statistics import _model_terms, _physics
+from dynval.statistics import _model_terms, _physics, _term_refit
 
 FS = 100.0
 
@@ -212,9 +211,9 @@ def test_a_fallback_refit_counts_only_what_carries_to_held_out_rows():
         return 1.0 - np.sum((tau - x @ np.linalg.lstsq(x, tau, rcond=None)[0]) ** 2) / np.sum(
             (tau - y @ np.linalg.lstsq(y, tau, rcond=None)[0]) ** 2)
 
-    gains = _motion._validation_refit_gains(tau, y, {"smooth": smooth, "offset": np.ones((n, 1))})
+    gains = _model_terms.validation_refit_gains(tau, y, {"smooth": smooth, "offset": np.ones((n, 1))})
     assert in_sample(np.hstack([y, smooth])) > 0.05 and gains["smooth"] < 0.02
-    gains = _motion._validation_refit_gains(tau + 3.0, y, {"offset": np.ones((n, 1))})
+    gains = _model_terms.validation_refit_gains(tau + 3.0, y, {"offset": np.ones((n, 1))})
     assert gains["offset"] > 0.5
 
 
@@ -400,7 +399,7 @@ def test_the_naming_refit_carries_each_column_in_the_estimation_runs_units():
     qv, dqv, ddqv = (2.0 * x for x in _motion_of(1))
     de = _physics.derivatives(qe, FS, dqe, ddqe)
     dv = _physics.derivatives(qv, FS, dqv, ddqv)
-    est, val = _motion._carried_libraries(1, qe, de, qv, dv, FS)
+    est, val = _term_refit.carried_libraries(1, qe, de, qv, dv, FS)
     rms = np.sqrt(np.mean(dqe[:, 1] ** 2))
     assert np.allclose(est["viscous"][:, 0], dqe[:, 1] / rms) and np.allclose(val["viscous"][:, 0], dqv[:, 1] / rms)
     assert np.allclose(val["inertia"], 2.0 * est["inertia"])
@@ -424,10 +423,10 @@ def test_a_re_weighting_is_named_by_the_kind_the_model_columns_change():
     groups = {"gravity": np.column_stack([f(q[:, 0] + c) for c in (0.0, 0.7, 1.9) for f in (np.cos, np.sin)]),
               "position_harmonic": np.column_stack([f(h * q[:, 0]) for h in (2.0, 3.0) for f in (np.sin, np.cos)]),
               "offset": np.ones((n, 1))}
-    assert _motion._reweighted_group(e, y, groups) == "gravity"
-    assert _motion._reweighted_group(e, y, {"offset": groups["offset"]}) == "offset"
-    assert _motion._reweighted_group(e, y, {}) is None
-    assert _motion._reweighted_group(np.zeros(n), y, groups) is None
+    assert _model_terms.reweighted_group(e, y, groups) == "gravity"
+    assert _model_terms.reweighted_group(e, y, {"offset": groups["offset"]}) == "offset"
+    assert _model_terms.reweighted_group(e, y, {}) is None
+    assert _model_terms.reweighted_group(np.zeros(n), y, groups) is None
 
 
 @pytest.mark.parametrize("key, replicate, joint, term", [

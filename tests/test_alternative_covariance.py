@@ -72,11 +72,11 @@ def test_a_right_model_keeps_the_estimation_covariance(monkeypatch):
     """The estimation run's own test selects nothing for a right model: the widening is the
     estimation fit's, and the physics section is the one the estimation fit's covariance gives.
     Kills: a structure removed where its test found none (every group taken, a level of 1)."""
-    from dynval.report import _motion
+    from dynval.statistics import _term_refit
 
     physics = _report("right:white:arm6@200", 0).to_dict()["physics"]
     assert "selects" not in physics["model_columns"]
-    monkeypatch.setattr(_motion, "_estimation_structure", lambda *a, **k: None)
+    monkeypatch.setattr(_term_refit, "alternative_covariance", lambda *a, **k: None)
     plain = _report("right:white:arm6@200", 0).to_dict()["physics"]
     assert [t["pvalue"] for t in physics["tests"]] == [t["pvalue"] for t in plain["tests"]]
 

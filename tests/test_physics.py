@@ -399,12 +399,12 @@ def test_a_term_no_estimation_refit_helps_is_named_from_the_validation_run():
     named a position harmonic before (replicate 14)."""
     pytest.importorskip("pinocchio")
     from dynval import scenarios as S
-    from dynval.report import _motion
+    from dynval.statistics import _model_terms
 
     y = np.random.default_rng(0).standard_normal((500, 3))
     tau = y @ [1.0, -2.0, 0.5] + 0.3
     groups = {"offset": np.ones((500, 1)), "noise": np.random.default_rng(1).standard_normal((500, 2))}
-    gains = _motion._validation_refit_gains(tau, y, groups)
+    gains = _model_terms.validation_refit_gains(tau, y, groups)
     assert gains["offset"] == pytest.approx(1.0) and abs(gains["noise"]) < 0.05
 
     sc = next(s for s in S.library() if s.key == "offset:white:arm4@100")

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from dynval import scenarios
-from dynval.report._regressor_algebra import unit_norm_columns
 from dynval.statistics import _physics, _physics_stream
+from dynval.statistics._columns import unit_norm_columns
 
 EXACT_RTOL = 1e-6  # F and p (measured at most 2e-8)
 SHARE_RTOL = 1e-7

@@ -20,8 +20,7 @@ if TYPE_CHECKING:
 else:
     from .._lazy import scipy
 
-from ..statistics._columns import ROW_BLOCK, zero_columns
-from ..statistics._columns import column_norms as _column_norms
+from ..statistics._columns import ROW_BLOCK
 from ..statistics._columns import exponents as _exponents
 from ..statistics._columns import largest_abs as _column_largest
 from ..statistics._columns import pow2_exponents as _pow2_exponents
@@ -384,19 +383,10 @@ def _singular_values(x: np.ndarray, live: np.ndarray, norms: np.ndarray,
 
 _RANK_TOL = 1e-9
 """Dependent columns of the design section (conventions §5.6): a column that, scaled to unit norm,
-lies within 1e-9 of the span of the columns kept before it (zero columns: :func:`zero_columns`).
-Roundoff of a dependency stands near 1e-15 (KUKA LWR4+: at most 3e-15, while its weakest
-identifiable combination stands at 1e-2); a real column this weak would mean a condition number of
-1e9."""
-
-
-def unit_norm_columns(x: np.ndarray) -> np.ndarray:
-    """The columns of x (rows × k) divided by their norms, zero columns (:func:`zero_columns`) left
-    out: what a least squares whose coefficients are not reported (the model's own columns as
-    nuisance terms) is solved on, so that its rank decision does not depend on the columns' units."""
-    norms = _column_norms(x)
-    keep = ~zero_columns(norms)
-    return np.asarray(x[:, keep] / norms[keep])
+lies within 1e-9 of the span of the columns kept before it (zero columns:
+:func:`dynval.statistics._columns.zero_columns`). Roundoff of a dependency stands near 1e-15 (KUKA
+LWR4+: at most 3e-15, while its weakest identifiable combination stands at 1e-2); a real column this
+weak would mean a condition number of 1e9."""
 
 
 def _gram_singular_values(gram: np.ndarray | None, norms: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["ROW_BLOCK", "ROUNDOFF_COLUMN", "largest_abs", "exponents", "pow2_exponents", "scale_pow2",
-           "zero_columns", "column_norms", "runs"]
+           "zero_columns", "column_norms", "unit_norm_columns", "runs"]
 
 # Rows per block where a pass over the stacked regressor would otherwise copy it whole.
 ROW_BLOCK = 1 << 16
@@ -76,3 +76,12 @@ def column_norms(x: np.ndarray) -> np.ndarray:
     k = pow2_exponents(x)
     return np.asarray(np.ldexp(np.sqrt(sum(np.linalg.norm(scale_pow2(x[i:i + ROW_BLOCK], k), axis=0) ** 2
                                            for i in range(0, x.shape[0], ROW_BLOCK))), k))
+
+
+def unit_norm_columns(x: np.ndarray) -> np.ndarray:
+    """The columns of x (rows × k) divided by their norms, zero columns (:func:`zero_columns`) left
+    out: what a least squares whose coefficients are not reported (the model's own columns as
+    nuisance terms) is solved on, so that its rank decision does not depend on the columns' units."""
+    norms = column_norms(x)
+    keep = ~zero_columns(norms)
+    return np.asarray(x[:, keep] / norms[keep])

@@ -21,21 +21,35 @@ remains: another shape of a friction, a centre-of-mass component), ``coupling`` 
 kind's own columns, the cross-joint columns remain) or ``missing`` (it spans no column of the kind).
 ``unsupported``: the model spans no own column of the kind and adding it does not carry to held-out
 rows (what remains is rather the model's own terms mis-weighted, ``reweight_share``).
+
+Applied to the physics test's named terms (the last parts of the module): which kinds the model
+holds per joint (:func:`model_kinds`, :func:`declared_groups`), a rigid-body kind it holds on no
+joint (:func:`name_absent_kinds`), each named term's relation and the model's coefficients closest
+to it (:func:`relate_terms`), a simulator model's own parameters refitted
+(:func:`simulator_parameters`), and a term named on the validation run where the estimation run's
+refit names none (:func:`name_on_validation`: the groups' cross-fitted gains beyond the model's
+columns, else the held kind the model's re-weighting adds).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import _physics
+from ._columns import unit_norm_columns
+from ._physics import Derivatives, PhysicsTest
+
+if TYPE_CHECKING:
+    from ._estimation import EstimationFit
 
 __all__ = ["SPAN_TOLERANCE", "CROSSFIT_ROWS", "coupling_mask", "span_basis", "outside_fraction", "crossfit_sse",
            "relate", "kinds_present", "declared_kinds", "RIGID_BODY_PARAMETERS", "SIMULATOR_PARAMETERS",
-           "simulator_attribute"]
+           "simulator_attribute", "RIGID_BODY_KINDS", "declared_groups", "model_kinds", "name_absent_kinds",
+           "relate_terms", "simulator_parameters", "name_on_validation", "validation_refit_gains", "reweighted_group"]
 
 SPAN_TOLERANCE = 0.1
 """A column lies in the model's span when less than this fraction of its RMS stays outside."""
@@ -308,3 +322,238 @@ def aligned_columns(y_j: np.ndarray, cols: np.ndarray, most: int = 2) -> list[in
 def library_for(j: int, q: Any, dq: Any, ddq: Any, n: int, sample_rate: Any) -> dict[str, np.ndarray]:
     """Joint j's library (q may be None: offset and drift only)."""
     return _physics.library(j, q, dq, ddq, np.zeros(n), sample_rate)
+
+
+# --------------------------------------------------------------------------- the physics test's terms
+
+
+def declared_groups(reg3: np.ndarray | None, cols: Sequence[int] | None,
+                    column_names: Sequence[str] | None) -> list[set[str]] | None:
+    """Per joint, the groups the names of the model's columns active on it declare."""
+    if reg3 is None or cols is None or not column_names:
+        return None
+    out = []
+    for j in range(reg3.shape[1]):
+        active = np.sqrt(np.mean(reg3[:, j, cols] ** 2, axis=0)) > 0
+        out.append(declared_kinds([column_names[c] for c, a in zip(cols, active) if a]))
+    return out
+
+
+def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | None, sample_rate: float | None,
+                reg3: np.ndarray | None,
+                cols: Sequence[int] | None,
+                declared: list[set[str]] | None = None,
+                libraries: Sequence[Mapping[str, np.ndarray]] | None = None) -> list[dict[str, bool]] | None:
+    """Per joint, which library groups the model's columns span (an own column of each within
+    the tolerance of :data:`SPAN_TOLERANCE`); None when its columns are unknown.
+    ``libraries``: each joint's library when built already."""
+    if reg3 is None or cols is None or e is None:
+        return None
+    n, m = e.shape
+    # every column: a view of the joint's columns, not a gathered copy of its whole (N, p) block
+    # per joint (the same values; a 91-column regressor's copy is 15 MB a joint at 20,000 rows)
+    every = len(cols) == reg3.shape[2] and all(int(c) == i for i, c in enumerate(cols))
+    out = []
+    for j in range(m):
+        lib = libraries[j] if libraries is not None else library_for(
+            j, q, None if q is None or d is None else d.dq, None if q is None or d is None else d.ddq, n, sample_rate)
+        y_j = reg3[:, j, :] if every else reg3[:, j, cols]
+        out.append(kinds_present(j, y_j, lib, m, declared[j] if declared else set()))
+    return out
+
+
+_LACKING = ("missing", "partial", "coupling")
+"""Relations in which the model lacks the named term (:func:`dynval.statistics.relate`)."""
+
+RIGID_BODY_KINDS = ("inertia", "gravity")
+"""The kinds every rigid-body model of a moving arm holds: a model that holds one of them on no joint
+lacks it as a whole (a gravity-only model of a moving arm lacks its inertia)."""
+
+
+def name_absent_kinds(tests: Sequence[PhysicsTest], kinds: list[dict[str, bool]] | None, e: np.ndarray,
+                      libraries: Sequence[Mapping[str, np.ndarray]], practical: float) -> None:
+    """Name a rigid-body kind the model holds on no joint where the test selects it (conventions §5.2,
+    "A kind the model lacks on every joint"): on a joint whose term was named by a kind the model
+    holds (on some joint), the named term is the fit's re-weighting of what it has, bent to make up
+    for the kind it lacks; adding that kind and refitting is the step. Named only where the kind's
+    own columns, cross-fitted on the validation run, remove a practical share of the joint's mean
+    square (its ``term_share`` then). ``kinds``: per joint, the groups the model holds."""
+    if not kinds:
+        return
+    absent = [g for g in RIGID_BODY_KINDS if not any(k.get(g) for k in kinds)]
+    held = {g for k in kinds for g, v in k.items() if v}
+    for t in tests:
+        if t.term is None or t.term not in held:
+            continue
+        ej = e[:, t.joint]
+        total = float(ej @ ej)
+        for g in absent:
+            if g not in t.selected or g not in libraries[t.joint] or not total > 0:
+                continue
+            share = (total - crossfit_sse(ej, libraries[t.joint][g])) / total
+            if share >= practical:
+                t.term, t.term_share, t.refit_run = g, share, "absent"
+                break
+
+
+def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, meas: np.ndarray | None, q: np.ndarray,
+                 d: Derivatives, sample_rate: float | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
+                 est_fit: EstimationFit | None,
+                 practical: float, declared: list[set[str]] | None = None,
+                 libraries: Sequence[Mapping[str, np.ndarray]] | None = None,
+                 local: Mapping[int, dict[str, Any]] | None = None) -> None:
+    """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
+    with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
+    with the coefficients of the model's columns closest to it, estimated and refitted on this run.
+    ``libraries``: each joint's library when built already. ``local``: per joint, what the named
+    group's own columns added on that joint alone give (:func:`dynval.statistics._term_refit.refit_names`):
+    a term the joint's columns span only by bending parameters other joints share is ``local``, not a
+    re-weighting."""
+    n, m = e.shape
+    for t in tests:
+        if t.term is None:
+            continue
+        j = t.joint
+        lib = libraries[j] if libraries is not None else library_for(j, q, d.dq, d.ddq, n, sample_rate)
+        if t.term not in lib:
+            continue
+        ej = e[:, j]
+        total = float(ej @ ej)
+        if not total > 0:
+            continue
+        t.heldout_share = (total - crossfit_sse(ej, lib[t.term])) / total
+        if reg3 is None or cols is None:
+            continue
+        y_j = reg3[:, j, cols]
+        active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+        both = np.hstack([y_j[:, active], lib[t.term]])
+        base = crossfit_sse(ej, y_j[:, active], full=both)
+        t.carried_share = (base - crossfit_sse(ej, both, full=both)) / total
+        rel = relate(j, t.term, ej, y_j, lib, m, practical, declared[j] if declared else set())
+        gain = (local or {}).get(j)
+        if (rel["relation"] == "reweight" and gain is not None and gain["group"] == t.term
+                and gain["share"] >= practical):
+            rel["relation"], rel["local"] = "local", gain
+        elif rel["relation"] in _LACKING and gain is not None and gain["group"] == t.term:
+            # what its own columns added on this joint alone remove on the others: the parameters
+            # the fit bent there for it (conventions §5.10, "One missing column is one step")
+            rel["added_alone"] = gain
+        near = aligned_columns(y_j, lib[t.term])
+        in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], None if meas is None else meas[:, j])
+        est_coef = np.asarray(est_fit.coefficients, dtype=float) if est_fit is not None else in_pred
+        rel["columns"] = [int(cols[c]) for c in near]
+        # the model's columns most aligned with each group the selection took in with the named one:
+        # a structure the model lacks leaves its trace on them (a decoupled model's sin q_j carries
+        # part of the missing gravity coupling when inertia is the term named)
+        rel["trace_columns"] = sorted({int(cols[c]) for g in t.selected if g in lib
+                                       for c in aligned_columns(y_j, lib[g])} | set(rel["columns"]))
+        # the other joints whose rows these columns enter: a structure the model lacks there bends
+        # their shared parameters in the fit, and the error this leaves here is its trace
+        rel["shared_with"] = [k for k in range(m) if k != j and any(np.any(reg3[:, k, cols[c]] != 0) for c in near)]
+        rel["estimated"] = [float(est_coef[c]) for c in near]
+        rel["refitted"] = [float(refit[c]) for c in near]
+        rel["estimated_from"] = "estimation" if est_fit is not None else "prediction"
+        t.relation = rel
+
+
+def _joint_coefficients(y_j: np.ndarray, active: np.ndarray, pred_j: np.ndarray,
+                        meas_j: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint j's model columns' coefficients in the prediction and refitted on the measured torque
+    (least squares on the columns active on the joint; nan refitted without the measurement)."""
+    in_pred = np.zeros(y_j.shape[1])
+    in_pred[active] = coefficients(y_j[:, active], pred_j)
+    refit = np.zeros(y_j.shape[1])
+    refit[active] = coefficients(y_j[:, active], meas_j) if meas_j is not None else np.nan
+    return in_pred, refit
+
+
+def simulator_parameters(pred: np.ndarray | None, meas: np.ndarray | None, reg3: np.ndarray | None,
+                         column_names: Sequence[str] | None) -> list[list[dict[str, Any]]] | None:
+    """Per joint, the simulator columns active on it (an MJCF model's ``armature_``, ``damping_``,
+    ``frictionloss_<joint>``, contract §11) with their coefficient in the prediction (the model's own
+    value) and refitted on this run, by least squares on every regressor column active on the joint:
+    an MJCF regressor's columns are each on one joint, so this is the joint's share of
+    :func:`dynval.identify.identify` of the whole regressor, the value ``MJCFModel.retune`` refits.
+    None when the regressor has no such column."""
+    if reg3 is None or not column_names or meas is None or pred is None:
+        return None
+    if not any(simulator_attribute(name) for name in column_names):
+        return None
+    out: list[list[dict[str, Any]]] = []
+    for j in range(reg3.shape[1]):
+        y_j = reg3[:, j, :]
+        active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+        named = [c for c in range(y_j.shape[1]) if active[c] and simulator_attribute(column_names[c])]
+        if not named:
+            out.append([])
+            continue
+        in_pred, refit = _joint_coefficients(y_j, active, pred[:, j], meas[:, j])
+        out.append([{"column": c, "name": str(column_names[c]), "predicted": float(in_pred[c]),
+                     "refitted": float(refit[c])} for c in named])
+    return out if any(out) else None
+
+
+# --------------------------------------------------------------------------- naming on the validation run
+
+
+def name_on_validation(t: PhysicsTest, meas_j: np.ndarray, y_j: np.ndarray, coefficients: np.ndarray,
+                       lib_j: Mapping[str, np.ndarray], m: int, practical: float,
+                       declared: set[str] | None) -> dict[str, float] | None:
+    """Joint t.joint's term named on the validation run, where the estimation run's refit names
+    none (:func:`dynval.statistics._term_refit.refit_names`): the groups' shares of what the model's
+    own columns ``y_j`` (as given, with their estimated ``coefficients``) leave, cross-fitted
+    (:func:`validation_refit_gains`), returned when one reaches ``practical`` (the caller names
+    the term from them). Otherwise the model's columns span what remains (mis-weighted, not
+    missing): where the test named a kind the model does not hold (``declared``: the kinds its
+    column names declare, else those it spans), ``t.term`` becomes the held kind its re-weighting
+    adds (:func:`reweighted_group`), and None is returned."""
+    y_unit = unit_norm_columns(y_j)
+    gv = validation_refit_gains(meas_j, y_unit, lib_j)
+    if gv and max(gv.values()) >= practical:
+        return gv
+    held = ({g: g in declared for g in lib_j} if declared is not None else
+            kinds_present(t.joint, y_unit, lib_j, m))
+    if t.term is None or held.get(t.term):
+        return None
+    named = reweighted_group(meas_j - y_j @ coefficients, y_unit, {g: x for g, x in lib_j.items() if held.get(g)})
+    if named is not None:
+        t.term = named
+    return None
+
+
+def validation_refit_gains(tau_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """Per group, the share of the residual left by the model's columns refitted on this run that
+    the group removes when added to them, out of sample: cross-fitted on alternate blocks of the run
+    (:func:`crossfit_sse`, the rows near a block's edge unscored), so
+    a group that fits the noise of the rows it sees does not count."""
+    out = {}
+    for g, b in groups.items():
+        both = np.hstack([y_j, b])
+        base = crossfit_sse(tau_j, y_j, full=both)
+        if base > 0:
+            out[g] = (base - crossfit_sse(tau_j, both, full=both)) / base
+    return out
+
+
+def reweighted_group(e_j: np.ndarray, y_j: np.ndarray, groups: Mapping[str, np.ndarray]) -> str | None:
+    """The library group that best represents what re-weighting the model's columns changes on this
+    run: the residual's least-squares fit on the model's columns (the torque the changed weights
+    make), and the group of ``groups`` (those the model holds) that explains the most of it. A
+    payload changes the weights of the model's gravity and inertia columns: what they then add is a
+    posture term, not a position harmonic that the validation test's selection may have taken first.
+    None when the re-weighting adds nothing."""
+    active = np.sqrt(np.mean(y_j * y_j, axis=0)) > 0
+    if not np.any(active) or not groups:
+        return None
+    y = y_j[:, active]
+    r = y @ np.linalg.lstsq(y, e_j, rcond=None)[0]
+    total = float(r @ r)
+    if not total > 0:
+        return None
+    shares = {}
+    for g, x in groups.items():
+        left = r - x @ np.linalg.lstsq(x, r, rcond=None)[0]
+        shares[g] = 1.0 - float(left @ left) / total
+    # the largest share, not the fewest columns near it: every group is fitted to the same torque
+    # of the model's own columns, which a slowly moving joint's constant-like columns all nearly fit
+    return max(shares, key=lambda g: (shares[g], -groups[g].shape[1]))

@@ -8,13 +8,16 @@ P discrete Fourier coefficients estimates the noise level at that frequency, wha
 and the mean over periods is tested against it (Pintelon & Schoukens, *System Identification: A
 Frequency Domain Approach*, 2nd ed. 2012, §2.5 and §6.4; Schoukens, Pintelon & Rolain 2012).
 
-Two pure functions:
+Two pure functions, and the report's section built on them:
 
 * :func:`detect_period` finds the fundamental period of the joint positions q (sub-sample
   precision) and how many whole periods the run holds, or says the trajectory is not periodic;
 * :func:`periodic_noise_test` splits the residual into those periods and returns, per joint, a
   p-value of "no periodic model error", the share of the residual's variance that is periodic model
   error beyond the noise, and the noise variance and spectrum the periods measure.
+
+:func:`periodic_error_test` is the report's periodic section: the period, the residual cleared of
+what the model's own columns represent, and the test (or why none runs).
 """
 
 from __future__ import annotations
@@ -36,8 +39,9 @@ else:
 from ..checks._errors import InvalidParameter, InvalidShape, NonFiniteInput, TooFewSamples
 from ..checks._typing import ArrayLike, FloatArray
 from ..checks._validation import format_value, is_real_number
+from ._columns import unit_norm_columns
 
-__all__ = ["Period", "PeriodicTest", "detect_period", "periodic_noise_test"]
+__all__ = ["Period", "PeriodicTest", "detect_period", "periodic_noise_test", "periodic_error_test"]
 
 # A periodic signal's squared mismatch d(ℓ) = ‖q(t+ℓ) − q(t)‖²/‖q − q̄‖² averages 2 over the lags
 # of one period (the autocorrelation of a zero-mean periodic signal averages 0 over a period). A
@@ -738,3 +742,51 @@ def _method_text(p_count: int, t_samples: float, length: int, resampled: bool, n
             + "; AR(1) prewhitening fitted to the deviations between periods; DFT per period; "
             + f"harmonics k = 1..{n_harm}: F_k = P|mean|^2/var ~ F(2, {int(2.0 * (p_count - 1))}) per joint; "
             + f"Fisher's combination -2 sum log p_k ~ chi2({2 * n_harm})")
+
+
+def periodic_error_test(e: FloatArray, q: FloatArray, sample_rate: float | None, band: float | None,
+                        reg3: FloatArray | None = None, cols: list[int] | None = None) -> dict[str, Any] | None:
+    """When the validation trajectory repeats itself (at least two whole periods of q), the residual's
+    part common to every period against the noise the period-to-period variation measures
+    (:func:`periodic_noise_test`, no whiteness assumed).
+
+    A model's estimation error Y(π − π̂) repeats with the trajectory too: with a regressor, each
+    joint's residual is first cleared of what the model's own columns represent (least squares on
+    the validation run), so what is tested is periodic error the model cannot represent. ``cols``:
+    the model's columns of ``reg3`` (N, m, p). Returns the report's periodic section, or None where
+    q does not repeat (or no test can run without the band it was given).
+    """
+    period = detect_period(q, sample_rate=sample_rate)
+    if period is None:
+        return None
+    if round(period.samples) < MIN_TESTED_PERIOD:
+        return _untested_period(period, f"q repeats every {period.samples:.3g} samples: an encoder dithering by a "
+                                        "count at standstill, not a repeated trajectory; such a period has no "
+                                        "harmonic below the Nyquist frequency, so no periodic test")
+    projected = False
+    if reg3 is not None and cols is not None:
+        e = e.copy()
+        for j in range(e.shape[1]):
+            y = unit_norm_columns(reg3[:, j, cols])  # the projection in any unit of the columns
+            if y.size:
+                e[:, j] -= y @ np.linalg.lstsq(y, e[:, j], rcond=None)[0]
+        projected = True
+    use_band = band if band is not None and np.isfinite(band) and band > 0 else None
+    try:
+        test = periodic_noise_test(e, period, sample_rate=sample_rate, band=use_band)
+    except ValueError:
+        if use_band is None:
+            return None
+        try:
+            test = periodic_noise_test(e, period, sample_rate=sample_rate)
+        except ValueError as exc:
+            return _untested_period(period, f"no periodic test: {exc}")
+    out = {"used": True, "period": period.to_dict(), **test.to_dict()}
+    out["model_columns_removed"] = projected
+    out["effect_net"] = np.clip(np.asarray(test.effect, dtype=float), 0.0, 1.0)
+    return out
+
+
+def _untested_period(period: Period, note: str) -> dict[str, Any]:
+    """The periodic section of a period that cannot be tested: ``used`` False and the ``note`` why."""
+    return {"used": False, "period": period.to_dict(), "note": note}
