@@ -50,8 +50,8 @@ def test_each_attribute_is_the_entry_of_its_name(physics_tests):
     selected share from the term's), a value converted on the way (a rule passing it on into a
     finding's details would write something else than the section holds)."""
     assert any(t["term"] is not None for t in physics_tests)
-    for t in physics_tests:
-        view = JointPhysics.of(t)
+    for j, t in enumerate(physics_tests):
+        view = JointPhysics.of(t, j)
         for attribute, key in FIELDS.items():
             held = t.get(key)
             got = getattr(view, attribute)
@@ -63,7 +63,7 @@ def test_a_missing_key_fails_where_the_view_is_built(physics_tests):
     """Kills: a view that reads a missing key as None (a renamed key would pass silently)."""
     entry = {k: v for k, v in physics_tests[0].items() if k != "term_share"}
     with pytest.raises(KeyError, match="term_share"):
-        JointPhysics.of(entry)
+        JointPhysics.of(entry, 0)
     with pytest.raises(KeyError, match="shift_samples"):
         Delay.of({"share": [0.1]})
     with pytest.raises(KeyError, match="effect_net"):

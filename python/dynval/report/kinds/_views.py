@@ -22,7 +22,7 @@ __all__ = ["JointPhysics", "Delay", "Periodic", "physics_joints", "physics_joint
 class JointPhysics:
     """One joint's missing-physics test (``physics["tests"][j]``, conventions §5.2)."""
 
-    joint: int
+    joint: int  # its place in the section's list, which is the joint's index
     statistic: float
     share: float  # the library's share of the joint's mean square (nan when not tested)
     term: str | None  # the named group, None when none is named
@@ -39,8 +39,8 @@ class JointPhysics:
     relation: Mapping[str, Any] | None
 
     @classmethod
-    def of(cls, t: Mapping[str, Any]) -> JointPhysics:
-        return cls(joint=int(t["joint"]), statistic=t["statistic"], share=t["share"], term=t["term"],
+    def of(cls, t: Mapping[str, Any], j: int) -> JointPhysics:
+        return cls(joint=j, statistic=t["statistic"], share=t["share"], term=t["term"],
                    term_share=t["term_share"], selected=t["selected"], shares=t["shares"],
                    selected_share=t.get("selected_share", t["term_share"]), n_eff=t["n_eff"],
                    refit_run=t.get("refit_run"), heldout_share=t.get("heldout_share"),
@@ -84,13 +84,13 @@ class Periodic:
 
 def physics_joints(ev: Evidence) -> list[JointPhysics]:
     """Every joint's missing-physics test, in joint order (empty without the physics section)."""
-    return [] if ev.physics is None else [JointPhysics.of(t) for t in ev.physics["tests"]]
+    return [] if ev.physics is None else [JointPhysics.of(t, j) for j, t in enumerate(ev.physics["tests"])]
 
 
 def physics_joint(ev: Evidence, j: int) -> JointPhysics:
     """Joint j's missing-physics test (the physics section must be present)."""
     assert ev.physics is not None
-    return JointPhysics.of(ev.physics["tests"][j])
+    return JointPhysics.of(ev.physics["tests"][j], j)
 
 
 def delay_of(ev: Evidence) -> Delay | None:
