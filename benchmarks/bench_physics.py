@@ -24,6 +24,7 @@ This is a benchmark, not a test: nothing here asserts a time.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import subprocess
@@ -107,21 +108,11 @@ def cases(kuka=True):
     return out
 
 
-def best_cpu_of(fn, repeat):
-    """The least CPU time of this process over ``repeat`` calls of fn (seconds)."""
-    times = []
-    for _ in range(repeat):
-        start = time.process_time()
-        fn()
-        times.append(time.process_time() - start)
-    return min(times)
-
-
 def measure(repeat, clock="wall"):
     """{case: (seconds with q, seconds without q)} with the dynval on the path."""
     import dynval
 
-    timer = best_cpu_of if clock == "cpu" else best_of
+    timer = functools.partial(best_of, clock=time.process_time if clock == "cpu" else time.perf_counter)
     out = {}
     for name, with_q, without in cases():
         dynval.validate(**without)  # first call: imports and lazy modules
