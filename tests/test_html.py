@@ -330,3 +330,25 @@ def test_names_the_fonts_cannot_draw_are_drawn_as_escapes():
     report = dynval.validate(tau, pred, n_params=1, joint_names=names)
     drawn = _svg_text(plot.residuals(tau, pred, report=report))  # warnings are errors in this suite
     assert "a\\x1fb" in drawn and "j\\U000f0000" in drawn
+
+
+def test_the_headline_says_on_how_many_joints_the_model_is_deficient_not_how_many_findings():
+    """A bias on one joint of three makes findings of several kinds there; the headline counts the
+    joints (one of three), and the number of findings is said beside it, not as the headline.
+    Kills: the headline back to the count of findings ("3 deficiencies found"), the joints counted
+    from every finding (notes included), the accepting box saying a count."""
+    rng = np.random.default_rng(0)
+    tau = rng.normal(size=(2000, 3))
+    pred = tau + 0.05 * rng.normal(size=tau.shape)
+    pred[:, 1] += 0.5  # the elbow's prediction is off by a constant: its residual has a mean
+    report = dynval.validate(tau, pred, n_params=3)
+    defic = [f for f in report.findings if f.severity == "deficiency"]
+    assert defic and {j for f in defic for j in f.joints} == {1}
+    page = render_report(report)
+    headline = re.search(r'<div class="decision">(.*?)</div>', page).group(1)
+    assert headline == "deficient on 1 of 3 joints"
+    n = len(defic)
+    assert f"{n} deficienc{'y' if n == 1 else 'ies'}, the strongest first below" in page
+    right = dynval.validate(tau, tau + 0.05 * rng.normal(size=tau.shape), n_params=3)
+    assert not right.deficiencies
+    assert re.search(r'<div class="decision">(.*?)</div>', render_report(right)).group(1) == "no deficiency found"

@@ -535,7 +535,10 @@ def _validation_parts(rep, title, intro, signature, plots: _FigureData) -> list:
 
 
 def _deficiency_count_html(rep) -> str:
-    """A verdict-coloured box with the number of deficiencies ("" for an object without findings)."""
+    """A verdict-coloured box saying on how many joints the model is deficient, with the step to take
+    first and why ("" for an object without findings). The headline counts joints, not findings: one
+    missing term makes a deficiency of several kinds on its joint, so a weak model can show fewer
+    findings than a good one (conventions §5.10, "The count is not the measure")."""
     findings = getattr(rep, "findings", None)
     if findings is None:
         return ""
@@ -545,8 +548,15 @@ def _deficiency_count_html(rep) -> str:
     first = getattr(rep, "first_step", "") if defic else ""
     step = (f'<p class="first-step">Do first: <b>{_t(first)}</b></p><p class="muted">{_t(rep.first_reason)}</p>'
             if first else "")
-    return (f'<div class="verdict {state}"><div class="decision">'
-            f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'} found</div>{step}</div>")
+    if not defic:
+        return f'<div class="verdict {state}"><div class="decision">no deficiency found</div></div>'
+    joints = sorted({j for f in defic for j in (getattr(f, "joints", None) or ())})
+    m = (getattr(rep, "provenance", None) or {}).get("n_joints")
+    where = (f"deficient on {len(joints)} of {m} joint{'' if m == 1 else 's'}" if joints and m
+             else "deficient")
+    count = f"{len(defic)} deficienc{'y' if len(defic) == 1 else 'ies'}, the strongest first below"
+    return (f'<div class="verdict {state}"><div class="decision">{_e(where)}</div>'
+            f'<p class="muted">{_e(count)}</p>{step}</div>')
 
 
 def _comparison_parts(cmp, title, intro, signature, plots: _FigureData) -> tuple[list, str]:
