@@ -367,3 +367,33 @@ def test_the_one_column_wald_is_the_row_based_ols_with_hc1():
         assert _physics._wald_one(x, y) == pytest.approx(b * b / var, rel=1e-10)
     assert _physics._wald_one(np.zeros(50), rng.normal(size=50)) == 0.0
     assert _physics._wald_one(np.ones(50), np.ones(50)) == 0.0  # an exact fit: no variance left
+
+
+def _arm_log(n=3000, m=4, seed=5):
+    """A slow multi-sine motion and a residual with friction and a posture term on every joint."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 200.0
+    w = 2 * np.pi * np.array([0.2, 0.5, 0.9])
+    q = sum(rng.uniform(0.2, 0.6, m) * np.sin(wk * t[:, None] + rng.uniform(0, 6, m)) for wk in w)
+    dq = np.gradient(q, t, axis=0)
+    ddq = np.gradient(dq, t, axis=0)
+    e = 0.3 * np.sign(dq) + 0.2 * np.cos(q) + rng.normal(0.0, 0.1, (n, m))
+    return e, q, dq, ddq
+
+
+def test_the_joints_on_threads_give_the_serial_tests_bit_for_bit(monkeypatch):
+    """Kills: a joint's test given another joint's columns or result (the threads' results out of
+    order), or a library cache shared by the threads that one of them fills with another's columns."""
+    e, q, dq, ddq = _arm_log()
+    assert e.shape[0] * e.shape[1] * _physics._TYPICAL_WIDTH >= 1 << 18  # threads are taken here
+
+    def run(threads):
+        monkeypatch.setenv("DYNVAL_NUM_THREADS", str(threads))
+        return _physics.physics_test(e, e, q, dq, ddq, sample_rate=200.0, band=20.0)
+
+    serial, threaded = run(1), run(2)
+    assert [t.selected for t in serial] == [t.selected for t in threaded]
+    for a, b in zip(serial, threaded):
+        assert a.joint == b.joint
+        assert (a.statistic, a.pvalue, a.share, a.term, a.n_eff) == (b.statistic, b.pvalue, b.share, b.term, b.n_eff)
+        assert a.shares == b.shares
