@@ -66,8 +66,7 @@ def test_the_callers_numpy_error_state_holds_in_the_threads(monkeypatch):
     def divide(i):
         return float(np.float64(1.0) / np.float64(0.0))
 
-    with np.errstate(divide="raise"):
-        with pytest.raises(FloatingPointError):
-            _threads.thread_map(divide, 2, values=BIG)
+    with np.errstate(divide="raise"), pytest.raises(FloatingPointError):
+        _threads.thread_map(divide, 2, values=BIG)
     with np.errstate(divide="ignore"):
         assert _threads.thread_map(divide, 2, values=BIG) == [np.inf, np.inf]
