@@ -219,7 +219,9 @@ def test_the_shared_routes_give_the_findings_of_the_row_routes(monkeypatch):
         return _stats.weighted_column_acf(_stats.acf_fft(x, starts, big, live=live).reshape(big + 1, m, -1))
 
     def row_kinds(reg3, cols, declared, memo):
-        return _model_terms.model_kinds(np.zeros(reg3.shape[:2]), None, None, None, reg3, cols, declared)
+        n, m = reg3.shape[:2]
+        libraries = [_model_terms.library_for(j, None, None, None, n, None) for j in range(m)]
+        return _model_terms.model_kinds(np.zeros((n, m)), reg3, cols, libraries, declared)
 
     monkeypatch.setattr(ra, "_BASIS_COND", 0.0)
     monkeypatch.setattr(_stats, "column_powers", lag_domain)

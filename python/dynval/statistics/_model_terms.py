@@ -41,7 +41,7 @@ import numpy as np
 
 from . import _physics
 from ._columns import unit_norm_columns
-from ._physics import Derivatives, PhysicsTest
+from ._physics import PhysicsTest
 
 if TYPE_CHECKING:
     from ._estimation import EstimationFit
@@ -339,26 +339,22 @@ def declared_groups(reg3: np.ndarray | None, cols: Sequence[int] | None,
     return out
 
 
-def model_kinds(e: np.ndarray | None, q: np.ndarray | None, d: Derivatives | None, sample_rate: float | None,
-                reg3: np.ndarray | None,
-                cols: Sequence[int] | None,
-                declared: list[set[str]] | None = None,
-                libraries: Sequence[Mapping[str, np.ndarray]] | None = None) -> list[dict[str, bool]] | None:
+def model_kinds(e: np.ndarray | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
+                libraries: Sequence[Mapping[str, np.ndarray]],
+                declared: list[set[str]] | None = None) -> list[dict[str, bool]] | None:
     """Per joint, which library groups the model's columns span (an own column of each within
     the tolerance of :data:`SPAN_TOLERANCE`); None when its columns are unknown.
-    ``libraries``: each joint's library when built already."""
+    ``libraries``: each joint's library (:func:`library_for`)."""
     if reg3 is None or cols is None or e is None:
         return None
-    n, m = e.shape
+    m = e.shape[1]
     # every column: a view of the joint's columns, not a gathered copy of its whole (N, p) block
     # per joint (the same values; a 91-column regressor's copy is 15 MB a joint at 20,000 rows)
     every = len(cols) == reg3.shape[2] and all(int(c) == i for i, c in enumerate(cols))
     out = []
     for j in range(m):
-        lib = libraries[j] if libraries is not None else library_for(
-            j, q, None if q is None or d is None else d.dq, None if q is None or d is None else d.ddq, n, sample_rate)
         y_j = reg3[:, j, :] if every else reg3[:, j, cols]
-        out.append(kinds_present(j, y_j, lib, m, declared[j] if declared else set()))
+        out.append(kinds_present(j, y_j, libraries[j], m, declared[j] if declared else set()))
     return out
 
 
@@ -396,25 +392,23 @@ def name_absent_kinds(tests: Sequence[PhysicsTest], kinds: list[dict[str, bool]]
                 break
 
 
-def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, meas: np.ndarray | None, q: np.ndarray,
-                 d: Derivatives, sample_rate: float | None, reg3: np.ndarray | None, cols: Sequence[int] | None,
-                 est_fit: EstimationFit | None,
-                 practical: float, declared: list[set[str]] | None = None,
-                 libraries: Sequence[Mapping[str, np.ndarray]] | None = None,
-                 local: Mapping[int, dict[str, Any]] | None = None) -> None:
+def relate_terms(tests: Sequence[PhysicsTest], e: np.ndarray, pred: np.ndarray, meas: np.ndarray | None,
+                 reg3: np.ndarray | None, cols: Sequence[int] | None, est_fit: EstimationFit | None,
+                 practical: float, libraries: Sequence[Mapping[str, np.ndarray]],
+                 declared: list[set[str]] | None = None, local: Mapping[int, dict[str, Any]] | None = None) -> None:
     """Each named term's own effect out of sample (alone, cross-fitted on the validation run) and,
     with the model's columns known, its relation to them: mis-weighted, partial, coupling or missing,
     with the coefficients of the model's columns closest to it, estimated and refitted on this run.
-    ``libraries``: each joint's library when built already. ``local``: per joint, what the named
+    ``libraries``: each joint's library (:func:`library_for`). ``local``: per joint, what the named
     group's own columns added on that joint alone give (:func:`dynval.statistics._term_refit.refit_names`):
     a term the joint's columns span only by bending parameters other joints share is ``local``, not a
     re-weighting."""
-    n, m = e.shape
+    m = e.shape[1]
     for t in tests:
         if t.term is None:
             continue
         j = t.joint
-        lib = libraries[j] if libraries is not None else library_for(j, q, d.dq, d.ddq, n, sample_rate)
+        lib = libraries[j]
         if t.term not in lib:
             continue
         ej = e[:, j]

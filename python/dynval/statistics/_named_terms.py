@@ -130,10 +130,9 @@ def name_terms(e: np.ndarray, pred: np.ndarray, q: np.ndarray, dq: np.ndarray | 
         refit = True
         local = _term_refit.refit_names(tests, est_run, est_fit, reg3, meas, q, d, sample_rate, practical, source,
                                         declared)
-    kinds = _model_terms.model_kinds(e, q, d, sample_rate, reg3, cols, declared, libs)
+    kinds = _model_terms.model_kinds(e, reg3, cols, libs, declared)
     _model_terms.name_absent_kinds(tests, kinds, e, libs, practical)
-    _model_terms.relate_terms(tests, e, pred, meas, q, d, sample_rate, reg3, cols, est_fit, practical, declared, libs,
-                              local)
+    _model_terms.relate_terms(tests, e, pred, meas, reg3, cols, est_fit, practical, libs, declared, local)
     return NamedTerms(tests, d, source, use, alternative, refit, kinds,
                       _model_terms.simulator_parameters(pred, meas, reg3, column_names), dec)
 
