@@ -81,6 +81,8 @@ def run_library(scenarios, replicates: int, jobs: int, backend, first_seed: int 
     if jobs > 1:
         import multiprocessing
 
+        # a process per core: no threads of their own (the physics test's joints would go on threads)
+        os.environ.setdefault("DYNVAL_NUM_THREADS", "1")
         pool = multiprocessing.get_context("spawn").Pool(jobs)
         outcomes = pool.imap_unordered(_task, tasks, chunksize=1)
     else:
