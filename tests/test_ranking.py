@@ -443,3 +443,31 @@ def test_a_gravity_only_arm_is_told_to_add_inertia_before_the_posture_terms_it_b
     first = report.deciding[0].finding
     assert first.kind == "missing_physics" and first.details["term"] == "inertia" and first.joints == (0,)
     assert scenarios.advice_right(report, s, False, rep.model_columns)
+
+
+def test_a_model_columns_correlation_larger_than_the_lacking_structure_is_its_own_weight():
+    """A Coulomb friction changed between runs on a planar arm under AR(1) noise: the residual
+    correlates with the model's own Fc1 (ρ = 0.88, 77 % of the shoulder's residual) beside an offset
+    the model lacks that removes 8 % there and took the Coulomb group in with it (Fc1 among its trace
+    columns). A trace is part of the structure, never larger: "re-identify the term of Fc1" is the
+    step. Kills: the correlation made to follow whatever its size (the 8 % offset first); the share
+    compared the wrong way round; the condition applied to the bend of a parameter shared with
+    another joint, which follows the structure lacking there whatever its size."""
+    fc1 = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(6,), effect=0.88,
+                  threshold=0.1, action="re-identify the term of Fc1 on j1", message="j1: correlates with Fc1.",
+                  details={"lag": 0, "rho": 0.88, "in_model": True})
+    offset = Finding(kind="missing_physics", severity="deficiency", joints=(0,), effect=0.3, threshold=0.05,
+                     action="add a torque offset on j1", message="j1: the residual follows the motion.",
+                     details={"term": "offset", "term_share": 0.08, "relation": "missing",
+                              "model_terms": {"columns": [0], "trace_columns": [0, 6]}})
+    assert [r.finding for r in deciding([fc1, offset])] == [fc1, offset]
+    assert deciding([fc1, offset])[0].leads
+    # a structure that removes at least half of what the correlation explains leaves it as its trace
+    larger = dataclasses.replace(offset, details={**offset.details, "term_share": 0.45})
+    assert [r.finding for r in deciding([fc1, larger])] == [larger, fc1]
+    smaller = dataclasses.replace(offset, details={**offset.details, "term_share": 0.3})
+    assert deciding([fc1, smaller])[0].finding is fc1
+    # the same column on the other joint: the fit bent the shared parameter for the structure lacking
+    # there, whatever that structure's size on its own joint
+    bent = dataclasses.replace(fc1, joints=(1,))
+    assert deciding([bent, offset])[0].finding is offset
