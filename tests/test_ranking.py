@@ -471,3 +471,18 @@ def test_a_model_columns_correlation_larger_than_the_lacking_structure_is_its_ow
     # there, whatever that structure's size on its own joint
     bent = dataclasses.replace(fc1, joints=(1,))
     assert deciding([bent, offset])[0].finding is offset
+    # at the bound (ρ = 0.5: ρ² = 0.25, half of it 0.125, exact in binary) the correlation follows;
+    # just below it, it leads; of two lacking structures on the column the larger counts; a structure
+    # of unknown share keeps the correlation following
+    half = dataclasses.replace(fc1, effect=0.5)
+    at = dataclasses.replace(offset, details={**offset.details, "term_share": 0.125})
+    below = dataclasses.replace(offset, details={**offset.details, "term_share": 0.12})
+    assert deciding([half, at])[0].finding is at
+    assert deciding([half, below])[0].finding is half
+    assert deciding([half, at, below])[0].finding is at
+    unknown = dataclasses.replace(offset, effect=None, details={
+        k: v for k, v in offset.details.items() if k != "term_share"})
+    assert rank([half, unknown])[0].finding is unknown
+    # a correlation of unknown size is no larger than the structure: it follows, as before the bound
+    unsized = dataclasses.replace(fc1, effect=None)
+    assert [r.leads for r in rank([unsized, offset])] == [True, False]

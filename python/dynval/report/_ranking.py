@@ -172,7 +172,8 @@ def _carried(f: Finding) -> dict[int, float]:
 _TRACE = 0.5
 """A lag correlation of the residual with a model column that a structure the model lacks on the same
 joint leaves its trace on follows that structure while the structure removes at least this fraction
-of what the correlation explains (a trace is a part of the structure, never larger than it)."""
+of what the correlation explains, both as shares of the joint's residual (a trace is a part of the
+structure, never larger than it)."""
 
 
 _FOLLOWS = 0.5
@@ -319,24 +320,22 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     # with it (a decoupled model's sin q_j carries some of the missing coupling): the residual's
     # correlation with such a column is that trace, and re-identifying the column does not add it
     shares = [explained_share(f, r2) for f in findings]
-    torque = [_torque_share(share, joint, r2) for share, _, joint in shares]
-    with_r2 = r2 is not None and all(t is not None for (share, _, _), t in zip(shares, torque) if share is not None)
-    effects = {id(f): t if with_r2 else share for f, (share, _, _), t in zip(findings, shares, torque)}
     # the column is the model's on the correlation's joint and on the lacking structure's: on the same
     # joint it carries the structure's trace (no larger than the structure: a correlation that explains
-    # more than twice what the structure removes is the column's own weight), on another the bend
-    # least squares gave the shared parameter
+    # more than twice what the structure removes is the column's own weight; both are shares of that
+    # joint's residual), on another the bend least squares gave the shared parameter
     lacking: dict[tuple[int, int], float] = {}
-    for f in findings:
+    for f, (share, _, _) in zip(findings, shares):
         d = f.details or {}
         if f.kind == "missing_physics" and d.get("relation") in _LACKS:
+            size = math.inf if share is None else share  # of unknown size: the trace follows it
             for pair in ((j, c) for j in f.joints for c in _trace_columns(d.get("model_terms") or {})):
-                lacking[pair] = max(lacking.get(pair, 0.0), effects[id(f)] or 0.0)
+                lacking[pair] = max(lacking.get(pair, 0.0), size)
+    own_share = {id(f): share for f, (share, _, _) in zip(findings, shares)}
 
     def trace(f: Finding) -> bool:
-        columns, mine = {int(c) for c in f.columns}, effects[id(f)] or 0.0
-        return any(c in columns and (j not in f.joints or effect >= _TRACE * mine)
-                   for (j, c), effect in lacking.items())
+        columns, mine = {int(c) for c in f.columns}, own_share[id(f)] or 0.0
+        return any(c in columns and (j not in f.joints or size >= _TRACE * mine) for (j, c), size in lacking.items())
 
     bent = _bent_joints(findings)
     # joints whose error adding a lacking structure elsewhere removes (a missing rotor inertia's refit
@@ -359,8 +358,9 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
             return 0
         return 1
 
-    ranked = [Ranked(f, share, basis, joint, leads=group(f) == 0, torque_share=t, indirect_torque=_indirect(f, r2))
-              for f, (share, basis, joint), t in zip(findings, shares, torque)]
+    ranked = [Ranked(f, share, basis, joint, leads=group(f) == 0, torque_share=_torque_share(share, joint, r2),
+                     indirect_torque=_indirect(f, r2)) for f, (share, basis, joint) in zip(findings, shares)]
+    with_r2 = r2 is not None and all(r.torque_share is not None for r in ranked if r.share is not None)
 
     def effect(r: Ranked) -> float | None:
         return r.torque_share if with_r2 else r.share
