@@ -648,6 +648,33 @@ def test_low_information_on_a_joint_whose_named_term_removes_less_than_the_run_d
     _worded(f, low_information_kind.words([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
 
 
+def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly_as_well():
+    """A velocity-squared drag named at 35 % where viscous friction removes 29 % in the same refit and
+    the run detects only 33 %: a term is missing, which one this run cannot tell. Kills: the rival
+    ignored (the joint counted as decided), the named term taken as its own rival (every joint
+    unresolved), the difference compared the wrong way round, the farthest rival taken for the
+    closest, and a rival beyond the detectable share counted (the joint decided there)."""
+    from dynval.report.kinds.low_information import rival as _rival
+
+    def ev_with(refit: dict[str, float]):
+        lib = _library([1e-9], [0.6], ["velocity_squared"], term_shares=[0.35])
+        lib["tests"][0].update(refit_run="estimation", refit_shares={"velocity_squared": 0.35, **refit})
+        return _ev(1, physics=lib, detectable_share=np.array([0.33]), noise_n_eff=np.array([26.0]))
+
+    close = ev_with({"viscous": 0.29, "coulomb": 0.07})
+    (f,) = _of(compute_findings(close), "low_information")
+    assert f.joints == (0,) and f.details["unresolved"] == [0]
+    _worded(f, low_information_kind.words(
+        [("shoulder", 26.0, 0.33, [(LABELS["velocity_squared"], 0.35), (LABELS["viscous"], 0.29)])], 0.25))
+    far = ev_with({"viscous": 0.01, "coulomb": -0.05})
+    assert not _of(compute_findings(far), "low_information")
+    (phys,) = _of(compute_findings(far), "missing_physics")
+    assert _rival(far, phys, 0.35, 0.33) is None
+    assert _rival(close, phys, 0.35, 0.33) == (LABELS["viscous"], 0.29)
+    assert _rival(close, phys, 0.35, 0.05) is None  # a run that detects 5 % tells 35 % from 29 %
+    assert _rival(ev_with({}), phys, 0.35, 0.33) is None  # no other kind in the refit
+
+
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
     from dynval.report.kinds.low_information import named_term as _named_term
     from dynval.report.kinds.low_information import unresolved as _unresolved

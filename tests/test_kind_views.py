@@ -19,8 +19,8 @@ from dynval.report.kinds._views import Delay, JointPhysics, Periodic
 
 FIELDS = {"joint": "joint", "statistic": "statistic", "share": "share", "term": "term", "term_share": "term_share",
           "selected": "selected", "shares": "shares", "selected_share": "selected_share", "n_eff": "n_eff",
-          "refit_run": "refit_run", "heldout_share": "heldout_share", "carried_share": "carried_share",
-          "relation": "relation"}
+          "refit_run": "refit_run", "refit_shares": "refit_shares", "heldout_share": "heldout_share",
+          "carried_share": "carried_share", "relation": "relation"}
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +72,8 @@ def test_a_missing_key_fails_where_the_view_is_built(physics_tests):
 
 def _view(**kw) -> JointPhysics:
     base = dict(joint=0, statistic=10.0, share=0.9, term="coulomb", term_share=0.6, selected=["coulomb"],
-                shares={"coulomb": 0.6}, selected_share=0.6, n_eff=900.0, refit_run=None, heldout_share=0.3,
-                carried_share=0.2, relation=None)
+                shares={"coulomb": 0.6}, selected_share=0.6, n_eff=900.0, refit_run=None, refit_shares={},
+                heldout_share=0.3, carried_share=0.2, relation=None)
     base.update(kw)
     return JointPhysics(**base)
 

@@ -32,6 +32,7 @@ class JointPhysics:
     selected_share: float
     n_eff: float
     refit_run: str | None  # "estimation", "validation", "absent", "stream", or None
+    refit_shares: Mapping[str, float]  # each group's share in the refit that named the term (empty: none)
     heldout_share: float | None
     carried_share: float | None
     # the term's relation to the model's columns (statistics/_model_terms.relate): a record of
@@ -43,7 +44,8 @@ class JointPhysics:
         return cls(joint=j, statistic=t["statistic"], share=t["share"], term=t["term"],
                    term_share=t["term_share"], selected=t["selected"], shares=t["shares"],
                    selected_share=t.get("selected_share", t["term_share"]), n_eff=t["n_eff"],
-                   refit_run=t.get("refit_run"), heldout_share=t.get("heldout_share"),
+                   refit_run=t.get("refit_run"), refit_shares=t.get("refit_shares") or {},
+                   heldout_share=t.get("heldout_share"),
                    carried_share=t.get("carried_share"), relation=t.get("relation"))
 
     @property

@@ -12,6 +12,7 @@ import numpy as np
 from .._finding_words import Words, column_name
 from .._text import versus
 from ._base import Context, Evidence, Finding, Kind, effect_versus_threshold, worded
+from ._views import physics_joint
 
 UNIT = "smallest detectable share of the mean square (90 % power)"
 
@@ -33,8 +34,8 @@ def words(joints: Sequence[tuple[str, float, float, Sequence[tuple[str, float]] 
 
 def _unresolved_words(terms: Sequence[tuple[str, float]]) -> str:
     named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
-    return (f" — found deficient, but what is named there removes less: {named}, so which term is missing this run "
-            "cannot tell")
+    return (f" — found deficient, but what is named there removes less, or no more than another kind by that much: "
+            f"{named}, so which term is missing this run cannot tell")
 
 
 def named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
@@ -48,20 +49,47 @@ def named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
     return None
 
 
+def rival(ev: Evidence, f: Finding, share: float, detectable: float) -> tuple[str, float] | None:
+    """Another kind that the refit which named ``f``'s physical term found removing within
+    ``detectable`` (the run's smallest detectable share) of the named term's ``share``, the closest;
+    None for any other finding or where no kind comes that close: a difference the run cannot detect
+    cannot tell the two apart (a velocity-squared drag at 35 % and viscous friction at 29 % where
+    the run detects 33 %)."""
+    if f.kind != "missing_physics" or ev.physics is None or not f.joints:
+        return None
+    from ...statistics._physics import LABELS
+
+    t = physics_joint(ev, f.joints[0])
+    others = [(g, float(v)) for g, v in t.refit_shares.items() if g != t.term and g in LABELS]
+    if not others:
+        return None
+    g, v = max(others, key=lambda gv: gv[1])
+    return (LABELS[g], v) if share - v < detectable else None
+
+
 def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[tuple[str, float]]]:
     """Of the deficient ``joints``, those whose every deficiency (whiteness, which follows from the
-    others, aside) names a term that removes less than the run's smallest detectable share, with
-    those terms: the structure is certain (its test is significant), which term it is the run
-    cannot resolve."""
+    others, aside) names a term that removes less than the run's smallest detectable share, or no
+    more than another kind does by that share (:func:`rival`), with those terms (and the rivals):
+    the structure is certain (its test is significant), which term it is the run cannot resolve."""
     if ev.detectable_share is None:
         return {}
     mde = np.asarray(ev.detectable_share, dtype=float)
     out = {}
     for j in sorted(joints):
-        named = [named_term(ev, f) for f in found
-                 if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
-        if named and all(t is not None and t[1] < mde[j] for t in named):
-            out[j] = [t for t in named if t is not None]
+        deficiencies = [f for f in found if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
+        terms: list[tuple[str, float]] = []
+        for f in deficiencies:
+            t = named_term(ev, f)
+            if t is None:
+                break
+            close = rival(ev, f, t[1], float(mde[j]))
+            if not t[1] < mde[j] and close is None:
+                break
+            terms += [t] if close is None else [t, close]
+        else:
+            if deficiencies:
+                out[j] = terms
     return out
 
 
