@@ -673,6 +673,12 @@ def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly
     assert _rival(close, phys, 0.35, 0.33) == (LABELS["viscous"], 0.29)
     assert _rival(close, phys, 0.35, 0.05) is None  # a run that detects 5 % tells 35 % from 29 %
     assert _rival(ev_with({}), phys, 0.35, 0.33) is None  # no other kind in the refit
+    # a term below the detectable share is unresolved by itself: no rival is listed beside it
+    from dynval.report.kinds.low_information import unresolved as _unresolved
+
+    small = dataclasses.replace(phys, details={**phys.details, "term_share": 0.2})
+    assert _unresolved(close, [small], {0}) == {0: [(LABELS["velocity_squared"], 0.2)]}
+    assert _unresolved(close, [phys], {0}) == {0: [(LABELS["velocity_squared"], 0.35), (LABELS["viscous"], 0.29)]}
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():

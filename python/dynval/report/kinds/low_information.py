@@ -83,10 +83,13 @@ def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int
             t = named_term(ev, f)
             if t is None:
                 break
+            if t[1] < mde[j]:
+                terms.append(t)
+                continue
             close = rival(ev, f, t[1], float(mde[j]))
-            if not t[1] < mde[j] and close is None:
+            if close is None:
                 break
-            terms += [t] if close is None else [t, close]
+            terms += [t, close]
         else:
             if deficiencies:
                 out[j] = terms
