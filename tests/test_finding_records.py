@@ -645,7 +645,7 @@ def test_low_information_on_a_joint_whose_named_term_removes_less_than_the_run_d
     found = compute_findings(ev)
     (f,) = _of(found, "low_information")
     assert f.joints == (0,) and f.effect == 0.5 and f.details["unresolved"] == [0]
-    _worded(f, low_information_kind.words([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2)])], 0.25))
+    _worded(f, low_information_kind.words([("shoulder", 20.0, 0.5, [(LABELS["coulomb"], 0.2, None)])], 0.25))
 
 
 def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly_as_well():
@@ -665,7 +665,7 @@ def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly
     (f,) = _of(compute_findings(close), "low_information")
     assert f.joints == (0,) and f.details["unresolved"] == [0]
     _worded(f, low_information_kind.words(
-        [("shoulder", 26.0, 0.33, [(LABELS["velocity_squared"], 0.35), (LABELS["viscous"], 0.29)])], 0.25))
+        [("shoulder", 26.0, 0.33, [(LABELS["velocity_squared"], 0.35, (LABELS["viscous"], 0.29))])], 0.25))
     far = ev_with({"viscous": 0.01, "coulomb": -0.05})
     assert not _of(compute_findings(far), "low_information")
     (phys,) = _of(compute_findings(far), "missing_physics")
@@ -677,8 +677,8 @@ def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly
     from dynval.report.kinds.low_information import unresolved as _unresolved
 
     small = dataclasses.replace(phys, details={**phys.details, "term_share": 0.2})
-    assert _unresolved(close, [small], {0}) == {0: [(LABELS["velocity_squared"], 0.2)]}
-    assert _unresolved(close, [phys], {0}) == {0: [(LABELS["velocity_squared"], 0.35), (LABELS["viscous"], 0.29)]}
+    assert _unresolved(close, [small], {0}) == {0: [(LABELS["velocity_squared"], 0.2, None)]}
+    assert _unresolved(close, [phys], {0}) == {0: [(LABELS["velocity_squared"], 0.35, (LABELS["viscous"], 0.29))]}
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
@@ -703,7 +703,7 @@ def test_a_named_term_is_a_physical_term_or_a_refitted_column():
     assert _unresolved(ev, [note], {0}) == {}
     assert _unresolved(ev, [dataclasses.replace(col, effect=0.3)], {0}) == {}
     two = [col, dataclasses.replace(phys, details={"label": "drift", "term_share": 0.05})]
-    assert _unresolved(ev, two, {0}) == {0: [("b", 0.2), ("drift", 0.05)]}
+    assert _unresolved(ev, two, {0}) == {0: [("b", 0.2, None), ("drift", 0.05, None)]}
     assert _unresolved(_ev(1), [col], {0}) == {}  # no detectable share: nothing to compare with
 
 
@@ -929,7 +929,7 @@ def test_whiteness_does_not_resolve_a_joint_whose_named_term_is_below_what_the_r
     col = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.2,
                   details={"added_variable": True})
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9)
-    assert _unresolved(ev, [col, white], {0}) == {0: [("b", 0.2)]}
+    assert _unresolved(ev, [col, white], {0}) == {0: [("b", 0.2, None)]}
 
 
 def test_missing_terms_below_their_share_list_a_nan_share_last():

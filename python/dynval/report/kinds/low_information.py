@@ -17,25 +17,32 @@ from ._views import physics_joint
 UNIT = "smallest detectable share of the mean square (90 % power)"
 
 
-def words(joints: Sequence[tuple[str, float, float, Sequence[tuple[str, float]] | None]],
-                    threshold: float) -> Words:
-    """``joints``: (name, N_eff, smallest detectable share, the terms found there that remove less, or None)."""
+Unresolved = tuple[str, float, tuple[str, float] | None]
+"""A term found on a joint the run cannot resolve: its name, its share of the mean square, and the
+other kind that removes within the detectable share of it (None where the term removes less)."""
+
+
+def words(joints: Sequence[tuple[str, float, float, Sequence[Unresolved] | None]], threshold: float) -> Words:
+    """``joints``: (name, N_eff, smallest detectable share, the terms found there it cannot resolve, or None)."""
     each = []
     threshold_pct = ""
     for name, n_eff, share, unresolved in joints:
         pct, threshold_pct_j = versus(share, threshold, ".0f", scale=100.0)
         threshold_pct = threshold_pct or threshold_pct_j
-        tail = "" if unresolved is None else _unresolved_words(unresolved)
+        tail = "" if unresolved is None else " — found deficient, but " + "; ".join(map(_unresolved_words, unresolved))
         each.append(f"{name}: N_eff = {n_eff:.0f}, {pct} %" + tail)
+    which = (" On a joint found deficient, which term is missing this run cannot tell."
+             if any(u is not None for *_, u in joints) else "")
     return (f"This run cannot decide: its noise leaves so few effective samples that a missing term must remove more "
-            f"than {threshold_pct} % of the mean square to be found ({'; '.join(each)}).",
+            f"than {threshold_pct} % of the mean square to be found ({'; '.join(each)})." + which,
             "validate on a longer or faster-varying run (more effective samples)")
 
 
-def _unresolved_words(terms: Sequence[tuple[str, float]]) -> str:
-    named = " and ".join(f"{name} {100 * share:.0f} %" for name, share in terms)
-    return (f" — found deficient, but what is named there removes less, or no more than another kind by that much: "
-            f"{named}, so which term is missing this run cannot tell")
+def _unresolved_words(term: Unresolved) -> str:
+    name, share, other = term
+    if other is None:
+        return f"{name} removes {100 * share:.0f} %, less"
+    return f"{name} {100 * share:.0f} % and {other[0]} {100 * other[1]:.0f} % differ by less"
 
 
 def named_term(ev: Evidence, f: Finding) -> tuple[str, float] | None:
@@ -67,7 +74,7 @@ def rival(ev: Evidence, f: Finding, share: float, detectable: float) -> tuple[st
     return (LABELS[g], v) if share - v < detectable else None
 
 
-def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[tuple[str, float]]]:
+def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int, list[Unresolved]]:
     """Of the deficient ``joints``, those whose every deficiency (whiteness, which follows from the
     others, aside) names a term that removes less than the run's smallest detectable share, or no
     more than another kind does by that share (:func:`rival`), with those terms (and the rivals):
@@ -78,18 +85,15 @@ def unresolved(ev: Evidence, found: list[Finding], joints: set[int]) -> dict[int
     out = {}
     for j in sorted(joints):
         deficiencies = [f for f in found if f.severity == "deficiency" and f.kind != "whiteness" and j in f.joints]
-        terms: list[tuple[str, float]] = []
+        terms: list[Unresolved] = []
         for f in deficiencies:
             t = named_term(ev, f)
             if t is None:
                 break
-            if t[1] < mde[j]:
-                terms.append(t)
-                continue
-            close = rival(ev, f, t[1], float(mde[j]))
-            if close is None:
+            close = None if t[1] < mde[j] else rival(ev, f, t[1], float(mde[j]))
+            if close is None and not t[1] < mde[j]:
                 break
-            terms += [t, close]
+            terms.append((t[0], t[1], close))
         else:
             if deficiencies:
                 out[j] = terms
