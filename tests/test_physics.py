@@ -261,7 +261,7 @@ def test_an_unmoved_joint_and_a_run_that_cannot_decide_are_design_findings():
     found = compute_findings(ev)
     low = [f for f in found if f.kind == "low_information"]
     assert [(f.joints, f.details["unresolved"]) for f in low] == [((1,), [1])]
-    assert "what is named there removes less: Coulomb friction 50 %, so which" in low[0].message
+    assert "found deficient, but Coulomb friction removes 50 %, less)" in low[0].message
     assert [(f.kind, f.severity) for f in found if f.joints == (1,) and f.kind == "missing_physics"] == [
         ("missing_physics", "deficiency")]
     # a joint deficient by another rule too (here a bias) is decided whatever the term's share
@@ -435,10 +435,10 @@ def test_a_missing_column_below_what_the_run_detects_leaves_the_joint_unresolved
         return Finding(kind="regressor_correlation", severity="deficiency", joints=(j,), columns=(0,), effect=share,
                        effect_unit=unit, threshold=0.01, details={"lag": 0, "added_variable": True})
 
-    assert _unresolved(ev, [missing(0, 0.3), missing(1, 0.5)], {0, 1}) == {0: [("Fv1", 0.3)]}
+    assert _unresolved(ev, [missing(0, 0.3), missing(1, 0.5)], {0, 1}) == {0: [("Fv1", 0.3, None)]}
     # whiteness follows from the other findings: it does not resolve the joint
     white = Finding(kind="whiteness", severity="deficiency", joints=(0,), effect=0.9, effect_unit="max |ρ̂(ℓ)|")
-    assert _unresolved(ev, [missing(0, 0.3), white], {0}) == {0: [("Fv1", 0.3)]}
+    assert _unresolved(ev, [missing(0, 0.3), white], {0}) == {0: [("Fv1", 0.3, None)]}
     # a correlation of the residual with a column (|ρ|, no share), a bias, or a term at the detectable
     # share resolve it
     rho = Finding(kind="regressor_correlation", severity="deficiency", joints=(0,), columns=(1,), effect=0.4,
