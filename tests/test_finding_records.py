@@ -655,6 +655,7 @@ def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly
     unresolved), the difference compared the wrong way round, the farthest rival taken for the
     closest, and a rival beyond the detectable share counted (the joint decided there)."""
     from dynval.report.kinds.low_information import rival as _rival
+    from dynval.report.kinds.low_information import unresolved as _unresolved
 
     def ev_with(refit: dict[str, float]):
         lib = _library([1e-9], [0.6], ["velocity_squared"], term_shares=[0.35])
@@ -673,12 +674,39 @@ def test_low_information_on_a_joint_whose_named_term_another_kind_removes_nearly
     assert _rival(close, phys, 0.35, 0.33) == (LABELS["viscous"], 0.29)
     assert _rival(close, phys, 0.35, 0.05) is None  # a run that detects 5 % tells 35 % from 29 %
     assert _rival(ev_with({}), phys, 0.35, 0.33) is None  # no other kind in the refit
-    # a term below the detectable share is unresolved by itself: no rival is listed beside it
-    from dynval.report.kinds.low_information import unresolved as _unresolved
-
+    # the closest rival by share, not by name; at exactly the detectable share apart the two are told apart;
+    # a term exactly at the detectable share is detected, so a close rival leaves it unresolved
+    by_share = ev_with({"viscous": 0.05, "coulomb": 0.29})
+    assert _rival(by_share, phys, 0.35, 0.33) == (LABELS["coulomb"], 0.29)
+    assert _rival(ev_with({"viscous": 0.25}), phys, 0.5, 0.25) is None
+    assert _rival(ev_with({"viscous": 0.25}), phys, 0.5, 0.2500001) == (LABELS["viscous"], 0.25)
+    at_s = dataclasses.replace(phys, details={**phys.details, "term_share": 0.33})
+    assert _unresolved(close, [at_s], {0}) == {0: [(LABELS["velocity_squared"], 0.33, (LABELS["viscous"], 0.29))]}
+    # only a physical term of a test the report holds has rivals
+    assert _rival(_ev(1, detectable_share=np.array([0.33])), phys, 0.35, 0.33) is None
+    assert _rival(close, dataclasses.replace(phys, joints=()), 0.35, 0.33) is None
     small = dataclasses.replace(phys, details={**phys.details, "term_share": 0.2})
     assert _unresolved(close, [small], {0}) == {0: [(LABELS["velocity_squared"], 0.2, None)]}
     assert _unresolved(close, [phys], {0}) == {0: [(LABELS["velocity_squared"], 0.35, (LABELS["viscous"], 0.29))]}
+
+
+def test_low_information_words_name_each_joints_case():
+    """The message and action as a user reads them, written out by hand: an untested joint, a term
+    below what the run detects and two kinds whose shares differ by less. Kills: a share printed
+    off by a factor, the rival's name or share swapped, the closing sentence given where no joint
+    was found deficient or left out where one was, the joints' separator or the action changed."""
+    message, action = low_information_kind.words(
+        [("base", 2.4, 0.884, None), ("shoulder", 23.0, 0.41, [("a drift over the run", 0.07, None)]),
+         ("elbow", 9.0, 0.64, [("a posture term", 0.65, ("Coulomb friction", 0.3))])], 0.25)
+    assert message == (
+        "This run cannot decide: its noise leaves so few effective samples that a missing term must remove more "
+        "than 25 % of the mean square to be found (base: N_eff = 2, 88 %; shoulder: N_eff = 23, 41 % — found "
+        "deficient, but a drift over the run removes 7 %, less; elbow: N_eff = 9, 64 % — found deficient, but a "
+        "posture term 65 % and Coulomb friction 30 % differ by less). On a joint found deficient, which term is "
+        "missing this run cannot tell.")
+    assert action == "validate on a longer or faster-varying run (more effective samples)"
+    plain, _ = low_information_kind.words([("base", 2.4, 0.884, None)], 0.25)
+    assert plain.endswith("(base: N_eff = 2, 88 %).")
 
 
 def test_a_named_term_is_a_physical_term_or_a_refitted_column():
