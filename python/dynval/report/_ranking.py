@@ -170,10 +170,10 @@ def _carried(f: Finding) -> dict[int, float]:
 
 
 _TRACE = 0.5
-"""A lag correlation of the residual with a model column that a structure the model lacks on the same
-joint leaves its trace on follows that structure while the structure removes at least this fraction
-of what the correlation explains, both as shares of the joint's residual (a trace is a part of the
-structure, never larger than it)."""
+"""A lag correlation of the residual with a model column that a structure the model lacks wholly on the
+same joint (relation ``missing``) leaves its trace on follows that structure while the structure
+removes at least this fraction of what the correlation explains, both as shares of the joint's
+residual (a trace is a part of the structure, never larger than it)."""
 
 
 _FOLLOWS = 0.5
@@ -321,14 +321,17 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     # correlation with such a column is that trace, and re-identifying the column does not add it
     shares = [explained_share(f, r2) for f in findings]
     # the column is the model's on the correlation's joint and on the lacking structure's: on the same
-    # joint it carries the structure's trace (no larger than the structure: a correlation that explains
-    # more than twice what the structure removes is the column's own weight; both are shares of that
-    # joint's residual), on another the bend least squares gave the shared parameter
+    # joint it carries the structure's trace, on another the bend least squares gave the shared parameter.
+    # Where the model holds nothing of the structure's kind there (relation "missing"), the trace is a part
+    # of it, no larger: a correlation that explains more than twice what the structure removes is the
+    # column's own weight (both shares of that joint's residual). Where it holds part of the kind
+    # (partial, coupling, local), the fit bends the columns it has to make up for the rest, and their
+    # correlation follows the structure whatever its size (a decoupled model's sin q_j).
     lacking: dict[tuple[int, int], float] = {}
     for f, (share, _, _) in zip(findings, shares):
         d = f.details or {}
         if f.kind == "missing_physics" and d.get("relation") in _LACKS:
-            size = math.inf if share is None else share  # of unknown size: the trace follows it
+            size = share if d.get("relation") == "missing" and share is not None else math.inf
             for pair in ((j, c) for j in f.joints for c in _trace_columns(d.get("model_terms") or {})):
                 lacking[pair] = max(lacking.get(pair, 0.0), size)
     own_share = {id(f): share for f, (share, _, _) in zip(findings, shares)}
