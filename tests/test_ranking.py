@@ -487,8 +487,13 @@ def test_a_model_columns_correlation_larger_than_the_lacking_structure_is_its_ow
     # it lacks: decoupled:white:arm4@100 replicate 67, ρ² 0.685 with sin2 against the coupling's 0.289),
     # the fit bends the columns it has: their correlation follows the structure whatever its size
     for relation in ("coupling", "partial", "local"):
-        held = dataclasses.replace(offset, details={**offset.details, "relation": relation})
+        held = dataclasses.replace(offset, details={**offset.details, "relation": relation,
+                                                    "model_terms": {"columns": [6], "trace_columns": [6]}})
         assert deciding([fc1, held])[0].finding is held, relation
+        # a column of another group the selection took in with it is a trace like any other: bounded
+        other_group = dataclasses.replace(held, details={**held.details,
+                                                         "model_terms": {"columns": [0], "trace_columns": [0, 6]}})
+        assert deciding([fc1, other_group])[0].finding is fc1, relation
     # a correlation of unknown size is no larger than the structure: it follows, as before the bound
     unsized = dataclasses.replace(fc1, effect=None)
     assert [r.leads for r in rank([unsized, offset])] == [True, False]

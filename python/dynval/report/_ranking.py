@@ -170,10 +170,11 @@ def _carried(f: Finding) -> dict[int, float]:
 
 
 _TRACE = 0.5
-"""A lag correlation of the residual with a model column that a structure the model lacks wholly on the
-same joint (relation ``missing``) leaves its trace on follows that structure while the structure
-removes at least this fraction of what the correlation explains, both as shares of the joint's
-residual (a trace is a part of the structure, never larger than it)."""
+"""A lag correlation of the residual with a model column that a structure the model lacks on the same
+joint leaves its trace on follows that structure while the structure removes at least this fraction
+of what the correlation explains, both as shares of the joint's residual (a trace is a part of the
+structure, never larger than it); the columns of the structure's own kind that the model holds in
+part, which the fit bends, follow whatever its size."""
 
 
 _FOLLOWS = 0.5
@@ -322,18 +323,20 @@ def rank(findings: Sequence[Finding], r2: Sequence[float] | None = None) -> list
     shares = [explained_share(f, r2) for f in findings]
     # the column is the model's on the correlation's joint and on the lacking structure's: on the same
     # joint it carries the structure's trace, on another the bend least squares gave the shared parameter.
-    # Where the model holds nothing of the structure's kind there (relation "missing"), the trace is a part
-    # of it, no larger: a correlation that explains more than twice what the structure removes is the
-    # column's own weight (both shares of that joint's residual). Where it holds part of the kind
-    # (partial, coupling, local), the fit bends the columns it has to make up for the rest, and their
-    # correlation follows the structure whatever its size (a decoupled model's sin q_j).
+    # On the same joint a trace is a part of the structure, no larger: a correlation that explains more
+    # than twice what the structure removes is the column's own weight (both shares of that joint's
+    # residual), but for the columns of the structure's own kind where the model holds part of it
+    # (partial, coupling, local): the fit bends them to make up for the rest, and their correlation
+    # follows whatever its size (a decoupled model's sin q_j beside the gravity coupling it lacks).
     lacking: dict[tuple[int, int], float] = {}
     for f, (share, _, _) in zip(findings, shares):
         d = f.details or {}
         if f.kind == "missing_physics" and d.get("relation") in _LACKS:
-            size = share if d.get("relation") == "missing" and share is not None else math.inf
-            for pair in ((j, c) for j in f.joints for c in _trace_columns(d.get("model_terms") or {})):
-                lacking[pair] = max(lacking.get(pair, 0.0), size)
+            terms = d.get("model_terms") or {}
+            bent = {int(c) for c in terms.get("columns", ()) or ()} if d.get("relation") != "missing" else set()
+            for joint, column in ((j, c) for j in f.joints for c in _trace_columns(terms)):
+                size = math.inf if share is None or column in bent else share
+                lacking[joint, column] = max(lacking.get((joint, column), 0.0), size)
     own_share = {id(f): share for f, (share, _, _) in zip(findings, shares)}
 
     def trace(f: Finding) -> bool:
